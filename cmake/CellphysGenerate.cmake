@@ -1,0 +1,24 @@
+# Regenerate the kernels whenever a descriptor, template or generator file changes.
+# The build compiles from its own copy in the build tree; the checked-in generated/ is
+# compared with a fresh generation by the codegen_drift test.
+file(GLOB CELLPHYS_GEN_INPUTS CONFIGURE_DEPENDS
+  ${PROJECT_SOURCE_DIR}/codegen/*.py
+  ${PROJECT_SOURCE_DIR}/codegen/cellphys_codegen/*.py
+  ${PROJECT_SOURCE_DIR}/codegen/descriptors/structs/*.yaml
+  ${PROJECT_SOURCE_DIR}/codegen/descriptors/forces/*.yaml
+  ${PROJECT_SOURCE_DIR}/examples/new_force/*.yaml
+  ${PROJECT_SOURCE_DIR}/templates/*.j2)
+
+set(CELLPHYS_GEN_DIR ${PROJECT_BINARY_DIR}/generated)
+set(CELLPHYS_GEN_STAMP ${CELLPHYS_GEN_DIR}/cellphys/gen/.stamp)
+add_custom_command(
+  OUTPUT ${CELLPHYS_GEN_STAMP}
+  COMMAND ${CELLPHYS_GENERATOR_PYTHON} ${PROJECT_SOURCE_DIR}/codegen/generate.py --out ${CELLPHYS_GEN_DIR}
+  DEPENDS ${CELLPHYS_GEN_INPUTS}
+  COMMENT "cellphys: generating kernels and layouts from descriptors"
+  VERBATIM)
+add_custom_target(cellphys_codegen DEPENDS ${CELLPHYS_GEN_STAMP})
+
+add_library(cellphys_generated INTERFACE)
+add_dependencies(cellphys_generated cellphys_codegen)
+target_include_directories(cellphys_generated INTERFACE ${CELLPHYS_GEN_DIR} ${PROJECT_SOURCE_DIR})

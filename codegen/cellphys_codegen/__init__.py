@@ -1,0 +1,1 @@
+"""cellphys code generator: descriptors (YAML) -> SymPy -> Jinja2 -> C++ headers."""

@@ -1,0 +1,329 @@
+"""Force descriptors -> symbolic generalised forces and their Jacobians, per kernel variant."""
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import sympy as sp
+import yaml
+
+from . import kinematics as km
+from .errors import DescriptorError
+from .expressions import evaluate
+from .structs import layout
+
+KINDS = ("global", "unary", "binary")
+PARAM_TYPES = ("f32", "vec3")
+TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "instance", "params", "globals", "let", "apply"}
+PARAM_KEYS = {"type", "min", "doc"}
+GLOBAL_KEYS = {"type", "min", "doc", "default"}
+
+
+@dataclass
+class Param:
+    name: str
+    type: str
+    doc: str
+    min: float = None
+    default: list = None  # globals only
+
+    @property
+    def lanes(self):
+        return 3 if self.type == "vec3" else 1
+
+
+@dataclass
+class Input:
+    """One scalar input of a kernel and where the gather step reads it from."""
+    symbol: sp.Symbol
+    source: str  # "body", "param" or "global"
+    body: int = 0  # body slot (0 = a, 1 = b) for source == "body"
+    name: str = ""  # Rigid_Body field, instance field or Island_Params field
+    lane: int = 0
+
+
+@dataclass
+class Block:
+    kind: str  # "dd" (dF/d delta) or "du" (dF/du)
+    row_body: int
+    col_body: int
+    exprs: list  # 36 entries, column-major 6x6
+
+
+@dataclass
+class Kernel:
+    force: "Force"
+    variant: str  # "body", "pair" or "world"
+    num_bodies: int
+    inputs: list
+    forces: list  # 6 * num_bodies expressions
+    blocks: list = field(default_factory=list)
+    pre: dict = field(default_factory=dict)  # preamble symbol -> expression of the inputs
+    stages: list = field(default_factory=list)  # per let: [(symbol, expression)] of its value and derivatives
+
+    @property
+    def cxx_name(self):
+        return f"{camel(self.force.name)}_{camel(self.variant)}_Kernel"
+
+
+@dataclass
+class Force:
+    name: str
+    kind: str
+    doc: str
+    symmetric: bool
+    world_anchor: bool
+    params: list
+    globals: list
+    instance: object  # structs.Struct
+    source: str
+    kernels: list = field(default_factory=list)
+
+
+def camel(name):
+    return "_".join(p[:1].upper() + p[1:] for p in name.split("_"))
+
+
+def _params(path, raw, where, keys):
+    if raw is None:
+        return []
+    if not isinstance(raw, dict):
+        raise DescriptorError(path, where, "must be a mapping of name -> {type, ...}")
+    out = []
+    for name, spec in raw.items():
+        loc = f"{where}.{name}"
+        if not isinstance(name, str) or not name.isidentifier():
+            raise DescriptorError(path, loc, f"{name!r} is not a valid identifier")
+        if name in km.FUNCTIONS or name in ("a", "b"):
+            raise DescriptorError(path, loc, f"{name!r} is a reserved name")
+        if not isinstance(spec, dict):
+            raise DescriptorError(path, loc, "must be a mapping with at least 'type'")
+        unknown = set(spec) - keys
+        if unknown:
+            raise DescriptorError(path, loc, f"unknown key(s) {sorted(unknown)}")
+        if "type" not in spec:
+            raise DescriptorError(path, loc, "missing 'type'")
+        if spec["type"] not in PARAM_TYPES:
+            raise DescriptorError(path, f"{loc}.type", f"unknown type {spec['type']!r} (known: {', '.join(PARAM_TYPES)})")
+        p = Param(name, spec["type"], spec.get("doc", ""), spec.get("min"))
+        if p.min is not None and (isinstance(p.min, bool) or not isinstance(p.min, (int, float))):
+            raise DescriptorError(path, f"{loc}.min", f"must be a number, got {p.min!r}")
+        if "default" in spec or keys is GLOBAL_KEYS:
+            d = spec.get("default")
+            d = d if isinstance(d, list) else [d]
+            if len(d) != p.lanes or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in d):
+                raise DescriptorError(path, f"{loc}.default", f"must be {p.lanes} number(s), got {spec.get('default')!r} (YAML reads 1e5 as text: write 1.0e+5 or 100000.0)")
+            p.default = [float(x) for x in d]
+        out.append(p)
+    return out
+
+
+def _instance_struct(path, d, name, kind, params, structs):
+    """The packed instance layout: a named struct descriptor, checked, or derived from params."""
+    body_fields = {"global": ["body_a"], "unary": ["body_a"], "binary": ["body_a", "body_b"]}[kind]
+    if "instance" in d:
+        s = structs.get(d["instance"])
+        if s is None:
+            raise DescriptorError(path, "instance", f"no struct descriptor named {d['instance']!r}")
+        for p in params:
+            f = s.field(p.name)
+            if f is None or f.type != p.type or f.count != 1:
+                raise DescriptorError(path, f"params.{p.name}",
+                                      f"struct {s.name} has no field {p.name!r} of type {p.type}")
+        for b in body_fields:
+            f = s.field(b)
+            if f is None or f.type != "i32":
+                raise DescriptorError(path, "instance", f"struct {s.name} needs an i32 field {b!r}")
+        return s
+    # vectors first so 16-byte fields need no padding between them
+    ordered = [p for p in params if p.type == "vec3"] + [p for p in params if p.type != "vec3"]
+    raw = [{"name": p.name, "type": p.type, "doc": p.doc} for p in ordered]
+    raw += [{"name": b, "type": "i32"} for b in body_fields]
+    align = 16 if any(p.type == "vec3" for p in params) else 4
+    return layout(f"{camel(name)}_Force", f"Instance of the {name} force.", align, raw, path, "params")
+
+
+def load_force(path, structs):
+    path = Path(path)
+    try:
+        d = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as e:
+        raise DescriptorError(path, "(file)", f"not valid YAML: {e}") from None
+    if not isinstance(d, dict):
+        raise DescriptorError(path, "(file)", "must be a mapping")
+    unknown = set(d) - TOP_KEYS
+    if unknown:
+        raise DescriptorError(path, "(top level)", f"unknown key(s) {sorted(unknown)}")
+    for key in ("name", "kind", "apply"):
+        if key not in d:
+            raise DescriptorError(path, key, "missing")
+    name = d["name"]
+    if not isinstance(name, str) or not name.isidentifier() or name != name.lower():
+        raise DescriptorError(path, "name", f"must be a lower_case identifier, got {name!r}")
+    kind = d["kind"]
+    if kind not in KINDS:
+        raise DescriptorError(path, "kind", f"unknown kind {kind!r} (known: {', '.join(KINDS)})")
+    for key in ("symmetric", "world_anchor"):
+        if key in d and not isinstance(d[key], bool):
+            raise DescriptorError(path, key, f"must be true or false, got {d[key]!r}")
+    if d.get("world_anchor") and kind != "binary":
+        raise DescriptorError(path, "world_anchor", "only a binary force can be anchored to the world")
+    params = _params(path, d.get("params"), "params", PARAM_KEYS)
+    globals_ = _params(path, d.get("globals"), "globals", GLOBAL_KEYS)
+    if kind == "global" and params:
+        raise DescriptorError(path, "params", "a global force has no per-instance params; use globals")
+    names = [p.name for p in params + globals_]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise DescriptorError(path, "params", f"name(s) {sorted(dup)} declared twice")
+    instance = _instance_struct(path, d, name, kind, params, structs)
+    force = Force(name, kind, d.get("doc", ""), d.get("symmetric", False), d.get("world_anchor", False),
+                  params, globals_, instance, str(path))
+    variants = {"global": ["body"], "unary": ["body"], "binary": ["pair"] + (["world"] if force.world_anchor else [])}
+    force.kernels = [_build_kernel(force, v, d, path) for v in variants[kind]]
+    return force
+
+
+def _build_kernel(force, variant, d, path):
+    ctx = km.Context()
+    bodies = [km.Body("a", ctx)] + ([km.Body("b", ctx)] if variant == "pair" else [])
+    names = {"a": bodies[0]}
+    if force.kind == "binary":
+        names["b"] = bodies[1] if variant == "pair" else km.World()
+    param_syms = {}
+    for src, plist in (("param", force.params), ("global", force.globals)):
+        for p in plist:
+            syms = [sp.Symbol(f"{'p' if src == 'param' else 'g'}_{p.name}{'' if p.lanes == 1 else i}", real=True)
+                    for i in range(p.lanes)]
+            param_syms[p.name] = (src, p, syms)
+            names[p.name] = syms[0] if p.lanes == 1 else sp.Matrix(syms)
+    let = d.get("let") or {}
+    if not isinstance(let, dict):
+        raise DescriptorError(path, "let", "must be a mapping of name -> expression")
+    # each let becomes opaque symbols; derivatives flow through them by the chain rule
+    # (forward mode), which keeps every expression SymPy differentiates short
+    lets = []
+    for lname, text in let.items():
+        if not isinstance(lname, str) or not lname.isidentifier() or lname in km.FUNCTIONS or lname in names:
+            raise DescriptorError(path, f"let.{lname}", f"{lname!r} is not a free identifier")
+        value = evaluate(text, names, path, f"let.{lname}")
+        if isinstance(value, sp.MatrixBase) and value.shape[1] == 1:
+            syms = [sp.Symbol(f"L_{lname}{i}", real=True) for i in range(value.rows)]
+            names[lname], exprs = sp.Matrix(syms), list(value)
+        elif isinstance(value, sp.Expr):
+            syms, exprs = [sp.Symbol(f"L_{lname}", real=True)], [value]
+            names[lname] = syms[0]
+        else:
+            raise DescriptorError(path, f"let.{lname}", f"{text!r} is neither a number nor a vector")
+        lets.append(list(zip(syms, exprs)))
+    apply = d["apply"]
+    if not isinstance(apply, list) or not apply:
+        raise DescriptorError(path, "apply", "must be a non-empty list of force(...), torque(...) or force_at_point(...)")
+    F = [sp.zeros(6, 1) for _ in bodies]
+    for i, text in enumerate(apply):
+        c = evaluate(text, names, path, f"apply[{i}]")
+        if not isinstance(c, km.Contribution):
+            raise DescriptorError(path, f"apply[{i}]", f"{text!r} is not force(...), torque(...) or force_at_point(...)")
+        for vname, v in (("force", c.force), ("torque", c.torque)):
+            if not isinstance(v, sp.MatrixBase) or v.shape != (3, 1):
+                raise DescriptorError(path, f"apply[{i}]", f"the {vname} in {text!r} is not a 3-vector")
+        if isinstance(c.body, km.World):
+            continue
+        k = bodies.index(c.body)
+        F[k] += sp.Matrix.vstack(c.force, c.torque)
+
+    zero = {s: 0 for b in bodies for s in b.delta}
+    wrt = [("dd", k, z) for k, b in enumerate(bodies) for z in b.delta] + \
+          [("du", k, z) for k, b in enumerate(bodies) for z in b.u]
+    let_syms = set()
+    deriv = {}  # (let symbol, z) -> symbol of its total derivative at delta = 0
+    stages = []
+    for group in lets:
+        stage = []
+        for sym, expr in group:
+            stage.append((sym, expr.xreplace(zero)))
+            for _, _, z in wrt:
+                dz = _total_derivative(expr, z, let_syms, deriv).xreplace(zero)
+                if dz.is_Number or dz.is_Symbol:  # trivial: substitute, emit nothing
+                    if dz != 0:
+                        deriv[(sym, z)] = dz
+                else:
+                    deriv[(sym, z)] = sp.Symbol(f"d_{sym.name}__{z.name}", real=True)
+                    stage.append((deriv[(sym, z)], dz))
+        let_syms.update(sym for sym, _ in group)
+        stages.append(stage)
+    kernel = Kernel(force, variant, len(bodies), [], [], pre=ctx.pre)
+    for k, b in enumerate(bodies):
+        kernel.forces += [e.xreplace(zero) for e in F[k]]
+    for i, bi in enumerate(bodies):
+        for kind in ("dd", "du"):
+            for j, bj in enumerate(bodies):
+                zs = bj.delta if kind == "dd" else bj.u
+                cols = [[_total_derivative(F[i][r], z, let_syms, deriv).xreplace(zero) for r in range(6)] for z in zs]
+                exprs = [e for col in cols for e in col]
+                if any(e != 0 for e in exprs):
+                    kernel.blocks.append(Block(kind, i, j, exprs))
+    kernel.stages = stages
+    everything = kernel.forces + [e for blk in kernel.blocks for e in blk.exprs]
+    everything_and_lets = everything + [e for st in stages for _, e in st]
+    for e in everything_and_lets:
+        bad = e.atoms(sp.Derivative, sp.Subs, sp.DiracDelta) or e.has(sp.nan, sp.zoo, sp.oo)
+        if bad:
+            raise DescriptorError(path, "apply", f"the force is not differentiable where it is evaluated ({bad})")
+    # inputs: only the symbols the expressions (and the preamble they use) read, in a fixed order
+    defined = {sym for st in stages for sym, _ in st}
+    used = set().union(set(), *[e.free_symbols for e in everything_and_lets]) - defined
+    used_pre = [s for s in ctx.pre if s in used]
+    kernel.pre = {s: ctx.pre[s] for s in used_pre}
+    used = (used - set(used_pre)).union(set(), *[ctx.pre[s].free_symbols for s in used_pre])
+    for k, b in enumerate(bodies):
+        for fname, syms in b.field_syms.items():
+            for lane, s in enumerate(syms):
+                if s in used:
+                    kernel.inputs.append(Input(s, "body", k, fname, lane))
+    for pname, (src, p, syms) in param_syms.items():
+        for lane, s in enumerate(syms):
+            if s in used:
+                kernel.inputs.append(Input(s, src, 0, pname, lane))
+    known = {i.symbol for i in kernel.inputs}
+    stray = used - known
+    if stray:
+        raise DescriptorError(path, "apply", f"expression depends on unknown symbols {sorted(map(str, stray))}")
+    return kernel
+
+
+def _total_derivative(expr, z, let_syms, deriv):
+    """d expr / dz through the let symbols it references (chain rule on their known derivatives)."""
+    out = sp.diff(expr, z)
+    for s in expr.free_symbols & let_syms:
+        ds = deriv.get((s, z))
+        if ds is not None:
+            out += sp.diff(expr, s) * ds
+    return out
+
+
+def load_forces(directories, structs):
+    forces, seen = [], {}
+    by_name = {s.name: s for s in structs}
+    for directory in directories:
+        for p in sorted(Path(directory).glob("*.yaml")):
+            f = load_force(p, by_name)
+            if f.name in seen:
+                raise DescriptorError(p, "name", f"force {f.name!r} is also declared in {seen[f.name]}")
+            seen[f.name] = str(p)
+            forces.append(f)
+    return forces
+
+
+def island_globals(forces):
+    """Every force's globals, merged into one Island_Params block (same name must mean the same)."""
+    out, origin = [], {}
+    for f in forces:
+        for g in f.globals:
+            if g.name in origin:
+                prev = origin[g.name]
+                if prev[1].type != g.type or prev[1].default != g.default:
+                    raise DescriptorError(f.source, f"globals.{g.name}",
+                                          f"also declared differently by {prev[0]}")
+                continue
+            origin[g.name] = (f.source, g)
+            out.append(g)
+    return out

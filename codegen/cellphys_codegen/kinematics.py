@@ -1,0 +1,214 @@
+"""Kinematic primitives the force descriptors are written in.
+
+A body's pose is perturbed as x <- x + dx, R <- exp([dth]x) R. Every Jacobian is taken at
+dx = dth = 0, so the first-order rotation (I + [dth]x) gives exact first derivatives; the
+perturbation symbols are substituted by zero after differentiation.
+
+Quantities that depend neither on the perturbation nor on the velocities (R r, R I R^T,
+p - x) become opaque symbols computed once in the kernel's preamble: SymPy then
+differentiates short expressions, and the emitted code shares them.
+"""
+import sympy as sp
+
+
+def vec(*xs):
+    return sp.Matrix(xs)
+
+
+def cross(a, b):
+    return a.cross(b)
+
+
+def dot(a, b):
+    return (a.T * b)[0, 0]
+
+
+def norm(a):
+    return sp.sqrt(dot(a, a))
+
+
+def where(cond, x, y):
+    return sp.Piecewise((x, cond), (y, True))
+
+
+def positive_part(x):
+    return sp.Piecewise((x, x > 0), (0, True))
+
+
+def skew(w):
+    return sp.Matrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+
+
+def quat_to_matrix(w, x, y, z):
+    return sp.Matrix([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def _syms(prefix, names):
+    return [sp.Symbol(f"{prefix}_{n}", real=True) for n in names]
+
+
+class Context:
+    """Preamble symbols of one kernel: symbol -> expression of the inputs, in order."""
+
+    def __init__(self):
+        self.pre = {}
+        self._cache = {}
+
+    def vector(self, key, name, expr):
+        if key not in self._cache:
+            syms = [sp.Symbol(f"{name}{len(self._cache)}_{i}", real=True) for i in range(expr.rows)]
+            for s_, e in zip(syms, expr):
+                self.pre[s_] = e
+            self._cache[key] = sp.Matrix(syms)
+        return self._cache[key]
+
+    def sym33(self, key, name, M):
+        if key not in self._cache:
+            idx = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)]
+            syms = [sp.Symbol(f"{name}{len(self._cache)}_{r}{c}", real=True) for r, c in idx]
+            for s_, (r, c) in zip(syms, idx):
+                self.pre[s_] = M[r, c]
+            a, b, c_, d, e, f = syms
+            self._cache[key] = sp.Matrix([[a, d, e], [d, b, f], [e, f, c_]])
+        return self._cache[key]
+
+
+class Body:
+    """Symbols of one body's state, its mass parameters and its pose perturbation."""
+
+    # field of the packed Rigid_Body -> (symbol suffixes, stored lanes used)
+    FIELDS = {
+        "position": ["px", "py", "pz"],
+        "orientation": ["qw", "qx", "qy", "qz"],
+        "velocity": ["vx", "vy", "vz"],
+        "angular_velocity": ["wx", "wy", "wz"],
+        "mass": ["m"],
+        "inertia_body": ["Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"],
+    }
+
+    def __init__(self, tag, ctx):
+        self.tag, self.ctx = tag, ctx
+        self.field_syms = {f: _syms(tag, n) for f, n in self.FIELDS.items()}
+        self.dx = sp.Matrix(_syms(tag, ["dx", "dy", "dz"]))
+        self.dth = sp.Matrix(_syms(tag, ["dtx", "dty", "dtz"]))
+        self.x0 = sp.Matrix(self.field_syms["position"])
+        self.q = self.field_syms["orientation"]
+        self.v = sp.Matrix(self.field_syms["velocity"])
+        self.w = sp.Matrix(self.field_syms["angular_velocity"])
+        self.mass = self.field_syms["mass"][0]
+        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = self.field_syms["inertia_body"]
+        self.inertia_body = sp.Matrix([[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], [Ixz, Iyz, Izz]])
+        self.R = quat_to_matrix(*self.q)
+        self.x = self.x0 + self.dx
+
+    @property
+    def delta(self):
+        return list(self.dx) + list(self.dth)
+
+    @property
+    def u(self):
+        return list(self.v) + list(self.w)
+
+    def rotate_perturbed(self, y):
+        return y + cross(self.dth, y)
+
+    def body_to_world(self, r):
+        """R r as preamble symbols (r in body coordinates)."""
+        return self.ctx.vector(("R", self.tag, tuple(r)), f"{self.tag}_r", self.R * r)
+
+    def offset_of(self, p):
+        """p - x as preamble symbols (p in world coordinates)."""
+        return self.ctx.vector(("off", self.tag, tuple(p)), f"{self.tag}_o", p - self.x0)
+
+    def inertia_world(self):
+        return self.ctx.sym33(("I", self.tag), f"{self.tag}_Iw", self.R * self.inertia_body * self.R.T)
+
+
+class World:
+    """The fixed world on the b side of a world-anchored binary force."""
+    tag = "world"
+
+
+class Contribution:
+    def __init__(self, body, force, torque):
+        self.body, self.force, self.torque = body, force, torque
+
+
+def _need_body(fn, body):
+    if not isinstance(body, (Body, World)):
+        raise TypeError(f"{fn}() takes a body (a or b) as its first argument")
+
+
+def world_point(body, r):
+    """A point fixed in the body, given in body coordinates (world coordinates for the world)."""
+    _need_body("world_point", body)
+    if isinstance(body, World):
+        return r
+    return body.x + body.rotate_perturbed(body.body_to_world(r))
+
+
+def point_velocity(body, r):
+    _need_body("point_velocity", body)
+    if isinstance(body, World):
+        return sp.zeros(3, 1)
+    return body.v + cross(body.w, body.rotate_perturbed(body.body_to_world(r)))
+
+
+def attached_point(body, p):
+    """The material point of the body that is at world point p at the start of the step."""
+    _need_body("attached_point", body)
+    if isinstance(body, World):
+        return p
+    return body.x + body.rotate_perturbed(body.offset_of(p))
+
+
+def attached_velocity(body, p):
+    _need_body("attached_velocity", body)
+    if isinstance(body, World):
+        return sp.zeros(3, 1)
+    return body.v + cross(body.w, body.rotate_perturbed(body.offset_of(p)))
+
+
+def inertia_world(body):
+    _need_body("inertia_world", body)
+    if isinstance(body, World):
+        raise TypeError("inertia_world() of the world is undefined")
+    # (I + [dth]x) Iw (I + [dth]x)^T: the first-order change of R I R^T under the perturbation
+    Iw = body.inertia_world()
+    P = sp.eye(3) + skew(body.dth)
+    return P * Iw * P.T
+
+
+def force(body, f):
+    _need_body("force", body)
+    return Contribution(body, f, sp.zeros(3, 1))
+
+
+def torque(body, t):
+    _need_body("torque", body)
+    return Contribution(body, sp.zeros(3, 1), t)
+
+
+def force_at_point(body, p, f):
+    """A force f applied at world point p: generalised force (f, (p - com) x f)."""
+    _need_body("force_at_point", body)
+    if isinstance(body, World):
+        return Contribution(body, f, sp.zeros(3, 1))
+    return Contribution(body, f, cross(p - body.x, f))
+
+
+FUNCTIONS = {
+    "vec": vec, "dot": dot, "cross": cross, "norm": norm, "sqrt": sp.sqrt, "abs": sp.Abs,
+    "where": where, "positive_part": positive_part, "min": sp.Min, "max": sp.Max,
+    "world_point": world_point, "point_velocity": point_velocity,
+    "attached_point": attached_point, "attached_velocity": attached_velocity,
+    "inertia_world": inertia_world, "force": force, "torque": torque,
+    "force_at_point": force_at_point,
+}
+
+# attributes a descriptor may read from a body
+BODY_ATTRIBUTES = {"x": "x", "v": "v", "w": "w", "mass": "mass"}

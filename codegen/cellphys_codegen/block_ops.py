@@ -69,6 +69,6 @@ def emit_stages(stages, prefix):
     for k, stage in enumerate(stages):
         tmps, outs, n = cxx_printer.emit([e for _, e in stage], f"{prefix}{k}_")
         ops += n
-        lines += [f"const S {t} = {c};" for t, c in tmps]
+        lines += [f"const {ty} {t} = {c};" for ty, t, c in tmps]
         lines += [f"const S {sym.name} = {c};" for (sym, _), c in zip(stage, outs)]
     return lines, ops

@@ -102,7 +102,11 @@ def cxx(e):
 
 
 def emit(outputs, tmp_prefix="t"):
-    """CSE over all outputs; returns (temporaries [(name, code)], output code list, op count)."""
+    """CSE over all outputs; returns (temporaries [(type, name, code)], output code list, op count).
+
+    A temporary CSE pulls out of a condition is a lane mask for a SIMD batch, so its type is
+    `auto`; every other one is S."""
     reps, reduced = sp.cse(outputs, symbols=sp.numbered_symbols(tmp_prefix), order="none")
     ops = sum(sp.count_ops(r) for _, r in reps) + sum(sp.count_ops(r) for r in reduced)
-    return [(s.name, cxx(r)) for s, r in reps], [cxx(r) for r in reduced], int(ops)
+    tmps = [("auto" if isinstance(r, sp.logic.boolalg.Boolean) else "S", s.name, cxx(r)) for s, r in reps]
+    return tmps, [cxx(r) for r in reduced], int(ops)

@@ -41,10 +41,25 @@ def _kernel_view(k, src_root):
         l, n = block_ops.emit_stages([st], f"l{i}_")
         lines += l
         ops += n
+    # F alone (explicit integrators, a Rosenbrock method's second stage): no let derivatives
+    f_lines, f_ops = [], 0
+    if k.pre:
+        l, n = block_ops.emit_stages([list(k.pre.items())], "p")
+        f_lines += l
+        f_ops += n
+    values = [[(sym, e) for sym, e in st if not sym.name.startswith("d_")] for st in k.stages]
+    for i, st in enumerate(values):
+        l, n = block_ops.emit_stages([st], f"l{i}_")
+        f_lines += l
+        f_ops += n
+    tmps, outs, n = cxx_printer.emit(k.forces, "o")
+    f_ops += n
+    f_lines += [f"const {ty} {t} = {c};" for ty, t, c in tmps]
+    f_lines += [f"out[{i}] = {c};" for i, c in enumerate(outs)]
     outputs = k.forces + [e for b in k.blocks for e in b.exprs]
     tmps, outs, n = cxx_printer.emit(outputs, "o")
     ops += n
-    lines += [f"const S {t} = {c};" for t, c in tmps]
+    lines += [f"const {ty} {t} = {c};" for ty, t, c in tmps]
     lines += [f"out[{i}] = {c};" for i, c in enumerate(outs)]
     inputs = []
     for idx, inp in enumerate(k.inputs):
@@ -61,7 +76,7 @@ def _kernel_view(k, src_root):
     return dict(
         name=k.cxx_name, variant=k.variant, num_bodies=k.num_bodies, inputs=inputs,
         blocks=[dict(kind=b.kind, row=b.row_body, col=b.col_body) for b in k.blocks],
-        num_outputs=len(outputs), ops=ops, lines=lines,
+        num_outputs=len(outputs), ops=ops, lines=lines, f_lines=f_lines, f_ops=f_ops,
         uses_b=any(i.source == "body" and i.body == 1 for i in k.inputs),
     )
 

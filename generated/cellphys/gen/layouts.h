@@ -77,6 +77,245 @@ inline void unpack(const unsigned char* bytes, Contact_Force_Fields& out) {
   unpack(tmp, out);
 }
 
+// ---- Island_Header (codegen/descriptors/structs/island_header.yaml) ----
+/// First bytes of a packed island: what follows, and how to step it. The same bytes go to a worker thread or over the wire.
+struct alignas(16) Island_Header {
+  uint32_t magic;  ///< @0: u32. 0x50494C43 ('CLIP' little-endian): a packed island
+  uint32_t version;  ///< @4: u32. format version; a kernel refuses other versions
+  uint32_t total_bytes;  ///< @8: u32. size of the whole image, header included
+  uint32_t num_bodies;  ///< @12: u32. bodies in the island; their Rigid_Body array follows the sections
+  uint32_t num_sections;  ///< @16: u32. force sections (one per force type present)
+  uint32_t num_blocks;  ///< @20: u32. distinct off-diagonal blocks of the system matrix (2 per coupled body pair)
+  uint32_t integrator;  ///< @24: u32. cellphys::spu::Integrator
+  uint32_t solver;  ///< @28: u32. cellphys::spu::Solver
+  uint32_t max_halvings;  ///< @32: u32. how many times a failed step may halve its size
+  float step;  ///< @36: f32. step size h (s)
+  float tolerance;  ///< @40: f32. relative tolerance of the linear solve (and of the adaptive step error)
+  uint32_t checksum;  ///< @44: u32. FNV-1a of every byte after the header
+  uint32_t island_id;  ///< @48: u32. caller's tag, returned in the result
+  unsigned char pad_52[12];
+};
+static_assert(sizeof(Island_Header) == 64, "Island_Header: size differs from the descriptor");
+static_assert(alignof(Island_Header) == 16, "Island_Header: alignment differs from the descriptor");
+static_assert(offsetof(Island_Header, magic) == 0, "Island_Header.magic: offset differs");
+static_assert(offsetof(Island_Header, version) == 4, "Island_Header.version: offset differs");
+static_assert(offsetof(Island_Header, total_bytes) == 8, "Island_Header.total_bytes: offset differs");
+static_assert(offsetof(Island_Header, num_bodies) == 12, "Island_Header.num_bodies: offset differs");
+static_assert(offsetof(Island_Header, num_sections) == 16, "Island_Header.num_sections: offset differs");
+static_assert(offsetof(Island_Header, num_blocks) == 20, "Island_Header.num_blocks: offset differs");
+static_assert(offsetof(Island_Header, integrator) == 24, "Island_Header.integrator: offset differs");
+static_assert(offsetof(Island_Header, solver) == 28, "Island_Header.solver: offset differs");
+static_assert(offsetof(Island_Header, max_halvings) == 32, "Island_Header.max_halvings: offset differs");
+static_assert(offsetof(Island_Header, step) == 36, "Island_Header.step: offset differs");
+static_assert(offsetof(Island_Header, tolerance) == 40, "Island_Header.tolerance: offset differs");
+static_assert(offsetof(Island_Header, checksum) == 44, "Island_Header.checksum: offset differs");
+static_assert(offsetof(Island_Header, island_id) == 48, "Island_Header.island_id: offset differs");
+
+/// The fields of Island_Header without padding: what pack() takes and unpack() gives.
+struct Island_Header_Fields {
+  uint32_t magic = 0;
+  uint32_t version = 0;
+  uint32_t total_bytes = 0;
+  uint32_t num_bodies = 0;
+  uint32_t num_sections = 0;
+  uint32_t num_blocks = 0;
+  uint32_t integrator = 0;
+  uint32_t solver = 0;
+  uint32_t max_halvings = 0;
+  float step = 0;
+  float tolerance = 0;
+  uint32_t checksum = 0;
+  uint32_t island_id = 0;
+};
+
+inline void pack(const Island_Header_Fields& in, Island_Header& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.magic = in.magic;
+  out.version = in.version;
+  out.total_bytes = in.total_bytes;
+  out.num_bodies = in.num_bodies;
+  out.num_sections = in.num_sections;
+  out.num_blocks = in.num_blocks;
+  out.integrator = in.integrator;
+  out.solver = in.solver;
+  out.max_halvings = in.max_halvings;
+  out.step = in.step;
+  out.tolerance = in.tolerance;
+  out.checksum = in.checksum;
+  out.island_id = in.island_id;
+}
+
+inline void unpack(const Island_Header& in, Island_Header_Fields& out) {
+  out.magic = in.magic;
+  out.version = in.version;
+  out.total_bytes = in.total_bytes;
+  out.num_bodies = in.num_bodies;
+  out.num_sections = in.num_sections;
+  out.num_blocks = in.num_blocks;
+  out.integrator = in.integrator;
+  out.solver = in.solver;
+  out.max_halvings = in.max_halvings;
+  out.step = in.step;
+  out.tolerance = in.tolerance;
+  out.checksum = in.checksum;
+  out.island_id = in.island_id;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (64 B).
+inline void pack(const Island_Header_Fields& in, unsigned char* bytes) {
+  Island_Header tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Island_Header_Fields& out) {
+  Island_Header tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
+// ---- Island_Result (codegen/descriptors/structs/island_result.yaml) ----
+/// First bytes of a compute kernel's output; the seed's Rigid_Body_Step array follows, then the advanced Rigid_Body array.
+struct alignas(16) Island_Result {
+  uint32_t magic;  ///< @0: u32. 0x534C5352 ('RSLS'): a result
+  uint32_t status;  ///< @4: u32. cellphys::spu::IslandStatus
+  uint32_t island_id;  ///< @8: u32. the island_id of the input
+  uint32_t num_bodies;  ///< @12: u32
+  uint32_t solver_iterations;  ///< @16: u32. summed over every solve of the step
+  uint32_t solves;  ///< @20: u32. linear solves performed
+  uint32_t halvings;  ///< @24: u32. deepest step halving used (0: one full step)
+  uint32_t substeps;  ///< @28: u32. substeps taken to cover the step
+  uint32_t solver_code;  ///< @32: u32. last failing solver code (0 when none failed)
+  uint32_t local_store_bytes;  ///< @36: u32. peak local-store use of this island, double buffers included
+  uint32_t total_bytes;  ///< @40: u32. size of the whole result
+  uint32_t checksum;  ///< @44: u32. FNV-1a of every byte after the header
+};
+static_assert(sizeof(Island_Result) == 48, "Island_Result: size differs from the descriptor");
+static_assert(alignof(Island_Result) == 16, "Island_Result: alignment differs from the descriptor");
+static_assert(offsetof(Island_Result, magic) == 0, "Island_Result.magic: offset differs");
+static_assert(offsetof(Island_Result, status) == 4, "Island_Result.status: offset differs");
+static_assert(offsetof(Island_Result, island_id) == 8, "Island_Result.island_id: offset differs");
+static_assert(offsetof(Island_Result, num_bodies) == 12, "Island_Result.num_bodies: offset differs");
+static_assert(offsetof(Island_Result, solver_iterations) == 16, "Island_Result.solver_iterations: offset differs");
+static_assert(offsetof(Island_Result, solves) == 20, "Island_Result.solves: offset differs");
+static_assert(offsetof(Island_Result, halvings) == 24, "Island_Result.halvings: offset differs");
+static_assert(offsetof(Island_Result, substeps) == 28, "Island_Result.substeps: offset differs");
+static_assert(offsetof(Island_Result, solver_code) == 32, "Island_Result.solver_code: offset differs");
+static_assert(offsetof(Island_Result, local_store_bytes) == 36, "Island_Result.local_store_bytes: offset differs");
+static_assert(offsetof(Island_Result, total_bytes) == 40, "Island_Result.total_bytes: offset differs");
+static_assert(offsetof(Island_Result, checksum) == 44, "Island_Result.checksum: offset differs");
+
+/// The fields of Island_Result without padding: what pack() takes and unpack() gives.
+struct Island_Result_Fields {
+  uint32_t magic = 0;
+  uint32_t status = 0;
+  uint32_t island_id = 0;
+  uint32_t num_bodies = 0;
+  uint32_t solver_iterations = 0;
+  uint32_t solves = 0;
+  uint32_t halvings = 0;
+  uint32_t substeps = 0;
+  uint32_t solver_code = 0;
+  uint32_t local_store_bytes = 0;
+  uint32_t total_bytes = 0;
+  uint32_t checksum = 0;
+};
+
+inline void pack(const Island_Result_Fields& in, Island_Result& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.magic = in.magic;
+  out.status = in.status;
+  out.island_id = in.island_id;
+  out.num_bodies = in.num_bodies;
+  out.solver_iterations = in.solver_iterations;
+  out.solves = in.solves;
+  out.halvings = in.halvings;
+  out.substeps = in.substeps;
+  out.solver_code = in.solver_code;
+  out.local_store_bytes = in.local_store_bytes;
+  out.total_bytes = in.total_bytes;
+  out.checksum = in.checksum;
+}
+
+inline void unpack(const Island_Result& in, Island_Result_Fields& out) {
+  out.magic = in.magic;
+  out.status = in.status;
+  out.island_id = in.island_id;
+  out.num_bodies = in.num_bodies;
+  out.solver_iterations = in.solver_iterations;
+  out.solves = in.solves;
+  out.halvings = in.halvings;
+  out.substeps = in.substeps;
+  out.solver_code = in.solver_code;
+  out.local_store_bytes = in.local_store_bytes;
+  out.total_bytes = in.total_bytes;
+  out.checksum = in.checksum;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (48 B).
+inline void pack(const Island_Result_Fields& in, unsigned char* bytes) {
+  Island_Result tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Island_Result_Fields& out) {
+  Island_Result tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
+// ---- Island_Section (codegen/descriptors/structs/island_section.yaml) ----
+/// One force type's instances in a packed island: pair instances first, then world-anchored ones.
+struct alignas(4) Island_Section {
+  uint32_t force_type;  ///< @0: u32. cellphys::gen::ForceType
+  uint32_t count;  ///< @4: u32. instances in the section
+  uint32_t world_count;  ///< @8: u32. of which the last world_count have body b = the world
+  uint32_t offset;  ///< @12: u32. byte offset of the first instance from the start of the image
+};
+static_assert(sizeof(Island_Section) == 16, "Island_Section: size differs from the descriptor");
+static_assert(alignof(Island_Section) == 4, "Island_Section: alignment differs from the descriptor");
+static_assert(offsetof(Island_Section, force_type) == 0, "Island_Section.force_type: offset differs");
+static_assert(offsetof(Island_Section, count) == 4, "Island_Section.count: offset differs");
+static_assert(offsetof(Island_Section, world_count) == 8, "Island_Section.world_count: offset differs");
+static_assert(offsetof(Island_Section, offset) == 12, "Island_Section.offset: offset differs");
+
+/// The fields of Island_Section without padding: what pack() takes and unpack() gives.
+struct Island_Section_Fields {
+  uint32_t force_type = 0;
+  uint32_t count = 0;
+  uint32_t world_count = 0;
+  uint32_t offset = 0;
+};
+
+inline void pack(const Island_Section_Fields& in, Island_Section& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.force_type = in.force_type;
+  out.count = in.count;
+  out.world_count = in.world_count;
+  out.offset = in.offset;
+}
+
+inline void unpack(const Island_Section& in, Island_Section_Fields& out) {
+  out.force_type = in.force_type;
+  out.count = in.count;
+  out.world_count = in.world_count;
+  out.offset = in.offset;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (16 B).
+inline void pack(const Island_Section_Fields& in, unsigned char* bytes) {
+  Island_Section tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Island_Section_Fields& out) {
+  Island_Section tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
 // ---- Point_To_Point_Constraint_Force (codegen/descriptors/structs/point_to_point_constraint_force.yaml) ----
 /// A stiff spring-damper holding two body points together (the seed's Point_To_Point_Constraint_Force).
 struct alignas(16) Point_To_Point_Constraint_Force {
@@ -984,6 +1223,9 @@ struct StructInfo {
 /// Every layout, with the sizes the compiler gave them.
 inline constexpr StructInfo kStructTable[] = {
     {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 40},
+    {"Island_Header", sizeof(Island_Header), alignof(Island_Header), 52},
+    {"Island_Result", sizeof(Island_Result), alignof(Island_Result), 48},
+    {"Island_Section", sizeof(Island_Section), alignof(Island_Section), 16},
     {"Point_To_Point_Constraint_Force", sizeof(Point_To_Point_Constraint_Force), alignof(Point_To_Point_Constraint_Force), 40},
     {"Rigid_Body", sizeof(Rigid_Body), alignof(Rigid_Body), 132},
     {"Rigid_Body_Step", sizeof(Rigid_Body_Step), alignof(Rigid_Body_Step), 24},

@@ -104,6 +104,29 @@ struct Air_Drag_Body_Kernel {
     out[40] = S(0);
     out[41] = S(0);
   }
+
+  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 17
+  template <class S>
+  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_vx = in[0];
+    [[maybe_unused]] const S a_vy = in[1];
+    [[maybe_unused]] const S a_vz = in[2];
+    [[maybe_unused]] const S p_drag = in[3];
+    [[maybe_unused]] const S p_wind0 = in[4];
+    [[maybe_unused]] const S p_wind1 = in[5];
+    [[maybe_unused]] const S p_wind2 = in[6];
+    const S L_vrel0 = (a_vx - p_wind0);
+    const S L_vrel1 = (a_vy - p_wind1);
+    const S L_vrel2 = (a_vz - p_wind2);
+    const S o0 = (p_drag*sqrt(((L_vrel0*L_vrel0) + (L_vrel1*L_vrel1) + (L_vrel2*L_vrel2))));
+    out[0] = (-(L_vrel0*o0));
+    out[1] = (-(L_vrel1*o0));
+    out[2] = (-(L_vrel2*o0));
+    out[3] = S(0);
+    out[4] = S(0);
+    out[5] = S(0);
+  }
 };
 
 }  // namespace cellphys::gen

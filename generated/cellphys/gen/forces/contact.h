@@ -193,8 +193,8 @@ struct Contact_Pair_Kernel {
     const S d_L_vn__b_wy = ((b_o1_2*p_normal0) + (d_L_vrel2__b_wy*p_normal2));
     const S d_L_vn__b_wz = ((b_o1_0*p_normal1) + (d_L_vrel0__b_wz*p_normal0));
     const S l5_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
-    const S l5_0_1 = (l5_0_0 > S(0));
-    const S l5_0_2 = (L_depth > S(0));
+    const auto l5_0_1 = (l5_0_0 > S(0));
+    const auto l5_0_2 = (L_depth > S(0));
     const S l5_0_3 = select(l5_0_2, select(l5_0_1, g_contact_stiffness, S(0)), S(0));
     const S l5_0_4 = select(l5_0_2, select(l5_0_1, (-g_contact_damping), S(0)), S(0));
     const S L_fn = select(l5_0_2, select(l5_0_1, l5_0_0, S(0)), S(0));
@@ -763,6 +763,91 @@ struct Contact_Pair_Kernel {
     out[298] = ((d_L_f0__b_wz*o3) + (d_L_f2__b_wz*o10));
     out[299] = ((d_L_f0__b_wz*o11) + (d_L_f1__b_wz*o5));
   }
+
+  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 123
+  template <class S>
+  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_px = in[0];
+    [[maybe_unused]] const S a_py = in[1];
+    [[maybe_unused]] const S a_pz = in[2];
+    [[maybe_unused]] const S a_vx = in[3];
+    [[maybe_unused]] const S a_vy = in[4];
+    [[maybe_unused]] const S a_vz = in[5];
+    [[maybe_unused]] const S a_wx = in[6];
+    [[maybe_unused]] const S a_wy = in[7];
+    [[maybe_unused]] const S a_wz = in[8];
+    [[maybe_unused]] const S b_px = in[9];
+    [[maybe_unused]] const S b_py = in[10];
+    [[maybe_unused]] const S b_pz = in[11];
+    [[maybe_unused]] const S b_vx = in[12];
+    [[maybe_unused]] const S b_vy = in[13];
+    [[maybe_unused]] const S b_vz = in[14];
+    [[maybe_unused]] const S b_wx = in[15];
+    [[maybe_unused]] const S b_wy = in[16];
+    [[maybe_unused]] const S b_wz = in[17];
+    [[maybe_unused]] const S p_point0 = in[18];
+    [[maybe_unused]] const S p_point1 = in[19];
+    [[maybe_unused]] const S p_point2 = in[20];
+    [[maybe_unused]] const S p_normal0 = in[21];
+    [[maybe_unused]] const S p_normal1 = in[22];
+    [[maybe_unused]] const S p_normal2 = in[23];
+    [[maybe_unused]] const S p_penetration = in[24];
+    [[maybe_unused]] const S p_friction = in[25];
+    [[maybe_unused]] const S g_contact_stiffness = in[26];
+    [[maybe_unused]] const S g_contact_damping = in[27];
+    [[maybe_unused]] const S g_slip_velocity = in[28];
+    const S p0_0 = (-p_point0);
+    const S p0_1 = (-p_point1);
+    const S p0_2 = (-p_point2);
+    const S a_o0_0 = ((-a_px) - p0_0);
+    const S a_o0_1 = ((-a_py) - p0_1);
+    const S a_o0_2 = ((-a_pz) - p0_2);
+    const S b_o1_0 = ((-b_px) - p0_0);
+    const S b_o1_1 = ((-b_py) - p0_1);
+    const S b_o1_2 = ((-b_pz) - p0_2);
+    const S L_pa0 = (a_o0_0 + a_px);
+    const S L_pa1 = (a_o0_1 + a_py);
+    const S L_pa2 = (a_o0_2 + a_pz);
+    const S L_pb0 = (b_o1_0 + b_px);
+    const S L_pb1 = (b_o1_1 + b_py);
+    const S L_pb2 = (b_o1_2 + b_pz);
+    const S L_depth = ((-(p_normal0*((-L_pa0) + L_pb0))) - (p_normal1*((-L_pa1) + L_pb1)) - (p_normal2*((-L_pa2) + L_pb2)) + p_penetration);
+    const S L_vrel0 = ((a_o0_1*a_wz) - (a_o0_2*a_wy) - a_vx - (b_o1_1*b_wz) + (b_o1_2*b_wy) + b_vx);
+    const S L_vrel1 = ((-(a_o0_0*a_wz)) + (a_o0_2*a_wx) - a_vy + (b_o1_0*b_wz) - (b_o1_2*b_wx) + b_vy);
+    const S L_vrel2 = ((a_o0_0*a_wy) - (a_o0_1*a_wx) - a_vz - (b_o1_0*b_wy) + (b_o1_1*b_wx) + b_vz);
+    const S L_vn = ((L_vrel0*p_normal0) + (L_vrel1*p_normal1) + (L_vrel2*p_normal2));
+    const S l5_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
+    const S L_fn = select((L_depth > S(0)), select((l5_0_0 > S(0)), l5_0_0, S(0)), S(0));
+    const S L_vt0 = ((-(L_vn*p_normal0)) + L_vrel0);
+    const S L_vt1 = ((-(L_vn*p_normal1)) + L_vrel1);
+    const S L_vt2 = ((-(L_vn*p_normal2)) + L_vrel2);
+    const S l7_0_0 = (L_fn*p_friction*(S(1)/sqrt(((L_vt0*L_vt0) + (L_vt1*L_vt1) + (L_vt2*L_vt2) + (g_slip_velocity*g_slip_velocity)))));
+    const S L_ft0 = (-(L_vt0*l7_0_0));
+    const S L_ft1 = (-(L_vt1*l7_0_0));
+    const S L_ft2 = (-(L_vt2*l7_0_0));
+    const S L_f0 = ((L_fn*p_normal0) + L_ft0);
+    const S L_f1 = ((L_fn*p_normal1) + L_ft1);
+    const S L_f2 = ((L_fn*p_normal2) + L_ft2);
+    const S o0 = (L_pa2 - a_pz);
+    const S o1 = (L_pa1 - a_py);
+    const S o2 = (L_pa0 - a_px);
+    const S o3 = (L_pb2 - b_pz);
+    const S o4 = (L_pb1 - b_py);
+    const S o5 = (L_pb0 - b_px);
+    out[0] = (-L_f0);
+    out[1] = (-L_f1);
+    out[2] = (-L_f2);
+    out[3] = ((L_f1*o0) - (L_f2*o1));
+    out[4] = ((-(L_f0*o0)) + (L_f2*o2));
+    out[5] = ((L_f0*o1) - (L_f1*o2));
+    out[6] = L_f0;
+    out[7] = L_f1;
+    out[8] = L_f2;
+    out[9] = ((-(L_f1*o3)) + (L_f2*o4));
+    out[10] = ((L_f0*o3) - (L_f2*o5));
+    out[11] = ((-(L_f0*o4)) + (L_f1*o5));
+  }
 };
 
 /// contact (world): F for 1 body and 2 Jacobian block(s).
@@ -881,8 +966,8 @@ struct Contact_World_Kernel {
     const S d_L_vn__a_wy = ((a_o0_0*p_normal2) + (d_L_vrel0__a_wy*p_normal0));
     const S d_L_vn__a_wz = ((a_o0_1*p_normal0) + (d_L_vrel1__a_wz*p_normal1));
     const S l5_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
-    const S l5_0_1 = (l5_0_0 > S(0));
-    const S l5_0_2 = (L_depth > S(0));
+    const auto l5_0_1 = (l5_0_0 > S(0));
+    const auto l5_0_2 = (L_depth > S(0));
     const S l5_0_3 = select(l5_0_2, select(l5_0_1, g_contact_stiffness, S(0)), S(0));
     const S l5_0_4 = select(l5_0_2, select(l5_0_1, (-g_contact_damping), S(0)), S(0));
     const S L_fn = select(l5_0_2, select(l5_0_1, l5_0_0, S(0)), S(0));
@@ -1108,6 +1193,67 @@ struct Contact_World_Kernel {
     out[75] = ((d_L_f1__a_wz*o0) + (d_L_f2__a_wz*o3));
     out[76] = ((d_L_f0__a_wz*o4) + (d_L_f2__a_wz*o2));
     out[77] = ((d_L_f0__a_wz*o1) + (d_L_f1__a_wz*o5));
+  }
+
+  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 81
+  template <class S>
+  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_px = in[0];
+    [[maybe_unused]] const S a_py = in[1];
+    [[maybe_unused]] const S a_pz = in[2];
+    [[maybe_unused]] const S a_vx = in[3];
+    [[maybe_unused]] const S a_vy = in[4];
+    [[maybe_unused]] const S a_vz = in[5];
+    [[maybe_unused]] const S a_wx = in[6];
+    [[maybe_unused]] const S a_wy = in[7];
+    [[maybe_unused]] const S a_wz = in[8];
+    [[maybe_unused]] const S p_point0 = in[9];
+    [[maybe_unused]] const S p_point1 = in[10];
+    [[maybe_unused]] const S p_point2 = in[11];
+    [[maybe_unused]] const S p_normal0 = in[12];
+    [[maybe_unused]] const S p_normal1 = in[13];
+    [[maybe_unused]] const S p_normal2 = in[14];
+    [[maybe_unused]] const S p_penetration = in[15];
+    [[maybe_unused]] const S p_friction = in[16];
+    [[maybe_unused]] const S g_contact_stiffness = in[17];
+    [[maybe_unused]] const S g_contact_damping = in[18];
+    [[maybe_unused]] const S g_slip_velocity = in[19];
+    const S a_o0_0 = ((-a_px) + p_point0);
+    const S a_o0_1 = ((-a_py) + p_point1);
+    const S a_o0_2 = ((-a_pz) + p_point2);
+    const S L_pa0 = (a_o0_0 + a_px);
+    const S L_pa1 = (a_o0_1 + a_py);
+    const S L_pa2 = (a_o0_2 + a_pz);
+    const S L_pb0 = p_point0;
+    const S L_pb1 = p_point1;
+    const S L_pb2 = p_point2;
+    const S L_depth = ((-(p_normal0*((-L_pa0) + L_pb0))) - (p_normal1*((-L_pa1) + L_pb1)) - (p_normal2*((-L_pa2) + L_pb2)) + p_penetration);
+    const S L_vrel0 = ((a_o0_1*a_wz) - (a_o0_2*a_wy) - a_vx);
+    const S L_vrel1 = ((-(a_o0_0*a_wz)) + (a_o0_2*a_wx) - a_vy);
+    const S L_vrel2 = ((a_o0_0*a_wy) - (a_o0_1*a_wx) - a_vz);
+    const S L_vn = ((L_vrel0*p_normal0) + (L_vrel1*p_normal1) + (L_vrel2*p_normal2));
+    const S l5_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
+    const S L_fn = select((L_depth > S(0)), select((l5_0_0 > S(0)), l5_0_0, S(0)), S(0));
+    const S L_vt0 = ((-(L_vn*p_normal0)) + L_vrel0);
+    const S L_vt1 = ((-(L_vn*p_normal1)) + L_vrel1);
+    const S L_vt2 = ((-(L_vn*p_normal2)) + L_vrel2);
+    const S l7_0_0 = (L_fn*p_friction*(S(1)/sqrt(((L_vt0*L_vt0) + (L_vt1*L_vt1) + (L_vt2*L_vt2) + (g_slip_velocity*g_slip_velocity)))));
+    const S L_ft0 = (-(L_vt0*l7_0_0));
+    const S L_ft1 = (-(L_vt1*l7_0_0));
+    const S L_ft2 = (-(L_vt2*l7_0_0));
+    const S L_f0 = ((L_fn*p_normal0) + L_ft0);
+    const S L_f1 = ((L_fn*p_normal1) + L_ft1);
+    const S L_f2 = ((L_fn*p_normal2) + L_ft2);
+    const S o0 = (L_pa2 - a_pz);
+    const S o1 = (L_pa1 - a_py);
+    const S o2 = (L_pa0 - a_px);
+    out[0] = (-L_f0);
+    out[1] = (-L_f1);
+    out[2] = (-L_f2);
+    out[3] = ((L_f1*o0) - (L_f2*o1));
+    out[4] = ((-(L_f0*o0)) + (L_f2*o2));
+    out[5] = ((L_f0*o1) - (L_f1*o2));
   }
 };
 

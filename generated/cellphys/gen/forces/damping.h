@@ -206,6 +206,70 @@ struct Damping_Body_Kernel {
     out[76] = o23;
     out[77] = (-o12);
   }
+
+  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 137
+  template <class S>
+  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_qw = in[0];
+    [[maybe_unused]] const S a_qx = in[1];
+    [[maybe_unused]] const S a_qy = in[2];
+    [[maybe_unused]] const S a_qz = in[3];
+    [[maybe_unused]] const S a_vx = in[4];
+    [[maybe_unused]] const S a_vy = in[5];
+    [[maybe_unused]] const S a_vz = in[6];
+    [[maybe_unused]] const S a_wx = in[7];
+    [[maybe_unused]] const S a_wy = in[8];
+    [[maybe_unused]] const S a_wz = in[9];
+    [[maybe_unused]] const S a_m = in[10];
+    [[maybe_unused]] const S a_Ixx = in[11];
+    [[maybe_unused]] const S a_Iyy = in[12];
+    [[maybe_unused]] const S a_Izz = in[13];
+    [[maybe_unused]] const S a_Ixy = in[14];
+    [[maybe_unused]] const S a_Ixz = in[15];
+    [[maybe_unused]] const S a_Iyz = in[16];
+    [[maybe_unused]] const S p_linear = in[17];
+    [[maybe_unused]] const S p_angular = in[18];
+    const S p0_0 = (S(2)*a_qw);
+    const S p0_1 = (a_qz*p0_0);
+    const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
+    const S p0_3 = (S(2)*(a_qy*a_qy));
+    const S p0_4 = ((S(2)*(a_qz*a_qz)) - S(1));
+    const S p0_5 = ((-p0_3) - p0_4);
+    const S p0_6 = (a_qy*p0_0);
+    const S p0_7 = (S(2)*a_qx);
+    const S p0_8 = ((a_qz*p0_7) + p0_6);
+    const S p0_9 = ((a_Ixy*p0_5) + (a_Iyy*p0_2) + (a_Iyz*p0_8));
+    const S p0_10 = ((a_Ixz*p0_5) + (a_Iyz*p0_2) + (a_Izz*p0_8));
+    const S p0_11 = ((a_Ixx*p0_5) + (a_Ixy*p0_2) + (a_Ixz*p0_8));
+    const S p0_12 = (a_qx*p0_0);
+    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
+    const S p0_14 = ((a_qy*p0_7) + p0_1);
+    const S p0_15 = (S(2)*(a_qx*a_qx));
+    const S p0_16 = ((-p0_15) - p0_4);
+    const S p0_17 = ((a_Ixz*p0_14) + (a_Iyz*p0_16) + (a_Izz*p0_13));
+    const S p0_18 = ((a_Ixx*p0_14) + (a_Ixy*p0_16) + (a_Ixz*p0_13));
+    const S p0_19 = ((a_Ixy*p0_14) + (a_Iyy*p0_16) + (a_Iyz*p0_13));
+    const S p0_20 = ((S(2)*a_qx*a_qz) - p0_6);
+    const S p0_21 = ((S(2)*a_qy*a_qz) + p0_12);
+    const S p0_22 = ((-p0_15) - p0_3 + S(1));
+    const S a_Iw0_00 = ((p0_10*p0_8) + (p0_11*p0_5) + (p0_2*p0_9));
+    const S a_Iw0_11 = ((p0_13*p0_17) + (p0_14*p0_18) + (p0_16*p0_19));
+    const S a_Iw0_22 = ((p0_20*((a_Ixx*p0_20) + (a_Ixy*p0_21) + (a_Ixz*p0_22))) + (p0_21*((a_Ixy*p0_20) + (a_Iyy*p0_21) + (a_Iyz*p0_22))) + (p0_22*((a_Ixz*p0_20) + (a_Iyz*p0_21) + (a_Izz*p0_22))));
+    const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
+    const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
+    const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    const S o0 = (a_m*p_linear);
+    const S o1 = (a_wx*p_angular);
+    const S o2 = (a_wy*p_angular);
+    const S o3 = (a_wz*p_angular);
+    out[0] = (-(a_vx*o0));
+    out[1] = (-(a_vy*o0));
+    out[2] = (-(a_vz*o0));
+    out[3] = ((-(a_Iw0_00*o1)) - (a_Iw0_01*o2) - (a_Iw0_02*o3));
+    out[4] = ((-(a_Iw0_01*o1)) - (a_Iw0_11*o2) - (a_Iw0_12*o3));
+    out[5] = ((-(a_Iw0_02*o1)) - (a_Iw0_12*o2) - (a_Iw0_22*o3));
+  }
 };
 
 }  // namespace cellphys::gen

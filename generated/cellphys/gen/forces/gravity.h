@@ -47,6 +47,22 @@ struct Gravity_Body_Kernel {
     out[4] = S(0);
     out[5] = S(0);
   }
+
+  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 3
+  template <class S>
+  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_m = in[0];
+    [[maybe_unused]] const S g_gravity0 = in[1];
+    [[maybe_unused]] const S g_gravity1 = in[2];
+    [[maybe_unused]] const S g_gravity2 = in[3];
+    out[0] = (a_m*g_gravity0);
+    out[1] = (a_m*g_gravity1);
+    out[2] = (a_m*g_gravity2);
+    out[3] = S(0);
+    out[4] = S(0);
+    out[5] = S(0);
+  }
 };
 
 }  // namespace cellphys::gen

@@ -517,6 +517,95 @@ struct Point_To_Point_Pair_Kernel {
     out[298] = (d_L_f0__b_wz*o9);
     out[299] = ((d_L_f0__b_wz*o4) + (d_L_f1__b_wz*o10));
   }
+
+  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 170
+  template <class S>
+  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_px = in[0];
+    [[maybe_unused]] const S a_py = in[1];
+    [[maybe_unused]] const S a_pz = in[2];
+    [[maybe_unused]] const S a_qw = in[3];
+    [[maybe_unused]] const S a_qx = in[4];
+    [[maybe_unused]] const S a_qy = in[5];
+    [[maybe_unused]] const S a_qz = in[6];
+    [[maybe_unused]] const S a_vx = in[7];
+    [[maybe_unused]] const S a_vy = in[8];
+    [[maybe_unused]] const S a_vz = in[9];
+    [[maybe_unused]] const S a_wx = in[10];
+    [[maybe_unused]] const S a_wy = in[11];
+    [[maybe_unused]] const S a_wz = in[12];
+    [[maybe_unused]] const S b_px = in[13];
+    [[maybe_unused]] const S b_py = in[14];
+    [[maybe_unused]] const S b_pz = in[15];
+    [[maybe_unused]] const S b_qw = in[16];
+    [[maybe_unused]] const S b_qx = in[17];
+    [[maybe_unused]] const S b_qy = in[18];
+    [[maybe_unused]] const S b_qz = in[19];
+    [[maybe_unused]] const S b_vx = in[20];
+    [[maybe_unused]] const S b_vy = in[21];
+    [[maybe_unused]] const S b_vz = in[22];
+    [[maybe_unused]] const S b_wx = in[23];
+    [[maybe_unused]] const S b_wy = in[24];
+    [[maybe_unused]] const S b_wz = in[25];
+    [[maybe_unused]] const S p_point_a0 = in[26];
+    [[maybe_unused]] const S p_point_a1 = in[27];
+    [[maybe_unused]] const S p_point_a2 = in[28];
+    [[maybe_unused]] const S p_point_b0 = in[29];
+    [[maybe_unused]] const S p_point_b1 = in[30];
+    [[maybe_unused]] const S p_point_b2 = in[31];
+    [[maybe_unused]] const S p_stiffness = in[32];
+    [[maybe_unused]] const S p_damping = in[33];
+    const S p0_0 = (S(2)*(a_qy*a_qy));
+    const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
+    const S p0_2 = (S(2)*a_qw);
+    const S p0_3 = (a_qz*p0_2);
+    const S p0_4 = (a_qy*p0_2);
+    const S p0_5 = (S(2)*a_qx);
+    const S p0_6 = (S(2)*(a_qx*a_qx));
+    const S p0_7 = (a_qx*p0_2);
+    const S p0_8 = (S(2)*(b_qy*b_qy));
+    const S p0_9 = ((S(2)*(b_qz*b_qz)) - S(1));
+    const S p0_10 = (S(2)*b_qw);
+    const S p0_11 = (b_qz*p0_10);
+    const S p0_12 = (b_qy*p0_10);
+    const S p0_13 = (S(2)*b_qx);
+    const S p0_14 = (S(2)*(b_qx*b_qx));
+    const S p0_15 = (b_qx*p0_10);
+    const S a_r0_0 = ((p_point_a0*((-p0_0) - p0_1)) + (p_point_a1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a2*((a_qz*p0_5) + p0_4)));
+    const S a_r0_1 = ((p_point_a0*((a_qy*p0_5) + p0_3)) + (p_point_a1*((-p0_1) - p0_6)) + (p_point_a2*((S(2)*a_qy*a_qz) - p0_7)));
+    const S a_r0_2 = ((p_point_a0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a2*((-p0_0) - p0_6 + S(1))));
+    const S b_r1_0 = ((p_point_b0*((-p0_8) - p0_9)) + (p_point_b1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b2*((b_qz*p0_13) + p0_12)));
+    const S b_r1_1 = ((p_point_b0*((b_qy*p0_13) + p0_11)) + (p_point_b1*((-p0_14) - p0_9)) + (p_point_b2*((S(2)*b_qy*b_qz) - p0_15)));
+    const S b_r1_2 = ((p_point_b0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b2*((-p0_14) - p0_8 + S(1))));
+    const S L_pa0 = (a_px + a_r0_0);
+    const S L_pa1 = (a_py + a_r0_1);
+    const S L_pa2 = (a_pz + a_r0_2);
+    const S L_pb0 = (b_px + b_r1_0);
+    const S L_pb1 = (b_py + b_r1_1);
+    const S L_pb2 = (b_pz + b_r1_2);
+    const S L_f0 = ((p_damping*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)) + (p_stiffness*((-L_pa0) + L_pb0)));
+    const S L_f1 = ((p_damping*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)) + (p_stiffness*((-L_pa1) + L_pb1)));
+    const S L_f2 = ((p_damping*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)) + (p_stiffness*((-L_pa2) + L_pb2)));
+    const S o0 = (L_pa2 - a_pz);
+    const S o1 = (L_pa1 - a_py);
+    const S o2 = (L_pa0 - a_px);
+    const S o3 = (L_pb2 - b_pz);
+    const S o4 = (L_pb1 - b_py);
+    const S o5 = (L_pb0 - b_px);
+    out[0] = L_f0;
+    out[1] = L_f1;
+    out[2] = L_f2;
+    out[3] = ((-(L_f1*o0)) + (L_f2*o1));
+    out[4] = ((L_f0*o0) - (L_f2*o2));
+    out[5] = ((-(L_f0*o1)) + (L_f1*o2));
+    out[6] = (-L_f0);
+    out[7] = (-L_f1);
+    out[8] = (-L_f2);
+    out[9] = ((L_f1*o3) - (L_f2*o4));
+    out[10] = ((-(L_f0*o3)) + (L_f2*o5));
+    out[11] = ((L_f0*o4) - (L_f1*o5));
+  }
 };
 
 /// point_to_point (world): F for 1 body and 2 Jacobian block(s).
@@ -727,6 +816,62 @@ struct Point_To_Point_World_Kernel {
     out[75] = (d_L_f1__a_wz*o4);
     out[76] = (d_L_f0__a_wz*o0);
     out[77] = ((d_L_f0__a_wz*o3) + (d_L_f1__a_wz*o2));
+  }
+
+  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 88
+  template <class S>
+  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_px = in[0];
+    [[maybe_unused]] const S a_py = in[1];
+    [[maybe_unused]] const S a_pz = in[2];
+    [[maybe_unused]] const S a_qw = in[3];
+    [[maybe_unused]] const S a_qx = in[4];
+    [[maybe_unused]] const S a_qy = in[5];
+    [[maybe_unused]] const S a_qz = in[6];
+    [[maybe_unused]] const S a_vx = in[7];
+    [[maybe_unused]] const S a_vy = in[8];
+    [[maybe_unused]] const S a_vz = in[9];
+    [[maybe_unused]] const S a_wx = in[10];
+    [[maybe_unused]] const S a_wy = in[11];
+    [[maybe_unused]] const S a_wz = in[12];
+    [[maybe_unused]] const S p_point_a0 = in[13];
+    [[maybe_unused]] const S p_point_a1 = in[14];
+    [[maybe_unused]] const S p_point_a2 = in[15];
+    [[maybe_unused]] const S p_point_b0 = in[16];
+    [[maybe_unused]] const S p_point_b1 = in[17];
+    [[maybe_unused]] const S p_point_b2 = in[18];
+    [[maybe_unused]] const S p_stiffness = in[19];
+    [[maybe_unused]] const S p_damping = in[20];
+    const S p0_0 = (S(2)*(a_qy*a_qy));
+    const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
+    const S p0_2 = (S(2)*a_qw);
+    const S p0_3 = (a_qz*p0_2);
+    const S p0_4 = (a_qy*p0_2);
+    const S p0_5 = (S(2)*a_qx);
+    const S p0_6 = (S(2)*(a_qx*a_qx));
+    const S p0_7 = (a_qx*p0_2);
+    const S a_r0_0 = ((p_point_a0*((-p0_0) - p0_1)) + (p_point_a1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a2*((a_qz*p0_5) + p0_4)));
+    const S a_r0_1 = ((p_point_a0*((a_qy*p0_5) + p0_3)) + (p_point_a1*((-p0_1) - p0_6)) + (p_point_a2*((S(2)*a_qy*a_qz) - p0_7)));
+    const S a_r0_2 = ((p_point_a0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a2*((-p0_0) - p0_6 + S(1))));
+    const S L_pa0 = (a_px + a_r0_0);
+    const S L_pa1 = (a_py + a_r0_1);
+    const S L_pa2 = (a_pz + a_r0_2);
+    const S L_pb0 = p_point_b0;
+    const S L_pb1 = p_point_b1;
+    const S L_pb2 = p_point_b2;
+    const S L_f0 = ((p_damping*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)) + (p_stiffness*((-L_pa0) + L_pb0)));
+    const S L_f1 = ((p_damping*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)) + (p_stiffness*((-L_pa1) + L_pb1)));
+    const S L_f2 = ((p_damping*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)) + (p_stiffness*((-L_pa2) + L_pb2)));
+    const S o0 = (L_pa2 - a_pz);
+    const S o1 = (L_pa1 - a_py);
+    const S o2 = (L_pa0 - a_px);
+    out[0] = L_f0;
+    out[1] = L_f1;
+    out[2] = L_f2;
+    out[3] = ((-(L_f1*o0)) + (L_f2*o1));
+    out[4] = ((L_f0*o0) - (L_f2*o2));
+    out[5] = ((-(L_f0*o1)) + (L_f1*o2));
   }
 };
 

@@ -1,0 +1,143 @@
+#include "runtime/spu/assembly.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "cellphys/gen/block_ops.h"
+
+namespace cellphys::spu {
+
+using namespace cellphys::gen;
+
+namespace {
+
+int32_t read_i32(const unsigned char* p) {
+  int32_t v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+
+// Gauss-Jordan with partial pivoting: the fallback when the straight-line inverse reports
+// a zero or non-finite 3x3 determinant.
+bool pivoting_inverse(const float* A, float* Ainv) {
+  double m[6][12];
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) {
+      m[r][c] = A[8 * c + padded(r)];
+      m[r][6 + c] = r == c;
+    }
+  for (int c = 0; c < 6; ++c) {
+    int p = c;
+    for (int r = c + 1; r < 6; ++r)
+      if (std::fabs(m[r][c]) > std::fabs(m[p][c])) p = r;
+    if (!(std::fabs(m[p][c]) > 0.0)) return false;
+    if (p != c)
+      for (int k = 0; k < 12; ++k) std::swap(m[p][k], m[c][k]);
+    const double inv = 1.0 / m[c][c];
+    for (int k = 0; k < 12; ++k) m[c][k] *= inv;
+    for (int r = 0; r < 6; ++r) {
+      if (r == c) continue;
+      const double f = m[r][c];
+      for (int k = 0; k < 12; ++k) m[r][k] -= f * m[c][k];
+    }
+  }
+  block_zero(Ainv);
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) Ainv[8 * c + padded(r)] = static_cast<float>(m[r][6 + c]);
+  return true;
+}
+
+}  // namespace
+
+int count_pair_instances(const IslandView& v) {
+  int n = 0;
+  for (int s = 0; s < v.num_sections(); ++s) {
+    const Island_Section& sec = v.sections[s];
+    if (kForceTable[sec.force_type].offset_body_b >= 0) n += static_cast<int>(sec.count - sec.world_count);
+  }
+  return n;
+}
+
+bool build_structure(const IslandView& v, BlockStructure& s, int32_t* pairs, int capacity) {
+  // (row, col) both ways for every pair instance, sorted and de-duplicated: the rows' columns
+  // come out in ascending order, so the layout does not depend on instance order.
+  int m = 0;
+  for (int sidx = 0; sidx < v.num_sections(); ++sidx) {
+    const Island_Section& sec = v.sections[sidx];
+    const ForceInfo& info = kForceTable[sec.force_type];
+    if (info.offset_body_b < 0) continue;
+    for (uint32_t k = 0; k < sec.count - sec.world_count; ++k) {
+      if (m + 2 > capacity) return false;
+      const unsigned char* inst = v.base + sec.offset + size_t{k} * info.instance_size;
+      const int32_t a = read_i32(inst + info.offset_body_a), b = read_i32(inst + info.offset_body_b);
+      pairs[2 * m] = a, pairs[2 * m + 1] = b, ++m;
+      pairs[2 * m] = b, pairs[2 * m + 1] = a, ++m;
+    }
+  }
+  auto* keys = reinterpret_cast<int64_t*>(pairs);  // (row, col) packed: sort as one integer
+  for (int i = 0; i < m; ++i) {
+    const int64_t row = pairs[2 * i], col = pairs[2 * i + 1];
+    keys[i] = (row << 32) | col;
+  }
+  std::sort(keys, keys + m);
+  const int unique = static_cast<int>(std::unique(keys, keys + m) - keys);
+  if (unique != static_cast<int>(v.header->num_blocks)) return false;
+  s.n = v.num_bodies();
+  s.nnz = unique;
+  int k = 0;
+  for (int row = 0; row < s.n; ++row) {
+    s.row_start[row] = k;
+    while (k < unique && (keys[k] >> 32) == row) {
+      s.col[k] = static_cast<int32_t>(keys[k] & 0xFFFFFFFF);
+      ++k;
+    }
+  }
+  s.row_start[s.n] = k;
+  return true;
+}
+
+bool scale_system(const BlockStructure& s, const W_Element* w, float h, float* diag_k, float* offdiag_k, float* rhs,
+                  float* p_out) {
+  alignas(32) float A[kBlockFloats], Dinv[kBlockFloats], W[kBlockFloats], P[kBlockFloats], T[kBlockFloats];
+  alignas(32) float g[kVecFloats];
+  for (int i = 0; i < s.n; ++i) {
+    const float* K = diag_k + kBlockFloats * i;
+    // A_ii = I - W_i K_ii
+    w_mul_block(w[i].inverse_mass, w[i].inverse_inertia_world, K, T);
+    block_identity(A);
+    block_axpy(-1.0f, T, A);
+    if (!block_jacobi_inverse(A, Dinv) && !pivoting_inverse(A, Dinv)) return false;
+    // P_i = D_i^-1 W_i; row i of the scaled matrix: Â_ij = -P_i K_ij, b̂_i = h P_i g_i
+    block_from_w(w[i].inverse_mass, w[i].inverse_inertia_world, W);
+    block_mul_block(Dinv, W, P);
+    for (int k = s.row_start[i]; k < s.row_start[i + 1]; ++k) {
+      float* B = offdiag_k + kBlockFloats * k;
+      block_mul_block(P, B, T);
+      block_zero(B);
+      block_axpy(-1.0f, T, B);
+    }
+    float* b = rhs + kVecFloats * i;
+    std::memcpy(g, b, sizeof g);
+    block_mul(P, g, b);
+    for (int r = 0; r < kVecFloats; ++r) b[r] *= h;
+    if (p_out) std::memcpy(p_out + kBlockFloats * i, P, sizeof P);
+  }
+  return true;
+}
+
+void scale_rhs(int n, const float* p, const float* g, float* out) {
+  for (int i = 0; i < n; ++i) block_mul(p + kBlockFloats * i, g + kVecFloats * i, out + kVecFloats * i);
+}
+
+BlockRowMatrix matrix_of(const BlockStructure& s, const float* blocks) {
+  BlockRowMatrix A;
+  A.n = s.n;
+  A.row_start = s.row_start;
+  A.col = s.col;
+  A.blocks = blocks;
+  A.unit_diagonal = true;
+  return A;
+}
+
+}  // namespace cellphys::spu

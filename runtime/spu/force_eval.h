@@ -1,0 +1,43 @@
+// Evaluates the generated force kernels over a packed island, a batch of instances at a
+// time (one instance per SIMD lane), and scatters what the caller asks for: the forces,
+// the Jacobian blocks of the implicit system, or a Jacobian-times-vector product.
+// Only the force types present in the island are visited.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "runtime/spu/island_image.h"
+
+namespace cellphys::spu {
+
+/// Off-diagonal block positions of the system matrix (block_sparse.h's row layout).
+struct BlockStructure {
+  int n = 0;
+  int nnz = 0;
+  int32_t* row_start = nullptr;  // n + 1
+  int32_t* col = nullptr;        // nnz
+  int find(int row, int column) const;  // index of block (row, column), -1 if absent
+};
+
+struct ForceTargets {
+  float* forces = nullptr;  // n * 8: F_i accumulated (padded)
+  // Implicit assembly, all optional:
+  float* diag_k = nullptr;     // n * 48: K_ii += h dF_i/du_i + h^2 dF_i/ddelta_i
+  float* offdiag_k = nullptr;  // nnz * 48: K_ij likewise
+  const BlockStructure* structure = nullptr;
+  float h = 0.0f;
+  const float* u0 = nullptr;   // n * 8: with forces, adds h dF_i/ddelta_j u0_j into `forces`
+  // Jacobian product, optional: jv_out_i += dF_i/ddelta_j jv_in_j
+  const float* jv_in = nullptr;
+  float* jv_out = nullptr;
+  uint32_t skip_types = 0;  // bit t set: force type t is not evaluated
+};
+
+/// Bytes of scratch evaluate_forces needs (one batch of inputs and outputs).
+size_t force_scratch_bytes();
+
+/// Accumulates into the targets (the caller zeroes them). Jacobians are evaluated only when
+/// a target needs them; otherwise the kernels' F-only entry points run.
+void evaluate_forces(const IslandView& island, const ForceTargets& t, float* scratch);
+
+}  // namespace cellphys::spu

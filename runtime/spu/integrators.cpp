@@ -1,0 +1,365 @@
+#include "runtime/spu/integrators.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "cellphys/gen/block_ops.h"
+#include "runtime/spu/assembly.h"
+#include "runtime/spu/rigid_motion.h"
+
+namespace cellphys::spu {
+
+using namespace cellphys::gen;
+
+namespace {
+
+constexpr uint32_t kGyroscopicBit = 1u << static_cast<uint32_t>(ForceType::gyroscopic);
+
+Vec3d lin(const float* v8) { return {v8[0], v8[1], v8[2]}; }
+Vec3d ang(const float* v8) { return {v8[4], v8[5], v8[6]}; }
+bool finite8(const float* v8) {
+  for (int k = 0; k < 8; ++k)
+    if (!std::isfinite(v8[k])) return false;
+  return true;
+}
+void zero_floats(float* p, size_t n) { std::memset(p, 0, n * sizeof(float)); }
+
+void velocities(const IslandView& v, float* u) {
+  for (int i = 0; i < v.num_bodies(); ++i) {
+    const Rigid_Body& b = v.bodies[i];
+    float* ui = u + kVecFloats * i;
+    store3(ui, load3(b.velocity));
+    store3(ui + 4, load3(b.angular_velocity));
+  }
+}
+
+// saved state: position(4) orientation(4) velocity(4) angular_velocity(4)
+void save_state(const IslandView& v, float* s) {
+  for (int i = 0; i < v.num_bodies(); ++i) {
+    const Rigid_Body& b = v.bodies[i];
+    std::memcpy(s + 16 * i, b.position, 16);
+    std::memcpy(s + 16 * i + 4, b.orientation, 16);
+    std::memcpy(s + 16 * i + 8, b.velocity, 16);
+    std::memcpy(s + 16 * i + 12, b.angular_velocity, 16);
+  }
+}
+void restore_state(const IslandView& v, const float* s) {
+  for (int i = 0; i < v.num_bodies(); ++i) {
+    Rigid_Body& b = v.bodies[i];
+    std::memcpy(b.position, s + 16 * i, 16);
+    std::memcpy(b.orientation, s + 16 * i + 4, 16);
+    std::memcpy(b.velocity, s + 16 * i + 8, 16);
+    std::memcpy(b.angular_velocity, s + 16 * i + 12, 16);
+  }
+}
+
+// Sets body i to the saved state moved by (dx, dtheta) and with velocity u (padded 8).
+void set_stage(Rigid_Body& b, const float* saved, const Vec3d& dx, const Vec3d& dth, const float* u) {
+  const Quat q0{saved[4], saved[5], saved[6], saved[7]};
+  store3(b.position, {saved[0] + dx.x, saved[1] + dx.y, saved[2] + dx.z});
+  set_orientation(b, quat_mul(quat_exp(dth), q0));
+  store3(b.velocity, lin(u));
+  store3(b.angular_velocity, ang(u));
+}
+
+// a = W F for every body, in place (padded vectors), at the bodies' current orientations.
+void accelerations(const IslandView& v, float* f) {
+  for (int i = 0; i < v.num_bodies(); ++i) {
+    const Rigid_Body& b = v.bodies[i];
+    float* fi = f + kVecFloats * i;
+    const Mat3d Iinv = rotate_sym(quat_to_matrix(orientation(b)), b.inverse_inertia_body);
+    const Vec3d a = {fi[0] * double(b.inverse_mass), fi[1] * double(b.inverse_mass), fi[2] * double(b.inverse_mass)};
+    store3(fi, a);
+    store3(fi + 4, mul(Iinv, ang(fi)));
+  }
+}
+
+// Assembles and scales the implicit system at the bodies' current state with step tau.
+bool assemble(StepContext& c, float tau, uint32_t skip, float* p_out) {
+  Workspace& ws = *c.ws;
+  const IslandView& v = c.island;
+  const int n = ws.n;
+  for (int i = 0; i < n; ++i) compute_w(v.bodies[i], ws.w[i]);
+  velocities(v, ws.u0);
+  zero_floats(ws.forces, size_t(n) * kVecFloats);
+  zero_floats(ws.diag, size_t(n) * kBlockFloats);
+  zero_floats(ws.blocks, size_t(ws.structure.nnz) * kBlockFloats);
+  ForceTargets t;
+  t.forces = ws.forces;
+  t.diag_k = ws.diag;
+  t.offdiag_k = ws.blocks;
+  t.structure = &ws.structure;
+  t.h = tau;
+  t.u0 = ws.u0;
+  t.skip_types = skip;
+  evaluate_forces(v, t, ws.force_scratch);
+  return scale_system(ws.structure, ws.w, tau, ws.diag, ws.blocks, ws.forces, p_out);
+}
+
+bool run_solve(StepContext& c, const float* rhs, float* x) {
+  zero_floats(x, size_t(c.ws->n) * kVecFloats);
+  const SolveResult r = solve(c.solver, matrix_of(c.ws->structure, c.ws->blocks), rhs, x, c.ws->solver_work, c.solve);
+  c.stats.solver_iterations += r.iterations;
+  c.stats.solves += 1;
+  if (r.code != kConverged) {
+    c.stats.last_solver_code = r.code;
+    return false;
+  }
+  for (int i = 0; i < c.ws->n; ++i)
+    if (!finite8(x + kVecFloats * i)) {
+      c.stats.last_solver_code = kNotFinite;
+      return false;
+    }
+  return true;
+}
+
+}  // namespace
+
+bool prepare(StepContext& c) {
+  Workspace& ws = *c.ws;
+  if (!ws.structure.row_start) return true;
+  return build_structure(c.island, ws.structure, ws.pair_scratch, ws.pair_capacity);
+}
+
+bool step_implicit(StepContext& c, float h, bool split) {
+  Workspace& ws = *c.ws;
+  const IslandView& v = c.island;
+  if (!assemble(c, h, split ? kGyroscopicBit : 0u, nullptr)) return false;
+  if (!run_solve(c, ws.forces, ws.x)) return false;
+  // Pass 1: every body's new rotation into u0 (free now), failing before anything is written.
+  for (int i = 0; i < ws.n; ++i) {
+    const Rigid_Body& b = v.bodies[i];
+    const float* du = ws.x + kVecFloats * i;
+    const Quat q0 = orientation(b);
+    const Vec3d w0 = load3(b.angular_velocity);
+    const Vec3d w_kick = {w0.x + du[4], w0.y + du[5], w0.z + du[6]};
+    Quat q1;
+    Vec3d w1;
+    if (split) {
+      // the kick changes angular momentum; the drift conserves it exactly
+      const Vec3d L = mul(rotate_sym(quat_to_matrix(q0), b.inertia_body), w_kick);
+      if (!free_rotation(q0, L, b.inertia_body, b.inverse_inertia_body, h, &q1, &w1)) return false;
+    } else {
+      w1 = w_kick;
+      q1 = advance_orientation(q0, w1, h);
+    }
+    float* tmp = ws.u0 + kVecFloats * i;
+    tmp[0] = float(q1.w), tmp[1] = float(q1.x), tmp[2] = float(q1.y), tmp[3] = float(q1.z);
+    tmp[4] = float(w1.x), tmp[5] = float(w1.y), tmp[6] = float(w1.z), tmp[7] = 0.0f;
+    if (!finite8(tmp)) return false;
+  }
+  // Pass 2: commit.
+  for (int i = 0; i < ws.n; ++i) {
+    Rigid_Body& b = v.bodies[i];
+    const float* du = ws.x + kVecFloats * i;
+    const float* tmp = ws.u0 + kVecFloats * i;
+    for (int k = 0; k < 3; ++k) {
+      b.velocity[k] += du[k];
+      b.position[k] += h * b.velocity[k];
+      b.angular_velocity[k] = tmp[4 + k];
+    }
+    std::memcpy(b.orientation, tmp, 16);
+  }
+  return true;
+}
+
+bool step_explicit(StepContext& c, float h, bool symplectic) {
+  Workspace& ws = *c.ws;
+  const IslandView& v = c.island;
+  zero_floats(ws.forces, size_t(ws.n) * kVecFloats);
+  ForceTargets t;
+  t.forces = ws.forces;
+  evaluate_forces(v, t, ws.force_scratch);
+  accelerations(v, ws.forces);
+  for (int i = 0; i < ws.n; ++i)
+    if (!finite8(ws.forces + kVecFloats * i)) return false;
+  for (int i = 0; i < ws.n; ++i) {
+    Rigid_Body& b = v.bodies[i];
+    const float* a = ws.forces + kVecFloats * i;
+    const Vec3d v0 = load3(b.velocity), w0 = load3(b.angular_velocity);
+    const Vec3d v1 = {v0.x + h * a[0], v0.y + h * a[1], v0.z + h * a[2]};
+    const Vec3d w1 = {w0.x + h * a[4], w0.y + h * a[5], w0.z + h * a[6]};
+    const Vec3d& vx = symplectic ? v1 : v0;
+    const Vec3d& wq = symplectic ? w1 : w0;
+    store3(b.position, {b.position[0] + h * vx.x, b.position[1] + h * vx.y, b.position[2] + h * vx.z});
+    set_orientation(b, advance_orientation(orientation(b), wq, h));
+    store3(b.velocity, v1);
+    store3(b.angular_velocity, w1);
+  }
+  return true;
+}
+
+bool step_rk4(StepContext& c, float h) {
+  // Classic RK4 on (x, q, u) with q in R^4 (q' = 1/2 (0, w) q) and normalised at the end;
+  // stage forces see the normalised orientation.
+  Workspace& ws = *c.ws;
+  const IslandView& v = c.island;
+  const int n = ws.n;
+  save_state(v, ws.saved);
+  zero_floats(ws.acc, size_t(n) * 16);
+  static constexpr double kC[4] = {0.0, 0.5, 0.5, 1.0};
+  static constexpr double kW[4] = {1.0 / 6, 2.0 / 6, 2.0 / 6, 1.0 / 6};
+  // ws.k1 holds the previous stage's (a) per body; stage velocities come from the bodies
+  for (int s = 0; s < 4; ++s) {
+    if (s > 0) {
+      // y_s = y0 + c_s h k_{s-1}; k_{s-1} = (v, q', a) of the stage just evaluated, kept in acc's scratch
+      for (int i = 0; i < n; ++i) {
+        const float* y0 = ws.saved + 16 * i;
+        const float* kp = ws.k1 + kVecFloats * i;  // previous a
+        Rigid_Body& b = v.bodies[i];
+        const double ch = kC[s] * h;
+        // previous stage velocities were left in the body (set below)
+        const Vec3d vs = load3(b.velocity), ws_ = load3(b.angular_velocity);
+        const Quat qs = orientation(b);
+        // q'_{s-1} = 1/2 (0, w_{s-1}) q_{s-1} with the unnormalised stage q kept in y? use the body's
+        const Quat dq = quat_mul({0.0, ws_.x, ws_.y, ws_.z}, qs);
+        store3(b.position, {y0[0] + ch * vs.x, y0[1] + ch * vs.y, y0[2] + ch * vs.z});
+        const Quat q{y0[4] + ch * 0.5 * dq.w, y0[5] + ch * 0.5 * dq.x, y0[6] + ch * 0.5 * dq.y, y0[7] + ch * 0.5 * dq.z};
+        set_orientation(b, q);
+        store3(b.velocity, {y0[8] + ch * kp[0], y0[9] + ch * kp[1], y0[10] + ch * kp[2]});
+        store3(b.angular_velocity, {y0[12] + ch * kp[4], y0[13] + ch * kp[5], y0[14] + ch * kp[6]});
+      }
+    }
+    zero_floats(ws.k1, size_t(n) * kVecFloats);
+    ForceTargets t;
+    t.forces = ws.k1;
+    evaluate_forces(v, t, ws.force_scratch);
+    accelerations(v, ws.k1);
+    for (int i = 0; i < n; ++i) {
+      const Rigid_Body& b = v.bodies[i];
+      const float* a = ws.k1 + kVecFloats * i;
+      if (!finite8(a)) {
+        restore_state(v, ws.saved);
+        return false;
+      }
+      const Vec3d vs = load3(b.velocity), wsv = load3(b.angular_velocity);
+      const Quat dq = quat_mul({0.0, wsv.x, wsv.y, wsv.z}, orientation(b));
+      float* acc = ws.acc + 16 * i;
+      const double wgt = kW[s];
+      acc[0] += float(wgt * vs.x), acc[1] += float(wgt * vs.y), acc[2] += float(wgt * vs.z);
+      acc[4] += float(wgt * 0.5 * dq.w), acc[5] += float(wgt * 0.5 * dq.x);
+      acc[6] += float(wgt * 0.5 * dq.y), acc[7] += float(wgt * 0.5 * dq.z);
+      acc[8] += float(wgt * a[0]), acc[9] += float(wgt * a[1]), acc[10] += float(wgt * a[2]);
+      acc[12] += float(wgt * a[4]), acc[13] += float(wgt * a[5]), acc[14] += float(wgt * a[6]);
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    const float* y0 = ws.saved + 16 * i;
+    const float* acc = ws.acc + 16 * i;
+    Rigid_Body& b = v.bodies[i];
+    store3(b.position, {y0[0] + h * double(acc[0]), y0[1] + h * double(acc[1]), y0[2] + h * double(acc[2])});
+    set_orientation(b, {y0[4] + h * double(acc[4]), y0[5] + h * double(acc[5]), y0[6] + h * double(acc[6]),
+                        y0[7] + h * double(acc[7])});
+    store3(b.velocity, {y0[8] + h * double(acc[8]), y0[9] + h * double(acc[9]), y0[10] + h * double(acc[10])});
+    store3(b.angular_velocity,
+           {y0[12] + h * double(acc[12]), y0[13] + h * double(acc[13]), y0[14] + h * double(acc[14])});
+  }
+  return true;
+}
+
+bool step_rosenbrock(StepContext& c, float h, float* error) {
+  // ROS2 (Verwer et al. 1999), gamma = 1 + 1/sqrt(2), on y = (pose, u) with the Jacobian
+  // J = [[0, I], [W dF/ddelta, W dF/du]]. Both stages solve with the same matrix
+  // A(tau) = I - tau W dF/du - tau^2 W dF/ddelta, tau = gamma h: the implicit Euler matrix.
+  Workspace& ws = *c.ws;
+  const IslandView& v = c.island;
+  const int n = ws.n;
+  const double gamma = 1.0 + 1.0 / std::sqrt(2.0);
+  const float tau = float(gamma * h);
+  save_state(v, ws.saved);
+  auto fail = [&]() {
+    restore_state(v, ws.saved);
+    return false;
+  };
+  // Stage 1: A(tau) ku1 = W F + tau W dF/ddelta u0; the assembled b̂ is tau times that.
+  if (!assemble(c, tau, 0u, ws.p)) return fail();
+  if (!run_solve(c, ws.forces, ws.x)) return fail();
+  for (int k = 0; k < n * kVecFloats; ++k) ws.k1[k] = ws.x[k] / tau;  // ku1
+  // Stage 2 force at y0 + h k1: pose moved by h kdelta1 = h (u0 + tau ku1), velocity u0 + h ku1.
+  for (int i = 0; i < n; ++i) {
+    const float* u0 = ws.u0 + kVecFloats * i;
+    const float* k1 = ws.k1 + kVecFloats * i;
+    alignas(32) float us[kVecFloats], kd[kVecFloats];
+    for (int r = 0; r < kVecFloats; ++r) {
+      kd[r] = u0[r] + tau * k1[r];
+      us[r] = u0[r] + h * k1[r];
+    }
+    const Vec3d dx = {h * double(kd[0]), h * double(kd[1]), h * double(kd[2])};
+    const Vec3d dth = {h * double(kd[4]), h * double(kd[5]), h * double(kd[6])};
+    set_stage(v.bodies[i], ws.saved + 16 * i, dx, dth, us);
+  }
+  zero_floats(ws.jv, size_t(n) * kVecFloats);
+  {
+    ForceTargets t;
+    t.forces = ws.jv;
+    evaluate_forces(v, t, ws.force_scratch);
+  }
+  // g2 = M0 W_s F_s - 2 M0 ku1 + tau dF/ddelta(y0) fdelta2, fdelta2 = -u0 + (h - 2 tau) ku1,
+  // in force units so that b̂2 = P g2 (P = D^-1 W0).
+  accelerations(v, ws.jv);  // W_s F_s at the stage orientation
+  restore_state(v, ws.saved);
+  for (int i = 0; i < n; ++i) {
+    const Rigid_Body& b = v.bodies[i];
+    float* a = ws.jv + kVecFloats * i;
+    const float* k1 = ws.k1 + kVecFloats * i;
+    const Mat3d I0 = rotate_sym(quat_to_matrix(orientation(b)), b.inertia_body);
+    const Vec3d ar = mul(I0, {a[4] - 2.0 * k1[4], a[5] - 2.0 * k1[5], a[6] - 2.0 * k1[6]});
+    const double m = b.mass;
+    store3(a, {m * (a[0] - 2.0 * k1[0]), m * (a[1] - 2.0 * k1[1]), m * (a[2] - 2.0 * k1[2])});
+    store3(a + 4, ar);
+    // fdelta2 into forces (free now) for the Jacobian product
+    const float* u0 = ws.u0 + kVecFloats * i;
+    float* fd = ws.forces + kVecFloats * i;
+    for (int r = 0; r < kVecFloats; ++r) fd[r] = -u0[r] + (h - 2.0f * tau) * k1[r];
+  }
+  {
+    // jv += tau dF/ddelta(y0) fdelta2: the kernels at y0 again, Jacobian product only
+    zero_floats(ws.x, size_t(n) * kVecFloats);  // discard F from this pass
+    ForceTargets t;
+    t.forces = ws.x;
+    t.jv_in = ws.forces;
+    t.jv_out = ws.diag;  // scratch
+    zero_floats(ws.diag, size_t(n) * kVecFloats);
+    evaluate_forces(v, t, ws.force_scratch);
+    for (int k = 0; k < n * kVecFloats; ++k) ws.jv[k] += tau * ws.diag[k];
+  }
+  scale_rhs(n, ws.p, ws.jv, ws.forces);
+  if (!run_solve(c, ws.forces, ws.x)) return fail();  // ku2
+  // y1 = y0 + h (3/2 k1 + 1/2 k2); error = h/2 (k1 + k2)
+  double err2 = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const float* u0 = ws.u0 + kVecFloats * i;
+    const float* k1 = ws.k1 + kVecFloats * i;
+    const float* k2 = ws.x + kVecFloats * i;
+    const float* y0 = ws.saved + 16 * i;
+    alignas(32) float kd1[kVecFloats], kd2[kVecFloats];
+    for (int r = 0; r < kVecFloats; ++r) {
+      kd1[r] = u0[r] + tau * k1[r];
+      kd2[r] = -u0[r] + (h - 2.0f * tau) * k1[r] + tau * k2[r];
+    }
+    for (int r : {0, 1, 2, 4, 5, 6}) {
+      const double e_pose = 0.5 * h * (double(kd1[r]) + kd2[r]);
+      const double e_vel = 0.5 * h * (double(k1[r]) + k2[r]);
+      const double pose_scale = 1.0 + (r < 3 ? std::fabs(y0[r]) : 0.0);
+      const double vel_scale = 1.0 + std::fabs(double(u0[r]));
+      err2 += (e_pose / pose_scale) * (e_pose / pose_scale) + (e_vel / vel_scale) * (e_vel / vel_scale);
+    }
+    alignas(32) float unew[kVecFloats];
+    for (int r = 0; r < kVecFloats; ++r) unew[r] = u0[r] + h * (1.5f * k1[r] + 0.5f * k2[r]);
+    if (!finite8(unew)) return fail();
+    const Vec3d dx = {h * (1.5 * kd1[0] + 0.5 * kd2[0]), h * (1.5 * kd1[1] + 0.5 * kd2[1]),
+                      h * (1.5 * kd1[2] + 0.5 * kd2[2])};
+    const Vec3d dth = {h * (1.5 * kd1[4] + 0.5 * kd2[4]), h * (1.5 * kd1[5] + 0.5 * kd2[5]),
+                       h * (1.5 * kd1[6] + 0.5 * kd2[6])};
+    set_stage(v.bodies[i], y0, dx, dth, unew);
+  }
+  *error = float(std::sqrt(err2 / (6.0 * n)) / c.error_tolerance);
+  if (!std::isfinite(*error)) return fail();
+  if (*error > 1.0f) {
+    c.stats.rejected += 1;
+    return fail();
+  }
+  return true;
+}
+
+}  // namespace cellphys::spu

@@ -1,0 +1,38 @@
+// One step of each integration method on an island held in the local store. A step either
+// succeeds and commits the new state into the island's bodies, or fails and leaves them
+// as they were; the kernel then halves the step.
+#pragma once
+#include "runtime/spu/krylov.h"
+#include "runtime/spu/workspace.h"
+
+namespace cellphys::spu {
+
+struct StepStats {
+  int solver_iterations = 0;
+  int solves = 0;
+  int last_solver_code = 0;
+  int rejected = 0;  // adaptive steps rejected by the error estimate
+};
+
+struct StepContext {
+  IslandView island;
+  Workspace* ws = nullptr;
+  Solver solver = Solver::cgs;
+  SolveSettings solve;
+  float error_tolerance = 1e-3f;  // Rosenbrock: local error per step, relative (absolute below 1)
+  StepStats stats;
+};
+
+/// Builds the block structure once per island (implicit integrators).
+bool prepare(StepContext& c);
+
+/// split = true: linearly implicit Euler for every force but the gyroscopic torque, then the
+/// conserving free-rotation update; split = false: the seed's step.
+bool step_implicit(StepContext& c, float h, bool split);
+/// ROS2 over h; *error receives the scaled local error estimate (<= 1 accepts). The state is
+/// committed only when the step succeeds and the error is acceptable.
+bool step_rosenbrock(StepContext& c, float h, float* error);
+bool step_explicit(StepContext& c, float h, bool symplectic);
+bool step_rk4(StepContext& c, float h);
+
+}  // namespace cellphys::spu

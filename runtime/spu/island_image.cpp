@@ -1,0 +1,243 @@
+#include "runtime/spu/island_image.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+namespace cellphys::spu {
+
+using namespace cellphys::gen;
+
+namespace {
+constexpr const char* kIntegratorNames[kNumIntegrators] = {"implicit_split", "implicit_euler", "rosenbrock",
+                                                            "symplectic_euler", "explicit_euler", "rk4"};
+
+bool finite_floats(const float* p, size_t n) {
+  for (size_t i = 0; i < n; ++i)
+    if (!std::isfinite(p[i])) return false;
+  return true;
+}
+
+int32_t read_i32(const unsigned char* p) {
+  int32_t v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+
+// Body pair (a, b) of every pair instance of every binary section, as (row, col) both ways.
+template <class F>
+void for_each_pair_instance(const IslandView& v, F&& f) {
+  for (int s = 0; s < v.num_sections(); ++s) {
+    const Island_Section& sec = v.sections[s];
+    const ForceInfo& info = kForceTable[sec.force_type];
+    if (info.offset_body_b < 0) continue;
+    const unsigned char* p = v.base + sec.offset;
+    for (uint32_t k = 0; k < sec.count - sec.world_count; ++k) {
+      const unsigned char* inst = p + size_t{k} * info.instance_size;
+      f(read_i32(inst + info.offset_body_a), read_i32(inst + info.offset_body_b));
+    }
+  }
+}
+}  // namespace
+
+const char* integrator_name(Integrator i) {
+  const auto k = static_cast<uint32_t>(i);
+  return k < kNumIntegrators ? kIntegratorNames[k] : "?";
+}
+
+bool parse_integrator(const std::string& name, Integrator* out) {
+  for (int k = 0; k < kNumIntegrators; ++k)
+    if (name == kIntegratorNames[k]) {
+      *out = static_cast<Integrator>(k);
+      return true;
+    }
+  return false;
+}
+
+const char* status_name(IslandStatus s) {
+  switch (s) {
+    case IslandStatus::ok: return "ok";
+    case IslandStatus::failed: return "failed";
+    case IslandStatus::does_not_fit: return "does_not_fit";
+    case IslandStatus::malformed: return "malformed";
+  }
+  return "?";
+}
+
+uint32_t fnv1a(const unsigned char* p, size_t n, uint32_t seed) {
+  uint32_t h = seed;
+  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 16777619u;
+  return h;
+}
+
+IslandLayout island_layout(uint32_t num_bodies, uint32_t num_sections) {
+  IslandLayout l;
+  l.sections = align16(sizeof(Island_Header));
+  l.params = align16(l.sections + size_t{num_sections} * sizeof(Island_Section));
+  l.bodies = l.params + align16(sizeof(Island_Params));
+  l.instances = l.bodies + size_t{num_bodies} * sizeof(Rigid_Body);
+  l.total = l.instances;
+  return l;
+}
+
+size_t result_bytes(uint32_t num_bodies) {
+  return align16(sizeof(Island_Result)) + size_t{num_bodies} * (sizeof(Rigid_Body_Step) + sizeof(Rigid_Body));
+}
+
+IslandView view_island(unsigned char* image) {
+  IslandView v;
+  v.base = image;
+  v.header = reinterpret_cast<Island_Header*>(image);
+  const IslandLayout l = island_layout(v.header->num_bodies, v.header->num_sections);
+  v.sections = reinterpret_cast<Island_Section*>(image + l.sections);
+  v.params = reinterpret_cast<Island_Params*>(image + l.params);
+  v.bodies = reinterpret_cast<Rigid_Body*>(image + l.bodies);
+  return v;
+}
+
+std::string validate_island(const unsigned char* image, size_t bytes) {
+  if (bytes < sizeof(Island_Header)) return "shorter than an island header";
+  if (reinterpret_cast<uintptr_t>(image) % 16 != 0) return "image is not 16-byte aligned";
+  Island_Header h;
+  std::memcpy(&h, image, sizeof h);
+  if (h.magic != kIslandMagic) return "bad magic (not a packed island)";
+  if (h.version != kIslandVersion) return "format version " + std::to_string(h.version) + ", expected " + std::to_string(kIslandVersion);
+  if (h.total_bytes != bytes) return "header says " + std::to_string(h.total_bytes) + " bytes, got " + std::to_string(bytes);
+  if (h.num_bodies == 0 || h.num_bodies > (1u << 20)) return "body count " + std::to_string(h.num_bodies) + " out of range";
+  if (h.num_sections > static_cast<uint32_t>(kNumForceTypes)) return "more sections than force types";
+  if (h.integrator >= static_cast<uint32_t>(kNumIntegrators)) return "unknown integrator " + std::to_string(h.integrator);
+  if (h.solver > 2) return "unknown solver " + std::to_string(h.solver);
+  if (!(h.step > 0.0f) || !std::isfinite(h.step)) return "step size must be positive and finite";
+  if (!(h.tolerance > 0.0f) || !std::isfinite(h.tolerance)) return "tolerance must be positive and finite";
+  if (h.max_halvings > 16) return "max_halvings over 16";
+  const IslandLayout l = island_layout(h.num_bodies, h.num_sections);
+  if (l.instances > bytes) return "too short for its bodies";
+  if (fnv1a(image + sizeof(Island_Header), bytes - sizeof(Island_Header)) != h.checksum) return "checksum mismatch";
+  IslandView v = view_island(const_cast<unsigned char*>(image));
+  size_t expect = l.instances;
+  bool seen[kNumForceTypes] = {};
+  for (uint32_t s = 0; s < h.num_sections; ++s) {
+    const Island_Section& sec = v.sections[s];
+    if (sec.force_type >= static_cast<uint32_t>(kNumForceTypes)) return "section " + std::to_string(s) + ": unknown force type";
+    if (seen[sec.force_type]) return "section " + std::to_string(s) + ": force type repeated";
+    seen[sec.force_type] = true;
+    const ForceInfo& info = kForceTable[sec.force_type];
+    if (sec.offset != expect) return "section " + std::to_string(s) + ": offset " + std::to_string(sec.offset) + ", expected " + std::to_string(expect);
+    if (sec.world_count > sec.count) return "section " + std::to_string(s) + ": world_count > count";
+    if (info.kind == ForceKind::global && sec.count != 0) return std::string("section ") + std::to_string(s) + ": global force " + info.name + " has instances";
+    if (sec.world_count > 0 && !info.world_anchor) return std::string("section ") + std::to_string(s) + ": " + info.name + " cannot be anchored to the world";
+    const size_t n = size_t{sec.count} * info.instance_size;
+    if (sec.offset + n > bytes) return "section " + std::to_string(s) + ": instances run past the end";
+    for (uint32_t k = 0; k < sec.count; ++k) {
+      const unsigned char* inst = image + sec.offset + size_t{k} * info.instance_size;
+      const int32_t a = read_i32(inst + info.offset_body_a);
+      if (a < 0 || static_cast<uint32_t>(a) >= h.num_bodies) return std::string(info.name) + " instance " + std::to_string(k) + ": body a out of range";
+      if (info.offset_body_b >= 0) {
+        const int32_t b = read_i32(inst + info.offset_body_b);
+        const bool world = k >= sec.count - sec.world_count;
+        if (world ? b != -1 : (b < 0 || static_cast<uint32_t>(b) >= h.num_bodies || b == a))
+          return std::string(info.name) + " instance " + std::to_string(k) + ": body b " + std::to_string(b) + " invalid";
+      }
+      for (uint32_t p = 0; p < info.num_params; ++p) {
+        const ParamInfo& pi = info.params[p];
+        float vals[3];
+        std::memcpy(vals, inst + pi.offset, 4 * pi.lanes);
+        if (!finite_floats(vals, pi.lanes)) return std::string(info.name) + " instance " + std::to_string(k) + ": " + pi.name + " is not finite";
+      }
+    }
+    expect = align16(sec.offset + n);
+  }
+  if (expect != bytes) return "image has " + std::to_string(bytes - expect) + " trailing bytes";
+  for (uint32_t i = 0; i < h.num_bodies; ++i) {
+    const Rigid_Body& b = v.bodies[i];
+    if (!finite_floats(b.position, 3) || !finite_floats(b.orientation, 4) || !finite_floats(b.velocity, 3) ||
+        !finite_floats(b.angular_velocity, 3) || !finite_floats(b.inertia_body, 6) || !finite_floats(b.inverse_inertia_body, 6) ||
+        !std::isfinite(b.mass) || !std::isfinite(b.inverse_mass))
+      return "body " + std::to_string(i) + " has a non-finite field";
+    if (!(b.mass > 0.0f) || !(b.inverse_mass > 0.0f)) return "body " + std::to_string(i) + " has no positive mass";
+  }
+  if (count_offdiagonal_blocks(v) != h.num_blocks) return "num_blocks does not match the pair forces";
+  return "";
+}
+
+uint32_t count_offdiagonal_blocks(const IslandView& v) {
+  std::vector<uint64_t> keys;
+  for_each_pair_instance(v, [&](int32_t a, int32_t b) {
+    const uint32_t lo = static_cast<uint32_t>(std::min(a, b)), hi = static_cast<uint32_t>(std::max(a, b));
+    keys.push_back((uint64_t{lo} << 32) | hi);
+  });
+  std::sort(keys.begin(), keys.end());
+  return 2u * static_cast<uint32_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
+}
+
+IslandBuilder::IslandBuilder() : buckets_(kNumForceTypes) {
+  header_.magic = kIslandMagic;
+  header_.version = kIslandVersion;
+  header_.integrator = static_cast<uint32_t>(Integrator::implicit_split);
+  header_.solver = 0;
+  header_.step = 1.0f / 60.0f;
+  header_.tolerance = 1e-3f;
+  header_.max_halvings = 8;
+  params_ = default_island_params();
+}
+
+int IslandBuilder::add_body(const Rigid_Body_Fields& body) {
+  Rigid_Body b;
+  pack(body, b);
+  bodies_.push_back(b);
+  return static_cast<int>(bodies_.size()) - 1;
+}
+
+void IslandBuilder::add_global(ForceType type) {
+  if (kForceTable[static_cast<int>(type)].kind != ForceKind::global)
+    throw std::invalid_argument(std::string(kForceTable[static_cast<int>(type)].name) + " is not a global force");
+  buckets_[static_cast<int>(type)].global = true;
+}
+
+void IslandBuilder::add_force(ForceType type, const void* instance, size_t instance_bytes) {
+  const ForceInfo& info = kForceTable[static_cast<int>(type)];
+  if (info.kind == ForceKind::global) throw std::invalid_argument(std::string(info.name) + " is global: use add_global");
+  if (instance_bytes != info.instance_size) throw std::invalid_argument(std::string("instance size mismatch for ") + info.name);
+  bool world = false;
+  if (info.offset_body_b >= 0) world = read_i32(static_cast<const unsigned char*>(instance) + info.offset_body_b) < 0;
+  Bucket& b = buckets_[static_cast<int>(type)];
+  auto& dst = world ? b.world : b.pair;
+  dst.insert(dst.end(), static_cast<const unsigned char*>(instance), static_cast<const unsigned char*>(instance) + instance_bytes);
+  (world ? b.world_count : b.pair_count) += 1;
+}
+
+std::vector<unsigned char> IslandBuilder::finish() const {
+  uint32_t num_sections = 0;
+  for (const Bucket& b : buckets_) num_sections += b.present();
+  const IslandLayout l = island_layout(static_cast<uint32_t>(bodies_.size()), num_sections);
+  size_t total = l.instances;
+  for (const Bucket& b : buckets_)
+    if (b.present()) total = align16(total + b.pair.size() + b.world.size());
+  std::vector<unsigned char> img(total, 0);  // std::vector's storage is 16-byte aligned (operator new)
+  Island_Header h = header_;
+  h.total_bytes = static_cast<uint32_t>(total);
+  h.num_bodies = static_cast<uint32_t>(bodies_.size());
+  h.num_sections = num_sections;
+  std::memcpy(img.data() + l.params, &params_, sizeof params_);
+  if (!bodies_.empty()) std::memcpy(img.data() + l.bodies, bodies_.data(), bodies_.size() * sizeof(Rigid_Body));
+  size_t off = l.instances;
+  uint32_t s = 0;
+  for (int t = 0; t < kNumForceTypes; ++t) {
+    const Bucket& b = buckets_[t];
+    if (!b.present()) continue;
+    Island_Section sec{static_cast<uint32_t>(t), b.pair_count + b.world_count, b.world_count, static_cast<uint32_t>(off)};
+    std::memcpy(img.data() + l.sections + s * sizeof sec, &sec, sizeof sec);
+    if (!b.pair.empty()) std::memcpy(img.data() + off, b.pair.data(), b.pair.size());
+    if (!b.world.empty()) std::memcpy(img.data() + off + b.pair.size(), b.world.data(), b.world.size());
+    off = align16(off + b.pair.size() + b.world.size());
+    ++s;
+  }
+  std::memcpy(img.data(), &h, sizeof h);
+  IslandView v = view_island(img.data());
+  v.header->num_blocks = count_offdiagonal_blocks(v);
+  v.header->checksum = fnv1a(img.data() + sizeof(Island_Header), total - sizeof(Island_Header));
+  return img;
+}
+
+}  // namespace cellphys::spu

@@ -1,0 +1,42 @@
+// The compute kernel: one packed island in, its change of velocity and advanced state out.
+// Stateless: everything it needs is in the island's bytes; everything it touches is in the
+// worker's local store, filled and emptied by (emulated) DMA.
+#pragma once
+#include <cstddef>
+#include <string>
+
+#include "runtime/spu/dma.h"
+#include "runtime/spu/island_image.h"
+#include "runtime/spu/local_store.h"
+#include "runtime/spu/workspace.h"
+
+namespace cellphys::spu {
+
+struct IslandReport {
+  IslandStatus status = IslandStatus::ok;
+  uint32_t solver_iterations = 0;
+  uint32_t solves = 0;
+  uint32_t halvings = 0;  // deepest halving used
+  uint32_t substeps = 0;
+  uint32_t solver_code = 0;
+  uint32_t rejected = 0;  // Rosenbrock steps rejected by the error estimate
+  Footprint footprint;    // bytes per region, as accounted before any work
+  size_t local_store_peak = 0;
+  std::string error;  // for does_not_fit and malformed
+};
+
+class ComputeWorker {
+ public:
+  explicit ComputeWorker(size_t local_store_bytes = LocalStore::kDefaultCapacity);
+  /// Steps one island. `result` must hold result_bytes(num_bodies) bytes, 16-byte aligned.
+  /// A failed or refused island's result carries its bodies unchanged.
+  IslandReport step(const unsigned char* image, size_t bytes, unsigned char* result, size_t result_capacity);
+  LocalStore& local_store() { return ls_; }
+  const Dma& dma() const { return dma_; }
+
+ private:
+  LocalStore ls_;
+  Dma dma_;
+};
+
+}  // namespace cellphys::spu

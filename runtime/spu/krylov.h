@@ -1,0 +1,45 @@
+// Linear solvers for the island system Â Δu = b̂ (block_sparse.h). All of them work in
+// caller-provided memory (the local store) and allocate nothing, except the direct LU,
+// which is the test oracle and a reference point on the charts and uses the heap.
+#pragma once
+#include <cstdint>
+
+#include "runtime/spu/block_sparse.h"
+
+namespace cellphys::spu {
+
+enum class Solver : uint32_t { cgs = 0, bicgstab = 1, direct = 2 };
+
+/// The seed's failure codes, kept: 0 converged, 1 max iterations, 2 rho = 0, 3 denominator = 0.
+enum SolveCode : int { kConverged = 0, kMaxIterations = 1, kRhoZero = 2, kDenominatorZero = 3, kNotFinite = 4 };
+
+struct SolveSettings {
+  float rel_tol = 1e-3f;   // the seed's rel_tol: stop when |r| / |b| < rel_tol
+  float abs_tol = 1e-3f;   // the seed's abs_tol: or when |r| < abs_tol
+  int max_iterations = 0;  // 0: the seed's rule, 2 * 6 * n
+};
+
+struct SolveResult {
+  int code = kConverged;
+  int iterations = 0;
+  float residual = 0.0f;  // |r| / |b| at exit (recurrence residual for the Krylov methods)
+};
+
+/// Vectors of scratch each solver needs (n * kVecFloats floats each).
+inline constexpr int kCgsWorkVectors = 7;
+inline constexpr int kBicgstabWorkVectors = 7;
+
+/// Conjugate gradient squared, as the seed's SPU_conjugate_gradient_squared (stopping rule,
+/// iteration limit and failure codes kept). x holds the initial guess and receives the solution.
+SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, const SolveSettings& s);
+
+/// BiCGSTAB (van der Vorst), same settings and codes; also two mat-vecs per iteration.
+SolveResult bicgstab(const BlockRowMatrix& A, const float* b, float* x, float* work, const SolveSettings& s);
+
+/// Sparse LU (Eigen) of the same matrix, in double: the oracle. Code kNotFinite when singular.
+SolveResult direct_lu(const BlockRowMatrix& A, const float* b, float* x);
+
+SolveResult solve(Solver which, const BlockRowMatrix& A, const float* b, float* x, float* work,
+                  const SolveSettings& s);
+
+}  // namespace cellphys::spu

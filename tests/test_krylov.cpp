@@ -1,0 +1,541 @@
+// Block-sparse mat-vec and the island solvers (CGS as the seed, BiCGSTAB, sparse LU oracle)
+// against dense double references, on random and physically shaped systems.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "cellphys/gen/block_ops.h"
+#include "runtime/spu/block_sparse.h"
+#include "runtime/spu/krylov.h"
+
+using namespace cellphys::spu;
+using cellphys::gen::padded;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+
+struct alignas(32) Block {
+  float m[kBlockFloats];
+};
+struct alignas(32) Vec8 {
+  float v[kVecFloats];
+};
+using BVec = std::vector<Vec8>;
+
+Block to_block(const Mat6& A) {
+  Block b{};
+  for (int c = 0; c < 6; ++c)
+    for (int r = 0; r < 6; ++r) b.m[8 * c + padded(r)] = static_cast<float>(A(r, c));
+  return b;
+}
+Mat6 from_block(const Block& b) {
+  Mat6 A;
+  for (int c = 0; c < 6; ++c)
+    for (int r = 0; r < 6; ++r) A(r, c) = b.m[8 * c + padded(r)];
+  return A;
+}
+BVec to_bvec(const VectorXd& x) {
+  BVec v(x.size() / 6, Vec8{});
+  for (Eigen::Index i = 0; i < x.size(); ++i) v[i / 6].v[padded(static_cast<int>(i % 6))] = static_cast<float>(x(i));
+  return v;
+}
+VectorXd from_bvec(const BVec& v) {
+  VectorXd x(6 * v.size());
+  for (size_t i = 0; i < v.size(); ++i)
+    for (int r = 0; r < 6; ++r) x(6 * i + r) = v[i].v[padded(r)];
+  return x;
+}
+const float* F(const BVec& v) { return v[0].v; }
+float* F(BVec& v) { return v[0].v; }
+
+struct Entry {
+  int i, j;
+  Mat6 B;
+};
+
+// Owns the storage behind a BlockRowMatrix.
+struct System {
+  int n = 0;
+  bool unit = true;
+  std::vector<int32_t> row_start, col;
+  std::vector<Block> blocks, diag;
+
+  BlockRowMatrix view() const {
+    BlockRowMatrix A;
+    A.n = n;
+    A.row_start = row_start.data();
+    A.col = col.data();
+    A.blocks = blocks.empty() ? nullptr : blocks[0].m;
+    A.unit_diagonal = unit;
+    A.diag = diag.empty() ? nullptr : diag[0].m;
+    return A;
+  }
+};
+
+// Off-diagonal entries in any order; diag empty means the unit diagonal.
+System make_system(int n, std::vector<Entry> off, const std::vector<Mat6>& diag = {}) {
+  System s;
+  s.n = n;
+  s.unit = diag.empty();
+  std::stable_sort(off.begin(), off.end(), [](const Entry& a, const Entry& b) { return a.i < b.i; });
+  s.row_start.assign(n + 1, 0);
+  for (const Entry& e : off) {
+    ++s.row_start[e.i + 1];
+    s.col.push_back(e.j);
+    s.blocks.push_back(to_block(e.B));
+  }
+  for (int i = 0; i < n; ++i) s.row_start[i + 1] += s.row_start[i];
+  for (const Mat6& D : diag) s.diag.push_back(to_block(D));
+  return s;
+}
+
+// The stored (float) matrix in double, for references.
+MatrixXd dense(const System& s) {
+  MatrixXd A = MatrixXd::Zero(6 * s.n, 6 * s.n);
+  for (int i = 0; i < s.n; ++i) {
+    A.block<6, 6>(6 * i, 6 * i) = s.unit ? Mat6::Identity() : from_block(s.diag[i]);
+    for (int k = s.row_start[i]; k < s.row_start[i + 1]; ++k)
+      A.block<6, 6>(6 * i, 6 * s.col[k]) += from_block(s.blocks[k]);
+  }
+  return A;
+}
+
+Mat6 random_block(std::mt19937& rng, double scale) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Mat6 B;
+  for (int c = 0; c < 6; ++c)
+    for (int r = 0; r < 6; ++r) B(r, c) = scale * u(rng);
+  return B;
+}
+VectorXd random_vector(std::mt19937& rng, int dim) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  VectorXd v(dim);
+  for (int i = 0; i < dim; ++i) v(i) = u(rng);
+  return v;
+}
+
+// I + random off-diagonal blocks, at most 4 per row, entries below 0.9 / 24: every row's
+// off-diagonal absolute sum is < 0.9, so A is strictly diagonally dominant. Some rows empty.
+System diagonally_dominant(int n, std::mt19937& rng) {
+  std::vector<Entry> off;
+  std::uniform_int_distribution<int> count(0, std::min(4, n - 1));
+  std::uniform_int_distribution<int> body(0, n - 1);
+  for (int i = 0; i < n; ++i) {
+    std::vector<int> cols;
+    for (int want = count(rng); static_cast<int>(cols.size()) < want;) {
+      int j = body(rng);
+      if (j != i && std::find(cols.begin(), cols.end(), j) == cols.end()) cols.push_back(j);
+    }
+    for (int j : cols) off.push_back({i, j, random_block(rng, 0.9 / 24.0)});
+  }
+  return make_system(n, off);
+}
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& r) {
+  Eigen::Matrix3d S;
+  S << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
+  return S;
+}
+
+// A physically shaped island: A = M + k sum_c G_c^T G_c + skew, with M the bodies' mass
+// matrices and G_c the constraint rows of point couplings (contacts or joints) between body
+// pairs; the skew part (friction/gyroscopic-like) makes A non-symmetric but keeps its
+// symmetric part SPD. Stored block-Jacobi scaled (D^-1 A), as the island packer does.
+struct Coupling {
+  int i, j;
+  int rows;  // 3: a point-to-point joint (x, y, z); otherwise that many random contact normals
+};
+struct Physical {
+  System sys;
+  VectorXd b;  // scaled right-hand side D^-1 b
+};
+Physical physical_system(int n, const std::vector<Coupling>& pairs, double k, double skew_eps,
+                         std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Mat6> D(n);
+  for (int i = 0; i < n; ++i) {
+    const double m = 0.5 + 1.5 * u(rng);
+    Eigen::Matrix3d R = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+    Eigen::Vector3d I(0.1 + u(rng), 0.1 + u(rng), 0.1 + u(rng));
+    D[i].setZero();
+    D[i].topLeftCorner<3, 3>() = m * Eigen::Matrix3d::Identity();
+    D[i].bottomRightCorner<3, 3>() = R * (m * I).asDiagonal() * R.transpose();
+    Mat6 g = random_block(rng, skew_eps);  // gyroscopic-like skew on the diagonal
+    D[i] += g - g.transpose();
+  }
+  std::vector<Entry> off;
+  for (const Coupling& c : pairs) {
+    Mat6 Kii = Mat6::Zero(), Kjj = Mat6::Zero(), Kij = Mat6::Zero();
+    for (int row = 0; row < c.rows; ++row) {
+      Eigen::Vector3d nrm = c.rows == 3 ? Eigen::Vector3d::Unit(row) : Eigen::Vector3d::Random().normalized();
+      Eigen::Vector3d ri = 0.5 * Eigen::Vector3d::Random(), rj = 0.5 * Eigen::Vector3d::Random();
+      Vec6 gi, gj;  // n . (v + w x r) = n.v + w.(r x n)
+      gi << nrm, ri.cross(nrm);
+      gj << -nrm, -rj.cross(nrm);
+      Kii += k * gi * gi.transpose();
+      Kjj += k * gj * gj.transpose();
+      Kij += k * gi * gj.transpose();
+    }
+    D[c.i] += Kii;
+    D[c.j] += Kjj;
+    Mat6 E = random_block(rng, skew_eps * k);
+    off.push_back({c.i, c.j, Kij + E});
+    off.push_back({c.j, c.i, Kij.transpose() - E.transpose()});
+  }
+  // Scale: row block i by D_i^-1.
+  for (Entry& e : off) e.B = D[e.i].inverse() * e.B;
+  VectorXd b = random_vector(rng, 6 * n);
+  for (int i = 0; i < n; ++i) b.segment<6>(6 * i) = D[i].inverse() * b.segment<6>(6 * i);
+  return {make_system(n, off), b};
+}
+
+// A chain of n bodies joined by stiff point-to-point springs.
+Physical stiff_chain(int n, double k, std::mt19937& rng) {
+  std::vector<Coupling> pairs;
+  for (int i = 0; i + 1 < n; ++i) pairs.push_back({i, i + 1, 3});
+  return physical_system(n, pairs, k, 0.05, rng);
+}
+
+// The seed's reference island: 65 bodies, 67 touching pairs with 6 contacts each (402
+// contacts), 65 + 134 = 199 non-zero blocks; a random tree plus three extra pairs.
+Physical reference_island(std::mt19937& rng) {
+  const int n = 65;
+  std::vector<Coupling> pairs;
+  for (int i = 1; i < n; ++i) pairs.push_back({std::uniform_int_distribution<int>(0, i - 1)(rng), i, 6});
+  while (pairs.size() < 67) {
+    int i = std::uniform_int_distribution<int>(0, n - 1)(rng), j = std::uniform_int_distribution<int>(0, n - 1)(rng);
+    bool dup = i == j;
+    for (const Coupling& c : pairs) dup = dup || (c.i == i && c.j == j) || (c.i == j && c.j == i);
+    if (!dup) pairs.push_back({i, j, 6});
+  }
+  return physical_system(n, pairs, 30.0, 0.02, rng);
+}
+
+double true_rel_residual(const System& s, const VectorXd& b, const BVec& x) {
+  return (b - dense(s) * from_bvec(x)).norm() / b.norm();
+}
+
+SolveResult run(Solver which, const System& s, const VectorXd& b, BVec& x, const SolveSettings& set) {
+  BVec bb = to_bvec(b);
+  BVec work(static_cast<size_t>(std::max(kCgsWorkVectors, kBicgstabWorkVectors)) * s.n + 1);
+  return solve(which, s.view(), F(bb), F(x), F(work), set);
+}
+
+const char* name(Solver s) { return s == Solver::cgs ? "cgs" : s == Solver::bicgstab ? "bicgstab" : "direct"; }
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// spmv and vector operations
+
+TEST(BlockSparse, SpmvMatchesDenseReferenceOnRandomStructure) {
+  std::mt19937 rng(7);
+  for (int n : {1, 2, 10, 65}) {
+    for (bool unit : {true, false}) {
+      std::vector<Entry> off;
+      std::uniform_int_distribution<int> body(0, n - 1), count(0, 5);
+      for (int i = 0; i < n; ++i) {
+        if (i % 3 == 1) continue;  // some rows have no off-diagonal blocks
+        for (int c = count(rng); c > 0; --c) {
+          int j = body(rng);
+          if (j != i) off.push_back({i, j, random_block(rng, 1.0)});
+        }
+      }
+      std::vector<Mat6> diag;
+      if (!unit)
+        for (int i = 0; i < n; ++i) diag.push_back(random_block(rng, 2.0));
+      System s = make_system(n, off, diag);
+      VectorXd xd = random_vector(rng, 6 * n);
+      BVec x = to_bvec(xd), y(n);
+      spmv(s.view(), F(x), F(y));
+      VectorXd ref = dense(s) * from_bvec(x);
+      EXPECT_LE((from_bvec(y) - ref).norm(), 1e-5 * (1.0 + ref.norm())) << "n=" << n << " unit=" << unit;
+      for (int i = 0; i < n; ++i) {
+        EXPECT_EQ(y[i].v[3], 0.0f);
+        EXPECT_EQ(y[i].v[7], 0.0f);
+      }
+    }
+  }
+}
+
+TEST(BlockSparse, SpmvWithOnlyTheUnitDiagonalCopiesExactly) {
+  System s = make_system(3, {});
+  std::mt19937 rng(3);
+  BVec x = to_bvec(random_vector(rng, 18)), y(3);
+  spmv(s.view(), F(x), F(y));
+  EXPECT_EQ(0, std::memcmp(F(x), F(y), sizeof(Vec8) * 3));
+}
+
+TEST(BlockSparse, VectorOpsMatchDoubleReference) {
+  std::mt19937 rng(11);
+  const int n = 37;
+  VectorXd a = random_vector(rng, 6 * n), b = random_vector(rng, 6 * n);
+  BVec av = to_bvec(a), bv = to_bvec(b);
+  a = from_bvec(av);
+  b = from_bvec(bv);
+  EXPECT_NEAR(dot(n, F(av), F(bv)), a.dot(b), 1e-5 * a.norm() * b.norm());
+  const float d0 = dot(n, F(av), F(bv));
+  EXPECT_EQ(d0, dot(n, F(av), F(bv)));
+
+  BVec y = bv;
+  axpy(n, 0.5f, F(av), F(y));
+  EXPECT_LE((from_bvec(y) - (b + 0.5 * a)).norm(), 1e-6 * b.norm());
+  y = bv;
+  xpby(n, F(av), -2.0f, F(y));
+  EXPECT_LE((from_bvec(y) - (a - 2.0 * b)).norm(), 1e-6 * b.norm());
+  copy(n, F(av), F(y));
+  EXPECT_EQ(0, std::memcmp(F(av), F(y), sizeof(Vec8) * n));
+  zero(n, F(y));
+  EXPECT_EQ(from_bvec(y).norm(), 0.0);
+}
+
+// ---------------------------------------------------------------------------------------
+// Agreement with the direct solve
+
+TEST(Krylov, DirectLuMatchesDenseSolveAndReportsTrueResidual) {
+  std::mt19937 rng(5);
+  Physical p = stiff_chain(8, 100.0, rng);
+  BVec x(p.sys.n);
+  SolveResult r = run(Solver::direct, p.sys, p.b, x, {});
+  ASSERT_EQ(r.code, kConverged);
+  EXPECT_EQ(r.iterations, 0);
+  VectorXd ref = dense(p.sys).partialPivLu().solve(p.b);
+  EXPECT_LE((from_bvec(x) - ref).norm(), 1e-6 * ref.norm());
+  EXPECT_NEAR(r.residual, true_rel_residual(p.sys, p.b, x), 1e-9);
+  EXPECT_LT(r.residual, 1e-6);
+  for (const Vec8& v : x) EXPECT_TRUE(v.v[3] == 0.0f && v.v[7] == 0.0f);
+}
+
+// Checks a Krylov solution against the oracle: the true residual meets the tolerance, and
+// the forward error obeys |dx|/|x| <= cond(A) |r|/|b| (with cond from the dense SVD).
+void expect_agrees_with_direct(Solver which, const Physical& p, double max_fwd_err) {
+  SolveSettings tight;
+  tight.rel_tol = 1e-5f;
+  tight.abs_tol = 0.0f;
+  BVec x(p.sys.n), xd(p.sys.n);
+  SolveResult r = run(which, p.sys, p.b, x, tight);
+  ASSERT_EQ(run(Solver::direct, p.sys, p.b, xd, {}).code, kConverged);
+  ASSERT_EQ(r.code, kConverged) << name(which) << " iterations " << r.iterations;
+  EXPECT_LT(r.residual, 1e-5f);
+  const double res = true_rel_residual(p.sys, p.b, x);
+  EXPECT_LE(res, 1e-5) << name(which) << " n=" << p.sys.n;
+  Eigen::JacobiSVD<MatrixXd> svd(dense(p.sys));
+  const double cond = svd.singularValues()(0) / svd.singularValues().tail(1)(0);
+  const double err = (from_bvec(x) - from_bvec(xd)).norm() / from_bvec(xd).norm();
+  EXPECT_LE(err, cond * res * 1.01 + 1e-6) << name(which);
+  EXPECT_LE(err, max_fwd_err) << name(which) << " cond " << cond;
+}
+
+TEST(Krylov, CgsAndBicgstabAgreeWithDirectLuOnDiagonallyDominantSystems) {
+  std::mt19937 rng(21);
+  for (int n : {1, 2, 10, 40, 65}) {
+    Physical p{diagonally_dominant(n, rng), random_vector(rng, 6 * n)};
+    expect_agrees_with_direct(Solver::cgs, p, 1e-4);
+    expect_agrees_with_direct(Solver::bicgstab, p, 1e-4);
+  }
+}
+
+TEST(Krylov, CgsAndBicgstabAgreeWithDirectLuOnStiffNonSymmetricChain) {
+  std::mt19937 rng(33);
+  for (int n : {5, 20, 40}) {
+    Physical p = stiff_chain(n, 1000.0, rng);
+    expect_agrees_with_direct(Solver::cgs, p, 1e-2);
+    expect_agrees_with_direct(Solver::bicgstab, p, 1e-2);
+  }
+}
+
+TEST(Krylov, ReferenceIsland65BodiesConvergesWithSeedSettings) {
+  std::mt19937 rng(65);
+  Physical p = reference_island(rng);
+  ASSERT_EQ(p.sys.n, 65);
+  ASSERT_EQ(p.sys.blocks.size() + 65, 199u);
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    BVec x(65);
+    SolveResult r = run(which, p.sys, p.b, x, {});  // the seed's rel_tol = abs_tol = 1e-3
+    ASSERT_EQ(r.code, kConverged) << name(which);
+    EXPECT_LT(true_rel_residual(p.sys, p.b, x), 2e-3) << name(which);
+    RecordProperty(std::string(name(which)) + "_iterations_1e-3", r.iterations);
+    SolveSettings tight;
+    tight.rel_tol = 1e-5f;
+    tight.abs_tol = 0.0f;
+    BVec x5(65);
+    SolveResult r5 = run(which, p.sys, p.b, x5, tight);
+    ASSERT_EQ(r5.code, kConverged) << name(which);
+    EXPECT_LE(true_rel_residual(p.sys, p.b, x5), 1e-5) << name(which);
+    RecordProperty(std::string(name(which)) + "_iterations_1e-5", r5.iterations);
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// The seed's stopping rule, limits and failure codes
+
+TEST(Krylov, StopsWhenRelativeOrAbsoluteResidualMeetsTolerance) {
+  std::mt19937 rng(41);
+  Physical p = stiff_chain(20, 1000.0, rng);
+  const float norm_b = static_cast<float>(p.b.norm());
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    SolveSettings seed;  // rel_tol = abs_tol = 1e-3
+    BVec x(p.sys.n);
+    SolveResult r = run(which, p.sys, p.b, x, seed);
+    ASSERT_EQ(r.code, kConverged);
+    EXPECT_GT(r.iterations, 0);
+    EXPECT_TRUE(r.residual < 1e-3f || r.residual * norm_b < 1e-3f) << name(which);
+
+    SolveSettings abs_only;  // only the absolute test can stop it
+    abs_only.rel_tol = 0.0f;
+    abs_only.abs_tol = 1e-2f * norm_b;
+    BVec xa(p.sys.n);
+    SolveResult ra = run(which, p.sys, p.b, xa, abs_only);
+    ASSERT_EQ(ra.code, kConverged);
+    EXPECT_LT(ra.residual * norm_b, abs_only.abs_tol * 1.0001f) << name(which);
+    EXPECT_GE(ra.residual, 1e-3f) << name(which);  // stopped before the relative rule would have
+  }
+}
+
+TEST(Krylov, MaxIterationsIsRespected) {
+  std::mt19937 rng(43);
+  Physical p = stiff_chain(20, 1000.0, rng);
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    SolveSettings two;
+    two.max_iterations = 2;
+    two.rel_tol = 1e-6f;
+    two.abs_tol = 0.0f;
+    BVec x(p.sys.n);
+    SolveResult r = run(which, p.sys, p.b, x, two);
+    EXPECT_EQ(r.code, kMaxIterations) << name(which);
+    EXPECT_EQ(r.iterations, 2) << name(which);
+  }
+  // Default limit: the seed's 2 * 6 * n, here with an unreachable tolerance.
+  Physical small = stiff_chain(3, 1000.0, rng);
+  SolveSettings never;
+  never.rel_tol = 0.0f;
+  never.abs_tol = 0.0f;
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    BVec x(small.sys.n);
+    SolveResult r = run(which, small.sys, small.b, x, never);
+    EXPECT_LE(r.iterations, 2 * 6 * 3) << name(which);
+    if (r.code == kMaxIterations) EXPECT_EQ(r.iterations, 2 * 6 * 3) << name(which);
+    EXPECT_NE(r.code, kConverged) << name(which);  // rel_tol 0 cannot be met unless r == 0 exactly
+  }
+}
+
+TEST(Krylov, TinyRightHandSideReturnsAtOnceWithXUntouched) {
+  std::mt19937 rng(47);
+  Physical p = stiff_chain(4, 10.0, rng);
+  VectorXd b = p.b * (0.5e-4 / p.b.norm());  // |b| < 1e-4, the seed's early out
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    BVec x = to_bvec(random_vector(rng, 24));
+    const BVec before = x;
+    SolveResult r = run(which, p.sys, b, x, {});
+    EXPECT_EQ(r.code, kConverged);
+    EXPECT_EQ(r.iterations, 0);
+    EXPECT_EQ(0, std::memcmp(F(before), F(x), sizeof(Vec8) * x.size())) << name(which);
+  }
+}
+
+TEST(Krylov, StartingAtTheSolutionNeedsNoIterations) {
+  std::mt19937 rng(49);
+  Physical p = stiff_chain(10, 100.0, rng);
+  BVec x(p.sys.n);
+  ASSERT_EQ(run(Solver::direct, p.sys, p.b, x, {}).code, kConverged);
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    BVec xw = x;
+    SolveResult r = run(which, p.sys, p.b, xw, {});
+    EXPECT_EQ(r.code, kConverged);
+    EXPECT_EQ(r.iterations, 0) << name(which);
+  }
+}
+
+// A = I + N, N nilpotent (body 0 x-row -> body 1 x-row -> body 0 y-row), b = e_1: the first
+// iteration of either method is exact arithmetic and leaves r orthogonal to r_tilde = e_1,
+// so rho = 0 in the second pass although A is non-singular.
+TEST(Krylov, RhoZeroBreakdownReturnsCode2) {
+  Mat6 B10 = Mat6::Zero(), B01 = Mat6::Zero();
+  B10(0, 0) = 1.0;  // row block 1, column block 0
+  B01(1, 0) = 1.0;  // row block 0, column block 1
+  System s = make_system(2, {{1, 0, B10}, {0, 1, B01}});
+  VectorXd b = VectorXd::Zero(12);
+  b(0) = 1.0;
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    BVec x(2);
+    SolveResult r = run(which, s, b, x, {});
+    EXPECT_EQ(r.code, kRhoZero) << name(which);
+    EXPECT_EQ(r.iterations, 2) << name(which);  // counted as the seed does, the breakdown pass included
+  }
+  BVec x(2);
+  SolveResult r = run(Solver::direct, s, b, x, {});
+  EXPECT_EQ(r.code, kConverged);
+  EXPECT_LT(true_rel_residual(s, b, x), 1e-7);
+}
+
+TEST(Krylov, ZeroMatrixGivesDenominatorZero) {
+  std::vector<Mat6> zero_diag(3, Mat6::Zero());
+  System s = make_system(3, {}, zero_diag);
+  std::mt19937 rng(53);
+  VectorXd b = random_vector(rng, 18);
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    BVec x(3);
+    SolveResult r = run(which, s, b, x, {});
+    EXPECT_EQ(r.code, kDenominatorZero) << name(which);
+    EXPECT_EQ(r.iterations, 1) << name(which);
+  }
+  BVec x(3);
+  EXPECT_EQ(run(Solver::direct, s, b, x, {}).code, kNotFinite);
+}
+
+TEST(Krylov, NonFiniteInputsStopWithNotFinite) {
+  std::mt19937 rng(59);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (Solver which : {Solver::cgs, Solver::bicgstab, Solver::direct}) {
+    Physical p = stiff_chain(6, 100.0, rng);
+    {  // NaN in b
+      VectorXd b = p.b;
+      b(7) = nan;
+      BVec x(p.sys.n);
+      SolveResult r = run(which, p.sys, b, x, {});
+      EXPECT_EQ(r.code, kNotFinite) << name(which);
+      EXPECT_EQ(r.iterations, 0) << name(which);
+    }
+    for (float bad : {nan, inf}) {  // NaN or inf in a block
+      System s = p.sys;
+      s.blocks[3].m[8 * 2 + 5] = bad;
+      BVec x(p.sys.n);
+      SolveResult r = run(which, s, p.b, x, {});
+      EXPECT_EQ(r.code, kNotFinite) << name(which) << " " << bad;
+    }
+    {  // NaN in the initial guess
+      BVec x(p.sys.n);
+      x[2].v[1] = nan;
+      if (which != Solver::direct) EXPECT_EQ(run(which, p.sys, p.b, x, {}).code, kNotFinite) << name(which);
+    }
+  }
+}
+
+TEST(Krylov, SolversAreBitwiseDeterministic) {
+  std::mt19937 rng(61);
+  Physical p = reference_island(rng);
+  SolveSettings tight;
+  tight.rel_tol = 1e-5f;
+  tight.abs_tol = 0.0f;
+  for (Solver which : {Solver::cgs, Solver::bicgstab}) {
+    BVec x1(p.sys.n), x2(p.sys.n);
+    BVec b1 = to_bvec(p.b);
+    BVec w1(kCgsWorkVectors * p.sys.n), w2(kCgsWorkVectors * p.sys.n + 5);  // different addresses
+    SolveResult r1 = solve(which, p.sys.view(), F(b1), F(x1), F(w1), tight);
+    SolveResult r2 = solve(which, p.sys.view(), F(b1), F(x2), w2[5].v, tight);
+    EXPECT_EQ(r1.iterations, r2.iterations) << name(which);
+    EXPECT_EQ(0, std::memcmp(&r1.residual, &r2.residual, sizeof(float))) << name(which);
+    EXPECT_EQ(0, std::memcmp(F(x1), F(x2), sizeof(Vec8) * x1.size())) << name(which);
+  }
+}

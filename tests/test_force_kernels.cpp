@@ -18,6 +18,7 @@
 #include <map>
 #include <random>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "cellphys/gen/force_table.h"
@@ -44,19 +45,28 @@ constexpr int kInvInertia = offsetof(g::Rigid_Body, inverse_inertia_body) / 4;
 constexpr int kMass = offsetof(g::Rigid_Body, mass) / 4;
 constexpr int kInvMass = offsetof(g::Rigid_Body, inverse_mass) / 4;
 
-enum Region { kBodyA = 0, kBodyB = 1, kInstance = 2, kGlobals = 3 };
+enum Region { kBodyA = 0, kBodyB = 1, kInstance = 2, kGlobals = 3, kRef = 4, kNumRegions = 5 };
+constexpr int kRefWords = 8;  // gather's `ref`: per body the reference pose x y z _ w x y z
 
-// One double per 4-byte word of the packed bodies, instance and Island_Params: FD perturbs
-// this in double, and float kernels see it rounded exactly as pack() + gather() would.
+// One double per 4-byte word of the packed bodies, instance, Island_Params and reference poses:
+// FD perturbs this in double, and float kernels see it rounded exactly as pack() + gather() would.
+// The reference pose (where world-frame contact geometry was measured) stays pinned under FD.
 template <class K>
 struct Case {
   static constexpr int kInstWords = sizeof(typename K::Instance) / 4;
   double body[2][kBodyWords] = {};
   double inst[kInstWords] = {};
   double glob[kGlobalWords] = {};
-  int words(int r) const { return r < 2 ? kBodyWords : r == kInstance ? kInstWords : kGlobalWords; }
-  double* region(int r) { return r < 2 ? body[r] : r == kInstance ? inst : glob; }
-  const double* region(int r) const { return r < 2 ? body[r] : r == kInstance ? inst : glob; }
+  double ref[2 * kRefWords] = {};
+  int words(int r) const {
+    const int n[kNumRegions] = {kBodyWords, kBodyWords, kInstWords, kGlobalWords, 2 * kRefWords};
+    return n[r];
+  }
+  double* region(int r) {
+    double* p[kNumRegions] = {body[0], body[1], inst, glob, ref};
+    return p[r];
+  }
+  const double* region(int r) const { return const_cast<Case*>(this)->region(r); }
 };
 
 const g::ForceInfo& info_of(g::ForceType t) {
@@ -108,6 +118,8 @@ struct BodyD {
   Mat3 R, Iw;
   double m;
 };
+struct Pose { Vec3 x; Mat3 R; };
+Pose ref_pose(const double* r) { return {vec3_at(r), Quat(r[4], r[5], r[6], r[7]).toRotationMatrix()}; }
 BodyD body_of(const double* b) {
   const double* I = b + kInertia;  // Ixx Iyy Izz Ixy Ixz Iyz
   Mat3 Ib;
@@ -124,6 +136,7 @@ struct Packed {
   g::Rigid_Body bodies[2];
   typename K::Instance inst;
   g::Island_Params glob;
+  float ref[2 * kRefWords];
 };
 
 void store_words(void* dst, const double* src, int n) {
@@ -140,6 +153,7 @@ Packed<K> pack(const Case<K>& c) {
   store_words(&p.bodies[1], c.body[1], kBodyWords);
   store_words(&p.inst, c.inst, Case<K>::kInstWords);
   store_words(&p.glob, c.glob, kGlobalWords);
+  store_words(p.ref, c.ref, 2 * kRefWords);
   const auto& fi = info_of(K::kType);
   const int32_t a = 0, b = kPair<K> ? 1 : -1;  // world variants: b is the world
   std::memcpy(reinterpret_cast<unsigned char*>(&p.inst) + fi.offset_body_a, &a, 4);
@@ -147,17 +161,35 @@ Packed<K> pack(const Case<K>& c) {
   return p;
 }
 
+// gather() with the reference poses, for generators whose gather takes them.
+template <class K>
+void gather(const Packed<K>& p, float* in, bool with_ref = true) {
+  using Inst = typename K::Instance;
+  if constexpr (std::is_invocable_v<decltype(&K::gather), const g::Rigid_Body*, const Inst&, const g::Island_Params&,
+                                    float*, const float*>) {
+    K::gather(p.bodies, p.inst, p.glob, in, with_ref ? p.ref : nullptr);
+  } else {
+    K::gather(p.bodies, p.inst, p.glob, in);
+  }
+}
+
 struct Source { int region, word; };
+struct Probe {
+  ::testing::AssertionResult ok = ::testing::AssertionSuccess();
+  std::vector<Source> src;  // input i is word src[i].word of region src[i].region
+  bool reads_ref = false;
+};
 
 // Fills every word with a distinct integer sentinel (exact in float), gathers, and maps each
 // input back to the word it came from; fails if an input matches no sentinel.
 template <class K>
-::testing::AssertionResult probe_inputs(std::vector<Source>& src) {
+Probe run_probe() {
   const auto& fi = info_of(K::kType);
+  Probe pr;
   Case<K> c;
   std::map<float, Source> owner;
   double next = 1000;
-  for (int r = 0; r < 4; ++r)
+  for (int r = 0; r < kNumRegions; ++r)
     for (int w = 0; w < c.words(r); ++w) {
       if (r == kInstance && (4 * w == int(fi.offset_body_a) || 4 * w == fi.offset_body_b)) continue;
       c.region(r)[w] = next;
@@ -166,20 +198,32 @@ template <class K>
     }
   const Packed<K> p = pack(c);
   std::vector<float> in(K::kInputs, std::numeric_limits<float>::quiet_NaN());
-  K::gather(p.bodies, p.inst, p.glob, in.data());
-  src.clear();
+  gather(p, in.data());
   for (int i = 0; i < K::kInputs; ++i) {
     auto it = owner.find(in[i]);
-    if (it == owner.end()) return ::testing::AssertionFailure() << "input " << i << " = " << in[i] << " reads no probed word";
-    if (it->second.region == kBodyB && !kPair<K>)
-      return ::testing::AssertionFailure() << "input " << i << " reads body b in a one-body kernel";
-    src.push_back(it->second);
+    if (it == owner.end()) {
+      pr.ok = ::testing::AssertionFailure() << "input " << i << " = " << in[i] << " reads no probed word";
+      return pr;
+    }
+    const Source s = it->second;
+    if ((s.region == kBodyB || (s.region == kRef && s.word >= kRefWords)) && !kPair<K>) {
+      pr.ok = ::testing::AssertionFailure() << "input " << i << " reads body b in a one-body kernel";
+      return pr;
+    }
+    pr.reads_ref |= s.region == kRef;
+    pr.src.push_back(s);
   }
-  return ::testing::AssertionSuccess();
+  return pr;
+}
+
+template <class K> const Probe& probe() {
+  static const Probe p = run_probe<K>();
+  return p;
 }
 
 template <class T, class K>
-std::vector<T> eval_case(const Case<K>& c, const std::vector<Source>& src) {
+std::vector<T> eval_case(const Case<K>& c) {
+  const std::vector<Source>& src = probe<K>().src;
   std::vector<T> in(K::kInputs), out(K::kOutputs);
   for (int i = 0; i < K::kInputs; ++i) in[i] = T(c.region(src[i].region)[src[i].word]);
   K::template eval<T>(in.data(), out.data());

@@ -83,16 +83,20 @@ struct System {
 };
 
 // Off-diagonal entries in any order; diag empty means the unit diagonal.
-System make_system(int n, std::vector<Entry> off, const std::vector<Mat6>& diag = {}) {
+// Blocks keep their input order within a row.
+System make_system(int n, const std::vector<Entry>& off, const std::vector<Mat6>& diag = {}) {
   System s;
   s.n = n;
   s.unit = diag.empty();
-  std::stable_sort(off.begin(), off.end(), [](const Entry& a, const Entry& b) { return a.i < b.i; });
+  // Sort indices: libstdc++'s stable_sort buffer ignores the over-alignment Mat6 needs.
+  std::vector<size_t> order(off.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return off[a].i < off[b].i; });
   s.row_start.assign(n + 1, 0);
-  for (const Entry& e : off) {
-    ++s.row_start[e.i + 1];
-    s.col.push_back(e.j);
-    s.blocks.push_back(to_block(e.B));
+  for (size_t k : order) {
+    ++s.row_start[off[k].i + 1];
+    s.col.push_back(off[k].j);
+    s.blocks.push_back(to_block(off[k].B));
   }
   for (int i = 0; i < n; ++i) s.row_start[i + 1] += s.row_start[i];
   for (const Mat6& D : diag) s.diag.push_back(to_block(D));
@@ -141,10 +145,21 @@ System diagonally_dominant(int n, std::mt19937& rng) {
   return make_system(n, off);
 }
 
-Eigen::Matrix3d skew(const Eigen::Vector3d& r) {
-  Eigen::Matrix3d S;
-  S << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
-  return S;
+// From rng only (Eigen's Random() draws on std::rand, shared state across tests).
+Eigen::Vector3d random_in_cube(std::mt19937& rng, double half) {
+  std::uniform_real_distribution<double> u(-half, half);
+  const double x = u(rng), y = u(rng), z = u(rng);
+  return {x, y, z};
+}
+Eigen::Vector3d random_unit(std::mt19937& rng) {
+  std::normal_distribution<double> g;
+  const double x = g(rng), y = g(rng), z = g(rng);
+  return Eigen::Vector3d(x, y, z).normalized();
+}
+Eigen::Matrix3d random_rotation(std::mt19937& rng) {
+  std::normal_distribution<double> g;
+  const double w = g(rng), x = g(rng), y = g(rng), z = g(rng);
+  return Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix();
 }
 
 // A physically shaped island: A = M + k sum_c G_c^T G_c + skew, with M the bodies' mass
@@ -165,8 +180,9 @@ Physical physical_system(int n, const std::vector<Coupling>& pairs, double k, do
   std::vector<Mat6> D(n);
   for (int i = 0; i < n; ++i) {
     const double m = 0.5 + 1.5 * u(rng);
-    Eigen::Matrix3d R = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
-    Eigen::Vector3d I(0.1 + u(rng), 0.1 + u(rng), 0.1 + u(rng));
+    Eigen::Matrix3d R = random_rotation(rng);
+    const double i0 = 0.1 + u(rng), i1 = 0.1 + u(rng), i2 = 0.1 + u(rng);
+    const Eigen::Vector3d I(i0, i1, i2);
     D[i].setZero();
     D[i].topLeftCorner<3, 3>() = m * Eigen::Matrix3d::Identity();
     D[i].bottomRightCorner<3, 3>() = R * (m * I).asDiagonal() * R.transpose();
@@ -177,8 +193,8 @@ Physical physical_system(int n, const std::vector<Coupling>& pairs, double k, do
   for (const Coupling& c : pairs) {
     Mat6 Kii = Mat6::Zero(), Kjj = Mat6::Zero(), Kij = Mat6::Zero();
     for (int row = 0; row < c.rows; ++row) {
-      Eigen::Vector3d nrm = c.rows == 3 ? Eigen::Vector3d::Unit(row) : Eigen::Vector3d::Random().normalized();
-      Eigen::Vector3d ri = 0.5 * Eigen::Vector3d::Random(), rj = 0.5 * Eigen::Vector3d::Random();
+      const Eigen::Vector3d nrm = c.rows == 3 ? Eigen::Vector3d::Unit(row) : random_unit(rng);
+      const Eigen::Vector3d ri = random_in_cube(rng, 0.5), rj = random_in_cube(rng, 0.5);
       Vec6 gi, gj;  // n . (v + w x r) = n.v + w.(r x n)
       gi << nrm, ri.cross(nrm);
       gj << -nrm, -rj.cross(nrm);
@@ -221,8 +237,10 @@ Physical reference_island(std::mt19937& rng) {
   return physical_system(n, pairs, 30.0, 0.02, rng);
 }
 
+// |b - A x| / |b| in double, for the float b the solvers were given.
 double true_rel_residual(const System& s, const VectorXd& b, const BVec& x) {
-  return (b - dense(s) * from_bvec(x)).norm() / b.norm();
+  const VectorXd bf = from_bvec(to_bvec(b));
+  return (bf - dense(s) * from_bvec(x)).norm() / bf.norm();
 }
 
 SolveResult run(Solver which, const System& s, const VectorXd& b, BVec& x, const SolveSettings& set) {

@@ -56,6 +56,12 @@ def _kernel_view(k, src_root):
     f_ops += n
     f_lines += [f"const {ty} {t} = {c};" for ty, t, c in tmps]
     f_lines += [f"out[{i}] = {c};" for i, c in enumerate(outs)]
+    # the implicit form: everything eval computes, combined with h and the velocities
+    i_lines, i_ops = [l for l in lines], ops
+    tmps, outs, n = cxx_printer.emit(k.implicit["outputs"], "o")
+    i_ops += n
+    i_lines += [f"const {ty} {t} = {c};" for ty, t, c in tmps]
+    i_lines += [f"out[{i}] = {c};" for i, c in enumerate(outs)]
     outputs = k.forces + [e for b in k.blocks for e in b.exprs]
     tmps, outs, n = cxx_printer.emit(outputs, "o")
     ops += n
@@ -63,7 +69,13 @@ def _kernel_view(k, src_root):
     lines += [f"out[{i}] = {c};" for i, c in enumerate(outs)]
     inputs = []
     for idx, inp in enumerate(k.inputs):
-        if inp.source == "body":
+        if inp.source == "body" and inp.name.startswith("ref_"):
+            # reference pose: from the caller's array (x y z _ w x y z per body), else the current pose
+            tag = "ab"[inp.body]
+            cur = "position" if inp.name == "ref_position" else "orientation"
+            lane = inp.lane + (0 if cur == "position" else 4)
+            src = f"ref ? ref[8 * f.body_{tag} + {lane}] : {tag}.{cur}[{inp.lane}]"
+        elif inp.source == "body":
             fld = inp.name
             src = f"{'ab'[inp.body]}.{fld}[{inp.lane}]" if fld not in ("mass",) else f"{'ab'[inp.body]}.{fld}"
         elif inp.source == "param":
@@ -77,6 +89,7 @@ def _kernel_view(k, src_root):
         name=k.cxx_name, variant=k.variant, num_bodies=k.num_bodies, inputs=inputs,
         blocks=[dict(kind=b.kind, row=b.row_body, col=b.col_body) for b in k.blocks],
         num_outputs=len(outputs), ops=ops, lines=lines, f_lines=f_lines, f_ops=f_ops,
+        i_lines=i_lines, i_ops=i_ops, i_pairs=k.implicit["pairs"], i_outputs=len(k.implicit["outputs"]),
         uses_b=any(i.source == "body" and i.body == 1 for i in k.inputs),
     )
 

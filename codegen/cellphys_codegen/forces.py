@@ -58,6 +58,7 @@ class Kernel:
     blocks: list = field(default_factory=list)
     pre: dict = field(default_factory=dict)  # preamble symbol -> expression of the inputs
     stages: list = field(default_factory=list)  # per let: [(symbol, expression)] of its value and derivatives
+    implicit: dict = field(default_factory=dict)  # outputs and block pairs of the implicit form
 
     @property
     def cxx_name(self):
@@ -274,6 +275,10 @@ def _build_kernel(force, variant, d, path):
     used_pre = [s for s in ctx.pre if s in used]
     kernel.pre = {s: ctx.pre[s] for s in used_pre}
     used = (used - set(used_pre)).union(set(), *[ctx.pre[s].free_symbols for s in used_pre])
+    # the implicit form multiplies dF/ddelta by the bodies' velocities: they are inputs then
+    if any(blk.kind == "dd" for blk in kernel.blocks):
+        used |= {s for b in bodies for s in b.u}
+    kernel.implicit = _implicit_form(kernel, bodies)
     for k, b in enumerate(bodies):
         for fname, syms in b.field_syms.items():
             for lane, s in enumerate(syms):
@@ -288,6 +293,40 @@ def _build_kernel(force, variant, d, path):
     if stray:
         raise DescriptorError(path, "apply", f"expression depends on unknown symbols {sorted(map(str, stray))}")
     return kernel
+
+
+H = sp.Symbol("h", positive=True)
+
+
+def _implicit_form(kernel, bodies):
+    """What the implicit step consumes, so one SIMD evaluation does the products:
+    g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j."""
+    def block(kind, i, j):
+        for b in kernel.blocks:
+            if (b.kind, b.row_body, b.col_body) == (kind, i, j):
+                return sp.Matrix(6, 6, lambda r, c: b.exprs[6 * c + r])
+        return None
+    g, pairs, K = [], [], []
+    for i in range(len(bodies)):
+        gi = sp.Matrix(kernel.forces[6 * i:6 * i + 6])
+        for j, bj in enumerate(bodies):
+            J = block("dd", i, j)
+            if J is not None:
+                gi += H * J * sp.Matrix(bj.u)
+        g += list(gi)
+    for i in range(len(bodies)):
+        for j in range(len(bodies)):
+            Jd, Ju = block("dd", i, j), block("du", i, j)
+            if Jd is None and Ju is None:
+                continue
+            Kij = sp.zeros(6, 6)
+            if Ju is not None:
+                Kij += H * Ju
+            if Jd is not None:
+                Kij += H * H * Jd
+            pairs.append((i, j))
+            K += [Kij[r, c] for c in range(6) for r in range(6)]
+    return {"outputs": g + K, "pairs": pairs}
 
 
 def _total_derivative(expr, z, let_syms, deriv):

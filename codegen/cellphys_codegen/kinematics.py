@@ -88,6 +88,10 @@ class Body:
         "angular_velocity": ["wx", "wy", "wz"],
         "mass": ["m"],
         "inertia_body": ["Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"],
+        # the pose at which world-frame contact geometry was measured (the island's start):
+        # attached points follow the body from there, whatever state a stage evaluates
+        "ref_position": ["rpx", "rpy", "rpz"],
+        "ref_orientation": ["rqw", "rqx", "rqy", "rqz"],
     }
 
     def __init__(self, tag, ctx):
@@ -121,8 +125,11 @@ class Body:
         return self.ctx.vector(("R", self.tag, tuple(r)), f"{self.tag}_r", self.R * r)
 
     def offset_of(self, p):
-        """p - x as preamble symbols (p in world coordinates)."""
-        return self.ctx.vector(("off", self.tag, tuple(p)), f"{self.tag}_o", p - self.x0)
+        """Where the material point that was at world p (at the reference pose) is now, relative
+        to the centre of mass: R R_ref^T (p - x_ref), as preamble symbols."""
+        x_ref = sp.Matrix(self.field_syms["ref_position"])
+        R_ref = quat_to_matrix(*self.field_syms["ref_orientation"])
+        return self.ctx.vector(("off", self.tag, tuple(p)), f"{self.tag}_o", self.R * (R_ref.T * (p - x_ref)))
 
     def inertia_world(self):
         return self.ctx.sym33(("I", self.tag), f"{self.tag}_Iw", self.R * self.inertia_body * self.R.T)

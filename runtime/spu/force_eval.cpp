@@ -18,6 +18,16 @@ struct MaxSizes {
   int inputs = 0, outputs = 0;
 };
 
+// What a pass over the kernels computes: F only; the implicit form (g and K, the products
+// done in SIMD inside the kernel); or F and every Jacobian block (for J v products).
+enum class Mode { forces, implicit, full };
+
+Mode mode_of(const ForceTargets& t) {
+  if (t.jv_out) return Mode::full;
+  if (t.diag_k) return Mode::implicit;
+  return Mode::forces;
+}
+
 MaxSizes max_sizes() {
   MaxSizes m;
   visit_kernels([&](auto k) {
@@ -30,33 +40,40 @@ MaxSizes max_sizes() {
 
 // One instance's bodies and its slice of a batch's outputs.
 template <class K>
-void scatter(const ForceTargets& t, const int (&body)[2], const float* out, bool jacobians) {
+void scatter(const ForceTargets& t, const int (&body)[2], const float* out, Mode mode) {
   for (int k = 0; k < K::kBodies; ++k) {
     float* f = t.forces + kVecFloats * body[k];
     for (int r = 0; r < 6; ++r) f[padded(r)] += out[6 * k + r];
   }
-  if (!jacobians) return;
-  if constexpr (K::kNumBlocks > 0) {
-    const float h = t.h;
-    for (int s = 0; s < K::kNumBlocks; ++s) {
-      const BlockSlot slot = K::kBlocks[s];
-      const float* B = out + 6 * K::kBodies + 36 * s;
-      const int i = body[slot.row_body], j = body[slot.col_body];
-      const bool dd = slot.kind == BlockKind::dF_ddelta;
-      if (t.diag_k) {
+  if (mode == Mode::implicit) {
+    if constexpr (K::kNumImplicitBlocks > 0) {
+      for (int s = 0; s < K::kNumImplicitBlocks; ++s) {
+        const int i = body[K::kImplicitBlocks[s].row_body], j = body[K::kImplicitBlocks[s].col_body];
         float* target = i == j ? t.diag_k + kBlockFloats * i : t.offdiag_k + kBlockFloats * t.structure->find(i, j);
-        block_add_dense(dd ? h * h : h, B, target);
+        block_add_dense(1.0f, out + 6 * K::kBodies + 36 * s, target);
       }
-      if (dd && t.u0) dense_mul_add(h, B, t.u0 + kVecFloats * j, t.forces + kVecFloats * i);
-      if (dd && t.jv_out) dense_mul_add(1.0f, B, t.jv_in + kVecFloats * j, t.jv_out + kVecFloats * i);
+    }
+  } else if (mode == Mode::full) {
+    if constexpr (K::kNumBlocks > 0) {
+      for (int s = 0; s < K::kNumBlocks; ++s) {
+        const BlockSlot slot = K::kBlocks[s];
+        if (slot.kind != BlockKind::dF_ddelta) continue;
+        const int i = body[slot.row_body], j = body[slot.col_body];
+        dense_mul_add(1.0f, out + 6 * K::kBodies + 36 * s, t.jv_in + kVecFloats * j, t.jv_out + kVecFloats * i);
+      }
     }
   }
 }
 
 template <class K>
+constexpr int outputs_of(Mode m) {
+  return m == Mode::forces ? 6 * K::kBodies : m == Mode::implicit ? K::kImplicitOutputs : K::kOutputs;
+}
+
+template <class K>
 void run_kernel(const IslandView& v, const ForceTargets& t, const typename K::Instance* inst, int count,
                 bool global, float* scratch) {
-  const bool jacobians = t.diag_k || t.u0 || t.jv_out;
+  const Mode mode = mode_of(t);
   float* in_soa = scratch;                            // kInputs x kLanes
   float* out_soa = scratch + kLanes * K::kInputs;     // kOutputs x kLanes
   alignas(32) Batch in[K::kInputs > 0 ? K::kInputs : 1];
@@ -77,21 +94,23 @@ void run_kernel(const IslandView& v, const ForceTargets& t, const typename K::In
       bodies[l][0] = f->body_a;
       if constexpr (K::kBodies == 2) bodies[l][1] = f->body_b;
       else bodies[l][1] = f->body_a;
-      K::gather(v.bodies, *f, *v.params, lane_in);
+      K::gather(v.bodies, *f, *v.params, lane_in, t.ref);
       for (int k = 0; k < K::kInputs; ++k) in_soa[k * kLanes + l] = lane_in[k];
     }
     for (int k = 0; k < K::kInputs; ++k) in[k] = Batch::load(in_soa + k * kLanes);
-    if (jacobians)
+    if (mode == Mode::implicit)
+      K::template eval_implicit<Batch>(in, Batch(t.h), out);
+    else if (mode == Mode::full)
       K::template eval<Batch>(in, out);
     else
       K::template eval_f<Batch>(in, out);
-    const int n_out = jacobians ? K::kOutputs : 6 * K::kBodies;
+    const int n_out = outputs_of<K>(mode);
     for (int k = 0; k < n_out; ++k) out[k].store(out_soa + k * kLanes);
     float lane_out[K::kOutputs];
     for (int l = 0; l < lanes; ++l) {
       for (int k = 0; k < n_out; ++k) lane_out[k] = out_soa[k * kLanes + l];
       const int b2[2] = {bodies[l][0], bodies[l][1]};
-      scatter<K>(t, b2, lane_out, jacobians);
+      scatter<K>(t, b2, lane_out, mode);
     }
   }
 }

@@ -21,16 +21,17 @@ struct BlockStructure {
 
 struct ForceTargets {
   float* forces = nullptr;  // n * 8: F_i accumulated (padded)
-  // Implicit assembly, all optional:
-  float* diag_k = nullptr;     // n * 48: K_ii += h dF_i/du_i + h^2 dF_i/ddelta_i
-  float* offdiag_k = nullptr;  // nnz * 48: K_ij likewise
+  // Implicit assembly (optional): `forces` then receives g_i = F_i + h dF_i/ddelta_j u_j (u the
+  // bodies' velocities) and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j goes into the blocks.
+  float* diag_k = nullptr;     // n * 48: K_ii
+  float* offdiag_k = nullptr;  // nnz * 48: K_ij
   const BlockStructure* structure = nullptr;
   float h = 0.0f;
-  const float* u0 = nullptr;   // n * 8: with forces, adds h dF_i/ddelta_j u0_j into `forces`
   // Jacobian product, optional: jv_out_i += dF_i/ddelta_j jv_in_j
   const float* jv_in = nullptr;
   float* jv_out = nullptr;
   uint32_t skip_types = 0;  // bit t set: force type t is not evaluated
+  const float* ref = nullptr;  // n * 8: reference poses (x y z _ w x y z) of contact geometry
 };
 
 /// Bytes of scratch evaluate_forces needs (one batch of inputs and outputs).

@@ -90,8 +90,8 @@ bool assemble(StepContext& c, float tau, uint32_t skip, float* p_out) {
   t.offdiag_k = ws.blocks;
   t.structure = &ws.structure;
   t.h = tau;
-  t.u0 = ws.u0;
   t.skip_types = skip;
+  t.ref = ws.ref;
   evaluate_forces(v, t, ws.force_scratch);
   return scale_system(ws.structure, ws.w, tau, ws.diag, ws.blocks, ws.forces, p_out);
 }
@@ -117,6 +117,13 @@ bool run_solve(StepContext& c, const float* rhs, float* x) {
 
 bool prepare(StepContext& c) {
   Workspace& ws = *c.ws;
+  for (int i = 0; i < ws.n; ++i) {  // the pose the island's contact geometry was measured at
+    const Rigid_Body& b = c.island.bodies[i];
+    float* r = ws.ref + kVecFloats * i;
+    std::memcpy(r, b.position, 12);
+    r[3] = 0.0f;
+    std::memcpy(r + 4, b.orientation, 16);
+  }
   if (!ws.structure.row_start) return true;
   return build_structure(c.island, ws.structure, ws.pair_scratch, ws.pair_capacity);
 }
@@ -169,6 +176,7 @@ bool step_explicit(StepContext& c, float h, bool symplectic) {
   zero_floats(ws.forces, size_t(ws.n) * kVecFloats);
   ForceTargets t;
   t.forces = ws.forces;
+  t.ref = ws.ref;
   evaluate_forces(v, t, ws.force_scratch);
   accelerations(v, ws.forces);
   for (int i = 0; i < ws.n; ++i)
@@ -223,6 +231,7 @@ bool step_rk4(StepContext& c, float h) {
     zero_floats(ws.k1, size_t(n) * kVecFloats);
     ForceTargets t;
     t.forces = ws.k1;
+    t.ref = ws.ref;
     evaluate_forces(v, t, ws.force_scratch);
     accelerations(v, ws.k1);
     for (int i = 0; i < n; ++i) {
@@ -292,6 +301,7 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
   {
     ForceTargets t;
     t.forces = ws.jv;
+    t.ref = ws.ref;
     evaluate_forces(v, t, ws.force_scratch);
   }
   // g2 = M0 W_s F_s - 2 M0 ku1 + tau dF/ddelta(y0) fdelta2, fdelta2 = -u0 + (h - 2 tau) ku1,
@@ -318,6 +328,7 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
     ForceTargets t;
     t.forces = ws.x;
     t.jv_in = ws.forces;
+    t.ref = ws.ref;
     t.jv_out = ws.diag;  // scratch
     zero_floats(ws.diag, size_t(n) * kVecFloats);
     evaluate_forces(v, t, ws.force_scratch);

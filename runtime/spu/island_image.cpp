@@ -65,10 +65,23 @@ const char* status_name(IslandStatus s) {
   return "?";
 }
 
-uint32_t fnv1a(const unsigned char* p, size_t n, uint32_t seed) {
-  uint32_t h = seed;
-  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 16777619u;
-  return h;
+uint32_t checksum(const unsigned char* p, size_t n, uint32_t seed) {
+  constexpr uint64_t kPrime = 0x100000001B3ull;
+  uint64_t h[4] = {0xCBF29CE484222325ull ^ seed, 0x84222325CBF29CE4ull ^ seed, 0x9E3779B97F4A7C15ull ^ seed,
+                   0xC2B2AE3D27D4EB4Full ^ seed};
+  size_t i = 0;
+  for (; i + 32 <= n; i += 32)
+    for (int k = 0; k < 4; ++k) {
+      uint64_t w;
+      std::memcpy(&w, p + i + 8 * k, 8);
+      h[k] = (h[k] ^ w) * kPrime;
+    }
+  for (; i < n; ++i) h[0] = (h[0] ^ p[i]) * kPrime;
+  uint64_t x = h[0] ^ (h[1] * 3) ^ (h[2] * 5) ^ (h[3] * 7);
+  x ^= x >> 29;
+  x *= 0xBF58476D1CE4E5B9ull;
+  x ^= x >> 32;
+  return static_cast<uint32_t>(x);
 }
 
 IslandLayout island_layout(uint32_t num_bodies, uint32_t num_sections) {
@@ -113,7 +126,7 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
   if (h.max_halvings > 16) return "max_halvings over 16";
   const IslandLayout l = island_layout(h.num_bodies, h.num_sections);
   if (l.instances > bytes) return "too short for its bodies";
-  if (fnv1a(image + sizeof(Island_Header), bytes - sizeof(Island_Header)) != h.checksum) return "checksum mismatch";
+  if (checksum(image + sizeof(Island_Header), bytes - sizeof(Island_Header)) != h.checksum) return "checksum mismatch";
   IslandView v = view_island(const_cast<unsigned char*>(image));
   size_t expect = l.instances;
   bool seen[kNumForceTypes] = {};
@@ -236,7 +249,7 @@ std::vector<unsigned char> IslandBuilder::finish() const {
   std::memcpy(img.data(), &h, sizeof h);
   IslandView v = view_island(img.data());
   v.header->num_blocks = count_offdiagonal_blocks(v);
-  v.header->checksum = fnv1a(img.data() + sizeof(Island_Header), total - sizeof(Island_Header));
+  v.header->checksum = checksum(img.data() + sizeof(Island_Header), total - sizeof(Island_Header));
   return img;
 }
 

@@ -37,8 +37,10 @@ const char* status_name(IslandStatus s);
 
 inline constexpr size_t align16(size_t n) { return (n + 15) / 16 * 16; }
 
-/// FNV-1a over a byte range: cheap, and enough to catch a corrupted transfer.
-uint32_t fnv1a(const unsigned char* p, size_t n, uint32_t seed = 2166136261u);
+/// Checksum of a byte range, chainable through `seed`: four independent 64-bit FNV-style
+/// multiply-xor lanes over 8-byte words (a byte-wise FNV-1a cost a third of a step), folded
+/// to 32 bits. Catches corrupted or truncated transfers; it is not cryptographic.
+uint32_t checksum(const unsigned char* p, size_t n, uint32_t seed = 0x811C9DC5u);
 
 /// Offsets of the parts of an image, computed from its counts.
 struct IslandLayout {

@@ -177,7 +177,7 @@ IslandReport ComputeWorker::step(const unsigned char* image, size_t bytes, unsig
   res->solver_code = r.solver_code;
   res->local_store_bytes = static_cast<uint32_t>(r.footprint.total);
   res->total_bytes = static_cast<uint32_t>(result_bytes(h.num_bodies));
-  res->checksum = fnv1a(bodies_src, bodies_bytes, fnv1a(reinterpret_cast<unsigned char*>(steps), steps_bytes));
+  res->checksum = checksum(bodies_src, bodies_bytes, checksum(reinterpret_cast<unsigned char*>(steps), steps_bytes));
   const size_t head_bytes = align16(sizeof(Island_Result));
   dma_.put(result, out, head_bytes + steps_bytes, kTagOut);
   if (ok)

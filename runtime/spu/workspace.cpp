@@ -19,7 +19,7 @@ bool implicit(Integrator i) {
 
 // Floats per body of each state vector an integrator keeps.
 struct VectorPlan {
-  int forces = 8, x = 0, u0 = 0, saved = 0, k1 = 0, jv = 0, acc = 0, p = 0;
+  int forces = 8, ref = 8, x = 0, u0 = 0, saved = 0, k1 = 0, jv = 0, acc = 0, p = 0;
 };
 
 VectorPlan plan(Integrator i) {
@@ -59,7 +59,7 @@ Footprint footprint(const IslandCounts& c) {
   b[int(Region::w)] = up(n * sizeof(W_Element));
   const VectorPlan v = plan(c.integrator);
   size_t vec = 0;
-  for (int floats : {v.forces, v.x, v.u0, v.saved, v.k1, v.jv, v.acc}) vec += floats ? up(n * floats * 4) : 0;
+  for (int floats : {v.forces, v.ref, v.x, v.u0, v.saved, v.k1, v.jv, v.acc}) vec += floats ? up(n * floats * 4) : 0;
   b[int(Region::vectors)] = vec;
   size_t scratch = up(force_scratch_bytes());
   if (implicit(c.integrator)) {
@@ -84,6 +84,7 @@ bool allocate_workspace(LocalStore& ls, const IslandCounts& c, Workspace& ws) {
   auto vec = [&](int floats) -> float* { return floats ? ls.allocate_array<float>(size_t(n) * floats, Region::vectors) : nullptr; };
   ws.w = ls.allocate_array<W_Element>(n, Region::w);
   ws.forces = vec(v.forces);
+  ws.ref = vec(v.ref);
   ws.x = vec(v.x);
   ws.u0 = vec(v.u0);
   ws.saved = vec(v.saved);

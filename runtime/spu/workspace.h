@@ -38,6 +38,7 @@ struct Workspace {
   float* forces = nullptr;   // n * 8: F, g, then b̂
   float* x = nullptr;        // n * 8: solution
   float* u0 = nullptr;       // n * 8: start velocities, then new rotation state
+  float* ref = nullptr;      // n * 8: the island's start poses, where its contacts were measured
   float* saved = nullptr;    // n * 16: state at step start (integrators that move bodies in stages)
   float* k1 = nullptr;       // n * 8 (Rosenbrock first stage; RK4 force accumulator)
   float* jv = nullptr;       // n * 8 (Rosenbrock Jacobian product)

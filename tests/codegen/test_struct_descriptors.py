@@ -2,7 +2,7 @@
 import json
 import unittest
 
-from codegen_support import (DescriptorError, DescriptorErrorAssertions, Sandbox, temp_dir, write)
+from codegen_support import DescriptorErrorAssertions, Sandbox, temp_dir, write
 from cellphys_codegen.structs import load_struct, load_structs
 
 GOOD_FIELDS = (

@@ -91,7 +91,7 @@ struct alignas(16) Island_Header {
   uint32_t max_halvings;  ///< @32: u32. how many times a failed step may halve its size
   float step;  ///< @36: f32. step size h (s)
   float tolerance;  ///< @40: f32. relative tolerance of the linear solve (and of the adaptive step error)
-  uint32_t checksum;  ///< @44: u32. FNV-1a of every byte after the header
+  uint32_t checksum;  ///< @44: u32. checksum() of every byte after the header
   uint32_t island_id;  ///< @48: u32. caller's tag, returned in the result
   unsigned char pad_52[12];
 };
@@ -188,7 +188,7 @@ struct alignas(16) Island_Result {
   uint32_t solver_code;  ///< @32: u32. last failing solver code (0 when none failed)
   uint32_t local_store_bytes;  ///< @36: u32. peak local-store use of this island, double buffers included
   uint32_t total_bytes;  ///< @40: u32. size of the whole result
-  uint32_t checksum;  ///< @44: u32. FNV-1a of every byte after the header
+  uint32_t checksum;  ///< @44: u32. checksum() of every byte after the header
 };
 static_assert(sizeof(Island_Result) == 48, "Island_Result: size differs from the descriptor");
 static_assert(alignof(Island_Result) == 16, "Island_Result: alignment differs from the descriptor");

@@ -24,9 +24,12 @@ struct Air_Drag_Body_Kernel {
       {BlockKind::dF_du, 0, 0},
   };
 
-  /// One instance's inputs, as scalars, from the packed island.
+  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
+  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
+  /// when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
-                            [[maybe_unused]] const Island_Params& g, float* in) {
+                            [[maybe_unused]] const Island_Params& g, float* in,
+                            [[maybe_unused]] const float* ref = nullptr) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
     in[0] = a.velocity[0];
     in[1] = a.velocity[1];
@@ -82,6 +85,82 @@ struct Air_Drag_Body_Kernel {
     out[18] = o8;
     out[19] = o9;
     out[20] = ((-(o2*o5)) - o4);
+    out[21] = S(0);
+    out[22] = S(0);
+    out[23] = S(0);
+    out[24] = S(0);
+    out[25] = S(0);
+    out[26] = S(0);
+    out[27] = S(0);
+    out[28] = S(0);
+    out[29] = S(0);
+    out[30] = S(0);
+    out[31] = S(0);
+    out[32] = S(0);
+    out[33] = S(0);
+    out[34] = S(0);
+    out[35] = S(0);
+    out[36] = S(0);
+    out[37] = S(0);
+    out[38] = S(0);
+    out[39] = S(0);
+    out[40] = S(0);
+    out[41] = S(0);
+  }
+
+  /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
+  /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 40
+  static constexpr int kNumImplicitBlocks = 1;
+  static constexpr int kImplicitOutputs = 42;
+  static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
+      {BlockKind::dF_du, 0, 0},
+  };
+
+  template <class S>
+  static inline void eval_implicit([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_vx = in[0];
+    [[maybe_unused]] const S a_vy = in[1];
+    [[maybe_unused]] const S a_vz = in[2];
+    [[maybe_unused]] const S p_drag = in[3];
+    [[maybe_unused]] const S p_wind0 = in[4];
+    [[maybe_unused]] const S p_wind1 = in[5];
+    [[maybe_unused]] const S p_wind2 = in[6];
+    const S L_vrel0 = (a_vx - p_wind0);
+    const S L_vrel1 = (a_vy - p_wind1);
+    const S L_vrel2 = (a_vz - p_wind2);
+    const S o0 = (L_vrel0*L_vrel0);
+    const S o1 = (L_vrel1*L_vrel1);
+    const S o2 = (L_vrel2*L_vrel2);
+    const S o3 = sqrt((o0 + o1 + o2));
+    const S o4 = (o3*p_drag);
+    const S o5 = (p_drag/(o3));
+    const S o6 = (L_vrel0*h*o5);
+    const S o7 = (-(L_vrel1*o6));
+    const S o8 = (-(L_vrel2*o6));
+    const S o9 = (-(L_vrel1*L_vrel2*h*o5));
+    out[0] = (-(L_vrel0*o4));
+    out[1] = (-(L_vrel1*o4));
+    out[2] = (-(L_vrel2*o4));
+    out[3] = S(0);
+    out[4] = S(0);
+    out[5] = S(0);
+    out[6] = (h*((-(o0*o5)) - o4));
+    out[7] = o7;
+    out[8] = o8;
+    out[9] = S(0);
+    out[10] = S(0);
+    out[11] = S(0);
+    out[12] = o7;
+    out[13] = (h*((-(o1*o5)) - o4));
+    out[14] = o9;
+    out[15] = S(0);
+    out[16] = S(0);
+    out[17] = S(0);
+    out[18] = o8;
+    out[19] = o9;
+    out[20] = (h*((-(o2*o5)) - o4));
     out[21] = S(0);
     out[22] = S(0);
     out[23] = S(0);

@@ -25,9 +25,12 @@ struct Damping_Body_Kernel {
       {BlockKind::dF_du, 0, 0},
   };
 
-  /// One instance's inputs, as scalars, from the packed island.
+  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
+  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
+  /// when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
-                            [[maybe_unused]] const Island_Params& g, float* in) {
+                            [[maybe_unused]] const Island_Params& g, float* in,
+                            [[maybe_unused]] const float* ref = nullptr) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
     in[0] = a.orientation[0];
     in[1] = a.orientation[1];
@@ -205,6 +208,143 @@ struct Damping_Body_Kernel {
     out[75] = o22;
     out[76] = o23;
     out[77] = (-o12);
+  }
+
+  /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
+  /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 229
+  static constexpr int kNumImplicitBlocks = 1;
+  static constexpr int kImplicitOutputs = 42;
+  static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
+      {BlockKind::dF_du, 0, 0},
+  };
+
+  template <class S>
+  static inline void eval_implicit([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_qw = in[0];
+    [[maybe_unused]] const S a_qx = in[1];
+    [[maybe_unused]] const S a_qy = in[2];
+    [[maybe_unused]] const S a_qz = in[3];
+    [[maybe_unused]] const S a_vx = in[4];
+    [[maybe_unused]] const S a_vy = in[5];
+    [[maybe_unused]] const S a_vz = in[6];
+    [[maybe_unused]] const S a_wx = in[7];
+    [[maybe_unused]] const S a_wy = in[8];
+    [[maybe_unused]] const S a_wz = in[9];
+    [[maybe_unused]] const S a_m = in[10];
+    [[maybe_unused]] const S a_Ixx = in[11];
+    [[maybe_unused]] const S a_Iyy = in[12];
+    [[maybe_unused]] const S a_Izz = in[13];
+    [[maybe_unused]] const S a_Ixy = in[14];
+    [[maybe_unused]] const S a_Ixz = in[15];
+    [[maybe_unused]] const S a_Iyz = in[16];
+    [[maybe_unused]] const S p_linear = in[17];
+    [[maybe_unused]] const S p_angular = in[18];
+    // body-frame quantities rotated to world
+    const S p0_0 = (S(2)*a_qw);
+    const S p0_1 = (a_qz*p0_0);
+    const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
+    const S p0_3 = (S(2)*(a_qy*a_qy));
+    const S p0_4 = ((S(2)*(a_qz*a_qz)) - S(1));
+    const S p0_5 = ((-p0_3) - p0_4);
+    const S p0_6 = (a_qy*p0_0);
+    const S p0_7 = (S(2)*a_qx);
+    const S p0_8 = ((a_qz*p0_7) + p0_6);
+    const S p0_9 = ((a_Ixy*p0_5) + (a_Iyy*p0_2) + (a_Iyz*p0_8));
+    const S p0_10 = ((a_Ixz*p0_5) + (a_Iyz*p0_2) + (a_Izz*p0_8));
+    const S p0_11 = ((a_Ixx*p0_5) + (a_Ixy*p0_2) + (a_Ixz*p0_8));
+    const S p0_12 = (a_qx*p0_0);
+    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
+    const S p0_14 = ((a_qy*p0_7) + p0_1);
+    const S p0_15 = (S(2)*(a_qx*a_qx));
+    const S p0_16 = ((-p0_15) - p0_4);
+    const S p0_17 = ((a_Ixz*p0_14) + (a_Iyz*p0_16) + (a_Izz*p0_13));
+    const S p0_18 = ((a_Ixx*p0_14) + (a_Ixy*p0_16) + (a_Ixz*p0_13));
+    const S p0_19 = ((a_Ixy*p0_14) + (a_Iyy*p0_16) + (a_Iyz*p0_13));
+    const S p0_20 = ((S(2)*a_qx*a_qz) - p0_6);
+    const S p0_21 = ((S(2)*a_qy*a_qz) + p0_12);
+    const S p0_22 = ((-p0_15) - p0_3 + S(1));
+    const S a_Iw0_00 = ((p0_10*p0_8) + (p0_11*p0_5) + (p0_2*p0_9));
+    const S a_Iw0_11 = ((p0_13*p0_17) + (p0_14*p0_18) + (p0_16*p0_19));
+    const S a_Iw0_22 = ((p0_20*((a_Ixx*p0_20) + (a_Ixy*p0_21) + (a_Ixz*p0_22))) + (p0_21*((a_Ixy*p0_20) + (a_Iyy*p0_21) + (a_Iyz*p0_22))) + (p0_22*((a_Ixz*p0_20) + (a_Iyz*p0_21) + (a_Izz*p0_22))));
+    const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
+    const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
+    const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    const S o0 = (a_m*p_linear);
+    const S o1 = (a_wx*p_angular);
+    const S o2 = (a_wy*p_angular);
+    const S o3 = (a_Iw0_01*o2);
+    const S o4 = (a_wz*p_angular);
+    const S o5 = (a_Iw0_02*o4);
+    const S o6 = (a_Iw0_01*o4);
+    const S o7 = (a_Iw0_02*o2);
+    const S o8 = ((-o6) + o7);
+    const S o9 = (a_Iw0_12*o2);
+    const S o10 = (-a_Iw0_22);
+    const S o11 = ((-a_Iw0_00) - o10);
+    const S o12 = (a_Iw0_02*o1);
+    const S o13 = ((-(o11*o4)) - (S(2)*o12) - o9);
+    const S o14 = (a_Iw0_12*o4);
+    const S o15 = (a_Iw0_00 - a_Iw0_11);
+    const S o16 = (a_Iw0_01*o1);
+    const S o17 = (o14 - (o15*o2) + (S(2)*o16));
+    const S o18 = (a_Iw0_11 + o10);
+    const S o19 = (o12 - (o18*o4) + (S(2)*o9));
+    const S o20 = (-(a_Iw0_12*o1));
+    const S o21 = (o20 + o6);
+    const S o22 = ((-(o1*o15)) - (S(2)*o3) - o5);
+    const S o23 = ((S(-1)*S(2)*o14) - o16 - (o18*o2));
+    const S o24 = ((-(o1*o11)) + o3 + (S(2)*o5));
+    const S o25 = ((-o20) - o7);
+    const S o26 = (-(h*o0));
+    const S o27 = (h*h);
+    const S o28 = (h*p_angular);
+    const S o29 = (a_Iw0_01*o28);
+    const S o30 = (a_Iw0_02*o28);
+    const S o31 = (a_Iw0_12*o28);
+    out[0] = (-(a_vx*o0));
+    out[1] = (-(a_vy*o0));
+    out[2] = (-(a_vz*o0));
+    out[3] = ((-(a_Iw0_00*o1)) + (a_wx*h*o8) + (a_wy*h*o13) + (a_wz*h*o17) - o3 - o5);
+    out[4] = ((-(a_Iw0_11*o2)) + (a_wx*h*o19) + (a_wy*h*o21) + (a_wz*h*o22) - o14 - o16);
+    out[5] = ((-(a_Iw0_22*o4)) + (a_wx*h*o23) + (a_wy*h*o24) + (a_wz*h*o25) - o12 - o9);
+    out[6] = o26;
+    out[7] = S(0);
+    out[8] = S(0);
+    out[9] = S(0);
+    out[10] = S(0);
+    out[11] = S(0);
+    out[12] = S(0);
+    out[13] = o26;
+    out[14] = S(0);
+    out[15] = S(0);
+    out[16] = S(0);
+    out[17] = S(0);
+    out[18] = S(0);
+    out[19] = S(0);
+    out[20] = o26;
+    out[21] = S(0);
+    out[22] = S(0);
+    out[23] = S(0);
+    out[24] = S(0);
+    out[25] = S(0);
+    out[26] = S(0);
+    out[27] = ((-(a_Iw0_00*o28)) + (o27*o8));
+    out[28] = ((o19*o27) - o29);
+    out[29] = ((o23*o27) - o30);
+    out[30] = S(0);
+    out[31] = S(0);
+    out[32] = S(0);
+    out[33] = ((o13*o27) - o29);
+    out[34] = ((-(a_Iw0_11*o28)) + (o21*o27));
+    out[35] = ((o24*o27) - o31);
+    out[36] = S(0);
+    out[37] = S(0);
+    out[38] = S(0);
+    out[39] = ((o17*o27) - o30);
+    out[40] = ((o22*o27) - o31);
+    out[41] = ((-(a_Iw0_22*o28)) + (o25*o27));
   }
 
   /// F alone (the first 6 * kBodies outputs of eval). Total ops: 137

@@ -22,9 +22,12 @@ struct Gravity_Body_Kernel {
   static constexpr int kOps = 3;
   static constexpr BlockSlot* kBlocks = nullptr;
 
-  /// One instance's inputs, as scalars, from the packed island.
+  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
+  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
+  /// when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
-                            [[maybe_unused]] const Island_Params& g, float* in) {
+                            [[maybe_unused]] const Island_Params& g, float* in,
+                            [[maybe_unused]] const float* ref = nullptr) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
     in[0] = a.mass;
     in[1] = g.gravity[0];
@@ -40,6 +43,28 @@ struct Gravity_Body_Kernel {
     const S g_gravity0 = in[1];
     const S g_gravity1 = in[2];
     const S g_gravity2 = in[3];
+    out[0] = (a_m*g_gravity0);
+    out[1] = (a_m*g_gravity1);
+    out[2] = (a_m*g_gravity2);
+    out[3] = S(0);
+    out[4] = S(0);
+    out[5] = S(0);
+  }
+
+  /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
+  /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 3
+  static constexpr int kNumImplicitBlocks = 0;
+  static constexpr int kImplicitOutputs = 6;
+  static constexpr BlockSlot* kImplicitBlocks = nullptr;
+
+  template <class S>
+  static inline void eval_implicit([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_m = in[0];
+    [[maybe_unused]] const S g_gravity0 = in[1];
+    [[maybe_unused]] const S g_gravity1 = in[2];
+    [[maybe_unused]] const S g_gravity2 = in[3];
     out[0] = (a_m*g_gravity0);
     out[1] = (a_m*g_gravity1);
     out[2] = (a_m*g_gravity2);

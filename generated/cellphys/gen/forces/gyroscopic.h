@@ -16,7 +16,7 @@ struct Gyroscopic_Body_Kernel {
   static constexpr ForceType kType = ForceType::gyroscopic;
   static constexpr KernelVariant kVariant = KernelVariant::body;
   static constexpr int kBodies = 1;
-  static constexpr int kInputs = 13;
+  static constexpr int kInputs = 16;
   static constexpr int kNumBlocks = 2;
   static constexpr int kOutputs = 78;
   static constexpr int kOps = 215;
@@ -25,23 +25,29 @@ struct Gyroscopic_Body_Kernel {
       {BlockKind::dF_du, 0, 0},
   };
 
-  /// One instance's inputs, as scalars, from the packed island.
+  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
+  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
+  /// when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
-                            [[maybe_unused]] const Island_Params& g, float* in) {
+                            [[maybe_unused]] const Island_Params& g, float* in,
+                            [[maybe_unused]] const float* ref = nullptr) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
     in[0] = a.orientation[0];
     in[1] = a.orientation[1];
     in[2] = a.orientation[2];
     in[3] = a.orientation[3];
-    in[4] = a.angular_velocity[0];
-    in[5] = a.angular_velocity[1];
-    in[6] = a.angular_velocity[2];
-    in[7] = a.inertia_body[0];
-    in[8] = a.inertia_body[1];
-    in[9] = a.inertia_body[2];
-    in[10] = a.inertia_body[3];
-    in[11] = a.inertia_body[4];
-    in[12] = a.inertia_body[5];
+    in[4] = a.velocity[0];
+    in[5] = a.velocity[1];
+    in[6] = a.velocity[2];
+    in[7] = a.angular_velocity[0];
+    in[8] = a.angular_velocity[1];
+    in[9] = a.angular_velocity[2];
+    in[10] = a.inertia_body[0];
+    in[11] = a.inertia_body[1];
+    in[12] = a.inertia_body[2];
+    in[13] = a.inertia_body[3];
+    in[14] = a.inertia_body[4];
+    in[15] = a.inertia_body[5];
   }
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).
@@ -52,15 +58,18 @@ struct Gyroscopic_Body_Kernel {
     const S a_qx = in[1];
     const S a_qy = in[2];
     const S a_qz = in[3];
-    const S a_wx = in[4];
-    const S a_wy = in[5];
-    const S a_wz = in[6];
-    const S a_Ixx = in[7];
-    const S a_Iyy = in[8];
-    const S a_Izz = in[9];
-    const S a_Ixy = in[10];
-    const S a_Ixz = in[11];
-    const S a_Iyz = in[12];
+    const S a_vx = in[4];
+    const S a_vy = in[5];
+    const S a_vz = in[6];
+    const S a_wx = in[7];
+    const S a_wy = in[8];
+    const S a_wz = in[9];
+    const S a_Ixx = in[10];
+    const S a_Iyy = in[11];
+    const S a_Izz = in[12];
+    const S a_Ixy = in[13];
+    const S a_Ixz = in[14];
+    const S a_Iyz = in[15];
     // body-frame quantities rotated to world
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
@@ -208,6 +217,157 @@ struct Gyroscopic_Body_Kernel {
     out[77] = o31;
   }
 
+  /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
+  /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 264
+  static constexpr int kNumImplicitBlocks = 1;
+  static constexpr int kImplicitOutputs = 42;
+  static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
+      {BlockKind::dF_du, 0, 0},
+  };
+
+  template <class S>
+  static inline void eval_implicit([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
+    using namespace cellphys::simd;
+    [[maybe_unused]] const S a_qw = in[0];
+    [[maybe_unused]] const S a_qx = in[1];
+    [[maybe_unused]] const S a_qy = in[2];
+    [[maybe_unused]] const S a_qz = in[3];
+    [[maybe_unused]] const S a_vx = in[4];
+    [[maybe_unused]] const S a_vy = in[5];
+    [[maybe_unused]] const S a_vz = in[6];
+    [[maybe_unused]] const S a_wx = in[7];
+    [[maybe_unused]] const S a_wy = in[8];
+    [[maybe_unused]] const S a_wz = in[9];
+    [[maybe_unused]] const S a_Ixx = in[10];
+    [[maybe_unused]] const S a_Iyy = in[11];
+    [[maybe_unused]] const S a_Izz = in[12];
+    [[maybe_unused]] const S a_Ixy = in[13];
+    [[maybe_unused]] const S a_Ixz = in[14];
+    [[maybe_unused]] const S a_Iyz = in[15];
+    // body-frame quantities rotated to world
+    const S p0_0 = (S(2)*a_qw);
+    const S p0_1 = (a_qz*p0_0);
+    const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
+    const S p0_3 = (S(2)*(a_qy*a_qy));
+    const S p0_4 = ((S(2)*(a_qz*a_qz)) - S(1));
+    const S p0_5 = ((-p0_3) - p0_4);
+    const S p0_6 = (a_qy*p0_0);
+    const S p0_7 = (S(2)*a_qx);
+    const S p0_8 = ((a_qz*p0_7) + p0_6);
+    const S p0_9 = ((a_Ixy*p0_5) + (a_Iyy*p0_2) + (a_Iyz*p0_8));
+    const S p0_10 = ((a_Ixz*p0_5) + (a_Iyz*p0_2) + (a_Izz*p0_8));
+    const S p0_11 = ((a_Ixx*p0_5) + (a_Ixy*p0_2) + (a_Ixz*p0_8));
+    const S p0_12 = (a_qx*p0_0);
+    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
+    const S p0_14 = ((a_qy*p0_7) + p0_1);
+    const S p0_15 = (S(2)*(a_qx*a_qx));
+    const S p0_16 = ((-p0_15) - p0_4);
+    const S p0_17 = ((a_Ixz*p0_14) + (a_Iyz*p0_16) + (a_Izz*p0_13));
+    const S p0_18 = ((a_Ixx*p0_14) + (a_Ixy*p0_16) + (a_Ixz*p0_13));
+    const S p0_19 = ((a_Ixy*p0_14) + (a_Iyy*p0_16) + (a_Iyz*p0_13));
+    const S p0_20 = ((S(2)*a_qx*a_qz) - p0_6);
+    const S p0_21 = ((S(2)*a_qy*a_qz) + p0_12);
+    const S p0_22 = ((-p0_15) - p0_3 + S(1));
+    const S a_Iw0_00 = ((p0_10*p0_8) + (p0_11*p0_5) + (p0_2*p0_9));
+    const S a_Iw0_11 = ((p0_13*p0_17) + (p0_14*p0_18) + (p0_16*p0_19));
+    const S a_Iw0_22 = ((p0_20*((a_Ixx*p0_20) + (a_Ixy*p0_21) + (a_Ixz*p0_22))) + (p0_21*((a_Ixy*p0_20) + (a_Iyy*p0_21) + (a_Iyz*p0_22))) + (p0_22*((a_Ixz*p0_20) + (a_Iyz*p0_21) + (a_Izz*p0_22))));
+    const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
+    const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
+    const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    const S o0 = (a_Iw0_01*a_wx);
+    const S o1 = (a_Iw0_11*a_wy);
+    const S o2 = (a_Iw0_12*a_wz);
+    const S o3 = (o1 + o2);
+    const S o4 = (o0 + o3);
+    const S o5 = (a_Iw0_02*a_wx);
+    const S o6 = (a_Iw0_12*a_wy);
+    const S o7 = (a_Iw0_22*a_wz);
+    const S o8 = (o6 + o7);
+    const S o9 = (o5 + o8);
+    const S o10 = (-a_Iw0_22);
+    const S o11 = (a_Iw0_11 + o10);
+    const S o12 = (o0 + (S(2)*o2));
+    const S o13 = ((a_wy*o11) + o12);
+    const S o14 = (o5 + (S(2)*o6));
+    const S o15 = ((a_wz*o11) - o14);
+    const S o16 = ((-(a_wy*o13)) + (a_wz*o15));
+    const S o17 = (a_wx*h);
+    const S o18 = ((-a_Iw0_00) - o10);
+    const S o19 = (a_Iw0_01*a_wy);
+    const S o20 = (a_Iw0_02*a_wz);
+    const S o21 = (o19 + (S(2)*o20));
+    const S o22 = ((a_wx*o18) - o21);
+    const S o23 = (a_Iw0_01*a_wz);
+    const S o24 = (-(a_Iw0_12*a_wx));
+    const S o25 = ((-o23) - o24);
+    const S o26 = ((-(a_wy*o22)) + (a_wz*o25));
+    const S o27 = (a_wy*h);
+    const S o28 = (a_Iw0_02*a_wy);
+    const S o29 = (o24 + o28);
+    const S o30 = (a_Iw0_00 - a_Iw0_11);
+    const S o31 = ((S(2)*o19) + o20);
+    const S o32 = ((a_wx*o30) + o31);
+    const S o33 = ((-(a_wy*o29)) + (a_wz*o32));
+    const S o34 = (a_wz*h);
+    const S o35 = (a_Iw0_00*a_wx);
+    const S o36 = (o19 + o20 + o35);
+    const S o37 = (o23 - o28);
+    const S o38 = ((a_wx*o13) - (a_wz*o37));
+    const S o39 = (S(2)*o5);
+    const S o40 = ((a_wz*o18) + o39 + o6);
+    const S o41 = ((a_wx*o22) - (a_wz*o40));
+    const S o42 = (S(2)*o0);
+    const S o43 = ((a_wy*o30) - o2 - o42);
+    const S o44 = ((a_wx*o29) - (a_wz*o43));
+    const S o45 = ((-(a_wx*o15)) + (a_wy*o37));
+    const S o46 = ((-(a_wx*o25)) + (a_wy*o40));
+    const S o47 = ((-(a_wx*o32)) + (a_wy*o43));
+    const S o48 = (h*h);
+    out[0] = S(0);
+    out[1] = S(0);
+    out[2] = S(0);
+    out[3] = ((-(a_wy*o9)) + (a_wz*o4) + (o16*o17) + (o26*o27) + (o33*o34));
+    out[4] = ((a_wx*o9) - (a_wz*o36) + (o17*o38) + (o27*o41) + (o34*o44));
+    out[5] = ((-(a_wx*o4)) + (a_wy*o36) + (o17*o45) + (o27*o46) + (o34*o47));
+    out[6] = S(0);
+    out[7] = S(0);
+    out[8] = S(0);
+    out[9] = S(0);
+    out[10] = S(0);
+    out[11] = S(0);
+    out[12] = S(0);
+    out[13] = S(0);
+    out[14] = S(0);
+    out[15] = S(0);
+    out[16] = S(0);
+    out[17] = S(0);
+    out[18] = S(0);
+    out[19] = S(0);
+    out[20] = S(0);
+    out[21] = S(0);
+    out[22] = S(0);
+    out[23] = S(0);
+    out[24] = S(0);
+    out[25] = S(0);
+    out[26] = S(0);
+    out[27] = ((h*o37) + (o16*o48));
+    out[28] = ((h*((-(a_Iw0_00*a_wz)) + o39 + o8)) + (o38*o48));
+    out[29] = ((h*((a_Iw0_00*a_wy) - o3 - o42)) + (o45*o48));
+    out[30] = S(0);
+    out[31] = S(0);
+    out[32] = S(0);
+    out[33] = ((h*((a_Iw0_11*a_wz) - o14 - o7)) + (o26*o48));
+    out[34] = ((h*o25) + (o41*o48));
+    out[35] = ((h*((-(a_Iw0_11*a_wx)) + o31 + o35)) + (o46*o48));
+    out[36] = S(0);
+    out[37] = S(0);
+    out[38] = S(0);
+    out[39] = ((h*((-(a_Iw0_22*a_wy)) + o1 + o12)) + (o33*o48));
+    out[40] = ((h*((a_Iw0_22*a_wx) - o21 - o35)) + (o44*o48));
+    out[41] = ((h*o29) + (o47*o48));
+  }
+
   /// F alone (the first 6 * kBodies outputs of eval). Total ops: 133
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, S* out) {
@@ -216,15 +376,18 @@ struct Gyroscopic_Body_Kernel {
     [[maybe_unused]] const S a_qx = in[1];
     [[maybe_unused]] const S a_qy = in[2];
     [[maybe_unused]] const S a_qz = in[3];
-    [[maybe_unused]] const S a_wx = in[4];
-    [[maybe_unused]] const S a_wy = in[5];
-    [[maybe_unused]] const S a_wz = in[6];
-    [[maybe_unused]] const S a_Ixx = in[7];
-    [[maybe_unused]] const S a_Iyy = in[8];
-    [[maybe_unused]] const S a_Izz = in[9];
-    [[maybe_unused]] const S a_Ixy = in[10];
-    [[maybe_unused]] const S a_Ixz = in[11];
-    [[maybe_unused]] const S a_Iyz = in[12];
+    [[maybe_unused]] const S a_vx = in[4];
+    [[maybe_unused]] const S a_vy = in[5];
+    [[maybe_unused]] const S a_vz = in[6];
+    [[maybe_unused]] const S a_wx = in[7];
+    [[maybe_unused]] const S a_wy = in[8];
+    [[maybe_unused]] const S a_wz = in[9];
+    [[maybe_unused]] const S a_Ixx = in[10];
+    [[maybe_unused]] const S a_Iyy = in[11];
+    [[maybe_unused]] const S a_Izz = in[12];
+    [[maybe_unused]] const S a_Ixy = in[13];
+    [[maybe_unused]] const S a_Ixz = in[14];
+    [[maybe_unused]] const S a_Iyz = in[15];
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);

@@ -222,13 +222,23 @@ template <class K> const Probe& probe() {
 }
 
 template <class T, class K>
-std::vector<T> eval_case(const Case<K>& c) {
+std::vector<T> inputs(const Case<K>& c) {
   const std::vector<Source>& src = probe<K>().src;
-  std::vector<T> in(K::kInputs), out(K::kOutputs);
+  std::vector<T> in(K::kInputs);
   for (int i = 0; i < K::kInputs; ++i) in[i] = T(c.region(src[i].region)[src[i].word]);
-  K::template eval<T>(in.data(), out.data());
+  return in;
+}
+
+template <class T, class K>
+std::vector<T> eval_case(const Case<K>& c) {
+  std::vector<T> out(K::kOutputs);
+  K::template eval<T>(inputs<T>(c).data(), out.data());
   return out;
 }
+
+// The implicit step's form (eval_implicit), where the generator provides it.
+template <class K, class = void> struct HasImplicit : std::false_type {};
+template <class K> struct HasImplicit<K, std::void_t<decltype(K::kImplicitOutputs)>> : std::true_type {};
 
 // ---- Random states --------------------------------------------------------------------------
 
@@ -242,21 +252,31 @@ struct Rng {
   Quat rotation() { Quat q(gauss(), gauss(), gauss(), gauss()); return q.norm() > 1e-6 ? q.normalized() : rotation(); }
 };
 
-void random_body(Rng& rng, double* b) {
+// A rotated, moving body with off-diagonal inertia; `ref` gets its reference pose, which is
+// the current pose or, half the time, where it was before a small rigid motion (a later stage).
+void random_body(Rng& rng, double* b, double* ref) {
   const double m = rng.uni(0.5, 5);
   // SPD inertia, non-diagonal in body axes: principal moments within a factor 2 (so the
   // triangle inequality holds) in random principal axes Q.
   const Mat3 Q = rng.rotation().toRotationMatrix();
   const Vec3 d = m * rng.vec(0.05, 0.1);
   const Mat3 I = Q * d.asDiagonal() * Q.transpose(), Ii = I.inverse();
-  set3(b + kPos, rng.vec(-1, 1));
-  set_quat(b, rng.rotation());
+  Vec3 x = rng.vec(-1, 1);
+  Quat q = rng.rotation();
+  set3(ref, x);
+  ref[4] = q.w(); ref[5] = q.x(); ref[6] = q.y(); ref[7] = q.z();
+  if (rng.uni(0, 1) < 0.5) {
+    x += rng.vec(-0.05, 0.05);
+    q = (Quat(Eigen::AngleAxisd(rng.uni(0, 0.2), rng.unit())) * q).normalized();
+  }
+  set3(b + kPos, x);
+  set_quat(b, q);
   set3(b + kVel, rng.vec(-1, 1));
   set3(b + kAngVel, rng.vec(-2, 2));
-  const double sym[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+  const int sym[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
   for (int k = 0; k < 6; ++k) {
-    b[kInertia + k] = I(int(sym[k][0]), int(sym[k][1]));
-    b[kInvInertia + k] = Ii(int(sym[k][0]), int(sym[k][1]));
+    b[kInertia + k] = I(sym[k][0], sym[k][1]);
+    b[kInvInertia + k] = Ii(sym[k][0], sym[k][1]);
   }
   b[kMass] = m;
   b[kInvMass] = 1 / m;
@@ -270,20 +290,28 @@ template <class K> Vec3 attachment(const Case<K>& c, const char* name, int body)
   return B.x + B.R * r;
 }
 
-struct ContactRef { Vec3 p, f; double depth, vn, k, c; };
-// Contact at the start of the step (delta = 0), straight from the descriptor's physics.
+struct ContactRef { Vec3 pa, pb, f; double depth, vn, k, c; };
+// The contact straight from the descriptor: pa, pb are the material points of a and b that were
+// at `point` at the reference pose (the current pose for kernels without one), the world's is
+// `point` itself; depth = penetration - (pb - pa).n.
 template <class K> ContactRef contact_ref(const Case<K>& c) {
   ContactRef r;
-  r.p = vec3_at(param(c, "point"));
-  const Vec3 n = vec3_at(param(c, "normal"));
-  r.depth = *param(c, "penetration");
+  const Vec3 p = vec3_at(param(c, "point")), n = vec3_at(param(c, "normal"));
   r.k = global(c, "contact_stiffness");
   r.c = global(c, "contact_damping");
   const double mu = *param(c, "friction"), slip = global(c, "slip_velocity");
-  const BodyD A = body_of(c.body[0]), B = body_of(c.body[1]);
-  const Vec3 va = A.v + A.w.cross(r.p - A.x);
-  const Vec3 vb = kPair<K> ? Vec3(B.v + B.w.cross(r.p - B.x)) : Vec3::Zero();
-  const Vec3 vrel = vb - va;
+  Vec3 vel[2];
+  for (int body = 0; body < 2; ++body) {
+    Vec3& at = body ? r.pb : r.pa;
+    if (body == 1 && !kPair<K>) { at = p; vel[1].setZero(); continue; }
+    const BodyD B = body_of(c.body[body]);
+    const Pose ref = probe<K>().reads_ref ? ref_pose(c.ref + kRefWords * body) : Pose{B.x, B.R};
+    const Vec3 off = B.R * ref.R.transpose() * (p - ref.x);
+    at = B.x + off;
+    vel[body] = B.v + B.w.cross(off);
+  }
+  r.depth = *param(c, "penetration") - n.dot(r.pb - r.pa);
+  const Vec3 vrel = vel[1] - vel[0];
   r.vn = n.dot(vrel);
   const double fn = r.depth > 0 ? std::max(0.0, r.k * r.depth - r.c * r.vn) : 0.0;
   const Vec3 vt = vrel - r.vn * n;
@@ -298,8 +326,8 @@ Case<K> random_case(Rng& rng) {
   const auto& fi = info_of(K::kType);
   for (;;) {
     Case<K> c;
-    random_body(rng, c.body[0]);
-    random_body(rng, c.body[1]);
+    random_body(rng, c.body[0], c.ref);
+    random_body(rng, c.body[1], c.ref + kRefWords);
     for (const auto& gi : g::kGlobalTable)
       for (uint32_t l = 0; l < gi.param.lanes; ++l)
         c.glob[gi.param.offset / 4 + l] = gi.param.lanes == 1 ? gi.default_value[l] * rng.uni(0.5, 2)
@@ -321,7 +349,10 @@ Case<K> random_case(Rng& rng) {
       if (L < 0.3) continue;
       *rest = rng.uni(0.2, 0.8) * L;
     }
-    if (contact_like<K>()) {  // stay well clear of the positive_part kink so FD sees one branch
+    if (contact_like<K>()) {
+      // Overlapping by 0.001..0.05 once the bodies' motion since the reference pose is counted,
+      // and well clear of the positive_part kink so central differences stay on one branch.
+      *param(c, "penetration") += rng.uni(0.001, 0.05) - contact_ref(c).depth;
       const ContactRef r = contact_ref(c);
       if (r.k * r.depth - r.c * r.vn < 0.5 * r.k * r.depth) continue;
     }
@@ -352,11 +383,9 @@ Blocks kernel_blocks(const std::vector<T>& out) {
   return B;
 }
 
-// Moves body `body` by +h along coordinate j of delta (kind 0) or u (kind 1). Rotations are
-// exact: q <- exp(h e) (x) q. For contact the instance is carried along, because its point is
-// a material point of both bodies (attached_point): it moves with the perturbed body, the
-// other body is translated with it so its own offset is unchanged, and the relative motion
-// along the normal goes into penetration -- exactly the descriptor's depth and arms.
+// Moves body `body` by +h along coordinate j of delta (kind 0) or u (kind 1); rotations are
+// exact, q <- exp(h e) (x) q. The reference pose stays put: the contact points are material
+// points that follow the body from there.
 template <class K>
 void perturb(Case<K>& c, int body, int kind, int j, double h) {
   double* b = c.body[body];
@@ -372,10 +401,14 @@ void perturb(Case<K>& c, int body, int kind, int j, double h) {
     set_quat(b, (Quat(aa) * quat_at(b)).normalized());
   }
   set3(b + kPos, x0 + dx);
-  if (contact_like<K>()) {
+  if (contact_like<K>() && !probe<K>().reads_ref) {
+    // A kernel without a reference pose measures the contact at the current pose, so the
+    // instance is carried along instead: the point moves with the perturbed body, the other
+    // body is translated with it (its offset unchanged), and the relative motion along the
+    // normal goes into penetration -- the descriptor's depth and arms.
     const Vec3 p0 = vec3_at(param(c, "point")), n = vec3_at(param(c, "normal"));
     const Vec3 p1 = x0 + dx + Rd * (p0 - x0);
-    *param(c, "penetration") -= (body == 0 ? p0 - p1 : p1 - p0).dot(n);  // depth = pen - (pb - pa).n
+    *param(c, "penetration") -= (body == 0 ? p0 - p1 : p1 - p0).dot(n);
     set3(param(c, "point"), p1);
     if (kPair<K>) {
       double* o = c.body[1 - body] + kPos;
@@ -384,13 +417,14 @@ void perturb(Case<K>& c, int body, int kind, int j, double h) {
   }
 }
 
-// Central differences. h = 1e-6: truncation ~h^2 |F'''|/|F'| <= 1e-12 / (0.005)^2 ~ 4e-8 even at the
-// shortest length scale here (slip_velocity regularising friction), while roundoff ~eps |F| / h
-// ~ 1e-10 |F|; both well below the 1e-6 tolerance (1e-5 would let friction truncation through).
+// Central differences. h = 1e-6: truncation ~h^2 |F'''|/|F'| <= 1e-12 / (0.005)^2 ~ 4e-8 even at
+// the shortest length scale here (slip_velocity regularising friction), while roundoff
+// ~eps |F| / h ~ 1e-10 |F|; both well below the 1e-6 tolerance (1e-5 would let friction
+// truncation through).
 constexpr double kFdStep = 1e-6;
 
 template <class K>
-Blocks fd_blocks(const Case<K>& c, const std::vector<Source>& src) {
+Blocks fd_blocks(const Case<K>& c) {
   Blocks B;
   for (int body = 0; body < K::kBodies; ++body)
     for (int kind = 0; kind < 2; ++kind)
@@ -398,7 +432,7 @@ Blocks fd_blocks(const Case<K>& c, const std::vector<Source>& src) {
         Case<K> cp = c, cm = c;
         perturb(cp, body, kind, j, kFdStep);
         perturb(cm, body, kind, j, -kFdStep);
-        const auto fp = eval_case<double>(cp, src), fm = eval_case<double>(cm, src);
+        const auto fp = eval_case<double>(cp), fm = eval_case<double>(cm);
         for (int row = 0; row < K::kBodies; ++row)
           for (int i = 0; i < 6; ++i) B.m[kind][row][body](i, j) = (fp[6 * row + i] - fm[6 * row + i]) / (2 * kFdStep);
       }
@@ -413,11 +447,8 @@ double f_norm(const std::vector<double>& out, int bodies) {
 
 struct Worst {
   double err = 0;
-  std::string where;
-  void add(double e, const std::string& w) { if (!(e <= err)) { err = e; where = w; } }  // NaN wins
+  void add(double e) { if (!(e <= err)) err = e; }  // NaN sticks
 };
-
-const char* kKindName[2] = {"dF_ddelta", "dF_du"};
 
 std::string sci(double x) {
   char b[32];
@@ -425,20 +456,20 @@ std::string sci(double x) {
   return b;
 }
 
-// For kStates random states: the norm-wise relative error of every listed block against FD or,
-// with `unlisted`, the size of every FD block kBlocks leaves out. J_of(case) gives the kernel's blocks.
+const char* kKindName[2] = {"dF_ddelta", "dF_du"};
 constexpr int kStates = 32;
 
+// For kStates random states: the norm-wise relative error of every listed block against FD or,
+// with `unlisted`, the size of every FD block kBlocks leaves out. J_of(case) gives the kernel's.
 template <class K, class JOf>
 void check_jacobians(uint64_t seed, double tol, bool unlisted, JOf J_of) {
   SCOPED_TRACE(kernel_name<K>());
-  std::vector<Source> src;
-  ASSERT_TRUE(probe_inputs<K>(src));
+  ASSERT_TRUE(probe<K>().ok);
   Rng rng(seed);
-  Worst listed_w, zero_w;
+  Worst worst;
   for (int s = 0; s < kStates; ++s) {
     const Case<K> c = random_case<K>(rng);
-    const Blocks fd = fd_blocks(c, src), J = J_of(c, src);
+    const Blocks fd = fd_blocks(c), J = J_of(c);
     // Absolute floor per kind: 1e-2 of the largest listed block, far above FD noise (~1e-10 |F|)
     // yet small enough that an error in a minor block still shows.
     double scale[2] = {0, 0};
@@ -446,26 +477,25 @@ void check_jacobians(uint64_t seed, double tol, bool unlisted, JOf J_of) {
       for (int r = 0; r < K::kBodies; ++r)
         for (int col = 0; col < K::kBodies; ++col)
           if (J.listed[k][r][col]) scale[k] = std::max(scale[k], fd.m[k][r][col].norm());
-    const double any_scale = std::max({scale[0], scale[1], f_norm(eval_case<double>(c, src), K::kBodies), 1e-300});
+    const double any_scale = std::max({scale[0], scale[1], f_norm(eval_case<double>(c), K::kBodies), 1e-300});
     for (int k = 0; k < 2; ++k)
       for (int r = 0; r < K::kBodies; ++r)
         for (int col = 0; col < K::kBodies; ++col) {
           const std::string where = "state " + std::to_string(s) + " " + kKindName[k] + " row " +
                                     std::to_string(r) + " col " + std::to_string(col);
+          const Mat6& f = fd.m[k][r][col];
           if (J.listed[k][r][col] && !unlisted) {
-            const double e = (J.m[k][r][col] - fd.m[k][r][col]).norm() /
-                             std::max({fd.m[k][r][col].norm(), 1e-2 * scale[k], 1e-300});
-            listed_w.add(e, where);
-            EXPECT_LT(e, tol) << where << "\nkernel:\n" << J.m[k][r][col] << "\nFD:\n" << fd.m[k][r][col];
+            const double e = (J.m[k][r][col] - f).norm() / std::max({f.norm(), 1e-2 * scale[k], 1e-300});
+            worst.add(e);
+            EXPECT_LT(e, tol) << where << "\nkernel:\n" << J.m[k][r][col] << "\nFD:\n" << f;
           } else if (!J.listed[k][r][col] && unlisted) {
-            const double e = fd.m[k][r][col].norm() / any_scale;
-            zero_w.add(e, where);
-            EXPECT_LT(e, 1e-6) << where << " is not listed in kBlocks but FD gives\n" << fd.m[k][r][col];
+            const double e = f.norm() / any_scale;
+            worst.add(e);
+            EXPECT_LT(e, 1e-6) << where << " is not listed in kBlocks but FD gives\n" << f;
           }
         }
   }
-  ::testing::Test::RecordProperty(kernel_name<K>() + (unlisted ? "_worst_unlisted_norm" : "_worst_rel_err"),
-                                  sci(unlisted ? zero_w.err : listed_w.err));
+  ::testing::Test::RecordProperty(kernel_name<K>() + (unlisted ? "_worst_unlisted_norm" : "_worst_rel_err"), sci(worst.err));
 }
 
 // ---- Hand reference of F (independent of the generated code) -------------------------------
@@ -488,11 +518,9 @@ bool reference_force(const Case<K>& c, std::vector<double>& F) {
     if (kPair<K>) put(F, 1, -f_on_a, (pb - B.x).cross(-f_on_a));
   };
   switch (K::kType) {
-    case g::ForceType::gravity: {
-      const double* gv = c.glob + offsetof(g::Island_Params, gravity) / 4;
-      put(F, 0, A.m * vec3_at(gv), Vec3::Zero());
+    case g::ForceType::gravity:
+      put(F, 0, A.m * vec3_at(c.glob + offsetof(g::Island_Params, gravity) / 4), Vec3::Zero());
       return true;
-    }
     case g::ForceType::damping:
       put(F, 0, -*param(c, "linear") * A.m * A.v, -*param(c, "angular") * (A.Iw * A.w));
       return true;
@@ -519,7 +547,7 @@ bool reference_force(const Case<K>& c, std::vector<double>& F) {
     }
     case g::ForceType::contact: {
       const ContactRef r = contact_ref(c);
-      apply_pair(r.p, r.p, -r.f);
+      apply_pair(r.pa, r.pb, -r.f);
       return true;
     }
     default:
@@ -529,46 +557,59 @@ bool reference_force(const Case<K>& c, std::vector<double>& F) {
 
 // ---- SIMD ---------------------------------------------------------------------------------
 
-// Generator bug (see report / ForceKernelSimd.ContactKernelsCompileForBatch): the contact
-// kernels do not compile for S = Batch<W>, so they are left out of the batch comparison.
-template <class K> constexpr bool kBatchCompiles = K::kType != g::ForceType::contact;
+// Lane-wise agreement of a batch result with per-lane float results: relative 1e-5 with a floor
+// of 1e-5 of the largest magnitude in the output's group (the leading F or g, or its 6x6 block).
+template <int W>
+double compare_lanes(const std::vector<std::vector<float>>& want, const std::vector<Batch<W>>& got, int head,
+                     const char* what) {
+  Worst worst;
+  for (int lane = 0; lane < W; ++lane)
+    for (int o = 0; o < int(got.size()); ++o) {
+      const int g0 = o < head ? 0 : o - (o - head) % 36, g1 = o < head ? head : g0 + 36;
+      double scale = 0;
+      for (int q = g0; q < g1; ++q) scale = std::max(scale, double(std::fabs(want[lane][q])));
+      const double w = want[lane][o], v = got[o][lane];
+      worst.add(std::fabs(v - w) / (std::fabs(w) + scale + 1e-30));
+      EXPECT_NEAR(v, w, 1e-5 * (std::fabs(w) + scale) + 1e-30) << what << ", lane " << lane << " output " << o;
+    }
+  return worst.err;
+}
 
 template <int W>
 void check_batch_lanes_match_float() {
   Rng rng(4000 + W);
   g::visit_kernels([&](auto k) {
     using K = decltype(k);
-    if constexpr (kBatchCompiles<K>) {
-      SCOPED_TRACE(kernel_name<K>() + " W=" + std::to_string(W));
-      std::vector<Batch<W>> in(K::kInputs), out(K::kOutputs), fout(6 * K::kBodies);
-      std::vector<std::vector<float>> ref(W, std::vector<float>(K::kOutputs));
-      for (int lane = 0; lane < W; ++lane) {  // lane i = instance i, each gathered from a packed island
-        const Packed<K> p = pack(random_case<K>(rng));
-        std::vector<float> fin(K::kInputs);
-        K::gather(p.bodies, p.inst, p.glob, fin.data());
-        K::template eval<float>(fin.data(), ref[lane].data());
-        for (int i = 0; i < K::kInputs; ++i) in[i].set(lane, fin[i]);
-      }
-      K::template eval<Batch<W>>(in.data(), out.data());
-      K::template eval_f<Batch<W>>(in.data(), fout.data());
-      double worst = 0;
-      for (int lane = 0; lane < W; ++lane)
-        for (int o = 0; o < K::kOutputs; ++o) {
-          // Floor: 1e-5 of the largest magnitude in this output's group (F, or its 6x6 block).
-          const int g0 = o < 6 * K::kBodies ? 0 : o - (o - 6 * K::kBodies) % 36;
-          const int g1 = o < 6 * K::kBodies ? 6 * K::kBodies : g0 + 36;
-          double scale = 0;
-          for (int q = g0; q < g1; ++q) scale = std::max(scale, double(std::fabs(ref[lane][q])));
-          const double want = ref[lane][o], got = out[o][lane];
-          const double tol = 1e-5 * std::fabs(want) + 1e-5 * scale + 1e-30;
-          worst = std::max(worst, std::fabs(got - want) / (std::fabs(want) + scale + 1e-30));
-          EXPECT_NEAR(got, want, tol) << "lane " << lane << " output " << o;
-          if (o < 6 * K::kBodies) {
-            EXPECT_NEAR(fout[o][lane], want, tol) << "eval_f, lane " << lane << " output " << o;
-          }
-        }
-      ::testing::Test::RecordProperty(kernel_name<K>() + "_W" + std::to_string(W) + "_worst_rel_diff", sci(worst));
+    SCOPED_TRACE(kernel_name<K>() + " W=" + std::to_string(W));
+    std::vector<Batch<W>> in(K::kInputs), out(K::kOutputs), fout(6 * K::kBodies);
+    std::vector<std::vector<float>> want(W, std::vector<float>(K::kOutputs)), want_f(W);
+    for (int lane = 0; lane < W; ++lane) {  // lane i = instance i, each gathered from a packed island
+      const Packed<K> p = pack(random_case<K>(rng));
+      std::vector<float> fin(K::kInputs);
+      gather(p, fin.data());
+      K::template eval<float>(fin.data(), want[lane].data());
+      want_f[lane].resize(6 * K::kBodies);
+      K::template eval_f<float>(fin.data(), want_f[lane].data());
+      for (int i = 0; i < K::kInputs; ++i) in[i].set(lane, fin[i]);
     }
+    K::template eval<Batch<W>>(in.data(), out.data());
+    K::template eval_f<Batch<W>>(in.data(), fout.data());
+    double worst = std::max(compare_lanes(want, out, 6 * K::kBodies, "eval"),
+                            compare_lanes(want_f, fout, 6 * K::kBodies, "eval_f"));
+    if constexpr (HasImplicit<K>::value) {
+      Batch<W> h;
+      std::vector<Batch<W>> iout(K::kImplicitOutputs);
+      std::vector<std::vector<float>> want_i(W, std::vector<float>(K::kImplicitOutputs));
+      std::vector<float> fin(K::kInputs);
+      for (int lane = 0; lane < W; ++lane) {
+        h.set(lane, float(rng.uni(1e-4, 1e-2)));
+        for (int i = 0; i < K::kInputs; ++i) fin[i] = in[i][lane];
+        K::template eval_implicit<float>(fin.data(), h[lane], want_i[lane].data());
+      }
+      K::template eval_implicit<Batch<W>>(in.data(), h, iout.data());
+      worst = std::max(worst, compare_lanes(want_i, iout, 6 * K::kBodies, "eval_implicit"));
+    }
+    ::testing::Test::RecordProperty(kernel_name<K>() + "_W" + std::to_string(W) + "_worst_rel_diff", sci(worst));
   });
 }
 
@@ -583,9 +624,9 @@ void for_contact_kernels(Fn fn) {
 }
 
 template <class K>
-void expect_all_outputs_zero(const Case<K>& c, const std::vector<Source>& src, const std::string& what) {
-  const auto od = eval_case<double>(c, src);
-  const auto of = eval_case<float>(c, src);
+void expect_all_outputs_zero(const Case<K>& c, const std::string& what) {
+  const auto od = eval_case<double>(c);
+  const auto of = eval_case<float>(c);
   for (int o = 0; o < K::kOutputs; ++o) {
     EXPECT_EQ(0.0, od[o]) << what << ": double output " << o;
     EXPECT_EQ(0.0f, of[o]) << what << ": float output " << o;
@@ -621,15 +662,23 @@ TEST(ForceKernelInputs, ProbeMapsEveryGatheredInputToOneStateWord) {
   g::visit_kernels([&](auto k) {
     using K = decltype(k);
     SCOPED_TRACE(kernel_name<K>());
-    std::vector<Source> src;
-    ASSERT_TRUE(probe_inputs<K>(src));
-    // The double fill agrees with pack() + gather() on an ordinary random state.
+    const Probe& pr = probe<K>();
+    ASSERT_TRUE(pr.ok);
+    // The double fill agrees with pack() + gather() on an ordinary random state...
     Rng rng(7);
-    const Case<K> c = random_case<K>(rng);
-    const Packed<K> p = pack(c);
-    std::vector<float> in(K::kInputs);
-    K::gather(p.bodies, p.inst, p.glob, in.data());
-    for (int i = 0; i < K::kInputs; ++i) EXPECT_EQ(in[i], float(c.region(src[i].region)[src[i].word])) << "input " << i;
+    Case<K> c = random_case<K>(rng);
+    std::vector<float> in(K::kInputs), in_null(K::kInputs);
+    gather(pack(c), in.data());
+    for (int i = 0; i < K::kInputs; ++i)
+      EXPECT_EQ(in[i], float(c.region(pr.src[i].region)[pr.src[i].word])) << "input " << i;
+    // ...and a null `ref` means "the reference pose is the current pose".
+    for (int b = 0; b < 2; ++b) {
+      set3(c.ref + kRefWords * b, vec3_at(c.body[b] + kPos));
+      for (int l = 0; l < 4; ++l) c.ref[kRefWords * b + 4 + l] = c.body[b][kQuat + l];
+    }
+    gather(pack(c), in.data());
+    gather(pack(c), in_null.data(), /*with_ref=*/false);
+    for (int i = 0; i < K::kInputs; ++i) EXPECT_EQ(in[i], in_null[i]) << "input " << i;
   });
 }
 
@@ -637,7 +686,7 @@ TEST(ForceKernelJacobian, DoubleBlocksMatchCentralDifferencesOfF) {
   g::visit_kernels([&](auto k) {
     using K = decltype(k);
     check_jacobians<K>(1000 + static_cast<int>(K::kType), 1e-6, /*unlisted=*/false,
-                       [](const Case<K>& c, const std::vector<Source>& src) { return kernel_blocks<K>(eval_case<double>(c, src)); });
+                       [](const Case<K>& c) { return kernel_blocks<K>(eval_case<double>(c)); });
   });
 }
 
@@ -645,7 +694,7 @@ TEST(ForceKernelJacobian, UnlistedBlocksAreZeroByFiniteDifferences) {
   g::visit_kernels([&](auto k) {
     using K = decltype(k);
     check_jacobians<K>(2000 + static_cast<int>(K::kType), 1e-6, /*unlisted=*/true,
-                       [](const Case<K>& c, const std::vector<Source>& src) { return kernel_blocks<K>(eval_case<double>(c, src)); });
+                       [](const Case<K>& c) { return kernel_blocks<K>(eval_case<double>(c)); });
   });
 }
 
@@ -653,7 +702,7 @@ TEST(ForceKernelJacobian, FloatBlocksMatchDoubleCentralDifferences) {
   g::visit_kernels([&](auto k) {
     using K = decltype(k);
     check_jacobians<K>(3000 + static_cast<int>(K::kType), 1e-3, /*unlisted=*/false,
-                       [](const Case<K>& c, const std::vector<Source>& src) { return kernel_blocks<K>(eval_case<float>(c, src)); });
+                       [](const Case<K>& c) { return kernel_blocks<K>(eval_case<float>(c)); });
   });
 }
 
@@ -661,17 +710,17 @@ TEST(ForceKernelForce, MatchesIndependentEigenEvaluation) {
   g::visit_kernels([&](auto k) {
     using K = decltype(k);
     SCOPED_TRACE(kernel_name<K>());
-    std::vector<Source> src;
-    ASSERT_TRUE(probe_inputs<K>(src));
+    const Probe& pr = probe<K>();
+    ASSERT_TRUE(pr.ok);
     Rng rng(5000 + static_cast<int>(K::kType));
-    Worst w;
+    Worst worst;
     for (int s = 0; s < kStates; ++s) {
       const Case<K> c = random_case<K>(rng);
       std::vector<double> ref;
       ASSERT_TRUE(reference_force(c, ref)) << "no hand reference for this force: add one to reference_force()";
-      const auto out = eval_case<double>(c, src);
+      const auto out = eval_case<double>(c);
       std::vector<double> in(K::kInputs), fo(6 * K::kBodies);
-      for (int i = 0; i < K::kInputs; ++i) in[i] = c.region(src[i].region)[src[i].word];
+      for (int i = 0; i < K::kInputs; ++i) in[i] = c.region(pr.src[i].region)[pr.src[i].word];
       K::template eval_f<double>(in.data(), fo.data());
       double d = 0, dfo = 0;
       for (int i = 0; i < 6 * K::kBodies; ++i) {
@@ -679,10 +728,60 @@ TEST(ForceKernelForce, MatchesIndependentEigenEvaluation) {
         dfo += (fo[i] - ref[i]) * (fo[i] - ref[i]);
       }
       const double e = std::sqrt(std::max(d, dfo)) / std::max(f_norm(ref, K::kBodies), 1e-300);
-      w.add(e, "state " + std::to_string(s));
+      worst.add(e);
       EXPECT_LT(e, 1e-10) << "state " << s << " (eval or eval_f)";
     }
-    RecordProperty(kernel_name<K>() + "_F_worst_rel_err", sci(w.err));
+    RecordProperty(kernel_name<K>() + "_F_worst_rel_err", sci(worst.err));
+  });
+}
+
+TEST(ForceKernelImplicit, GAndKMatchFAndBlocksOfEval) {
+  g::visit_kernels([&](auto k) {
+    using K = decltype(k);
+    if constexpr (HasImplicit<K>::value) {
+      SCOPED_TRACE(kernel_name<K>());
+      ASSERT_TRUE(probe<K>().ok);
+      // K_ij exists exactly for the body pairs with a dF/ddelta or dF/du block.
+      const Blocks listed = kernel_blocks<K>(std::vector<double>(K::kOutputs));
+      int pairs = 0;
+      for (int i = 0; i < K::kBodies; ++i)
+        for (int j = 0; j < K::kBodies; ++j) pairs += listed.listed[0][i][j] || listed.listed[1][i][j];
+      ASSERT_EQ(pairs, K::kNumImplicitBlocks);
+      ASSERT_EQ(K::kImplicitOutputs, 6 * K::kBodies + 36 * K::kNumImplicitBlocks);
+      Rng rng(8000 + static_cast<int>(K::kType));
+      Worst worst;
+      for (int s = 0; s < kStates; ++s) {
+        const Case<K> c = random_case<K>(rng);
+        const double h = rng.uni(1e-4, 1e-2);
+        const std::vector<double> out = eval_case<double>(c);
+        const Blocks J = kernel_blocks<K>(out);
+        std::vector<double> io(K::kImplicitOutputs);
+        K::template eval_implicit<double>(inputs<double>(c).data(), h, io.data());
+        for (int i = 0; i < K::kBodies; ++i) {
+          Eigen::Matrix<double, 6, 1> g = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&out[6 * i]), Ju;
+          double scale = g.norm();
+          for (int j = 0; j < K::kBodies; ++j) {
+            Eigen::Matrix<double, 6, 1> u;
+            u << vec3_at(c.body[j] + kVel), vec3_at(c.body[j] + kAngVel);
+            Ju = h * J.m[0][i][j] * u;
+            g += Ju;
+            scale += Ju.norm();
+          }
+          const double e = (Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&io[6 * i]) - g).norm() / std::max(scale, 1e-300);
+          worst.add(e);
+          EXPECT_LT(e, 1e-12) << "state " << s << " g_" << i;
+        }
+        for (int b = 0; b < K::kNumImplicitBlocks; ++b) {
+          const g::BlockSlot p = K::kImplicitBlocks[b];
+          const Mat6 want = h * J.m[1][p.row_body][p.col_body] + h * h * J.m[0][p.row_body][p.col_body];
+          const double scale = h * J.m[1][p.row_body][p.col_body].norm() + h * h * J.m[0][p.row_body][p.col_body].norm();
+          const double e = (Eigen::Map<const Mat6>(&io[6 * K::kBodies + 36 * b]) - want).norm() / std::max(scale, 1e-300);
+          worst.add(e);
+          EXPECT_LT(e, 1e-12) << "state " << s << " K_" << p.row_body << p.col_body;
+        }
+      }
+      RecordProperty(kernel_name<K>() + "_implicit_worst_rel_err", sci(worst.err));
+    }
   });
 }
 
@@ -690,24 +789,18 @@ TEST(ForceKernelSimd, Batch4LanesMatchScalarFloat) { check_batch_lanes_match_flo
 TEST(ForceKernelSimd, Batch8LanesMatchScalarFloat) { check_batch_lanes_match_float<8>(); }
 TEST(ForceKernelSimd, Batch16LanesMatchScalarFloat) { check_batch_lanes_match_float<16>(); }
 
-TEST(ForceKernelSimd, ContactKernelsCompileForBatch) {
-  GTEST_SKIP() << "generator bug: contact eval<Batch<W>> does not compile -- sympy.cse hoists the "
-                  "comparisons of where()/positive_part() into 'const S' temporaries (contact.h: "
-                  "'const S l5_0_1 = (l5_0_0 > S(0));'), and Mask<W> does not convert to Batch<W>. "
-                  "Remove kBatchCompiles once fixed.";
-}
-
 TEST(ContactKernel, NoForceAndNoBlocksWhenSeparated) {
   for_contact_kernels([](auto k) {
     using K = decltype(k);
     SCOPED_TRACE(kernel_name<K>());
-    std::vector<Source> src;
-    ASSERT_TRUE(probe_inputs<K>(src));
+    ASSERT_TRUE(probe<K>().ok);
     Rng rng(6000);
     for (int s = 0; s < kStates; ++s) {
       Case<K> c = random_case<K>(rng);
-      *param(c, "penetration") = s == 0 ? 0.0 : -rng.uni(1e-4, 0.05);  // touching counts as separated
-      expect_all_outputs_zero(c, src, "depth <= 0, state " + std::to_string(s));
+      // depth exactly 0 is left out: it is computed, so its sign there is rounding noise
+      *param(c, "penetration") += -rng.uni(1e-6, 0.05) - contact_ref(c).depth;
+      ASSERT_LT(contact_ref(c).depth, 0);
+      expect_all_outputs_zero(c, "depth < 0, state " + std::to_string(s));
     }
   });
 }
@@ -716,8 +809,7 @@ TEST(ContactKernel, NormalForceClampsToZeroWhenSeparatingFast) {
   for_contact_kernels([](auto k) {
     using K = decltype(k);
     SCOPED_TRACE(kernel_name<K>());
-    std::vector<Source> src;
-    ASSERT_TRUE(probe_inputs<K>(src));
+    ASSERT_TRUE(probe<K>().ok);
     Rng rng(7000);
     for (int s = 0; s < kStates; ++s) {
       Case<K> c = random_case<K>(rng);
@@ -725,11 +817,12 @@ TEST(ContactKernel, NormalForceClampsToZeroWhenSeparatingFast) {
       // Make c vn = (1.5..10) k depth: overlapping, but separating faster than the spring pushes.
       const double dvn = rng.uni(1.5, 10) * r.k * r.depth / r.c - r.vn;
       const Vec3 n = vec3_at(param(c, "normal"));
-      double* v = kPair<K> ? c.body[1] + kVel : c.body[0] + kVel;  // vrel = v_b(p) - v_a(p)
+      double* v = kPair<K> ? c.body[1] + kVel : c.body[0] + kVel;  // vrel = v_b(pb) - v_a(pa)
       set3(v, vec3_at(v) + (kPair<K> ? dvn : -dvn) * n);
-      ASSERT_GT(contact_ref(c).depth, 0);
-      ASSERT_LT(r.k * r.depth - r.c * contact_ref(c).vn, 0);
-      expect_all_outputs_zero(c, src, "separating fast, state " + std::to_string(s));
+      const ContactRef r2 = contact_ref(c);
+      ASSERT_GT(r2.depth, 0);
+      ASSERT_LT(r2.k * r2.depth - r2.c * r2.vn, 0);
+      expect_all_outputs_zero(c, "separating fast, state " + std::to_string(s));
     }
   });
 }

@@ -8,6 +8,7 @@ from pathlib import Path
 import jinja2
 
 from . import block_ops, cxx_printer
+from .errors import DescriptorError
 from .forces import camel, island_globals, load_forces
 from .structs import layout, load_structs
 
@@ -94,21 +95,41 @@ def _kernel_view(k, src_root):
     )
 
 
+def _kernel_view_of(f, k, src_root):
+    try:
+        return _kernel_view(k, src_root)
+    except cxx_printer.UnsupportedExpression as e:
+        raise DescriptorError(f.source, "apply", str(e)) from None
+
+
+def _cstr(text):
+    """A descriptor's text inside a C++ string literal."""
+    return str(text).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "\\r")
+
+
+def _comment(text):
+    """A descriptor's text inside a // comment: one line."""
+    return " ".join(str(text).split())
+
+
 def render(structs_dir, force_dirs, src_root):
     src_root = Path(src_root).resolve()
     structs = load_structs(structs_dir)
     forces = load_forces(force_dirs, structs)
     rel = lambda p: os.path.relpath(Path(p).resolve(), src_root)  # noqa: E731
-    named = {s.name for s in structs}
+    named = {s.name: s for s in structs}
     struct_views = [_struct_view(s, rel(s.source)) for s in structs]
     for f in forces:
         if f.instance.name not in named:
             struct_views.append(_struct_view(f.instance, rel(f.source)))
-            named.add(f.instance.name)
+            named[f.instance.name] = f.instance
+        elif named[f.instance.name] is not f.instance:
+            raise DescriptorError(f.source, "instance", f"the derived instance struct {f.instance.name} clashes with "
+                                  f"the struct declared in {named[f.instance.name].source}; name it with 'instance:'")
     globals_ = island_globals(forces)
     gstruct = layout("Island_Params", "Island-wide parameters of the forces (their globals).", 16,
                      [{"name": g.name, "type": g.type, "doc": g.doc} for g in
-                      sorted(globals_, key=lambda g: g.type != "vec3")], "(globals)")
+                      sorted(globals_, key=lambda g: g.type != "vec3")], "(globals)", allow_empty=True)
     struct_views.append(_struct_view(gstruct, "the globals of the force descriptors"))
     force_views = []
     for i, f in enumerate(forces):
@@ -120,7 +141,7 @@ def render(structs_dir, force_dirs, src_root):
                          min=p.min, doc=p.doc) for p in f.params],
             globals=[g.name for g in f.globals],
             body_b=inst.field("body_b") is not None,
-            kernels=[_kernel_view(k, src_root) for k in f.kernels],
+            kernels=[_kernel_view_of(f, k, src_root) for k in f.kernels],
         ))
     global_views = [dict(name=g.name, type=g.type, lanes=g.lanes, offset=gstruct.field(g.name).offset,
                          default=g.default, min=g.min, doc=g.doc) for g in globals_]
@@ -132,6 +153,7 @@ def render(structs_dir, force_dirs, src_root):
                              undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
                              keep_trailing_newline=True)
     env.globals.update(HEADER=HEADER, prow=block_ops.padded_row)
+    env.filters.update(cstr=_cstr, comment=_comment)
     out = {}
     out["cellphys/gen/layouts.h"] = env.get_template("layouts.h.j2").render(structs=struct_views)
     out["cellphys/gen/kernel_types.h"] = env.get_template("kernel_types.h.j2").render(forces=force_views)
@@ -161,7 +183,8 @@ def write_tree(files, out_dir):
             fh.write(text)
         os.replace(tmp, dst)
     keep = {(out_dir / r).resolve() for r in files}
-    for p in sorted(out_dir.rglob("*")):
+    # only the generator's own folder is cleaned: a mistyped --out never wipes a tree
+    for p in sorted((out_dir / "cellphys" / "gen").rglob("*")):
         if p.is_file() and p.resolve() not in keep and p.name != ".stamp":
             p.unlink()
 
@@ -172,9 +195,12 @@ def diff_tree(files, ref_dir):
     chunks = []
     existing = {str(p.relative_to(ref_dir)) for p in ref_dir.rglob("*") if p.is_file() and p.name != ".stamp"}
     for relpath in sorted(set(files) | existing):
-        new = files.get(relpath, "")
-        old = (ref_dir / relpath).read_text() if relpath in existing else ""
+        new = files.get(relpath)
+        old = (ref_dir / relpath).read_text() if relpath in existing else None
         if new != old:
-            chunks += difflib.unified_diff(old.splitlines(True), new.splitlines(True),
-                                           f"checked-in/{relpath}", f"fresh/{relpath}")
+            diff = "".join(difflib.unified_diff((old or "").splitlines(True), (new or "").splitlines(True),
+                                                f"checked-in/{relpath}", f"fresh/{relpath}"))
+            if not diff:  # an empty file on one side only
+                diff = f"--- checked-in/{relpath}\n+++ fresh/{relpath}\n@@ {'only in the checked-in tree' if new is None else 'missing from the checked-in tree'} @@\n"
+            chunks.append(diff)
     return "".join(chunks)

@@ -19,10 +19,13 @@ def evaluate(text, names, path, where):
         return sp.Float(text) if isinstance(text, float) else sp.Integer(text)
     if not isinstance(text, str):
         raise DescriptorError(path, where, f"expected an expression string, got {type(text).__name__}")
+    if len(text) > 4000:
+        raise DescriptorError(path, where, "expression longer than 4000 characters: split it into lets")
     try:
         tree = ast.parse(text, mode="eval")
-    except SyntaxError as e:
-        raise DescriptorError(path, where, f"expression does not parse: {e.msg} in {text!r}") from None
+    except (SyntaxError, RecursionError) as e:
+        raise DescriptorError(path, where, f"expression does not parse: {getattr(e, 'msg', type(e).__name__)} "
+                              f"in {text!r}") from None
     for node in ast.walk(tree):
         if not isinstance(node, _ALLOWED):
             raise DescriptorError(path, where, f"{type(node).__name__} is not allowed in {text!r}")
@@ -36,6 +39,12 @@ def evaluate(text, names, path, where):
             if node.attr not in BODY_ATTRIBUTES:
                 raise DescriptorError(path, where, f"a body has no attribute {node.attr!r} "
                                       f"(known: {sorted(BODY_ATTRIBUTES)}) in {text!r}")
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow) and not (
+                isinstance(node.right, ast.Constant) or
+                (isinstance(node.right, ast.UnaryOp) and isinstance(node.right.operand, ast.Constant))):
+            raise DescriptorError(path, where, f"exponents must be constants in {text!r}")
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and abs(node.value) > 1e30:
+            raise DescriptorError(path, where, f"constant {node.value!r} is out of range in {text!r}")
         if isinstance(node, ast.Compare) and len(node.ops) != 1:
             raise DescriptorError(path, where, f"chained comparisons are not allowed in {text!r}")
         if isinstance(node, ast.Constant) and (isinstance(node.value, bool) or not isinstance(node.value, (int, float))):
@@ -44,8 +53,8 @@ def evaluate(text, names, path, where):
     env.update(names)
     try:
         value = eval(compile(tree, str(path), "eval"), {"__builtins__": {}}, env)  # noqa: S307 (validated above)
-    except (TypeError, ValueError, AttributeError, sp.ShapeError, ZeroDivisionError) as e:
-        raise DescriptorError(path, where, f"cannot evaluate {text!r}: {e}") from None
+    except (TypeError, ValueError, AttributeError, sp.ShapeError, ZeroDivisionError, RecursionError) as e:
+        raise DescriptorError(path, where, f"cannot evaluate {text!r}: {e or type(e).__name__}") from None
     if isinstance(value, (int, float)):
         value = sp.sympify(value)
     return value

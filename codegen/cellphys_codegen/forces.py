@@ -2,13 +2,16 @@
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import math
+
 import sympy as sp
-import yaml
 
 from . import kinematics as km
+from . import names as naming
+from . import yaml_loader
 from .errors import DescriptorError
 from .expressions import evaluate
-from .structs import layout
+from .structs import layout, unknown_keys
 
 KINDS = ("global", "unary", "binary")
 PARAM_TYPES = ("f32", "vec3")
@@ -91,26 +94,29 @@ def _params(path, raw, where, keys):
     out = []
     for name, spec in raw.items():
         loc = f"{where}.{name}"
-        if not isinstance(name, str) or not name.isidentifier():
-            raise DescriptorError(path, loc, f"{name!r} is not a valid identifier")
-        if name in km.FUNCTIONS or name in ("a", "b"):
+        why = naming.problem(name, "param")
+        if why:
+            raise DescriptorError(path, loc, why)
+        if name in km.FUNCTIONS or name in ("a", "b", "h"):
             raise DescriptorError(path, loc, f"{name!r} is a reserved name")
         if not isinstance(spec, dict):
             raise DescriptorError(path, loc, "must be a mapping with at least 'type'")
-        unknown = set(spec) - keys
+        unknown = unknown_keys(spec, keys)
         if unknown:
-            raise DescriptorError(path, loc, f"unknown key(s) {sorted(unknown)}")
+            raise DescriptorError(path, loc, f"unknown key(s) {unknown}")
         if "type" not in spec:
             raise DescriptorError(path, loc, "missing 'type'")
-        if spec["type"] not in PARAM_TYPES:
+        if not isinstance(spec["type"], str) or spec["type"] not in PARAM_TYPES:
             raise DescriptorError(path, f"{loc}.type", f"unknown type {spec['type']!r} (known: {', '.join(PARAM_TYPES)})")
         p = Param(name, spec["type"], spec.get("doc", ""), spec.get("min"))
-        if p.min is not None and (isinstance(p.min, bool) or not isinstance(p.min, (int, float))):
-            raise DescriptorError(path, f"{loc}.min", f"must be a number, got {p.min!r}")
+        if p.min is not None and (isinstance(p.min, bool) or not isinstance(p.min, (int, float))
+                                  or not math.isfinite(p.min)):
+            raise DescriptorError(path, f"{loc}.min", f"must be a number (and finite), got {p.min!r}")
         if "default" in spec or keys is GLOBAL_KEYS:
             d = spec.get("default")
             d = d if isinstance(d, list) else [d]
-            if len(d) != p.lanes or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in d):
+            if len(d) != p.lanes or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x)
+                                        for x in d):
                 raise DescriptorError(path, f"{loc}.default", f"must be {p.lanes} number(s), got {spec.get('default')!r} (YAML reads 1e5 as text: write 1.0e+5 or 100000.0)")
             p.default = [float(x) for x in d]
         out.append(p)
@@ -121,7 +127,7 @@ def _instance_struct(path, d, name, kind, params, structs):
     """The packed instance layout: a named struct descriptor, checked, or derived from params."""
     body_fields = {"global": ["body_a"], "unary": ["body_a"], "binary": ["body_a", "body_b"]}[kind]
     if "instance" in d:
-        s = structs.get(d["instance"])
+        s = structs.get(d["instance"]) if isinstance(d["instance"], str) else None
         if s is None:
             raise DescriptorError(path, "instance", f"no struct descriptor named {d['instance']!r}")
         for p in params:
@@ -144,21 +150,19 @@ def _instance_struct(path, d, name, kind, params, structs):
 
 def load_force(path, structs):
     path = Path(path)
-    try:
-        d = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as e:
-        raise DescriptorError(path, "(file)", f"not valid YAML: {e}") from None
+    d = yaml_loader.load(path)
     if not isinstance(d, dict):
         raise DescriptorError(path, "(file)", "must be a mapping")
-    unknown = set(d) - TOP_KEYS
+    unknown = unknown_keys(d, TOP_KEYS)
     if unknown:
-        raise DescriptorError(path, "(top level)", f"unknown key(s) {sorted(unknown)}")
+        raise DescriptorError(path, "(top level)", f"unknown key(s) {unknown}")
     for key in ("name", "kind", "apply"):
         if key not in d:
             raise DescriptorError(path, key, "missing")
     name = d["name"]
-    if not isinstance(name, str) or not name.isidentifier() or name != name.lower():
-        raise DescriptorError(path, "name", f"must be a lower_case identifier, got {name!r}")
+    why = naming.problem(name, "force")
+    if why or name != name.lower():
+        raise DescriptorError(path, "name", f"must be a lower_case identifier, got {name!r}" + (f" ({why})" if why else ""))
     kind = d["kind"]
     if kind not in KINDS:
         raise DescriptorError(path, "kind", f"unknown kind {kind!r} (known: {', '.join(KINDS)})")
@@ -183,6 +187,8 @@ def load_force(path, structs):
     return force
 
 
+
+
 def _build_kernel(force, variant, d, path):
     ctx = km.Context()
     bodies = [km.Body("a", ctx)] + ([km.Body("b", ctx)] if variant == "pair" else [])
@@ -192,7 +198,8 @@ def _build_kernel(force, variant, d, path):
     param_syms = {}
     for src, plist in (("param", force.params), ("global", force.globals)):
         for p in plist:
-            syms = [sp.Symbol(f"{'p' if src == 'param' else 'g'}_{p.name}{'' if p.lanes == 1 else i}", real=True)
+            # lanes as name__i: user names cannot contain '__', so these cannot collide
+            syms = [sp.Symbol(f"{'p' if src == 'param' else 'g'}_{p.name}{'' if p.lanes == 1 else f'__{i}'}", real=True)
                     for i in range(p.lanes)]
             param_syms[p.name] = (src, p, syms)
             names[p.name] = syms[0] if p.lanes == 1 else sp.Matrix(syms)
@@ -203,11 +210,14 @@ def _build_kernel(force, variant, d, path):
     # (forward mode), which keeps every expression SymPy differentiates short
     lets = []
     for lname, text in let.items():
-        if not isinstance(lname, str) or not lname.isidentifier() or lname in km.FUNCTIONS or lname in names:
-            raise DescriptorError(path, f"let.{lname}", f"{lname!r} is not a free identifier")
+        why = naming.problem(lname, "let")
+        if why or lname in km.FUNCTIONS or lname in names or lname == "h":
+            raise DescriptorError(path, f"let.{lname}", why or f"{lname!r} is not a free identifier")
         value = evaluate(text, names, path, f"let.{lname}")
+        if isinstance(value, (sp.MatrixBase, sp.Expr)):
+            _check_scalars(value, path, f"let.{lname}", text)
         if isinstance(value, sp.MatrixBase) and value.shape[1] == 1:
-            syms = [sp.Symbol(f"L_{lname}{i}", real=True) for i in range(value.rows)]
+            syms = [sp.Symbol(f"L_{lname}__{i}", real=True) for i in range(value.rows)]
             names[lname], exprs = sp.Matrix(syms), list(value)
         elif isinstance(value, sp.Expr):
             syms, exprs = [sp.Symbol(f"L_{lname}", real=True)], [value]
@@ -226,6 +236,7 @@ def _build_kernel(force, variant, d, path):
         for vname, v in (("force", c.force), ("torque", c.torque)):
             if not isinstance(v, sp.MatrixBase) or v.shape != (3, 1):
                 raise DescriptorError(path, f"apply[{i}]", f"the {vname} in {text!r} is not a 3-vector")
+            _check_scalars(v, path, f"apply[{i}]", text)
         if isinstance(c.body, km.World):
             continue
         k = bodies.index(c.body)
@@ -296,6 +307,15 @@ def _build_kernel(force, variant, d, path):
 
 
 H = sp.Symbol("h", positive=True)
+
+
+def _check_scalars(value, path, where, text):
+    """Every entry must be a number-valued expression (a comparison is only a where() condition)."""
+    entries = list(value) if isinstance(value, sp.MatrixBase) else [value]
+    for e in entries:
+        if not isinstance(e, sp.Expr):
+            raise DescriptorError(path, where, f"{text!r} has a non-numeric entry {e} (a comparison belongs "
+                                  "in where(condition, a, b))")
 
 
 def _implicit_form(kernel, bodies):

@@ -12,6 +12,9 @@ import sympy as sp
 
 
 def vec(*xs):
+    for x in xs:
+        if not isinstance(sp.sympify(x), sp.Expr):
+            raise TypeError(f"vec() entries must be numbers, not {x} (a comparison belongs in where(...))")
     return sp.Matrix(xs)
 
 

@@ -2,8 +2,8 @@
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-
+from . import names as naming
+from . import yaml_loader
 from .errors import DescriptorError
 
 # type -> (bytes, alignment, C element type, stored floats, logical floats)
@@ -59,34 +59,39 @@ class Struct:
         return sum(4 * f.logical * f.count for f in self.fields)
 
 
-def _ident(path, where, text):
-    if not isinstance(text, str) or not text.isidentifier():
-        raise DescriptorError(path, where, f"{text!r} is not a valid identifier")
+def _ident(path, where, text, kind):
+    why = naming.problem(text, kind)
+    if why:
+        raise DescriptorError(path, where, why)
     return text
 
 
-def layout(name, doc, align, raw_fields, path, where="fields"):
+def unknown_keys(d, allowed):
+    return sorted((k for k in d if k not in allowed), key=str)
+
+
+def layout(name, doc, align, raw_fields, path, where="fields", allow_empty=False):
     """Lay fields out in declared order, each at its natural alignment; pad the tail to `align`."""
     offset, fields, pads, seen = 0, [], [], set()
-    if not isinstance(raw_fields, list) or not raw_fields:
+    if not isinstance(raw_fields, list) or (not raw_fields and not allow_empty):
         raise DescriptorError(path, where, "must be a non-empty list of fields")
     for i, rf in enumerate(raw_fields):
         loc = f"{where}[{i}]"
         if not isinstance(rf, dict):
             raise DescriptorError(path, loc, "must be a mapping with name and type")
-        unknown = set(rf) - {"name", "type", "count", "doc"}
+        unknown = unknown_keys(rf, {"name", "type", "count", "doc"})
         if unknown:
-            raise DescriptorError(path, loc, f"unknown key(s) {sorted(unknown)}")
+            raise DescriptorError(path, loc, f"unknown key(s) {unknown}")
         if "name" not in rf:
             raise DescriptorError(path, loc, "missing 'name'")
-        fname = _ident(path, f"{loc}.name", rf["name"])
+        fname = _ident(path, f"{loc}.name", rf["name"], "field")
         if fname in seen:
             raise DescriptorError(path, f"{loc}.name", f"duplicate field {fname!r}")
         seen.add(fname)
         if "type" not in rf:
             raise DescriptorError(path, f"{loc}", f"field {fname!r} is missing 'type'")
         ftype = rf["type"]
-        if ftype not in TYPES:
+        if not isinstance(ftype, str) or ftype not in TYPES:
             raise DescriptorError(path, f"{loc}.type", f"unknown type {ftype!r} (known: {', '.join(TYPES)})")
         count = rf.get("count", 1)
         if not isinstance(count, int) or isinstance(count, bool) or count < 1:
@@ -101,6 +106,9 @@ def layout(name, doc, align, raw_fields, path, where="fields"):
         fields.append(Field(fname, ftype, count, aligned, size, falign, ctype, stored, logical, rf.get("doc", "")))
         offset = aligned + size
     struct_align = max([align] + [f.align for f in fields])
+    if not fields:  # an empty struct still has a size: one aligned block of padding
+        offset = struct_align
+        pads.append((0, struct_align))
     total = (offset + struct_align - 1) // struct_align * struct_align
     if total != offset:
         pads.append((offset, total - offset))
@@ -109,20 +117,17 @@ def layout(name, doc, align, raw_fields, path, where="fields"):
 
 def load_struct(path):
     path = Path(path)
-    try:
-        d = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as e:
-        raise DescriptorError(path, "(file)", f"not valid YAML: {e}") from None
+    d = yaml_loader.load(path)
     if not isinstance(d, dict):
         raise DescriptorError(path, "(file)", "must be a mapping")
-    unknown = set(d) - {"name", "doc", "align", "fields"}
+    unknown = unknown_keys(d, {"name", "doc", "align", "fields"})
     if unknown:
-        raise DescriptorError(path, "(top level)", f"unknown key(s) {sorted(unknown)}")
+        raise DescriptorError(path, "(top level)", f"unknown key(s) {unknown}")
     if "name" not in d:
         raise DescriptorError(path, "name", "missing")
-    name = _ident(path, "name", d["name"])
+    name = _ident(path, "name", d["name"], "struct")
     align = d.get("align", 4)
-    if align not in (4, 8, 16, 32, 64):
+    if isinstance(align, bool) or not isinstance(align, int) or align not in (4, 8, 16, 32, 64):
         raise DescriptorError(path, "align", f"must be 4, 8, 16, 32 or 64, got {align!r}")
     if "fields" not in d:
         raise DescriptorError(path, "fields", "missing")

@@ -111,18 +111,18 @@ class CliErrorTests(unittest.TestCase):
         after = {p: p.stat().st_mtime_ns for p in self.out.rglob("*") if p.is_file() and p.name != ".stamp"}
         self.assertEqual(before, after)
 
-    # generator bug: UnsupportedExpression (cxx_printer) carries no descriptor file or field, and
+    # regression: UnsupportedExpression (cxx_printer) carries no descriptor file or field, and
     # generate.py prints it as is: "cellphys codegen: error: power p_stiffness**1.7... has no
     # vectorisable form" -- the user cannot tell which descriptor (or which apply/let entry) to fix.
-    @unittest.expectedFailure
+
     def test_unsupported_power_error_names_the_file(self):
         p = self.sb.force("tether.yaml", TETHER_FORCE.replace("stiffness * (anchor", "stiffness**1.7 * (anchor"))
         self.run_broken(p, re.compile(r"^apply(\[0\])?$"), r"power")
 
-    # generator bug: a comparison inside a vector (`vec(a.mass > 1, 0, 0)`) raises TypeError in
+    # regression: a comparison inside a vector (`vec(a.mass > 1, 0, 0)`) raises TypeError in
     # forces._build_kernel outside evaluate()'s try: generate.py dies with a Python traceback and
     # exit status 1 (which the build reads as "drift") instead of exit 2 and a file: field: reason line.
-    @unittest.expectedFailure
+
     def test_comparison_inside_a_vector_exits_2_cleanly(self):
         p = self.sb.force("tether.yaml", TETHER_FORCE.replace("stiffness * (anchor - a.x)", "vec(a.mass > 1, 0, 0)"))
         self.run_broken(p, "apply[0]", r".")
@@ -214,11 +214,11 @@ class CheckTests(unittest.TestCase):
         r = self.check(2)
         self.assertIn(f"cellphys codegen: error: {p}: kind: unknown kind 'ternary'", r.stderr)
 
-    # generator bug: emit.diff_tree compares files.get(relpath, "") with the checked-in text (also ""
+    # regression: emit.diff_tree compares files.get(relpath, "") with the checked-in text (also ""
     # for an empty file), so an extra *empty* file in the checked-in tree is not reported: --check
     # exits 0 although the tree holds a file a fresh generation does not produce (and --out would
     # delete). Compare the file sets, not only the texts.
-    @unittest.expectedFailure
+
     def test_extra_empty_file(self):
         write(self.gen / "forces", "stale.h", "")
         r = self.check(1)

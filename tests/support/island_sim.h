@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstring>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "cellphys/gen/layouts.h"
@@ -80,7 +81,7 @@ struct Sim {
   /// Adds the forces (and globals, params) to a builder that already holds the bodies.
   std::function<void(spu::IslandBuilder&)> forces;
   StepSettings settings;
-  spu::ComputeWorker worker;
+  std::shared_ptr<spu::ComputeWorker> worker = std::make_shared<spu::ComputeWorker>();
   spu::IslandReport last;
   std::vector<unsigned char> result;
   double time = 0.0;
@@ -103,7 +104,7 @@ struct Sim {
     const auto img = image();
     const int n = int(bodies.size());
     result.assign(spu::result_bytes(uint32_t(n)), 0);
-    last = worker.step(img.data(), img.size(), result.data(), result.size());
+    last = worker->step(img.data(), img.size(), result.data(), result.size());
     if (last.status != spu::IslandStatus::ok) {
       ++failures;
       return false;

@@ -40,12 +40,12 @@ struct Gravity_Body_Kernel {
   static inline void eval([[maybe_unused]] const S* in, S* out) {
     using namespace cellphys::simd;
     const S a_m = in[0];
-    const S g_gravity0 = in[1];
-    const S g_gravity1 = in[2];
-    const S g_gravity2 = in[3];
-    out[0] = (a_m*g_gravity0);
-    out[1] = (a_m*g_gravity1);
-    out[2] = (a_m*g_gravity2);
+    const S g_gravity__0 = in[1];
+    const S g_gravity__1 = in[2];
+    const S g_gravity__2 = in[3];
+    out[0] = (a_m*g_gravity__0);
+    out[1] = (a_m*g_gravity__1);
+    out[2] = (a_m*g_gravity__2);
     out[3] = S(0);
     out[4] = S(0);
     out[5] = S(0);
@@ -62,12 +62,12 @@ struct Gravity_Body_Kernel {
   static inline void eval_implicit([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_m = in[0];
-    [[maybe_unused]] const S g_gravity0 = in[1];
-    [[maybe_unused]] const S g_gravity1 = in[2];
-    [[maybe_unused]] const S g_gravity2 = in[3];
-    out[0] = (a_m*g_gravity0);
-    out[1] = (a_m*g_gravity1);
-    out[2] = (a_m*g_gravity2);
+    [[maybe_unused]] const S g_gravity__0 = in[1];
+    [[maybe_unused]] const S g_gravity__1 = in[2];
+    [[maybe_unused]] const S g_gravity__2 = in[3];
+    out[0] = (a_m*g_gravity__0);
+    out[1] = (a_m*g_gravity__1);
+    out[2] = (a_m*g_gravity__2);
     out[3] = S(0);
     out[4] = S(0);
     out[5] = S(0);
@@ -78,12 +78,12 @@ struct Gravity_Body_Kernel {
   static inline void eval_f([[maybe_unused]] const S* in, S* out) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_m = in[0];
-    [[maybe_unused]] const S g_gravity0 = in[1];
-    [[maybe_unused]] const S g_gravity1 = in[2];
-    [[maybe_unused]] const S g_gravity2 = in[3];
-    out[0] = (a_m*g_gravity0);
-    out[1] = (a_m*g_gravity1);
-    out[2] = (a_m*g_gravity2);
+    [[maybe_unused]] const S g_gravity__0 = in[1];
+    [[maybe_unused]] const S g_gravity__1 = in[2];
+    [[maybe_unused]] const S g_gravity__2 = in[3];
+    out[0] = (a_m*g_gravity__0);
+    out[1] = (a_m*g_gravity__1);
+    out[2] = (a_m*g_gravity__2);
     out[3] = S(0);
     out[4] = S(0);
     out[5] = S(0);

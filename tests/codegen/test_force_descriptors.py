@@ -326,7 +326,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # `F[k] += sp.Matrix.vstack(...)` outside evaluate()'s try; a comparison inside a vector
     # (`vec(a.mass > 1, 0, 0)`) evaluates to a Matrix of Relationals and the addition raises
     # TypeError: bad operand type for unary +: 'StrictGreaterThan' (a traceback, exit 1).
-
     def test_comparison_inside_a_vector_is_a_descriptor_error(self):
         p = self.sb.force("probe_force.yaml", unary("force(a, vec(a.mass > 1, 0, 0))"))
         with warnings.catch_warnings():
@@ -335,7 +334,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
 
     # regression: forces._instance_struct does `structs.get(d["instance"])` on the raw YAML value;
     # `instance: [Contact_Force]` raises TypeError: unhashable type: 'list'.
-
     def test_unhashable_instance_is_a_descriptor_error(self):
         p = self.sb.force("probe_force.yaml", unary("force(a, a.x)") + "instance: [Contact_Force]\n")
         self.assertDescriptorError(self.sb.render, p, "instance", r"no struct descriptor")
@@ -343,7 +341,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # regression: forces.load_force (and forces._params, structs.load_struct, structs.layout) report
     # unknown keys with sorted(unknown); an int key (YAML `1: x`) next to a string key makes sorted()
     # raise TypeError: '<' not supported between instances of 'str' and 'int'.
-
     def test_unknown_keys_of_mixed_types_is_a_descriptor_error(self):
         p = self.sb.force("probe_force.yaml", unary("force(a, a.x)") + "1: x\ncolour: red\n")
         self.assertDescriptorError(self.sb.render, p, "(top level)", r"unknown key")
@@ -351,7 +348,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # regression: forces._build_kernel names lane i of a vec3 param `p_<name><i>`, so a vec3 param
     # `v` and an f32 param `v0` are both the SymPy symbol p_v0 (one symbol): eval() declares
     # `const S p_v0` twice and `v + vec(v0, 0, 0)` is generated as 2*p_v0 (silently wrong math).
-
     def test_param_lane_names_do_not_collide(self):
         text = ("name: probe_force\nkind: unary\nparams:\n  v: {type: vec3}\n  v0: {type: f32}\n"
                 "apply: ['force(a, v + vec(v0, 0, 0))']\n")
@@ -365,7 +361,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
 
     # regression: the same collision for lets: a vector let `x` is L_x0..L_x2 and a scalar let `x0`
     # is L_x0 again; eval() declares `const S L_x0` twice and the force uses the wrong value.
-
     def test_let_lane_names_do_not_collide(self):
         text = ("name: probe_force\nkind: unary\nlet:\n  x: a.v * 2\n  x0: a.mass\n"
                 "apply: ['force(a, x * x0)']\n")
@@ -379,7 +374,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # regression: params (and globals, let) are YAML mappings read with yaml.safe_load, which keeps
     # the last of two equal keys; a param declared twice (vec3 then f32) is silently the f32 one
     # instead of a "declared twice" error.
-
     def test_duplicate_key_in_params_is_rejected(self):
         p = self.sb.force("probe_force.yaml", "name: probe_force\nkind: unary\nparams:\n  k: {type: vec3}\n"
                                               "  k: {type: f32}\napply: ['force(a, k * a.x)']\n")
@@ -392,7 +386,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # emit.render only adds it to layouts.h when no struct descriptor has that name; if one does
     # (here Tether_Force with another layout), layouts.h defines the descriptor's struct while
     # force_table.h's ParamInfo offsets come from the derived layout -- silently inconsistent.
-
     def test_derived_instance_clashing_with_a_struct_descriptor_is_rejected(self):
         self.sb.struct("tether_force.yaml", "name: Tether_Force\nfields:\n  - {name: body_a, type: i32}\n"
                                             "  - {name: stiffness, type: f32}\n  - {name: anchor, type: vec3}\n")
@@ -405,7 +398,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # `"{{ p.doc }}"`, force_kernel.h.j2 `// {{ force.doc }}`, layouts.h.j2 `/// {{ s.doc }}`); a doc
     # with a double quote ends the string literal early and a doc with a newline (YAML "\n" or a |
     # block) continues outside the comment/literal: the generated headers do not compile.
-
     def test_doc_with_quote_and_newline_is_escaped_or_rejected(self):
         doc = 'say "hi"\nsecond line'
         text = unary("force(a, stiffness * a.x)") + 'doc: "say \\"hi\\"\\nsecond line"\n'
@@ -426,7 +418,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # regression: forces.load_force checks the force name with str.isidentifier() only; C++
     # keywords pass, so `name: delete` generates `enum class ForceType { delete = 1 }` and
     # `ForceType::delete` (param and let names have the same problem), which does not compile.
-
     def test_cxx_keyword_force_name_is_rejected(self):
         p = self.sb.force("delete.yaml", "name: delete\nkind: unary\napply: ['force(a, a.x)']\n")
         self.assertDescriptorError(self.sb.render, p, "name", r"delete")
@@ -434,7 +425,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # regression: forces._params accepts any float default/min, including YAML .nan and .inf; the
     # template prints them as `nanf` / `inff` in force_table.h (default_island_params, kGlobalTable),
     # which are not C++ literals.
-
     def test_non_finite_global_default_is_rejected(self):
         for default in (".nan", ".inf", "[0.0, -.inf, 0.0]"):
             with self.subTest(default=default):
@@ -447,7 +437,6 @@ class ForceGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # empty field list, so a force set in which no force declares a global (e.g. damping.yaml or
     # air_drag.yaml alone) cannot be generated: DescriptorError "(globals): fields: must be a non-empty
     # list of fields" -- not a file, and not an error in any descriptor.
-
     def test_force_set_without_globals_generates(self):
         sb = Sandbox(temp_dir(self), probe=False)
         sb.force("tether.yaml", TETHER_FORCE)

@@ -114,7 +114,6 @@ class CliErrorTests(unittest.TestCase):
     # regression: UnsupportedExpression (cxx_printer) carries no descriptor file or field, and
     # generate.py prints it as is: "cellphys codegen: error: power p_stiffness**1.7... has no
     # vectorisable form" -- the user cannot tell which descriptor (or which apply/let entry) to fix.
-
     def test_unsupported_power_error_names_the_file(self):
         p = self.sb.force("tether.yaml", TETHER_FORCE.replace("stiffness * (anchor", "stiffness**1.7 * (anchor"))
         self.run_broken(p, re.compile(r"^apply(\[0\])?$"), r"power")
@@ -122,7 +121,6 @@ class CliErrorTests(unittest.TestCase):
     # regression: a comparison inside a vector (`vec(a.mass > 1, 0, 0)`) raises TypeError in
     # forces._build_kernel outside evaluate()'s try: generate.py dies with a Python traceback and
     # exit status 1 (which the build reads as "drift") instead of exit 2 and a file: field: reason line.
-
     def test_comparison_inside_a_vector_exits_2_cleanly(self):
         p = self.sb.force("tether.yaml", TETHER_FORCE.replace("stiffness * (anchor - a.x)", "vec(a.mass > 1, 0, 0)"))
         self.run_broken(p, "apply[0]", r".")
@@ -218,7 +216,6 @@ class CheckTests(unittest.TestCase):
     # for an empty file), so an extra *empty* file in the checked-in tree is not reported: --check
     # exits 0 although the tree holds a file a fresh generation does not produce (and --out would
     # delete). Compare the file sets, not only the texts.
-
     def test_extra_empty_file(self):
         write(self.gen / "forces", "stale.h", "")
         r = self.check(1)

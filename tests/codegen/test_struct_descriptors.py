@@ -148,35 +148,30 @@ class StructGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # regression: structs.load_struct checks `align not in (4, 8, 16, 32, 64)`, and 16.0 == 16, so a
     # float align passes; Struct.align/size become floats and layouts.h gets `struct alignas(16.0)` and
     # `sizeof(X) == 16.0` (not valid C++), layouts.json records 16.0.
-
     def test_float_align_is_rejected(self):
         p = write(self.dir, "bad.yaml", "name: Thing\nalign: 16.0\n" + GOOD_FIELDS)
         self.assertDescriptorError(lambda: load_structs(self.dir), p, "align", r"must be 4, 8, 16, 32 or 64")
 
     # regression: structs.layout does `ftype not in TYPES` on the raw YAML value; a list or mapping
     # is unhashable, so `type: [vec3]` escapes as TypeError: unhashable type: 'list' (a traceback).
-
     def test_unhashable_field_type_is_a_descriptor_error(self):
         p = write(self.dir, "bad.yaml", "name: Thing\nfields:\n  - {name: a, type: [vec3]}\n")
         self.assertDescriptorError(lambda: load_structs(self.dir), p, "fields[0].type", r"unknown type")
 
     # regression: structs.layout reports unknown keys with sorted(unknown); with a non-string key
     # (YAML `1: x`) next to a string one, sorted() raises TypeError ('<' between str and int).
-
     def test_unknown_keys_of_mixed_types_is_a_descriptor_error(self):
         p = write(self.dir, "bad.yaml", "name: Thing\nfields:\n  - {name: a, type: f32, 1: x, units: m}\n")
         self.assertDescriptorError(lambda: load_structs(self.dir), p, "fields[0]", r"unknown key")
 
     # regression: structs.load_struct (and forces.load_force) call path.read_text() outside the
     # try; a descriptor that is not UTF-8 escapes as UnicodeDecodeError instead of "(file): ...".
-
     def test_non_utf8_descriptor_is_a_descriptor_error(self):
         p = write(self.dir, "bad.yaml", b"name: Thing\xff\nfields:\n  - {name: a, type: f32}\n")
         self.assertDescriptorError(lambda: load_structs(self.dir), p, "(file)", r".")
 
     # regression: structs._ident accepts any Python identifier, so C++ keywords pass; a field named
     # `int` becomes `float int;` in layouts.h, which does not compile.
-
     def test_cxx_keyword_field_name_is_rejected(self):
         p = write(self.dir, "bad.yaml", "name: Thing\nfields:\n  - {name: int, type: f32}\n")
         self.assertDescriptorError(lambda: load_structs(self.dir), p, "fields[0].name", r"int")
@@ -184,7 +179,6 @@ class StructGeneratorBugTests(DescriptorErrorAssertions, unittest.TestCase):
     # regression: emit.render appends the generated Island_Params to the struct list without
     # checking the name; a struct descriptor named Island_Params yields two `struct ... Island_Params`
     # definitions in layouts.h (and two "Island_Params" keys in layouts.json, one silently lost).
-
     def test_struct_named_island_params_is_rejected(self):
         sb = Sandbox(temp_dir(self))
         p = sb.struct("island_params.yaml", "name: Island_Params\nfields:\n  - {name: foo, type: f32}\n")

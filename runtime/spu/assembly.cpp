@@ -60,41 +60,54 @@ int count_pair_instances(const IslandView& v) {
 }
 
 bool build_structure(const IslandView& v, BlockStructure& s, int32_t* pairs, int capacity) {
-  // (row, col) both ways for every pair instance, sorted and de-duplicated: the rows' columns
-  // come out in ascending order, so the layout does not depend on instance order.
+  // Counting sort of (row, col) both ways for every pair instance, then each row's columns
+  // sorted and de-duplicated: ascending columns, independent of instance order. O(pairs).
+  const int n = v.num_bodies();
+  int32_t* count = s.row_start;  // n + 1, reused as the row cursors
+  std::fill(count, count + n + 1, 0);
   int m = 0;
   for (int sidx = 0; sidx < v.num_sections(); ++sidx) {
     const Island_Section& sec = v.sections[sidx];
     const ForceInfo& info = kForceTable[sec.force_type];
     if (info.offset_body_b < 0) continue;
     for (uint32_t k = 0; k < sec.count - sec.world_count; ++k) {
-      if (m + 2 > capacity) return false;
+      const unsigned char* inst = v.base + sec.offset + size_t{k} * info.instance_size;
+      ++count[read_i32(inst + info.offset_body_a) + 1];
+      ++count[read_i32(inst + info.offset_body_b) + 1];
+      m += 2;
+    }
+  }
+  if (m > capacity) return false;
+  for (int i = 0; i < n; ++i) count[i + 1] += count[i];
+  // place: pairs[] holds columns grouped by row; count[i] walks row i's slots
+  for (int sidx = 0; sidx < v.num_sections(); ++sidx) {
+    const Island_Section& sec = v.sections[sidx];
+    const ForceInfo& info = kForceTable[sec.force_type];
+    if (info.offset_body_b < 0) continue;
+    for (uint32_t k = 0; k < sec.count - sec.world_count; ++k) {
       const unsigned char* inst = v.base + sec.offset + size_t{k} * info.instance_size;
       const int32_t a = read_i32(inst + info.offset_body_a), b = read_i32(inst + info.offset_body_b);
-      pairs[2 * m] = a, pairs[2 * m + 1] = b, ++m;
-      pairs[2 * m] = b, pairs[2 * m + 1] = a, ++m;
+      pairs[count[a]++] = b;
+      pairs[count[b]++] = a;
     }
   }
-  auto* keys = reinterpret_cast<int64_t*>(pairs);  // (row, col) packed: sort as one integer
-  for (int i = 0; i < m; ++i) {
-    const int64_t row = pairs[2 * i], col = pairs[2 * i + 1];
-    keys[i] = (row << 32) | col;
+  // count[i] is now the end of row i; rows start at count[i - 1]
+  int out = 0, begin = 0;
+  for (int row = 0; row < n; ++row) {
+    const int end = count[row];
+    std::sort(pairs + begin, pairs + end);  // a handful of columns per row
+    s.row_start[row] = out;  // safe: row_start[row] (== count[row]) was read above
+    for (int k = begin; k < end; ++k)
+      if (k == begin || pairs[k] != pairs[k - 1]) {
+        if (out >= static_cast<int>(v.header->num_blocks)) return false;
+        s.col[out++] = pairs[k];
+      }
+    begin = end;
   }
-  std::sort(keys, keys + m);
-  const int unique = static_cast<int>(std::unique(keys, keys + m) - keys);
-  if (unique != static_cast<int>(v.header->num_blocks)) return false;
-  s.n = v.num_bodies();
-  s.nnz = unique;
-  int k = 0;
-  for (int row = 0; row < s.n; ++row) {
-    s.row_start[row] = k;
-    while (k < unique && (keys[k] >> 32) == row) {
-      s.col[k] = static_cast<int32_t>(keys[k] & 0xFFFFFFFF);
-      ++k;
-    }
-  }
-  s.row_start[s.n] = k;
-  return true;
+  s.row_start[n] = out;
+  s.n = n;
+  s.nnz = out;
+  return out == static_cast<int>(v.header->num_blocks);
 }
 
 bool scale_system(const BlockStructure& s, const W_Element* w, float h, float* diag_k, float* offdiag_k, float* rhs,

@@ -16,17 +16,24 @@ static_assert(kBlockFloats == gen::kBlockFloats && kVecFloats == gen::kVecFloats
 
 // The seed's mul(): one pass over block rows, each row's sum started from the diagonal term
 // and accumulated over the row's blocks in storage order, so the result depends on the data
-// and the storage order only.
+// and the storage order only. The row sum lives in a local and A's fields in locals: the
+// SIMD stores may alias anything, and would otherwise force reloads after every block.
 void spmv(const BlockRowMatrix& A, const float* x, float* y) {
-  for (int i = 0; i < A.n; ++i) {
+  const int n = A.n;
+  const int32_t* const row_start = A.row_start;
+  const int32_t* const col = A.col;
+  const float* const blocks = A.blocks;
+  const float* const diag = A.unit_diagonal ? nullptr : A.diag;
+  for (int i = 0; i < n; ++i) {
     const float* xi = x + kVecFloats * i;
-    float* yi = y + kVecFloats * i;
-    if (A.unit_diagonal)
-      store(yi, load<vf8>(xi));
+    alignas(32) float sum[kVecFloats];
+    if (diag)
+      gen::block_mul(diag + kBlockFloats * i, xi, sum);
     else
-      gen::block_mul(A.diag + kBlockFloats * i, xi, yi);
-    for (int32_t k = A.row_start[i]; k < A.row_start[i + 1]; ++k)
-      gen::block_mul_add(A.blocks + kBlockFloats * k, x + kVecFloats * A.col[k], yi);
+      store(sum, load<vf8>(xi));
+    for (int32_t k = row_start[i]; k < row_start[i + 1]; ++k)
+      gen::block_mul_add(blocks + kBlockFloats * k, x + kVecFloats * col[k], sum);
+    store(y + kVecFloats * i, load<vf8>(sum));
   }
 }
 

@@ -38,19 +38,21 @@ MaxSizes max_sizes() {
   return m;
 }
 
-// One instance's bodies and its slice of a batch's outputs.
+// One lane of a batch's outputs (out[k * kLanes]) into the targets.
 template <class K>
 void scatter(const ForceTargets& t, const int (&body)[2], const float* out, Mode mode) {
   for (int k = 0; k < K::kBodies; ++k) {
     float* f = t.forces + kVecFloats * body[k];
-    for (int r = 0; r < 6; ++r) f[padded(r)] += out[6 * k + r];
+    for (int r = 0; r < 6; ++r) f[padded(r)] += out[(6 * k + r) * kLanes];
   }
   if (mode == Mode::implicit) {
     if constexpr (K::kNumImplicitBlocks > 0) {
       for (int s = 0; s < K::kNumImplicitBlocks; ++s) {
         const int i = body[K::kImplicitBlocks[s].row_body], j = body[K::kImplicitBlocks[s].col_body];
         float* target = i == j ? t.diag_k + kBlockFloats * i : t.offdiag_k + kBlockFloats * t.structure->find(i, j);
-        block_add_dense(1.0f, out + 6 * K::kBodies + 36 * s, target);
+        const float* B = out + (6 * K::kBodies + 36 * s) * kLanes;
+        for (int c = 0; c < 6; ++c)
+          for (int r = 0; r < 6; ++r) target[8 * c + padded(r)] += B[(6 * c + r) * kLanes];
       }
     }
   } else if (mode == Mode::full) {
@@ -59,7 +61,11 @@ void scatter(const ForceTargets& t, const int (&body)[2], const float* out, Mode
         const BlockSlot slot = K::kBlocks[s];
         if (slot.kind != BlockKind::dF_ddelta) continue;
         const int i = body[slot.row_body], j = body[slot.col_body];
-        dense_mul_add(1.0f, out + 6 * K::kBodies + 36 * s, t.jv_in + kVecFloats * j, t.jv_out + kVecFloats * i);
+        const float* B = out + (6 * K::kBodies + 36 * s) * kLanes;
+        const float* x = t.jv_in + kVecFloats * j;
+        float* y = t.jv_out + kVecFloats * i;
+        for (int c = 0; c < 6; ++c)
+          for (int r = 0; r < 6; ++r) y[padded(r)] += B[(6 * c + r) * kLanes] * x[padded(c)];
       }
     }
   }
@@ -81,7 +87,6 @@ void run_kernel(const IslandView& v, const ForceTargets& t, const typename K::In
   for (int base = 0; base < count; base += kLanes) {
     const int lanes = count - base < kLanes ? count - base : kLanes;
     int bodies[kLanes][2];
-    float lane_in[K::kInputs > 0 ? K::kInputs : 1];
     for (int l = 0; l < kLanes; ++l) {
       // idle lanes repeat the last instance: always finite, results discarded
       const int idx = base + (l < lanes ? l : lanes - 1);
@@ -94,8 +99,7 @@ void run_kernel(const IslandView& v, const ForceTargets& t, const typename K::In
       bodies[l][0] = f->body_a;
       if constexpr (K::kBodies == 2) bodies[l][1] = f->body_b;
       else bodies[l][1] = f->body_a;
-      K::gather(v.bodies, *f, *v.params, lane_in, t.ref);
-      for (int k = 0; k < K::kInputs; ++k) in_soa[k * kLanes + l] = lane_in[k];
+      K::gather(v.bodies, *f, *v.params, in_soa + l, t.ref, kLanes);
     }
     for (int k = 0; k < K::kInputs; ++k) in[k] = Batch::load(in_soa + k * kLanes);
     if (mode == Mode::implicit)
@@ -106,11 +110,9 @@ void run_kernel(const IslandView& v, const ForceTargets& t, const typename K::In
       K::template eval_f<Batch>(in, out);
     const int n_out = outputs_of<K>(mode);
     for (int k = 0; k < n_out; ++k) out[k].store(out_soa + k * kLanes);
-    float lane_out[K::kOutputs];
     for (int l = 0; l < lanes; ++l) {
-      for (int k = 0; k < n_out; ++k) lane_out[k] = out_soa[k * kLanes + l];
       const int b2[2] = {bodies[l][0], bodies[l][1]};
-      scatter<K>(t, b2, lane_out, mode);
+      scatter<K>(t, b2, out_soa + l, mode);
     }
   }
 }

@@ -64,8 +64,9 @@ struct IslandView {
   }
 };
 
-/// Checks an image completely (magic, version, sizes, offsets, force types, body indices,
-/// finite numbers, checksum). Returns "" when it is well-formed, else the reason.
+/// Checks an image (magic, version, sizes, offsets, force types, body indices, finite
+/// numbers, checksum). Returns "" when it is well-formed, else the reason. The header's
+/// num_blocks is verified when the kernel builds the block structure.
 std::string validate_island(const unsigned char* image, size_t bytes);
 IslandView view_island(unsigned char* image);
 

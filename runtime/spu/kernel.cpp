@@ -12,7 +12,7 @@ using namespace cellphys::gen;
 
 namespace {
 
-constexpr unsigned kTagIn = 1, kTagOut = 2;
+constexpr unsigned kTagIn = 1, kTagOut = 3;  // inputs on tags 1-2, outputs on 3 (single) and 5-6 (slots)
 
 // Fixed-size substeps: a failed step is retried as two halves, down to max_halvings.
 bool substep(StepContext& c, Integrator integ, float h, uint32_t depth, uint32_t max_depth, IslandReport& r) {
@@ -59,76 +59,94 @@ bool adaptive(StepContext& c, float H, uint32_t max_halvings, IslandReport& r) {
 
 ComputeWorker::ComputeWorker(size_t local_store_bytes) : ls_(local_store_bytes), dma_(ls_) {}
 
-IslandReport ComputeWorker::step(const unsigned char* image, size_t bytes, unsigned char* result, size_t result_capacity) {
-  IslandReport r;
-  ls_.reset();
-  ls_.reset_peak();
-  auto refuse = [&](IslandStatus s, std::string why) {
-    r.status = s;
-    r.error = std::move(why);
-    // a refused island's result: a header and, when there is room, its bodies unchanged
-    Island_Result res{};
-    res.magic = kResultMagic;
-    res.status = static_cast<uint32_t>(s);
-    Island_Header h{};
-    if (bytes >= sizeof h) std::memcpy(&h, image, sizeof h);
-    res.island_id = h.island_id;
-    res.local_store_bytes = static_cast<uint32_t>(std::min<size_t>(r.footprint.total, 0xFFFFFFFFu));
-    if (result_capacity >= sizeof res) std::memcpy(result, &res, sizeof res);
-    return r;
-  };
-  // 1. Header and section table first: enough to account for the island's bytes.
-  if (bytes < sizeof(Island_Header) || reinterpret_cast<uintptr_t>(image) % 16 || reinterpret_cast<uintptr_t>(result) % 16)
-    return refuse(IslandStatus::malformed, "image shorter than a header or not 16-byte aligned");
-  auto* head = static_cast<unsigned char*>(ls_.allocate(sizeof(Island_Header), 16, Region::input));
-  dma_.get(head, image, sizeof(Island_Header), kTagIn);
-  dma_.wait(1u << kTagIn);
-  Island_Header h;
-  std::memcpy(&h, head, sizeof h);
-  if (h.magic != kIslandMagic || h.version != kIslandVersion || h.total_bytes != bytes || h.num_bodies == 0 ||
-      h.num_sections > static_cast<uint32_t>(kNumForceTypes) || h.integrator >= static_cast<uint32_t>(kNumIntegrators) ||
-      h.solver > 2)
-    return refuse(IslandStatus::malformed, "bad header: " + validate_island(image, bytes));
-  const IslandLayout layout = island_layout(h.num_bodies, h.num_sections);
-  if (layout.instances > bytes) return refuse(IslandStatus::malformed, "too short for its bodies");
-  IslandCounts counts;
-  counts.num_bodies = h.num_bodies;
-  counts.num_blocks = h.num_blocks;
-  counts.image_bytes = h.total_bytes;
-  counts.integrator = static_cast<Integrator>(h.integrator);
-  counts.solver = static_cast<Solver>(h.solver);
-  {
-    std::vector<Island_Section> sections(h.num_sections);
-    std::memcpy(sections.data(), image + layout.sections, h.num_sections * sizeof(Island_Section));
-    for (const Island_Section& s : sections) {
-      if (s.force_type >= static_cast<uint32_t>(kNumForceTypes) || s.world_count > s.count)
-        return refuse(IslandStatus::malformed, validate_island(image, bytes));
-      if (kForceTable[s.force_type].offset_body_b >= 0) counts.pair_instances += s.count - s.world_count;
-    }
-  }
-  r.footprint = footprint(counts);
-  if (r.footprint.total > ls_.capacity())
-    return refuse(IslandStatus::does_not_fit, "island needs " + std::to_string(r.footprint.total) +
-                                                  " bytes of local store, capacity " + std::to_string(ls_.capacity()));
-  if (result_capacity < result_bytes(h.num_bodies)) return refuse(IslandStatus::malformed, "result buffer too small");
-  ls_.reset();
-  // 2. The island into the local store, with room reserved for the next one and the last result.
-  auto* in = static_cast<unsigned char*>(ls_.allocate(bytes, 32, Region::input));
-  auto* out = static_cast<unsigned char*>(ls_.allocate(r.footprint.bytes[int(Region::output)], 32, Region::output));
-  const bool reserved = ls_.allocate(r.footprint.bytes[int(Region::double_buffer)], 32, Region::double_buffer) != nullptr;
-  dma_.get(in, image, bytes, kTagIn);
-  dma_.wait(1u << kTagIn);
-  const std::string why = validate_island(in, bytes);
-  if (!why.empty()) return refuse(IslandStatus::malformed, why);
-  Workspace ws;
-  if (!in || !out || !reserved || !allocate_workspace(ls_, counts, ws))
-    return refuse(IslandStatus::does_not_fit, "local store exhausted (accounting bug)");
+namespace {
 
-  // 3. Integrate, halving on failure.
+// A refused island's result: a header and, when there is room, its bodies unchanged.
+void write_refusal(const IslandJob& job, IslandReport& r, IslandStatus s, std::string why) {
+  r.status = s;
+  r.error = std::move(why);
+  Island_Result res{};
+  res.magic = kResultMagic;
+  res.status = static_cast<uint32_t>(s);
+  Island_Header h{};
+  if (job.bytes >= sizeof h) std::memcpy(&h, job.image, sizeof h);
+  res.island_id = h.island_id;
+  res.num_bodies = h.num_bodies;
+  res.local_store_bytes = static_cast<uint32_t>(std::min<size_t>(r.footprint.total, 0xFFFFFFFFu));
+  res.total_bytes = sizeof res;
+  if (job.result_capacity >= sizeof res) std::memcpy(job.result, &res, sizeof res);
+  const IslandLayout l = island_layout(h.num_bodies, h.num_sections);
+  const size_t body_bytes = size_t{h.num_bodies} * sizeof(Rigid_Body);
+  if (s == IslandStatus::does_not_fit && job.result_capacity >= result_bytes(h.num_bodies) && l.instances <= job.bytes) {
+    std::memset(job.result + sizeof res, 0, size_t{h.num_bodies} * sizeof(Rigid_Body_Step));
+    std::memcpy(job.result + result_bytes(h.num_bodies) - body_bytes, job.image + l.bodies, body_bytes);
+  }
+}
+
+}  // namespace
+
+bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
+  // The header and section table, read the way the control side's scheduler would: enough
+  // to account for every byte before the island is fetched.
+  if (job.bytes < sizeof(Island_Header) || reinterpret_cast<uintptr_t>(job.image) % 16 ||
+      reinterpret_cast<uintptr_t>(job.result) % 16) {
+    write_refusal(job, r, IslandStatus::malformed, "image shorter than a header or not 16-byte aligned");
+    return false;
+  }
+  std::memcpy(&p.header, job.image, sizeof p.header);
+  const Island_Header& h = p.header;
+  if (h.magic != kIslandMagic || h.version != kIslandVersion || h.total_bytes != job.bytes || h.num_bodies == 0 ||
+      h.num_sections > static_cast<uint32_t>(kNumForceTypes) || h.integrator >= static_cast<uint32_t>(kNumIntegrators) ||
+      h.solver > 2) {
+    write_refusal(job, r, IslandStatus::malformed, "bad header: " + validate_island(job.image, job.bytes));
+    return false;
+  }
+  const IslandLayout layout = island_layout(h.num_bodies, h.num_sections);
+  if (layout.instances > job.bytes) {
+    write_refusal(job, r, IslandStatus::malformed, "too short for its bodies");
+    return false;
+  }
+  IslandCounts& c = p.counts;
+  c.num_bodies = h.num_bodies;
+  c.num_blocks = h.num_blocks;
+  c.image_bytes = h.total_bytes;
+  c.integrator = static_cast<Integrator>(h.integrator);
+  c.solver = static_cast<Solver>(h.solver);
+  for (uint32_t k = 0; k < h.num_sections; ++k) {
+    Island_Section s;
+    std::memcpy(&s, job.image + layout.sections + k * sizeof s, sizeof s);
+    if (s.force_type >= static_cast<uint32_t>(kNumForceTypes) || s.world_count > s.count) {
+      write_refusal(job, r, IslandStatus::malformed, validate_island(job.image, job.bytes));
+      return false;
+    }
+    if (kForceTable[s.force_type].offset_body_b >= 0) c.pair_instances += s.count - s.world_count;
+  }
+  r.footprint = footprint(c);
+  if (r.footprint.total > ls_.capacity()) {
+    write_refusal(job, r, IslandStatus::does_not_fit,
+                  "island needs " + std::to_string(r.footprint.total) + " bytes of local store, capacity " +
+                      std::to_string(ls_.capacity()));
+    return false;
+  }
+  if (job.result_capacity < result_bytes(h.num_bodies)) {
+    write_refusal(job, r, IslandStatus::malformed, "result buffer too small");
+    return false;
+  }
+  return true;
+}
+
+void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r) {
+  const Island_Header& h = p.header;
+  const std::string why = validate_island(in, job.bytes);
+  if (!why.empty()) return write_refusal(job, r, IslandStatus::malformed, why);
+  Workspace ws;
+  const size_t mark = ls_.used();
+  if (!allocate_workspace(ls_, p.counts, ws))
+    return write_refusal(job, r, IslandStatus::does_not_fit, "local store exhausted (accounting bug)");
   StepContext c;
   c.island = view_island(in);
   c.ws = &ws;
-  c.solver = counts.solver;
+  c.solver = p.counts.solver;
   c.solve.rel_tol = h.tolerance;
   c.solve.abs_tol = h.tolerance * 1e-3f;
   c.error_tolerance = h.tolerance;
@@ -140,30 +158,33 @@ IslandReport ComputeWorker::step(const unsigned char* image, size_t bytes, unsig
     std::memcpy(steps[i].delta_velocity, c.island.bodies[i].velocity, 12);
     std::memcpy(steps[i].delta_angular_velocity, c.island.bodies[i].angular_velocity, 12);
   }
-  bool ok = prepare(c);
-  if (!ok) return refuse(IslandStatus::malformed, "block structure does not match num_blocks");
-  if (counts.integrator == Integrator::rosenbrock)
+  if (!prepare(c)) {
+    ls_.release(mark);
+    return write_refusal(job, r, IslandStatus::malformed, "num_blocks does not match the pair forces");
+  }
+  bool ok;
+  if (p.counts.integrator == Integrator::rosenbrock)
     ok = adaptive(c, h.step, h.max_halvings, r);
   else
-    ok = substep(c, counts.integrator, h.step, 0, h.max_halvings, r);
+    ok = substep(c, p.counts.integrator, h.step, 0, h.max_halvings, r);
   r.solver_iterations = static_cast<uint32_t>(c.stats.solver_iterations);
   r.solves = static_cast<uint32_t>(c.stats.solves);
   r.solver_code = static_cast<uint32_t>(c.stats.last_solver_code);
   r.rejected = static_cast<uint32_t>(c.stats.rejected);
   r.status = ok ? IslandStatus::ok : IslandStatus::failed;
-  r.local_store_peak = ls_.peak();
+  ls_.release(mark);
 
-  // 4. The result: header, the seed's Rigid_Body_Step per body, and the advanced bodies
-  // (the original bodies when the step failed: nothing half-stepped leaves the kernel).
-  for (int i = 0; i < n; ++i) {
+  // The result: header, the seed's Rigid_Body_Step per body, and the advanced bodies (the
+  // original bodies when the step failed: nothing half-stepped leaves the kernel).
+  for (int i = 0; i < n; ++i)
     for (int k = 0; k < 3; ++k) {
       steps[i].delta_velocity[k] = ok ? c.island.bodies[i].velocity[k] - steps[i].delta_velocity[k] : 0.0f;
       steps[i].delta_angular_velocity[k] =
           ok ? c.island.bodies[i].angular_velocity[k] - steps[i].delta_angular_velocity[k] : 0.0f;
     }
-  }
+  const IslandLayout layout = island_layout(h.num_bodies, h.num_sections);
   const size_t steps_bytes = size_t(n) * sizeof(Rigid_Body_Step);
-  const unsigned char* bodies_src = ok ? reinterpret_cast<unsigned char*>(c.island.bodies) : image + layout.bodies;
+  const unsigned char* bodies_src = ok ? reinterpret_cast<unsigned char*>(c.island.bodies) : job.image + layout.bodies;
   const size_t bodies_bytes = size_t(n) * sizeof(Rigid_Body);
   std::memset(res, 0, sizeof *res);
   res->magic = kResultMagic;
@@ -179,13 +200,78 @@ IslandReport ComputeWorker::step(const unsigned char* image, size_t bytes, unsig
   res->total_bytes = static_cast<uint32_t>(result_bytes(h.num_bodies));
   res->checksum = checksum(bodies_src, bodies_bytes, checksum(reinterpret_cast<unsigned char*>(steps), steps_bytes));
   const size_t head_bytes = align16(sizeof(Island_Result));
-  dma_.put(result, out, head_bytes + steps_bytes, kTagOut);
+  dma_.put(job.result, out, head_bytes + steps_bytes, p.out_tag);
   if (ok)
-    dma_.put(result + head_bytes + steps_bytes, bodies_src, bodies_bytes, kTagOut);
+    dma_.put(job.result + head_bytes + steps_bytes, bodies_src, bodies_bytes, p.out_tag);
   else
-    std::memcpy(result + head_bytes + steps_bytes, bodies_src, bodies_bytes);  // main to main: unchanged state
-  dma_.wait(1u << kTagOut);
+    std::memcpy(job.result + head_bytes + steps_bytes, bodies_src, bodies_bytes);  // main to main: unchanged
+}
+
+IslandReport ComputeWorker::step(const unsigned char* image, size_t bytes, unsigned char* result, size_t result_capacity) {
+  const IslandJob job{image, bytes, result, result_capacity};
+  IslandReport r;
+  step_batch(&job, 1, &r);
   return r;
+}
+
+void ComputeWorker::step_batch(const IslandJob* jobs, size_t count, IslandReport* reports) {
+  // Two input and two output slots, sized for the largest island of the batch, below the
+  // working set: island k computes from slot k % 2 while island k + 1 is fetched into the
+  // other and island k - 1's result drains from the other output slot. An island whose
+  // own footprint (with double buffering, as the seed counts it) does not fit is refused.
+  std::vector<Plan> plans(count);
+  std::vector<char> ok(count, 0);
+  size_t in_slot = 0, out_slot = 0, work = 0;
+  for (size_t k = 0; k < count; ++k) {
+    reports[k] = IslandReport{};
+    ok[k] = plan(jobs[k], plans[k], reports[k]);
+    if (!ok[k]) continue;
+    const RegionBytes& b = reports[k].footprint.bytes;
+    in_slot = std::max(in_slot, b[int(Region::input)]);
+    out_slot = std::max(out_slot, b[int(Region::output)]);
+    work = std::max(work, reports[k].footprint.total - 2 * (b[int(Region::input)] + b[int(Region::output)]));
+  }
+  ls_.reset();
+  ls_.reset_peak();
+  const bool overlap = 2 * (in_slot + out_slot) + work <= ls_.capacity();
+  if (!overlap) {  // islands too different in size to share slots: one at a time
+    for (size_t k = 0; k < count; ++k) {
+      if (!ok[k]) continue;
+      ls_.reset();
+      const RegionBytes& b = reports[k].footprint.bytes;
+      auto* in = static_cast<unsigned char*>(ls_.allocate(b[int(Region::input)], 32, Region::input));
+      auto* out = static_cast<unsigned char*>(ls_.allocate(b[int(Region::output)], 32, Region::output));
+      ls_.allocate(b[int(Region::double_buffer)], 32, Region::double_buffer);  // accounted as the seed does
+      plans[k].out_tag = kTagOut;
+      dma_.get(in, jobs[k].image, jobs[k].bytes, kTagIn);
+      dma_.wait(1u << kTagIn);
+      compute(jobs[k], plans[k], in, out, reports[k]);
+      dma_.wait(1u << kTagOut);
+      reports[k].local_store_peak = ls_.peak();
+    }
+    return;
+  }
+  unsigned char* in[2];
+  unsigned char* out[2];
+  for (int s = 0; s < 2; ++s) {
+    in[s] = static_cast<unsigned char*>(ls_.allocate(in_slot, 32, s ? Region::double_buffer : Region::input));
+    out[s] = static_cast<unsigned char*>(ls_.allocate(out_slot, 32, s ? Region::double_buffer : Region::output));
+  }
+  auto fetch = [&](size_t k) {
+    if (k < count && ok[k]) dma_.get(in[k % 2], jobs[k].image, jobs[k].bytes, kTagIn + unsigned(k % 2));
+  };
+  fetch(0);
+  for (size_t k = 0; k < count; ++k) {
+    fetch(k + 1);  // the next island loads while this one computes
+    if (!ok[k]) continue;
+    const unsigned slot = unsigned(k % 2);
+    dma_.wait(1u << (kTagIn + slot));
+    dma_.wait(1u << (kTagOut + 2 + slot));  // the result that last used this output slot has drained
+    plans[k].out_tag = kTagOut + 2 + slot;
+    compute(jobs[k], plans[k], in[slot], out[slot], reports[k]);
+    reports[k].local_store_peak = ls_.peak();
+  }
+  dma_.wait_all();
 }
 
 }  // namespace cellphys::spu

@@ -4,6 +4,7 @@
 #pragma once
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "runtime/spu/dma.h"
 #include "runtime/spu/island_image.h"
@@ -25,16 +26,34 @@ struct IslandReport {
   std::string error;  // for does_not_fit and malformed
 };
 
+/// One island to step: its packed image and where its result goes (both in main memory,
+/// 16-byte aligned; the result must hold result_bytes(num_bodies) bytes).
+struct IslandJob {
+  const unsigned char* image = nullptr;
+  size_t bytes = 0;
+  unsigned char* result = nullptr;
+  size_t result_capacity = 0;
+};
+
 class ComputeWorker {
  public:
   explicit ComputeWorker(size_t local_store_bytes = LocalStore::kDefaultCapacity);
-  /// Steps one island. `result` must hold result_bytes(num_bodies) bytes, 16-byte aligned.
-  /// A failed or refused island's result carries its bodies unchanged.
+  /// Steps one island. A failed or refused island's result carries its bodies unchanged.
   IslandReport step(const unsigned char* image, size_t bytes, unsigned char* result, size_t result_capacity);
+  /// Steps islands in order, double-buffered: the next island is fetched while one computes.
+  /// Results are identical to stepping each alone.
+  void step_batch(const IslandJob* jobs, size_t count, IslandReport* reports);
   LocalStore& local_store() { return ls_; }
   const Dma& dma() const { return dma_; }
 
  private:
+  struct Plan {
+    gen::Island_Header header{};
+    IslandCounts counts;
+    unsigned out_tag = 0;
+  };
+  bool plan(const IslandJob& job, Plan& p, IslandReport& r);
+  void compute(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r);
   LocalStore ls_;
   Dma dma_;
 };

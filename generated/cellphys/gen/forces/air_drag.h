@@ -24,20 +24,21 @@ struct Air_Drag_Body_Kernel {
       {BlockKind::dF_du, 0, 0},
   };
 
-  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
-  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
-  /// when that is the current pose.
+  /// One instance's inputs, as scalars, from the packed island, to in[k * stride] (a stride
+  /// of the batch width writes one lane of a structure-of-arrays batch). `ref`: the bodies'
+  /// reference poses (x y z _ w x y z each), where world-frame contact geometry was
+  /// measured; null when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
                             [[maybe_unused]] const Island_Params& g, float* in,
-                            [[maybe_unused]] const float* ref = nullptr) {
+                            [[maybe_unused]] const float* ref = nullptr, [[maybe_unused]] int stride = 1) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
-    in[0] = a.velocity[0];
-    in[1] = a.velocity[1];
-    in[2] = a.velocity[2];
-    in[3] = f.drag;
-    in[4] = f.wind[0];
-    in[5] = f.wind[1];
-    in[6] = f.wind[2];
+    in[0 * stride] = a.velocity[0];
+    in[1 * stride] = a.velocity[1];
+    in[2 * stride] = a.velocity[2];
+    in[3 * stride] = f.drag;
+    in[4 * stride] = f.wind[0];
+    in[5 * stride] = f.wind[1];
+    in[6 * stride] = f.wind[2];
   }
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).

@@ -31,65 +31,66 @@ struct Contact_Pair_Kernel {
       {BlockKind::dF_du, 1, 1},
   };
 
-  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
-  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
-  /// when that is the current pose.
+  /// One instance's inputs, as scalars, from the packed island, to in[k * stride] (a stride
+  /// of the batch width writes one lane of a structure-of-arrays batch). `ref`: the bodies'
+  /// reference poses (x y z _ w x y z each), where world-frame contact geometry was
+  /// measured; null when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
                             [[maybe_unused]] const Island_Params& g, float* in,
-                            [[maybe_unused]] const float* ref = nullptr) {
+                            [[maybe_unused]] const float* ref = nullptr, [[maybe_unused]] int stride = 1) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
     const Rigid_Body& b = bodies[f.body_b];
-    in[0] = a.position[0];
-    in[1] = a.position[1];
-    in[2] = a.position[2];
-    in[3] = a.orientation[0];
-    in[4] = a.orientation[1];
-    in[5] = a.orientation[2];
-    in[6] = a.orientation[3];
-    in[7] = a.velocity[0];
-    in[8] = a.velocity[1];
-    in[9] = a.velocity[2];
-    in[10] = a.angular_velocity[0];
-    in[11] = a.angular_velocity[1];
-    in[12] = a.angular_velocity[2];
-    in[13] = ref ? ref[8 * f.body_a + 0] : a.position[0];
-    in[14] = ref ? ref[8 * f.body_a + 1] : a.position[1];
-    in[15] = ref ? ref[8 * f.body_a + 2] : a.position[2];
-    in[16] = ref ? ref[8 * f.body_a + 4] : a.orientation[0];
-    in[17] = ref ? ref[8 * f.body_a + 5] : a.orientation[1];
-    in[18] = ref ? ref[8 * f.body_a + 6] : a.orientation[2];
-    in[19] = ref ? ref[8 * f.body_a + 7] : a.orientation[3];
-    in[20] = b.position[0];
-    in[21] = b.position[1];
-    in[22] = b.position[2];
-    in[23] = b.orientation[0];
-    in[24] = b.orientation[1];
-    in[25] = b.orientation[2];
-    in[26] = b.orientation[3];
-    in[27] = b.velocity[0];
-    in[28] = b.velocity[1];
-    in[29] = b.velocity[2];
-    in[30] = b.angular_velocity[0];
-    in[31] = b.angular_velocity[1];
-    in[32] = b.angular_velocity[2];
-    in[33] = ref ? ref[8 * f.body_b + 0] : b.position[0];
-    in[34] = ref ? ref[8 * f.body_b + 1] : b.position[1];
-    in[35] = ref ? ref[8 * f.body_b + 2] : b.position[2];
-    in[36] = ref ? ref[8 * f.body_b + 4] : b.orientation[0];
-    in[37] = ref ? ref[8 * f.body_b + 5] : b.orientation[1];
-    in[38] = ref ? ref[8 * f.body_b + 6] : b.orientation[2];
-    in[39] = ref ? ref[8 * f.body_b + 7] : b.orientation[3];
-    in[40] = f.point[0];
-    in[41] = f.point[1];
-    in[42] = f.point[2];
-    in[43] = f.normal[0];
-    in[44] = f.normal[1];
-    in[45] = f.normal[2];
-    in[46] = f.penetration;
-    in[47] = f.friction;
-    in[48] = g.contact_stiffness;
-    in[49] = g.contact_damping;
-    in[50] = g.slip_velocity;
+    in[0 * stride] = a.position[0];
+    in[1 * stride] = a.position[1];
+    in[2 * stride] = a.position[2];
+    in[3 * stride] = a.orientation[0];
+    in[4 * stride] = a.orientation[1];
+    in[5 * stride] = a.orientation[2];
+    in[6 * stride] = a.orientation[3];
+    in[7 * stride] = a.velocity[0];
+    in[8 * stride] = a.velocity[1];
+    in[9 * stride] = a.velocity[2];
+    in[10 * stride] = a.angular_velocity[0];
+    in[11 * stride] = a.angular_velocity[1];
+    in[12 * stride] = a.angular_velocity[2];
+    in[13 * stride] = ref ? ref[8 * f.body_a + 0] : a.position[0];
+    in[14 * stride] = ref ? ref[8 * f.body_a + 1] : a.position[1];
+    in[15 * stride] = ref ? ref[8 * f.body_a + 2] : a.position[2];
+    in[16 * stride] = ref ? ref[8 * f.body_a + 4] : a.orientation[0];
+    in[17 * stride] = ref ? ref[8 * f.body_a + 5] : a.orientation[1];
+    in[18 * stride] = ref ? ref[8 * f.body_a + 6] : a.orientation[2];
+    in[19 * stride] = ref ? ref[8 * f.body_a + 7] : a.orientation[3];
+    in[20 * stride] = b.position[0];
+    in[21 * stride] = b.position[1];
+    in[22 * stride] = b.position[2];
+    in[23 * stride] = b.orientation[0];
+    in[24 * stride] = b.orientation[1];
+    in[25 * stride] = b.orientation[2];
+    in[26 * stride] = b.orientation[3];
+    in[27 * stride] = b.velocity[0];
+    in[28 * stride] = b.velocity[1];
+    in[29 * stride] = b.velocity[2];
+    in[30 * stride] = b.angular_velocity[0];
+    in[31 * stride] = b.angular_velocity[1];
+    in[32 * stride] = b.angular_velocity[2];
+    in[33 * stride] = ref ? ref[8 * f.body_b + 0] : b.position[0];
+    in[34 * stride] = ref ? ref[8 * f.body_b + 1] : b.position[1];
+    in[35 * stride] = ref ? ref[8 * f.body_b + 2] : b.position[2];
+    in[36 * stride] = ref ? ref[8 * f.body_b + 4] : b.orientation[0];
+    in[37 * stride] = ref ? ref[8 * f.body_b + 5] : b.orientation[1];
+    in[38 * stride] = ref ? ref[8 * f.body_b + 6] : b.orientation[2];
+    in[39 * stride] = ref ? ref[8 * f.body_b + 7] : b.orientation[3];
+    in[40 * stride] = f.point[0];
+    in[41 * stride] = f.point[1];
+    in[42 * stride] = f.point[2];
+    in[43 * stride] = f.normal[0];
+    in[44 * stride] = f.normal[1];
+    in[45 * stride] = f.normal[2];
+    in[46 * stride] = f.penetration;
+    in[47 * stride] = f.friction;
+    in[48 * stride] = g.contact_stiffness;
+    in[49 * stride] = g.contact_damping;
+    in[50 * stride] = g.slip_velocity;
   }
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).
@@ -1778,44 +1779,45 @@ struct Contact_World_Kernel {
       {BlockKind::dF_du, 0, 0},
   };
 
-  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
-  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
-  /// when that is the current pose.
+  /// One instance's inputs, as scalars, from the packed island, to in[k * stride] (a stride
+  /// of the batch width writes one lane of a structure-of-arrays batch). `ref`: the bodies'
+  /// reference poses (x y z _ w x y z each), where world-frame contact geometry was
+  /// measured; null when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
                             [[maybe_unused]] const Island_Params& g, float* in,
-                            [[maybe_unused]] const float* ref = nullptr) {
+                            [[maybe_unused]] const float* ref = nullptr, [[maybe_unused]] int stride = 1) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
-    in[0] = a.position[0];
-    in[1] = a.position[1];
-    in[2] = a.position[2];
-    in[3] = a.orientation[0];
-    in[4] = a.orientation[1];
-    in[5] = a.orientation[2];
-    in[6] = a.orientation[3];
-    in[7] = a.velocity[0];
-    in[8] = a.velocity[1];
-    in[9] = a.velocity[2];
-    in[10] = a.angular_velocity[0];
-    in[11] = a.angular_velocity[1];
-    in[12] = a.angular_velocity[2];
-    in[13] = ref ? ref[8 * f.body_a + 0] : a.position[0];
-    in[14] = ref ? ref[8 * f.body_a + 1] : a.position[1];
-    in[15] = ref ? ref[8 * f.body_a + 2] : a.position[2];
-    in[16] = ref ? ref[8 * f.body_a + 4] : a.orientation[0];
-    in[17] = ref ? ref[8 * f.body_a + 5] : a.orientation[1];
-    in[18] = ref ? ref[8 * f.body_a + 6] : a.orientation[2];
-    in[19] = ref ? ref[8 * f.body_a + 7] : a.orientation[3];
-    in[20] = f.point[0];
-    in[21] = f.point[1];
-    in[22] = f.point[2];
-    in[23] = f.normal[0];
-    in[24] = f.normal[1];
-    in[25] = f.normal[2];
-    in[26] = f.penetration;
-    in[27] = f.friction;
-    in[28] = g.contact_stiffness;
-    in[29] = g.contact_damping;
-    in[30] = g.slip_velocity;
+    in[0 * stride] = a.position[0];
+    in[1 * stride] = a.position[1];
+    in[2 * stride] = a.position[2];
+    in[3 * stride] = a.orientation[0];
+    in[4 * stride] = a.orientation[1];
+    in[5 * stride] = a.orientation[2];
+    in[6 * stride] = a.orientation[3];
+    in[7 * stride] = a.velocity[0];
+    in[8 * stride] = a.velocity[1];
+    in[9 * stride] = a.velocity[2];
+    in[10 * stride] = a.angular_velocity[0];
+    in[11 * stride] = a.angular_velocity[1];
+    in[12 * stride] = a.angular_velocity[2];
+    in[13 * stride] = ref ? ref[8 * f.body_a + 0] : a.position[0];
+    in[14 * stride] = ref ? ref[8 * f.body_a + 1] : a.position[1];
+    in[15 * stride] = ref ? ref[8 * f.body_a + 2] : a.position[2];
+    in[16 * stride] = ref ? ref[8 * f.body_a + 4] : a.orientation[0];
+    in[17 * stride] = ref ? ref[8 * f.body_a + 5] : a.orientation[1];
+    in[18 * stride] = ref ? ref[8 * f.body_a + 6] : a.orientation[2];
+    in[19 * stride] = ref ? ref[8 * f.body_a + 7] : a.orientation[3];
+    in[20 * stride] = f.point[0];
+    in[21 * stride] = f.point[1];
+    in[22 * stride] = f.point[2];
+    in[23 * stride] = f.normal[0];
+    in[24 * stride] = f.normal[1];
+    in[25 * stride] = f.normal[2];
+    in[26 * stride] = f.penetration;
+    in[27 * stride] = f.friction;
+    in[28 * stride] = g.contact_stiffness;
+    in[29 * stride] = g.contact_damping;
+    in[30 * stride] = g.slip_velocity;
   }
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).

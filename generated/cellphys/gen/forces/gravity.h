@@ -22,17 +22,18 @@ struct Gravity_Body_Kernel {
   static constexpr int kOps = 3;
   static constexpr BlockSlot* kBlocks = nullptr;
 
-  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
-  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
-  /// when that is the current pose.
+  /// One instance's inputs, as scalars, from the packed island, to in[k * stride] (a stride
+  /// of the batch width writes one lane of a structure-of-arrays batch). `ref`: the bodies'
+  /// reference poses (x y z _ w x y z each), where world-frame contact geometry was
+  /// measured; null when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
                             [[maybe_unused]] const Island_Params& g, float* in,
-                            [[maybe_unused]] const float* ref = nullptr) {
+                            [[maybe_unused]] const float* ref = nullptr, [[maybe_unused]] int stride = 1) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
-    in[0] = a.mass;
-    in[1] = g.gravity[0];
-    in[2] = g.gravity[1];
-    in[3] = g.gravity[2];
+    in[0 * stride] = a.mass;
+    in[1 * stride] = g.gravity[0];
+    in[2 * stride] = g.gravity[1];
+    in[3 * stride] = g.gravity[2];
   }
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).

@@ -25,29 +25,30 @@ struct Gyroscopic_Body_Kernel {
       {BlockKind::dF_du, 0, 0},
   };
 
-  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
-  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
-  /// when that is the current pose.
+  /// One instance's inputs, as scalars, from the packed island, to in[k * stride] (a stride
+  /// of the batch width writes one lane of a structure-of-arrays batch). `ref`: the bodies'
+  /// reference poses (x y z _ w x y z each), where world-frame contact geometry was
+  /// measured; null when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
                             [[maybe_unused]] const Island_Params& g, float* in,
-                            [[maybe_unused]] const float* ref = nullptr) {
+                            [[maybe_unused]] const float* ref = nullptr, [[maybe_unused]] int stride = 1) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
-    in[0] = a.orientation[0];
-    in[1] = a.orientation[1];
-    in[2] = a.orientation[2];
-    in[3] = a.orientation[3];
-    in[4] = a.velocity[0];
-    in[5] = a.velocity[1];
-    in[6] = a.velocity[2];
-    in[7] = a.angular_velocity[0];
-    in[8] = a.angular_velocity[1];
-    in[9] = a.angular_velocity[2];
-    in[10] = a.inertia_body[0];
-    in[11] = a.inertia_body[1];
-    in[12] = a.inertia_body[2];
-    in[13] = a.inertia_body[3];
-    in[14] = a.inertia_body[4];
-    in[15] = a.inertia_body[5];
+    in[0 * stride] = a.orientation[0];
+    in[1 * stride] = a.orientation[1];
+    in[2 * stride] = a.orientation[2];
+    in[3 * stride] = a.orientation[3];
+    in[4 * stride] = a.velocity[0];
+    in[5 * stride] = a.velocity[1];
+    in[6 * stride] = a.velocity[2];
+    in[7 * stride] = a.angular_velocity[0];
+    in[8 * stride] = a.angular_velocity[1];
+    in[9 * stride] = a.angular_velocity[2];
+    in[10 * stride] = a.inertia_body[0];
+    in[11 * stride] = a.inertia_body[1];
+    in[12 * stride] = a.inertia_body[2];
+    in[13 * stride] = a.inertia_body[3];
+    in[14 * stride] = a.inertia_body[4];
+    in[15 * stride] = a.inertia_body[5];
   }
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).

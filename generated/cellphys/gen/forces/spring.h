@@ -31,49 +31,50 @@ struct Spring_Pair_Kernel {
       {BlockKind::dF_du, 1, 1},
   };
 
-  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
-  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
-  /// when that is the current pose.
+  /// One instance's inputs, as scalars, from the packed island, to in[k * stride] (a stride
+  /// of the batch width writes one lane of a structure-of-arrays batch). `ref`: the bodies'
+  /// reference poses (x y z _ w x y z each), where world-frame contact geometry was
+  /// measured; null when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
                             [[maybe_unused]] const Island_Params& g, float* in,
-                            [[maybe_unused]] const float* ref = nullptr) {
+                            [[maybe_unused]] const float* ref = nullptr, [[maybe_unused]] int stride = 1) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
     const Rigid_Body& b = bodies[f.body_b];
-    in[0] = a.position[0];
-    in[1] = a.position[1];
-    in[2] = a.position[2];
-    in[3] = a.orientation[0];
-    in[4] = a.orientation[1];
-    in[5] = a.orientation[2];
-    in[6] = a.orientation[3];
-    in[7] = a.velocity[0];
-    in[8] = a.velocity[1];
-    in[9] = a.velocity[2];
-    in[10] = a.angular_velocity[0];
-    in[11] = a.angular_velocity[1];
-    in[12] = a.angular_velocity[2];
-    in[13] = b.position[0];
-    in[14] = b.position[1];
-    in[15] = b.position[2];
-    in[16] = b.orientation[0];
-    in[17] = b.orientation[1];
-    in[18] = b.orientation[2];
-    in[19] = b.orientation[3];
-    in[20] = b.velocity[0];
-    in[21] = b.velocity[1];
-    in[22] = b.velocity[2];
-    in[23] = b.angular_velocity[0];
-    in[24] = b.angular_velocity[1];
-    in[25] = b.angular_velocity[2];
-    in[26] = f.point_a[0];
-    in[27] = f.point_a[1];
-    in[28] = f.point_a[2];
-    in[29] = f.point_b[0];
-    in[30] = f.point_b[1];
-    in[31] = f.point_b[2];
-    in[32] = f.stiffness;
-    in[33] = f.damping;
-    in[34] = f.rest_length;
+    in[0 * stride] = a.position[0];
+    in[1 * stride] = a.position[1];
+    in[2 * stride] = a.position[2];
+    in[3 * stride] = a.orientation[0];
+    in[4 * stride] = a.orientation[1];
+    in[5 * stride] = a.orientation[2];
+    in[6 * stride] = a.orientation[3];
+    in[7 * stride] = a.velocity[0];
+    in[8 * stride] = a.velocity[1];
+    in[9 * stride] = a.velocity[2];
+    in[10 * stride] = a.angular_velocity[0];
+    in[11 * stride] = a.angular_velocity[1];
+    in[12 * stride] = a.angular_velocity[2];
+    in[13 * stride] = b.position[0];
+    in[14 * stride] = b.position[1];
+    in[15 * stride] = b.position[2];
+    in[16 * stride] = b.orientation[0];
+    in[17 * stride] = b.orientation[1];
+    in[18 * stride] = b.orientation[2];
+    in[19 * stride] = b.orientation[3];
+    in[20 * stride] = b.velocity[0];
+    in[21 * stride] = b.velocity[1];
+    in[22 * stride] = b.velocity[2];
+    in[23 * stride] = b.angular_velocity[0];
+    in[24 * stride] = b.angular_velocity[1];
+    in[25 * stride] = b.angular_velocity[2];
+    in[26 * stride] = f.point_a[0];
+    in[27 * stride] = f.point_a[1];
+    in[28 * stride] = f.point_a[2];
+    in[29 * stride] = f.point_b[0];
+    in[30 * stride] = f.point_b[1];
+    in[31 * stride] = f.point_b[2];
+    in[32 * stride] = f.stiffness;
+    in[33 * stride] = f.damping;
+    in[34 * stride] = f.rest_length;
   }
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).
@@ -1357,35 +1358,36 @@ struct Spring_World_Kernel {
       {BlockKind::dF_du, 0, 0},
   };
 
-  /// One instance's inputs, as scalars, from the packed island. `ref`: the bodies' reference
-  /// poses (x y z _ w x y z each), where world-frame contact geometry was measured; null
-  /// when that is the current pose.
+  /// One instance's inputs, as scalars, from the packed island, to in[k * stride] (a stride
+  /// of the batch width writes one lane of a structure-of-arrays batch). `ref`: the bodies'
+  /// reference poses (x y z _ w x y z each), where world-frame contact geometry was
+  /// measured; null when that is the current pose.
   static inline void gather([[maybe_unused]] const Rigid_Body* bodies, [[maybe_unused]] const Instance& f,
                             [[maybe_unused]] const Island_Params& g, float* in,
-                            [[maybe_unused]] const float* ref = nullptr) {
+                            [[maybe_unused]] const float* ref = nullptr, [[maybe_unused]] int stride = 1) {
     [[maybe_unused]] const Rigid_Body& a = bodies[f.body_a];
-    in[0] = a.position[0];
-    in[1] = a.position[1];
-    in[2] = a.position[2];
-    in[3] = a.orientation[0];
-    in[4] = a.orientation[1];
-    in[5] = a.orientation[2];
-    in[6] = a.orientation[3];
-    in[7] = a.velocity[0];
-    in[8] = a.velocity[1];
-    in[9] = a.velocity[2];
-    in[10] = a.angular_velocity[0];
-    in[11] = a.angular_velocity[1];
-    in[12] = a.angular_velocity[2];
-    in[13] = f.point_a[0];
-    in[14] = f.point_a[1];
-    in[15] = f.point_a[2];
-    in[16] = f.point_b[0];
-    in[17] = f.point_b[1];
-    in[18] = f.point_b[2];
-    in[19] = f.stiffness;
-    in[20] = f.damping;
-    in[21] = f.rest_length;
+    in[0 * stride] = a.position[0];
+    in[1 * stride] = a.position[1];
+    in[2 * stride] = a.position[2];
+    in[3 * stride] = a.orientation[0];
+    in[4 * stride] = a.orientation[1];
+    in[5 * stride] = a.orientation[2];
+    in[6 * stride] = a.orientation[3];
+    in[7 * stride] = a.velocity[0];
+    in[8 * stride] = a.velocity[1];
+    in[9 * stride] = a.velocity[2];
+    in[10 * stride] = a.angular_velocity[0];
+    in[11 * stride] = a.angular_velocity[1];
+    in[12 * stride] = a.angular_velocity[2];
+    in[13 * stride] = f.point_a[0];
+    in[14 * stride] = f.point_a[1];
+    in[15 * stride] = f.point_a[2];
+    in[16 * stride] = f.point_b[0];
+    in[17 * stride] = f.point_b[1];
+    in[18 * stride] = f.point_b[2];
+    in[19 * stride] = f.stiffness;
+    in[20 * stride] = f.damping;
+    in[21 * stride] = f.rest_length;
   }
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).

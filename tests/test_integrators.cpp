@@ -149,11 +149,13 @@ struct Map2 {
 
 // Backward Euler on x'' = -w^2 x is z_{n+1} = z_n / (1 + i theta): the energy shrinks by
 // exactly 1 / (1 + theta^2) per step (DESIGN.md: one linearly implicit step is backward Euler).
-void expect_backward_euler(Integrator integ) {
-  SCOPED_TRACE(name_of(integ));
+void expect_backward_euler(Integrator integ, double amplitude = 0.1, uint32_t solver = 0) {
+  SCOPED_TRACE(name_of(integ) + " A = " + sci(amplitude) + " m, solver " + std::to_string(solver));
   Oscillator o;
+  o.A = amplitude;
+  o.p2p = true;  // the body's position is the displacement: float resolves small amplitudes
   Sim s;
-  o.setup(s, integ, kH);
+  o.setup(s, integ, kH, 1e-5f, solver);
   const double theta = o.omega() * kH;
   double worst_factor = 0.0, worst_z = 0.0;
   s.run(kTwoPeriods, [&](int n) {
@@ -165,15 +167,23 @@ void expect_backward_euler(Integrator integ) {
   });
   EXPECT_EQ(s.failures, 0);
   EXPECT_TRUE(o.stays_on_axis(s));
-  record(name_of(integ) + "_energy_factor_worst_rel_dev", worst_factor);
-  record(name_of(integ) + "_vs_backward_euler_worst_rel_error", worst_z);
-  record(name_of(integ) + "_energy_after_two_periods", o.energy_ratio(s));
+  const std::string tag =
+      name_of(integ) + (amplitude == 0.1 ? "" : "_A" + sci(amplitude, 1) + "_solver" + std::to_string(solver));
+  record(tag + "_energy_factor_worst_rel_dev", worst_factor);
+  record(tag + "_vs_backward_euler_worst_rel_error", worst_z);
+  record(tag + "_energy_after_two_periods", o.energy_ratio(s));
   EXPECT_LT(worst_factor, 1e-3) << "energy must shrink by 1/(1+(hw)^2) per step";
   EXPECT_LT(worst_z, 1e-4);
 }
 
 TEST(SpringMass, ImplicitSplitStepIsExactlyBackwardEuler) { expect_backward_euler(Integrator::implicit_split); }
 TEST(SpringMass, SeedImplicitEulerStepIsExactlyBackwardEuler) { expect_backward_euler(Integrator::implicit_euler); }
+TEST(SpringMass, ImplicitStepIsBackwardEulerAtAnyAmplitude) {
+  // the problem is linear, so the step must not depend on the amplitude: 10 um and 1 um too,
+  // with every solver (at 60 Hz the right-hand side h W g is then ~1e-5 m/s)
+  for (uint32_t solver : {2u, 0u, 1u})
+    for (double A : {1e-3, 1e-5, 1e-6}) expect_backward_euler(Integrator::implicit_split, A, solver);
+}
 
 TEST(SpringMass, ExplicitEulerGainsEnergyByOnePlusHOmegaSquaredPerStep) {
   Oscillator o;
@@ -652,6 +662,26 @@ TEST(Rosenbrock, TighterToleranceTakesMoreSubstepsAndErrsLess) {
     EXPECT_LT(worst, prev_error) << tag;
     prev_substeps = substeps, prev_error = worst;
   }
+}
+
+TEST(Rosenbrock, TightToleranceWithTheDirectSolverCompletesEveryStep) {
+  // the controller on its own: with the direct solve, tolerance 1e-6 covers every frame
+  Oscillator o;
+  Sim s;
+  o.setup(s, Integrator::rosenbrock, kH, 1e-6f, 2);
+  double worst = 0.0;
+  const int done = s.run(kTwoPeriods, [&](int n) {
+    worst = std::max(worst, std::abs(o.z(s) - o.z_exact((n + 1) * kH)) / o.A);
+  });
+  EXPECT_EQ(done, kTwoPeriods);
+  EXPECT_LT(worst, 1e-4);
+  record("rosenbrock_direct_1e-6_worst_rel_error", worst);
+  SpinningBox box;
+  box.w0 = {3.0, -1.0, 0.5};
+  Sim spin;
+  box.setup(spin, Integrator::rosenbrock, 1.0 / 120.0, 1e-6f);
+  spin.settings.solver = 2;
+  EXPECT_EQ(spin.run(60), 60);
 }
 
 TEST(Rosenbrock, TightToleranceOnASpinningBodyCompletesEveryStep) {

@@ -617,6 +617,54 @@ TEST(Determinism, SteppingTheSameIslandTwiceGivesIdenticalBytes) {
   }
 }
 
+TEST(Determinism, ABatchGivesTheSameBytesAsSteppingEachIslandAlone) {
+  // double-buffered batches (kernel.h: "results are identical to stepping each alone"),
+  // with islands of several sizes and integrators, a malformed one and one that does not fit
+  std::vector<Bytes> images;
+  for (int integ = 0; integ < spu::kNumIntegrators; ++integ) images.push_back(reference_image(Integrator(integ)));
+  std::mt19937 rng(11);
+  for (int k = 0; k < 6; ++k)
+    images.push_back(random_spring_island(rng, k % 2 ? Integrator::implicit_euler : Integrator::rk4, k % 3, 1e-4f));
+  images.push_back(stiff_chain(3, 1e-12f, 0, 2));  // fails after two halvings
+  {
+    Bytes bad = small_island();
+    bad[offsetof(gen::Island_Header, checksum)] ^= 0x01;
+    images.push_back(bad);
+  }
+  {
+    IslandBuilder ib;
+    for (int i = 0; i < 400; ++i) ib.add_body(make_box(1.0, 0.1, 0.1, 0.1));
+    images.push_back(ib.finish());  // 400 bodies: over 256 KiB
+  }
+  images.push_back(small_island());
+  // every order: same-size neighbours (the overlapped path) and mixed sizes
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) std::reverse(images.begin(), images.end());
+    std::vector<Bytes> results(images.size());
+    std::vector<spu::IslandJob> jobs(images.size());
+    for (size_t k = 0; k < images.size(); ++k) {
+      results[k].assign(spu::result_bytes(uint32_t(bodies_of(images[k]))), 0xEE);
+      jobs[k] = {images[k].data(), images[k].size(), results[k].data(), results[k].size()};
+    }
+    std::vector<IslandReport> reports(images.size());
+    ComputeWorker w;
+    w.step_batch(jobs.data(), jobs.size(), reports.data());
+    for (size_t k = 0; k < images.size(); ++k) {
+      const Stepped alone = step_image(images[k], spu::LocalStore::kDefaultCapacity, 0xEE);
+      EXPECT_EQ(reports[k].status, alone.report.status) << "pass " << pass << " island " << k;
+      EXPECT_EQ(reports[k].solver_iterations, alone.report.solver_iterations) << "pass " << pass << " island " << k;
+      EXPECT_EQ(reports[k].halvings, alone.report.halvings) << "pass " << pass << " island " << k;
+      size_t first = 0;
+      while (first < results[k].size() && results[k][first] == alone.result[first]) ++first;
+      EXPECT_EQ(first, results[k].size()) << "pass " << pass << " island " << k << " ("
+                                          << spu::status_name(alone.report.status) << "): first differing byte "
+                                          << first << " of " << results[k].size() << " (bodies start at "
+                                          << result_bodies_offset(bodies_of(images[k])) << ")";
+    }
+    EXPECT_EQ(w.dma().pending(), 0);
+  }
+}
+
 TEST(Result, HeaderStepsAndChecksumDescribeTheAdvancedBodies) {
   IslandBuilder ib;
   ib.set_island_id(4242);

@@ -1,6 +1,6 @@
 // Tests of the generated force kernels (generated/cellphys/gen/forces/*.h): Jacobian blocks
-// against central finite differences of F, F against an independent Eigen evaluation, SIMD
-// batches against scalar float, and the contact clamps.
+// against central finite differences of F, F against an independent Eigen evaluation, the
+// implicit form against F and the blocks, SIMD batches against scalar float, the contact clamps.
 //
 // Kernels are reached through visit_kernels() and their inputs are discovered by probing
 // gather() with sentinel values, so a force added by descriptor is covered without editing
@@ -18,7 +18,6 @@
 #include <map>
 #include <random>
 #include <string>
-#include <type_traits>
 #include <vector>
 
 #include "cellphys/gen/force_table.h"
@@ -161,16 +160,9 @@ Packed<K> pack(const Case<K>& c) {
   return p;
 }
 
-// gather() with the reference poses, for generators whose gather takes them.
 template <class K>
-void gather(const Packed<K>& p, float* in, bool with_ref = true) {
-  using Inst = typename K::Instance;
-  if constexpr (std::is_invocable_v<decltype(&K::gather), const g::Rigid_Body*, const Inst&, const g::Island_Params&,
-                                    float*, const float*>) {
-    K::gather(p.bodies, p.inst, p.glob, in, with_ref ? p.ref : nullptr);
-  } else {
-    K::gather(p.bodies, p.inst, p.glob, in);
-  }
+void gather(const Packed<K>& p, float* in, bool with_ref = true, int stride = 1) {
+  K::gather(p.bodies, p.inst, p.glob, in, with_ref ? p.ref : nullptr, stride);
 }
 
 struct Source { int region, word; };
@@ -236,10 +228,6 @@ std::vector<T> eval_case(const Case<K>& c) {
   return out;
 }
 
-// The implicit step's form (eval_implicit), where the generator provides it.
-template <class K, class = void> struct HasImplicit : std::false_type {};
-template <class K> struct HasImplicit<K, std::void_t<decltype(K::kImplicitOutputs)>> : std::true_type {};
-
 // ---- Random states --------------------------------------------------------------------------
 
 struct Rng {
@@ -292,8 +280,7 @@ template <class K> Vec3 attachment(const Case<K>& c, const char* name, int body)
 
 struct ContactRef { Vec3 pa, pb, f; double depth, vn, k, c; };
 // The contact straight from the descriptor: pa, pb are the material points of a and b that were
-// at `point` at the reference pose (the current pose for kernels without one), the world's is
-// `point` itself; depth = penetration - (pb - pa).n.
+// at `point` at the reference pose (the world's is `point` itself); depth = penetration - (pb - pa).n.
 template <class K> ContactRef contact_ref(const Case<K>& c) {
   ContactRef r;
   const Vec3 p = vec3_at(param(c, "point")), n = vec3_at(param(c, "normal"));
@@ -305,7 +292,7 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
     Vec3& at = body ? r.pb : r.pa;
     if (body == 1 && !kPair<K>) { at = p; vel[1].setZero(); continue; }
     const BodyD B = body_of(c.body[body]);
-    const Pose ref = probe<K>().reads_ref ? ref_pose(c.ref + kRefWords * body) : Pose{B.x, B.R};
+    const Pose ref = ref_pose(c.ref + kRefWords * body);
     const Vec3 off = B.R * ref.R.transpose() * (p - ref.x);
     at = B.x + off;
     vel[body] = B.v + B.w.cross(off);
@@ -390,31 +377,8 @@ template <class K>
 void perturb(Case<K>& c, int body, int kind, int j, double h) {
   double* b = c.body[body];
   if (kind == 1) { b[(j < 3 ? kVel : kAngVel) + j % 3] += h; return; }
-  const Vec3 x0 = vec3_at(b + kPos);
-  Vec3 dx = Vec3::Zero();
-  Mat3 Rd = Mat3::Identity();
-  if (j < 3) {
-    dx[j] = h;
-  } else {
-    const Eigen::AngleAxisd aa(h, Vec3::Unit(j - 3));
-    Rd = aa.toRotationMatrix();
-    set_quat(b, (Quat(aa) * quat_at(b)).normalized());
-  }
-  set3(b + kPos, x0 + dx);
-  if (contact_like<K>() && !probe<K>().reads_ref) {
-    // A kernel without a reference pose measures the contact at the current pose, so the
-    // instance is carried along instead: the point moves with the perturbed body, the other
-    // body is translated with it (its offset unchanged), and the relative motion along the
-    // normal goes into penetration -- the descriptor's depth and arms.
-    const Vec3 p0 = vec3_at(param(c, "point")), n = vec3_at(param(c, "normal"));
-    const Vec3 p1 = x0 + dx + Rd * (p0 - x0);
-    *param(c, "penetration") -= (body == 0 ? p0 - p1 : p1 - p0).dot(n);
-    set3(param(c, "point"), p1);
-    if (kPair<K>) {
-      double* o = c.body[1 - body] + kPos;
-      set3(o, vec3_at(o) + (p1 - p0));
-    }
-  }
+  if (j < 3) b[kPos + j] += h;
+  else set_quat(b, (Quat(Eigen::AngleAxisd(h, Vec3::Unit(j - 3))) * quat_at(b)).normalized());
 }
 
 // Central differences. h = 1e-6: truncation ~h^2 |F'''|/|F'| <= 1e-12 / (0.005)^2 ~ 4e-8 even at
@@ -517,42 +481,35 @@ bool reference_force(const Case<K>& c, std::vector<double>& F) {
     put(F, 0, f_on_a, (pa - A.x).cross(f_on_a));
     if (kPair<K>) put(F, 1, -f_on_a, (pb - B.x).cross(-f_on_a));
   };
-  switch (K::kType) {
-    case g::ForceType::gravity:
-      put(F, 0, A.m * vec3_at(c.glob + offsetof(g::Island_Params, gravity) / 4), Vec3::Zero());
-      return true;
-    case g::ForceType::damping:
-      put(F, 0, -*param(c, "linear") * A.m * A.v, -*param(c, "angular") * (A.Iw * A.w));
-      return true;
-    case g::ForceType::gyroscopic:
-      put(F, 0, Vec3::Zero(), -A.w.cross(A.Iw * A.w));
-      return true;
-    case g::ForceType::air_drag: {
-      const Vec3 vrel = A.v - vec3_at(param(c, "wind"));
-      put(F, 0, -*param(c, "drag") * vrel.norm() * vrel, Vec3::Zero());
-      return true;
-    }
-    case g::ForceType::spring: {
-      const Vec3 pa = attachment(c, "point_a", 0), pb = attachment(c, "point_b", 1);
-      const Vec3 n = (pb - pa).normalized();
-      const double speed = n.dot(vel_at(1, pb) - vel_at(0, pa));
-      apply_pair(pa, pb, (*param(c, "stiffness") * ((pb - pa).norm() - *param(c, "rest_length")) +
-                          *param(c, "damping") * speed) * n);
-      return true;
-    }
-    case g::ForceType::point_to_point: {
-      const Vec3 pa = attachment(c, "point_a", 0), pb = attachment(c, "point_b", 1);
-      apply_pair(pa, pb, *param(c, "stiffness") * (pb - pa) + *param(c, "damping") * (vel_at(1, pb) - vel_at(0, pa)));
-      return true;
-    }
-    case g::ForceType::contact: {
-      const ContactRef r = contact_ref(c);
-      apply_pair(r.pa, r.pb, -r.f);
-      return true;
-    }
-    default:
-      return false;
+  // By name, not ForceType, so this compiles whichever forces the descriptors declare.
+  const std::string name = info_of(K::kType).name;
+  if (name == "gravity") {
+    put(F, 0, A.m * vec3_at(c.glob + offsetof(g::Island_Params, gravity) / 4), Vec3::Zero());
+  } else if (name == "damping") {
+    put(F, 0, -*param(c, "linear") * A.m * A.v, -*param(c, "angular") * (A.Iw * A.w));
+  } else if (name == "gyroscopic") {
+    put(F, 0, Vec3::Zero(), -A.w.cross(A.Iw * A.w));
+  } else if (name == "air_drag") {
+    const Vec3 vrel = A.v - vec3_at(param(c, "wind"));
+    put(F, 0, -*param(c, "drag") * vrel.norm() * vrel, Vec3::Zero());
+  } else if (name == "applied_wrench") {
+    put(F, 0, vec3_at(param(c, "force_world")), vec3_at(param(c, "torque_world")));
+  } else if (name == "spring") {
+    const Vec3 pa = attachment(c, "point_a", 0), pb = attachment(c, "point_b", 1);
+    const Vec3 n = (pb - pa).normalized();
+    const double speed = n.dot(vel_at(1, pb) - vel_at(0, pa));
+    apply_pair(pa, pb, (*param(c, "stiffness") * ((pb - pa).norm() - *param(c, "rest_length")) +
+                        *param(c, "damping") * speed) * n);
+  } else if (name == "point_to_point") {
+    const Vec3 pa = attachment(c, "point_a", 0), pb = attachment(c, "point_b", 1);
+    apply_pair(pa, pb, *param(c, "stiffness") * (pb - pa) + *param(c, "damping") * (vel_at(1, pb) - vel_at(0, pa)));
+  } else if (name == "contact") {
+    const ContactRef r = contact_ref(c);
+    apply_pair(r.pa, r.pb, -r.f);
+  } else {
+    return false;
   }
+  return true;
 }
 
 // ---- SIMD ---------------------------------------------------------------------------------
@@ -583,32 +540,34 @@ void check_batch_lanes_match_float() {
     SCOPED_TRACE(kernel_name<K>() + " W=" + std::to_string(W));
     std::vector<Batch<W>> in(K::kInputs), out(K::kOutputs), fout(6 * K::kBodies);
     std::vector<std::vector<float>> want(W, std::vector<float>(K::kOutputs)), want_f(W);
+    std::vector<float> soa(K::kInputs * W);
     for (int lane = 0; lane < W; ++lane) {  // lane i = instance i, each gathered from a packed island
       const Packed<K> p = pack(random_case<K>(rng));
       std::vector<float> fin(K::kInputs);
       gather(p, fin.data());
+      gather(p, soa.data() + lane, true, W);
       K::template eval<float>(fin.data(), want[lane].data());
       want_f[lane].resize(6 * K::kBodies);
       K::template eval_f<float>(fin.data(), want_f[lane].data());
       for (int i = 0; i < K::kInputs; ++i) in[i].set(lane, fin[i]);
     }
+    for (int i = 0; i < K::kInputs; ++i)  // a stride-W gather writes lane `lane` of the SoA batch
+      for (int lane = 0; lane < W; ++lane) EXPECT_EQ(soa[i * W + lane], in[i][lane]) << "strided gather, input " << i;
     K::template eval<Batch<W>>(in.data(), out.data());
     K::template eval_f<Batch<W>>(in.data(), fout.data());
     double worst = std::max(compare_lanes(want, out, 6 * K::kBodies, "eval"),
                             compare_lanes(want_f, fout, 6 * K::kBodies, "eval_f"));
-    if constexpr (HasImplicit<K>::value) {
-      Batch<W> h;
-      std::vector<Batch<W>> iout(K::kImplicitOutputs);
-      std::vector<std::vector<float>> want_i(W, std::vector<float>(K::kImplicitOutputs));
-      std::vector<float> fin(K::kInputs);
-      for (int lane = 0; lane < W; ++lane) {
-        h.set(lane, float(rng.uni(1e-4, 1e-2)));
-        for (int i = 0; i < K::kInputs; ++i) fin[i] = in[i][lane];
-        K::template eval_implicit<float>(fin.data(), h[lane], want_i[lane].data());
-      }
-      K::template eval_implicit<Batch<W>>(in.data(), h, iout.data());
-      worst = std::max(worst, compare_lanes(want_i, iout, 6 * K::kBodies, "eval_implicit"));
+    Batch<W> h;
+    std::vector<Batch<W>> iout(K::kImplicitOutputs);
+    std::vector<std::vector<float>> want_i(W, std::vector<float>(K::kImplicitOutputs));
+    std::vector<float> fin(K::kInputs);
+    for (int lane = 0; lane < W; ++lane) {
+      h.set(lane, float(rng.uni(1e-4, 1e-2)));
+      for (int i = 0; i < K::kInputs; ++i) fin[i] = in[i][lane];
+      K::template eval_implicit<float>(fin.data(), h[lane], want_i[lane].data());
     }
+    K::template eval_implicit<Batch<W>>(in.data(), h, iout.data());
+    worst = std::max(worst, compare_lanes(want_i, iout, 6 * K::kBodies, "eval_implicit"));
     ::testing::Test::RecordProperty(kernel_name<K>() + "_W" + std::to_string(W) + "_worst_rel_diff", sci(worst));
   });
 }
@@ -664,6 +623,7 @@ TEST(ForceKernelInputs, ProbeMapsEveryGatheredInputToOneStateWord) {
     SCOPED_TRACE(kernel_name<K>());
     const Probe& pr = probe<K>();
     ASSERT_TRUE(pr.ok);
+    RecordProperty(kernel_name<K>() + "_reads_ref", pr.reads_ref);
     // The double fill agrees with pack() + gather() on an ordinary random state...
     Rng rng(7);
     Case<K> c = random_case<K>(rng);
@@ -738,50 +698,49 @@ TEST(ForceKernelForce, MatchesIndependentEigenEvaluation) {
 TEST(ForceKernelImplicit, GAndKMatchFAndBlocksOfEval) {
   g::visit_kernels([&](auto k) {
     using K = decltype(k);
-    if constexpr (HasImplicit<K>::value) {
-      SCOPED_TRACE(kernel_name<K>());
-      ASSERT_TRUE(probe<K>().ok);
-      // K_ij exists exactly for the body pairs with a dF/ddelta or dF/du block.
-      const Blocks listed = kernel_blocks<K>(std::vector<double>(K::kOutputs));
-      int pairs = 0;
-      for (int i = 0; i < K::kBodies; ++i)
-        for (int j = 0; j < K::kBodies; ++j) pairs += listed.listed[0][i][j] || listed.listed[1][i][j];
-      ASSERT_EQ(pairs, K::kNumImplicitBlocks);
-      ASSERT_EQ(K::kImplicitOutputs, 6 * K::kBodies + 36 * K::kNumImplicitBlocks);
-      Rng rng(8000 + static_cast<int>(K::kType));
-      Worst worst;
-      for (int s = 0; s < kStates; ++s) {
-        const Case<K> c = random_case<K>(rng);
-        const double h = rng.uni(1e-4, 1e-2);
-        const std::vector<double> out = eval_case<double>(c);
-        const Blocks J = kernel_blocks<K>(out);
-        std::vector<double> io(K::kImplicitOutputs);
-        K::template eval_implicit<double>(inputs<double>(c).data(), h, io.data());
-        for (int i = 0; i < K::kBodies; ++i) {
-          Eigen::Matrix<double, 6, 1> g = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&out[6 * i]), Ju;
-          double scale = g.norm();
-          for (int j = 0; j < K::kBodies; ++j) {
-            Eigen::Matrix<double, 6, 1> u;
-            u << vec3_at(c.body[j] + kVel), vec3_at(c.body[j] + kAngVel);
-            Ju = h * J.m[0][i][j] * u;
-            g += Ju;
-            scale += Ju.norm();
-          }
-          const double e = (Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&io[6 * i]) - g).norm() / std::max(scale, 1e-300);
-          worst.add(e);
-          EXPECT_LT(e, 1e-12) << "state " << s << " g_" << i;
+    SCOPED_TRACE(kernel_name<K>());
+    ASSERT_TRUE(probe<K>().ok);
+    // K_ij exists exactly for the body pairs with a dF/ddelta or dF/du block.
+    const Blocks listed = kernel_blocks<K>(std::vector<double>(K::kOutputs));
+    int pairs = 0;
+    for (int i = 0; i < K::kBodies; ++i)
+      for (int j = 0; j < K::kBodies; ++j) pairs += listed.listed[0][i][j] || listed.listed[1][i][j];
+    ASSERT_EQ(pairs, K::kNumImplicitBlocks);
+    ASSERT_EQ(K::kImplicitOutputs, 6 * K::kBodies + 36 * K::kNumImplicitBlocks);
+    Rng rng(8000 + static_cast<int>(K::kType));
+    Worst worst;
+    for (int s = 0; s < kStates; ++s) {
+      const Case<K> c = random_case<K>(rng);
+      const double h = rng.uni(1e-4, 1e-2);
+      const std::vector<double> out = eval_case<double>(c);
+      const Blocks J = kernel_blocks<K>(out);
+      std::vector<double> io(K::kImplicitOutputs);
+      K::template eval_implicit<double>(inputs<double>(c).data(), h, io.data());
+      for (int i = 0; i < K::kBodies; ++i) {
+        Eigen::Matrix<double, 6, 1> g = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&out[6 * i]), Ju;
+        double scale = g.norm();
+        for (int j = 0; j < K::kBodies; ++j) {
+          Eigen::Matrix<double, 6, 1> u;
+          u << vec3_at(c.body[j] + kVel), vec3_at(c.body[j] + kAngVel);
+          Ju = h * J.m[0][i][j] * u;
+          g += Ju;
+          scale += Ju.norm();
         }
-        for (int b = 0; b < K::kNumImplicitBlocks; ++b) {
-          const g::BlockSlot p = K::kImplicitBlocks[b];
-          const Mat6 want = h * J.m[1][p.row_body][p.col_body] + h * h * J.m[0][p.row_body][p.col_body];
-          const double scale = h * J.m[1][p.row_body][p.col_body].norm() + h * h * J.m[0][p.row_body][p.col_body].norm();
-          const double e = (Eigen::Map<const Mat6>(&io[6 * K::kBodies + 36 * b]) - want).norm() / std::max(scale, 1e-300);
-          worst.add(e);
-          EXPECT_LT(e, 1e-12) << "state " << s << " K_" << p.row_body << p.col_body;
-        }
+        const double e = (Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&io[6 * i]) - g).norm() / std::max(scale, 1e-300);
+        worst.add(e);
+        EXPECT_LT(e, 1e-12) << "state " << s << " g_" << i;
       }
-      RecordProperty(kernel_name<K>() + "_implicit_worst_rel_err", sci(worst.err));
+      for (int b = 0; b < K::kNumImplicitBlocks; ++b) {
+        const g::BlockSlot p = K::kImplicitBlocks[b];
+      EXPECT_TRUE(listed.listed[0][p.row_body][p.col_body] || listed.listed[1][p.row_body][p.col_body]);
+        const Mat6 want = h * J.m[1][p.row_body][p.col_body] + h * h * J.m[0][p.row_body][p.col_body];
+        const double scale = h * J.m[1][p.row_body][p.col_body].norm() + h * h * J.m[0][p.row_body][p.col_body].norm();
+        const double e = (Eigen::Map<const Mat6>(&io[6 * K::kBodies + 36 * b]) - want).norm() / std::max(scale, 1e-300);
+        worst.add(e);
+        EXPECT_LT(e, 1e-12) << "state " << s << " K_" << p.row_body << p.col_body;
+      }
     }
+    RecordProperty(kernel_name<K>() + "_implicit_worst_rel_err", sci(worst.err));
   });
 }
 

@@ -246,7 +246,7 @@ double true_rel_residual(const System& s, const VectorXd& b, const BVec& x) {
 
 SolveResult run(Solver which, const System& s, const VectorXd& b, BVec& x, const SolveSettings& set) {
   BVec bb = to_bvec(b);
-  BVec work(static_cast<size_t>(std::max(kCgsWorkVectors, kBicgstabWorkVectors)) * s.n + 1);
+  BVec work(static_cast<size_t>(std::max(kCgsWorkVectors, kBicgstabWorkVectors)) * s.n);
   return solve(which, s.view(), F(bb), F(x), F(work), set);
 }
 

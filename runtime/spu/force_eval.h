@@ -42,3 +42,13 @@ size_t force_scratch_bytes();
 void evaluate_forces(const IslandView& island, const ForceTargets& t, float* scratch);
 
 }  // namespace cellphys::spu
+
+namespace cellphys::spu {
+
+/// F of one force instance between bodies[0] (a) and bodies[1] (b, unused when the force is
+/// unary or world-anchored), at their current state: out[0..5] on a, out[6..11] on b.
+/// For couplings the control side cuts when it decouples an island, applied explicitly.
+void evaluate_instance(gen::ForceType type, const void* instance, const gen::Rigid_Body* bodies,
+                       const gen::Island_Params& params, float out[12]);
+
+}  // namespace cellphys::spu

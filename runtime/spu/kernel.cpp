@@ -262,11 +262,13 @@ void ComputeWorker::step_batch(const IslandJob* jobs, size_t count, IslandReport
   };
   fetch(0);
   for (size_t k = 0; k < count; ++k) {
-    fetch(k + 1);  // the next island loads while this one computes
+    // island k - 1's result (its advanced bodies are put from its input slot) drains before
+    // island k + 1 is fetched into that slot; then the next island loads while this one computes
+    dma_.wait(1u << (kTagOut + 2 + unsigned((k + 1) % 2)));
+    fetch(k + 1);
     if (!ok[k]) continue;
     const unsigned slot = unsigned(k % 2);
     dma_.wait(1u << (kTagIn + slot));
-    dma_.wait(1u << (kTagOut + 2 + slot));  // the result that last used this output slot has drained
     plans[k].out_tag = kTagOut + 2 + slot;
     compute(jobs[k], plans[k], in[slot], out[slot], reports[k]);
     reports[k].local_store_peak = ls_.peak();

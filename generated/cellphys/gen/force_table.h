@@ -3,6 +3,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
+#include "cellphys/gen/forces/applied_wrench.h"
 #include "cellphys/gen/forces/contact.h"
 #include "cellphys/gen/forces/damping.h"
 #include "cellphys/gen/forces/gravity.h"
@@ -47,6 +48,11 @@ struct ForceInfo {
   const char* doc;
 };
 
+inline constexpr ParamInfo kApplied_WrenchParams[] = {
+    {"force_world", ParamType::vec3, 0, 3, false, 0.0f, "force through the centre of mass, world frame (N)"},
+    {"torque_world", ParamType::vec3, 16, 3, false, 0.0f, "torque, world frame (N m)"},
+};
+
 inline constexpr ParamInfo kContactParams[] = {
     {"point", ParamType::vec3, 0, 3, false, 0.0f, "contact point, world frame (m)"},
     {"normal", ParamType::vec3, 16, 3, false, 0.0f, "unit normal from a to b, world frame"},
@@ -88,6 +94,7 @@ inline constexpr ParamInfo kAir_DragParams[] = {
 };
 
 inline constexpr ForceInfo kForceTable[] = {
+    {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
     {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 4, "Penalty contact: a normal spring-damper that only pushes, plus smooth regularised Coulomb friction."},
     {"damping", ForceType::damping, ForceKind::unary, false, false, "Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), offsetof(Damping_Force, body_a), -1, kDampingParams, 2, "Linear and angular damping: f = -linear m v, tau = -angular I omega (coefficients in 1/s)."},
     {"gravity", ForceType::gravity, ForceKind::global, false, true, "Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), offsetof(Gravity_Force, body_a), -1, kGravityParams, 0, "Uniform gravity on every body of the island."},
@@ -120,6 +127,7 @@ inline Island_Params default_island_params() {
 /// Calls v(Kernel{}) for every generated kernel, in descriptor order.
 template <class Visitor>
 inline void visit_kernels(Visitor&& v) {
+  v(Applied_Wrench_Body_Kernel{});
   v(Contact_Pair_Kernel{});
   v(Contact_World_Kernel{});
   v(Damping_Body_Kernel{});

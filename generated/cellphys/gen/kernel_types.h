@@ -7,15 +7,16 @@ namespace cellphys::gen {
 
 /// Every force type, in descriptor order.
 enum class ForceType : uint32_t {
-  contact = 0,
-  damping = 1,
-  gravity = 2,
-  gyroscopic = 3,
-  point_to_point = 4,
-  spring = 5,
-  air_drag = 6,
+  applied_wrench = 0,
+  contact = 1,
+  damping = 2,
+  gravity = 3,
+  gyroscopic = 4,
+  point_to_point = 5,
+  spring = 6,
+  air_drag = 7,
 };
-inline constexpr int kNumForceTypes = 7;
+inline constexpr int kNumForceTypes = 8;
 
 /// global: every body of an island; unary: one body; binary: two bodies or a body and the world.
 enum class ForceKind : uint32_t { global, unary, binary };

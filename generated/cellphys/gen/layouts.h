@@ -913,6 +913,61 @@ inline void unpack(const unsigned char* bytes, Wire_Node_To_Dispatcher_Fields& o
   unpack(tmp, out);
 }
 
+// ---- Applied_Wrench_Force (codegen/descriptors/forces/applied_wrench.yaml) ----
+/// Instance of the applied_wrench force.
+struct alignas(16) Applied_Wrench_Force {
+  float force_world[4];  ///< @0: vec3 (padded). force through the centre of mass, world frame (N)
+  float torque_world[4];  ///< @16: vec3 (padded). torque, world frame (N m)
+  int32_t body_a;  ///< @32: i32
+  unsigned char pad_36[12];
+};
+static_assert(sizeof(Applied_Wrench_Force) == 48, "Applied_Wrench_Force: size differs from the descriptor");
+static_assert(alignof(Applied_Wrench_Force) == 16, "Applied_Wrench_Force: alignment differs from the descriptor");
+static_assert(offsetof(Applied_Wrench_Force, force_world) == 0, "Applied_Wrench_Force.force_world: offset differs");
+static_assert(offsetof(Applied_Wrench_Force, torque_world) == 16, "Applied_Wrench_Force.torque_world: offset differs");
+static_assert(offsetof(Applied_Wrench_Force, body_a) == 32, "Applied_Wrench_Force.body_a: offset differs");
+
+/// The fields of Applied_Wrench_Force without padding: what pack() takes and unpack() gives.
+struct Applied_Wrench_Force_Fields {
+  float force_world[3]{};
+  float torque_world[3]{};
+  int32_t body_a = 0;
+};
+
+inline void pack(const Applied_Wrench_Force_Fields& in, Applied_Wrench_Force& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.force_world[0] = in.force_world[0];
+  out.force_world[1] = in.force_world[1];
+  out.force_world[2] = in.force_world[2];
+  out.torque_world[0] = in.torque_world[0];
+  out.torque_world[1] = in.torque_world[1];
+  out.torque_world[2] = in.torque_world[2];
+  out.body_a = in.body_a;
+}
+
+inline void unpack(const Applied_Wrench_Force& in, Applied_Wrench_Force_Fields& out) {
+  out.force_world[0] = in.force_world[0];
+  out.force_world[1] = in.force_world[1];
+  out.force_world[2] = in.force_world[2];
+  out.torque_world[0] = in.torque_world[0];
+  out.torque_world[1] = in.torque_world[1];
+  out.torque_world[2] = in.torque_world[2];
+  out.body_a = in.body_a;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (48 B).
+inline void pack(const Applied_Wrench_Force_Fields& in, unsigned char* bytes) {
+  Applied_Wrench_Force tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Applied_Wrench_Force_Fields& out) {
+  Applied_Wrench_Force tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
 // ---- Damping_Force (codegen/descriptors/forces/damping.yaml) ----
 /// Instance of the damping force.
 struct alignas(4) Damping_Force {
@@ -1233,6 +1288,7 @@ inline constexpr StructInfo kStructTable[] = {
     {"Wire_Body_To_Node", sizeof(Wire_Body_To_Node), alignof(Wire_Body_To_Node), 88},
     {"Wire_Body_To_Node_Compressed", sizeof(Wire_Body_To_Node_Compressed), alignof(Wire_Body_To_Node_Compressed), 100},
     {"Wire_Node_To_Dispatcher", sizeof(Wire_Node_To_Dispatcher), alignof(Wire_Node_To_Dispatcher), 52},
+    {"Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), 28},
     {"Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), 12},
     {"Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), 4},
     {"Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), 4},

@@ -1,0 +1,89 @@
+// The shape dictionary: every collision shape is stored once and bodies refer to it by index
+// plus a uniform scale (the seed's compressed shape reference), so geometry never travels
+// with a body. Entries are immutable once added and their views stay valid for the
+// dictionary's lifetime, so the narrow phase may hold on to them.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "runtime/spu/shape.h"
+
+namespace cellphys::ppe {
+
+/// Bad shape input (or a request a shape cannot answer); the message names the shape kind.
+class ShapeError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+/// Bounds on hull input and output, so a hull fits the compute side's local store.
+struct HullLimits {
+  int max_points = 4096;   // input point cloud
+  int max_vertices = 256;  // vertices of the resulting hull
+};
+
+/// What add_hull made of its input.
+struct HullInfo {
+  /// The hull's centre of mass in input coordinates. Stored vertices are input points minus
+  /// this, so the body origin is the centre of mass: a body whose input origin belongs at p
+  /// with rotation R and scale s goes at p + R (s * shift).
+  float shift[3] = {};
+  int32_t num_input_points = 0;
+  int32_t num_vertices = 0, num_faces = 0, num_edges = 0;
+};
+
+class ShapeDictionary {
+ public:
+  explicit ShapeDictionary(HullLimits limits = {});
+  ~ShapeDictionary();
+  ShapeDictionary(ShapeDictionary&&) noexcept;
+  ShapeDictionary& operator=(ShapeDictionary&&) noexcept;
+  ShapeDictionary(const ShapeDictionary&) = delete;
+  ShapeDictionary& operator=(const ShapeDictionary&) = delete;
+
+  // Each returns the new index, or throws ShapeError and adds nothing.
+  uint32_t add_sphere(float radius);
+  /// Core segment from -half_height to +half_height on body z.
+  uint32_t add_capsule(float radius, float half_height);
+  uint32_t add_box(const float half_extents[3]);
+  /// Convex hull of a point cloud (3 floats a point), re-centred on its centre of mass.
+  uint32_t add_hull(const float* points, int count, HullInfo* info = nullptr);
+  /// Static half-space n.x <= offset in world coordinates; the normal is normalised.
+  uint32_t add_plane(const float normal[3], float offset);
+
+  size_t size() const { return entries_.size(); }
+  spu::ShapeType type(uint32_t index) const;
+  /// Unit-scale view for the narrow phase; valid as long as the dictionary lives.
+  const spu::ShapeView& view(uint32_t index) const;
+  /// Throws ShapeError if the entry is not a hull.
+  const HullInfo& hull_info(uint32_t index) const;
+  /// Planes: unbounded, never dynamic.
+  bool is_static_infinite(uint32_t index) const;
+
+  /// Box in body coordinates at a scale. Planes give their world half-space bound
+  /// (finite only on the axis an axis-aligned normal points along), +-infinity elsewhere.
+  void local_aabb(uint32_t index, float scale, float min[3], float max[3]) const;
+  /// World box for a body pose (pose.scale applies); tight for spheres, capsules, boxes and
+  /// hulls (hull vertices are transformed), rounded outward to float.
+  void world_aabb(uint32_t index, const spu::Pose& pose, float min[3], float max[3]) const;
+
+  /// Bytes of geometry stored (all shapes, or one): what sending geometry would cost,
+  /// against a 4-byte index and a scale per body.
+  size_t bytes() const { return bytes_; }
+  size_t bytes(uint32_t index) const;
+  const HullLimits& limits() const { return limits_; }
+
+ private:
+  struct Entry;
+  const Entry& entry(uint32_t index) const;
+  uint32_t push(std::unique_ptr<Entry> e);
+
+  HullLimits limits_;
+  std::vector<std::unique_ptr<Entry>> entries_;  // heap entries: views never move
+  size_t bytes_ = 0;
+};
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,72 @@
+#include "runtime/ppe/worker_pool.h"
+
+namespace cellphys::ppe {
+
+WorkerPool::WorkerPool(int workers, size_t local_store_bytes) {
+  if (workers < 1) workers = 1;
+  for (int i = 0; i < workers; ++i) workers_.push_back(std::make_unique<spu::ComputeWorker>(local_store_bytes));
+  // worker 0 is the calling thread; the others wait for work
+  for (int i = 1; i < workers; ++i) threads_.emplace_back([this, i] { loop(i); });
+}
+
+WorkerPool::~WorkerPool() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  for (auto& t : threads_) t.join();
+}
+
+void WorkerPool::work(int index) {
+  for (;;) {
+    size_t k;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!jobs_ || next_ >= jobs_->size()) return;  // a late waker finds the run over
+      k = next_++;
+      ++running_;
+    }
+    const spu::IslandJob& j = (*jobs_)[k];
+    spu::IslandReport r = workers_[index]->step(j.image, j.bytes, j.result, j.result_capacity);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      (*reports_)[k] = std::move(r);
+      --running_;
+    }
+  }
+}
+
+void WorkerPool::loop(int index) {
+  uint64_t seen = 0;
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      if (stop_) return;
+      seen = generation_;
+    }
+    work(index);
+    done_.notify_all();
+  }
+}
+
+void WorkerPool::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {
+  reports.assign(jobs.size(), spu::IslandReport{});
+  if (jobs.empty()) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    jobs_ = &jobs;
+    reports_ = &reports;
+    next_ = 0;
+    ++generation_;
+  }
+  wake_.notify_all();
+  work(0);
+  std::unique_lock<std::mutex> lock(mutex_);
+  done_.wait(lock, [&] { return next_ >= jobs.size() && running_ == 0; });
+  jobs_ = nullptr;
+  reports_ = nullptr;
+}
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,39 @@
+// A fixed pool of threads, each with its own compute worker (its own local store). Jobs
+// are taken largest-first from a shared counter; each island's result goes to its own
+// slot, so the outcome is the same whatever the number of workers.
+#pragma once
+#include <condition_variable>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "runtime/spu/kernel.h"
+
+namespace cellphys::ppe {
+
+class WorkerPool {
+ public:
+  WorkerPool(int workers, size_t local_store_bytes);
+  ~WorkerPool();
+  int size() const { return static_cast<int>(workers_.size()); }
+  /// Runs every job (in the given order of priority) and returns when all are done.
+  void run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports);
+
+ private:
+  void loop(int index);
+  void work(int index);
+  std::vector<std::unique_ptr<spu::ComputeWorker>> workers_;
+  std::vector<std::thread> threads_;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  const std::vector<spu::IslandJob>* jobs_ = nullptr;
+  std::vector<spu::IslandReport>* reports_ = nullptr;
+  size_t next_ = 0;
+  int running_ = 0;  // jobs being computed right now
+  uint64_t generation_ = 0;
+  bool stop_ = false;
+};
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,518 @@
+#include "runtime/ppe/world.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+
+#include "runtime/ppe/broad_phase.h"
+#include "runtime/ppe/island_packer.h"
+#include "runtime/ppe/mass_properties.h"
+#include "runtime/ppe/worker_pool.h"
+#include "runtime/spu/narrow_phase.h"
+#include "runtime/spu/rigid_motion.h"
+
+namespace cellphys::ppe {
+
+using namespace cellphys::gen;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+bool finite(const float* p, int n) {
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(p[i])) return false;
+  return true;
+}
+
+std::string body_name(BodyId id) { return "body " + std::to_string(id); }
+
+}  // namespace
+
+struct World::Impl {
+  std::vector<WorldBody> bodies;
+  std::vector<WorldForce> forces;
+  std::vector<SleepGroup> groups;
+  std::vector<int32_t> free_groups;
+  SweepAndPrune sap;
+  std::unique_ptr<WorkerPool> pool;
+  int pool_workers = 0;
+  size_t pool_bytes = 0;
+  // per-step scratch, kept to avoid reallocation
+  std::vector<Aabb> boxes;
+  std::vector<BoxKind> kinds;
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  std::vector<WorldContact> contacts;
+
+  WorkerPool& workers(const WorldSettings& s) {
+    if (!pool || pool_workers != s.workers || pool_bytes != s.local_store_bytes) {
+      pool.reset();
+      pool = std::make_unique<WorkerPool>(s.workers, s.local_store_bytes);
+      pool_workers = s.workers;
+      pool_bytes = s.local_store_bytes;
+    }
+    return *pool;
+  }
+  WorldBody& live(BodyId id) {
+    if (id >= bodies.size() || !bodies[id].alive) throw WorldError(body_name(id) + " does not exist");
+    return bodies[id];
+  }
+  const WorldBody& live(BodyId id) const {
+    if (id >= bodies.size() || !bodies[id].alive) throw WorldError(body_name(id) + " does not exist");
+    return bodies[id];
+  }
+  void wake(BodyId id) {
+    WorldBody& b = bodies[id];
+    b.sleep_timer = 0.0f;
+    if (b.awake || b.is_static) return;
+    const int32_t g = b.sleep_group;
+    if (g < 0) {
+      b.awake = true;
+      return;
+    }
+    for (uint32_t m : groups[g].bodies) {
+      bodies[m].awake = true;
+      bodies[m].sleep_group = -1;
+      bodies[m].sleep_timer = 0.0f;
+    }
+    groups[g] = SleepGroup{};
+    free_groups.push_back(g);
+  }
+};
+
+static void validate_settings(const WorldSettings& s) {
+  if (!(s.dt > 0.0f) || !std::isfinite(s.dt)) throw WorldError("settings.dt must be positive and finite");
+  if (!finite(s.gravity, 3)) throw WorldError("settings.gravity must be finite");
+  if (!(s.tolerance > 0.0f) || !std::isfinite(s.tolerance)) throw WorldError("settings.tolerance must be positive");
+  if (s.workers < 1 || s.workers > 256) throw WorldError("settings.workers must be between 1 and 256");
+  if (!(s.contact_stiffness >= 0.0f) || !(s.contact_damping >= 0.0f) || !(s.slip_velocity > 0.0f))
+    throw WorldError("settings.contact: stiffness and damping must be >= 0 and slip_velocity > 0");
+  if (s.local_store_bytes < 16 * 1024) throw WorldError("settings.local_store_bytes must be at least 16 KiB");
+  if (s.max_halvings > 16) throw WorldError("settings.max_halvings must be at most 16");
+}
+
+World::World(WorldSettings settings) : settings_(settings), impl_(std::make_unique<Impl>()) {
+  validate_settings(settings_);
+}
+World::~World() = default;
+
+void World::set_settings(const WorldSettings& s) {
+  validate_settings(s);
+  settings_ = s;
+}
+
+BodyId World::add_body(const BodyDesc& d) {
+  warnings_.clear();
+  const std::string who = "body " + std::to_string(impl_->bodies.size());
+  if (d.shape >= shapes_.size()) throw WorldError(who + ": shape " + std::to_string(d.shape) + " does not exist");
+  if (!(d.scale > 0.0f) || !std::isfinite(d.scale)) throw WorldError(who + ": scale must be positive and finite");
+  if (!finite(d.position, 3) || !finite(d.orientation, 4) || !finite(d.velocity, 3) || !finite(d.angular_velocity, 3))
+    throw WorldError(who + ": position, orientation and velocities must be finite");
+  if (!(d.friction >= 0.0f) || !std::isfinite(d.friction)) throw WorldError(who + ": friction must be >= 0");
+  if (!(d.linear_damping >= 0.0f) || !(d.angular_damping >= 0.0f) || !std::isfinite(d.linear_damping) ||
+      !std::isfinite(d.angular_damping))
+    throw WorldError(who + ": damping must be >= 0");
+  const double qn = std::sqrt(double(d.orientation[0]) * d.orientation[0] + double(d.orientation[1]) * d.orientation[1] +
+                              double(d.orientation[2]) * d.orientation[2] + double(d.orientation[3]) * d.orientation[3]);
+  if (qn < 1e-6) throw WorldError(who + ": orientation is a zero quaternion");
+  WorldBody b;
+  b.alive = true;
+  b.shape = d.shape;
+  b.scale = d.scale;
+  b.friction = d.friction;
+  b.linear_damping = d.linear_damping;
+  b.angular_damping = d.angular_damping;
+  const bool plane = shapes_.type(d.shape) == spu::ShapeType::plane;
+  b.is_static = d.is_static || plane;
+  std::copy(d.position, d.position + 3, b.position);
+  for (int k = 0; k < 4; ++k) b.orientation[k] = static_cast<float>(d.orientation[k] / qn);
+  if (std::fabs(qn - 1.0) > 1e-4) warnings_.push_back(who + ": orientation was not a unit quaternion; normalised");
+  if (!b.is_static) {
+    std::copy(d.velocity, d.velocity + 3, b.velocity);
+    std::copy(d.angular_velocity, d.angular_velocity + 3, b.angular_velocity);
+    if (d.mass > 0.0f && std::isfinite(d.mass)) {
+      b.mass = d.mass;
+    } else if (d.mass != 0.0f) {
+      throw WorldError(who + ": mass must be positive and finite");
+    } else if (!(d.density > 0.0f) || !std::isfinite(d.density)) {
+      throw WorldError(who + ": a dynamic body needs a positive mass or density");
+    }
+    const BodyMass m = body_mass(shapes_, d.shape, d.scale, d.mass, d.density);  // throws ShapeError on bad input
+    b.mass = m.mass;
+    std::copy(m.inertia, m.inertia + 6, b.inertia);
+    if (d.has_inertia) {
+      if (!finite(d.inertia, 6) || !(d.inertia[0] > 0) || !(d.inertia[1] > 0) || !(d.inertia[2] > 0))
+        throw WorldError(who + ": inertia needs positive, finite principal moments");
+      std::copy(d.inertia, d.inertia + 6, b.inertia);
+    }
+    if (!invert_inertia(b.inertia, b.inverse_inertia)) throw WorldError(who + ": inertia tensor is not invertible");
+  }
+  impl_->bodies.push_back(b);
+  return static_cast<BodyId>(impl_->bodies.size() - 1);
+}
+
+void World::remove_body(BodyId id) {
+  WorldBody& b = impl_->live(id);
+  impl_->wake(id);
+  for (WorldForce& f : impl_->forces)
+    if (f.alive && (f.a == id || f.b == id)) {
+      if (f.a != id) impl_->wake(f.a);
+      if (f.b != id && f.b != kWorldBody) impl_->wake(f.b);
+      f.alive = false;
+    }
+  b.alive = false;
+}
+
+ForceId World::add_force(const std::string& type, BodyId a, BodyId b, const ForceParams& params) {
+  warnings_.clear();
+  int t = -1;
+  for (int k = 0; k < kNumForceTypes; ++k)
+    if (type == kForceTable[k].name) t = k;
+  if (t < 0) {
+    std::string known;
+    for (const ForceInfo& f : kForceTable) known += (known.empty() ? "" : ", ") + std::string(f.name);
+    throw WorldError("unknown force type '" + type + "' (known: " + known + ")");
+  }
+  const ForceInfo& info = kForceTable[t];
+  if (info.kind == ForceKind::global) throw WorldError("force " + type + " is global: it is set in the world settings");
+  const WorldBody& ba = impl_->live(a);
+  if (ba.is_static) throw WorldError("force " + type + ": body a (" + body_name(a) + ") is static");
+  if (info.kind == ForceKind::binary) {
+    if (b == kWorldBody) {
+      if (!info.world_anchor) throw WorldError("force " + type + " cannot be anchored to the world");
+    } else {
+      const WorldBody& bb = impl_->live(b);
+      if (b == a) throw WorldError("force " + type + ": a and b are the same body");
+      if (bb.is_static) throw WorldError("force " + type + ": body b (" + body_name(b) + ") is static; use \"world\"");
+    }
+  } else if (b != kWorldBody) {
+    throw WorldError("force " + type + " acts on one body: b must be the world");
+  }
+  WorldForce f;
+  f.alive = true;
+  f.type = static_cast<ForceType>(t);
+  f.a = a;
+  f.b = info.kind == ForceKind::binary ? b : kWorldBody;
+  f.instance.assign(info.instance_size, 0);
+  for (const auto& [name, values] : params) {
+    const ParamInfo* p = nullptr;
+    for (uint32_t k = 0; k < info.num_params; ++k)
+      if (name == info.params[k].name) p = &info.params[k];
+    if (!p) throw WorldError("force " + type + ": unknown parameter '" + name + "'");
+    if (values.size() != p->lanes)
+      throw WorldError("force " + type + ": parameter '" + name + "' takes " + std::to_string(p->lanes) + " number(s)");
+    if (!finite(values.data(), static_cast<int>(values.size())))
+      throw WorldError("force " + type + ": parameter '" + name + "' is not finite");
+    for (float v : values)
+      if (p->has_min && v < p->min)
+        throw WorldError("force " + type + ": parameter '" + name + "' must be >= " + std::to_string(p->min));
+    std::memcpy(f.instance.data() + p->offset, values.data(), 4 * values.size());
+  }
+  impl_->wake(a);
+  if (f.b != kWorldBody) impl_->wake(f.b);
+  impl_->forces.push_back(std::move(f));
+  return static_cast<ForceId>(impl_->forces.size() - 1);
+}
+
+void World::remove_force(ForceId id) {
+  if (id >= impl_->forces.size() || !impl_->forces[id].alive) throw WorldError("force " + std::to_string(id) + " does not exist");
+  WorldForce& f = impl_->forces[id];
+  impl_->wake(f.a);
+  if (f.b != kWorldBody) impl_->wake(f.b);
+  f.alive = false;
+}
+
+BodyState World::state(BodyId id) const {
+  const WorldBody& b = impl_->live(id);
+  BodyState s;
+  std::copy(b.position, b.position + 3, s.position);
+  std::copy(b.orientation, b.orientation + 4, s.orientation);
+  std::copy(b.velocity, b.velocity + 3, s.velocity);
+  std::copy(b.angular_velocity, b.angular_velocity + 3, s.angular_velocity);
+  return s;
+}
+
+void World::set_state(BodyId id, const BodyState& s) {
+  warnings_.clear();
+  WorldBody& b = impl_->live(id);
+  if (!finite(s.position, 3) || !finite(s.orientation, 4) || !finite(s.velocity, 3) || !finite(s.angular_velocity, 3))
+    throw WorldError(body_name(id) + ": state must be finite");
+  const double qn = std::sqrt(double(s.orientation[0]) * s.orientation[0] + double(s.orientation[1]) * s.orientation[1] +
+                              double(s.orientation[2]) * s.orientation[2] + double(s.orientation[3]) * s.orientation[3]);
+  if (qn < 1e-6) throw WorldError(body_name(id) + ": orientation is a zero quaternion");
+  if (std::fabs(qn - 1.0) > 1e-4) warnings_.push_back(body_name(id) + ": orientation was not a unit quaternion; normalised");
+  std::copy(s.position, s.position + 3, b.position);
+  for (int k = 0; k < 4; ++k) b.orientation[k] = static_cast<float>(s.orientation[k] / qn);
+  if (!b.is_static) {
+    std::copy(s.velocity, s.velocity + 3, b.velocity);
+    std::copy(s.angular_velocity, s.angular_velocity + 3, b.angular_velocity);
+  }
+  impl_->wake(id);
+}
+
+void World::apply_impulse(BodyId id, const float impulse[3], const float point[3]) {
+  WorldBody& b = impl_->live(id);
+  if (!finite(impulse, 3) || !finite(point, 3)) throw WorldError(body_name(id) + ": impulse and point must be finite");
+  if (b.is_static) throw WorldError(body_name(id) + " is static");
+  impl_->wake(id);
+  const spu::Vec3d r = {point[0] - double(b.position[0]), point[1] - double(b.position[1]), point[2] - double(b.position[2])};
+  const spu::Vec3d J = {impulse[0], impulse[1], impulse[2]};
+  const spu::Vec3d L = {r.y * J.z - r.z * J.y, r.z * J.x - r.x * J.z, r.x * J.y - r.y * J.x};
+  const spu::Quat q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
+  const spu::Vec3d dw = spu::mul(spu::rotate_sym(spu::quat_to_matrix(q), b.inverse_inertia), L);
+  for (int k = 0; k < 3; ++k) b.velocity[k] += static_cast<float>(impulse[k] / b.mass);
+  b.angular_velocity[0] += float(dw.x), b.angular_velocity[1] += float(dw.y), b.angular_velocity[2] += float(dw.z);
+}
+
+bool World::is_awake(BodyId id) const { return impl_->live(id).awake; }
+bool World::is_static(BodyId id) const { return impl_->live(id).is_static; }
+float World::mass(BodyId id) const { return impl_->live(id).mass; }
+const float* World::inertia_body(BodyId id) const { return impl_->live(id).inertia; }
+
+std::vector<BodyId> World::bodies() const {
+  std::vector<BodyId> ids;
+  for (BodyId i = 0; i < impl_->bodies.size(); ++i)
+    if (impl_->bodies[i].alive) ids.push_back(i);
+  return ids;
+}
+
+size_t World::num_bodies() const {
+  return static_cast<size_t>(std::count_if(impl_->bodies.begin(), impl_->bodies.end(), [](const WorldBody& b) { return b.alive; }));
+}
+
+double World::kinetic_energy() const {
+  double e = 0;
+  for (const WorldBody& b : impl_->bodies) {
+    if (!b.alive || b.is_static) continue;
+    e += 0.5 * b.mass * (double(b.velocity[0]) * b.velocity[0] + double(b.velocity[1]) * b.velocity[1] +
+                         double(b.velocity[2]) * b.velocity[2]);
+    const spu::Quat q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
+    const spu::Vec3d w = {b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]};
+    const spu::Vec3d Iw = spu::mul(spu::rotate_sym(spu::quat_to_matrix(q), b.inertia), w);
+    e += 0.5 * (w.x * Iw.x + w.y * Iw.y + w.z * Iw.z);
+  }
+  return e;
+}
+
+uint64_t World::state_hash() const {
+  uint64_t h = 0xCBF29CE484222325ull;
+  for (const WorldBody& b : impl_->bodies) {
+    if (!b.alive) continue;
+    const float* parts[4] = {b.position, b.orientation, b.velocity, b.angular_velocity};
+    const int n[4] = {3, 4, 3, 3};
+    for (int p = 0; p < 4; ++p)
+      for (int k = 0; k < n[p]; ++k) {
+        uint32_t bits;
+        std::memcpy(&bits, parts[p] + k, 4);
+        h = (h ^ bits) * 0x100000001B3ull;
+      }
+  }
+  return h;
+}
+
+const StepStats& World::step() {
+  Impl& w = *impl_;
+  StepStats st;
+  st.step = stats_.step + 1;
+  const auto t_step = Clock::now();
+  const uint32_t n = static_cast<uint32_t>(w.bodies.size());
+
+  // 1. Collision. Broad phase: boxes, culled against the simulated region.
+  auto t = Clock::now();
+  w.boxes.resize(n);
+  w.kinds.assign(n, BoxKind::none);
+  std::vector<uint32_t> planes;
+  for (uint32_t i = 0; i < n; ++i) {
+    const WorldBody& b = w.bodies[i];
+    if (!b.alive) continue;
+    ++st.bodies;
+    if (b.is_static) ++st.static_bodies;
+    if (shapes_.type(b.shape) == spu::ShapeType::plane) {
+      planes.push_back(i);
+      continue;
+    }
+    shapes_.world_aabb(b.shape, pose_of(b), w.boxes[i].min, w.boxes[i].max);
+    for (int k = 0; k < 3; ++k) w.boxes[i].min[k] -= settings_.contact_margin, w.boxes[i].max[k] += settings_.contact_margin;
+    if (!inside_region(w.boxes[i], settings_.region_min, settings_.region_max)) {
+      if (!b.is_static) ++st.outside_region;
+      continue;
+    }
+    w.kinds[i] = b.is_static ? BoxKind::fixed : b.awake ? BoxKind::awake : BoxKind::asleep;
+    ++st.broad_phase_boxes;
+  }
+  st.times.broad_ms = ms_since(t);
+  // Mid phase: sort and sweep, plus every awake body against every plane.
+  t = Clock::now();
+  w.sap.find_pairs(w.boxes, w.kinds, w.pairs);
+  for (uint32_t p : planes) {
+    const spu::ShapeView& pv = shapes_.view(w.bodies[p].shape);
+    for (uint32_t i = 0; i < n; ++i) {
+      if (w.kinds[i] != BoxKind::awake) continue;
+      const Aabb& B = w.boxes[i];
+      double lowest = 0;  // the box corner furthest along -normal
+      for (int k = 0; k < 3; ++k) lowest += pv.normal[k] * double(pv.normal[k] >= 0 ? B.min[k] : B.max[k]);
+      if (lowest - pv.offset <= settings_.contact_margin) w.pairs.emplace_back(std::min(i, p), std::max(i, p));
+    }
+  }
+  std::sort(w.pairs.begin(), w.pairs.end());
+  st.mid_phase_pairs = static_cast<uint32_t>(w.pairs.size());
+  st.times.mid_ms = ms_since(t);
+  // Narrow phase: contact manifolds, the dynamic body first, normals from a to b.
+  t = Clock::now();
+  w.contacts.clear();
+  for (const auto& [i, j] : w.pairs) {
+    uint32_t a = i, b = j;
+    if (w.bodies[a].is_static) std::swap(a, b);
+    spu::ContactPoint cp[spu::kMaxManifoldPoints];
+    const int k = spu::collide(shapes_.view(w.bodies[a].shape), pose_of(w.bodies[a]), shapes_.view(w.bodies[b].shape),
+                               pose_of(w.bodies[b]), settings_.contact_margin, cp);
+    if (k > 0) ++st.narrow_phase_pairs;
+    const float mu = std::sqrt(w.bodies[a].friction * w.bodies[b].friction);
+    for (int c = 0; c < k; ++c)
+      w.contacts.push_back({a, w.bodies[b].is_static ? kWorldBody : b, cp[c], mu});
+  }
+  st.times.narrow_ms = ms_since(t);
+
+  // 2. Revise sleeping: contact with an awake body, or a force, wakes a sleeping group,
+  // whose own contacts (unchanged while it slept) come back with it.
+  t = Clock::now();
+  for (bool changed = true; changed;) {
+    changed = false;
+    auto touch = [&](uint32_t x, uint32_t y) {
+      if (y == kWorldBody) return;
+      const WorldBody &bx = w.bodies[x], &by = w.bodies[y];
+      if (bx.awake != by.awake && !bx.is_static && !by.is_static) {
+        const uint32_t sleeper = bx.awake ? y : x;
+        const int32_t g = w.bodies[sleeper].sleep_group;
+        if (g >= 0) w.contacts.insert(w.contacts.end(), w.groups[g].contacts.begin(), w.groups[g].contacts.end());
+        w.wake(sleeper);
+        ++st.woken;
+        changed = true;
+      }
+    };
+    for (size_t c = 0; c < w.contacts.size(); ++c) touch(w.contacts[c].a, w.contacts[c].b);
+    for (const WorldForce& f : w.forces)
+      if (f.alive) touch(f.a, f.b);
+  }
+  st.times.sleep_ms = ms_since(t);
+
+  // 3. Partition awake bodies into islands: contacts and binary forces join them.
+  t = Clock::now();
+  std::vector<uint32_t> parent(n);
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  auto unite = [&](uint32_t x, uint32_t y) {
+    x = find(x), y = find(y);
+    if (x != y) parent[std::max(x, y)] = std::min(x, y);  // smallest slot is the root: deterministic
+  };
+  for (const WorldContact& c : w.contacts)
+    if (c.b != kWorldBody && w.bodies[c.a].awake && w.bodies[c.b].awake) unite(c.a, c.b);
+  for (const WorldForce& f : w.forces)
+    if (f.alive && f.b != kWorldBody && w.bodies[f.a].awake && w.bodies[f.b].awake) unite(f.a, f.b);
+  std::vector<int32_t> island_of(n, -1);
+  std::vector<IslandContent> islands;
+  for (uint32_t i = 0; i < n; ++i) {
+    const WorldBody& b = w.bodies[i];
+    if (!b.alive || b.is_static) continue;
+    if (!b.awake) {
+      ++st.sleeping_bodies;
+      continue;
+    }
+    ++st.active_bodies;
+    const uint32_t r = find(i);
+    if (island_of[r] < 0) island_of[r] = static_cast<int32_t>(islands.size()), islands.emplace_back();
+    islands[island_of[r]].bodies.push_back(i);
+  }
+  for (uint32_t c = 0; c < w.contacts.size(); ++c)
+    if (w.bodies[w.contacts[c].a].awake) islands[island_of[find(w.contacts[c].a)]].contacts.push_back(c);
+  for (uint32_t f = 0; f < w.forces.size(); ++f)
+    if (w.forces[f].alive && w.bodies[w.forces[f].a].awake) islands[island_of[find(w.forces[f].a)]].forces.push_back(f);
+  st.islands = static_cast<uint32_t>(islands.size());
+  st.contacts = static_cast<uint32_t>(w.contacts.size());
+  st.times.islands_ms = ms_since(t);
+
+  // 4 and 5. Decouple what does not fit a local store, pack, integrate on the workers.
+  t = Clock::now();
+  PackContext pc{w.bodies, w.forces, w.contacts, settings_};
+  std::vector<PackedIsland> packed;
+  for (IslandContent& isl : islands) {
+    const size_t before = packed.size();
+    pack_decoupled(pc, std::move(isl), packed, st.cut_couplings);
+    if (packed.size() - before > 1) ++st.decoupled_islands;
+  }
+  // largest first: the long islands start early on the workers
+  std::vector<size_t> order(packed.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) { return packed[x].image.size() > packed[y].image.size(); });
+  std::vector<spu::IslandJob> jobs;
+  for (size_t k : order) {
+    PackedIsland& p = packed[k];
+    p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
+    jobs.push_back({p.image.data(), p.image.size(), p.result.data(), p.result.size()});
+  }
+  st.times.decouple_ms = 0;
+  st.times.pack_ms = ms_since(t);
+  t = Clock::now();
+  std::vector<spu::IslandReport> reports;
+  w.workers(settings_).run(jobs, reports);
+  st.times.integrate_ms = ms_since(t);
+
+  // 6. Unpack; a failed island keeps its state (the kernel halved its step already).
+  t = Clock::now();
+  for (size_t j = 0; j < order.size(); ++j) {
+    const PackedIsland& p = packed[order[j]];
+    const spu::IslandReport& r = reports[j];
+    st.solver_iterations += r.solver_iterations;
+    st.solves += r.solves;
+    st.step_halvings = std::max(st.step_halvings, r.halvings);
+    st.substeps += r.substeps;
+    st.local_store_peak_bytes = std::max(st.local_store_peak_bytes, r.footprint.total);
+    if (r.status != spu::IslandStatus::ok) {
+      ++st.failed_islands;
+      continue;
+    }
+    unpack_island(p, w.bodies);
+  }
+  // Sleep: an island whose bodies have all been slow for sleep_time goes to sleep together.
+  if (settings_.sleeping) {
+    const float lin2 = settings_.sleep_linear * settings_.sleep_linear, ang2 = settings_.sleep_angular * settings_.sleep_angular;
+    for (const IslandContent& isl : islands) {
+      bool all = true;
+      for (uint32_t i : isl.bodies) {
+        WorldBody& b = w.bodies[i];
+        const float v2 = b.velocity[0] * b.velocity[0] + b.velocity[1] * b.velocity[1] + b.velocity[2] * b.velocity[2];
+        const float a2 = b.angular_velocity[0] * b.angular_velocity[0] + b.angular_velocity[1] * b.angular_velocity[1] +
+                         b.angular_velocity[2] * b.angular_velocity[2];
+        b.sleep_timer = (v2 < lin2 && a2 < ang2) ? b.sleep_timer + settings_.dt : 0.0f;
+        all = all && b.sleep_timer >= settings_.sleep_time;
+      }
+      if (!all || isl.bodies.empty()) continue;
+      int32_t g;
+      if (!w.free_groups.empty()) g = w.free_groups.back(), w.free_groups.pop_back();
+      else g = static_cast<int32_t>(w.groups.size()), w.groups.emplace_back();
+      SleepGroup& grp = w.groups[g];
+      grp.bodies = isl.bodies;
+      for (uint32_t c : isl.contacts) grp.contacts.push_back(w.contacts[c]);
+      for (uint32_t i : isl.bodies) {
+        WorldBody& b = w.bodies[i];
+        b.awake = false;
+        b.sleep_group = g;
+        std::fill(b.velocity, b.velocity + 3, 0.0f);
+        std::fill(b.angular_velocity, b.angular_velocity + 3, 0.0f);
+      }
+      st.fell_asleep += static_cast<uint32_t>(isl.bodies.size());
+    }
+  }
+  st.times.unpack_ms = ms_since(t);
+  st.times.total_ms = ms_since(t_step);
+  stats_ = st;
+  return stats_;
+}
+
+}  // namespace cellphys::ppe

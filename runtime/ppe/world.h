@@ -1,0 +1,127 @@
+// The world a server links: bodies on a shape dictionary, forces between them, and the
+// seed's six-stage step (collide, revise sleeping, partition, decouple, integrate on the
+// compute kernels, adjust failed steps). Bad input is refused with a WorldError and
+// changes nothing.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "runtime/ppe/shapes.h"
+#include "runtime/ppe/step_stats.h"
+#include "runtime/spu/island_image.h"
+#include "runtime/spu/krylov.h"
+
+namespace cellphys::ppe {
+
+class WorldError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+using BodyId = uint32_t;
+using ForceId = uint32_t;
+inline constexpr BodyId kWorldBody = 0xFFFFFFFFu;  // the b side of a world-anchored force
+
+struct WorldSettings {
+  float dt = 1.0f / 60.0f;
+  float gravity[3] = {0.0f, 0.0f, -9.81f};
+  spu::Integrator integrator = spu::Integrator::implicit_split;
+  spu::Solver solver = spu::Solver::cgs;
+  float tolerance = 1e-3f;
+  uint32_t max_halvings = 8;
+  bool sleeping = true;
+  int workers = 1;
+  float contact_stiffness = 1.0e5f;  // N/m (per contact point)
+  float contact_damping = 1.0e3f;    // N s/m
+  float slip_velocity = 0.01f;       // m/s, Coulomb friction regularisation
+  float contact_margin = 0.01f;      // m: contacts are generated this far before touching
+  size_t local_store_bytes = 256 * 1024;
+  // Simulated region: bodies whose bounding box leaves it are not collided.
+  float region_min[3] = {-1e4f, -1e4f, -1e4f};
+  float region_max[3] = {1e4f, 1e4f, 1e4f};
+  // An island sleeps when every body has been slower than these for sleep_time seconds.
+  float sleep_linear = 0.05f;   // m/s
+  float sleep_angular = 0.05f;  // rad/s
+  float sleep_time = 0.5f;      // s
+};
+
+struct BodyDesc {
+  uint32_t shape = 0;
+  float scale = 1.0f;
+  float mass = 0.0f;     // > 0, or use density
+  float density = 0.0f;  // kg/m^3, used when mass is 0
+  bool has_inertia = false;
+  float inertia[6] = {};  // Ixx Iyy Izz Ixy Ixz Iyz, body axes (overrides the shape's)
+  float position[3] = {};
+  float orientation[4] = {1.0f, 0.0f, 0.0f, 0.0f};  // w x y z; normalised with a warning if not unit
+  float velocity[3] = {};
+  float angular_velocity[3] = {};  // world frame
+  float friction = 0.5f;
+  float linear_damping = 0.0f;   // 1/s
+  float angular_damping = 0.0f;  // 1/s
+  bool is_static = false;
+};
+
+struct BodyState {
+  float position[3];
+  float orientation[4];
+  float velocity[3];
+  float angular_velocity[3];
+};
+
+/// A force instance's parameters by name, as the force table declares them.
+using ForceParams = std::vector<std::pair<std::string, std::vector<float>>>;
+
+class World {
+ public:
+  explicit World(WorldSettings settings = {});
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  ShapeDictionary& shapes() { return shapes_; }
+  const ShapeDictionary& shapes() const { return shapes_; }
+  const WorldSettings& settings() const { return settings_; }
+  /// Changes settings between steps (validated; throws WorldError and keeps the old ones).
+  void set_settings(const WorldSettings& s);
+
+  BodyId add_body(const BodyDesc& d);
+  void remove_body(BodyId id);
+  /// A force of any generated type by name ("spring", "point_to_point", ...); b may be
+  /// kWorldBody for a world-anchored force. Parameters by name; missing ones are zero.
+  ForceId add_force(const std::string& type, BodyId a, BodyId b, const ForceParams& params);
+  void remove_force(ForceId id);
+
+  BodyState state(BodyId id) const;
+  void set_state(BodyId id, const BodyState& s);  // wakes the body
+  void apply_impulse(BodyId id, const float impulse[3], const float point[3]);  // world frame; wakes
+  bool is_awake(BodyId id) const;
+  bool is_static(BodyId id) const;
+  float mass(BodyId id) const;
+  const float* inertia_body(BodyId id) const;
+  std::vector<BodyId> bodies() const;  // live ids, ascending
+  size_t num_bodies() const;
+
+  /// One step of settings().dt.
+  const StepStats& step();
+  const StepStats& last_stats() const { return stats_; }
+  /// Warnings from the last add/set call (e.g. a quaternion normalised).
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  double kinetic_energy() const;
+  /// Bitwise hash of every live body's state, for determinism checks.
+  uint64_t state_hash() const;
+
+ private:
+  struct Impl;
+  WorldSettings settings_;
+  ShapeDictionary shapes_;
+  StepStats stats_;
+  std::vector<std::string> warnings_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cellphys::ppe

@@ -336,25 +336,69 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
   }
   scale_rhs(n, ws.p, ws.jv, ws.forces);
   if (!run_solve(c, ws.forces, ws.x)) return fail();  // ku2
-  // y1 = y0 + h (3/2 k1 + 1/2 k2); error = h/2 (k1 + k2)
+  // Error estimate e = h/2 (k1 + k2), filtered as (I - tau J)^-1 e (Shampine): the raw
+  // estimate does not vanish for stiff modes (contacts) the L-stable step damps correctly.
+  // Same reduction as the stages: A e_u' = e_u + tau W dF/ddelta e_delta, e_delta' = e_delta + tau e_u'.
+  auto raw_error = [&](int i, float* e_pose, float* e_vel) {
+    const float* u0 = ws.u0 + kVecFloats * i;
+    const float* k1 = ws.k1 + kVecFloats * i;
+    const float* k2 = ws.x + kVecFloats * i;
+    for (int r = 0; r < kVecFloats; ++r) {
+      const float kd1 = u0[r] + tau * k1[r], kd2 = -u0[r] + (h - 2.0f * tau) * k1[r] + tau * k2[r];
+      e_pose[r] = 0.5f * h * (kd1 + kd2);
+      e_vel[r] = 0.5f * h * (k1[r] + k2[r]);
+    }
+  };
+  for (int i = 0; i < n; ++i) {
+    alignas(32) float ev[kVecFloats];
+    raw_error(i, ws.jv + kVecFloats * i, ev);
+  }
+  float* jv_out = ws.diag;
+  float* dump = ws.diag + size_t(n) * kVecFloats;
+  zero_floats(jv_out, size_t(n) * kVecFloats);
+  zero_floats(dump, size_t(n) * kVecFloats);
+  {
+    ForceTargets t;
+    t.forces = dump;
+    t.jv_in = ws.jv;
+    t.jv_out = jv_out;
+    t.ref = ws.ref;
+    evaluate_forces(v, t, ws.force_scratch);
+  }
+  for (int i = 0; i < n; ++i) {  // g = M0 e_u + tau dF/ddelta e_delta, force units
+    const Rigid_Body& b = v.bodies[i];
+    alignas(32) float ep[kVecFloats], ev[kVecFloats];
+    raw_error(i, ep, ev);
+    const float* jd = jv_out + kVecFloats * i;
+    const Mat3d I0 = rotate_sym(quat_to_matrix(orientation(b)), b.inertia_body);
+    const Vec3d Ir = mul(I0, ang(ev));
+    float* g = ws.forces + kVecFloats * i;
+    store3(g, {b.mass * double(ev[0]) + tau * jd[0], b.mass * double(ev[1]) + tau * jd[1], b.mass * double(ev[2]) + tau * jd[2]});
+    store3(g + 4, {Ir.x + tau * jd[4], Ir.y + tau * jd[5], Ir.z + tau * jd[6]});
+  }
+  scale_rhs(n, ws.p, ws.forces, ws.jv);
+  if (!run_solve(c, ws.jv, ws.forces)) return fail();  // filtered e_u
   double err2 = 0.0;
   for (int i = 0; i < n; ++i) {
     const float* u0 = ws.u0 + kVecFloats * i;
     const float* k1 = ws.k1 + kVecFloats * i;
     const float* k2 = ws.x + kVecFloats * i;
     const float* y0 = ws.saved + 16 * i;
-    alignas(32) float kd1[kVecFloats], kd2[kVecFloats];
+    const float* euf = ws.forces + kVecFloats * i;
+    alignas(32) float ep[kVecFloats], ev[kVecFloats], kd1[kVecFloats], kd2[kVecFloats];
+    raw_error(i, ep, ev);
     for (int r = 0; r < kVecFloats; ++r) {
       kd1[r] = u0[r] + tau * k1[r];
       kd2[r] = -u0[r] + (h - 2.0f * tau) * k1[r] + tau * k2[r];
     }
     for (int r : {0, 1, 2, 4, 5, 6}) {
-      const double e_pose = 0.5 * h * (double(kd1[r]) + kd2[r]);
-      const double e_vel = 0.5 * h * (double(k1[r]) + k2[r]);
+      const double e_pose = double(ep[r]) + tau * double(euf[r]);
+      const double e_vel = euf[r];
       const double pose_scale = 1.0 + (r < 3 ? std::fabs(y0[r]) : 0.0);
       const double vel_scale = 1.0 + std::fabs(double(u0[r]));
       err2 += (e_pose / pose_scale) * (e_pose / pose_scale) + (e_vel / vel_scale) * (e_vel / vel_scale);
     }
+    // y1 = y0 + h (3/2 k1 + 1/2 k2)
     alignas(32) float unew[kVecFloats];
     for (int r = 0; r < kVecFloats; ++r) unew[r] = u0[r] + h * (1.5f * k1[r] + 0.5f * k2[r]);
     if (!finite8(unew)) return fail();

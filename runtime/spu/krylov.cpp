@@ -211,14 +211,13 @@ SolveResult direct_lu(const BlockRowMatrix& A, const float* b, float* x) {
     return res;
   }
 
-  Eigen::VectorXd xf(dim);  // the float x actually returned, for an honest residual
+  // The float x actually returned, for an honest residual. Rounded here rather than read
+  // back from x: GCC 12.2 -O3 (SLP) drops the float rounding on such a read-back.
+  const Eigen::VectorXd xf = xd.cast<float>().cast<double>();
   for (int i = 0; i < n; ++i) {
     float* xi = x + kVecFloats * i;
+    for (int r = 0; r < 6; ++r) xi[padded(r)] = static_cast<float>(xf(6 * i + r));
     xi[3] = xi[7] = 0.0f;
-    for (int r = 0; r < 6; ++r) {
-      xi[padded(r)] = static_cast<float>(xd(6 * i + r));
-      xf(6 * i + r) = xi[padded(r)];
-    }
   }
   const double nb = bd.norm();
   const double nr = (bd - M * xf).norm();

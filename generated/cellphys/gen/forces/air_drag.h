@@ -45,13 +45,13 @@ struct Air_Drag_Body_Kernel {
   template <class S>
   static inline void eval([[maybe_unused]] const S* in, S* out) {
     using namespace cellphys::simd;
-    const S a_vx = in[0];
-    const S a_vy = in[1];
-    const S a_vz = in[2];
-    const S p_drag = in[3];
-    const S p_wind__0 = in[4];
-    const S p_wind__1 = in[5];
-    const S p_wind__2 = in[6];
+    [[maybe_unused]] const S a_vx = in[0];
+    [[maybe_unused]] const S a_vy = in[1];
+    [[maybe_unused]] const S a_vz = in[2];
+    [[maybe_unused]] const S p_drag = in[3];
+    [[maybe_unused]] const S p_wind__0 = in[4];
+    [[maybe_unused]] const S p_wind__1 = in[5];
+    [[maybe_unused]] const S p_wind__2 = in[6];
     const S L_vrel__0 = (a_vx - p_wind__0);
     const S L_vrel__1 = (a_vy - p_wind__1);
     const S L_vrel__2 = (a_vz - p_wind__2);

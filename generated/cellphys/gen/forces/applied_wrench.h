@@ -42,12 +42,12 @@ struct Applied_Wrench_Body_Kernel {
   template <class S>
   static inline void eval([[maybe_unused]] const S* in, S* out) {
     using namespace cellphys::simd;
-    const S p_force_world__0 = in[0];
-    const S p_force_world__1 = in[1];
-    const S p_force_world__2 = in[2];
-    const S p_torque_world__0 = in[3];
-    const S p_torque_world__1 = in[4];
-    const S p_torque_world__2 = in[5];
+    [[maybe_unused]] const S p_force_world__0 = in[0];
+    [[maybe_unused]] const S p_force_world__1 = in[1];
+    [[maybe_unused]] const S p_force_world__2 = in[2];
+    [[maybe_unused]] const S p_torque_world__0 = in[3];
+    [[maybe_unused]] const S p_torque_world__1 = in[4];
+    [[maybe_unused]] const S p_torque_world__2 = in[5];
     out[0] = p_force_world__0;
     out[1] = p_force_world__1;
     out[2] = p_force_world__2;

@@ -40,10 +40,10 @@ struct Gravity_Body_Kernel {
   template <class S>
   static inline void eval([[maybe_unused]] const S* in, S* out) {
     using namespace cellphys::simd;
-    const S a_m = in[0];
-    const S g_gravity__0 = in[1];
-    const S g_gravity__1 = in[2];
-    const S g_gravity__2 = in[3];
+    [[maybe_unused]] const S a_m = in[0];
+    [[maybe_unused]] const S g_gravity__0 = in[1];
+    [[maybe_unused]] const S g_gravity__1 = in[2];
+    [[maybe_unused]] const S g_gravity__2 = in[3];
     out[0] = (a_m*g_gravity__0);
     out[1] = (a_m*g_gravity__1);
     out[2] = (a_m*g_gravity__2);

@@ -55,22 +55,22 @@ struct Gyroscopic_Body_Kernel {
   template <class S>
   static inline void eval([[maybe_unused]] const S* in, S* out) {
     using namespace cellphys::simd;
-    const S a_qw = in[0];
-    const S a_qx = in[1];
-    const S a_qy = in[2];
-    const S a_qz = in[3];
-    const S a_vx = in[4];
-    const S a_vy = in[5];
-    const S a_vz = in[6];
-    const S a_wx = in[7];
-    const S a_wy = in[8];
-    const S a_wz = in[9];
-    const S a_Ixx = in[10];
-    const S a_Iyy = in[11];
-    const S a_Izz = in[12];
-    const S a_Ixy = in[13];
-    const S a_Ixz = in[14];
-    const S a_Iyz = in[15];
+    [[maybe_unused]] const S a_qw = in[0];
+    [[maybe_unused]] const S a_qx = in[1];
+    [[maybe_unused]] const S a_qy = in[2];
+    [[maybe_unused]] const S a_qz = in[3];
+    [[maybe_unused]] const S a_vx = in[4];
+    [[maybe_unused]] const S a_vy = in[5];
+    [[maybe_unused]] const S a_vz = in[6];
+    [[maybe_unused]] const S a_wx = in[7];
+    [[maybe_unused]] const S a_wy = in[8];
+    [[maybe_unused]] const S a_wz = in[9];
+    [[maybe_unused]] const S a_Ixx = in[10];
+    [[maybe_unused]] const S a_Iyy = in[11];
+    [[maybe_unused]] const S a_Izz = in[12];
+    [[maybe_unused]] const S a_Ixy = in[13];
+    [[maybe_unused]] const S a_Ixz = in[14];
+    [[maybe_unused]] const S a_Iyz = in[15];
     // body-frame quantities rotated to world
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);

@@ -1,0 +1,483 @@
+#include "runtime/ppe/convex_hull.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace cellphys::ppe {
+namespace {
+
+__extension__ typedef __int128 i128;
+
+struct V3 {
+  double x = 0, y = 0, z = 0;
+};
+V3 operator-(const V3& a, const V3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+V3 operator+(const V3& a, const V3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+V3 operator*(const V3& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+double dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V3 cross(const V3& a, const V3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+double norm(const V3& a) { return std::sqrt(dot(a, a)); }
+
+// Grid coordinates: up to 2^40, so the orientation determinant fits 128 bits exactly.
+struct Q3 {
+  int64_t x, y, z;
+};
+constexpr double kGrid = 1099511627776.0;  // 2^40
+
+// Sign of (b-a)x(c-a).(d-a): positive when d is above the triangle abc, ccw seen from above.
+int orient(const Q3& a, const Q3& b, const Q3& c, const Q3& d) {
+  const int64_t bx = b.x - a.x, by = b.y - a.y, bz = b.z - a.z;
+  const int64_t cx = c.x - a.x, cy = c.y - a.y, cz = c.z - a.z;
+  const int64_t dx = d.x - a.x, dy = d.y - a.y, dz = d.z - a.z;
+  const i128 nx = i128(by) * cz - i128(bz) * cy;
+  const i128 ny = i128(bz) * cx - i128(bx) * cz;
+  const i128 nz = i128(bx) * cy - i128(by) * cx;
+  const i128 det = nx * dx + ny * dy + nz * dz;
+  return (det > 0) - (det < 0);
+}
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+[[noreturn]] void fail(const std::string& what) { throw ShapeError("hull: " + what); }
+[[noreturn]] void fail_invalid() {
+  fail("could not build a valid hull from these points (numerically degenerate input)");
+}
+
+struct Tri {
+  int v[3];
+  int nb[3];  // neighbour across the edge v[k] -> v[k+1]
+  V3 n;       // approximate plane, only to pick the farthest point
+  double d = 0;
+  std::vector<int> outside;  // points strictly above (exact test), assigned to this face
+  bool alive = true;
+};
+
+// Quickhull over exact orientation tests: the visible region from a point strictly outside
+// is then exactly a disc, so the horizon is always one simple loop.
+class Quickhull {
+ public:
+  Quickhull(const std::vector<V3>& p, const std::vector<Q3>& q) : P_(p), Q_(q) {}
+  void run(int a, int b, int c, int d);
+  std::vector<Tri> faces;
+
+ private:
+  int above(int f, int p) const {
+    const Tri& t = faces[f];
+    return orient(Q_[t.v[0]], Q_[t.v[1]], Q_[t.v[2]], Q_[p]);
+  }
+  int add(int a, int b, int c);
+  void assign(int p, int first_face);
+
+  const std::vector<V3>& P_;
+  const std::vector<Q3>& Q_;
+};
+
+int Quickhull::add(int a, int b, int c) {
+  Tri t;
+  t.v[0] = a, t.v[1] = b, t.v[2] = c;
+  t.nb[0] = t.nb[1] = t.nb[2] = -1;
+  const V3 n = cross(P_[b] - P_[a], P_[c] - P_[a]);
+  const double l = norm(n);
+  t.n = l > 0 ? n * (1.0 / l) : V3{};
+  t.d = dot(t.n, P_[a]);
+  faces.push_back(std::move(t));
+  return static_cast<int>(faces.size()) - 1;
+}
+
+void Quickhull::assign(int p, int first_face) {
+  for (int f = first_face; f < static_cast<int>(faces.size()); ++f)
+    if (above(f, p) > 0) {
+      faces[f].outside.push_back(p);
+      return;
+    }
+}
+
+void Quickhull::run(int a, int b, int c, int d) {
+  if (orient(Q_[a], Q_[b], Q_[c], Q_[d]) > 0) std::swap(b, c);  // d below abc
+  add(a, b, c), add(a, d, b), add(b, d, c), add(c, d, a);
+  for (int i = 0; i < 4; ++i)
+    for (int k = 0; k < 3; ++k)
+      for (int j = 0; j < 4; ++j)
+        for (int m = 0; m < 3; ++m)
+          if (j != i && faces[j].v[m] == faces[i].v[(k + 1) % 3] && faces[j].v[(m + 1) % 3] == faces[i].v[k])
+            faces[i].nb[k] = j;
+  const int n = static_cast<int>(P_.size());
+  for (int p = 0; p < n; ++p)
+    if (p != a && p != b && p != c && p != d) assign(p, 0);
+
+  struct Edge {
+    int u, w, g;  // edge u -> w of a visible face, g the hidden face across it
+  };
+  std::vector<int> visible, stack, loop, start(n, -1), vis, hid;
+  std::vector<Edge> horizon;
+  int stamp = 0;
+  for (size_t fi = 0; fi < faces.size(); ++fi) {
+    if (!faces[fi].alive || faces[fi].outside.empty()) continue;
+    int eye = -1;
+    double best = -std::numeric_limits<double>::infinity();
+    for (int p : faces[fi].outside) {
+      const double dist = dot(faces[fi].n, P_[p]) - faces[fi].d;
+      if (dist > best) best = dist, eye = p;
+    }
+    ++stamp;
+    vis.resize(faces.size(), 0), hid.resize(faces.size(), 0);
+    visible.assign(1, static_cast<int>(fi));
+    stack.assign(1, static_cast<int>(fi));
+    horizon.clear();
+    vis[fi] = stamp;
+    while (!stack.empty()) {
+      const int f = stack.back();
+      stack.pop_back();
+      for (int k = 0; k < 3; ++k) {
+        const int g = faces[f].nb[k];
+        if (vis[g] == stamp) continue;
+        if (hid[g] != stamp) {
+          if (above(g, eye) > 0) {
+            vis[g] = stamp;
+            visible.push_back(g);
+            stack.push_back(g);
+            continue;
+          }
+          hid[g] = stamp;
+        }
+        horizon.push_back({faces[f].v[k], faces[f].v[(k + 1) % 3], g});
+      }
+    }
+    // Chain the horizon edges into their loop.
+    for (size_t h = 0; h < horizon.size(); ++h) start[horizon[h].u] = static_cast<int>(h);
+    loop.clear();
+    for (int h = 0;;) {
+      loop.push_back(h);
+      h = start[horizon[h].w];
+      if (h <= 0 || loop.size() > horizon.size()) {
+        if (h != 0) throw std::logic_error("hull: horizon is not a simple loop");
+        break;
+      }
+    }
+    for (const Edge& e : horizon) start[e.u] = -1;
+    if (loop.size() != horizon.size()) throw std::logic_error("hull: horizon is not a simple loop");
+
+    const int first = static_cast<int>(faces.size());
+    const int k = static_cast<int>(loop.size());
+    for (int i = 0; i < k; ++i) add(horizon[loop[i]].u, horizon[loop[i]].w, eye);
+    for (int i = 0; i < k; ++i) {
+      const Edge& e = horizon[loop[i]];
+      Tri& t = faces[first + i];
+      t.nb[0] = e.g, t.nb[1] = first + (i + 1) % k, t.nb[2] = first + (i + k - 1) % k;
+      Tri& g = faces[e.g];
+      for (int m = 0; m < 3; ++m)
+        if (g.v[m] == e.w && g.v[(m + 1) % 3] == e.u) g.nb[m] = first + i;
+    }
+    for (int f : visible) {
+      faces[f].alive = false;
+      std::vector<int> pts;
+      pts.swap(faces[f].outside);
+      for (int p : pts)
+        if (p != eye) assign(p, first);
+    }
+  }
+}
+
+// Merges near-coplanar triangles into polygons: from the largest unmerged triangle, grow over
+// neighbours whose vertices all lie within tol of its plane, accepting a triangle only while
+// the region's boundary stays one simple loop without a reflex corner (beyond tol), retrying
+// refused ones until nothing changes. Exactly coplanar faces always merge whole (any connected
+// part of a triangulated convex polygon is convex); noise can only leave extra faces.
+std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const std::vector<V3>& P, double tol) {
+  std::vector<int> id(all.size(), -1), live;
+  for (size_t f = 0; f < all.size(); ++f)
+    if (all[f].alive) id[f] = static_cast<int>(live.size()), live.push_back(static_cast<int>(f));
+  struct T3 {
+    int v[3], nb[3];
+    V3 n;
+    double d = 0, area = 0;
+  };
+  const int T = static_cast<int>(live.size());
+  std::vector<T3> t(T);
+  for (int i = 0; i < T; ++i) {
+    const Tri& f = all[live[i]];
+    for (int k = 0; k < 3; ++k) t[i].v[k] = f.v[k], t[i].nb[k] = id[f.nb[k]];
+    const V3 a = P[f.v[0]], b = P[f.v[1]], c = P[f.v[2]];
+    const V3 n = cross(b - a, c - a);
+    const double l = norm(n);
+    t[i].area = 0.5 * l;
+    t[i].n = l > 0 ? n * (1.0 / l) : V3{};
+    t[i].d = dot(t[i].n, (a + b + c) * (1.0 / 3.0));
+  }
+  std::vector<int> order(T);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return t[x].area > t[y].area; });
+
+  // The boundary (vertex -> next vertex) with triangle u added, if still a convex simple loop.
+  auto try_add = [&](std::map<int, int>& next, const T3& u, const V3& n) {
+    std::map<int, int> nx = next;
+    bool open[3];
+    for (int k = 0; k < 3; ++k) {
+      const auto it = nx.find(u.v[(k + 1) % 3]);
+      open[k] = !(it != nx.end() && it->second == u.v[k]);
+      if (!open[k]) nx.erase(it);
+    }
+    for (int k = 0; k < 3; ++k)
+      if (open[k] && !nx.emplace(u.v[k], u.v[(k + 1) % 3]).second) return false;  // pinched
+    std::vector<int> loop;
+    for (int v = nx.begin()->first; loop.size() <= nx.size();) {
+      loop.push_back(v);
+      const auto it = nx.find(v);
+      if (it == nx.end()) return false;
+      if ((v = it->second) == loop[0]) break;
+    }
+    if (loop.size() != nx.size()) return false;  // a hole or a second loop
+    const size_t m = loop.size();
+    for (size_t i = 0; i < m; ++i) {
+      const V3 a = P[loop[(i + m - 1) % m]], b = P[loop[i]], c = P[loop[(i + 1) % m]];
+      const double chord = norm(c - a);
+      if (!(chord > 0) || dot(cross(b - a, c - b), n) < -tol * chord) return false;  // reflex corner
+    }
+    next.swap(nx);
+    return true;
+  };
+
+  std::vector<int> cluster(T, -1);
+  std::vector<std::vector<int>> loops;
+  for (int s : order) {
+    if (cluster[s] >= 0) continue;
+    const int c = static_cast<int>(loops.size());
+    cluster[s] = c;
+    std::vector<int> mem{s};
+    std::map<int, int> next;
+    for (int k = 0; k < 3; ++k) next[t[s].v[k]] = t[s].v[(k + 1) % 3];
+    for (bool grew = t[s].area > 0; grew;) {
+      grew = false;
+      for (size_t q = 0; q < mem.size(); ++q)
+        for (int k = 0; k < 3; ++k) {
+          const int u = t[mem[q]].nb[k];
+          if (cluster[u] >= 0) continue;
+          bool flat = true;
+          for (int j = 0; j < 3; ++j) flat = flat && std::fabs(dot(t[s].n, P[t[u].v[j]]) - t[s].d) <= tol;
+          if (flat && try_add(next, t[u], t[s].n)) cluster[u] = c, mem.push_back(u), grew = true;
+        }
+    }
+    std::vector<int> loop;
+    for (int v = next.begin()->first; loop.size() < next.size(); v = next[v]) loop.push_back(v);
+    loops.push_back(std::move(loop));
+  }
+  return loops;
+}
+
+// Outward planes from the stored float vertices: Newell normal of each loop, and d the largest
+// n.v over all vertices, rounded up, so every vertex is inside every plane in float.
+bool compute_planes(ConvexHull& h) {
+  const int nf = static_cast<int>(h.face_start.size()) - 1;
+  const int nv = h.num_vertices();
+  auto vtx = [&](int i) { return V3{h.vertices[3 * i], h.vertices[3 * i + 1], h.vertices[3 * i + 2]}; };
+  h.planes.assign(4 * static_cast<size_t>(std::max(nf, 0)), 0.0f);
+  for (int f = 0; f < nf; ++f) {
+    const int s = h.face_start[f], e = h.face_start[f + 1];
+    V3 c;
+    for (int i = s; i < e; ++i) c = c + vtx(h.face_vertices[i]);
+    c = c * (1.0 / (e - s));
+    V3 n;
+    for (int i = s; i < e; ++i) {
+      const int j = i + 1 < e ? i + 1 : s;
+      n = n + cross(vtx(h.face_vertices[i]) - c, vtx(h.face_vertices[j]) - c);
+    }
+    const double l = norm(n);
+    if (!(l > 0) || !std::isfinite(l)) return false;
+    const float nx = static_cast<float>(n.x / l), ny = static_cast<float>(n.y / l), nz = static_cast<float>(n.z / l);
+    const V3 nn{nx, ny, nz};
+    double d = -std::numeric_limits<double>::infinity();
+    for (int v = 0; v < nv; ++v) d = std::max(d, dot(nn, vtx(v)));
+    float df = static_cast<float>(d);
+    if (static_cast<double>(df) < d) df = std::nextafter(df, std::numeric_limits<float>::infinity());
+    h.planes[4 * f] = nx, h.planes[4 * f + 1] = ny, h.planes[4 * f + 2] = nz, h.planes[4 * f + 3] = df;
+  }
+  return true;
+}
+
+// Closed, consistently oriented, outward: every directed edge once with its reverse once,
+// V - E + F = 2, every vertex on a face, and the vertex centroid inside every plane.
+bool valid(const ConvexHull& h) {
+  const int nv = h.num_vertices(), nf = h.num_faces();
+  std::vector<std::pair<int, int>> directed;
+  std::vector<int> used(nv, 0);
+  for (int f = 0; f < nf; ++f) {
+    const int s = h.face_start[f], e = h.face_start[f + 1];
+    if (e - s < 3) return false;
+    for (int i = s; i < e; ++i) {
+      const int a = h.face_vertices[i], b = h.face_vertices[i + 1 < e ? i + 1 : s];
+      if (a == b) return false;
+      directed.emplace_back(a, b);
+      used[a] = 1;
+    }
+  }
+  std::sort(directed.begin(), directed.end());
+  if (std::adjacent_find(directed.begin(), directed.end()) != directed.end()) return false;
+  for (const auto& [a, b] : directed)
+    if (!std::binary_search(directed.begin(), directed.end(), std::make_pair(b, a))) return false;
+  if (std::count(used.begin(), used.end(), 0) != 0) return false;
+  if (nv - static_cast<int>(directed.size() / 2) + nf != 2) return false;
+  V3 c;
+  for (int v = 0; v < nv; ++v) c = c + V3{h.vertices[3 * v], h.vertices[3 * v + 1], h.vertices[3 * v + 2]};
+  c = c * (1.0 / nv);
+  for (int f = 0; f < nf; ++f) {
+    const float* p = &h.planes[4 * f];
+    if (!(dot(V3{p[0], p[1], p[2]}, c) < p[3])) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+spu::HullView ConvexHull::view() const {
+  spu::HullView v;
+  v.num_vertices = num_vertices();
+  v.vertices = vertices.data();
+  v.num_faces = num_faces();
+  v.planes = planes.data();
+  v.face_start = face_start.data();
+  v.face_vertices = face_vertices.data();
+  v.num_edges = num_edges();
+  v.edges = edges.data();
+  return v;
+}
+
+ConvexHull compute_convex_hull(const float* points, int count, const HullLimits& limits) {
+  if (count < 4) fail("needs at least 4 points, got " + std::to_string(count));
+  if (count > limits.max_points)
+    fail(std::to_string(count) + " points is more than the limit of " + std::to_string(limits.max_points));
+  if (!points) fail("no point array given");
+  std::vector<V3> P(count);
+  for (int i = 0; i < count; ++i) {
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(points[3 * i + k]))
+        fail("point " + std::to_string(i) + " is not finite (" + "xyz"[k] + " = " + num(points[3 * i + k]) + ")");
+    P[i] = {points[3 * i], points[3 * i + 1], points[3 * i + 2]};
+  }
+
+  // One tolerance: relative to the cloud's size plus float rounding at its distance from
+  // the origin. Points closer than this to a face count as on it.
+  V3 lo = P[0], hi = P[0];
+  double M = 0;
+  for (const V3& p : P) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+    M = std::max({M, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+  }
+  const V3 span = hi - lo;
+  const double L = norm(span);
+  const double tol = 1e-6 * L + 8.0 * FLT_EPSILON * M;
+  const std::string cloud = "degenerate point cloud: all " + std::to_string(count) + " points ";
+  if (L <= tol) fail(cloud + "coincide (within " + num(tol) + ")");
+
+  // Initial simplex from the extreme points; its failures are the degenerate clouds.
+  int ext[6] = {0, 0, 0, 0, 0, 0};
+  for (int i = 1; i < count; ++i) {
+    const double c[3] = {P[i].x, P[i].y, P[i].z};
+    for (int k = 0; k < 3; ++k) {
+      const double mn[3] = {P[ext[0]].x, P[ext[1]].y, P[ext[2]].z};
+      const double mx[3] = {P[ext[3]].x, P[ext[4]].y, P[ext[5]].z};
+      if (c[k] < mn[k]) ext[k] = i;
+      if (c[k] > mx[k]) ext[3 + k] = i;
+    }
+  }
+  int a = ext[0], b = ext[3];
+  double best = -1;
+  for (int i = 0; i < 6; ++i)
+    for (int j = i + 1; j < 6; ++j) {
+      const double d = norm(P[ext[i]] - P[ext[j]]);
+      if (d > best) best = d, a = ext[i], b = ext[j];
+    }
+  const V3 dir = (P[b] - P[a]) * (1.0 / best);
+  int c = -1;
+  best = -1;
+  for (int i = 0; i < count; ++i) {
+    const double d = norm(cross(P[i] - P[a], dir));
+    if (d > best) best = d, c = i;
+  }
+  if (best <= tol) fail(cloud + "are collinear (within " + num(tol) + ")");
+  V3 nrm = cross(P[b] - P[a], P[c] - P[a]);
+  nrm = nrm * (1.0 / norm(nrm));
+  int d4 = -1;
+  best = -1;
+  for (int i = 0; i < count; ++i) {
+    const double d = std::fabs(dot(P[i] - P[a], nrm));
+    if (d > best) best = d, d4 = i;
+  }
+  if (best <= tol) fail(cloud + "are coplanar (within " + num(tol) + ")");
+
+  // Exact topology on the snapped points.
+  const double E = std::max({span.x, span.y, span.z});
+  const double g = kGrid / E;
+  std::vector<Q3> Q(count);
+  for (int i = 0; i < count; ++i)
+    Q[i] = {std::llround((P[i].x - lo.x) * g), std::llround((P[i].y - lo.y) * g), std::llround((P[i].z - lo.z) * g)};
+  if (orient(Q[a], Q[b], Q[c], Q[d4]) == 0) fail(cloud + "are coplanar");
+  Quickhull qh(P, Q);
+  qh.run(a, b, c, d4);
+
+  // Merge, then drop vertices on only two faces: they lie on a straight edge, not at a
+  // corner (keeping any a face needs to stay a polygon).
+  std::vector<std::vector<int>> loops = merge_coplanar(qh.faces, P, tol);
+  std::vector<int> faces_at(count, 0);
+  for (const auto& l : loops)
+    for (int v : l) ++faces_at[v];
+  std::vector<char> drop(count, 0);
+  for (int v = 0; v < count; ++v) drop[v] = faces_at[v] > 0 && faces_at[v] < 3;
+  for (const auto& l : loops) {
+    int kept = 0;
+    for (int v : l) kept += !drop[v];
+    if (kept < 3)
+      for (int v : l) drop[v] = 0;
+  }
+  std::vector<int> index(count, -1);
+  for (auto& l : loops) {
+    l.erase(std::remove_if(l.begin(), l.end(), [&](int v) { return drop[v] != 0; }), l.end());
+    for (int v : l) index[v] = 0;
+  }
+
+  ConvexHull h;
+  h.tolerance = tol;
+  for (int i = 0; i < count; ++i)  // vertices in input order
+    if (index[i] == 0) {
+      index[i] = static_cast<int>(h.source.size());
+      h.source.push_back(i);
+      h.vertices.insert(h.vertices.end(), points + 3 * i, points + 3 * i + 3);
+    }
+  if (h.num_vertices() > limits.max_vertices)
+    fail("the hull of these " + std::to_string(count) + " points has " + std::to_string(h.num_vertices()) +
+         " vertices, more than the limit of " + std::to_string(limits.max_vertices) + "; simplify the point cloud");
+  h.face_start.push_back(0);
+  for (auto& l : loops) {
+    for (int& v : l) v = index[v];
+    std::rotate(l.begin(), std::min_element(l.begin(), l.end()), l.end());
+    h.face_vertices.insert(h.face_vertices.end(), l.begin(), l.end());
+    h.face_start.push_back(static_cast<int32_t>(h.face_vertices.size()));
+  }
+  for (const auto& l : loops)
+    for (size_t i = 0; i < l.size(); ++i) {
+      const int u = l[i], w = l[(i + 1) % l.size()];
+      if (u < w) h.edges.push_back(u), h.edges.push_back(w);
+    }
+  if (!compute_planes(h) || !valid(h)) fail_invalid();
+  return h;
+}
+
+void translate_hull(ConvexHull& hull, const double offset[3]) {
+  for (size_t i = 0; i < hull.vertices.size(); ++i)
+    hull.vertices[i] = static_cast<float>(static_cast<double>(hull.vertices[i]) + offset[i % 3]);
+  if (!compute_planes(hull) || !valid(hull)) fail_invalid();
+}
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,176 @@
+#include "runtime/ppe/mass_properties.h"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace cellphys::ppe {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+const char* kind(spu::ShapeType t) {
+  switch (t) {
+    case spu::ShapeType::sphere: return "sphere";
+    case spu::ShapeType::capsule: return "capsule";
+    case spu::ShapeType::box: return "box";
+    case spu::ShapeType::hull: return "hull";
+    case spu::ShapeType::plane: return "plane";
+  }
+  return "shape";
+}
+
+[[noreturn]] void fail(spu::ShapeType t, const std::string& what) {
+  throw ShapeError(std::string(kind(t)) + " mass properties: " + what);
+}
+
+void require_positive(spu::ShapeType t, const char* what, double v) {
+  if (!(v > 0.0) || !std::isfinite(v)) fail(t, std::string(what) + " must be positive and finite, got " + num(v));
+}
+
+// Unit density and unit scale.
+MassProperties unit(const spu::ShapeView& s) {
+  MassProperties m;
+  double* I = m.inertia;
+  switch (s.type) {
+    case spu::ShapeType::sphere: {
+      const double r = s.radius;
+      require_positive(s.type, "radius", r);
+      m.volume = 4.0 / 3.0 * kPi * r * r * r;
+      I[0] = I[1] = I[2] = 0.4 * m.volume * r * r;
+      break;
+    }
+    case spu::ShapeType::capsule: {
+      // Cylinder of length 2h plus two hemispheres. A hemisphere's moment about a transverse
+      // axis through its flat face is 2/5 m r^2; moving to its own centroid (3r/8 from the
+      // face) and then to the capsule centre (h + 3r/8) gives, for both together,
+      // m_s (2/5 r^2 + h^2 + 3/4 h r).
+      const double r = s.radius, h = s.half_height;
+      require_positive(s.type, "radius", r);
+      if (!(h >= 0.0) || !std::isfinite(h)) fail(s.type, "half height must be >= 0 and finite, got " + num(h));
+      const double vc = 2.0 * kPi * r * r * h, vs = 4.0 / 3.0 * kPi * r * r * r;
+      m.volume = vc + vs;
+      I[0] = I[1] = vc * (r * r / 4.0 + h * h / 3.0) + vs * (0.4 * r * r + h * h + 0.75 * h * r);
+      I[2] = vc * r * r / 2.0 + vs * 0.4 * r * r;
+      break;
+    }
+    case spu::ShapeType::box: {
+      const double a = s.half_extents[0], b = s.half_extents[1], c = s.half_extents[2];
+      require_positive(s.type, "half extent x", a);
+      require_positive(s.type, "half extent y", b);
+      require_positive(s.type, "half extent z", c);
+      m.volume = 8.0 * a * b * c;
+      I[0] = m.volume / 3.0 * (b * b + c * c);
+      I[1] = m.volume / 3.0 * (a * a + c * c);
+      I[2] = m.volume / 3.0 * (a * a + b * b);
+      break;
+    }
+    case spu::ShapeType::hull: m = polyhedron_mass_properties(s.hull); break;
+    case spu::ShapeType::plane: fail(s.type, "a static plane has no mass, volume or inertia");
+  }
+  if (!(m.volume > 0.0) || !std::isfinite(m.volume)) fail(s.type, "the shape has no positive, finite volume");
+  return m;
+}
+
+MassProperties scaled(const spu::ShapeView& s, double scale, double density) {
+  MassProperties m = unit(s);
+  const double s3 = scale * scale * scale, s5 = s3 * scale * scale;
+  m.volume *= s3;
+  m.mass = density * m.volume;
+  for (double& c : m.center_of_mass) c *= scale;
+  for (double& i : m.inertia) i *= density * s5;
+  if (!std::isfinite(m.mass) || !(m.mass > 0.0)) fail(s.type, "mass " + num(m.mass) + " is not positive and finite");
+  for (double i : m.inertia)
+    if (!std::isfinite(i)) fail(s.type, "inertia is not finite (scale or density too large)");
+  return m;
+}
+
+}  // namespace
+
+MassProperties polyhedron_mass_properties(const spu::HullView& h) {
+  if (h.num_vertices < 4 || h.num_faces < 4 || !h.vertices || !h.face_start || !h.face_vertices)
+    fail(spu::ShapeType::hull, "not a closed polyhedron");
+  auto vtx = [&](int i, double out[3]) {
+    for (int k = 0; k < 3; ++k) out[k] = h.vertices[3 * i + k];
+  };
+  double ref[3] = {};  // integrate about the vertex mean: smaller terms, less cancellation
+  for (int i = 0; i < h.num_vertices; ++i) {
+    double p[3];
+    vtx(i, p);
+    for (int k = 0; k < 3; ++k) ref[k] += p[k];
+  }
+  for (double& r : ref) r /= h.num_vertices;
+
+  // Each face fanned into triangles, each triangle with ref a tetrahedron: volume det/6,
+  // first moment det/24 (a+b+c), second moments det/120 (aa' + bb' + cc' + ss'), s = a+b+c.
+  double V = 0, S[3] = {}, C[3][3] = {};
+  for (int f = 0; f < h.num_faces; ++f) {
+    const int s = h.face_start[f], e = h.face_start[f + 1];
+    double a[3];
+    vtx(h.face_vertices[s], a);
+    for (int k = 0; k < 3; ++k) a[k] -= ref[k];
+    for (int i = s + 1; i + 1 < e; ++i) {
+      double b[3], c[3];
+      vtx(h.face_vertices[i], b);
+      vtx(h.face_vertices[i + 1], c);
+      for (int k = 0; k < 3; ++k) b[k] -= ref[k], c[k] -= ref[k];
+      const double det = a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) +
+                         a[2] * (b[0] * c[1] - b[1] * c[0]);
+      const double sum[3] = {a[0] + b[0] + c[0], a[1] + b[1] + c[1], a[2] + b[2] + c[2]};
+      V += det / 6.0;
+      for (int j = 0; j < 3; ++j) {
+        S[j] += det / 24.0 * sum[j];
+        for (int k = 0; k < 3; ++k) C[j][k] += det / 120.0 * (a[j] * a[k] + b[j] * b[k] + c[j] * c[k] + sum[j] * sum[k]);
+      }
+    }
+  }
+  MassProperties m;
+  m.volume = m.mass = V;
+  if (!(V > 0.0) || !std::isfinite(V)) return m;  // callers report the missing volume
+  double g[3];
+  for (int k = 0; k < 3; ++k) g[k] = S[k] / V, m.center_of_mass[k] = ref[k] + g[k];
+  for (int j = 0; j < 3; ++j)
+    for (int k = 0; k < 3; ++k) C[j][k] -= V * g[j] * g[k];  // parallel axis to the centroid
+  m.inertia[0] = C[1][1] + C[2][2];
+  m.inertia[1] = C[0][0] + C[2][2];
+  m.inertia[2] = C[0][0] + C[1][1];
+  m.inertia[3] = -C[0][1];
+  m.inertia[4] = -C[0][2];
+  m.inertia[5] = -C[1][2];
+  return m;
+}
+
+MassProperties mass_properties_from_density(const spu::ShapeView& shape, float scale, float density) {
+  if (shape.type == spu::ShapeType::plane) unit(shape);  // throws: planes first, whatever else is wrong
+  require_positive(shape.type, "scale", scale);
+  require_positive(shape.type, "density", density);
+  return scaled(shape, scale, density);
+}
+
+MassProperties mass_properties_from_mass(const spu::ShapeView& shape, float scale, float mass) {
+  if (shape.type == spu::ShapeType::plane) unit(shape);
+  require_positive(shape.type, "scale", scale);
+  require_positive(shape.type, "mass", mass);
+  MassProperties m = scaled(shape, scale, 1.0);
+  const double density = mass / m.volume;
+  m.mass = mass;
+  for (double& i : m.inertia) i *= density;
+  return m;
+}
+
+MassProperties mass_properties_from_density(const ShapeDictionary& shapes, uint32_t shape, float scale,
+                                            float density) {
+  return mass_properties_from_density(shapes.view(shape), scale, density);
+}
+
+MassProperties mass_properties_from_mass(const ShapeDictionary& shapes, uint32_t shape, float scale, float mass) {
+  return mass_properties_from_mass(shapes.view(shape), scale, mass);
+}
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,255 @@
+#include "runtime/ppe/shapes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "runtime/ppe/convex_hull.h"
+#include "runtime/ppe/mass_properties.h"
+
+namespace cellphys::ppe {
+
+struct ShapeDictionary::Entry {
+  spu::ShapeView view;
+  ConvexHull hull;  // hulls only; view.hull points into it
+  HullInfo info;
+  double lo[3] = {}, hi[3] = {};  // hull box at unit scale
+  size_t bytes = 0;
+};
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+const char* kind(spu::ShapeType t) {
+  switch (t) {
+    case spu::ShapeType::sphere: return "sphere";
+    case spu::ShapeType::capsule: return "capsule";
+    case spu::ShapeType::box: return "box";
+    case spu::ShapeType::hull: return "hull";
+    case spu::ShapeType::plane: return "plane";
+  }
+  return "shape";
+}
+
+void require_positive(const char* shape, const char* what, float v) {
+  if (!(v > 0.0f) || !std::isfinite(v))
+    throw ShapeError(std::string(shape) + ": " + what + " must be positive and finite, got " + num(v));
+}
+
+// Boxes are rounded outward so the float box always contains the double one.
+float down(double v) {
+  float f = static_cast<float>(v);
+  if (static_cast<double>(f) > v) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+float up(double v) {
+  float f = static_cast<float>(v);
+  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+void store(const double lo[3], const double hi[3], float min[3], float max[3]) {
+  for (int k = 0; k < 3; ++k) min[k] = down(lo[k]), max[k] = up(hi[k]);
+}
+
+// The half-space n.x <= offset is bounded only along an axis its normal points exactly along.
+void plane_box(const spu::ShapeView& v, float min[3], float max[3]) {
+  double lo[3] = {-kInf, -kInf, -kInf}, hi[3] = {kInf, kInf, kInf};
+  for (int k = 0; k < 3; ++k) {
+    const bool axis = v.normal[(k + 1) % 3] == 0.0f && v.normal[(k + 2) % 3] == 0.0f;
+    if (axis && v.normal[k] == 1.0f) hi[k] = v.offset;
+    if (axis && v.normal[k] == -1.0f) lo[k] = -static_cast<double>(v.offset);
+  }
+  store(lo, hi, min, max);
+}
+
+void rotation(const float q[4], double R[3][3]) {
+  const double n = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
+  if (!(n > 0.0) || !std::isfinite(n)) throw ShapeError("world_aabb: pose orientation is not a usable quaternion");
+  const double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
+  R[0][0] = 1 - 2 * (y * y + z * z), R[0][1] = 2 * (x * y - w * z), R[0][2] = 2 * (x * z + w * y);
+  R[1][0] = 2 * (x * y + w * z), R[1][1] = 1 - 2 * (x * x + z * z), R[1][2] = 2 * (y * z - w * x);
+  R[2][0] = 2 * (x * z - w * y), R[2][1] = 2 * (y * z + w * x), R[2][2] = 1 - 2 * (x * x + y * y);
+}
+
+}  // namespace
+
+ShapeDictionary::ShapeDictionary(HullLimits limits) : limits_(limits) {
+  if (limits.max_points < 4 || limits.max_vertices < 4)
+    throw ShapeError("hull limits: max_points and max_vertices must be at least 4");
+}
+ShapeDictionary::~ShapeDictionary() = default;
+ShapeDictionary::ShapeDictionary(ShapeDictionary&&) noexcept = default;
+ShapeDictionary& ShapeDictionary::operator=(ShapeDictionary&&) noexcept = default;
+
+uint32_t ShapeDictionary::push(std::unique_ptr<Entry> e) {
+  if (entries_.size() >= std::numeric_limits<uint32_t>::max())
+    throw ShapeError(std::string(kind(e->view.type)) + ": the shape dictionary is full");
+  const size_t b = e->bytes;
+  entries_.push_back(std::move(e));
+  bytes_ += b;
+  return static_cast<uint32_t>(entries_.size() - 1);
+}
+
+uint32_t ShapeDictionary::add_sphere(float radius) {
+  require_positive("sphere", "radius", radius);
+  auto e = std::make_unique<Entry>();
+  e->view.type = spu::ShapeType::sphere;
+  e->view.radius = radius;
+  e->bytes = sizeof(float);
+  return push(std::move(e));
+}
+
+uint32_t ShapeDictionary::add_capsule(float radius, float half_height) {
+  require_positive("capsule", "radius", radius);
+  require_positive("capsule", "half height", half_height);
+  auto e = std::make_unique<Entry>();
+  e->view.type = spu::ShapeType::capsule;
+  e->view.radius = radius;
+  e->view.half_height = half_height;
+  e->bytes = 2 * sizeof(float);
+  return push(std::move(e));
+}
+
+uint32_t ShapeDictionary::add_box(const float half_extents[3]) {
+  if (!half_extents) throw ShapeError("box: no half extents given");
+  require_positive("box", "half extent x", half_extents[0]);
+  require_positive("box", "half extent y", half_extents[1]);
+  require_positive("box", "half extent z", half_extents[2]);
+  auto e = std::make_unique<Entry>();
+  e->view.type = spu::ShapeType::box;
+  for (int k = 0; k < 3; ++k) e->view.half_extents[k] = half_extents[k];
+  e->bytes = 3 * sizeof(float);
+  return push(std::move(e));
+}
+
+uint32_t ShapeDictionary::add_plane(const float normal[3], float offset) {
+  if (!normal) throw ShapeError("plane: no normal given");
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(normal[k])) throw ShapeError("plane: normal is not finite (" + num(normal[k]) + ")");
+  if (!std::isfinite(offset)) throw ShapeError("plane: offset is not finite (" + num(offset) + ")");
+  const double n =
+      std::sqrt(double(normal[0]) * normal[0] + double(normal[1]) * normal[1] + double(normal[2]) * normal[2]);
+  if (!(n > 1e-30)) throw ShapeError("plane: normal is zero");
+  auto e = std::make_unique<Entry>();
+  e->view.type = spu::ShapeType::plane;
+  for (int k = 0; k < 3; ++k) e->view.normal[k] = static_cast<float>(normal[k] / n);
+  e->view.offset = offset;
+  e->bytes = 4 * sizeof(float);
+  return push(std::move(e));
+}
+
+uint32_t ShapeDictionary::add_hull(const float* points, int count, HullInfo* info) {
+  ConvexHull h = compute_convex_hull(points, count, limits_);
+  const MassProperties m = polyhedron_mass_properties(h.view());
+  if (!(m.volume > 0.0) || !std::isfinite(m.volume)) throw ShapeError("hull: the hull has no positive, finite volume");
+  const double shift[3] = {-m.center_of_mass[0], -m.center_of_mass[1], -m.center_of_mass[2]};
+  translate_hull(h, shift);
+
+  auto e = std::make_unique<Entry>();
+  e->hull = std::move(h);
+  e->view.type = spu::ShapeType::hull;
+  e->view.hull = e->hull.view();
+  HullInfo& hi = e->info;
+  for (int k = 0; k < 3; ++k) hi.shift[k] = static_cast<float>(m.center_of_mass[k]);
+  hi.num_input_points = count;
+  hi.num_vertices = e->hull.num_vertices();
+  hi.num_faces = e->hull.num_faces();
+  hi.num_edges = e->hull.num_edges();
+  for (int k = 0; k < 3; ++k) e->lo[k] = kInf, e->hi[k] = -kInf;
+  for (int v = 0; v < hi.num_vertices; ++v)
+    for (int k = 0; k < 3; ++k) {
+      const double x = e->hull.vertices[3 * v + k];
+      e->lo[k] = std::min(e->lo[k], x), e->hi[k] = std::max(e->hi[k], x);
+    }
+  const ConvexHull& c = e->hull;
+  e->bytes = sizeof(float) * (c.vertices.size() + c.planes.size()) +
+             sizeof(int32_t) * (c.face_start.size() + c.face_vertices.size() + c.edges.size());
+  const HullInfo copy = hi;
+  const uint32_t index = push(std::move(e));
+  if (info) *info = copy;
+  return index;
+}
+
+const ShapeDictionary::Entry& ShapeDictionary::entry(uint32_t index) const {
+  if (index >= entries_.size())
+    throw std::out_of_range("shape " + std::to_string(index) + " does not exist (the dictionary has " +
+                            std::to_string(entries_.size()) + ")");
+  return *entries_[index];
+}
+
+spu::ShapeType ShapeDictionary::type(uint32_t index) const { return entry(index).view.type; }
+const spu::ShapeView& ShapeDictionary::view(uint32_t index) const { return entry(index).view; }
+bool ShapeDictionary::is_static_infinite(uint32_t index) const { return type(index) == spu::ShapeType::plane; }
+size_t ShapeDictionary::bytes(uint32_t index) const { return entry(index).bytes; }
+
+const HullInfo& ShapeDictionary::hull_info(uint32_t index) const {
+  const Entry& e = entry(index);
+  if (e.view.type != spu::ShapeType::hull)
+    throw ShapeError("shape " + std::to_string(index) + " is a " + kind(e.view.type) + ", not a hull");
+  return e.info;
+}
+
+void ShapeDictionary::local_aabb(uint32_t index, float scale, float min[3], float max[3]) const {
+  const Entry& e = entry(index);
+  const spu::ShapeView& v = e.view;
+  if (v.type == spu::ShapeType::plane) return plane_box(v, min, max);
+  require_positive(kind(v.type), "scale", scale);
+  const double s = scale;
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) {
+    double h = 0;
+    switch (v.type) {
+      case spu::ShapeType::sphere: h = v.radius; break;
+      case spu::ShapeType::capsule: h = v.radius + (k == 2 ? v.half_height : 0.0f); break;
+      case spu::ShapeType::box: h = v.half_extents[k]; break;
+      default: break;
+    }
+    lo[k] = v.type == spu::ShapeType::hull ? e.lo[k] * s : -h * s;
+    hi[k] = v.type == spu::ShapeType::hull ? e.hi[k] * s : h * s;
+  }
+  store(lo, hi, min, max);
+}
+
+void ShapeDictionary::world_aabb(uint32_t index, const spu::Pose& pose, float min[3], float max[3]) const {
+  const Entry& e = entry(index);
+  const spu::ShapeView& v = e.view;
+  if (v.type == spu::ShapeType::plane) return plane_box(v, min, max);
+  require_positive(kind(v.type), "pose scale", pose.scale);
+  double R[3][3];
+  rotation(pose.orientation, R);
+  const double s = pose.scale;
+  double lo[3], hi[3];
+  if (v.type == spu::ShapeType::hull) {
+    for (int k = 0; k < 3; ++k) lo[k] = kInf, hi[k] = -kInf;
+    const float* p = e.hull.vertices.data();
+    for (int i = 0; i < e.hull.num_vertices(); ++i, p += 3)
+      for (int k = 0; k < 3; ++k) {
+        const double w = (R[k][0] * p[0] + R[k][1] * p[1] + R[k][2] * p[2]) * s;
+        lo[k] = std::min(lo[k], w), hi[k] = std::max(hi[k], w);
+      }
+  } else {
+    for (int k = 0; k < 3; ++k) {
+      double h = 0;  // half extent of the rotated shape along world axis k
+      if (v.type == spu::ShapeType::sphere) h = v.radius;
+      if (v.type == spu::ShapeType::capsule) h = v.radius + std::fabs(R[k][2]) * v.half_height;
+      if (v.type == spu::ShapeType::box)
+        h = std::fabs(R[k][0]) * v.half_extents[0] + std::fabs(R[k][1]) * v.half_extents[1] +
+            std::fabs(R[k][2]) * v.half_extents[2];
+      lo[k] = -h * s, hi[k] = h * s;
+    }
+  }
+  for (int k = 0; k < 3; ++k) lo[k] += pose.position[k], hi[k] += pose.position[k];
+  store(lo, hi, min, max);
+}
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,945 @@
+// Narrow phase: contact manifolds between convex shapes (see narrow_phase.h for conventions).
+//
+// Geometry is computed in double from the float inputs and rounded once on output: on a scalar
+// core it costs nothing, and it keeps the separating-axis and clipping decisions consistent
+// for deep contacts and for bodies far from the origin.
+//
+// File layout: vector helpers; the contact sink; sphere, capsule and plane pairs (closed
+// forms); sphere-box; polytopes (boxes and hulls in world space); a point or segment against
+// a polytope; a polytope against a plane; polytope against polytope (separating axes,
+// clipping, reduction); dispatch in one canonical order.
+#include "runtime/spu/narrow_phase.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace cellphys::spu {
+namespace {
+
+// ---- tolerances -----------------------------------------------------------------------------
+
+// A segment or face within ~2.6 degrees of lying flat on a face gets a 2-point (segment) or
+// clipped (face) contact, and two capsule cores that close to parallel get 2 points: one
+// point would let a resting capsule rock about it.
+constexpr double kParallelCos = 0.999;
+constexpr double kParallelSin2 = 1.0 - kParallelCos * kParallelCos;
+// Edge pairs closer to parallel than this (sine of the angle) give no axis: their cross
+// product is noise, and the face axes already cover that configuration.
+constexpr double kEdgeParallelSin2 = 5e-3 * 5e-3;
+// Axis choice bias, for frame-to-frame stability of the manifold: the reference face is on b
+// only if b's best face is shallower than a's by 2% + the absolute tolerance, and an edge
+// axis wins only if shallower than the best face by 5% + the absolute tolerance. The absolute
+// tolerance is this fraction of the smaller shape's size (scale-invariant).
+constexpr double kFaceRel = 0.02;
+constexpr double kEdgeRel = 0.05;
+constexpr double kBiasAbs = 5e-4;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// ---- vectors --------------------------------------------------------------------------------
+
+struct V3 {
+  double x, y, z;
+};
+inline V3 operator+(const V3& a, const V3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline V3 operator-(const V3& a, const V3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline V3 operator-(const V3& a) { return {-a.x, -a.y, -a.z}; }
+inline V3 operator*(const V3& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+inline double dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline V3 cross(const V3& a, const V3& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+inline double len2(const V3& a) { return dot(a, a); }
+inline V3 load3(const float* p) { return {p[0], p[1], p[2]}; }
+inline double clamp01(double t) { return t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t); }
+
+/// A deterministic unit vector perpendicular to u (any, if u is zero).
+V3 any_perpendicular(const V3& u) {
+  const double ax = std::fabs(u.x), ay = std::fabs(u.y), az = std::fabs(u.z);
+  const V3 e = (ax <= ay && ax <= az) ? V3{1, 0, 0} : (ay <= az ? V3{0, 1, 0} : V3{0, 0, 1});
+  const V3 w = cross(u, e);
+  const double l2 = len2(w);
+  return l2 > 0.0 ? w * (1.0 / std::sqrt(l2)) : V3{0, 0, 1};
+}
+
+/// World frame of a pose: rotation columns, translation and scale. The rotation is exact for
+/// a non-unit quaternion too (2/|q|^2 in place of 2), so no square root is needed.
+struct Frame {
+  V3 c0, c1, c2, t;
+  double s;
+  V3 rotate(const V3& v) const { return c0 * v.x + c1 * v.y + c2 * v.z; }
+  V3 unrotate(const V3& v) const { return {dot(c0, v), dot(c1, v), dot(c2, v)}; }
+  /// A point given in unscaled body coordinates.
+  V3 point(const V3& v) const { return t + rotate(v * s); }
+};
+
+Frame frame_of(const Pose& p) {
+  double w = p.orientation[0], x = p.orientation[1], y = p.orientation[2], z = p.orientation[3];
+  double n = w * w + x * x + y * y + z * z;
+  if (!(n > 0.0)) w = 1.0, x = y = z = 0.0, n = 1.0;
+  const double k = 2.0 / n;
+  Frame f;
+  f.c0 = {1.0 - k * (y * y + z * z), k * (x * y + w * z), k * (x * z - w * y)};
+  f.c1 = {k * (x * y - w * z), 1.0 - k * (x * x + z * z), k * (y * z + w * x)};
+  f.c2 = {k * (x * z + w * y), k * (y * z - w * x), 1.0 - k * (x * x + y * y)};
+  f.t = load3(p.position);
+  f.s = p.scale;
+  return f;
+}
+
+/// Closest point to x on the segment p0 p1 (p0 if it is degenerate).
+V3 closest_on_segment(const V3& p0, const V3& p1, const V3& x) {
+  const V3 u = p1 - p0;
+  const double uu = len2(u);
+  return uu > 0.0 ? p0 + u * clamp01(dot(x - p0, u) / uu) : p0;
+}
+
+struct SegmentPair {
+  V3 pa, pb;  // closest points on the first and the second segment
+};
+
+/// Closest points of segments a0 a1 and b0 b1 (Ericson, Real-Time Collision Detection 5.1.9).
+/// Parallel segments take the first segment's start, clamped: deterministic.
+SegmentPair closest_segments(const V3& a0, const V3& a1, const V3& b0, const V3& b1) {
+  const V3 d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0;
+  const double a = len2(d1), e = len2(d2), f = dot(d2, r);
+  double s = 0.0, t = 0.0;
+  if (a <= 0.0 && e <= 0.0) {
+  } else if (a <= 0.0) {
+    t = clamp01(f / e);
+  } else {
+    const double c = dot(d1, r);
+    if (e <= 0.0) {
+      s = clamp01(-c / a);
+    } else {
+      const double b = dot(d1, d2), denom = a * e - b * b;
+      s = denom > 1e-12 * a * e ? clamp01((b * f - c * e) / denom) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0.0) {
+        t = 0.0;
+        s = clamp01(-c / a);
+      } else if (t > 1.0) {
+        t = 1.0;
+        s = clamp01((b - c) / a);
+      }
+    }
+  }
+  return {a0 + d1 * s, b0 + d2 * t};
+}
+
+// ---- the contact sink -----------------------------------------------------------------------
+
+/// Collects up to kMaxManifoldPoints contacts, applying the margin rule in one place.
+struct Sink {
+  ContactPoint* out;
+  double margin;
+  int n = 0;
+
+  bool keeps(double penetration) const { return penetration > -margin; }
+  void add(const V3& point, const V3& normal, double penetration) {
+    if (n >= kMaxManifoldPoints || !keeps(penetration)) return;
+    ContactPoint& c = out[n++];
+    c.point[0] = float(point.x), c.point[1] = float(point.y), c.point[2] = float(point.z);
+    c.normal[0] = float(normal.x), c.normal[1] = float(normal.y), c.normal[2] = float(normal.z);
+    c.penetration = float(penetration);
+  }
+};
+
+// ---- spheres, capsules, planes --------------------------------------------------------------
+
+struct Segment {
+  V3 p0, p1;
+  double radius;
+};
+Segment capsule_of(const ShapeView& c, const Frame& f) {
+  const V3 h = f.c2 * (double(c.half_height) * f.s);
+  return {f.t - h, f.t + h, double(c.radius) * f.s};
+}
+
+struct Plane {
+  V3 n;
+  double d;  // n.x <= d inside
+};
+bool plane_of(const ShapeView& p, const Pose& pose, Plane& out) {
+  const V3 n = load3(p.normal);
+  const double l = std::sqrt(len2(n));
+  if (!(l > 0.0)) return false;
+  out.n = n * (1.0 / l);
+  out.d = double(p.offset) / l * double(pose.scale);
+  return true;
+}
+
+/// Two spheres; also every pair whose cores reduce to two closest points. `fallback` is the
+/// normal when the centres coincide (any direction is then as good as another).
+void sphere_sphere(const V3& ca, double ra, const V3& cb, double rb, const V3& fallback, Sink& s) {
+  const V3 d = cb - ca;
+  const double dist2 = len2(d), reach = ra + rb + s.margin;
+  if (dist2 >= reach * reach) return;
+  const double dist = std::sqrt(dist2);
+  const V3 n = dist > 0.0 ? d * (1.0 / dist) : fallback;
+  s.add(((ca + n * ra) + (cb - n * rb)) * 0.5, n, ra + rb - dist);
+}
+
+/// Sphere or capsule end (a) against a plane (b): normal -plane normal.
+void sphere_plane(const V3& c, double r, const Plane& pl, Sink& s) {
+  const double h = dot(pl.n, c) - pl.d;
+  s.add(c - pl.n * ((r + h) * 0.5), -pl.n, r - h);
+}
+
+/// Both ends of the core are exact contact features against a plane: each reported if within
+/// the margin, so a capsule lying flat gets two points and a steep one gets one.
+void capsule_plane(const Segment& c, const Plane& pl, Sink& s) {
+  sphere_plane(c.p0, c.radius, pl, s);
+  if (len2(c.p1 - c.p0) > 0.0) sphere_plane(c.p1, c.radius, pl, s);
+}
+
+void capsule_capsule(const Segment& a, const Segment& b, Sink& s) {
+  const V3 da = a.p1 - a.p0, db = b.p1 - b.p0;
+  const SegmentPair cp = closest_segments(a.p0, a.p1, b.p0, b.p1);
+  const V3 ab = cross(da, db);
+  const double aa = len2(da), bb = len2(db), ab2 = len2(ab);
+  // Crossing cores: the shortest way out is perpendicular to both, towards b's centre.
+  V3 fallback = any_perpendicular(aa > 0.0 ? da : db);
+  if (ab2 > 0.0) {
+    fallback = ab * (1.0 / std::sqrt(ab2));
+    if (dot(fallback, (b.p0 + b.p1) - (a.p0 + a.p1)) < 0.0) fallback = -fallback;
+  }
+  if (aa > 0.0 && bb > 0.0 && ab2 <= kParallelSin2 * aa * bb) {
+    // Near-parallel: contacts at both ends of the overlap of b's projection on a.
+    const double la = std::sqrt(aa);
+    const V3 u = da * (1.0 / la);
+    const double t0 = dot(b.p0 - a.p0, u), t1 = dot(b.p1 - a.p0, u);
+    const double lo = std::max(0.0, std::min(t0, t1)), hi = std::min(la, std::max(t0, t1));
+    if (hi - lo > 1e-6 * la) {
+      double deepest = -kInf;
+      for (const double t : {lo, hi}) {
+        const V3 pa = a.p0 + u * t, pb = closest_on_segment(b.p0, b.p1, pa);
+        deepest = std::max(deepest, a.radius + b.radius - std::sqrt(len2(pb - pa)));
+        sphere_sphere(pa, a.radius, pb, b.radius, fallback, s);
+      }
+      // Cores crossing at a small angle between the ends: the true deepest point as well.
+      const double pen = a.radius + b.radius - std::sqrt(len2(cp.pb - cp.pa));
+      if (pen > deepest + 1e-4 * (a.radius + b.radius))
+        sphere_sphere(cp.pa, a.radius, cp.pb, b.radius, fallback, s);
+      return;
+    }
+  }
+  sphere_sphere(cp.pa, a.radius, cp.pb, b.radius, fallback, s);
+}
+
+/// Sphere (a) against a box (b), in the box's frame: clamp for the closest point outside,
+/// the nearest face from inside.
+void sphere_box(const V3& c, double r, const ShapeView& box, const Frame& f, Sink& s) {
+  const V3 l = f.unrotate(c - f.t);
+  const double lc[3] = {l.x, l.y, l.z};
+  const double h[3] = {box.half_extents[0] * f.s, box.half_extents[1] * f.s, box.half_extents[2] * f.s};
+  double q[3];
+  bool inside = true;
+  for (int k = 0; k < 3; ++k) {
+    q[k] = std::min(std::max(lc[k], -h[k]), h[k]);
+    if (q[k] != lc[k]) inside = false;
+  }
+  if (!inside) {
+    const V3 dl = {lc[0] - q[0], lc[1] - q[1], lc[2] - q[2]};
+    const double dist2 = len2(dl), reach = r + s.margin;
+    if (dist2 >= reach * reach) return;
+    const double dist = std::sqrt(dist2);  // > 0: the centre is outside
+    const V3 out = f.rotate(dl) * (1.0 / dist);  // from the box towards the sphere
+    const V3 qw = f.t + f.rotate({q[0], q[1], q[2]});
+    s.add(((c - out * r) + qw) * 0.5, -out, r - dist);
+    return;
+  }
+  int k = 0;
+  for (int i = 1; i < 3; ++i)
+    if (h[i] - std::fabs(lc[i]) < h[k] - std::fabs(lc[k])) k = i;
+  const V3 axis = k == 0 ? f.c0 : (k == 1 ? f.c1 : f.c2);
+  const V3 out = lc[k] < 0.0 ? -axis : axis;
+  const double height = std::fabs(lc[k]) - h[k];  // <= 0
+  s.add(c - out * ((r + height) * 0.5), -out, r - height);
+}
+
+// ---- polytopes: boxes and hulls in world space ----------------------------------------------
+
+// A box as a hull: vertex i has the sign pattern of its bits (x: bit 0, y: bit 1, z: bit 2);
+// faces -x +x -y +y -z +z, loops counter-clockwise seen from outside.
+constexpr int32_t kBoxFaceStart[7] = {0, 4, 8, 12, 16, 20, 24};
+constexpr int32_t kBoxFaceVertices[24] = {0, 4, 6, 2, 1, 3, 7, 5, 0, 1, 5, 4,
+                                          2, 6, 7, 3, 0, 2, 3, 1, 4, 5, 7, 6};
+constexpr int32_t kBoxEdges[24] = {0, 1, 2, 3, 4, 5, 6, 7, 0, 2, 1, 3,
+                                   4, 6, 5, 7, 0, 4, 1, 5, 2, 6, 3, 7};
+constexpr int16_t kBoxEdgeFaces[12][2] = {{2, 4}, {3, 4}, {2, 5}, {3, 5}, {0, 4}, {1, 4},
+                                          {0, 5}, {1, 5}, {0, 2}, {1, 2}, {0, 3}, {1, 3}};
+
+/// A convex polyhedron in world space: transformed vertices and planes, topology borrowed.
+struct Polytope {
+  int nv = 0, nf = 0, ne = 0;
+  const int32_t* face_start = nullptr;
+  const int32_t* face_vertices = nullptr;
+  const int32_t* edges = nullptr;
+  const int16_t (*edge_faces)[2] = nullptr;  // the two faces bordering each edge
+  V3 centre;                                 // mean of the vertices: strictly inside
+  double size = 0.0;                         // largest distance of a vertex from the centre
+  V3 v[kMaxHullVertices];
+  V3 n[kMaxHullFaces];
+  double d[kMaxHullFaces];
+  int16_t adjacency[kMaxHullEdges][2];  // edge_faces of a hull
+};
+
+void make_box(const ShapeView& box, const Frame& f, Polytope& P) {
+  const double h[3] = {box.half_extents[0] * f.s, box.half_extents[1] * f.s, box.half_extents[2] * f.s};
+  P.nv = 8, P.nf = 6, P.ne = 12;
+  P.face_start = kBoxFaceStart, P.face_vertices = kBoxFaceVertices, P.edges = kBoxEdges;
+  P.edge_faces = kBoxEdgeFaces;
+  for (int i = 0; i < 8; ++i)
+    P.v[i] = f.t + f.rotate({i & 1 ? h[0] : -h[0], i & 2 ? h[1] : -h[1], i & 4 ? h[2] : -h[2]});
+  const V3 axes[3] = {f.c0, f.c1, f.c2};
+  for (int k = 0; k < 3; ++k) {
+    const double o = dot(axes[k], f.t);
+    P.n[2 * k] = -axes[k], P.d[2 * k] = h[k] - o;
+    P.n[2 * k + 1] = axes[k], P.d[2 * k + 1] = h[k] + o;
+  }
+  P.centre = f.t;
+  P.size = std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+}
+
+bool hull_fits(const HullView& h) {
+  return h.num_vertices >= 1 && h.num_vertices <= kMaxHullVertices && h.num_faces >= 1 &&
+         h.num_faces <= kMaxHullFaces && h.num_edges >= 0 && h.num_edges <= kMaxHullEdges &&
+         h.vertices && h.planes && h.face_start && h.face_vertices && (h.edges || h.num_edges == 0);
+}
+
+/// For each listed edge, the face with its directed loop edge a->b and the one with b->a:
+/// directed loop edges bucketed by their first vertex (counting sort), then looked up.
+/// False if a loop or edge index is out of range or an edge lacks a face on either side.
+bool edge_faces_of(const HullView& h, int16_t (*adj)[2]) {
+  const int nv = h.num_vertices, nf = h.num_faces;
+  if (h.face_start[0] != 0) return false;
+  for (int f = 0; f < nf; ++f)
+    if (h.face_start[f + 1] - h.face_start[f] < 3) return false;
+  const int total = h.face_start[nf];
+  if (total > kMaxHullLoopLength) return false;
+  int16_t first[kMaxHullVertices + 1], fill[kMaxHullVertices];
+  int16_t to[kMaxHullLoopLength], face_of[kMaxHullLoopLength];
+  std::fill(first, first + nv + 1, int16_t(0));
+  for (int k = 0; k < total; ++k) {
+    const int from = h.face_vertices[k];
+    if (from < 0 || from >= nv) return false;
+    ++first[from + 1];
+  }
+  for (int i = 1; i <= nv; ++i) first[i] = int16_t(first[i] + first[i - 1]);
+  std::copy(first, first + nv, fill);
+  for (int f = 0; f < nf; ++f) {
+    const int b = h.face_start[f], e = h.face_start[f + 1];
+    for (int k = b; k < e; ++k) {
+      const int slot = fill[h.face_vertices[k]]++;
+      to[slot] = int16_t(h.face_vertices[k + 1 < e ? k + 1 : b]);
+      face_of[slot] = int16_t(f);
+    }
+  }
+  auto find = [&](int a, int b) {
+    for (int k = first[a]; k < first[a + 1]; ++k)
+      if (to[k] == b) return int(face_of[k]);
+    return -1;
+  };
+  for (int e = 0; e < h.num_edges; ++e) {
+    const int a = h.edges[2 * e], b = h.edges[2 * e + 1];
+    if (a < 0 || a >= nv || b < 0 || b >= nv) return false;
+    const int f1 = find(a, b), f2 = find(b, a);
+    if (f1 < 0 || f2 < 0) return false;
+    adj[e][0] = int16_t(f1), adj[e][1] = int16_t(f2);
+  }
+  return true;
+}
+
+/// A hull in world space; with_edges also finds the faces of each edge (needed by the edge
+/// axes). False if the hull does not fit the bounds or its edges are inconsistent.
+bool make_hull(const ShapeView& shape, const Frame& f, bool with_edges, Polytope& P) {
+  const HullView& h = shape.hull;
+  if (!hull_fits(h)) return false;
+  P.nv = h.num_vertices, P.nf = h.num_faces, P.ne = h.num_edges;
+  P.face_start = h.face_start, P.face_vertices = h.face_vertices, P.edges = h.edges;
+  V3 sum{0, 0, 0};
+  for (int i = 0; i < P.nv; ++i) {
+    P.v[i] = f.point(load3(h.vertices + 3 * i));
+    sum = sum + P.v[i];
+  }
+  P.centre = sum * (1.0 / P.nv);
+  double r2 = 0.0;
+  for (int i = 0; i < P.nv; ++i) r2 = std::max(r2, len2(P.v[i] - P.centre));
+  P.size = std::sqrt(r2);
+  for (int i = 0; i < P.nf; ++i) {
+    P.n[i] = f.rotate(load3(h.planes + 4 * i));
+    P.d[i] = double(h.planes[4 * i + 3]) * f.s + dot(P.n[i], f.t);
+  }
+  if (!with_edges) return true;
+  if (!edge_faces_of(h, P.adjacency)) return false;
+  P.edge_faces = P.adjacency;
+  return true;
+}
+
+/// Picks at most four of n points spanning the largest area: the deepest, the farthest from
+/// it, the largest triangle, then the point adding the most area. The penalty forces need the
+/// support polygon, not every point. Ties go to the lower index; the indices come out sorted
+/// (clipped polygons keep their winding). eps2: squared length below which points coincide.
+int reduce_manifold(const V3* p, const double* depth, int n, const V3& normal, double eps2, int keep[4]) {
+  if (n <= 4) {
+    for (int i = 0; i < n; ++i) keep[i] = i;
+    return n;
+  }
+  int i0 = 0;
+  for (int i = 1; i < n; ++i)
+    if (depth[i] > depth[i0]) i0 = i;
+  int i1 = -1;
+  double best = eps2;
+  for (int i = 0; i < n; ++i) {
+    const double d2 = len2(p[i] - p[i0]);
+    if (d2 > best) best = d2, i1 = i;
+  }
+  if (i1 < 0) return keep[0] = i0, 1;
+  const V3 e01 = p[i1] - p[i0];
+  int i2 = -1;
+  double area = 0.0, best_area = eps2 * 1e-3;  // |cross| is a length squared
+  for (int i = 0; i < n; ++i) {
+    const double a = dot(cross(e01, p[i] - p[i0]), normal);
+    if (std::fabs(a) > best_area) best_area = std::fabs(a), area = a, i2 = i;
+  }
+  int m = 2;
+  keep[0] = i0, keep[1] = i1;
+  if (i2 >= 0) {
+    keep[m++] = i2;
+    // The point farthest outside the triangle's edges adds the most area.
+    const double sgn = area > 0.0 ? 1.0 : -1.0;
+    const int tri[3] = {i0, i1, i2};
+    int i3 = -1;
+    double most = eps2 * 1e-3;
+    for (int i = 0; i < n; ++i) {
+      if (i == i0 || i == i1 || i == i2) continue;
+      double outside = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const V3& a = p[tri[k]];
+        const V3& b = p[tri[(k + 1) % 3]];
+        outside = std::max(outside, -sgn * dot(cross(b - a, p[i] - a), normal));
+      }
+      if (outside > most) most = outside, i3 = i;
+    }
+    if (i3 >= 0) keep[m++] = i3;
+  }
+  std::sort(keep, keep + m);
+  return m;
+}
+
+// ---- a point or a segment against a polytope ------------------------------------------------
+
+/// Squared distance from an outside point x to the polytope, and the closest point q: the
+/// closest point lies on a face whose plane x is above, so only those faces are searched.
+double closest_on_polytope(const Polytope& P, const V3& x, V3& q) {
+  double best = kInf;
+  for (int f = 0; f < P.nf; ++f) {
+    const V3& n = P.n[f];
+    const double h = dot(n, x) - P.d[f];
+    if (h <= 0.0 || h * h >= best) continue;
+    const int b = P.face_start[f], e = P.face_start[f + 1];
+    const V3 y = x - n * h;  // projection on the face plane
+    bool inside = true;
+    for (int k = b; k < e && inside; ++k) {
+      const V3& v0 = P.v[P.face_vertices[k]];
+      const V3& v1 = P.v[P.face_vertices[k + 1 < e ? k + 1 : b]];
+      if (dot(cross(v1 - v0, n), y - v0) > 0.0) inside = false;
+    }
+    if (inside) {
+      best = h * h, q = y;
+      continue;
+    }
+    for (int k = b; k < e; ++k) {
+      const V3 c = closest_on_segment(P.v[P.face_vertices[k]], P.v[P.face_vertices[k + 1 < e ? k + 1 : b]], x);
+      const double d2 = len2(x - c);
+      if (d2 < best) best = d2, q = c;
+    }
+  }
+  return best;
+}
+
+/// Sphere (a) against a polytope (b).
+void sphere_polytope(const V3& c, double r, const Polytope& P, Sink& s) {
+  int face = 0;
+  double height = -kInf;
+  for (int f = 0; f < P.nf; ++f) {
+    const double h = dot(P.n[f], c) - P.d[f];
+    if (h > height) height = h, face = f;
+  }
+  if (height >= r + s.margin) return;  // a face plane separates them
+  if (height <= 0.0) {                 // centre inside: out through the nearest face plane
+    const V3& n = P.n[face];
+    s.add(c - n * ((r + height) * 0.5), -n, r - height);
+    return;
+  }
+  V3 q;
+  const double dist = std::sqrt(closest_on_polytope(P, c, q));  // >= height > 0
+  if (!s.keeps(r - dist)) return;
+  const V3 out = (c - q) * (1.0 / dist);
+  s.add(((c - out * r) + q) * 0.5, -out, r - dist);
+}
+
+/// Clips the core segment to the prism over face f of P and reports both clipped ends against
+/// the face plane (exact there: the face plane supports P). Returns whether a point was added.
+bool segment_on_face(const Segment& c, const Polytope& P, int f, Sink& s) {
+  const V3& n = P.n[f];
+  const V3 u = c.p1 - c.p0;
+  double t0 = 0.0, t1 = 1.0;
+  const int b = P.face_start[f], e = P.face_start[f + 1];
+  for (int k = b; k < e; ++k) {
+    const V3& v0 = P.v[P.face_vertices[k]];
+    const V3 side = cross(P.v[P.face_vertices[k + 1 < e ? k + 1 : b]] - v0, n);  // outward
+    const double f0 = dot(side, c.p0 - v0), fu = dot(side, u);  // side distance f0 + t fu
+    if (fu == 0.0) {
+      if (f0 > 0.0) return false;
+      continue;
+    }
+    const double t = -f0 / fu;
+    if (fu > 0.0) t1 = std::min(t1, t);
+    else t0 = std::max(t0, t);
+    if (t0 > t1) return false;
+  }
+  const int before = s.n;
+  for (int k = 0; k < 2; ++k) {
+    if (k == 1 && t1 - t0 <= 1e-9) break;
+    const V3 x = c.p0 + u * (k ? t1 : t0);
+    const double h = dot(n, x) - P.d[f];
+    s.add(x - n * ((h + c.radius) * 0.5), -n, c.radius - h);
+  }
+  return s.n > before;
+}
+
+struct FaceQuery {
+  double sep = -kInf;  // largest separation of a face plane from the other shape
+  int face = -1;
+};
+struct EdgeQuery {
+  double sep = -kInf;
+  int ea = -1, eb = -1;
+  V3 axis{0, 0, 0};  // unit, pointing out of the first polytope
+};
+
+/// Capsule (a) against a polytope (b). The core is tested against the separating axes (face
+/// normals, and edge x core where the edge's normal arc crosses the core's great circle). If
+/// the core is outside, exact closest points give the contact; if it touches or crosses, the
+/// least-penetration axis does. A core lying along a face gives the two clipped ends.
+void capsule_polytope(const Segment& c, const Polytope& P, Sink& s) {
+  const V3 u = c.p1 - c.p0;
+  if (len2(u) == 0.0) return sphere_polytope(c.p0, c.radius, P, s);
+  const double reach = c.radius + s.margin;
+  FaceQuery fq;
+  for (int f = 0; f < P.nf; ++f) {
+    const double sep = std::min(dot(P.n[f], c.p0), dot(P.n[f], c.p1)) - P.d[f];
+    if (sep > fq.sep) fq.sep = sep, fq.face = f;
+  }
+  if (fq.sep >= reach) return;
+  EdgeQuery eq;
+  for (int e = 0; e < P.ne; ++e) {
+    const double a0 = dot(P.n[P.edge_faces[e][0]], u), a1 = dot(P.n[P.edge_faces[e][1]], u);
+    if (!(a0 * a1 < 0.0)) continue;
+    const V3& q0 = P.v[P.edges[2 * e]];
+    const V3 ev = P.v[P.edges[2 * e + 1]] - q0;
+    V3 axis = cross(ev, u);
+    const double l2 = len2(axis);
+    if (l2 <= kEdgeParallelSin2 * len2(ev) * len2(u)) continue;
+    axis = axis * (1.0 / std::sqrt(l2));
+    if (dot(axis, q0 - P.centre) < 0.0) axis = -axis;
+    const double sep = std::min(dot(axis, c.p0), dot(axis, c.p1)) - dot(axis, q0);
+    if (sep > eq.sep) eq.sep = sep, eq.ea = e, eq.axis = axis;
+  }
+  if (eq.sep >= reach) return;
+
+  if (std::max(fq.sep, eq.sep) > 0.0) {
+    // Core outside: closest points are at an end of the core or between it and an edge.
+    V3 pc = c.p0, qc;
+    double best = closest_on_polytope(P, c.p0, qc);
+    V3 q1;
+    const double d1 = closest_on_polytope(P, c.p1, q1);
+    if (d1 < best) best = d1, pc = c.p1, qc = q1;
+    for (int e = 0; e < P.ne; ++e) {
+      const SegmentPair sp = closest_segments(c.p0, c.p1, P.v[P.edges[2 * e]], P.v[P.edges[2 * e + 1]]);
+      const double d2 = len2(sp.pb - sp.pa);
+      if (d2 < best) best = d2, pc = sp.pa, qc = sp.pb;
+    }
+    if (best >= reach * reach) return;
+    const double dist = std::sqrt(best);  // >= the positive separation
+    const V3 out = (pc - qc) * (1.0 / dist);
+    int face = 0;
+    for (int f = 1; f < P.nf; ++f)
+      if (dot(P.n[f], out) > dot(P.n[face], out)) face = f;
+    if (dot(P.n[face], out) >= kParallelCos && segment_on_face(c, P, face, s)) return;
+    s.add(((pc - out * c.radius) + qc) * 0.5, -out, c.radius - dist);
+    return;
+  }
+  // Core touching or crossing: the least-penetration axis, faces preferred.
+  const double tol = kBiasAbs * std::min(P.size, c.radius + 0.5 * std::sqrt(len2(u)));
+  if (eq.ea >= 0 && eq.sep > fq.sep + kEdgeRel * std::fabs(fq.sep) + tol) {
+    const SegmentPair sp = closest_segments(c.p0, c.p1, P.v[P.edges[2 * eq.ea]], P.v[P.edges[2 * eq.ea + 1]]);
+    s.add(((sp.pa - eq.axis * c.radius) + sp.pb) * 0.5, -eq.axis, c.radius - eq.sep);
+    return;
+  }
+  if (segment_on_face(c, P, fq.face, s)) return;
+  const V3& n = P.n[fq.face];
+  const V3 x = dot(n, c.p0) <= dot(n, c.p1) ? c.p0 : c.p1;  // the deeper end
+  const double h = dot(n, x) - P.d[fq.face];
+  s.add(x - n * ((h + c.radius) * 0.5), -n, c.radius - h);
+}
+
+// ---- a polytope against a plane -------------------------------------------------------------
+
+/// The vertices within the margin of the plane, reduced to the four spanning the largest
+/// area: a box lying flat gives its four bottom corners, a hull on a face that face's corners.
+void polytope_plane(const Polytope& P, const Plane& pl, Sink& s) {
+  V3 pts[kMaxHullVertices];
+  double depth[kMaxHullVertices];
+  int m = 0;
+  for (int i = 0; i < P.nv; ++i) {
+    const double pen = pl.d - dot(pl.n, P.v[i]);
+    if (s.keeps(pen)) pts[m] = P.v[i], depth[m] = pen, ++m;
+  }
+  int keep[4];
+  const double eps = 1e-6 * P.size;
+  const int k = reduce_manifold(pts, depth, m, pl.n, eps * eps, keep);
+  for (int i = 0; i < k; ++i) s.add(pts[keep[i]] + pl.n * (depth[keep[i]] * 0.5), -pl.n, depth[keep[i]]);
+}
+
+// ---- polytope against polytope --------------------------------------------------------------
+
+/// Largest separation of a face plane of A from B (B's deepest vertex below it). Stops early
+/// once a face separates by more than cutoff.
+FaceQuery query_faces(const Polytope& A, const Polytope& B, double cutoff) {
+  FaceQuery q;
+  for (int i = 0; i < A.nf; ++i) {
+    const V3& n = A.n[i];
+    double lowest = kInf;
+    for (int j = 0; j < B.nv; ++j) lowest = std::min(lowest, dot(n, B.v[j]));
+    const double sep = lowest - A.d[i];
+    if (sep > q.sep) {
+      q.sep = sep, q.face = i;
+      if (sep > cutoff) break;
+    }
+  }
+  return q;
+}
+
+/// Whether the arcs a-b and c-d of the Gauss map cross (Gregorius, "The Separating Axis Test
+/// between Convex Polyhedra", GDC 2013): only then do the two edges form a face of the
+/// Minkowski difference, whose normal is a candidate axis. b_x_a and d_x_c are the arcs' planes.
+inline bool minkowski_face(const V3& a, const V3& b, const V3& b_x_a, const V3& c, const V3& d, const V3& d_x_c) {
+  const double cba = dot(c, b_x_a), dba = dot(d, b_x_a), adc = dot(a, d_x_c), bdc = dot(b, d_x_c);
+  return cba * dba < 0.0 && adc * bdc < 0.0 && cba * bdc > 0.0;
+}
+
+/// Largest separation along the cross products of A's and B's edges that form Minkowski faces.
+EdgeQuery query_edges(const Polytope& A, const Polytope& B, double cutoff) {
+  EdgeQuery q;
+  for (int i = 0; i < A.ne; ++i) {
+    const V3& pa = A.v[A.edges[2 * i]];
+    const V3 ea = A.v[A.edges[2 * i + 1]] - pa;
+    const double la2 = len2(ea);
+    const V3& a = A.n[A.edge_faces[i][0]];
+    const V3& b = A.n[A.edge_faces[i][1]];
+    const V3 b_x_a = cross(b, a);
+    for (int j = 0; j < B.ne; ++j) {
+      // B's normals negated: the Gauss map of the Minkowski difference A - B.
+      const V3 c = -B.n[B.edge_faces[j][0]], d = -B.n[B.edge_faces[j][1]];
+      if (!minkowski_face(a, b, b_x_a, c, d, cross(d, c))) continue;
+      const V3& pb = B.v[B.edges[2 * j]];
+      const V3 eb = B.v[B.edges[2 * j + 1]] - pb;
+      V3 axis = cross(ea, eb);
+      const double l2 = len2(axis);
+      if (l2 <= kEdgeParallelSin2 * la2 * len2(eb)) continue;
+      axis = axis * (1.0 / std::sqrt(l2));
+      if (dot(axis, pa - A.centre) < 0.0) axis = -axis;
+      const double sep = dot(axis, pb - pa);
+      if (sep > q.sep) {
+        q.sep = sep, q.ea = i, q.eb = j, q.axis = axis;
+        if (sep > cutoff) return q;
+      }
+    }
+  }
+  return q;
+}
+
+/// Clips the polygon in[0..n) to the half-space side.x <= offset (Sutherland-Hodgman).
+int clip_polygon(const V3* in, int n, const V3& side, double offset, V3* out) {
+  int m = 0;
+  V3 prev = in[n - 1];
+  double dp = dot(side, prev) - offset;
+  for (int i = 0; i < n; ++i) {
+    const V3& cur = in[i];
+    const double dc = dot(side, cur) - offset;
+    if (dp <= 0.0) {
+      out[m++] = dc <= 0.0 ? cur : prev + (cur - prev) * (dp / (dp - dc));
+    } else if (dc <= 0.0) {
+      out[m++] = prev + (cur - prev) * (dp / (dp - dc));
+      out[m++] = cur;
+    }
+    prev = cur, dp = dc;
+  }
+  return m;
+}
+
+constexpr int kClipCapacity = 2 * kMaxHullVertices;  // incident loop + one per reference side
+
+/// Face contact: the incident face of I (most anti-parallel to the reference normal) clipped
+/// to the side planes of reference face rf of R; the points below the reference plane (or
+/// within the margin above it), reduced to four. ref_is_b flips the reported normal.
+void face_contact(const Polytope& R, int rf, const Polytope& I, bool ref_is_b, Sink& s) {
+  const V3 n = R.n[rf];
+  const double d = R.d[rf];
+  int inc = 0;
+  for (int f = 1; f < I.nf; ++f)
+    if (dot(I.n[f], n) < dot(I.n[inc], n)) inc = f;
+  V3 buf0[kClipCapacity], buf1[kClipCapacity];
+  V3* poly = buf0;
+  V3* next = buf1;
+  int m = 0;
+  for (int k = I.face_start[inc]; k < I.face_start[inc + 1]; ++k) poly[m++] = I.v[I.face_vertices[k]];
+  const int b = R.face_start[rf], e = R.face_start[rf + 1];
+  for (int k = b; k < e && m > 0; ++k) {
+    const V3& v0 = R.v[R.face_vertices[k]];
+    const V3 side = cross(R.v[R.face_vertices[k + 1 < e ? k + 1 : b]] - v0, n);  // outward
+    m = clip_polygon(poly, m, side, dot(side, v0), next);
+    std::swap(poly, next);
+  }
+  // Keep the points within the margin of the reference plane, dropping the repeats that
+  // clipping makes where a vertex lies on a side plane.
+  const double eps = 1e-6 * (R.size + I.size), eps2 = eps * eps;
+  double depth[kClipCapacity];
+  int k = 0;
+  for (int i = 0; i < m; ++i) {
+    const double pen = d - dot(n, poly[i]);
+    if (!s.keeps(pen) || (k > 0 && len2(poly[i] - poly[k - 1]) <= eps2)) continue;
+    poly[k] = poly[i], depth[k] = pen, ++k;
+  }
+  if (k > 1 && len2(poly[k - 1] - poly[0]) <= eps2) --k;
+  const V3 normal = ref_is_b ? -n : n;
+  if (k == 0) {
+    // Nothing of the incident face over the reference face: I's deepest vertex.
+    int deepest = 0;
+    for (int i = 1; i < I.nv; ++i)
+      if (dot(n, I.v[i]) < dot(n, I.v[deepest])) deepest = i;
+    const double pen = d - dot(n, I.v[deepest]);
+    s.add(I.v[deepest] + n * (pen * 0.5), normal, pen);
+    return;
+  }
+  int keep[4];
+  const int count = reduce_manifold(poly, depth, k, n, eps2, keep);
+  for (int i = 0; i < count; ++i) s.add(poly[keep[i]] + n * (depth[keep[i]] * 0.5), normal, depth[keep[i]]);
+}
+
+/// Polytope (a) against polytope (b): separating axis test, then a face or an edge contact.
+void polytope_polytope(const Polytope& A, const Polytope& B, Sink& s) {
+  const FaceQuery fa = query_faces(A, B, s.margin);
+  if (fa.sep > s.margin) return;
+  const FaceQuery fb = query_faces(B, A, s.margin);
+  if (fb.sep > s.margin) return;
+  const EdgeQuery ee = query_edges(A, B, s.margin);
+  if (ee.sep > s.margin) return;
+  const double tol = kBiasAbs * std::min(A.size, B.size);
+  const bool ref_b = fb.sep > fa.sep + kFaceRel * std::fabs(fa.sep) + tol;
+  const double face_sep = ref_b ? fb.sep : fa.sep;
+  if (ee.ea >= 0 && ee.sep > face_sep + kEdgeRel * std::fabs(face_sep) + tol) {
+    const SegmentPair sp = closest_segments(A.v[A.edges[2 * ee.ea]], A.v[A.edges[2 * ee.ea + 1]],
+                                            B.v[B.edges[2 * ee.eb]], B.v[B.edges[2 * ee.eb + 1]]);
+    s.add((sp.pa + sp.pb) * 0.5, ee.axis, -ee.sep);
+    return;
+  }
+  if (ref_b) face_contact(B, fb.face, A, true, s);
+  else face_contact(A, fa.face, B, false, s);
+}
+
+// ---- dispatch -------------------------------------------------------------------------------
+
+// One function per family keeps each polytope's stack scratch in its own frame.
+
+void sphere_vs(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, Sink& s) {
+  const V3 c = load3(pa.position);
+  const double r = double(a.radius) * pa.scale;
+  switch (b.type) {
+    case ShapeType::sphere:
+      return sphere_sphere(c, r, load3(pb.position), double(b.radius) * pb.scale, {0, 0, 1}, s);
+    case ShapeType::capsule: {
+      const Segment cb = capsule_of(b, frame_of(pb));
+      return sphere_sphere(c, r, closest_on_segment(cb.p0, cb.p1, c), cb.radius,
+                           any_perpendicular(cb.p1 - cb.p0), s);
+    }
+    case ShapeType::box:
+      return sphere_box(c, r, b, frame_of(pb), s);
+    case ShapeType::hull: {
+      Polytope P;
+      if (make_hull(b, frame_of(pb), false, P)) sphere_polytope(c, r, P, s);
+      return;
+    }
+    case ShapeType::plane: {
+      Plane pl;
+      if (plane_of(b, pb, pl)) sphere_plane(c, r, pl, s);
+      return;
+    }
+  }
+}
+
+void capsule_vs(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, Sink& s) {
+  const Segment ca = capsule_of(a, frame_of(pa));
+  switch (b.type) {
+    case ShapeType::capsule:
+      return capsule_capsule(ca, capsule_of(b, frame_of(pb)), s);
+    case ShapeType::box:
+    case ShapeType::hull: {
+      Polytope P;
+      if (b.type == ShapeType::box) make_box(b, frame_of(pb), P);
+      else if (!make_hull(b, frame_of(pb), true, P)) return;
+      return capsule_polytope(ca, P, s);
+    }
+    case ShapeType::plane: {
+      Plane pl;
+      if (plane_of(b, pb, pl)) capsule_plane(ca, pl, s);
+      return;
+    }
+    default:
+      return;
+  }
+}
+
+bool make_polytope(const ShapeView& shape, const Pose& pose, bool with_edges, Polytope& P) {
+  if (shape.type != ShapeType::box) return make_hull(shape, frame_of(pose), with_edges, P);
+  make_box(shape, frame_of(pose), P);
+  return true;
+}
+
+void polytope_vs(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, Sink& s) {
+  if (b.type == ShapeType::plane) {
+    Polytope A;
+    Plane pl;
+    if (make_polytope(a, pa, false, A) && plane_of(b, pb, pl)) polytope_plane(A, pl, s);
+    return;
+  }
+  Polytope A, B;
+  if (make_polytope(a, pa, true, A) && make_polytope(b, pb, true, B)) polytope_polytope(A, B, s);
+}
+
+/// Total order on the bits of a shape and its pose; it only decides which of two same-typed
+/// shapes plays a, so that collide(a, b) and collide(b, a) compute the same thing.
+int compare_words(const void* x, const void* y, int n) {
+  for (int i = 0; i < n; ++i) {
+    uint32_t u, v;
+    std::memcpy(&u, static_cast<const char*>(x) + 4 * i, 4);
+    std::memcpy(&v, static_cast<const char*>(y) + 4 * i, 4);
+    if (u != v) return u < v ? -1 : 1;
+  }
+  return 0;
+}
+
+int compare(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb) {
+  if (int c = compare_words(pa.position, pb.position, 3)) return c;
+  if (int c = compare_words(pa.orientation, pb.orientation, 4)) return c;
+  if (int c = compare_words(&pa.scale, &pb.scale, 1)) return c;
+  if (int c = compare_words(&a.radius, &b.radius, 1)) return c;
+  if (int c = compare_words(&a.half_height, &b.half_height, 1)) return c;
+  if (int c = compare_words(a.half_extents, b.half_extents, 3)) return c;
+  if (int c = compare_words(a.normal, b.normal, 3)) return c;
+  if (int c = compare_words(&a.offset, &b.offset, 1)) return c;
+  if (a.type != ShapeType::hull) return 0;
+  const HullView &ha = a.hull, &hb = b.hull;
+  if (int c = compare_words(&ha.num_vertices, &hb.num_vertices, 1)) return c;
+  if (int c = compare_words(&ha.num_faces, &hb.num_faces, 1)) return c;
+  if (ha.vertices && hb.vertices)
+    if (int c = compare_words(ha.vertices, hb.vertices, 3 * std::min(ha.num_vertices, kMaxHullVertices))) return c;
+  if (ha.planes && hb.planes)
+    if (int c = compare_words(ha.planes, hb.planes, 4 * std::min(ha.num_faces, kMaxHullFaces))) return c;
+  return 0;
+}
+
+/// a's type <= b's type: the pair tables only hold that half.
+int collide_ordered(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, double margin,
+                    ContactPoint* out) {
+  Sink s{out, margin};
+  switch (a.type) {
+    case ShapeType::sphere: sphere_vs(a, pa, b, pb, s); break;
+    case ShapeType::capsule: capsule_vs(a, pa, b, pb, s); break;
+    case ShapeType::box:
+    case ShapeType::hull: polytope_vs(a, pa, b, pb, s); break;
+    case ShapeType::plane: break;  // planes are static: plane-plane has no contact
+  }
+  return s.n;
+}
+
+bool known(ShapeType t) { return uint32_t(t) <= uint32_t(ShapeType::plane); }
+
+}  // namespace
+
+bool hull_supported(const HullView& h) {
+  if (!hull_fits(h) || h.num_vertices < 4 || h.num_faces < 4 || h.num_edges < 6) return false;
+  if (h.num_vertices - h.num_edges + h.num_faces != 2) return false;
+  for (int f = 0; f < h.num_faces; ++f)
+    if (h.face_start[f + 1] < h.face_start[f]) return false;
+  int16_t adj[kMaxHullEdges][2];
+  // Every listed edge bordered on both sides, and every loop edge listed: 2E directed edges.
+  if (!edge_faces_of(h, adj) || h.face_start[h.num_faces] != 2 * h.num_edges) return false;
+  for (int e = 0; e < h.num_edges; ++e)
+    for (int k = 0; k < e; ++k)
+      if ((h.edges[2 * e] == h.edges[2 * k] && h.edges[2 * e + 1] == h.edges[2 * k + 1]) ||
+          (h.edges[2 * e] == h.edges[2 * k + 1] && h.edges[2 * e + 1] == h.edges[2 * k]))
+        return false;
+  V3 lo = load3(h.vertices), hi = lo;
+  for (int i = 1; i < h.num_vertices; ++i) {
+    const V3 v = load3(h.vertices + 3 * i);
+    lo = {std::min(lo.x, v.x), std::min(lo.y, v.y), std::min(lo.z, v.z)};
+    hi = {std::max(hi.x, v.x), std::max(hi.y, v.y), std::max(hi.z, v.z)};
+  }
+  const double tol = 1e-4 * std::sqrt(len2(hi - lo));
+  if (!(tol > 0.0)) return false;
+  for (int f = 0; f < h.num_faces; ++f) {
+    const V3 n = load3(h.planes + 4 * f);
+    const double d = h.planes[4 * f + 3];
+    if (!(std::fabs(len2(n) - 1.0) <= 1e-3)) return false;
+    for (int i = 0; i < h.num_vertices; ++i)
+      if (!(dot(n, load3(h.vertices + 3 * i)) <= d + tol)) return false;
+    for (int k = h.face_start[f]; k < h.face_start[f + 1]; ++k)
+      if (!(std::fabs(dot(n, load3(h.vertices + 3 * h.face_vertices[k])) - d) <= tol)) return false;
+    // Counter-clockwise seen from outside: the loop's area vector points along the normal.
+    V3 area{0, 0, 0};
+    const int b = h.face_start[f], e = h.face_start[f + 1];
+    for (int k = b; k < e; ++k)
+      area = area + cross(load3(h.vertices + 3 * h.face_vertices[k]),
+                          load3(h.vertices + 3 * h.face_vertices[k + 1 < e ? k + 1 : b]));
+    if (!(dot(area, n) > 0.0)) return false;
+  }
+  return true;
+}
+
+int collide(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, float margin,
+            ContactPoint out[kMaxManifoldPoints]) {
+  if (!known(a.type) || !known(b.type)) return 0;
+  const double m = margin > 0.0f ? double(margin) : 0.0;
+  const bool swap = a.type != b.type ? a.type > b.type : compare(a, pa, b, pb) > 0;
+  if (!swap) return collide_ordered(a, pa, b, pb, m, out);
+  const int n = collide_ordered(b, pb, a, pa, m, out);
+  for (int i = 0; i < n; ++i)
+    for (float& c : out[i].normal) c = -c;
+  return n;
+}
+
+int collide_batch(const ShapeView* shapes_by_body, const Pose* poses, const NarrowPair* pairs, int num_pairs,
+                  float margin, ContactPoint* out, int32_t* pair_of_contact, int capacity) {
+  int count = 0;
+  for (int p = 0; p < num_pairs; ++p) {
+    const int32_t a = pairs[p].a, b = pairs[p].b;
+    ContactPoint local[kMaxManifoldPoints];
+    const bool room = capacity - count >= kMaxManifoldPoints;  // write in place when it surely fits
+    ContactPoint* dst = room ? out + count : local;
+    const int n = collide(shapes_by_body[a], poses[a], shapes_by_body[b], poses[b], margin, dst);
+    if (n > capacity - count) break;
+    if (!room) std::copy(local, local + n, out + count);
+    if (pair_of_contact)
+      for (int i = 0; i < n; ++i) pair_of_contact[count + i] = p;
+    count += n;
+  }
+  return count;
+}
+
+}  // namespace cellphys::spu

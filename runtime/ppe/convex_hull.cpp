@@ -190,11 +190,12 @@ void Quickhull::run(int a, int b, int c, int d) {
   }
 }
 
-// Merges near-coplanar triangles into polygons: from the largest unmerged triangle, grow over
-// neighbours whose vertices all lie within tol of its plane, accepting a triangle only while
-// the region's boundary stays one simple loop without a reflex corner (beyond tol), retrying
-// refused ones until nothing changes. Exactly coplanar faces always merge whole (any connected
-// part of a triangulated convex polygon is convex); noise can only leave extra faces.
+// Merges near-coplanar triangles into polygons. From the largest unmerged triangle, take the
+// connected triangles whose vertices all lie within tol of its plane: on a convex surface that
+// is a cap, one convex polygon, which is always the case for exactly coplanar faces. Should
+// noise near the tolerance make it a pinched or reflex loop, grow again accepting a triangle
+// only while the loop stays simple and convex (retrying refused ones until nothing changes);
+// that may leave more faces than ideal, never an invalid one.
 std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const std::vector<V3>& P, double tol) {
   std::vector<int> id(all.size(), -1), live;
   for (size_t f = 0; f < all.size(); ++f)
@@ -220,32 +221,35 @@ std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const 
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return t[x].area > t[y].area; });
 
-  // The boundary (vertex -> next vertex) with triangle u added, if still a convex simple loop.
-  auto try_add = [&](std::map<int, int>& next, const T3& u, const V3& n) {
-    std::map<int, int> nx = next;
-    bool open[3];
-    for (int k = 0; k < 3; ++k) {
-      const auto it = nx.find(u.v[(k + 1) % 3]);
-      open[k] = !(it != nx.end() && it->second == u.v[k]);
-      if (!open[k]) nx.erase(it);
-    }
-    for (int k = 0; k < 3; ++k)
-      if (open[k] && !nx.emplace(u.v[k], u.v[(k + 1) % 3]).second) return false;  // pinched
+  // The loop of a boundary map (vertex -> next vertex), empty unless it is one simple loop
+  // with no reflex corner deeper than tol (seen along n).
+  auto convex_loop = [&](const std::map<int, int>& next, const V3& n) {
     std::vector<int> loop;
-    for (int v = nx.begin()->first; loop.size() <= nx.size();) {
+    for (int v = next.begin()->first; loop.size() <= next.size();) {
       loop.push_back(v);
-      const auto it = nx.find(v);
-      if (it == nx.end()) return false;
+      const auto it = next.find(v);
+      if (it == next.end()) return std::vector<int>();
       if ((v = it->second) == loop[0]) break;
     }
-    if (loop.size() != nx.size()) return false;  // a hole or a second loop
     const size_t m = loop.size();
+    if (m != next.size()) return std::vector<int>();  // a hole or a second loop
     for (size_t i = 0; i < m; ++i) {
       const V3 a = P[loop[(i + m - 1) % m]], b = P[loop[i]], c = P[loop[(i + 1) % m]];
       const double chord = norm(c - a);
-      if (!(chord > 0) || dot(cross(b - a, c - b), n) < -tol * chord) return false;  // reflex corner
+      if (!(chord > 0) || dot(cross(b - a, c - b), n) < -tol * chord) return std::vector<int>();
     }
-    next.swap(nx);
+    return loop;
+  };
+  // Adds u's edges to the boundary map; false if a vertex would gain a second outgoing edge.
+  auto add_edges = [](std::map<int, int>& next, const T3& u) {
+    bool open[3];
+    for (int k = 0; k < 3; ++k) {
+      const auto it = next.find(u.v[(k + 1) % 3]);
+      open[k] = !(it != next.end() && it->second == u.v[k]);
+      if (!open[k]) next.erase(it);
+    }
+    for (int k = 0; k < 3; ++k)
+      if (open[k] && !next.emplace(u.v[k], u.v[(k + 1) % 3]).second) return false;
     return true;
   };
 
@@ -254,23 +258,45 @@ std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const 
   for (int s : order) {
     if (cluster[s] >= 0) continue;
     const int c = static_cast<int>(loops.size());
+    auto flat = [&](int u) {
+      for (int j = 0; j < 3; ++j)
+        if (!(std::fabs(dot(t[s].n, P[t[u].v[j]]) - t[s].d) <= tol)) return false;
+      return true;
+    };
+    std::vector<int> mem{s}, loop;
     cluster[s] = c;
-    std::vector<int> mem{s};
-    std::map<int, int> next;
-    for (int k = 0; k < 3; ++k) next[t[s].v[k]] = t[s].v[(k + 1) % 3];
-    for (bool grew = t[s].area > 0; grew;) {
-      grew = false;
+    if (t[s].area > 0) {
       for (size_t q = 0; q < mem.size(); ++q)
         for (int k = 0; k < 3; ++k) {
           const int u = t[mem[q]].nb[k];
-          if (cluster[u] >= 0) continue;
-          bool flat = true;
-          for (int j = 0; j < 3; ++j) flat = flat && std::fabs(dot(t[s].n, P[t[u].v[j]]) - t[s].d) <= tol;
-          if (flat && try_add(next, t[u], t[s].n)) cluster[u] = c, mem.push_back(u), grew = true;
+          if (cluster[u] < 0 && flat(u)) cluster[u] = c, mem.push_back(u);
         }
+      std::map<int, int> next;
+      for (int m : mem)
+        for (int k = 0; k < 3; ++k)
+          if (cluster[t[m].nb[k]] != c) next.emplace(t[m].v[k], t[m].v[(k + 1) % 3]);
+      loop = convex_loop(next, t[s].n);
+      if (loop.empty()) {  // guarded growth
+        for (size_t q = 1; q < mem.size(); ++q) cluster[mem[q]] = -1;
+        mem.resize(1);
+        next.clear();
+        add_edges(next, t[s]);
+        for (bool grew = true; grew;) {
+          grew = false;
+          for (size_t q = 0; q < mem.size(); ++q)
+            for (int k = 0; k < 3; ++k) {
+              const int u = t[mem[q]].nb[k];
+              if (cluster[u] >= 0 || !flat(u)) continue;
+              std::map<int, int> nx = next;
+              if (!add_edges(nx, t[u]) || convex_loop(nx, t[s].n).empty()) continue;
+              next.swap(nx);
+              cluster[u] = c, mem.push_back(u), grew = true;
+            }
+        }
+        loop = convex_loop(next, t[s].n);
+      }
     }
-    std::vector<int> loop;
-    for (int v = next.begin()->first; loop.size() < next.size(); v = next[v]) loop.push_back(v);
+    if (loop.empty()) loop = {t[s].v[0], t[s].v[1], t[s].v[2]};
     loops.push_back(std::move(loop));
   }
   return loops;
@@ -338,6 +364,26 @@ bool valid(const ConvexHull& h) {
   return true;
 }
 
+// Points within tol of an earlier kept point are dropped: near-duplicates would otherwise
+// survive as vertices joined by sliver faces. Sweep along the axis of largest spread.
+std::vector<int> weld(const std::vector<V3>& P, double tol, int axis) {
+  const int n = static_cast<int>(P.size());
+  auto key = [&](int i) { return axis == 0 ? P[i].x : axis == 1 ? P[i].y : P[i].z; };
+  std::vector<int> sorted(n), kept;
+  std::iota(sorted.begin(), sorted.end(), 0);
+  std::stable_sort(sorted.begin(), sorted.end(), [&](int i, int j) { return key(i) < key(j); });
+  std::vector<char> keep(n, 0);
+  for (int i = 0; i < n; ++i) {
+    auto pos = std::lower_bound(sorted.begin(), sorted.end(), key(i) - tol,
+                                [&](int j, double x) { return key(j) < x; });
+    bool near = false;
+    for (; !near && pos != sorted.end() && key(*pos) <= key(i) + tol; ++pos)
+      near = *pos < i && keep[*pos] && norm(P[*pos] - P[i]) <= tol;
+    if (!near) keep[i] = 1, kept.push_back(i);
+  }
+  return kept;
+}
+
 }  // namespace
 
 spu::HullView ConvexHull::view() const {
@@ -381,9 +427,15 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   const std::string cloud = "degenerate point cloud: all " + std::to_string(count) + " points ";
   if (L <= tol) fail(cloud + "coincide (within " + num(tol) + ")");
 
+  // From here on P holds the welded points; src maps them back to the input.
+  const std::vector<int> src = weld(P, tol, span.x >= span.y && span.x >= span.z ? 0 : span.y >= span.z ? 1 : 2);
+  for (size_t i = 0; i < src.size(); ++i) P[i] = P[src[i]];
+  P.resize(src.size());
+  const int n = static_cast<int>(P.size());
+
   // Initial simplex from the extreme points; its failures are the degenerate clouds.
   int ext[6] = {0, 0, 0, 0, 0, 0};
-  for (int i = 1; i < count; ++i) {
+  for (int i = 1; i < n; ++i) {
     const double c[3] = {P[i].x, P[i].y, P[i].z};
     for (int k = 0; k < 3; ++k) {
       const double mn[3] = {P[ext[0]].x, P[ext[1]].y, P[ext[2]].z};
@@ -402,7 +454,7 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   const V3 dir = (P[b] - P[a]) * (1.0 / best);
   int c = -1;
   best = -1;
-  for (int i = 0; i < count; ++i) {
+  for (int i = 0; i < n; ++i) {
     const double d = norm(cross(P[i] - P[a], dir));
     if (d > best) best = d, c = i;
   }
@@ -411,7 +463,7 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   nrm = nrm * (1.0 / norm(nrm));
   int d4 = -1;
   best = -1;
-  for (int i = 0; i < count; ++i) {
+  for (int i = 0; i < n; ++i) {
     const double d = std::fabs(dot(P[i] - P[a], nrm));
     if (d > best) best = d, d4 = i;
   }
@@ -420,8 +472,8 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   // Exact topology on the snapped points.
   const double E = std::max({span.x, span.y, span.z});
   const double g = kGrid / E;
-  std::vector<Q3> Q(count);
-  for (int i = 0; i < count; ++i)
+  std::vector<Q3> Q(n);
+  for (int i = 0; i < n; ++i)
     Q[i] = {std::llround((P[i].x - lo.x) * g), std::llround((P[i].y - lo.y) * g), std::llround((P[i].z - lo.z) * g)};
   if (orient(Q[a], Q[b], Q[c], Q[d4]) == 0) fail(cloud + "are coplanar");
   Quickhull qh(P, Q);
@@ -430,18 +482,18 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   // Merge, then drop vertices on only two faces: they lie on a straight edge, not at a
   // corner (keeping any a face needs to stay a polygon).
   std::vector<std::vector<int>> loops = merge_coplanar(qh.faces, P, tol);
-  std::vector<int> faces_at(count, 0);
+  std::vector<int> faces_at(n, 0);
   for (const auto& l : loops)
     for (int v : l) ++faces_at[v];
-  std::vector<char> drop(count, 0);
-  for (int v = 0; v < count; ++v) drop[v] = faces_at[v] > 0 && faces_at[v] < 3;
+  std::vector<char> drop(n, 0);
+  for (int v = 0; v < n; ++v) drop[v] = faces_at[v] > 0 && faces_at[v] < 3;
   for (const auto& l : loops) {
     int kept = 0;
     for (int v : l) kept += !drop[v];
     if (kept < 3)
       for (int v : l) drop[v] = 0;
   }
-  std::vector<int> index(count, -1);
+  std::vector<int> index(n, -1);
   for (auto& l : loops) {
     l.erase(std::remove_if(l.begin(), l.end(), [&](int v) { return drop[v] != 0; }), l.end());
     for (int v : l) index[v] = 0;
@@ -449,11 +501,11 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
 
   ConvexHull h;
   h.tolerance = tol;
-  for (int i = 0; i < count; ++i)  // vertices in input order
+  for (int i = 0; i < n; ++i)  // vertices in input order
     if (index[i] == 0) {
       index[i] = static_cast<int>(h.source.size());
-      h.source.push_back(i);
-      h.vertices.insert(h.vertices.end(), points + 3 * i, points + 3 * i + 3);
+      h.source.push_back(src[i]);
+      h.vertices.insert(h.vertices.end(), points + 3 * src[i], points + 3 * src[i] + 3);
     }
   if (h.num_vertices() > limits.max_vertices)
     fail("the hull of these " + std::to_string(count) + " points has " + std::to_string(h.num_vertices()) +

@@ -149,6 +149,7 @@ void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* 
   c.solver = p.counts.solver;
   c.solve.rel_tol = h.tolerance;
   c.solve.abs_tol = h.tolerance * 1e-3f;
+  c.solve.zero_rhs = 0.0f;
   c.error_tolerance = h.tolerance;
   const int n = static_cast<int>(h.num_bodies);
   auto* res = reinterpret_cast<Island_Result*>(out);

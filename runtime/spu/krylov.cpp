@@ -50,7 +50,7 @@ SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, 
 
   SolveResult res;
   const float norm_b = norm(n, b);
-  if (norm_b < 1e-4f) return res;  // the seed: nothing to solve, x untouched
+  if (norm_b <= s.zero_rhs) return res;  // the seed: nothing to solve, x untouched
   const int max_iters = iteration_limit(A, s);
 
   residual(A, b, x, r, q_hat);
@@ -113,7 +113,7 @@ SolveResult bicgstab(const BlockRowMatrix& A, const float* b, float* x, float* w
 
   SolveResult res;
   const float norm_b = norm(n, b);
-  if (norm_b < 1e-4f) return res;  // same early out as the seed's CGS
+  if (norm_b <= s.zero_rhs) return res;  // same early out as the seed's CGS
   const int max_iters = iteration_limit(A, s);
 
   residual(A, b, x, r, v);

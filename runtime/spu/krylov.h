@@ -17,6 +17,11 @@ struct SolveSettings {
   float rel_tol = 1e-3f;   // the seed's rel_tol: stop when |r| / |b| < rel_tol
   float abs_tol = 1e-3f;   // the seed's abs_tol: or when |r| < abs_tol
   int max_iterations = 0;  // 0: the seed's rule, 2 * 6 * n
+  // |b| at or below which there is nothing to solve and x is returned untouched. The seed
+  // used 1e-4 (absolute); the kernel uses 0, because b = h W g shrinks with the step and a
+  // small but real right-hand side (a spring near its crossing, a Rosenbrock substep)
+  // must still be solved.
+  float zero_rhs = 1e-4f;
 };
 
 struct SolveResult {

@@ -69,7 +69,8 @@ struct Tri {
 class Quickhull {
  public:
   Quickhull(const std::vector<V3>& p, const std::vector<Q3>& q) : P_(p), Q_(q) {}
-  void run(int a, int b, int c, int d);
+  /// Hull of the points pts (indices into P), starting from the simplex abcd among them.
+  void run(const std::vector<int>& pts, int a, int b, int c, int d);
   std::vector<Tri> faces;
 
  private:
@@ -104,7 +105,7 @@ void Quickhull::assign(int p, int first_face) {
     }
 }
 
-void Quickhull::run(int a, int b, int c, int d) {
+void Quickhull::run(const std::vector<int>& pts, int a, int b, int c, int d) {
   if (orient(Q_[a], Q_[b], Q_[c], Q_[d]) > 0) std::swap(b, c);  // d below abc
   add(a, b, c), add(a, d, b), add(b, d, c), add(c, d, a);
   for (int i = 0; i < 4; ++i)
@@ -114,7 +115,7 @@ void Quickhull::run(int a, int b, int c, int d) {
           if (j != i && faces[j].v[m] == faces[i].v[(k + 1) % 3] && faces[j].v[(m + 1) % 3] == faces[i].v[k])
             faces[i].nb[k] = j;
   const int n = static_cast<int>(P_.size());
-  for (int p = 0; p < n; ++p)
+  for (int p : pts)
     if (p != a && p != b && p != c && p != d) assign(p, 0);
 
   struct Edge {

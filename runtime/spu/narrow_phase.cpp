@@ -685,15 +685,22 @@ int clip_polygon(const V3* in, int n, const V3& side, double offset, V3* out) {
 
 constexpr int kClipCapacity = 2 * kMaxHullVertices;  // incident loop + one per reference side
 
-/// Face contact: the incident face of I (most anti-parallel to the reference normal) clipped
-/// to the side planes of reference face rf of R; the points below the reference plane (or
+/// Face contact: the incident face of I (most anti-parallel to the reference normal, among
+/// those holding I's deepest vertex) clipped to the side planes of reference face rf of R; the points below the reference plane (or
 /// within the margin above it), reduced to four. ref_is_b flips the reported normal.
 void face_contact(const Polytope& R, int rf, const Polytope& I, bool ref_is_b, Sink& s) {
   const V3 n = R.n[rf];
   const double d = R.d[rf];
-  int inc = 0;
-  for (int f = 1; f < I.nf; ++f)
-    if (dot(I.n[f], n) < dot(I.n[inc], n)) inc = f;
+  // The incident face: of the faces around I's deepest vertex, the most anti-parallel. (The
+  // most anti-parallel face overall can miss that vertex, and with it the contact.)
+  int deepest = 0;
+  for (int i = 1; i < I.nv; ++i)
+    if (dot(n, I.v[i]) < dot(n, I.v[deepest])) deepest = i;
+  int inc = -1;
+  for (int f = 0; f < I.nf; ++f)
+    for (int k = I.face_start[f]; k < I.face_start[f + 1]; ++k)
+      if (I.face_vertices[k] == deepest && (inc < 0 || dot(I.n[f], n) < dot(I.n[inc], n))) inc = f;
+  if (inc < 0) return;  // a vertex on no face: not a hull
   V3 buf0[kClipCapacity], buf1[kClipCapacity];
   V3* poly = buf0;
   V3* next = buf1;
@@ -720,9 +727,6 @@ void face_contact(const Polytope& R, int rf, const Polytope& I, bool ref_is_b, S
   const V3 normal = ref_is_b ? -n : n;
   if (k == 0) {
     // Nothing of the incident face over the reference face: I's deepest vertex.
-    int deepest = 0;
-    for (int i = 1; i < I.nv; ++i)
-      if (dot(n, I.v[i]) < dot(n, I.v[deepest])) deepest = i;
     const double pen = d - dot(n, I.v[deepest]);
     s.add(I.v[deepest] + n * (pen * 0.5), normal, pen);
     return;

@@ -37,8 +37,8 @@ class GoodForceTests(unittest.TestCase):
         kernel = files["cellphys/gen/forces/tether.h"]
         self.assertIn("struct Tether_Body_Kernel {", kernel)
         self.assertIn("using Instance = Tether_Force;", kernel)
-        self.assertIn("in[0] = a.position[0];", kernel)
-        self.assertRegex(kernel, r"in\[\d+\] = f\.stiffness;")
+        self.assertIn("in[0 * stride] = a.position[0];", kernel)
+        self.assertRegex(kernel, r"in\[\d+ \* stride\] = f\.stiffness;")
         self.assertRegex(files["cellphys/gen/layouts.h"], r"struct alignas\(16\) Tether_Force \{")
 
     def test_unary_helper_generates(self):

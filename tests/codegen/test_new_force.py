@@ -59,8 +59,8 @@ class NewForceTests(unittest.TestCase):
         self.assertIn("struct Anchor_Spring_Body_Kernel {", kernel)
         self.assertIn("using Instance = Anchor_Spring_Force;", kernel)
         self.assertIn("static constexpr ForceType kType = ForceType::anchor_spring;", kernel)
-        self.assertRegex(kernel, r"in\[\d+\] = f\.stiffness;")
-        self.assertRegex(kernel, r"in\[\d+\] = a\.position\[0\];")
+        self.assertRegex(kernel, r"in\[\d+ \* stride\] = f\.stiffness;")
+        self.assertRegex(kernel, r"in\[\d+ \* stride\] = a\.position\[0\];")
 
     def test_force_type_enum(self):
         self.assertRegex(self.text("kernel_types.h"), r"(?m)^  anchor_spring = \d+,$")

@@ -29,3 +29,16 @@ bool invert_inertia(const float* I, float* inv) {
 }
 
 }  // namespace cellphys::ppe
+
+namespace cellphys::ppe {
+
+BodyMass body_mass(const ShapeDictionary& shapes, uint32_t shape, float scale, float mass, float density) {
+  const MassProperties m = mass > 0.0f ? mass_properties_from_mass(shapes, shape, scale, mass)
+                                       : mass_properties_from_density(shapes, shape, scale, density);
+  BodyMass b;
+  b.mass = static_cast<float>(m.mass);
+  for (int k = 0; k < 6; ++k) b.inertia[k] = static_cast<float>(m.inertia[k]);
+  return b;
+}
+
+}  // namespace cellphys::ppe

@@ -70,6 +70,7 @@ class Quickhull {
  public:
   Quickhull(const std::vector<V3>& p, const std::vector<Q3>& q) : P_(p), Q_(q) {}
   /// Hull of the points pts (indices into P), starting from the simplex abcd among them.
+  /// May be called again; each run starts afresh.
   void run(const std::vector<int>& pts, int a, int b, int c, int d);
   std::vector<Tri> faces;
 
@@ -83,6 +84,7 @@ class Quickhull {
 
   const std::vector<V3>& P_;
   const std::vector<Q3>& Q_;
+  std::vector<int> start_;  // per point: the horizon edge starting there, or -1
 };
 
 int Quickhull::add(int a, int b, int c) {
@@ -106,6 +108,8 @@ void Quickhull::assign(int p, int first_face) {
 }
 
 void Quickhull::run(const std::vector<int>& pts, int a, int b, int c, int d) {
+  faces.clear();
+  start_.resize(P_.size(), -1);
   if (orient(Q_[a], Q_[b], Q_[c], Q_[d]) > 0) std::swap(b, c);  // d below abc
   add(a, b, c), add(a, d, b), add(b, d, c), add(c, d, a);
   for (int i = 0; i < 4; ++i)
@@ -114,14 +118,14 @@ void Quickhull::run(const std::vector<int>& pts, int a, int b, int c, int d) {
         for (int m = 0; m < 3; ++m)
           if (j != i && faces[j].v[m] == faces[i].v[(k + 1) % 3] && faces[j].v[(m + 1) % 3] == faces[i].v[k])
             faces[i].nb[k] = j;
-  const int n = static_cast<int>(P_.size());
   for (int p : pts)
     if (p != a && p != b && p != c && p != d) assign(p, 0);
 
   struct Edge {
     int u, w, g;  // edge u -> w of a visible face, g the hidden face across it
   };
-  std::vector<int> visible, stack, loop, start(n, -1), vis, hid;
+  std::vector<int> visible, stack, loop, vis, hid;
+  std::vector<int>& start = start_;
   std::vector<Edge> horizon;
   int stamp = 0;
   for (size_t fi = 0; fi < faces.size(); ++fi) {
@@ -385,6 +389,155 @@ std::vector<int> weld(const std::vector<V3>& P, double tol, int axis) {
   return kept;
 }
 
+// The welded cloud: coordinates, grid coordinates for the exact tests, and the tolerance.
+struct Cloud {
+  std::vector<V3> P;
+  std::vector<Q3> Q;
+  double tol = 0;
+};
+
+bool collinear(const Q3& a, const Q3& b, const Q3& c) {
+  const int64_t bx = b.x - a.x, by = b.y - a.y, bz = b.z - a.z, cx = c.x - a.x, cy = c.y - a.y, cz = c.z - a.z;
+  return i128(by) * cz == i128(bz) * cy && i128(bz) * cx == i128(bx) * cz && i128(bx) * cy == i128(by) * cx;
+}
+
+// Four of pts spanning a volume (exactly), farthest-first; false if all are coplanar.
+bool find_simplex(const Cloud& cl, const std::vector<int>& pts, int s[4]) {
+  if (pts.size() < 4) return false;
+  const std::vector<V3>& P = cl.P;
+  const int a = pts[0];
+  int b = -1, c = -1, d = -1;
+  double best = 0;
+  for (int p : pts)
+    if (norm(P[p] - P[a]) > best) best = norm(P[p] - P[a]), b = p;
+  if (b < 0) return false;
+  const V3 dir = (P[b] - P[a]) * (1.0 / best);
+  best = -1;
+  for (int p : pts)
+    if (!collinear(cl.Q[a], cl.Q[b], cl.Q[p]) && norm(cross(P[p] - P[a], dir)) > best)
+      best = norm(cross(P[p] - P[a], dir)), c = p;
+  if (c < 0) return false;
+  V3 n = cross(P[b] - P[a], P[c] - P[a]);
+  n = n * (1.0 / norm(n));
+  best = -1;
+  for (int p : pts)
+    if (orient(cl.Q[a], cl.Q[b], cl.Q[c], cl.Q[p]) != 0 && std::fabs(dot(P[p] - P[a], n)) > best)
+      best = std::fabs(dot(P[p] - P[a], n)), d = p;
+  if (d < 0) return false;
+  s[0] = a, s[1] = b, s[2] = c, s[3] = d;
+  return true;
+}
+
+// Hull of pts as merged polygon loops, without the vertices on only two faces: those lie on
+// a straight edge, not at a corner (kept where a face needs them to stay a polygon).
+std::vector<std::vector<int>> hull_loops(const Cloud& cl, const std::vector<int>& pts, const int s[4]) {
+  Quickhull qh(cl.P, cl.Q);
+  qh.run(pts, s[0], s[1], s[2], s[3]);
+  std::vector<std::vector<int>> loops = merge_coplanar(qh.faces, cl.P, cl.tol);
+  const size_t n = cl.P.size();
+  std::vector<int> faces_at(n, 0);
+  for (const auto& l : loops)
+    for (int v : l) ++faces_at[v];
+  std::vector<char> drop(n, 0);
+  for (size_t v = 0; v < n; ++v) drop[v] = faces_at[v] > 0 && faces_at[v] < 3;
+  for (const auto& l : loops) {
+    int kept = 0;
+    for (int v : l) kept += !drop[v];
+    if (kept < 3)
+      for (int v : l) drop[v] = 0;
+  }
+  for (auto& l : loops) l.erase(std::remove_if(l.begin(), l.end(), [&](int v) { return drop[v] != 0; }), l.end());
+  return loops;
+}
+
+std::vector<int> loop_vertices(const std::vector<std::vector<int>>& loops) {
+  std::vector<int> v;
+  for (const auto& l : loops) v.insert(v.end(), l.begin(), l.end());
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
+}
+
+// Every point of pts within tol of every face plane of loops.
+bool within(const Cloud& cl, const std::vector<std::vector<int>>& loops, const std::vector<int>& pts) {
+  for (const auto& l : loops) {
+    V3 n;
+    for (size_t i = 0; i < l.size(); ++i) n = n + cross(cl.P[l[i]] - cl.P[l[0]], cl.P[l[(i + 1) % l.size()]] - cl.P[l[0]]);
+    const double len = norm(n);
+    if (!(len > 0)) return false;
+    n = n * (1.0 / len);
+    double d = -std::numeric_limits<double>::infinity();
+    for (int v : l) d = std::max(d, dot(n, cl.P[v]));
+    for (int p : pts)
+      if (dot(n, cl.P[p]) - d > cl.tol) return false;
+  }
+  return true;
+}
+
+// Removes vertices within tol of the hull of the others: the tents and slivers that noise
+// right at the tolerance leaves, which merging cannot see because no triangle lies in the
+// plane they are close to. A vertex is tried if it is within tol of the hull of its
+// neighbourhood (vertices of the faces around the faces around it), which implies it for the
+// whole; it goes if the hull rebuilt without it keeps it, and every vertex removed before,
+// within tol of every plane. One pass in vertex order, so the result is deterministic.
+void remove_shallow_vertices(const Cloud& cl, std::vector<std::vector<int>>& loops) {
+  std::vector<int> removed, mark(cl.P.size(), -1), near;
+  Quickhull qh(cl.P, cl.Q);
+  for (int last = -1;;) {
+    const std::vector<int> used = loop_vertices(loops);
+    std::vector<std::vector<int>> faces_of(cl.P.size());
+    std::vector<V3> normal(loops.size());
+    for (size_t f = 0; f < loops.size(); ++f) {
+      const std::vector<int>& l = loops[f];
+      for (int v : l) faces_of[v].push_back(static_cast<int>(f));
+      for (size_t i = 0; i < l.size(); ++i)
+        normal[f] = normal[f] + cross(cl.P[l[i]] - cl.P[l[0]], cl.P[l[(i + 1) % l.size()]] - cl.P[l[0]]);
+      if (norm(normal[f]) > 0) normal[f] = normal[f] * (1.0 / norm(normal[f]));
+    }
+    int cand = -1;
+    for (int v : used) {
+      if (v <= last) continue;
+      near.clear();
+      mark[v] = v;
+      for (int f : faces_of[v])
+        for (int u : loops[f])
+          for (int g : faces_of[u])
+            for (int w : loops[g])
+              if (mark[w] != v) mark[w] = v, near.push_back(w);
+      // Quick rejection: a plane along the mean normal at v already separates it by > tol.
+      V3 m;
+      for (int f : faces_of[v]) m = m + normal[f];
+      double top = -std::numeric_limits<double>::infinity();
+      for (int w : near) top = std::max(top, dot(m, cl.P[w]));
+      if (norm(m) > 0 && dot(m, cl.P[v]) - top > cl.tol * norm(m)) continue;
+      std::sort(near.begin(), near.end());
+      int s[4];
+      if (!find_simplex(cl, near, s)) continue;
+      qh.run(near, s[0], s[1], s[2], s[3]);
+      double out = -std::numeric_limits<double>::infinity();
+      for (const Tri& t : qh.faces)
+        if (t.alive) out = std::max(out, dot(t.n, cl.P[v]) - t.d);
+      if (out <= cl.tol) {
+        cand = v;
+        break;
+      }
+    }
+    if (cand < 0) return;
+    last = cand;
+    std::vector<int> rest;
+    for (int v : used)
+      if (v != cand) rest.push_back(v);
+    int s[4];
+    if (!find_simplex(cl, rest, s)) continue;
+    std::vector<std::vector<int>> trial = hull_loops(cl, rest, s);
+    removed.push_back(cand);
+    if (within(cl, trial, removed))
+      loops.swap(trial);
+    else
+      removed.pop_back();
+  }
+}
+
 }  // namespace
 
 spu::HullView ConvexHull::view() const {
@@ -471,34 +624,20 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   if (best <= tol) fail(cloud + "are coplanar (within " + num(tol) + ")");
 
   // Exact topology on the snapped points.
+  Cloud cl;
   const double E = std::max({span.x, span.y, span.z});
   const double g = kGrid / E;
-  std::vector<Q3> Q(n);
-  for (int i = 0; i < n; ++i)
-    Q[i] = {std::llround((P[i].x - lo.x) * g), std::llround((P[i].y - lo.y) * g), std::llround((P[i].z - lo.z) * g)};
-  if (orient(Q[a], Q[b], Q[c], Q[d4]) == 0) fail(cloud + "are coplanar");
-  Quickhull qh(P, Q);
-  qh.run(a, b, c, d4);
-
-  // Merge, then drop vertices on only two faces: they lie on a straight edge, not at a
-  // corner (keeping any a face needs to stay a polygon).
-  std::vector<std::vector<int>> loops = merge_coplanar(qh.faces, P, tol);
-  std::vector<int> faces_at(n, 0);
-  for (const auto& l : loops)
-    for (int v : l) ++faces_at[v];
-  std::vector<char> drop(n, 0);
-  for (int v = 0; v < n; ++v) drop[v] = faces_at[v] > 0 && faces_at[v] < 3;
-  for (const auto& l : loops) {
-    int kept = 0;
-    for (int v : l) kept += !drop[v];
-    if (kept < 3)
-      for (int v : l) drop[v] = 0;
-  }
+  for (const V3& p : P) cl.Q.push_back({std::llround((p.x - lo.x) * g), std::llround((p.y - lo.y) * g), std::llround((p.z - lo.z) * g)});
+  cl.P = std::move(P);
+  cl.tol = tol;
+  if (orient(cl.Q[a], cl.Q[b], cl.Q[c], cl.Q[d4]) == 0) fail(cloud + "are coplanar");
+  std::vector<int> all(n);
+  std::iota(all.begin(), all.end(), 0);
+  const int simplex[4] = {a, b, c, d4};
+  std::vector<std::vector<int>> loops = hull_loops(cl, all, simplex);
+  remove_shallow_vertices(cl, loops);
   std::vector<int> index(n, -1);
-  for (auto& l : loops) {
-    l.erase(std::remove_if(l.begin(), l.end(), [&](int v) { return drop[v] != 0; }), l.end());
-    for (int v : l) index[v] = 0;
-  }
+  for (int v : loop_vertices(loops)) index[v] = 0;
 
   ConvexHull h;
   h.tolerance = tol;

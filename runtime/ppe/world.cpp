@@ -443,7 +443,7 @@ const StepStats& World::step() {
   std::vector<PackedIsland> packed;
   for (IslandContent& isl : islands) {
     const size_t before = packed.size();
-    pack_decoupled(pc, std::move(isl), packed, st.cut_couplings);
+    pack_decoupled(pc, isl, packed, st.cut_couplings);  // a copy: the sleep check below needs isl
     if (packed.size() - before > 1) ++st.decoupled_islands;
   }
   // largest first: the long islands start early on the workers

@@ -685,14 +685,25 @@ int clip_polygon(const V3* in, int n, const V3& side, double offset, V3* out) {
 
 constexpr int kClipCapacity = 2 * kMaxHullVertices;  // incident loop + one per reference side
 
+/// A face contact before it is reported: points on I's surface and their depths under the
+/// reference plane (normal n, out of R).
+struct FaceManifold {
+  V3 n;
+  int count = 0;
+  V3 point[kMaxManifoldPoints];
+  double depth[kMaxManifoldPoints];
+  double deepest = -kInf;
+};
+
 /// Face contact: the incident face of I (most anti-parallel to the reference normal, among
-/// those holding I's deepest vertex) clipped to the side planes of reference face rf of R; the points below the reference plane (or
-/// within the margin above it), reduced to four. ref_is_b flips the reported normal.
-void face_contact(const Polytope& R, int rf, const Polytope& I, bool ref_is_b, Sink& s) {
+/// those holding I's deepest vertex) clipped to the side planes of reference face rf of R;
+/// the points below the reference plane (or within the margin above it), reduced to four.
+/// False if no point qualifies.
+bool face_contact(const Polytope& R, int rf, const Polytope& I, double margin, FaceManifold& fm) {
   const V3 n = R.n[rf];
   const double d = R.d[rf];
-  // The incident face: of the faces around I's deepest vertex, the most anti-parallel. (The
-  // most anti-parallel face overall can miss that vertex, and with it the contact.)
+  fm.n = n;
+  // (The most anti-parallel face overall can miss the deepest vertex, and with it the contact.)
   int deepest = 0;
   for (int i = 1; i < I.nv; ++i)
     if (dot(n, I.v[i]) < dot(n, I.v[deepest])) deepest = i;
@@ -700,7 +711,7 @@ void face_contact(const Polytope& R, int rf, const Polytope& I, bool ref_is_b, S
   for (int f = 0; f < I.nf; ++f)
     for (int k = I.face_start[f]; k < I.face_start[f + 1]; ++k)
       if (I.face_vertices[k] == deepest && (inc < 0 || dot(I.n[f], n) < dot(I.n[inc], n))) inc = f;
-  if (inc < 0) return;  // a vertex on no face: not a hull
+  if (inc < 0) return false;  // a vertex on no face: not a hull
   V3 buf0[kClipCapacity], buf1[kClipCapacity];
   V3* poly = buf0;
   V3* next = buf1;
@@ -720,20 +731,24 @@ void face_contact(const Polytope& R, int rf, const Polytope& I, bool ref_is_b, S
   int k = 0;
   for (int i = 0; i < m; ++i) {
     const double pen = d - dot(n, poly[i]);
-    if (!s.keeps(pen) || (k > 0 && len2(poly[i] - poly[k - 1]) <= eps2)) continue;
+    if (!(pen > -margin) || (k > 0 && len2(poly[i] - poly[k - 1]) <= eps2)) continue;
     poly[k] = poly[i], depth[k] = pen, ++k;
   }
   if (k > 1 && len2(poly[k - 1] - poly[0]) <= eps2) --k;
-  const V3 normal = ref_is_b ? -n : n;
-  if (k == 0) {
-    // Nothing of the incident face over the reference face: I's deepest vertex.
-    const double pen = d - dot(n, I.v[deepest]);
-    s.add(I.v[deepest] + n * (pen * 0.5), normal, pen);
-    return;
-  }
   int keep[4];
-  const int count = reduce_manifold(poly, depth, k, n, eps2, keep);
-  for (int i = 0; i < count; ++i) s.add(poly[keep[i]] + n * (depth[keep[i]] * 0.5), normal, depth[keep[i]]);
+  fm.count = reduce_manifold(poly, depth, k, n, eps2, keep);
+  for (int i = 0; i < fm.count; ++i) {
+    fm.point[i] = poly[keep[i]], fm.depth[i] = depth[keep[i]];
+    fm.deepest = std::max(fm.deepest, fm.depth[i]);
+  }
+  return fm.count > 0;
+}
+
+/// Edge contact: the closest points of the two edges, one point.
+void edge_contact(const Polytope& A, const Polytope& B, const EdgeQuery& ee, Sink& s) {
+  const SegmentPair sp = closest_segments(A.v[A.edges[2 * ee.ea]], A.v[A.edges[2 * ee.ea + 1]],
+                                          B.v[B.edges[2 * ee.eb]], B.v[B.edges[2 * ee.eb + 1]]);
+  s.add((sp.pa + sp.pb) * 0.5, ee.axis, -ee.sep);
 }
 
 /// Polytope (a) against polytope (b): separating axis test, then a face or an edge contact.
@@ -747,14 +762,28 @@ void polytope_polytope(const Polytope& A, const Polytope& B, Sink& s) {
   const double tol = kBiasAbs * std::min(A.size, B.size);
   const bool ref_b = fb.sep > fa.sep + kFaceRel * std::fabs(fa.sep) + tol;
   const double face_sep = ref_b ? fb.sep : fa.sep;
-  if (ee.ea >= 0 && ee.sep > face_sep + kEdgeRel * std::fabs(face_sep) + tol) {
-    const SegmentPair sp = closest_segments(A.v[A.edges[2 * ee.ea]], A.v[A.edges[2 * ee.ea + 1]],
-                                            B.v[B.edges[2 * ee.eb]], B.v[B.edges[2 * ee.eb + 1]]);
-    s.add((sp.pa + sp.pb) * 0.5, ee.axis, -ee.sep);
+  if (ee.ea >= 0 && ee.sep > face_sep + kEdgeRel * std::fabs(face_sep) + tol) return edge_contact(A, B, ee, s);
+  const Polytope& R = ref_b ? B : A;
+  const Polytope& I = ref_b ? A : B;
+  const int rf = ref_b ? fb.face : fa.face;
+  FaceManifold fm;
+  const bool found = face_contact(R, rf, I, s.margin, fm);
+  // The face axis won only by its bias over an edge axis, and clipping to the reference face
+  // lost the depth that edge pair has (the overlap reaches past the face's sides): the
+  // contact is at the edges.
+  if (ee.ea >= 0 && ee.sep >= face_sep - tol && (!found || fm.deepest < -ee.sep - tol))
+    return edge_contact(A, B, ee, s);
+  const V3 normal = ref_b ? -fm.n : fm.n;
+  if (found) {
+    for (int i = 0; i < fm.count; ++i) s.add(fm.point[i] + fm.n * (fm.depth[i] * 0.5), normal, fm.depth[i]);
     return;
   }
-  if (ref_b) face_contact(B, fb.face, A, true, s);
-  else face_contact(A, fa.face, B, false, s);
+  // Nothing over the reference face and no edge axis close to it: I's deepest vertex.
+  int deepest = 0;
+  for (int i = 1; i < I.nv; ++i)
+    if (dot(fm.n, I.v[i]) < dot(fm.n, I.v[deepest])) deepest = i;
+  const double pen = R.d[rf] - dot(fm.n, I.v[deepest]);
+  s.add(I.v[deepest] + fm.n * (pen * 0.5), normal, pen);
 }
 
 // ---- dispatch -------------------------------------------------------------------------------

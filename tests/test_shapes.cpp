@@ -353,6 +353,21 @@ TEST(ConvexHull, NoisyCubeCloudKeepsExactlyTheEightCorners) {
   expect_valid_hull(h, cloud);
 }
 
+TEST(ConvexHull, NearDuplicateCornersWeldToOneVertexEach) {
+  // Five copies of each corner jittered by about one float ulp: no sliver faces between them.
+  std::mt19937 rng(2);
+  const std::vector<float> corners = box_corners(2, 1, 0.5);
+  std::vector<float> pts;
+  for (int copy = 0; copy < 5; ++copy)
+    for (int v = 0; v < 8; ++v)
+      for (int k = 0; k < 3; ++k) pts.push_back(corners[3 * v + k] * (1.0f + 1e-7f * float(int(rng() % 3) - 1)));
+  const ConvexHull h = compute_convex_hull(pts.data(), 40);
+  EXPECT_EQ(h.num_vertices(), 8);
+  EXPECT_EQ(h.num_faces(), 6);
+  EXPECT_EQ(h.num_edges(), 12);
+  expect_valid_hull(h, pts);
+}
+
 TEST(ConvexHull, CubeGridGivesSixQuadFacesEightVerticesTwelveEdges) {
   std::vector<float> pts;
   for (int i = -1; i <= 1; ++i)

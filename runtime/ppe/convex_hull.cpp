@@ -187,9 +187,9 @@ void Quickhull::run(const std::vector<int>& pts, int a, int b, int c, int d) {
     }
     for (int f : visible) {
       faces[f].alive = false;
-      std::vector<int> pts;
-      pts.swap(faces[f].outside);
-      for (int p : pts)
+      std::vector<int> orphans;
+      orphans.swap(faces[f].outside);
+      for (int p : orphans)
         if (p != eye) assign(p, first);
     }
   }

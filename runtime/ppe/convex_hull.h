@@ -1,10 +1,12 @@
 // 3-D convex hull of a point cloud (quickhull) in the narrow phase's HullView layout.
 //
-// Topology is decided with exact integer orientation tests on the points snapped to a
-// 2^40 grid over their bounding box (moves are ~1e-12 of the size), so the triangulated
-// hull is always a valid closed convex mesh whatever the input. Geometry is then cleaned
-// with one relative distance tolerance: near-coplanar triangles merge into polygons,
-// points on edges and faces are dropped, so only extreme points remain as vertices.
+// Topology is decided with exact integer orientation tests on the points snapped to a 2^40
+// grid over their bounding box (moves ~1e-12 of the size), so the triangulated hull is always
+// a closed convex mesh whatever the input. Geometry is cleaned with one relative distance
+// tolerance (1e-6 of the bounding-box diagonal plus float rounding at the cloud's distance
+// from the origin): near-duplicate points are welded, near-coplanar triangles merge into
+// convex polygons, and vertices within the tolerance of the hull of the others (on edges, in
+// faces, shallow tents left by noise) are dropped, so the vertices are the extreme points.
 // Deterministic: the result depends only on the input values and their order.
 #pragma once
 #include <cstdint>

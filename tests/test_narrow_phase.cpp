@@ -107,12 +107,12 @@ TestHull hull_from_points(std::vector<Vector3d> pts, double eps = 1e-9) {
         }
         if (above && below) continue;
         if (above) nrm = -nrm, d = -d;
-        bool dup = false;
-        for (const auto& f : faces) dup |= (f.n - nrm).norm() < 1e-6 && std::fabs(f.d - d) < 1e-6 * scale;
-        if (dup) continue;
         Face f{nrm, d, {}};
         for (int m = 0; m < n; ++m)
           if (std::fabs(nrm.dot(pts[m]) - d) <= eps * scale) f.loop.push_back(m);
+        bool dup = false;  // the same face found from another triple of its points
+        for (const auto& g : faces) dup |= std::is_permutation(g.loop.begin(), g.loop.end(), f.loop.begin(), f.loop.end());
+        if (dup) continue;
         Vector3d c = Vector3d::Zero();
         for (int m : f.loop) c += pts[m];
         c /= double(f.loop.size());
@@ -686,11 +686,12 @@ World moved(World w, const Vector3d& t) {
 /// pen/2, is on a; b's, point - n pen/2, on b) and that moving b along the normal by the
 /// deepest penetration separates the shapes. (Deep in, the clipped incident face need not
 /// hold the deepest vertex: that is the method, not a defect.)
-void check_polytope_pair(const TestHull& ha, const Pose& pa, const TestHull& hb, const Pose& pb, int trial,
-                         bool shallow) {
+/// sa and sb are what the engine sees (a hull, or a box); ha and hb the same as test hulls.
+void check_polytope_pair(const ShapeView& sa, const TestHull& ha, const Pose& pa, const ShapeView& sb,
+                         const TestHull& hb, const Pose& pb, int trial, bool shallow) {
   const World A = world(ha, pa), B = world(hb, pb);
   const double ref = reference_depth(A, B), tol = 1e-5 * (A.size + B.size);
-  const auto c = run(ha.shape(), pa, hb.shape(), pb, 0.0f);
+  const auto c = run(sa, pa, sb, pb, 0.0f);
   SCOPED_TRACE(testing::Message() << "trial " << trial << " reference depth " << ref);
   if (ref < -tol) ASSERT_TRUE(c.empty());
   if (ref > tol) ASSERT_FALSE(c.empty());
@@ -714,7 +715,10 @@ void check_polytope_pair(const TestHull& ha, const Pose& pa, const TestHull& hb,
     EXPECT_LE(reference_depth(A, moved(B, n * (deepest + tol))), 2 * bias) << "b moved by n * penetration is clear of a";
     EXPECT_GE(deepest, ref - 2 * bias);
   }
-  expect_swap_symmetric(ha.shape(), pa, hb.shape(), pb, 0.0f);
+  expect_swap_symmetric(sa, pa, sb, pb, 0.0f);
+}
+void check_polytope_pair(const TestHull& ha, const Pose& pa, const TestHull& hb, const Pose& pb, int trial, bool shallow) {
+  check_polytope_pair(ha.shape(), ha, pa, hb.shape(), hb, pb, trial, shallow);
 }
 
 /// b's position along dir from a's where the two just touch (bisection on the reference).
@@ -760,6 +764,7 @@ TEST(NarrowPhase, BoxesAgainstBruteForceAndTheirHulls) {
   const ShapeView ba = box(0.6f, 0.4f, 0.3f), bb = box(0.5f, 0.5f, 0.2f);
   const TestHull dod = dodecahedron(0.6);
   for (int trial = 0; trial < 300; ++trial) {
+    SCOPED_TRACE(testing::Message() << "trial " << trial);
     const Pose pa = pose_at(Vector3d(0, 0, 0), random_rotation(rng));
     const Vector3d dir = random_direction(rng);
     Pose pb = pose_at(Vector3d(0, 0, 0), random_rotation(rng));
@@ -768,21 +773,20 @@ TEST(NarrowPhase, BoxesAgainstBruteForceAndTheirHulls) {
                                 : std::uniform_real_distribution<>(0.0, 1.4)(rng);
     pb = pose_at(dir * dist, quat(pb));
     check_polytope_pair(ha, pa, hb, pb, trial, shallow);
+    check_polytope_pair(ba, ha, pa, bb, hb, pb, trial, shallow);
+    // The box path and the hull path agree. (Points only up to the choice among near-equal
+    // candidates when more than four are reduced: they differ in rounding, not in quality.)
     const auto boxes = run(ba, pa, bb, pb), hulls = run(ha.shape(), pa, hb.shape(), pb);
-    ASSERT_EQ(boxes.size(), hulls.size()) << trial;
-    std::vector<Vector3d> want;
-    for (const auto& p : hulls) want.push_back(P(p));
-    expect_points(boxes, want, 1e-5);
+    ASSERT_EQ(boxes.size(), hulls.size());
     if (!boxes.empty()) {
       expect_near3(N(boxes[0]), N(hulls[0]), 1e-5);
       double db = -1e9, dh = -1e9;
-      for (size_t k = 0; k < boxes.size(); ++k) db = std::max(db, double(boxes[k].penetration)), dh = std::max(dh, double(hulls[k].penetration));
+      for (size_t k = 0; k < boxes.size(); ++k)
+        db = std::max(db, double(boxes[k].penetration)), dh = std::max(dh, double(hulls[k].penetration));
       EXPECT_NEAR(db, dh, 1e-5);
     }
     // Box against a hull and a plane, and a capsule against the box and its hull.
-    check_polytope_pair(ha, pa, dod, pb, trial, false);
-    const auto bd = run(ba, pa, dod.shape(), pb), hd = run(ha.shape(), pa, dod.shape(), pb);
-    ASSERT_EQ(bd.size(), hd.size());
+    check_polytope_pair(ba, ha, pa, dod.shape(), dod, pb, trial, false);
     const Pose tilt = pose_at({0, 0, std::uniform_real_distribution<>(0.0, 0.7)(rng)}, random_rotation(rng));
     const auto bp = run(ba, tilt, plane({0, 0, 1}, 0), Pose{}), hp = run(ha.shape(), tilt, plane({0, 0, 1}, 0), Pose{});
     ASSERT_EQ(bp.size(), hp.size());

@@ -353,19 +353,53 @@ TEST(ConvexHull, NoisyCubeCloudKeepsExactlyTheEightCorners) {
   expect_valid_hull(h, cloud);
 }
 
-TEST(ConvexHull, NearDuplicateCornersWeldToOneVertexEach) {
-  // Five copies of each corner jittered by about one float ulp: no sliver faces between them.
+TEST(ConvexHull, NearDuplicateCornersBecomeOneVertexEach) {
+  // Clusters of copies jittered by up to 1e-6 (below the tolerance, ~3e-6 here) in random
+  // directions around the six corners of an octahedron: no tiny facets or sliver edges.
   std::mt19937 rng(2);
-  const std::vector<float> corners = box_corners(2, 1, 0.5);
+  std::uniform_real_distribution<float> jitter(-1e-6f, 1e-6f);
+  const float corners[6][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-0.7f, 0, 0}, {0, -0.7f, 0}, {0, 0, -0.7f}};
   std::vector<float> pts;
-  for (int copy = 0; copy < 5; ++copy)
-    for (int v = 0; v < 8; ++v)
-      for (int k = 0; k < 3; ++k) pts.push_back(corners[3 * v + k] * (1.0f + 1e-7f * float(int(rng() % 3) - 1)));
-  const ConvexHull h = compute_convex_hull(pts.data(), 40);
-  EXPECT_EQ(h.num_vertices(), 8);
-  EXPECT_EQ(h.num_faces(), 6);
+  for (int copy = 0; copy < 12; ++copy)
+    for (const auto& c : corners)
+      for (int k = 0; k < 3; ++k) pts.push_back(c[k] + jitter(rng));
+  const ConvexHull h = compute_convex_hull(pts.data(), int(pts.size() / 3));
+  EXPECT_EQ(h.num_vertices(), 6);
+  EXPECT_EQ(h.num_faces(), 8);
   EXPECT_EQ(h.num_edges(), 12);
   expect_valid_hull(h, pts);
+}
+
+TEST(ConvexHull, VerticesOfASampledBoxSurfaceStickOutOfTheOthersHull) {
+  // Points sampled on the faces of a rotated box away from the origin: the hull cuts its edges
+  // and corners, and float rounding puts points a hair off each face, which leaves shallow
+  // tents unless they are removed. A vertex is dropped when it is within the tolerance of the
+  // others' hull, so every vertex left must stick out of it (by nearly the tolerance at least:
+  // removal is also refused when it would leave a point outside by more than the tolerance).
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Matrix3d R = Eigen::AngleAxisd(1.7, Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
+  std::vector<float> pts;
+  for (int i = 0; i < 1500; ++i) {
+    Vector3d v(u(rng), u(rng), u(rng));
+    v /= v.lpNorm<Eigen::Infinity>();
+    v = R * v.cwiseProduct(Vector3d(1.0, 0.6, 0.3)) + Vector3d(100, -100, 50);
+    pts.insert(pts.end(), {float(v.x()), float(v.y()), float(v.z())});
+  }
+  const ConvexHull h = compute_convex_hull(pts.data(), 1500, HullLimits{4096, 4096});
+  expect_valid_hull(h, pts, false);
+  for (int v = 0; v < h.num_vertices(); ++v) {
+    std::vector<float> others;
+    for (int w = 0; w < h.num_vertices(); ++w)
+      if (w != v) others.insert(others.end(), &h.vertices[3 * w], &h.vertices[3 * w + 3]);
+    const ConvexHull rest = compute_convex_hull(others.data(), int(others.size() / 3), HullLimits{4096, 4096});
+    const Vector3d p(h.vertices[3 * v], h.vertices[3 * v + 1], h.vertices[3 * v + 2]);
+    double out = -1.0;
+    for (int f = 0; f < rest.num_faces(); ++f)
+      out = std::max(out, Vector3d(rest.planes[4 * f], rest.planes[4 * f + 1], rest.planes[4 * f + 2]).dot(p) -
+                              rest.planes[4 * f + 3]);
+    EXPECT_GT(out, 0.5 * h.tolerance) << "vertex " << v << " hardly sticks out of the others' hull";
+  }
 }
 
 TEST(ConvexHull, CubeGridGivesSixQuadFacesEightVerticesTwelveEdges) {

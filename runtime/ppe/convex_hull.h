@@ -6,7 +6,9 @@
 // tolerance (1e-6 of the bounding-box diagonal plus float rounding at the cloud's distance
 // from the origin): near-duplicate points are welded, near-coplanar triangles merge into
 // convex polygons, and vertices within the tolerance of the hull of the others (on edges, in
-// faces, shallow tents left by noise) are dropped, so the vertices are the extreme points.
+// faces, shallow tents left by noise) are dropped, so the vertices are the extreme points
+// (a vertex sticking out by barely the tolerance may stay when dropping it would leave a point
+// outside a face by more than that).
 // Deterministic: the result depends only on the input values and their order.
 #pragma once
 #include <cstdint>

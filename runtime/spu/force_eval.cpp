@@ -71,6 +71,44 @@ void scatter(const ForceTargets& t, const int (&body)[2], const float* out, Mode
   }
 }
 
+// A batch's 6 consecutive output rows (a 6-vector, or one column of a 6x6 block) as one
+// padded 8-float column per lane (x y z 0 x y z 0): one transpose instead of strided loads.
+void columns_of(const float* out_soa, int first_row, float* tile) {
+  alignas(32) static const float zero[kLanes] = {};
+  const float* rows[8];
+  for (int p = 0; p < 8; ++p)
+    rows[p] = (p == 3 || p == 7) ? zero : out_soa + (first_row + (p < 3 ? p : p - 1)) * kLanes;
+  simd::transpose8(rows, tile);
+}
+
+void add_column(float* target, const float* column) {
+  simd::store(target, simd::add(simd::load<simd::vf8>(target), simd::load<simd::vf8>(column)));
+}
+
+// The forces and implicit blocks of a whole batch, lane by lane, through transposed tiles.
+template <class K>
+void scatter_batch(const ForceTargets& t, const int (*body)[2], int lanes, const float* out_soa, Mode mode) {
+  alignas(32) float tile[8 * kLanes];
+  for (int k = 0; k < K::kBodies; ++k) {
+    columns_of(out_soa, 6 * k, tile);
+    for (int l = 0; l < lanes; ++l) add_column(t.forces + kVecFloats * body[l][k], tile + 8 * l);
+  }
+  if (mode != Mode::implicit) return;
+  if constexpr (K::kNumImplicitBlocks > 0) {
+    for (int s = 0; s < K::kNumImplicitBlocks; ++s) {
+      float* target[kLanes];
+      for (int l = 0; l < lanes; ++l) {
+        const int i = body[l][K::kImplicitBlocks[s].row_body], j = body[l][K::kImplicitBlocks[s].col_body];
+        target[l] = i == j ? t.diag_k + kBlockFloats * i : t.offdiag_k + kBlockFloats * t.structure->find(i, j);
+      }
+      for (int c = 0; c < 6; ++c) {
+        columns_of(out_soa, 6 * K::kBodies + 36 * s + 6 * c, tile);
+        for (int l = 0; l < lanes; ++l) add_column(target[l] + 8 * c, tile + 8 * l);
+      }
+    }
+  }
+}
+
 template <class K>
 constexpr int outputs_of(Mode m) {
   return m == Mode::forces ? 6 * K::kBodies : m == Mode::implicit ? K::kImplicitOutputs : K::kOutputs;
@@ -110,9 +148,13 @@ void run_kernel(const IslandView& v, const ForceTargets& t, const typename K::In
       K::template eval_f<Batch>(in, out);
     const int n_out = outputs_of<K>(mode);
     for (int k = 0; k < n_out; ++k) out[k].store(out_soa + k * kLanes);
-    for (int l = 0; l < lanes; ++l) {
-      const int b2[2] = {bodies[l][0], bodies[l][1]};
-      scatter<K>(t, b2, out_soa + l, mode);
+    if (mode == Mode::full) {
+      for (int l = 0; l < lanes; ++l) {
+        const int b2[2] = {bodies[l][0], bodies[l][1]};
+        scatter<K>(t, b2, out_soa + l, mode);
+      }
+    } else {
+      scatter_batch<K>(t, bodies, lanes, out_soa, mode);
     }
   }
 }

@@ -189,6 +189,27 @@ inline float hsum(vf8 a) {
   __m128 t = _mm_add_ps(s, _mm_movehl_ps(s, s));
   return _mm_cvtss_f32(_mm_add_ss(t, _mm_shuffle_ps(t, t, _MM_SHUFFLE(1, 1, 1, 1))));
 }
+
+// 8x8 transpose: out[8c + r] = rows[r][c]. Moves a structure-of-arrays batch (one row per
+// quantity, one lane per force) into one 8-float column per force. Pure data movement.
+inline void transpose8(const float* const rows[8], float* out) {
+  __m256 r[8], t[8];
+  for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(rows[i]);
+  for (int i = 0; i < 8; i += 2) {
+    t[i] = _mm256_unpacklo_ps(r[i], r[i + 1]);
+    t[i + 1] = _mm256_unpackhi_ps(r[i], r[i + 1]);
+  }
+  for (int i = 0; i < 8; i += 4) {
+    r[i] = _mm256_shuffle_ps(t[i], t[i + 2], _MM_SHUFFLE(1, 0, 1, 0));
+    r[i + 1] = _mm256_shuffle_ps(t[i], t[i + 2], _MM_SHUFFLE(3, 2, 3, 2));
+    r[i + 2] = _mm256_shuffle_ps(t[i + 1], t[i + 3], _MM_SHUFFLE(1, 0, 1, 0));
+    r[i + 3] = _mm256_shuffle_ps(t[i + 1], t[i + 3], _MM_SHUFFLE(3, 2, 3, 2));
+  }
+  for (int i = 0; i < 4; ++i) {
+    _mm256_storeu_ps(out + 8 * i, _mm256_permute2f128_ps(r[i], r[i + 4], 0x20));
+    _mm256_storeu_ps(out + 8 * (i + 4), _mm256_permute2f128_ps(r[i], r[i + 4], 0x31));
+  }
+}
 #else   // scalar path
 template <> inline vf4 splats<vf4>(float x) { return {{x, x, x, x}}; }
 template <> inline vf4 load<vf4>(const float* p) { vf4 r; std::memcpy(r.v, p, sizeof r.v); return r; }
@@ -234,6 +255,10 @@ inline vf4 cross3(vf4 a, vf4 b) {
 inline float hsum(vf8 a) {
   const float* l = a.v;
   return ((l[0] + l[4]) + (l[2] + l[6])) + ((l[1] + l[5]) + (l[3] + l[7]));
+}
+inline void transpose8(const float* const rows[8], float* out) {
+  for (int r = 0; r < 8; ++r)
+    for (int c = 0; c < 8; ++c) out[8 * c + r] = rows[r][c];
 }
 #endif
 

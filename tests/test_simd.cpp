@@ -379,3 +379,15 @@ TEST(SimdGenericCode, SameTemplateCompilesForFloatDoubleBatchAndAgreesPerLane) {
 }
 
 }  // namespace
+
+TEST(Transpose, EightByEightMovesRowsToColumns) {
+  alignas(32) float m[8][8];
+  for (int r = 0; r < 8; ++r)
+    for (int c = 0; c < 8; ++c) m[r][c] = static_cast<float>(10 * r + c);
+  const float* rows[8];
+  for (int r = 0; r < 8; ++r) rows[r] = m[7 - r];  // rows may come from anywhere
+  alignas(32) float out[64];
+  cellphys::simd::transpose8(rows, out);
+  for (int r = 0; r < 8; ++r)
+    for (int c = 0; c < 8; ++c) EXPECT_EQ(out[8 * c + r], m[7 - r][c]) << r << "," << c;
+}

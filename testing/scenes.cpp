@@ -100,7 +100,7 @@ std::vector<BodyId> stack(World& w, int n, float half_extent, float gap, float m
 
 float bin_half_width(float half_extent) { return 5.0f * half_extent; }
 
-std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent, uint32_t seed) {
+std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent, uint32_t seed, float mass) {
   Rng r(seed);
   ground_plane(w, 0.5f);
   const float hb = bin_half_width(half_extent);  // inside half-width
@@ -109,7 +109,7 @@ std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent, uint32_t see
   const float half[3] = {half_extent, half_extent, half_extent};
   ppe::BodyDesc box;
   box.shape = w.shapes().add_box(half);
-  box.mass = 1.0f;
+  box.mass = mass;
   box.friction = 0.5f;
   // 4 x 4 columns at 2.4 half-extents spacing, layers 2.6 half-extents apart, lowest just above
   // the floor; each box jittered by up to 0.1 half-extent and turned by up to 0.15 rad.

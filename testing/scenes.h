@@ -32,7 +32,7 @@ std::vector<BodyId> stack(World& w, int n, float half_extent, float gap = 0.0f, 
 /// and 4 static wall boxes; its inside is 10 x 10 half-extents (2.5 m for 0.25 m boxes), so 65
 /// boxes pile about 3 layers deep. Returns the n dynamic boxes (the plane and the walls are
 /// not included; the walls follow the boxes in id order).
-std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent = 0.25f, uint32_t seed = 1);
+std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent = 0.25f, uint32_t seed = 1, float mass = 1.0f);
 
 /// Inside half-width of the bin pile_in_bin builds for a box half-extent.
 float bin_half_width(float half_extent);

@@ -341,6 +341,7 @@ bool compute_planes(ConvexHull& h) {
 // V - E + F = 2, every vertex on a face, and the vertex centroid inside every plane.
 bool valid(const ConvexHull& h) {
   const int nv = h.num_vertices(), nf = h.num_faces();
+  if (nv < 4 || nf < 4) return false;
   std::vector<std::pair<int, int>> directed;
   std::vector<int> used(nv, 0);
   for (int f = 0; f < nf; ++f) {
@@ -458,18 +459,47 @@ std::vector<int> loop_vertices(const std::vector<std::vector<int>>& loops) {
   return v;
 }
 
+// Outward unit normal (Newell) of a loop and d, the largest n.v over its vertices.
+bool loop_plane(const Cloud& cl, const std::vector<int>& l, V3& n, double& d) {
+  n = V3{};
+  for (size_t i = 0; i < l.size(); ++i) n = n + cross(cl.P[l[i]] - cl.P[l[0]], cl.P[l[(i + 1) % l.size()]] - cl.P[l[0]]);
+  const double len = norm(n);
+  if (!(len > 0)) return false;
+  n = n * (1.0 / len);
+  d = -std::numeric_limits<double>::infinity();
+  for (int v : l) d = std::max(d, dot(n, cl.P[v]));
+  return true;
+}
+
 // Every point of pts within tol of every face plane of loops.
 bool within(const Cloud& cl, const std::vector<std::vector<int>>& loops, const std::vector<int>& pts) {
+  V3 n;
+  double d;
   for (const auto& l : loops) {
-    V3 n;
-    for (size_t i = 0; i < l.size(); ++i) n = n + cross(cl.P[l[i]] - cl.P[l[0]], cl.P[l[(i + 1) % l.size()]] - cl.P[l[0]]);
-    const double len = norm(n);
-    if (!(len > 0)) return false;
-    n = n * (1.0 / len);
-    double d = -std::numeric_limits<double>::infinity();
-    for (int v : l) d = std::max(d, dot(n, cl.P[v]));
+    if (!loop_plane(cl, l, n, d)) return false;
     for (int p : pts)
       if (dot(n, cl.P[p]) - d > cl.tol) return false;
+  }
+  return true;
+}
+
+// A solid: at least 4 faces, every vertex on 3, and thicker than tol under every face (a
+// thinner hull is flat within the tolerance, and merging would fold it into two faces).
+bool solid(const Cloud& cl, const std::vector<std::vector<int>>& loops) {
+  const std::vector<int> used = loop_vertices(loops);
+  if (loops.size() < 4 || used.size() < 4) return false;
+  std::vector<int> faces_at(cl.P.size(), 0);
+  for (const auto& l : loops)
+    for (int v : l) ++faces_at[v];
+  for (int v : used)
+    if (faces_at[v] < 3) return false;
+  V3 n;
+  double d;
+  for (const auto& l : loops) {
+    if (!loop_plane(cl, l, n, d)) return false;
+    double depth = 0;
+    for (int v : used) depth = std::max(depth, d - dot(n, cl.P[v]));
+    if (!(depth > cl.tol)) return false;
   }
   return true;
 }
@@ -531,7 +561,7 @@ void remove_shallow_vertices(const Cloud& cl, std::vector<std::vector<int>>& loo
     if (!find_simplex(cl, rest, s)) continue;
     std::vector<std::vector<int>> trial = hull_loops(cl, rest, s);
     removed.push_back(cand);
-    if (within(cl, trial, removed))
+    if (solid(cl, trial) && within(cl, trial, removed))
       loops.swap(trial);
     else
       removed.pop_back();
@@ -635,6 +665,7 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   std::iota(all.begin(), all.end(), 0);
   const int simplex[4] = {a, b, c, d4};
   std::vector<std::vector<int>> loops = hull_loops(cl, all, simplex);
+  if (!solid(cl, loops)) fail(cloud + "are coplanar (the hull is no thicker than " + num(tol) + ")");
   remove_shallow_vertices(cl, loops);
   std::vector<int> index(n, -1);
   for (int v : loop_vertices(loops)) index[v] = 0;

@@ -625,28 +625,38 @@ FaceQuery query_faces(const Polytope& A, const Polytope& B, double cutoff) {
   return q;
 }
 
-/// Whether the arcs a-b and c-d of the Gauss map cross (Gregorius, "The Separating Axis Test
-/// between Convex Polyhedra", GDC 2013): only then do the two edges form a face of the
-/// Minkowski difference, whose normal is a candidate axis. b_x_a and d_x_c are the arcs' planes.
-inline bool minkowski_face(const V3& a, const V3& b, const V3& b_x_a, const V3& c, const V3& d, const V3& d_x_c) {
-  const double cba = dot(c, b_x_a), dba = dot(d, b_x_a), adc = dot(a, d_x_c), bdc = dot(b, d_x_c);
-  return cba * dba < 0.0 && adc * bdc < 0.0 && cba * bdc > 0.0;
-}
-
-/// Largest separation along the cross products of A's and B's edges that form Minkowski faces.
+/// Largest separation along the cross products of A's and B's edges that form faces of the
+/// Minkowski difference A - B (Gregorius, "The Separating Axis Test between Convex Polyhedra",
+/// GDC 2013): edges whose arcs on the Gauss map cross, a-b (A's face normals) and c-d (B's,
+/// negated). Other pairs are not candidate axes. Stops early once one separates by more than
+/// cutoff.
 EdgeQuery query_edges(const Polytope& A, const Polytope& B, double cutoff) {
   EdgeQuery q;
+  double side[kMaxHullFaces];  // B's normals against the plane of A's current arc
+  int16_t crossing[kMaxHullEdges];
   for (int i = 0; i < A.ne; ++i) {
-    const V3& pa = A.v[A.edges[2 * i]];
-    const V3 ea = A.v[A.edges[2 * i + 1]] - pa;
-    const double la2 = len2(ea);
     const V3& a = A.n[A.edge_faces[i][0]];
     const V3& b = A.n[A.edge_faces[i][1]];
     const V3 b_x_a = cross(b, a);
+    for (int f = 0; f < B.nf; ++f) side[f] = dot(B.n[f], b_x_a);
+    // c and d (B's normals negated) on opposite sides of a-b's plane: gathered without
+    // branches, as the outcome is a coin toss the branch predictor would keep losing.
+    int m = 0;
     for (int j = 0; j < B.ne; ++j) {
-      // B's normals negated: the Gauss map of the Minkowski difference A - B.
-      const V3 c = -B.n[B.edge_faces[j][0]], d = -B.n[B.edge_faces[j][1]];
-      if (!minkowski_face(a, b, b_x_a, c, d, cross(d, c))) continue;
+      crossing[m] = int16_t(j);
+      m += side[B.edge_faces[j][0]] * side[B.edge_faces[j][1]] < 0.0;
+    }
+    const V3& pa = A.v[A.edges[2 * i]];
+    const V3 ea = A.v[A.edges[2 * i + 1]] - pa;
+    const double la2 = len2(ea);
+    for (int k = 0; k < m; ++k) {
+      const int j = crossing[k];
+      const int f0 = B.edge_faces[j][0], f1 = B.edge_faces[j][1];
+      const double cba = -side[f0];
+      // ...a and b on opposite sides of c-d's, and the crossing on the near hemisphere.
+      const V3 d_x_c = cross(B.n[f1], B.n[f0]);  // (-n1) x (-n0)
+      const double adc = dot(a, d_x_c), bdc = dot(b, d_x_c);
+      if (!(adc * bdc < 0.0 && cba * bdc > 0.0)) continue;
       const V3& pb = B.v[B.edges[2 * j]];
       const V3 eb = B.v[B.edges[2 * j + 1]] - pb;
       V3 axis = cross(ea, eb);

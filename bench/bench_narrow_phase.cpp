@@ -172,7 +172,7 @@ void BM_SphereSphere(benchmark::State& state) {
   std::vector<Pose> pa, pb;
   for (int k = 0; k < kVariants; ++k) {
     pa.push_back(pose(0, 0, 0));
-    pb.push_back(pose(0.95 * std::cos(0.1 * k), 0.95 * std::sin(0.1 * k), 0.01 * k));
+    pb.push_back(pose(0.95 * std::cos(0.1 * k), 0.95 * std::sin(0.1 * k), 0.001 * k));
   }
   run_pairs(state, sphere(0.5f), pa, sphere(0.5f), pb);
 }
@@ -237,6 +237,20 @@ void BM_HullHullRandom20(benchmark::State& state) {
   run_pairs(state, s, pa, s, pb);
 }
 BENCHMARK(BM_HullHullRandom20);
+
+void BM_CapsuleBoxLyingFlat(benchmark::State& state) {
+  // A capsule lying on a box, 2 mm deep, turning about the vertical: 2-point contacts.
+  ShapeView c;
+  c.type = ShapeType::capsule, c.radius = 0.1f, c.half_height = 0.4f;
+  std::vector<Pose> pa, pb;
+  for (int k = 0; k < kVariants; ++k) {
+    pa.push_back(rotated(pose(0.01 * (k % 5), 0, 0.5 + 0.1 - 0.002, 1.5707963, {0, 1, 0}), std::cos(0.05 * k),
+                         0, 0, std::sin(0.05 * k)));
+    pb.push_back(pose(0, 0, 0));
+  }
+  run_pairs(state, c, pa, box(1, 1, 0.5f), pb);
+}
+BENCHMARK(BM_CapsuleBoxLyingFlat);
 
 void BM_BatchBoxBox1000(benchmark::State& state) {
   // 1000 box pairs on a grid, each a small cube resting on a larger one (2000 bodies).

@@ -81,7 +81,7 @@ BodyId add_sphere(World& w, float r, float mass, const float pos[3], float frict
 }
 
 std::vector<BodyId> stack(World& w, int n, float half_extent, float gap, float mass, const float base[3],
-                          float friction) {
+                          float friction, float stagger) {
   const float half[3] = {half_extent, half_extent, half_extent};
   const float zero[3] = {0, 0, 0};
   if (!base) base = zero;
@@ -91,35 +91,42 @@ std::vector<BodyId> stack(World& w, int n, float half_extent, float gap, float m
   d.friction = friction;
   std::vector<BodyId> ids;
   for (int i = 0; i < n; ++i) {
-    d.position[0] = base[0], d.position[1] = base[1];
+    const float shift = (i % 2 == 1) ? stagger : -stagger;
+    d.position[0] = base[0] + shift, d.position[1] = base[1] + shift;
     d.position[2] = base[2] + gap + half_extent + float(i) * (2 * half_extent + gap);
     ids.push_back(w.add_body(d));
   }
   return ids;
 }
 
-float bin_half_width(float half_extent) { return 5.0f * half_extent; }
+namespace {
+int bin_columns(int n) { return std::max(4, int(std::ceil(4.0 * std::sqrt(double(n) / 65.0)))); }
+}  // namespace
+
+float bin_half_width(int n, float half_extent) {
+  // the columns' extent (k - 1) * 2.4 + 2 half-extents, plus a little room: 10 for k = 4
+  return (1.2f * float(bin_columns(n) - 1) + 1.4f) * half_extent;
+}
 
 std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent, uint32_t seed, float mass) {
   Rng r(seed);
   ground_plane(w, 0.5f);
-  const float hb = bin_half_width(half_extent);  // inside half-width
-  const float wall_t = half_extent;               // wall half-thickness
-  const float wall_h = 4.0f * half_extent;        // wall half-height: walls 8 half-extents tall
+  const int k = bin_columns(n);
+  const float hb = bin_half_width(n, half_extent);  // inside half-width
+  const float wall_t = half_extent;                 // wall half-thickness
+  const float wall_h = 4.0f * half_extent;          // wall half-height: walls 8 half-extents tall
   const float half[3] = {half_extent, half_extent, half_extent};
   ppe::BodyDesc box;
   box.shape = w.shapes().add_box(half);
   box.mass = mass;
   box.friction = 0.5f;
-  // 4 x 4 columns at 2.4 half-extents spacing, layers 2.6 half-extents apart, lowest just above
-  // the floor; each box jittered by up to 0.1 half-extent and turned by up to 0.15 rad.
   const float spacing = 2.4f * half_extent, layer = 2.6f * half_extent;
   std::vector<BodyId> ids;
   for (int i = 0; i < n; ++i) {
-    const int col = i % 16, lay = i / 16;
+    const int col = i % (k * k), lay = i / (k * k);
     const float jx = r.uniform(-0.1f, 0.1f) * half_extent, jy = r.uniform(-0.1f, 0.1f) * half_extent;
-    box.position[0] = (float(col % 4) - 1.5f) * spacing + jx;
-    box.position[1] = (float(col / 4) - 1.5f) * spacing + jy;
+    box.position[0] = (float(col % k) - 0.5f * float(k - 1)) * spacing + jx;
+    box.position[1] = (float(col / k) - 0.5f * float(k - 1)) * spacing + jy;
     box.position[2] = 1.3f * half_extent + float(lay) * layer;
     random_small_rotation(r, 0.15f, box.orientation);
     ids.push_back(w.add_body(box));

@@ -410,7 +410,7 @@ TEST(NarrowPhase, BoxPlaneTilted) {
   // A generic tilt: one lowest corner, depth from the corners' heights.
   const Quaterniond q = rot(0.7, {1, 2, 3});
   std::vector<double> z;
-  Vector3d lowest;
+  Vector3d lowest = Vector3d::Zero();
   for (int i = 0; i < 8; ++i) {
     const Vector3d v = q * Vector3d(i & 1 ? hx : -hx, i & 2 ? hy : -hy, i & 4 ? hz : -hz);
     if (z.empty() || v.z() < *std::min_element(z.begin(), z.end())) lowest = v;
@@ -634,7 +634,6 @@ TEST(NarrowPhase, SeparatedPairsGiveNothing) {
 
 TEST(NarrowPhase, SpeculativeMargin) {
   // A gap inside the margin gives a contact with negative penetration; beyond it, none.
-  const TestHull dod = dodecahedron(0.6);
   auto c = run(sphere(0.5f), pose_at({0, 0, 0}), sphere(0.5f), pose_at({1.005, 0, 0}));
   ASSERT_EQ(c.size(), 1u);
   EXPECT_NEAR(c[0].penetration, -0.005, 1e-6);
@@ -666,8 +665,9 @@ TEST(NarrowPhase, SwapFlipsNormalsForEveryPair) {
                                      random_rotation(rng));
         expect_swap_symmetric(a, pa, b, pb);
         contacts += int(run(a, pa, b, pb).size());
-        if (i == j && !pi)  // coincident: finite unit normals
+        if (i == j && !pi) {  // coincident: finite unit normals
           for (const auto& c : run(a, pa, b, pa)) EXPECT_NEAR(N(c).norm(), 1.0, 1e-6);
+        }
       }
   EXPECT_GT(contacts, 1000);
 }
@@ -693,8 +693,12 @@ void check_polytope_pair(const ShapeView& sa, const TestHull& ha, const Pose& pa
   const double ref = reference_depth(A, B), tol = 1e-5 * (A.size + B.size);
   const auto c = run(sa, pa, sb, pb, 0.0f);
   SCOPED_TRACE(testing::Message() << "trial " << trial << " reference depth " << ref);
-  if (ref < -tol) ASSERT_TRUE(c.empty());
-  if (ref > tol) ASSERT_FALSE(c.empty());
+  if (ref < -tol) {
+    ASSERT_TRUE(c.empty());
+  }
+  if (ref > tol) {
+    ASSERT_FALSE(c.empty());
+  }
   if (c.empty()) return;
   const Vector3d n = N(c[0]);
   EXPECT_NEAR(n.norm(), 1.0, 1e-6);
@@ -710,7 +714,9 @@ void check_polytope_pair(const ShapeView& sa, const TestHull& ha, const Pose& pa
   EXPECT_LE(deepest, along + tol);
   const double bias = 5e-4 * std::min(A.size, B.size);
   EXPECT_LE(along, 1.08 * ref + 2 * bias + tol) << "the normal is (nearly) the least-penetration axis";
-  EXPECT_GE(sampled_depth(A, B), ref - tol) << "no sampled direction beats the separating axes";
+  const double sampled = sampled_depth(A, B);
+  EXPECT_GE(sampled, ref - tol) << "no sampled direction beats the separating axes";
+  EXPECT_LE(deepest, 1.08 * sampled + 2 * bias + tol) << "the penetration is (nearly) the least over all directions";
   if (shallow) {  // within the absolute tolerance of the axis choice
     EXPECT_LE(reference_depth(A, moved(B, n * (deepest + tol))), 2 * bias) << "b moved by n * penetration is clear of a";
     EXPECT_GE(deepest, ref - 2 * bias);
@@ -802,29 +808,96 @@ TEST(NarrowPhase, BoxesAgainstBruteForceAndTheirHulls) {
   }
 }
 
-TEST(NarrowPhase, CapsuleHullSurfacePoints) {
-  // Capsule against hulls at random: a's surface point lies on the capsule, b's on the hull,
-  // and the penetration is the capsule radius minus the core's distance where it is outside.
+/// Distance from point x to segment p0 p1.
+double point_segment(const Vector3d& x, const Vector3d& p0, const Vector3d& p1) {
+  const Vector3d u = p1 - p0;
+  const double t = u.squaredNorm() > 0 ? std::clamp((x - p0).dot(u) / u.squaredNorm(), 0.0, 1.0) : 0.0;
+  return (x - (p0 + t * u)).norm();
+}
+/// Distance between two segments by ternary search along the first (the distance to a
+/// segment is convex along a line): slow, and shares nothing with the engine.
+double segment_segment(const Vector3d& a0, const Vector3d& a1, const Vector3d& b0, const Vector3d& b1) {
+  auto f = [&](double t) { return point_segment(a0 + t * (a1 - a0), b0, b1); };
+  double lo = 0, hi = 1;
+  for (int i = 0; i < 200; ++i) {
+    const double m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+    (f(m1) < f(m2) ? hi : lo) = f(m1) < f(m2) ? m2 : m1;
+  }
+  return f(0.5 * (lo + hi));
+}
+/// Distance from a segment to a hull's surface by triangles (each face as a fan): endpoints
+/// against triangles, the segment against triangle edges. Negative if the segment crosses a face.
+double segment_hull(const TestHull& h, const World& w, const Vector3d& p0, const Vector3d& p1) {
+  double best = 1e300;
+  for (size_t f = 0; f + 1 < h.face_start.size(); ++f) {
+    const int b = h.face_start[f], e = h.face_start[f + 1];
+    for (int k = b + 1; k + 1 < e; ++k) {
+      const Vector3d t[3] = {w.v[h.face_vertices[b]], w.v[h.face_vertices[k]], w.v[h.face_vertices[k + 1]]};
+      const Vector3d n = (t[1] - t[0]).cross(t[2] - t[0]).normalized();
+      auto inside = [&](const Vector3d& y) {
+        for (int q = 0; q < 3; ++q)
+          if ((t[(q + 1) % 3] - t[q]).cross(y - t[q]).dot(n) < 0) return false;
+        return true;
+      };
+      const double h0 = n.dot(p0 - t[0]), h1 = n.dot(p1 - t[0]);
+      if (h0 * h1 < 0) {  // crosses the plane: inside the triangle means through the surface
+        const Vector3d y = p0 + (h0 / (h0 - h1)) * (p1 - p0);
+        if (inside(y)) return -1;
+      }
+      for (const Vector3d& p : {p0, p1}) {
+        const double hp = n.dot(p - t[0]);
+        if (inside(p - hp * n)) best = std::min(best, std::fabs(hp));
+      }
+      for (int q = 0; q < 3; ++q) best = std::min(best, segment_segment(p0, p1, t[q], t[(q + 1) % 3]));
+    }
+  }
+  return best;
+}
+
+TEST(NarrowPhase, CapsuleAndSphereAgainstHulls) {
+  // Random capsules and spheres near random hulls: a's surface point lies on the capsule, b's
+  // on the hull; where the core stays outside, the deepest penetration is the radius less the
+  // reference distance (both exact for a sphere; for a capsule lying along a face within the
+  // small tilt that reports the face's two clipped ends, up to that tilt); where the core
+  // crosses the hull, it is at least the radius.
   std::mt19937 rng(9);
-  int contacts = 0;
+  int apart = 0, crossing = 0;
   for (int trial = 0; trial < 300; ++trial) {
+    SCOPED_TRACE(testing::Message() << "trial " << trial);
     const TestHull h = random_hull(rng, 8 + trial % 9);
     const Pose ph = pose_at(Vector3d(0, 0, 0), random_rotation(rng));
-    const Pose pc = pose_at(random_direction(rng) * std::uniform_real_distribution<>(0.0, 1.5)(rng), random_rotation(rng));
-    const float r = 0.15f, hh = 0.4f;
-    const auto c = run(capsule(r, hh), pc, h.shape(), ph, 0.0f);
+    const Pose pc = pose_at(random_direction(rng) * std::uniform_real_distribution<>(0.0, 1.4)(rng), random_rotation(rng));
+    const bool sph = trial % 3 == 0;
+    const float r = 0.15f, hh = sph ? 0.0f : 0.4f;
+    const auto c = sph ? run(sphere(r), pc, h.shape(), ph, 0.0f) : run(capsule(r, hh), pc, h.shape(), ph, 0.0f);
     const World W = world(h, ph);
     const Vector3d axis = quat(pc) * Vector3d(0, 0, hh), mid(pc.position[0], pc.position[1], pc.position[2]);
+    const double dist = segment_hull(h, W, mid - axis, mid + axis);
+    double deepest = -1e300;
     for (const auto& p : c) {
-      ++contacts;
       const Vector3d n = N(p), sa = P(p) + n * (p.penetration / 2), sb = P(p) - n * (p.penetration / 2);
-      const double t = std::clamp((sa - mid).dot(axis) / axis.squaredNorm(), -1.0, 1.0);
-      EXPECT_LE((sa - (mid + t * axis)).norm(), r + 1e-5) << "trial " << trial;
-      EXPECT_LE(outside(W, sb), 1e-5) << "trial " << trial;
+      EXPECT_LE(point_segment(sa, mid - axis, mid + axis), r + 1e-5);
+      EXPECT_LE(outside(W, sb), 1e-5);
+      deepest = std::max(deepest, double(p.penetration));
     }
-    expect_swap_symmetric(capsule(r, hh), pc, h.shape(), ph);
+    const bool core_in = dist < 0 || outside(W, mid - axis) <= 0 || outside(W, mid + axis) <= 0;
+    if (core_in) {
+      ++crossing;
+      ASSERT_FALSE(c.empty());
+      EXPECT_GE(deepest, r - 1e-5);
+    } else if (dist < r - 1e-5) {
+      ++apart;
+      ASSERT_FALSE(c.empty());
+      EXPECT_LE(deepest, r - dist + 1e-5);
+      EXPECT_GE(deepest, r - dist - (sph ? 1e-5 : 2 * hh * 0.045)) << "distance " << dist;
+    } else if (dist > r + 1e-5) {
+      EXPECT_TRUE(c.empty());
+    }
+    if (sph) expect_swap_symmetric(sphere(r), pc, h.shape(), ph);
+    else expect_swap_symmetric(capsule(r, hh), pc, h.shape(), ph);
   }
-  EXPECT_GT(contacts, 100);
+  EXPECT_GT(apart, 30);
+  EXPECT_GT(crossing, 30);
 }
 
 // ---- scale, determinism, batches ------------------------------------------------------------
@@ -874,6 +947,14 @@ TEST(NarrowPhase, ScaleIsHonoured) {
     }
   }
   EXPECT_GT(compared, 300);
+  // A plane's offset scales too (its pose's position and orientation are ignored).
+  const auto one = run(sphere(0.5f), pose_at({0, 0, 0.7}), plane({0, 0, 1}, 0.3f), Pose{});
+  const auto two = run(sphere(0.5f), pose_at({0, 0, 1.4}, Quaterniond::Identity(), 2), plane({0, 0, 1}, 0.3f),
+                       pose_at({5, 5, 5}, rot(1, {1, 0, 0}), 2));
+  ASSERT_EQ(one.size(), 1u);
+  ASSERT_EQ(two.size(), 1u);
+  EXPECT_NEAR(one[0].penetration, 0.1, 1e-6);
+  EXPECT_NEAR(two[0].penetration, 0.2, 1e-6);
 }
 
 TEST(NarrowPhase, Deterministic) {
@@ -925,6 +1006,24 @@ TEST(NarrowPhase, BatchEqualsPerPair) {
   ASSERT_GT(m, capacity - kMaxManifoldPoints);
   EXPECT_EQ(std::memcmp(part.data(), want.data(), m * sizeof(ContactPoint)), 0);
   EXPECT_TRUE(m == n || want_pair[m] != want_pair[m - 1]) << "a manifold was split";
+}
+
+TEST(NarrowPhase, BadInputGivesNothing) {
+  // Hulls beyond the bounds, unknown types, and NaN poses: no contact, no crash.
+  Catalogue cat;
+  std::vector<float> many(3 * (kMaxHullVertices + 1), 0.0f);
+  ShapeView big = cat.dod.shape();
+  big.hull.num_vertices = kMaxHullVertices + 1, big.hull.vertices = many.data();
+  for (const auto& s : cat.shapes) EXPECT_TRUE(run(s, Pose{}, big, Pose{}).empty());
+  ShapeView unknown = sphere(1);
+  unknown.type = ShapeType(7);
+  EXPECT_TRUE(run(unknown, Pose{}, sphere(1), Pose{}).empty());
+  Pose nan = Pose{};
+  nan.position[1] = std::nanf("");
+  for (const auto& a : cat.shapes)
+    for (const auto& b : cat.shapes)
+      for (const auto& c : run(a, nan, b, Pose{}))
+        for (int k = 0; k < 3; ++k) EXPECT_FALSE(std::isnan(c.normal[k])) << "a NaN pose may give nothing, not NaN";
 }
 
 TEST(NarrowPhase, HullValidation) {

@@ -214,6 +214,9 @@ def _build_kernel(force, variant, d, path):
         if why or lname in km.FUNCTIONS or lname in names or lname == "h":
             raise DescriptorError(path, f"let.{lname}", why or f"{lname!r} is not a free identifier")
         value = evaluate(text, names, path, f"let.{lname}")
+        held = isinstance(value, km.Lagged)
+        if held:
+            value = value.value
         if isinstance(value, (sp.MatrixBase, sp.Expr)):
             _check_scalars(value, path, f"let.{lname}", text)
         if isinstance(value, sp.MatrixBase) and value.shape[1] == 1:
@@ -224,7 +227,7 @@ def _build_kernel(force, variant, d, path):
             names[lname] = syms[0]
         else:
             raise DescriptorError(path, f"let.{lname}", f"{text!r} is neither a number nor a vector")
-        lets.append(list(zip(syms, exprs)))
+        lets.append((list(zip(syms, exprs)), held))
     apply = d["apply"]
     if not isinstance(apply, list) or not apply:
         raise DescriptorError(path, "apply", "must be a non-empty list of force(...), torque(...) or force_at_point(...)")
@@ -248,11 +251,11 @@ def _build_kernel(force, variant, d, path):
     let_syms = set()
     deriv = {}  # (let symbol, z) -> symbol of its total derivative at delta = 0
     stages = []
-    for group in lets:
+    for group, held in lets:
         stage = []
         for sym, expr in group:
             stage.append((sym, expr.xreplace(zero)))
-            for _, _, z in wrt:
+            for _, _, z in ([] if held else wrt):
                 dz = _total_derivative(expr, z, let_syms, deriv).xreplace(zero)
                 if dz.is_Number or dz.is_Symbol:  # trivial: substitute, emit nothing
                     if dz != 0:

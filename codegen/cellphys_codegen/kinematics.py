@@ -203,6 +203,36 @@ def torque(body, t):
     return Contribution(body, sp.zeros(3, 1), t)
 
 
+class Lagged:
+    """A value taken at the start of the step and held constant by the linearisation."""
+
+    def __init__(self, value):
+        self.value = value
+
+
+def lagged(x):
+    """x at the start of the step, with zero derivatives (e.g. friction's regularised
+    slip speed: holding it makes the linearised friction a damper that cannot overshoot)."""
+    return Lagged(x)
+
+
+def attached_offset(body, p):
+    """Lever arm of the material point that was at world p, held fixed through the step:
+    a contact force acts at the contact, which does not turn with the body within a step."""
+    _need_body("attached_offset", body)
+    if isinstance(body, World):
+        return sp.zeros(3, 1)
+    return body.offset_of(p)
+
+
+def force_at_offset(body, r, f):
+    """A force f applied at lever arm r from the centre of mass: (f, r x f)."""
+    _need_body("force_at_offset", body)
+    if isinstance(body, World):
+        return Contribution(body, f, sp.zeros(3, 1))
+    return Contribution(body, f, cross(r, f))
+
+
 def force_at_point(body, p, f):
     """A force f applied at world point p: generalised force (f, (p - com) x f)."""
     _need_body("force_at_point", body)
@@ -217,7 +247,8 @@ FUNCTIONS = {
     "world_point": world_point, "point_velocity": point_velocity,
     "attached_point": attached_point, "attached_velocity": attached_velocity,
     "inertia_world": inertia_world, "force": force, "torque": torque,
-    "force_at_point": force_at_point,
+    "force_at_point": force_at_point, "force_at_offset": force_at_offset,
+    "attached_offset": attached_offset, "lagged": lagged,
 }
 
 # attributes a descriptor may read from a body

@@ -281,6 +281,9 @@ struct Polytope {
   const int16_t (*edge_faces)[2] = nullptr;  // the two faces bordering each edge
   V3 centre;                                 // mean of the vertices: strictly inside
   double size = 0.0;                         // largest distance of a vertex from the centre
+  bool is_box = false;                       // then also its axes and half extents:
+  V3 axis[3];                                // support in O(1), edges in 3 parallel classes
+  double half[3];
   V3 v[kMaxHullVertices];
   V3 n[kMaxHullFaces];
   double d[kMaxHullFaces];
@@ -302,6 +305,8 @@ void make_box(const ShapeView& box, const Frame& f, Polytope& P) {
   }
   P.centre = f.t;
   P.size = std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+  P.is_box = true;
+  for (int k = 0; k < 3; ++k) P.axis[k] = axes[k], P.half[k] = h[k];
 }
 
 bool hull_fits(const HullView& h) {
@@ -535,7 +540,7 @@ void capsule_polytope(const Segment& c, const Polytope& P, Sink& s) {
     const double sep = std::min(dot(P.n[f], c.p0), dot(P.n[f], c.p1)) - P.d[f];
     if (sep > fq.sep) fq.sep = sep, fq.face = f;
   }
-  if (fq.sep >= reach) return;
+  if (fq.sep >= reach || fq.face < 0) return;  // (no face: NaN in the input)
   EdgeQuery eq;
   for (int e = 0; e < P.ne; ++e) {
     const double a0 = dot(P.n[P.edge_faces[e][0]], u), a1 = dot(P.n[P.edge_faces[e][1]], u);
@@ -608,15 +613,25 @@ void polytope_plane(const Polytope& P, const Plane& pl, Sink& s) {
 
 // ---- polytope against polytope --------------------------------------------------------------
 
-/// Largest separation of a face plane of A from B (B's deepest vertex below it). Stops early
+/// min over P of n.x: a box's from its axes, a hull's from its vertices (two running minima,
+/// so the comparisons do not wait on each other).
+double lowest_along(const Polytope& P, const V3& n) {
+  if (P.is_box)
+    return dot(n, P.centre) - (P.half[0] * std::fabs(dot(n, P.axis[0])) + P.half[1] * std::fabs(dot(n, P.axis[1])) +
+                               P.half[2] * std::fabs(dot(n, P.axis[2])));
+  double m0 = dot(n, P.v[0]), m1 = m0;
+  int j = 1;
+  for (; j + 1 < P.nv; j += 2) m0 = std::min(m0, dot(n, P.v[j])), m1 = std::min(m1, dot(n, P.v[j + 1]));
+  if (j < P.nv) m0 = std::min(m0, dot(n, P.v[j]));
+  return std::min(m0, m1);
+}
+
+/// Largest separation of a face plane of A from B (B's deepest point below it). Stops early
 /// once a face separates by more than cutoff.
 FaceQuery query_faces(const Polytope& A, const Polytope& B, double cutoff) {
   FaceQuery q;
   for (int i = 0; i < A.nf; ++i) {
-    const V3& n = A.n[i];
-    double lowest = kInf;
-    for (int j = 0; j < B.nv; ++j) lowest = std::min(lowest, dot(n, B.v[j]));
-    const double sep = lowest - A.d[i];
+    const double sep = lowest_along(B, A.n[i]) - A.d[i];
     if (sep > q.sep) {
       q.sep = sep, q.face = i;
       if (sep > cutoff) break;
@@ -625,52 +640,126 @@ FaceQuery query_faces(const Polytope& A, const Polytope& B, double cutoff) {
   return q;
 }
 
+/// query_edges for two boxes: their 12 edges are 3 parallel classes each, so there are 9
+/// pairs of edge directions, each crossing on the Gauss map in one pair of edges per sign of
+/// the axis, the one facing b being the better. Support functions give the separation and the
+/// supporting edges directly (the same axes and edges as the general query, in O(9)).
+EdgeQuery query_edges_boxes(const Polytope& A, const Polytope& B, double cutoff) {
+  // Edge index of the class along axis k (kBoxEdges) for the vertex bits of the other two.
+  constexpr int kClassStart[3] = {0, 4, 8};
+  const V3 t = B.centre - A.centre;
+  EdgeQuery q;
+  for (int ka = 0; ka < 3; ++ka)
+    for (int kb = 0; kb < 3; ++kb) {
+      V3 axis = cross(A.axis[ka], B.axis[kb]);  // not normalised until the end: the square
+      const double l2 = len2(axis);              // root runs beside the dot products
+      if (l2 <= kEdgeParallelSin2) continue;     // unit axes
+      const double inv = 1.0 / std::sqrt(l2);
+      const double at = dot(axis, t);
+      if (at < 0.0) axis = -axis;
+      double ra = 0.0, rb = 0.0;
+      int ea = kClassStart[ka], eb = kClassStart[kb], bit_a = 1, bit_b = 1;
+      for (int m = 0; m < 3; ++m) {
+        const double ua = dot(axis, A.axis[m]), ub = dot(axis, B.axis[m]);
+        ra += A.half[m] * std::fabs(ua), rb += B.half[m] * std::fabs(ub);
+        // A's support edge is on the +axis side, B's on the -axis side.
+        if (m != ka) ea += ua > 0.0 ? bit_a : 0, bit_a *= 2;
+        if (m != kb) eb += ub < 0.0 ? bit_b : 0, bit_b *= 2;
+      }
+      const double sep = (std::fabs(at) - ra - rb) * inv;
+      if (sep > q.sep) {
+        q.sep = sep, q.ea = ea, q.eb = eb, q.axis = axis * inv;
+        if (sep > cutoff) return q;
+      }
+    }
+  return q;
+}
+
+/// The largest w.r over unit w on the shorter great arc from n0 to n1 (an edge's normals).
+double arc_max(const V3& n0, const V3& n1, const V3& r) {
+  double best = std::max(dot(n0, r), dot(n1, r));
+  const V3 e = cross(n0, n1);
+  const double ee = len2(e);
+  if (ee > 0.0) {
+    const V3 rp = r - e * (dot(e, r) / ee);  // r in the arc's plane: the best direction if inside
+    if (dot(cross(n0, rp), e) > 0.0 && dot(cross(rp, n1), e) > 0.0) best = std::max(best, std::sqrt(len2(rp)));
+  }
+  return best;
+}
+
 /// Largest separation along the cross products of A's and B's edges that form faces of the
 /// Minkowski difference A - B (Gregorius, "The Separating Axis Test between Convex Polyhedra",
 /// GDC 2013): edges whose arcs on the Gauss map cross, a-b (A's face normals) and c-d (B's,
-/// negated). Other pairs are not candidate axes. Stops early once one separates by more than
-/// cutoff.
-EdgeQuery query_edges(const Polytope& A, const Polytope& B, double cutoff) {
-  EdgeQuery q;
+/// negated). Other pairs are not candidate axes. Pairs that cannot reach `floor` are skipped
+/// (the caller has no use for them): along any u in A's edge's arc the separation is at most
+/// u.(centre of B - edge point), since B's centre is inside B, and likewise for B's edges.
+/// Stops early once an axis separates by more than cutoff.
+EdgeQuery query_edges(const Polytope& A, const Polytope& B, double cutoff, double floor) {
+  if (A.is_box && B.is_box) return query_edges_boxes(A, B, cutoff);
+  int16_t active_b[kMaxHullEdges];
+  int nb = 0;
+  for (int j = 0; j < B.ne; ++j) {
+    active_b[nb] = int16_t(j);
+    nb += arc_max(B.n[B.edge_faces[j][0]], B.n[B.edge_faces[j][1]], A.centre - B.v[B.edges[2 * j]]) >= floor;
+  }
+  // Each edge's arc plane, n1 x n0 of its faces (b x a for A; for B, d x c with c, d negated
+  // is the same expression).
+  V3 arc_b[kMaxHullEdges];
+  for (int k = 0; k < nb; ++k) {
+    const int j = active_b[k];
+    arc_b[j] = cross(B.n[B.edge_faces[j][1]], B.n[B.edge_faces[j][0]]);
+  }
   double side[kMaxHullFaces];  // B's normals against the plane of A's current arc
   int16_t crossing[kMaxHullEdges];
+  // The best so far as s / sqrt(l2) (unnormalised axis): compared without square roots.
+  double best_s = -1.0, best_l2 = 0.0;
+  int best_i = -1, best_j = -1;
+  V3 best_axis{0, 0, 0};
   for (int i = 0; i < A.ne; ++i) {
     const V3& a = A.n[A.edge_faces[i][0]];
     const V3& b = A.n[A.edge_faces[i][1]];
+    const V3& pa = A.v[A.edges[2 * i]];
+    if (arc_max(a, b, B.centre - pa) < floor) continue;
     const V3 b_x_a = cross(b, a);
     for (int f = 0; f < B.nf; ++f) side[f] = dot(B.n[f], b_x_a);
     // c and d (B's normals negated) on opposite sides of a-b's plane: gathered without
     // branches, as the outcome is a coin toss the branch predictor would keep losing.
     int m = 0;
-    for (int j = 0; j < B.ne; ++j) {
+    for (int k = 0; k < nb; ++k) {
+      const int j = active_b[k];
       crossing[m] = int16_t(j);
       m += side[B.edge_faces[j][0]] * side[B.edge_faces[j][1]] < 0.0;
     }
-    const V3& pa = A.v[A.edges[2 * i]];
     const V3 ea = A.v[A.edges[2 * i + 1]] - pa;
     const double la2 = len2(ea);
     for (int k = 0; k < m; ++k) {
       const int j = crossing[k];
-      const int f0 = B.edge_faces[j][0], f1 = B.edge_faces[j][1];
-      const double cba = -side[f0];
       // ...a and b on opposite sides of c-d's, and the crossing on the near hemisphere.
-      const V3 d_x_c = cross(B.n[f1], B.n[f0]);  // (-n1) x (-n0)
-      const double adc = dot(a, d_x_c), bdc = dot(b, d_x_c);
+      const double cba = -side[B.edge_faces[j][0]];
+      const double adc = dot(a, arc_b[j]), bdc = dot(b, arc_b[j]);
       if (!(adc * bdc < 0.0 && cba * bdc > 0.0)) continue;
       const V3& pb = B.v[B.edges[2 * j]];
       const V3 eb = B.v[B.edges[2 * j + 1]] - pb;
-      V3 axis = cross(ea, eb);
+      const V3 axis = cross(ea, eb);
       const double l2 = len2(axis);
       if (l2 <= kEdgeParallelSin2 * la2 * len2(eb)) continue;
-      axis = axis * (1.0 / std::sqrt(l2));
-      if (dot(axis, pa - A.centre) < 0.0) axis = -axis;
-      const double sep = dot(axis, pb - pa);
-      if (sep > q.sep) {
-        q.sep = sep, q.ea = i, q.eb = j, q.axis = axis;
-        if (sep > cutoff) return q;
-      }
+      // Separation along the axis turned out of A: s / sqrt(l2).
+      double s = dot(axis, pb - pa);
+      if (dot(axis, pa - A.centre) < 0.0) s = -s;
+      const bool better = best_i < 0 || (s >= 0.0 ? best_s < 0.0 || s * s * best_l2 > best_s * best_s * l2
+                                                  : best_s < 0.0 && s * s * best_l2 < best_s * best_s * l2);
+      if (!better) continue;
+      best_s = s, best_l2 = l2, best_i = i, best_j = j, best_axis = axis;
+      if (s > 0.0 && s * s > cutoff * cutoff * l2) break;
     }
+    if (best_i >= 0 && best_s > 0.0 && best_s * best_s > cutoff * cutoff * best_l2) break;
   }
+  EdgeQuery q;
+  if (best_i < 0) return q;
+  const double inv = 1.0 / std::sqrt(best_l2);
+  const V3& pa = A.v[A.edges[2 * best_i]];
+  q.ea = best_i, q.eb = best_j, q.sep = best_s * inv;
+  q.axis = best_axis * (dot(best_axis, pa - A.centre) < 0.0 ? -inv : inv);
   return q;
 }
 
@@ -721,13 +810,14 @@ bool face_contact(const Polytope& R, int rf, const Polytope& I, double margin, F
   for (int f = 0; f < I.nf; ++f)
     for (int k = I.face_start[f]; k < I.face_start[f + 1]; ++k)
       if (I.face_vertices[k] == deepest && (inc < 0 || dot(I.n[f], n) < dot(I.n[inc], n))) inc = f;
-  if (inc < 0) return false;  // a vertex on no face: not a hull
+  const int b = R.face_start[rf], e = R.face_start[rf + 1];
+  // (A loop longer than the vertex count, or a vertex on no face: not a hull.)
+  if (inc < 0 || I.face_start[inc + 1] - I.face_start[inc] > kMaxHullVertices || e - b > kMaxHullVertices) return false;
   V3 buf0[kClipCapacity], buf1[kClipCapacity];
   V3* poly = buf0;
   V3* next = buf1;
   int m = 0;
   for (int k = I.face_start[inc]; k < I.face_start[inc + 1]; ++k) poly[m++] = I.v[I.face_vertices[k]];
-  const int b = R.face_start[rf], e = R.face_start[rf + 1];
   for (int k = b; k < e && m > 0; ++k) {
     const V3& v0 = R.v[R.face_vertices[k]];
     const V3 side = cross(R.v[R.face_vertices[k + 1 < e ? k + 1 : b]] - v0, n);  // outward
@@ -766,10 +856,12 @@ void polytope_polytope(const Polytope& A, const Polytope& B, Sink& s) {
   const FaceQuery fa = query_faces(A, B, s.margin);
   if (fa.sep > s.margin) return;
   const FaceQuery fb = query_faces(B, A, s.margin);
-  if (fb.sep > s.margin) return;
-  const EdgeQuery ee = query_edges(A, B, s.margin);
-  if (ee.sep > s.margin) return;
+  if (fb.sep > s.margin || fa.face < 0 || fb.face < 0) return;  // (no face: NaN in the input)
   const double tol = kBiasAbs * std::min(A.size, B.size);
+  // Edge axes below this can neither win over the faces nor stand in for them (below).
+  const double best_face = std::max(fa.sep, fb.sep);
+  const EdgeQuery ee = query_edges(A, B, s.margin, best_face - kEdgeRel * std::fabs(best_face) - 3 * tol);
+  if (ee.sep > s.margin) return;
   const bool ref_b = fb.sep > fa.sep + kFaceRel * std::fabs(fa.sep) + tol;
   const double face_sep = ref_b ? fb.sep : fa.sep;
   if (ee.ea >= 0 && ee.sep > face_sep + kEdgeRel * std::fabs(face_sep) + tol) return edge_contact(A, B, ee, s);

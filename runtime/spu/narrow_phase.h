@@ -1,7 +1,7 @@
 // Narrow phase: contact points between two convex shapes (the seed's "narrow-phase jobs on
 // packed shape data"). Pure functions of shape views and poses: no state, no allocation,
-// scratch on the stack within fixed bounds, ties broken by index, never by address, so the
-// same inputs give the same bits.
+// scratch on the stack within fixed bounds (about 100 KB for two hulls at the bounds below),
+// ties broken by index, never by address, so the same inputs give the same bits.
 //
 // Conventions (see shape.h for the shapes themselves):
 // - The normal points from a to b: b is pushed along +normal, a along -normal.

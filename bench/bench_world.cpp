@@ -1,0 +1,139 @@
+// One world step of the seed's scenes, with the step's work (contacts, islands, active bodies,
+// solver iterations, local store) and its stages (broad, mid, narrow, sleep, islands, pack,
+// integrate, unpack; microseconds per step, averaged over the iterations) as counters, on 1
+// and 2 workers:
+//  - the 65-box pile after 0.5 s of settling, all awake (the seed's reference scene, 1 kg boxes;
+//    and the same pile of 62.5 kg crates);
+//  - the sparse 1,000-body world at its start (all awake) and after 10 s (most asleep).
+// The awake cases restore the same state before every step (outside the timing), so every
+// iteration times the same step; the 10 s case keeps stepping its mostly sleeping world.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "runtime/ppe/world.h"
+#include "testing/scenes.h"
+
+namespace {
+
+using namespace cellphys;
+using namespace cellphys::testing;
+using ppe::BodyState;
+using ppe::StepStats;
+using ppe::WorldSettings;
+
+struct Snapshot {
+  std::vector<BodyId> ids;
+  std::vector<BodyState> states;
+  void take(const World& w, const std::vector<BodyId>& bodies) {
+    ids = bodies;
+    states.clear();
+    for (BodyId id : ids) states.push_back(w.state(id));
+  }
+  void restore(World& w) const {
+    for (size_t k = 0; k < ids.size(); ++k) w.set_state(ids[k], states[k]);
+  }
+};
+
+struct Sums {
+  double broad = 0, mid = 0, narrow = 0, sleep = 0, islands_t = 0, pack = 0, integrate = 0, unpack = 0, total = 0;
+  double contacts = 0, islands = 0, active = 0, iterations = 0, decoupled = 0, failed = 0;
+  size_t store = 0;
+  void add(const StepStats& s) {
+    broad += s.times.broad_ms, mid += s.times.mid_ms, narrow += s.times.narrow_ms, sleep += s.times.sleep_ms;
+    islands_t += s.times.islands_ms, pack += s.times.pack_ms, integrate += s.times.integrate_ms;
+    unpack += s.times.unpack_ms, total += s.times.total_ms;
+    contacts += s.contacts, islands += s.islands, active += s.active_bodies, iterations += s.solver_iterations;
+    decoupled += s.decoupled_islands, failed += s.failed_islands;
+    store = std::max(store, s.local_store_peak_bytes);
+  }
+  void report(benchmark::State& state) const {
+    using benchmark::Counter;
+    const auto avg = Counter::kAvgIterations;
+    // stage times in microseconds per step
+    state.counters["broad_us"] = Counter(1e3 * broad, avg);
+    state.counters["mid_us"] = Counter(1e3 * mid, avg);
+    state.counters["narrow_us"] = Counter(1e3 * narrow, avg);
+    state.counters["sleep_us"] = Counter(1e3 * sleep, avg);
+    state.counters["islands_us"] = Counter(1e3 * islands_t, avg);
+    state.counters["pack_us"] = Counter(1e3 * pack, avg);
+    state.counters["integrate_us"] = Counter(1e3 * integrate, avg);
+    state.counters["unpack_us"] = Counter(1e3 * unpack, avg);
+    state.counters["step_us"] = Counter(1e3 * total, avg);
+    state.counters["contacts"] = Counter(contacts, avg);
+    state.counters["islands"] = Counter(islands, avg);
+    state.counters["active"] = Counter(active, avg);
+    state.counters["solver_its"] = Counter(iterations, avg);
+    state.counters["decoupled"] = Counter(decoupled, avg);
+    state.counters["failed"] = Counter(failed, avg);
+    state.counters["store_peak_B"] = Counter(double(store));
+  }
+};
+
+// Times world.step() with the world restored to `snap` before each step.
+void time_restored_steps(benchmark::State& state, World& w, const Snapshot& snap) {
+  Sums sums;
+  for (auto _ : state) {
+    state.PauseTiming();
+    snap.restore(w);
+    state.ResumeTiming();
+    sums.add(w.step());
+  }
+  sums.report(state);
+  state.counters["max_speed"] = max_speed(w, snap.ids);  // after the timed step: a sanity flag
+}
+
+// args: box mass in tenths of a kg (10 = the seed's 1 kg, 625 = a 62.5 kg crate), workers
+void BM_Pile65Step(benchmark::State& state) {
+  const float mass = float(state.range(0)) / 10.0f;
+  WorldSettings s;
+  s.workers = int(state.range(1));
+  World w(s);
+  const std::vector<BodyId> boxes = pile_in_bin(w, 65, 0.25f, 1, mass);
+  for (int i = 0; i < 30; ++i) w.step();  // 0.5 s: landed, still awake (sleep needs 0.5 s of rest)
+  Snapshot snap;
+  snap.take(w, boxes);
+  time_restored_steps(state, w, snap);
+  state.SetLabel(std::string(mass == 1.0f ? "seed 1 kg boxes" : "crates") + ", after 0.5 s");
+}
+BENCHMARK(BM_Pile65Step)
+    ->ArgNames({"mass_dg", "workers"})
+    ->Args({10, 1})
+    ->Args({10, 2})
+    ->Args({625, 1})
+    ->Args({625, 2})
+    ->Unit(benchmark::kMicrosecond);
+
+// args: settle seconds before timing (0 = the first step, all awake), workers
+void BM_Sparse1000Step(benchmark::State& state) {
+  const int settle = int(state.range(0));
+  WorldSettings s;
+  s.workers = int(state.range(1));
+  World w(s);
+  const std::vector<BodyId> bodies = sparse_world(w, 1000, 100.0f, 1);
+  if (settle == 0) {
+    Snapshot snap;
+    snap.take(w, bodies);
+    time_restored_steps(state, w, snap);
+    state.SetLabel("start, all awake");
+    return;
+  }
+  for (int i = 0; i < settle * 60; ++i) w.step();
+  Sums sums;
+  for (auto _ : state) sums.add(w.step());
+  sums.report(state);
+  state.counters["asleep"] = count_asleep(w, bodies);
+  state.SetLabel("after " + std::to_string(settle) + " s, mostly asleep");
+}
+BENCHMARK(BM_Sparse1000Step)
+    ->ArgNames({"settle_s", "workers"})
+    ->Args({0, 1})
+    ->Args({0, 2})
+    ->Args({10, 1})
+    ->Args({10, 2})
+    ->Unit(benchmark::kMicrosecond);
+
+}  // namespace

@@ -54,9 +54,9 @@ inline constexpr ParamInfo kApplied_WrenchParams[] = {
 };
 
 inline constexpr ParamInfo kContactParams[] = {
-    {"point", ParamType::vec3, 0, 3, false, 0.0f, "contact point, world frame, at the island's start pose (m)"},
+    {"point", ParamType::vec3, 0, 3, false, 0.0f, "contact point, world frame (m)"},
     {"normal", ParamType::vec3, 16, 3, false, 0.0f, "unit normal from a to b, world frame"},
-    {"penetration", ParamType::f32, 32, 1, false, 0.0f, "overlap along the normal at the island's start pose (m)"},
+    {"penetration", ParamType::f32, 32, 1, false, 0.0f, "overlap along the normal at the start of the step (m)"},
     {"friction", ParamType::f32, 36, 1, true, 0.0f, "friction coefficient of the pair"},
 };
 
@@ -95,7 +95,7 @@ inline constexpr ParamInfo kAir_DragParams[] = {
 
 inline constexpr ForceInfo kForceTable[] = {
     {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
-    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 4, "Penalty contact: a normal spring-damper that only pushes, plus regularised Coulomb friction."},
+    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 4, "Penalty contact: a normal spring-damper that only pushes, plus smooth regularised Coulomb friction."},
     {"damping", ForceType::damping, ForceKind::unary, false, false, "Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), offsetof(Damping_Force, body_a), -1, kDampingParams, 2, "Linear and angular damping: f = -linear m v, tau = -angular I omega (coefficients in 1/s)."},
     {"gravity", ForceType::gravity, ForceKind::global, false, true, "Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), offsetof(Gravity_Force, body_a), -1, kGravityParams, 0, "Uniform gravity on every body of the island."},
     {"gyroscopic", ForceType::gyroscopic, ForceKind::unary, false, false, "Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), offsetof(Gyroscopic_Force, body_a), -1, kGyroscopicParams, 0, "Gyroscopic torque -omega x (I omega) of a body whose inertia is not isotropic."},

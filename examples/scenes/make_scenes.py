@@ -1,0 +1,376 @@
+#!/usr/bin/python3
+"""Writes the built-in scene files (examples/scenes/*.json). Deterministic, standard library only.
+
+    /usr/bin/python3 examples/scenes/make_scenes.py [--out DIR]
+
+pile65 mirrors testing/scenes.cpp pile_in_bin(w, 65, 0.25, seed 1): the same Mersenne
+Twister draws, in the same order, with float32 rounding, so the file is the fixture's scene.
+world1000 is a sparse world of 1,000 bodies in the manner of sparse_world(w, 1000, 100, 1)
+(its hulls are point-symmetric clouds, so their centre of mass is their origin and the file
+needs no hull arithmetic). The small scenes are written out by hand below.
+"""
+import argparse
+import json
+import math
+import os
+import struct
+
+
+def f32(x):
+    return struct.unpack("f", struct.pack("f", x))[0]
+
+
+class MT19937:
+    """std::mt19937, bit for bit."""
+
+    def __init__(self, seed):
+        self.mt = [0] * 624
+        self.mt[0] = seed & 0xFFFFFFFF
+        for i in range(1, 624):
+            self.mt[i] = (1812433253 * (self.mt[i - 1] ^ (self.mt[i - 1] >> 30)) + i) & 0xFFFFFFFF
+        self.index = 624
+
+    def __call__(self):
+        if self.index >= 624:
+            for i in range(624):
+                y = (self.mt[i] & 0x80000000) | (self.mt[(i + 1) % 624] & 0x7FFFFFFF)
+                v = self.mt[(i + 397) % 624] ^ (y >> 1)
+                if y & 1:
+                    v ^= 0x9908B0DF
+                self.mt[i] = v
+            self.index = 0
+        y = self.mt[self.index]
+        self.index += 1
+        y ^= y >> 11
+        y ^= (y << 7) & 0x9D2C5680
+        y ^= (y << 15) & 0xEFC60000
+        y ^= y >> 18
+        return y & 0xFFFFFFFF
+
+
+class Rng:
+    """testing/scenes.cpp Rng: uniform in [lo, hi) from the top 24 bits of one draw, in float."""
+
+    def __init__(self, seed):
+        self.g = MT19937(seed)
+
+    def uniform(self, lo, hi):
+        lo, hi = f32(lo), f32(hi)
+        x = float(self.g() >> 8)
+        return f32(lo + f32(f32(f32(hi - lo) * x) * f32(1.0 / 16777216.0)))
+
+
+def axis_angle(ax, ay, az, angle):
+    s = f32(math.sin(f32(0.5 * angle)))
+    return [f32(math.cos(f32(0.5 * angle))), f32(ax * s), f32(ay * s), f32(az * s)]
+
+
+def quat_mul(a, b):
+    return [
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    ]
+
+
+def random_small_rotation(r, max_angle):
+    while True:
+        a = [r.uniform(-1, 1) for _ in range(3)]
+        n2 = f32(f32(f32(a[0] * a[0]) + f32(a[1] * a[1])) + f32(a[2] * a[2]))
+        if not (n2 < 1e-4 or n2 > 1.0):
+            break
+    n = f32(math.sqrt(n2))
+    return axis_angle(f32(a[0] / n), f32(a[1] / n), f32(a[2] / n), r.uniform(-max_angle, max_angle))
+
+
+def num(x):
+    """A float32 as its shortest decimal form (what the C++ reader rounds back to the same float)."""
+    x = f32(x)
+    if x == 0:
+        return 0.0
+    for digits in range(1, 10):
+        s = "%.*g" % (digits, x)
+        if f32(float(s)) == x:
+            return float(s)
+    return x
+
+
+def vec(v):
+    return [num(x) for x in v]
+
+
+GROUND = {"name": "ground", "type": "plane", "normal": [0, 0, 1], "offset": 0}
+
+
+def ground_body(friction=0.5):
+    return {"id": "ground", "shape": "ground", "static": True, "friction": friction}
+
+
+# ---- pile65: the seed's reference group ----
+
+
+def pile(n=65, h=0.25, seed=1, mass=1.0):
+    r = Rng(seed)
+    k = max(4, int(math.ceil(4.0 * math.sqrt(n / 65.0))))
+    hb = f32(f32(f32(1.2 * (k - 1)) + f32(1.4)) * h)
+    wall_t, wall_h = h, f32(4.0 * h)
+    spacing, layer = f32(2.4 * h), f32(2.6 * h)
+    bodies = []
+    for i in range(n):
+        col, lay = i % (k * k), i // (k * k)
+        jx = f32(r.uniform(-0.1, 0.1) * h)
+        jy = f32(r.uniform(-0.1, 0.1) * h)
+        x = f32(f32(f32(col % k) - f32(0.5 * (k - 1))) * spacing) + jx
+        y = f32(f32(f32(col // k) - f32(0.5 * (k - 1))) * spacing) + jy
+        z = f32(f32(1.3 * h) + f32(lay * layer))
+        q = random_small_rotation(r, 0.15)
+        bodies.append({"id": "box%02d" % i, "shape": "box", "mass": mass, "position": vec([x, y, z]),
+                       "orientation": vec(q), "friction": 0.5})
+    bodies.insert(0, ground_body())
+    wx = [hb + 2 * wall_t, wall_t, wall_h]
+    wy = [wall_t, hb, wall_h]
+    for s in (-1, 1):
+        side = "south" if s < 0 else "north"
+        bodies.append({"id": "wall_" + side, "shape": "wall_x", "static": True,
+                       "position": vec([0, s * (hb + wall_t), wall_h]), "friction": 0.5})
+        side = "west" if s < 0 else "east"
+        bodies.append({"id": "wall_" + side, "shape": "wall_y", "static": True,
+                       "position": vec([s * (hb + wall_t), 0, wall_h]), "friction": 0.5})
+    return {
+        "description": "The seed's reference group: 65 boxes (0.25 m half-extent, 1 kg) dropped into a bin "
+                       "(ground plane and 4 static walls); about 400 contacts once settled.",
+        "settings": {"dt": num(1 / 60), "integrator": "implicit_split", "solver": "cgs"},
+        "shapes": [GROUND, {"name": "box", "type": "box", "half_extents": [h, h, h]},
+                   {"name": "wall_x", "type": "box", "half_extents": vec(wx)},
+                   {"name": "wall_y", "type": "box", "half_extents": vec(wy)}],
+        "bodies": bodies,
+    }
+
+
+# ---- world1000: a sparsely populated world ----
+
+
+def sparse(n=1000, area=100.0, seed=1):
+    r = Rng(seed)
+    shapes = [GROUND,
+              {"name": "box_cube", "type": "box", "half_extents": [1, 1, 1]},
+              {"name": "box_slab", "type": "box", "half_extents": [1, 0.7, 0.5]},
+              {"name": "box_plank", "type": "box", "half_extents": [1, 0.5, 0.25]},
+              {"name": "ball", "type": "sphere", "radius": 1},
+              {"name": "capsule_fat", "type": "capsule", "radius": 0.5, "half_height": 0.8},
+              {"name": "capsule_thin", "type": "capsule", "radius": 0.35, "half_height": 1.0}]
+    boxes = shapes[1:4]
+    capsules = shapes[5:7]
+    hulls = []
+    for k in range(3):
+        half = [[r.uniform(-1, 1) for _ in range(3)] for _ in range(6)]
+        pts = [vec(p) for p in half] + [vec([-c for c in p]) for p in half]  # point-symmetric: centroid at 0
+        hull = {"name": "rock%d" % k, "type": "hull", "points": pts}
+        shapes.append(hull)
+        hulls.append(hull)
+    cells = max(1, int(math.ceil(math.sqrt(n))))
+    cell = area / cells
+    jitter = max(0.0, 0.5 * cell - 0.6)
+    bodies = [ground_body()]
+    count = 0
+    for k in range(cells * cells):
+        if count >= n:
+            break
+        cx = -0.5 * area + (k % cells + 0.5) * cell + r.uniform(-jitter, jitter)
+        cy = -0.5 * area + (k // cells + 0.5) * cell + r.uniform(-jitter, jitter)
+        size = r.uniform(0.15, 0.4)
+        kind = r.uniform(0, 1)
+        dropped = r.uniform(0, 1) < 0.5
+        drop = r.uniform(0.05, 0.5) if dropped else 0.0
+        yaw = r.uniform(-3.14159, 3.14159)
+        density = r.uniform(400, 900)
+        q_yaw = axis_angle(0, 0, 1, yaw)
+
+        def body(shape, scale, z, q):
+            nonlocal count
+            count += 1
+            return {"id": count, "shape": shape, "scale": num(scale), "density": num(density),
+                    "position": vec([cx, cy, z]), "orientation": vec(q), "friction": 0.5}
+
+        pair = k % 10 == 5 and count + 2 <= n
+        if pair or kind < 0.4:
+            shape = boxes[0] if pair else boxes[int(r.uniform(0, 2.999))]
+            hz = shape["half_extents"][2] * size
+            bodies.append(body(shape["name"], size, (0.0 if pair else drop) + hz, q_yaw))
+            if pair:  # a smaller box resting on top, turned a little: a two-body island
+                top = 0.8 * size
+                bodies.append(body(shape["name"], top, 2 * hz + shape["half_extents"][2] * top,
+                                   axis_angle(0, 0, 1, yaw + 0.3)))
+        elif kind < 0.65:
+            bodies.append(body("ball", size, drop + size, q_yaw))
+        elif kind < 0.9:  # lying on its side: body z turned horizontal, then yawed
+            shape = capsules[int(r.uniform(0, 1.999))]
+            q = quat_mul(q_yaw, axis_angle(0, 1, 0, 1.5707963))
+            bodies.append(body(shape["name"], size, drop + shape["radius"] * size, q))
+        else:  # hulls are dropped a little, at an arbitrary yaw
+            hull = hulls[int(r.uniform(0, 2.999))]
+            lowest = min(p[2] for p in hull["points"])  # yaw keeps z
+            bodies.append(body(hull["name"], size, 0.05 + drop - lowest * size, q_yaw))
+    return {
+        "description": "The default world: 1,000 boxes, spheres, capsules and hulls scattered over a "
+                       "100 m square of ground; half dropped, half resting, most soon asleep.",
+        "settings": {"dt": num(1 / 60), "integrator": "implicit_split", "solver": "cgs", "sleeping": True},
+        "shapes": shapes,
+        "bodies": bodies,
+    }
+
+
+# ---- the small scenes ----
+
+
+def stack10():
+    h = 0.25
+    bodies = [ground_body()]
+    for i in range(10):
+        bodies.append({"id": "box%d" % i, "shape": "box", "mass": 1.0,
+                       "position": vec([0, 0, h + i * 2 * h]), "friction": 0.5})
+    return {"description": "Ten 1 kg boxes (0.25 m half-extent) stacked touching on the ground: should stand still.",
+            "settings": {"dt": num(1 / 60)},
+            "shapes": [GROUND, {"name": "box", "type": "box", "half_extents": [h, h, h]}],
+            "bodies": bodies}
+
+
+def chain_ratio(links=20, heavy=1000.0, height=3.0):
+    r, half_length, gap = 0.05, 0.2, 0.05
+    reach = half_length + 0.5 * gap
+    q = vec(axis_angle(0, 1, 0, 1.5707963))  # body z along world +x
+    bodies, forces = [], []
+    for i in range(links):
+        bodies.append({"id": "link%02d" % i, "shape": "link", "mass": heavy if i == links - 1 else 1.0,
+                       "position": vec([reach + i * 2 * reach, 0, height]), "orientation": q})
+    k = 1e5 * heavy
+    c = 2 * math.sqrt(k * 1.0)
+    forces.append({"type": "point_to_point", "a": "link00", "b": "world", "point_a": vec([0, 0, -reach]),
+                   "point_b": vec([0, 0, height]), "stiffness": num(k), "damping": num(c)})
+    for i in range(links - 1):
+        forces.append({"type": "point_to_point", "a": "link%02d" % i, "b": "link%02d" % (i + 1),
+                       "point_a": vec([0, 0, reach]), "point_b": vec([0, 0, -reach]),
+                       "stiffness": num(k), "damping": num(c)})
+    return {"description": "A 20-link chain pinned at one end, last link 1000x heavier, point_to_point joints: "
+                           "a stiff, badly conditioned system released horizontally.",
+            "settings": {"dt": num(1 / 60), "sleeping": False},
+            "shapes": [{"name": "link", "type": "capsule", "radius": r, "half_height": num(half_length - r)}],
+            "bodies": bodies, "forces": forces}
+
+
+def spin():
+    return {"description": "Intermediate-axis rotation: a 0.1 x 0.4 x 0.8 m box spinning at (1, 10, 1) rad/s "
+                           "with no gravity tumbles while |L| and energy hold.",
+            "settings": {"dt": num(1 / 60), "gravity": [0, 0, 0], "sleeping": False},
+            "shapes": [{"name": "brick", "type": "box", "half_extents": [0.05, 0.2, 0.4]}],
+            "bodies": [{"id": "brick", "shape": "brick", "mass": 1.0, "angular_velocity": [1, 10, 1]}]}
+
+
+def stiff_spring():
+    return {"description": "A 1 kg ball on an undamped 1e6 N/m spring to a fixed point (period 6 ms at 60 Hz "
+                           "steps): explicit integrators blow up, implicit ones stay bounded.",
+            "settings": {"dt": num(1 / 60), "sleeping": False},
+            "shapes": [{"name": "ball", "type": "sphere", "radius": 0.1}],
+            "bodies": [{"id": "ball", "shape": "ball", "mass": 1.0, "position": [0, 0, 0.9]}],
+            "forces": [{"type": "spring", "a": "ball", "b": "world", "point_a": [0, 0, 0], "point_b": [0, 0, 2],
+                        "stiffness": 1e6, "damping": 0, "rest_length": 1.0}]}
+
+
+def incline():
+    angle = math.radians(30)
+    n = [math.sin(angle), 0, math.cos(angle)]
+    down = [math.cos(angle), 0, -math.sin(angle)]
+    q = vec(axis_angle(0, 1, 0, angle))
+    h = 0.25
+
+    def at(along, side, height):
+        return vec([along * down[k] + height * n[k] + (side if k == 1 else 0) for k in range(3)])
+
+    return {"description": "A 30 degree incline: a box with friction 0.8 holds (0.8 > tan 30), one with 0.2 "
+                           "slides at g (sin - 0.2 cos), a ball rolls.",
+            "settings": {"dt": num(1 / 240), "sleeping": False},
+            "shapes": [{"name": "slope", "type": "plane", "normal": vec(n), "offset": 0},
+                       {"name": "box", "type": "box", "half_extents": [h, h, h]},
+                       {"name": "ball", "type": "sphere", "radius": 0.2}],
+            "bodies": [{"id": "slope", "shape": "slope", "static": True, "friction": 1.0},
+                       {"id": "sticky", "shape": "box", "mass": 1.0, "position": at(0, -1, h), "orientation": q,
+                        "friction": 0.8},
+                       {"id": "slippery", "shape": "box", "mass": 1.0, "position": at(0, 0, h), "orientation": q,
+                        "friction": 0.2},
+                       {"id": "ball", "shape": "ball", "mass": 1.0, "position": at(0, 1, 0.2), "friction": 0.8}]}
+
+
+def pendulum():
+    theta = math.radians(60)
+    L = 1.0
+    pos = [L * math.sin(theta), 0, 2 - L * math.cos(theta)]
+    return {"description": "A 1 m pendulum (1 kg ball on a stiff point-to-point joint to a fixed point) "
+                           "released at 60 degrees: period about 2.15 s.",
+            "settings": {"dt": num(1 / 120), "sleeping": False},
+            "shapes": [{"name": "bob", "type": "sphere", "radius": 0.05}],
+            "bodies": [{"id": "bob", "shape": "bob", "mass": 1.0, "position": vec(pos),
+                        "orientation": vec(axis_angle(0, 1, 0, -theta))}],
+            "forces": [{"type": "point_to_point", "a": "bob", "b": "world", "point_a": [0, 0, L],
+                        "point_b": [0, 0, 2], "stiffness": 1e5, "damping": 20}]}
+
+
+def newton_cradle(n=5, r=0.1, L=1.0):
+    theta = math.radians(30)
+    bodies, forces = [], []
+    for i in range(n):
+        ax = i * 2 * r
+        if i == 0:
+            pos = [ax - L * math.sin(theta), 0, 2 - L * math.cos(theta)]
+            q = axis_angle(0, 1, 0, theta)
+        else:
+            pos, q = [ax, 0, 2 - L], [1, 0, 0, 0]
+        bodies.append({"id": "ball%d" % i, "shape": "ball", "mass": 1.0, "position": vec(pos), "orientation": vec(q),
+                       "friction": 0.0})
+        forces.append({"type": "point_to_point", "a": "ball%d" % i, "b": "world", "point_a": [0, 0, L],
+                       "point_b": vec([ax, 0, 2]), "stiffness": 1e5, "damping": 20})
+    return {"description": "Newton's cradle: five touching 1 kg balls on 1 m pendulums, the first released "
+                           "from 30 degrees (penalty contacts, so the transfer is soft).",
+            "settings": {"dt": num(1 / 240), "sleeping": False,
+                         "contact": {"stiffness": 1e6, "damping": 10}},
+            "shapes": [{"name": "ball", "type": "sphere", "radius": r}],
+            "bodies": bodies, "forces": forces}
+
+
+SCENES = {
+    "world1000": sparse,
+    "pile65": pile,
+    "stack10": stack10,
+    "chain_ratio": chain_ratio,
+    "spin": spin,
+    "stiff_spring": stiff_spring,
+    "incline": incline,
+    "pendulum": pendulum,
+    "newton_cradle": newton_cradle,
+}
+
+
+def compact(obj, indent=0):
+    """JSON with one line per body/force/shape: readable and diff-friendly."""
+    pad = "  " * indent
+    if isinstance(obj, dict) and indent < 1:
+        items = ['%s  "%s": %s' % (pad, k, compact(v, indent + 1)) for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+    if isinstance(obj, list) and indent == 1 and obj and isinstance(obj[0], dict):
+        return "[\n" + ",\n".join(pad + "  " + json.dumps(x) for x in obj) + "\n" + pad + "]"
+    return json.dumps(obj)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=os.path.dirname(os.path.abspath(__file__)))
+    args = ap.parse_args()
+    for name, make in SCENES.items():
+        path = os.path.join(args.out, name + ".json")
+        with open(path, "w") as f:
+            f.write(compact(make()) + "\n")
+        print("wrote", path)
+
+
+if __name__ == "__main__":
+    main()

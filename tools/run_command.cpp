@@ -1,0 +1,573 @@
+// `cellphys run` and `cellphys scenes`: load a scene (a file or a built-in name), build the
+// world, step it, and report: a summary on stdout, optionally a trajectory CSV and a
+// statistics JSON. Output files are written under a temporary name in the same directory and
+// renamed at the end, so a failed or interrupted run never leaves a partial file.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "runtime/scene/scene.h"
+#include "runtime/spu/simd.h"
+#include "tools/cli.h"
+
+#ifndef CELLPHYS_SCENES_DIR
+#define CELLPHYS_SCENES_DIR ""
+#endif
+
+namespace cellphys::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+const char kDefaultScene[] = "world1000";
+constexpr double kDefaultDuration = 5.0;  // s of simulated time when neither --duration nor --steps
+
+const char kRunHelp[] =
+    "usage: cellphys run [SCENE] [options]\n"
+    "\n"
+    "Steps SCENE (a scene file, or the name of a built-in scene: `cellphys scenes` lists them;\n"
+    "default: world1000) and prints a summary.\n"
+    "\n"
+    "options:\n"
+    "  --duration S      simulate S seconds (default 5)\n"
+    "  --steps N         or exactly N steps\n"
+    "  --dt H            step size in seconds (overrides the scene's settings.dt)\n"
+    "  --integrator NAME implicit_split, implicit_euler, rosenbrock, symplectic_euler,\n"
+    "                    explicit_euler, rk4\n"
+    "  --solver NAME     cgs, bicgstab, direct\n"
+    "  --tolerance T     linear solver tolerance\n"
+    "  --workers K       compute workers (threads)\n"
+    "  --out FILE        trajectory CSV: step,t,body,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n"
+    "                    (every body; step 0 and every N-th step)\n"
+    "  --every N         with --out: write every N-th step (default 1)\n"
+    "  --stats FILE      run statistics as JSON\n"
+    "  -h, --help        this text\n"
+    "\n"
+    "Exit codes: 0 done, 1 a failure while running or writing, 2 a usage or scene error.\n"
+    "Built-in scenes are looked up in $CELLPHYS_SCENES, then in the source tree's examples/scenes.\n";
+
+struct UsageError {
+  std::string message;
+};
+
+// ---- interruption: SIGINT/SIGTERM stop the run between steps so temporaries are removed ----
+
+std::atomic<int> g_signal{0};
+extern "C" void on_signal(int sig) { g_signal.store(sig); }
+
+// ---- output files: temporary name, renamed on success, removed otherwise ----
+
+class AtomicFile {
+ public:
+  AtomicFile() = default;
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+  ~AtomicFile() { discard(); }
+
+  // Opens a temporary next to `path`; throws std::runtime_error with the reason.
+  void open(const std::string& path) {
+    path_ = path;
+    const fs::path p(path);
+    const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+    std::string name = "." + p.filename().string() + ".tmp." + std::to_string(::getpid()) + ".XXXXXX";
+    std::string tmpl = (dir / name).string();
+    std::vector<char> buf(tmpl.begin(), tmpl.end());
+    buf.push_back('\0');
+    const int fd = ::mkstemp(buf.data());
+    if (fd < 0) throw std::runtime_error(path + ": cannot create a file next to it: " + std::strerror(errno));
+    tmp_ = buf.data();
+    f_ = ::fdopen(fd, "w");
+    if (!f_) {
+      ::close(fd);
+      discard();
+      throw std::runtime_error(path + ": cannot open: " + std::strerror(errno));
+    }
+    std::setvbuf(f_, nullptr, _IOFBF, 1 << 20);
+  }
+  FILE* get() const { return f_; }
+  bool is_open() const { return f_ != nullptr; }
+
+  void commit() {
+    if (!f_) return;
+    const bool write_ok = !std::ferror(f_);
+    const bool close_ok = std::fclose(f_) == 0;
+    f_ = nullptr;
+    if (!write_ok || !close_ok) {
+      const std::string why = std::strerror(errno);
+      discard();
+      throw std::runtime_error(path_ + ": write error: " + why);
+    }
+    // mkstemp made it 0600; give it the usual permissions
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    ::chmod(tmp_.c_str(), 0666 & ~mask);
+    if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
+      const std::string why = std::strerror(errno);
+      discard();
+      throw std::runtime_error(path_ + ": cannot rename the finished file into place: " + why);
+    }
+    tmp_.clear();
+  }
+  void discard() {
+    if (f_) std::fclose(f_);
+    f_ = nullptr;
+    if (!tmp_.empty()) std::remove(tmp_.c_str());
+    tmp_.clear();
+  }
+
+ private:
+  std::string path_, tmp_;
+  FILE* f_ = nullptr;
+};
+
+// ---- arguments ----
+
+struct Options {
+  std::string scene;
+  double duration = -1;
+  long long steps = -1;
+  double dt = -1;
+  std::string integrator, solver;
+  double tolerance = -1;
+  int workers = 0;
+  std::string out, stats;
+  long long every = 1;
+};
+
+double parse_positive(const std::string& opt, const char* text) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text, &end);
+  if (end == text || *end != '\0' || errno == ERANGE || !std::isfinite(v) || !(v > 0))
+    throw UsageError{opt + " needs a positive number, got '" + std::string(text) + "'"};
+  return v;
+}
+
+long long parse_count(const std::string& opt, const char* text, long long lo, long long hi) {
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(text, &end, 10);
+  if (end == text || *end != '\0' || errno == ERANGE || v < lo || v > hi)
+    throw UsageError{opt + " needs an integer from " + std::to_string(lo) + " to " + std::to_string(hi) + ", got '" +
+                     std::string(text) + "'"};
+  return v;
+}
+
+// Returns false when --help was asked for.
+bool parse_options(int argc, char** argv, Options& o) {
+  bool have_duration = false, have_steps = false;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    std::string value;
+    bool has_inline = false;
+    if (a.rfind("--", 0) == 0) {
+      const size_t eq = a.find('=');
+      if (eq != std::string::npos) {
+        value = a.substr(eq + 1);
+        a = a.substr(0, eq);
+        has_inline = true;
+      }
+    }
+    auto next = [&]() -> const char* {
+      if (has_inline) return value.c_str();
+      if (i + 1 >= argc) throw UsageError{a + " needs a value"};
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") return false;
+    if (a == "--duration") {
+      o.duration = parse_positive(a, next());
+      have_duration = true;
+    } else if (a == "--steps") {
+      o.steps = parse_count(a, next(), 0, 1000000000LL);
+      have_steps = true;
+    } else if (a == "--dt") {
+      o.dt = parse_positive(a, next());
+    } else if (a == "--integrator") {
+      o.integrator = next();
+    } else if (a == "--solver") {
+      o.solver = next();
+    } else if (a == "--tolerance") {
+      o.tolerance = parse_positive(a, next());
+    } else if (a == "--workers") {
+      o.workers = static_cast<int>(parse_count(a, next(), 1, 256));
+    } else if (a == "--out") {
+      o.out = next();
+    } else if (a == "--every") {
+      o.every = parse_count(a, next(), 1, 1000000000LL);
+    } else if (a == "--stats") {
+      o.stats = next();
+    } else if (!a.empty() && a[0] == '-' && a != "-") {
+      throw UsageError{"unknown option '" + a + "'"};
+    } else if (o.scene.empty()) {
+      o.scene = a;
+    } else {
+      throw UsageError{"more than one scene given ('" + o.scene + "' and '" + a + "')"};
+    }
+  }
+  if (have_duration && have_steps) throw UsageError{"give --duration or --steps, not both"};
+  if (!o.out.empty() && !o.stats.empty()) {
+    std::error_code e1, e2;
+    const fs::path a = fs::weakly_canonical(o.out, e1), b = fs::weakly_canonical(o.stats, e2);
+    if (o.out == o.stats || (!e1 && !e2 && a == b)) throw UsageError{"--out and --stats name the same file"};
+  }
+  return true;
+}
+
+// ---- built-in scenes ----
+
+std::string exe_dir() {
+  std::error_code ec;
+  const fs::path p = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : p.parent_path().string();
+}
+
+// Directories searched for built-in scenes, in order.
+std::vector<std::string> scene_dirs() {
+  std::vector<std::string> dirs;
+  if (const char* env = std::getenv("CELLPHYS_SCENES"); env && *env) {
+    dirs.push_back(env);
+    return dirs;  // an explicit override is the only place looked at
+  }
+  const std::string exe = exe_dir();
+  if (!exe.empty()) {
+    dirs.push_back(exe + "/scenes");                         // an installed layout
+    dirs.push_back((fs::path(exe) / "../../../examples/scenes").lexically_normal().string());  // build/<preset>/tools/
+  }
+  if (*CELLPHYS_SCENES_DIR) dirs.push_back(CELLPHYS_SCENES_DIR);  // the source tree it was built from
+  return dirs;
+}
+
+struct BuiltinScene {
+  std::string name, path;
+};
+
+std::vector<BuiltinScene> builtin_scenes() {
+  for (const std::string& d : scene_dirs()) {
+    std::error_code ec;
+    if (!fs::is_directory(d, ec)) continue;
+    std::vector<BuiltinScene> out;
+    for (const auto& e : fs::directory_iterator(d, ec))
+      if (e.path().extension() == ".json") out.push_back({e.path().stem().string(), e.path().string()});
+    if (out.empty()) continue;
+    std::sort(out.begin(), out.end(), [](const BuiltinScene& a, const BuiltinScene& b) {
+      // the default world first, then by name
+      if ((a.name == kDefaultScene) != (b.name == kDefaultScene)) return a.name == kDefaultScene;
+      return a.name < b.name;
+    });
+    return out;
+  }
+  return {};
+}
+
+bool looks_like_path(const std::string& s) {
+  return s.find('/') != std::string::npos || (s.size() > 5 && s.compare(s.size() - 5, 5, ".json") == 0);
+}
+
+// The file a SCENE argument names (a path, or a built-in scene's file); throws UsageError.
+std::string resolve_scene(const std::string& arg) {
+  std::error_code ec;
+  if (looks_like_path(arg) || fs::is_regular_file(arg, ec)) return arg;
+  const std::vector<BuiltinScene> all = builtin_scenes();
+  for (const BuiltinScene& b : all)
+    if (b.name == arg) return b.path;
+  std::string names;
+  for (const BuiltinScene& b : all) names += (names.empty() ? "" : ", ") + b.name;
+  if (names.empty()) {
+    std::string where;
+    for (const std::string& d : scene_dirs()) where += (where.empty() ? "" : ", ") + d;
+    throw UsageError{"unknown scene '" + arg + "': no built-in scenes found (looked in " + where +
+                     "; set CELLPHYS_SCENES)"};
+  }
+  throw UsageError{"unknown scene '" + arg + "' (not a file; built-in scenes: " + names + ")"};
+}
+
+// ---- output formatting ----
+
+void put_float(std::string& line, float v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  line.append(buf, r.ptr);
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+void write_rows(FILE* f, const scene::SceneDesc& desc, const scene::BuiltScene& built, uint64_t step, double t,
+                const std::vector<std::string>& ids) {
+  std::string line;
+  line.reserve(256);
+  char head[64];
+  const int n = std::snprintf(head, sizeof head, "%llu,%.9g,", static_cast<unsigned long long>(step), t);
+  for (size_t i = 0; i < desc.bodies.size(); ++i) {
+    const ppe::BodyState s = built.world->state(built.bodies[i]);
+    line.assign(head, static_cast<size_t>(n));
+    line += ids[i];
+    for (float v : s.position) line += ',', put_float(line, v);
+    for (float v : s.orientation) line += ',', put_float(line, v);
+    for (float v : s.velocity) line += ',', put_float(line, v);
+    for (float v : s.angular_velocity) line += ',', put_float(line, v);
+    line += '\n';
+    std::fwrite(line.data(), 1, line.size(), f);
+  }
+}
+
+// A progress bar on stderr for runs longer than a second, when stderr is a terminal.
+class Progress {
+ public:
+  explicit Progress(long long total) : total_(total), enabled_(::isatty(2) == 1), start_(Clock::now()) {}
+  void update(long long done) {
+    if (!enabled_ || total_ <= 0) return;
+    const auto now = Clock::now();
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    if (elapsed < 1.0 || std::chrono::duration<double>(now - last_).count() < 0.1) return;
+    last_ = now;
+    const double frac = double(done) / double(total_);
+    const int width = 30, fill = static_cast<int>(frac * width);
+    const double eta = done > 0 ? elapsed * (1.0 - frac) / frac : 0.0;
+    std::fprintf(stderr, "\r[%.*s%.*s] %3d%% step %lld/%lld, %.0f s left ", fill,
+                 "##############################", width - fill, "..............................",
+                 static_cast<int>(100 * frac), done, total_, eta);
+    std::fflush(stderr);
+    shown_ = true;
+  }
+  void finish() {
+    if (shown_) std::fprintf(stderr, "\r\033[K");
+    shown_ = false;
+  }
+  ~Progress() { finish(); }
+
+ private:
+  long long total_;
+  bool enabled_, shown_ = false;
+  Clock::time_point start_, last_{};
+};
+
+std::string scene_label(const std::string& arg, const std::string& file) {
+  return arg == file ? file : arg + " (" + file + ")";
+}
+
+int run(const Options& o) {
+  const std::string arg = o.scene.empty() ? kDefaultScene : o.scene;
+  const std::string file = resolve_scene(arg);
+  scene::SceneDesc desc = scene::load_scene(file);
+
+  // command-line overrides
+  if (o.dt > 0) desc.settings.dt = static_cast<float>(o.dt);
+  if (!o.integrator.empty() && !spu::parse_integrator(o.integrator, &desc.settings.integrator))
+    throw UsageError{"unknown integrator '" + o.integrator +
+                     "' (known: implicit_split, implicit_euler, rosenbrock, symplectic_euler, explicit_euler, rk4)"};
+  if (!o.solver.empty() && !scene::parse_solver(o.solver, &desc.settings.solver))
+    throw UsageError{"unknown solver '" + o.solver + "' (known: cgs, bicgstab, direct)"};
+  if (o.tolerance > 0) desc.settings.tolerance = static_cast<float>(o.tolerance);
+  if (o.workers > 0) desc.settings.workers = o.workers;
+  if (!(desc.settings.dt > 0.0f) || !std::isfinite(desc.settings.dt)) throw UsageError{"--dt is too small or too large"};
+
+  scene::BuiltScene built = scene::build_world(desc);
+  for (const std::string& w : built.warnings) std::fprintf(stderr, "cellphys: warning: %s\n", w.c_str());
+  ppe::World& world = *built.world;
+
+  const double dt = desc.settings.dt;
+  long long steps = o.steps;
+  if (steps < 0) {
+    const double duration = o.duration > 0 ? o.duration : kDefaultDuration;
+    steps = static_cast<long long>(std::ceil(duration / dt - 1e-9));
+    if (steps > 1000000000LL) throw UsageError{"--duration / dt is more than 1e9 steps"};
+  }
+
+  AtomicFile out, stats_file;
+  std::vector<std::string> ids;
+  if (!o.out.empty()) {
+    out.open(o.out);
+    std::fputs("step,t,body,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n", out.get());
+    for (const scene::BodySpec& b : desc.bodies) ids.push_back(csv_field(b.id));
+    write_rows(out.get(), desc, built, 0, 0.0, ids);
+  }
+  if (!o.stats.empty()) stats_file.open(o.stats);
+
+  const double ke0 = world.kinetic_energy();
+  std::vector<double> step_ms;
+  step_ms.reserve(static_cast<size_t>(std::min<long long>(steps, 10000000)));
+  uint64_t iterations = 0, solves = 0, halvings = 0, failed = 0, decoupled = 0, contacts_max = 0;
+  size_t ls_peak = 0;
+  Progress progress(steps);
+  const auto t0 = Clock::now();
+  for (long long s = 1; s <= steps; ++s) {
+    if (g_signal.load()) {
+      progress.finish();
+      std::fprintf(stderr, "cellphys: interrupted at step %lld of %lld; no output written\n", s - 1, steps);
+      return 128 + g_signal.load();
+    }
+    const auto a = Clock::now();
+    const ppe::StepStats& st = world.step();
+    step_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - a).count());
+    iterations += st.solver_iterations;
+    solves += st.solves;
+    halvings += st.step_halvings;
+    failed += st.failed_islands;
+    decoupled += st.decoupled_islands;
+    contacts_max = std::max<uint64_t>(contacts_max, st.contacts);
+    ls_peak = std::max(ls_peak, st.local_store_peak_bytes);
+    if (out.is_open() && s % o.every == 0) write_rows(out.get(), desc, built, static_cast<uint64_t>(s), double(s) * dt, ids);
+    progress.update(s);
+  }
+  const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  progress.finish();
+  const double ke1 = world.kinetic_energy();
+  const ppe::StepStats& last = world.last_stats();
+
+  std::vector<double> sorted = step_ms;
+  std::sort(sorted.begin(), sorted.end());
+  const double median = sorted.empty() ? 0.0
+                        : sorted.size() % 2 ? sorted[sorted.size() / 2]
+                                            : 0.5 * (sorted[sorted.size() / 2 - 1] + sorted[sorted.size() / 2]);
+  uint32_t statics = 0;
+  for (ppe::BodyId id : built.bodies) statics += world.is_static(id) ? 1 : 0;
+  const uint32_t dynamic = static_cast<uint32_t>(built.bodies.size()) - statics;
+  // Before any step, every dynamic body counts as active.
+  const uint32_t active = steps > 0 ? last.active_bodies : dynamic;
+  const uint32_t sleeping = steps > 0 ? last.sleeping_bodies : 0;
+  const double iter_mean = solves ? double(iterations) / double(solves) : 0.0;
+
+  if (stats_file.is_open()) {
+    nlohmann::ordered_json j;
+    j["scene"] = arg;
+    j["scene_file"] = file;
+    j["integrator"] = spu::integrator_name(desc.settings.integrator);
+    j["solver"] = scene::solver_name(desc.settings.solver);
+    j["dt"] = dt;
+    j["workers"] = desc.settings.workers;
+    j["simd_path"] = simd::kPathName;
+    j["steps"] = steps;
+    j["sim_time_s"] = double(steps) * dt;
+    j["wall_s"] = wall;
+    j["ms_per_step_median"] = median;
+    j["ms_per_step_mean"] = steps ? wall * 1000.0 / double(steps) : 0.0;
+    j["ms_per_step_max"] = sorted.empty() ? 0.0 : sorted.back();
+    j["bodies"] = built.bodies.size();
+    j["static_bodies"] = statics;
+    j["forces"] = built.forces.size();
+    j["active_bodies"] = active;
+    j["sleeping_bodies"] = sleeping;
+    j["islands"] = last.islands;
+    j["contacts"] = last.contacts;
+    j["contacts_max"] = contacts_max;
+    j["solver_iterations_mean"] = iter_mean;
+    j["solver_iterations_total"] = iterations;
+    j["solves"] = solves;
+    j["step_halvings"] = halvings;
+    j["failed_islands"] = failed;
+    j["local_store_peak_bytes"] = ls_peak;
+    j["decoupled_islands"] = decoupled;
+    j["kinetic_energy_initial"] = ke0;
+    j["kinetic_energy_final"] = ke1;
+    const std::string text = j.dump(2) + "\n";
+    std::fwrite(text.data(), 1, text.size(), stats_file.get());
+  }
+  // Both files are complete; move them into place (a failure removes what is left).
+  if (out.is_open()) out.commit();
+  if (stats_file.is_open()) stats_file.commit();
+
+  std::printf("scene        %s\n", scene_label(arg, file).c_str());
+  if (!desc.description.empty()) std::printf("description  %s\n", desc.description.c_str());
+  std::printf("bodies       %zu (%u static), %zu forces\n", built.bodies.size(), statics, built.forces.size());
+  std::printf("settings     dt %.6g s, %s, %s, tolerance %g, %d worker%s, SIMD %s\n", dt,
+              spu::integrator_name(desc.settings.integrator), scene::solver_name(desc.settings.solver),
+              double(desc.settings.tolerance), desc.settings.workers, desc.settings.workers == 1 ? "" : "s",
+              simd::kPathName);
+  std::printf("run          %lld steps, %.4g s simulated in %.3f s wall, median %.3f ms per step\n", steps,
+              double(steps) * dt, wall, median);
+  std::printf("at the end   %u active, %u sleeping, %u islands, %u contacts\n", active, sleeping, last.islands,
+              last.contacts);
+  std::printf("solver       %.2f iterations per solve, %llu step halvings, %llu failed islands\n", iter_mean,
+              static_cast<unsigned long long>(halvings), static_cast<unsigned long long>(failed));
+  std::printf("local store  peak %zu bytes, %llu decoupled islands\n", ls_peak,
+              static_cast<unsigned long long>(decoupled));
+  std::printf("energy       kinetic %.6g J at the start, %.6g J at the end\n", ke0, ke1);
+  if (!o.out.empty()) std::printf("trajectory   %s\n", o.out.c_str());
+  if (!o.stats.empty()) std::printf("statistics   %s\n", o.stats.c_str());
+  return failed ? 1 : 0;
+}
+
+}  // namespace
+
+int run_main(int argc, char** argv) {
+  Options o;
+  try {
+    if (!parse_options(argc, argv, o)) {
+      std::fputs(kRunHelp, stdout);
+      return 0;
+    }
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "cellphys run: %s\n(`cellphys run --help` lists the options)\n", e.message.c_str());
+    return 2;
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  try {
+    return run(o);
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "cellphys run: %s\n", e.message.c_str());
+    return 2;
+  } catch (const scene::SceneError& e) {
+    std::fprintf(stderr, "cellphys: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "cellphys: %s\n", e.what());
+    return 1;
+  }
+}
+
+int scenes_main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "-h" || a == "--help") {
+      std::puts("usage: cellphys scenes\n\nLists the built-in scenes (name and description); run one with "
+                "`cellphys run NAME`.");
+      return 0;
+    }
+    std::fprintf(stderr, "cellphys scenes: unexpected argument '%s'\n", a.c_str());
+    return 2;
+  }
+  const std::vector<BuiltinScene> all = builtin_scenes();
+  if (all.empty()) {
+    std::fprintf(stderr, "cellphys scenes: no built-in scenes found (set CELLPHYS_SCENES)\n");
+    return 1;
+  }
+  size_t width = 0;
+  for (const BuiltinScene& b : all) width = std::max(width, b.name.size());
+  int rc = 0;
+  for (const BuiltinScene& b : all) {
+    try {
+      const scene::SceneDesc d = scene::load_scene(b.path);
+      std::printf("%-*s  %s%s\n", static_cast<int>(width), b.name.c_str(), d.description.c_str(),
+                  b.name == kDefaultScene ? " (default)" : "");
+    } catch (const scene::SceneError& e) {
+      std::fprintf(stderr, "cellphys: %s\n", e.what());
+      rc = 1;
+    }
+  }
+  return rc;
+}
+
+}  // namespace cellphys::cli

@@ -128,7 +128,7 @@ class Reader {
     if (!j.is_number_integer()) fail(path, std::string("expected an integer, got ") + json_kind(j));
     if (j.is_number_unsigned()) {
       const uint64_t u = j.get<uint64_t>();
-      if (u > static_cast<uint64_t>(hi)) fail(path, "must be between " + std::to_string(lo) + " and " + std::to_string(hi));
+      if (u > static_cast<uint64_t>(hi) || static_cast<int64_t>(u) < lo) fail(path, "must be between " + std::to_string(lo) + " and " + std::to_string(hi));
       return static_cast<int64_t>(u);
     }
     const int64_t v = j.get<int64_t>();
@@ -210,10 +210,11 @@ void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
   if (const json* v = r.find(j, "contact")) {
     const std::string q = "settings.contact";
     r.object(*v, q);
-    r.known_fields(*v, q, {"stiffness", "damping", "slip_velocity", "margin"}, "settings.contact");
+    r.known_fields(*v, q, {"stiffness", "damping", "slip_velocity", "slop", "margin"}, "settings.contact");
     if (const json* w = r.find(*v, "stiffness")) s.contact_stiffness = r.non_negative(*w, q + ".stiffness");
     if (const json* w = r.find(*v, "damping")) s.contact_damping = r.non_negative(*w, q + ".damping");
     if (const json* w = r.find(*v, "slip_velocity")) s.slip_velocity = r.positive(*w, q + ".slip_velocity");
+    if (const json* w = r.find(*v, "slop")) s.contact_slop = r.non_negative(*w, q + ".slop");
     if (const json* w = r.find(*v, "margin")) s.contact_margin = r.non_negative(*w, q + ".margin");
   }
   if (const json* v = r.find(j, "local_store_bytes"))
@@ -360,34 +361,79 @@ struct DuplicateKey {
   std::string key;
 };
 
+// Where the parser is, as a JSON path: kept from the parser's events so that a syntax error,
+// an overflowing number or a duplicate key can be reported at its field.
+class PathTracker {
+ public:
+  void object_start() { frames_.push_back({false, 0, {}, {}}); }
+  void array_start() { frames_.push_back({true, 0, {}, {}}); }
+  void end() {
+    if (!frames_.empty()) frames_.pop_back();
+    element_done();
+  }
+  void key(const std::string& k) {
+    if (frames_.empty()) return;
+    Frame& f = frames_.back();
+    f.key = k;
+    if (!f.keys.insert(k).second) throw DuplicateKey{k};
+  }
+  // A value finished: the next is the array's next element, or the object's next key.
+  void element_done() {
+    if (frames_.empty()) return;
+    if (frames_.back().is_array)
+      ++frames_.back().index;
+    else
+      frames_.back().key.clear();
+  }
+  std::string path() const {
+    std::string p;
+    for (const Frame& f : frames_) {
+      if (f.is_array)
+        p += "[" + std::to_string(f.index) + "]";
+      else if (!f.key.empty())
+        p += (p.empty() ? "" : ".") + f.key;
+    }
+    return p;
+  }
+
+ private:
+  struct Frame {
+    bool is_array;
+    size_t index;
+    std::string key;
+    std::set<std::string> keys;
+  };
+  std::vector<Frame> frames_;
+};
+
 json parse_json(const std::string& text, const std::string& file) {
-  std::vector<std::set<std::string>> keys;
-  json::parser_callback_t cb = [&keys](int /*depth*/, json::parse_event_t event, json& parsed) {
+  PathTracker where;
+  json::parser_callback_t cb = [&where](int /*depth*/, json::parse_event_t event, json& parsed) {
     switch (event) {
-      case json::parse_event_t::object_start: keys.emplace_back(); break;
-      case json::parse_event_t::object_end: if (!keys.empty()) keys.pop_back(); break;
-      case json::parse_event_t::key: {
-        const std::string k = parsed.get<std::string>();
-        if (!keys.empty() && !keys.back().insert(k).second) throw DuplicateKey{k};
-        break;
-      }
-      default: break;
+      case json::parse_event_t::object_start: where.object_start(); break;
+      case json::parse_event_t::array_start: where.array_start(); break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end: where.end(); break;
+      case json::parse_event_t::key: where.key(parsed.get<std::string>()); break;
+      case json::parse_event_t::value: where.element_done(); break;
     }
     return true;
   };
+  auto strip = [](std::string what) {
+    // "[json.exception.parse_error.101] parse error at line 1, column 2: ..." -> after "] "
+    const size_t at = what.find("] ");
+    return at == std::string::npos ? what : what.substr(at + 2);
+  };
   try {
     return json::parse(text, cb, /*allow_exceptions=*/true, /*ignore_comments=*/false);
+  } catch (const json::out_of_range& e) {  // 406: a number that overflows a double
+    throw SceneError(file, where.path(), "number is not finite (" + strip(e.what()) + ")");
   } catch (const json::parse_error& e) {
-    // e.what() is "[json.exception.parse_error.101] parse error at line 1, column 2: ..."
-    std::string what = e.what();
-    const std::string tag = "] ";
-    const size_t at = what.find(tag);
-    if (at != std::string::npos) what = what.substr(at + tag.size());
-    throw SceneError(file, "", "not valid JSON: " + what);
+    throw SceneError(file, where.path(), "not valid JSON: " + strip(e.what()));
   } catch (const DuplicateKey& d) {
-    throw SceneError(file, "", "duplicate key " + shown(d.key) + " (every key appears once per object)");
+    throw SceneError(file, where.path(), "duplicate key " + shown(d.key) + " (every key appears once per object)");
   } catch (const json::exception& e) {
-    throw SceneError(file, "", std::string("not valid JSON: ") + e.what());
+    throw SceneError(file, where.path(), "not valid JSON: " + strip(e.what()));
   }
 }
 
@@ -519,6 +565,7 @@ std::string write_scene(const SceneDesc& scene) {
   st["contact"] = {{"stiffness", tidy(s.contact_stiffness)},
                    {"damping", tidy(s.contact_damping)},
                    {"slip_velocity", tidy(s.slip_velocity)},
+                   {"slop", tidy(s.contact_slop)},
                    {"margin", tidy(s.contact_margin)}};
   st["local_store_bytes"] = s.local_store_bytes;
   st["region"] = {{"min", arr(s.region_min, 3)}, {"max", arr(s.region_max, 3)}};
@@ -620,6 +667,7 @@ bool operator==(const ppe::WorldSettings& a, const ppe::WorldSettings& b) {
          a.tolerance == b.tolerance && a.max_halvings == b.max_halvings && a.sleeping == b.sleeping &&
          a.workers == b.workers && a.contact_stiffness == b.contact_stiffness &&
          a.contact_damping == b.contact_damping && a.slip_velocity == b.slip_velocity &&
+         a.contact_slop == b.contact_slop &&
          a.contact_margin == b.contact_margin && a.local_store_bytes == b.local_store_bytes &&
          same(a.region_min, b.region_min) && same(a.region_max, b.region_max) && a.sleep_linear == b.sleep_linear &&
          a.sleep_angular == b.sleep_angular && a.sleep_time == b.sleep_time;

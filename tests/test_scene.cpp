@@ -329,3 +329,25 @@ TEST(Scene, BuildReportsBadReferencesInHandMadeDescriptions) {
 }
 
 }  // namespace
+
+namespace {
+
+// The complete example in docs/scene-format.md reads, builds and steps.
+TEST(Scene, TheDocumentedExampleWorks) {
+  std::ifstream in(kScenes + "/../../docs/scene-format.md");
+  ASSERT_TRUE(in) << "docs/scene-format.md";
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string doc = ss.str();
+  const size_t start = doc.find("```json\n");
+  ASSERT_NE(start, std::string::npos);
+  const size_t end = doc.find("```", start + 8);
+  const SceneDesc d = scene::parse_scene(doc.substr(start + 8, end - start - 8), "scene-format.md");
+  EXPECT_EQ(d.bodies.size(), 5u);
+  EXPECT_EQ(d.forces.size(), 3u);
+  scene::BuiltScene b = scene::build_world(d);
+  for (int i = 0; i < 10; ++i) b.world->step();
+  EXPECT_TRUE(std::isfinite(b.world->kinetic_energy()));
+}
+
+}  // namespace

@@ -46,6 +46,8 @@ constexpr int kInvMass = offsetof(g::Rigid_Body, inverse_mass) / 4;
 
 enum Region { kBodyA = 0, kBodyB = 1, kInstance = 2, kGlobals = 3, kRef = 4, kNumRegions = 5 };
 constexpr int kRefWords = 8;  // gather's `ref`: per body the reference pose x y z _ w x y z
+// The step the kernels are evaluated for (a descriptor's `h`: a contact closing within it acts).
+constexpr double kEvalH = 1.0 / 60.0;
 
 // One double per 4-byte word of the packed bodies, instance, Island_Params and reference poses:
 // FD perturbs this in double, and float kernels see it rounded exactly as pack() + gather() would.
@@ -222,10 +224,26 @@ std::vector<T> inputs(const Case<K>& c) {
 }
 
 template <class T, class K>
-std::vector<T> eval_case(const Case<K>& c) {
+std::vector<T> eval_case(const Case<K>& c, double h = kEvalH) {
   std::vector<T> out(K::kOutputs);
-  K::template eval<T>(inputs<T>(c).data(), out.data());
+  K::template eval<T>(inputs<T>(c).data(), T(h), out.data());
   return out;
+}
+
+// The lagged() values of a case: what the linearisation holds through the step.
+template <class K>
+std::vector<double> held_values(const Case<K>& c) {
+  std::vector<double> held(K::kHeld > 0 ? K::kHeld : 1), f(6 * K::kBodies);
+  K::template eval_f<double>(inputs<double>(c).data(), kEvalH, f.data(), nullptr, held.data());
+  return held;
+}
+
+// F with the lagged values given (taken at another state).
+template <class K>
+std::vector<double> eval_f_held(const Case<K>& c, const std::vector<double>& held) {
+  std::vector<double> f(6 * K::kBodies);
+  K::template eval_f<double>(inputs<double>(c).data(), kEvalH, f.data(), held.data());
+  return f;
 }
 
 // ---- Random states --------------------------------------------------------------------------
@@ -278,7 +296,7 @@ template <class K> Vec3 attachment(const Case<K>& c, const char* name, int body)
   return B.x + B.R * r;
 }
 
-struct ContactRef { Vec3 pa, pb, f; double depth, vn, k, c; };
+struct ContactRef { Vec3 pa, pb, f; double depth, vn, k, c, slop, rest; };
 // The contact straight from the descriptor: pa, pb are the material points of a and b that were
 // at `point` at the reference pose (the world's is `point` itself); depth = penetration - (pb - pa).n.
 template <class K> ContactRef contact_ref(const Case<K>& c) {
@@ -286,6 +304,8 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
   const Vec3 p = vec3_at(param(c, "point")), n = vec3_at(param(c, "normal"));
   r.k = global(c, "contact_stiffness");
   r.c = global(c, "contact_damping");
+  r.slop = global(c, "contact_slop");
+  r.rest = global(c, "contact_rest_speed");
   const double mu = *param(c, "friction"), slip = global(c, "slip_velocity");
   Vec3 vel[2];
   for (int body = 0; body < 2; ++body) {
@@ -300,9 +320,12 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
   r.depth = *param(c, "penetration") - n.dot(r.pb - r.pa);
   const Vec3 vrel = vel[1] - vel[0];
   r.vn = n.dot(vrel);
-  const double fn = r.depth > 0 ? std::max(0.0, r.k * r.depth - r.c * r.vn) : 0.0;
+  // overlapping: pushes only; closing within the step (or to within the slop): linear through 0
+  const double spring = r.k * r.depth - r.c * r.vn;
+  const bool closing = r.vn <= r.rest && r.depth - kEvalH * r.vn > -r.slop;
+  const double fn = r.depth > 0 ? std::max(0.0, spring) : closing ? spring : 0.0;
   const Vec3 vt = vrel - r.vn * n;
-  r.f = fn * n - mu * fn * vt / std::sqrt(vt.squaredNorm() + slip * slip);
+  r.f = fn * n - mu * std::max(fn, 0.0) * vt / std::sqrt(vt.squaredNorm() + slip * slip);
   return r;
 }
 
@@ -337,11 +360,22 @@ Case<K> random_case(Rng& rng) {
       *rest = rng.uni(0.2, 0.8) * L;
     }
     if (contact_like<K>()) {
-      // Overlapping by 0.001..0.05 once the bodies' motion since the reference pose is counted,
-      // and well clear of the positive_part kink so central differences stay on one branch.
-      *param(c, "penetration") += rng.uni(0.001, 0.05) - contact_ref(c).depth;
-      const ContactRef r = contact_ref(c);
-      if (r.k * r.depth - r.c * r.vn < 0.5 * r.k * r.depth) continue;
+      if (rng.uni(0, 1) < 0.75) {
+        // Overlapping by 0.001..0.05 once the bodies' motion since the reference pose is
+        // counted, well clear of the positive_part kink so central differences stay on one branch.
+        *param(c, "penetration") += rng.uni(0.001, 0.05) - contact_ref(c).depth;
+        const ContactRef r = contact_ref(c);
+        if (r.k * r.depth - r.c * r.vn < 0.5 * r.k * r.depth) continue;
+      } else {
+        // A gap, closing within the step: depth in (-slop + h vn, 0), 1e-4 m clear of both ends.
+        const ContactRef r0 = contact_ref(c);
+        if (r0.vn > -0.05) continue;
+        const double lo = -r0.slop + kEvalH * r0.vn + 1e-4, hi = -1e-4;
+        if (lo >= hi) continue;
+        *param(c, "penetration") += rng.uni(lo, hi) - r0.depth;
+        const ContactRef r = contact_ref(c);
+        if (!(r.depth < 0 && r.vn <= r.rest && r.depth - kEvalH * r.vn > -r.slop)) continue;
+      }
     }
     return c;
   }
@@ -387,16 +421,18 @@ void perturb(Case<K>& c, int body, int kind, int j, double h) {
 // truncation through).
 constexpr double kFdStep = 1e-6;
 
+// The kernel's blocks are derivatives with the lagged() values held: so are these.
 template <class K>
 Blocks fd_blocks(const Case<K>& c) {
   Blocks B;
+  const std::vector<double> held = held_values(c);
   for (int body = 0; body < K::kBodies; ++body)
     for (int kind = 0; kind < 2; ++kind)
       for (int j = 0; j < 6; ++j) {
         Case<K> cp = c, cm = c;
         perturb(cp, body, kind, j, kFdStep);
         perturb(cm, body, kind, j, -kFdStep);
-        const auto fp = eval_case<double>(cp), fm = eval_case<double>(cm);
+        const auto fp = eval_f_held(cp, held), fm = eval_f_held(cm, held);
         for (int row = 0; row < K::kBodies; ++row)
           for (int i = 0; i < 6; ++i) B.m[kind][row][body](i, j) = (fp[6 * row + i] - fm[6 * row + i]) / (2 * kFdStep);
       }
@@ -546,15 +582,15 @@ void check_batch_lanes_match_float() {
       std::vector<float> fin(K::kInputs);
       gather(p, fin.data());
       gather(p, soa.data() + lane, true, W);
-      K::template eval<float>(fin.data(), want[lane].data());
+      K::template eval<float>(fin.data(), float(kEvalH), want[lane].data());
       want_f[lane].resize(6 * K::kBodies);
-      K::template eval_f<float>(fin.data(), want_f[lane].data());
+      K::template eval_f<float>(fin.data(), float(kEvalH), want_f[lane].data());
       for (int i = 0; i < K::kInputs; ++i) in[i].set(lane, fin[i]);
     }
     for (int i = 0; i < K::kInputs; ++i)  // a stride-W gather writes lane `lane` of the SoA batch
       for (int lane = 0; lane < W; ++lane) EXPECT_EQ(soa[i * W + lane], in[i][lane]) << "strided gather, input " << i;
-    K::template eval<Batch<W>>(in.data(), out.data());
-    K::template eval_f<Batch<W>>(in.data(), fout.data());
+    K::template eval<Batch<W>>(in.data(), Batch<W>(float(kEvalH)), out.data());
+    K::template eval_f<Batch<W>>(in.data(), Batch<W>(float(kEvalH)), fout.data());
     double worst = std::max(compare_lanes(want, out, 6 * K::kBodies, "eval"),
                             compare_lanes(want_f, fout, 6 * K::kBodies, "eval_f"));
     Batch<W> h;
@@ -681,7 +717,7 @@ TEST(ForceKernelForce, MatchesIndependentEigenEvaluation) {
       const auto out = eval_case<double>(c);
       std::vector<double> in(K::kInputs), fo(6 * K::kBodies);
       for (int i = 0; i < K::kInputs; ++i) in[i] = c.region(pr.src[i].region)[pr.src[i].word];
-      K::template eval_f<double>(in.data(), fo.data());
+      K::template eval_f<double>(in.data(), kEvalH, fo.data());
       double d = 0, dfo = 0;
       for (int i = 0; i < 6 * K::kBodies; ++i) {
         d += (out[i] - ref[i]) * (out[i] - ref[i]);
@@ -712,7 +748,7 @@ TEST(ForceKernelImplicit, GAndKMatchFAndBlocksOfEval) {
     for (int s = 0; s < kStates; ++s) {
       const Case<K> c = random_case<K>(rng);
       const double h = rng.uni(1e-4, 1e-2);
-      const std::vector<double> out = eval_case<double>(c);
+      const std::vector<double> out = eval_case<double>(c, h);
       const Blocks J = kernel_blocks<K>(out);
       std::vector<double> io(K::kImplicitOutputs);
       K::template eval_implicit<double>(inputs<double>(c).data(), h, io.data());
@@ -756,11 +792,43 @@ TEST(ContactKernel, NoForceAndNoBlocksWhenSeparated) {
     Rng rng(6000);
     for (int s = 0; s < kStates; ++s) {
       Case<K> c = random_case<K>(rng);
-      // depth exactly 0 is left out: it is computed, so its sign there is rounding noise
-      *param(c, "penetration") += -rng.uni(1e-6, 0.05) - contact_ref(c).depth;
-      ASSERT_LT(contact_ref(c).depth, 0);
-      expect_all_outputs_zero(c, "depth < 0, state " + std::to_string(s));
+      // A gap the step does not close to within the slop (or one that opens). depth exactly 0
+      // is left out: it is computed, so its sign there is rounding noise.
+      const ContactRef r0 = contact_ref(c);
+      const double beyond = r0.vn < 0 ? -r0.slop + kEvalH * r0.vn : -r0.slop;
+      *param(c, "penetration") += beyond - rng.uni(1e-6, 0.05) - r0.depth;
+      const ContactRef r = contact_ref(c);
+      ASSERT_LT(r.depth, 0);
+      ASSERT_TRUE(r.vn > r.rest || r.depth - kEvalH * r.vn < -r.slop);
+      expect_all_outputs_zero(c, "gap not closing, state " + std::to_string(s));
     }
+  });
+}
+
+// Touching at rest (zero depth, zero relative velocity): no force yet, but the normal
+// stiffness is there, so the implicit step meets the surface instead of sinking for a step.
+TEST(ContactKernel, TouchingAtRestHasNoForceButTheNormalStiffness) {
+  for_contact_kernels([](auto k) {
+    using K = decltype(k);
+    SCOPED_TRACE(kernel_name<K>());
+    Rng rng(6500);
+    Case<K> c = random_case<K>(rng);
+    for (int b = 0; b < 2; ++b) {  // both at rest, at their reference poses
+      set3(c.body[b] + kVel, Vec3::Zero());
+      set3(c.body[b] + kAngVel, Vec3::Zero());
+      set3(c.ref + kRefWords * b, vec3_at(c.body[b] + kPos));
+      for (int l = 0; l < 4; ++l) c.ref[kRefWords * b + 4 + l] = c.body[b][kQuat + l];
+    }
+    *param(c, "penetration") = 0;
+    const ContactRef r = contact_ref(c);
+    ASSERT_NEAR(r.depth, 0, 1e-12);  // computed: rounding either way
+    const std::vector<double> out = eval_case<double>(c);
+    EXPECT_LT(f_norm(out, K::kBodies), 1e-9 * r.k);
+    const Vec3 n = vec3_at(param(c, "normal"));
+    const Blocks J = kernel_blocks<K>(out);
+    // dF_a/ddelta_a, linear part: moving a by n deepens the contact by 1, so F_a = -k n (n . dx)
+    const Eigen::Matrix3d want = -r.k * n * n.transpose();
+    EXPECT_LT((J.m[0][0][0].topLeftCorner<3, 3>() - want).norm(), 1e-9 * r.k);
   });
 }
 
@@ -772,6 +840,7 @@ TEST(ContactKernel, NormalForceClampsToZeroWhenSeparatingFast) {
     Rng rng(7000);
     for (int s = 0; s < kStates; ++s) {
       Case<K> c = random_case<K>(rng);
+      while (contact_ref(c).depth <= 0) c = random_case<K>(rng);  // overlapping cases only
       const ContactRef r = contact_ref(c);
       // Make c vn = (1.5..10) k depth: overlapping, but separating faster than the spring pushes.
       const double dvn = rng.uni(1.5, 10) * r.k * r.depth / r.c - r.vn;

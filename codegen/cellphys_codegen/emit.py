@@ -31,6 +31,11 @@ def _struct_view(s, origin):
                 paddings=s.paddings, origin=origin, payload=s.payload_bytes)
 
 
+def _maybe_unused(lines):
+    # a held value only the F-only path reads back (e.g. the world side's zero lever arm)
+    return [f"[[maybe_unused]] {l}" if l.startswith("const S L_") else l for l in lines]
+
+
 def _kernel_view(k, src_root):
     f = k.force
     lines, ops = [], 0
@@ -40,7 +45,7 @@ def _kernel_view(k, src_root):
         ops += n
     for i, st in enumerate(k.stages):
         l, n = block_ops.emit_stages([st], f"l{i}_")
-        lines += l
+        lines += _maybe_unused(l) if k.held[i] else l
         ops += n
     # F alone (explicit integrators, a Rosenbrock method's second stage): no let derivatives
     f_lines, f_ops = [], 0
@@ -48,9 +53,21 @@ def _kernel_view(k, src_root):
         l, n = block_ops.emit_stages([list(k.pre.items())], "p")
         f_lines += l
         f_ops += n
+    # a lagged() let can be read from held_in (the values at another state: the Jacobian tests
+    # difference F with the held values fixed, as the linearisation holds them) and is written
+    # to held_out
     values = [[(sym, e) for sym, e in st if not sym.name.startswith("d_")] for st in k.stages]
+    num_held = 0
     for i, st in enumerate(values):
         l, n = block_ops.emit_stages([st], f"l{i}_")
+        if k.held[i]:
+            tail = l[len(l) - len(st):]
+            l = l[:len(l) - len(st)]
+            for (sym, _), line in zip(st, tail):
+                expr = line.split(" = ", 1)[1].rstrip(";")
+                l.append(f"const S {sym.name} = held_in ? held_in[{num_held}] : S({expr});")
+                l.append(f"if (held_out) held_out[{num_held}] = {sym.name};")
+                num_held += 1
         f_lines += l
         f_ops += n
     tmps, outs, n = cxx_printer.emit(k.forces, "o")
@@ -90,7 +107,7 @@ def _kernel_view(k, src_root):
         name=k.cxx_name, variant=k.variant, num_bodies=k.num_bodies, inputs=inputs,
         blocks=[dict(kind=b.kind, row=b.row_body, col=b.col_body) for b in k.blocks],
         num_outputs=len(outputs), ops=ops, lines=lines, f_lines=f_lines, f_ops=f_ops,
-        i_lines=i_lines, i_ops=i_ops, i_pairs=k.implicit["pairs"], i_outputs=len(k.implicit["outputs"]),
+        i_lines=i_lines, i_ops=i_ops, num_held=num_held, i_pairs=k.implicit["pairs"], i_outputs=len(k.implicit["outputs"]),
         uses_b=any(i.source == "body" and i.body == 1 for i in k.inputs),
     )
 

@@ -61,6 +61,7 @@ class Kernel:
     blocks: list = field(default_factory=list)
     pre: dict = field(default_factory=dict)  # preamble symbol -> expression of the inputs
     stages: list = field(default_factory=list)  # per let: [(symbol, expression)] of its value and derivatives
+    held: list = field(default_factory=list)  # per stage: True for a lagged() let (held through the step)
     implicit: dict = field(default_factory=dict)  # outputs and block pairs of the implicit form
 
     @property
@@ -195,6 +196,7 @@ def _build_kernel(force, variant, d, path):
     names = {"a": bodies[0]}
     if force.kind == "binary":
         names["b"] = bodies[1] if variant == "pair" else km.World()
+    names["h"] = H  # the step (or substep) size the force is evaluated for
     param_syms = {}
     for src, plist in (("param", force.params), ("global", force.globals)):
         for p in plist:
@@ -277,6 +279,7 @@ def _build_kernel(force, variant, d, path):
                 if any(e != 0 for e in exprs):
                     kernel.blocks.append(Block(kind, i, j, exprs))
     kernel.stages = stages
+    kernel.held = [held for _, held in lets]
     everything = kernel.forces + [e for blk in kernel.blocks for e in blk.exprs]
     everything_and_lets = everything + [e for st in stages for _, e in st]
     for e in everything_and_lets:
@@ -285,10 +288,10 @@ def _build_kernel(force, variant, d, path):
             raise DescriptorError(path, "apply", f"the force is not differentiable where it is evaluated ({bad})")
     # inputs: only the symbols the expressions (and the preamble they use) read, in a fixed order
     defined = {sym for st in stages for sym, _ in st}
-    used = set().union(set(), *[e.free_symbols for e in everything_and_lets]) - defined
+    used = set().union(set(), *[e.free_symbols for e in everything_and_lets]) - defined - {H}
     used_pre = [s for s in ctx.pre if s in used]
     kernel.pre = {s: ctx.pre[s] for s in used_pre}
-    used = (used - set(used_pre)).union(set(), *[ctx.pre[s].free_symbols for s in used_pre])
+    used = (used - set(used_pre)).union(set(), *[ctx.pre[s].free_symbols for s in used_pre]) - {H}
     # the implicit form multiplies dF/ddelta by the bodies' velocities: they are inputs then
     if any(blk.kind == "dd" for blk in kernel.blocks):
         used |= {s for b in bodies for s in b.u}

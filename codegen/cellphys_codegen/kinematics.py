@@ -225,6 +225,16 @@ def attached_offset(body, p):
     return body.offset_of(p)
 
 
+def velocity_at_offset(body, r):
+    """Velocity of the body at lever arm r (world frame) from its centre of mass: v + w x r.
+    With r held (attached_offset), this is the velocity at a contact that stays put while the
+    body turns under it, not that of a material point swinging away with the body."""
+    _need_body("velocity_at_offset", body)
+    if isinstance(body, World):
+        return sp.zeros(3, 1)
+    return body.v + cross(body.w, r)
+
+
 def force_at_offset(body, r, f):
     """A force f applied at lever arm r from the centre of mass: (f, r x f)."""
     _need_body("force_at_offset", body)
@@ -248,7 +258,7 @@ FUNCTIONS = {
     "attached_point": attached_point, "attached_velocity": attached_velocity,
     "inertia_world": inertia_world, "force": force, "torque": torque,
     "force_at_point": force_at_point, "force_at_offset": force_at_offset,
-    "attached_offset": attached_offset, "lagged": lagged,
+    "attached_offset": attached_offset, "velocity_at_offset": velocity_at_offset, "lagged": lagged,
 }
 
 # attributes a descriptor may read from a body

@@ -1,11 +1,9 @@
 #include "runtime/ppe/island_packer.h"
 
 #include <algorithm>
-#include <array>
 #include <cstring>
 
 #include "runtime/ppe/world.h"
-#include "runtime/spu/force_eval.h"
 #include "runtime/spu/workspace.h"
 
 namespace cellphys::ppe {
@@ -13,8 +11,6 @@ namespace cellphys::ppe {
 using namespace cellphys::gen;
 
 namespace {
-
-using Wrench = std::pair<uint32_t, std::array<float, 6>>;  // world id, force and torque
 
 Rigid_Body_Fields fields_of(const WorldBody& b) {
   Rigid_Body_Fields f;
@@ -55,12 +51,22 @@ Contact_Force contact_instance(const WorldContact& c, int32_t a, int32_t b) {
   return packed;
 }
 
+// The world's settings for the forces' globals.
+void set_params(const WorldSettings& s, Island_Params& g) {
+  std::copy(s.gravity, s.gravity + 3, g.gravity);
+  g.contact_stiffness = s.contact_stiffness;
+  g.contact_damping = s.contact_damping;
+  g.slip_velocity = s.slip_velocity;
+  g.contact_slop = s.contact_slop;
+  g.contact_rest_speed = s.contact_rest_speed;
+}
+
 void set_bodies(const ForceInfo& info, std::vector<unsigned char>& inst, int32_t a, int32_t b) {
   std::memcpy(inst.data() + info.offset_body_a, &a, 4);
   if (info.offset_body_b >= 0) std::memcpy(inst.data() + info.offset_body_b, &b, 4);
 }
 
-PackedIsland pack(const PackContext& pc, const IslandContent& isl, const std::vector<Wrench>& wrenches) {
+PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
   const WorldSettings& s = pc.settings;
   spu::IslandBuilder ib;
   ib.set_step(s.dt);
@@ -68,16 +74,33 @@ PackedIsland pack(const PackContext& pc, const IslandContent& isl, const std::ve
   ib.set_solver(static_cast<uint32_t>(s.solver));
   ib.set_tolerance(s.tolerance);
   ib.set_max_halvings(s.max_halvings);
-  Island_Params& g = ib.params();
-  std::copy(s.gravity, s.gravity + 3, g.gravity);
-  g.contact_stiffness = s.contact_stiffness;
-  g.contact_damping = s.contact_damping;
-  g.slip_velocity = s.slip_velocity;
+  set_params(s, ib.params());
   PackedIsland p;
-  p.bodies = isl.bodies;
-  for (uint32_t id : isl.bodies) {
+  // ghosts: the bodies of other parts its contacts and forces reach
+  std::vector<uint32_t> ghosts;
+  auto reach = [&](uint32_t id) {
+    if (id != kWorldBody && !std::binary_search(isl.bodies.begin(), isl.bodies.end(), id)) ghosts.push_back(id);
+  };
+  for (uint32_t c : isl.contacts) reach(pc.contacts[c].a), reach(pc.contacts[c].b);
+  for (uint32_t f : isl.forces) reach(pc.forces[f].a), reach(pc.forces[f].b);
+  std::sort(ghosts.begin(), ghosts.end());
+  ghosts.erase(std::unique(ghosts.begin(), ghosts.end()), ghosts.end());
+  p.bodies.resize(isl.bodies.size() + ghosts.size());
+  std::merge(isl.bodies.begin(), isl.bodies.end(), ghosts.begin(), ghosts.end(), p.bodies.begin());
+  for (uint32_t id : p.bodies) {
     const WorldBody& b = pc.bodies[id];
-    const int local = ib.add_body(fields_of(b));
+    const bool ghost = std::binary_search(ghosts.begin(), ghosts.end(), id);
+    p.ghost.push_back(ghost);
+    Rigid_Body_Fields f = fields_of(b);
+    if (ghost) {  // kinematic: no force moves it; it moves from where the step started
+      const WorldBody& b0 = pc.start[id];
+      std::copy(b0.position, b0.position + 3, f.position);
+      std::copy(b0.orientation, b0.orientation + 4, f.orientation);
+      f.inverse_mass = 0.0f;
+      std::fill(f.inverse_inertia_body, f.inverse_inertia_body + 6, 0.0f);
+    }
+    const int local = ib.add_body(f);
+    if (ghost) continue;
     if (b.linear_damping > 0 || b.angular_damping > 0) {
       Damping_Force_Fields d;
       d.linear = b.linear_damping;
@@ -112,15 +135,6 @@ PackedIsland pack(const PackContext& pc, const IslandContent& isl, const std::ve
     set_bodies(info, inst, local_of(p.bodies, f.a), local_of(p.bodies, f.b));
     ib.add_force(f.type, inst.data(), inst.size());
   }
-  for (const Wrench& w : wrenches) {
-    Applied_Wrench_Force_Fields a;
-    std::copy(w.second.begin(), w.second.begin() + 3, a.force_world);
-    std::copy(w.second.begin() + 3, w.second.end(), a.torque_world);
-    a.body_a = local_of(p.bodies, w.first);
-    Applied_Wrench_Force ap;
-    pack(a, ap);
-    ib.add(ForceType::applied_wrench, ap);
-  }
   p.image = ib.finish();
   return p;
 }
@@ -130,32 +144,9 @@ bool fits(const PackedIsland& p, size_t capacity) {
   return spu::footprint(spu::counts_of(v)).total <= capacity;
 }
 
-// F on both bodies of a coupling at the start-of-step state.
-void coupling_wrench(const PackContext& pc, ForceType type, std::vector<unsigned char> inst, uint32_t a, uint32_t b,
-                     std::vector<Wrench>& side_a, std::vector<Wrench>& side_b) {
-  Rigid_Body rb[2];
-  pack(fields_of(pc.bodies[a]), rb[0]);
-  pack(fields_of(pc.bodies[b]), rb[1]);
-  Island_Params g{};
-  std::copy(pc.settings.gravity, pc.settings.gravity + 3, g.gravity);
-  g.contact_stiffness = pc.settings.contact_stiffness;
-  g.contact_damping = pc.settings.contact_damping;
-  g.slip_velocity = pc.settings.slip_velocity;
-  set_bodies(kForceTable[static_cast<int>(type)], inst, 0, 1);
-  float F[12];
-  spu::evaluate_instance(type, inst.data(), rb, g, F);
-  std::array<float, 6> wa, wb;
-  std::copy(F, F + 6, wa.begin());
-  std::copy(F + 6, F + 12, wb.begin());
-  side_a.emplace_back(a, wa);
-  side_b.emplace_back(b, wb);
-}
-
-void split(const PackContext& pc, IslandContent isl, std::vector<Wrench> wrenches, std::vector<PackedIsland>& out,
-           uint32_t& cut) {
-  PackedIsland p = pack(pc, isl, wrenches);
-  if (isl.bodies.size() <= 1 || fits(p, pc.settings.local_store_bytes)) {
-    out.push_back(std::move(p));
+void split(const PackContext& pc, IslandContent isl, std::vector<IslandContent>& out, uint32_t& cut) {
+  if (isl.bodies.size() <= 1 || fits(pack_one(pc, isl), pc.settings.local_store_bytes)) {
+    out.push_back(std::move(isl));
     return;
   }
   // Cut across the longest extent at the median body: a plane cuts few couplings.
@@ -173,45 +164,39 @@ void split(const PackContext& pc, IslandContent isl, std::vector<Wrench> wrenche
   half[0].bodies.assign(order.begin(), order.begin() + order.size() / 2);
   half[1].bodies.assign(order.begin() + order.size() / 2, order.end());
   for (IslandContent& h : half) std::sort(h.bodies.begin(), h.bodies.end());
-  auto side = [&](uint32_t id) { return std::binary_search(half[0].bodies.begin(), half[0].bodies.end(), id) ? 0 : 1; };
-  std::vector<Wrench> w[2];
-  for (const Wrench& x : wrenches) w[side(x.first)].push_back(x);
-  for (uint32_t c : isl.contacts) {
-    const WorldContact& wc = pc.contacts[c];
-    const int sa = side(wc.a);
-    if (wc.b == kWorldBody || side(wc.b) == sa) {
-      half[sa].contacts.push_back(c);
-      continue;
-    }
-    Contact_Force inst = contact_instance(wc, 0, 1);
-    std::vector<unsigned char> bytes(reinterpret_cast<unsigned char*>(&inst), reinterpret_cast<unsigned char*>(&inst) + sizeof inst);
-    coupling_wrench(pc, ForceType::contact, bytes, wc.a, wc.b, w[sa], w[1 - sa]);
-    ++cut;
-  }
-  for (uint32_t fid : isl.forces) {
-    const WorldForce& f = pc.forces[fid];
-    const int sa = side(f.a);
-    if (f.b == kWorldBody || side(f.b) == sa) {
-      half[sa].forces.push_back(fid);
-      continue;
-    }
-    coupling_wrench(pc, f.type, f.instance, f.a, f.b, w[sa], w[1 - sa]);
-    ++cut;
-  }
-  split(pc, std::move(half[0]), std::move(w[0]), out, cut);
-  split(pc, std::move(half[1]), std::move(w[1]), out, cut);
+  // -1: not a body of this island (the world, or a ghost from an earlier cut)
+  auto side = [&](uint32_t id) {
+    if (std::binary_search(half[0].bodies.begin(), half[0].bodies.end(), id)) return 0;
+    return std::binary_search(half[1].bodies.begin(), half[1].bodies.end(), id) ? 1 : -1;
+  };
+  // a coupling whose bodies land on both sides goes into both: each holds the other as a ghost
+  auto place = [&](uint32_t a, uint32_t b, auto member, uint32_t item) {
+    const int sa = side(a), sb = side(b);
+    if (sa >= 0) (half[sa].*member).push_back(item);
+    if (sb >= 0 && sb != sa) (half[sb].*member).push_back(item);
+    if (sa >= 0 && sb >= 0 && sa != sb) ++cut;
+  };
+  for (uint32_t c : isl.contacts) place(pc.contacts[c].a, pc.contacts[c].b, &IslandContent::contacts, c);
+  for (uint32_t f : isl.forces) place(pc.forces[f].a, pc.forces[f].b, &IslandContent::forces, f);
+  split(pc, std::move(half[0]), out, cut);
+  split(pc, std::move(half[1]), out, cut);
 }
 
 }  // namespace
 
-void pack_decoupled(const PackContext& pc, IslandContent island, std::vector<PackedIsland>& out, uint32_t& cut_couplings) {
-  split(pc, std::move(island), {}, out, cut_couplings);
+std::vector<IslandContent> decouple(const PackContext& pc, IslandContent island, uint32_t& cut_couplings) {
+  std::vector<IslandContent> parts;
+  split(pc, std::move(island), parts, cut_couplings);
+  return parts;
 }
+
+PackedIsland pack_island(const PackContext& pc, const IslandContent& part) { return pack_one(pc, part); }
 
 void unpack_island(const PackedIsland& p, std::vector<WorldBody>& bodies) {
   const size_t n = p.bodies.size();
   const unsigned char* src = p.result.data() + p.result.size() - n * sizeof(Rigid_Body);
   for (size_t i = 0; i < n; ++i) {
+    if (p.ghost[i]) continue;  // another part advances it
     Rigid_Body rb;
     std::memcpy(&rb, src + i * sizeof rb, sizeof rb);
     WorldBody& b = bodies[p.bodies[i]];

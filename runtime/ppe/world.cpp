@@ -43,6 +43,7 @@ struct World::Impl {
   size_t pool_bytes = 0;
   // per-step scratch, kept to avoid reallocation
   std::vector<Aabb> boxes;
+  std::vector<float> reach;  // per body: distance it may close within the step (m)
   std::vector<BoxKind> kinds;
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
   std::vector<WorldContact> contacts;
@@ -88,8 +89,10 @@ static void validate_settings(const WorldSettings& s) {
   if (!finite(s.gravity, 3)) throw WorldError("settings.gravity must be finite");
   if (!(s.tolerance > 0.0f) || !std::isfinite(s.tolerance)) throw WorldError("settings.tolerance must be positive");
   if (s.workers < 1 || s.workers > 256) throw WorldError("settings.workers must be between 1 and 256");
-  if (!(s.contact_stiffness >= 0.0f) || !(s.contact_damping >= 0.0f) || !(s.slip_velocity > 0.0f))
-    throw WorldError("settings.contact: stiffness and damping must be >= 0 and slip_velocity > 0");
+  if (!(s.contact_stiffness >= 0.0f) || !(s.contact_damping >= 0.0f) || !(s.slip_velocity > 0.0f) ||
+      !(s.contact_slop >= 0.0f) || !(s.contact_rest_speed >= 0.0f) || !std::isfinite(s.contact_rest_speed) || !std::isfinite(s.contact_stiffness) || !std::isfinite(s.contact_damping) ||
+      !std::isfinite(s.slip_velocity) || !std::isfinite(s.contact_slop))
+    throw WorldError("settings.contact: stiffness, damping and slop must be finite and >= 0, slip_velocity > 0");
   if (s.local_store_bytes < 16 * 1024) throw WorldError("settings.local_store_bytes must be at least 16 KiB");
   if (s.max_halvings > 16) throw WorldError("settings.max_halvings must be at most 16");
 }
@@ -323,6 +326,7 @@ const StepStats& World::step() {
   // 1. Collision. Broad phase: boxes, culled against the simulated region.
   auto t = Clock::now();
   w.boxes.resize(n);
+  w.reach.assign(n, 0.0f);
   w.kinds.assign(n, BoxKind::none);
   std::vector<uint32_t> planes;
   for (uint32_t i = 0; i < n; ++i) {
@@ -335,7 +339,23 @@ const StepStats& World::step() {
       continue;
     }
     shapes_.world_aabb(b.shape, pose_of(b), w.boxes[i].min, w.boxes[i].max);
-    for (int k = 0; k < 3; ++k) w.boxes[i].min[k] -= settings_.contact_margin, w.boxes[i].max[k] += settings_.contact_margin;
+    // Speculative reach: how far the body can close on another within the step (its speed,
+    // and the spin of its farthest point, times dt). Boxes grow by it plus half the slop, so
+    // a pair is found when its gap may close to within the slop: fast bodies meet contacts
+    // before they tunnel, resting ones carry none that cannot act.
+    const Aabb& B = w.boxes[i];
+    const double rx = 0.5 * (double(B.max[0]) - B.min[0]), ry = 0.5 * (double(B.max[1]) - B.min[1]),
+                 rz = 0.5 * (double(B.max[2]) - B.min[2]);
+    const double speed = std::sqrt(double(b.velocity[0]) * b.velocity[0] + double(b.velocity[1]) * b.velocity[1] +
+                                   double(b.velocity[2]) * b.velocity[2]);
+    const double spin = std::sqrt(double(b.angular_velocity[0]) * b.angular_velocity[0] +
+                                  double(b.angular_velocity[1]) * b.angular_velocity[1] +
+                                  double(b.angular_velocity[2]) * b.angular_velocity[2]);
+    w.reach[i] = b.is_static ? 0.0f
+                             : static_cast<float>(settings_.dt * (speed + spin * std::sqrt(rx * rx + ry * ry + rz * rz)) +
+                                                  settings_.contact_margin);
+    const float grow = w.reach[i] + 0.5f * settings_.contact_slop;
+    for (int k = 0; k < 3; ++k) w.boxes[i].min[k] -= grow, w.boxes[i].max[k] += grow;
     if (!inside_region(w.boxes[i], settings_.region_min, settings_.region_max)) {
       if (!b.is_static) ++st.outside_region;
       continue;
@@ -352,9 +372,9 @@ const StepStats& World::step() {
     for (uint32_t i = 0; i < n; ++i) {
       if (w.kinds[i] != BoxKind::awake) continue;
       const Aabb& B = w.boxes[i];
-      double lowest = 0;  // the box corner furthest along -normal
+      double lowest = 0;  // the (grown) box corner furthest along -normal
       for (int k = 0; k < 3; ++k) lowest += pv.normal[k] * double(pv.normal[k] >= 0 ? B.min[k] : B.max[k]);
-      if (lowest - pv.offset <= settings_.contact_margin) w.pairs.emplace_back(std::min(i, p), std::max(i, p));
+      if (lowest - pv.offset <= 0.5 * settings_.contact_slop) w.pairs.emplace_back(std::min(i, p), std::max(i, p));
     }
   }
   std::sort(w.pairs.begin(), w.pairs.end());
@@ -367,8 +387,9 @@ const StepStats& World::step() {
     uint32_t a = i, b = j;
     if (w.bodies[a].is_static) std::swap(a, b);
     spu::ContactPoint cp[spu::kMaxManifoldPoints];
+    const float margin = settings_.contact_slop + w.reach[a] + w.reach[b];
     const int k = spu::collide(shapes_.view(w.bodies[a].shape), pose_of(w.bodies[a]), shapes_.view(w.bodies[b].shape),
-                               pose_of(w.bodies[b]), settings_.contact_margin, cp);
+                               pose_of(w.bodies[b]), margin, cp);
     if (k > 0) ++st.narrow_phase_pairs;
     const float mu = std::sqrt(w.bodies[a].friction * w.bodies[b].friction);
     for (int c = 0; c < k; ++c)
@@ -437,48 +458,63 @@ const StepStats& World::step() {
   st.contacts = static_cast<uint32_t>(w.contacts.size());
   st.times.islands_ms = ms_since(t);
 
-  // 4 and 5. Decouple what does not fit a local store, pack, integrate on the workers.
+  // 4. Decouple what does not fit a local store.
   t = Clock::now();
-  PackContext pc{w.bodies, w.forces, w.contacts, settings_};
-  std::vector<PackedIsland> packed;
-  for (IslandContent& isl : islands) {
-    const size_t before = packed.size();
-    pack_decoupled(pc, isl, packed, st.cut_couplings);  // a copy: the sleep check below needs isl
-    if (packed.size() - before > 1) ++st.decoupled_islands;
+  std::vector<WorldBody> start;  // ghost poses, kept only when an island is split
+  PackContext pc{w.bodies, w.forces, w.contacts, settings_, w.bodies};
+  std::vector<std::vector<IslandContent>> parts(islands.size());
+  size_t waves = 0;
+  for (size_t k = 0; k < islands.size(); ++k) {
+    parts[k] = decouple(pc, islands[k], st.cut_couplings);  // a copy: the sleep check below needs it
+    if (parts[k].size() > 1) ++st.decoupled_islands;
+    waves = std::max(waves, parts[k].size());
   }
-  // largest first: the long islands start early on the workers
-  std::vector<size_t> order(packed.size());
-  std::iota(order.begin(), order.end(), size_t{0});
-  std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) { return packed[x].image.size() > packed[y].image.size(); });
-  std::vector<spu::IslandJob> jobs;
-  for (size_t k : order) {
-    PackedIsland& p = packed[k];
-    p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
-    jobs.push_back({p.image.data(), p.image.size(), p.result.data(), p.result.size()});
-  }
-  st.times.decouple_ms = 0;
-  st.times.pack_ms = ms_since(t);
-  t = Clock::now();
-  std::vector<spu::IslandReport> reports;
-  w.workers(settings_).run(jobs, reports);
-  st.times.integrate_ms = ms_since(t);
+  if (waves > 1) start = w.bodies;
+  const PackContext wave_pc{w.bodies, w.forces, w.contacts, settings_, waves > 1 ? start : w.bodies};
+  st.times.decouple_ms = ms_since(t);
 
-  // 6. Unpack; a failed island keeps its state (the kernel halved its step already).
-  t = Clock::now();
-  for (size_t j = 0; j < order.size(); ++j) {
-    const PackedIsland& p = packed[order[j]];
-    const spu::IslandReport& r = reports[j];
-    st.solver_iterations += r.solver_iterations;
-    st.solves += r.solves;
-    st.step_halvings = std::max(st.step_halvings, r.halvings);
-    st.substeps += r.substeps;
-    st.local_store_peak_bytes = std::max(st.local_store_peak_bytes, r.footprint.total);
-    if (r.status != spu::IslandStatus::ok) {
-      ++st.failed_islands;
-      continue;
+  // 5 and 6. Pack, integrate on the workers, unpack; wave k holds part k of every island (the
+  // parts of a split island run in order). A failed island keeps its state (the kernel
+  // halved its step already).
+  for (size_t wave = 0; wave < waves; ++wave) {
+    t = Clock::now();
+    std::vector<PackedIsland> packed;
+    for (const std::vector<IslandContent>& p : parts)
+      if (wave < p.size()) packed.push_back(pack_island(wave_pc, p[wave]));
+    // largest first: the long islands start early on the workers
+    std::vector<size_t> order(packed.size());
+    std::iota(order.begin(), order.end(), size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t x, size_t y) { return packed[x].image.size() > packed[y].image.size(); });
+    std::vector<spu::IslandJob> jobs;
+    for (size_t k : order) {
+      PackedIsland& p = packed[k];
+      p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
+      jobs.push_back({p.image.data(), p.image.size(), p.result.data(), p.result.size()});
     }
-    unpack_island(p, w.bodies);
+    st.times.pack_ms += ms_since(t);
+    t = Clock::now();
+    std::vector<spu::IslandReport> reports;
+    w.workers(settings_).run(jobs, reports);
+    st.times.integrate_ms += ms_since(t);
+    t = Clock::now();
+    for (size_t j = 0; j < order.size(); ++j) {
+      const PackedIsland& p = packed[order[j]];
+      const spu::IslandReport& r = reports[j];
+      st.solver_iterations += r.solver_iterations;
+      st.solves += r.solves;
+      st.step_halvings = std::max(st.step_halvings, r.halvings);
+      st.substeps += r.substeps;
+      st.local_store_peak_bytes = std::max(st.local_store_peak_bytes, r.footprint.total);
+      if (r.status != spu::IslandStatus::ok) {
+        ++st.failed_islands;
+        continue;
+      }
+      unpack_island(p, w.bodies);
+    }
+    st.times.unpack_ms += ms_since(t);
   }
+  t = Clock::now();
   // Sleep: an island whose bodies have all been slow for sleep_time goes to sleep together.
   if (settings_.sleeping) {
     const float lin2 = settings_.sleep_linear * settings_.sleep_linear, ang2 = settings_.sleep_angular * settings_.sleep_angular;
@@ -509,7 +545,7 @@ const StepStats& World::step() {
       st.fell_asleep += static_cast<uint32_t>(isl.bodies.size());
     }
   }
-  st.times.unpack_ms = ms_since(t);
+  st.times.unpack_ms += ms_since(t);  // with the sleep check
   st.times.total_ms = ms_since(t_step);
   stats_ = st;
   return stats_;

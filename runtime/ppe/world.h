@@ -38,7 +38,11 @@ struct WorldSettings {
   float contact_stiffness = 1.0e5f;  // N/m (per contact point)
   float contact_damping = 1.0e3f;    // N s/m
   float slip_velocity = 0.01f;       // m/s, Coulomb friction regularisation
-  float contact_margin = 0.01f;      // m: contacts are generated this far before touching
+  float contact_slop = 0.005f;       // m: a contact closing to within this gap acts from the step's start
+  float contact_rest_speed = 0.05f;  // m/s: a touching contact opening slower than this still acts
+  // Contacts are generated for gaps up to contact_slop plus each body's reach in the step
+  // (dt times its speed and the spin of its farthest point) plus this margin (m).
+  float contact_margin = 0.001f;
   size_t local_store_bytes = 256 * 1024;
   // Simulated region: bodies whose bounding box leaves it are not collided.
   float region_min[3] = {-1e4f, -1e4f, -1e4f};

@@ -143,9 +143,9 @@ void run_kernel(const IslandView& v, const ForceTargets& t, const typename K::In
     if (mode == Mode::implicit)
       K::template eval_implicit<Batch>(in, Batch(t.h), out);
     else if (mode == Mode::full)
-      K::template eval<Batch>(in, out);
+      K::template eval<Batch>(in, Batch(t.h), out);
     else
-      K::template eval_f<Batch>(in, out);
+      K::template eval_f<Batch>(in, Batch(t.h), out);
     const int n_out = outputs_of<K>(mode);
     for (int k = 0; k < n_out; ++k) out[k].store(out_soa + k * kLanes);
     if (mode == Mode::full) {
@@ -190,34 +190,6 @@ void evaluate_forces(const IslandView& v, const ForceTargets& t, float* scratch)
         run_kernel<K>(v, t, inst, pairs, false, scratch);
     });
   }
-}
-
-}  // namespace cellphys::spu
-
-namespace cellphys::spu {
-
-void evaluate_instance(ForceType type, const void* instance, const Rigid_Body* bodies, const Island_Params& params,
-                       float out[12]) {
-  const ForceInfo& info = kForceTable[static_cast<int>(type)];
-  alignas(16) unsigned char inst[256];
-  std::memcpy(inst, instance, info.instance_size);
-  int32_t b = -1;
-  if (info.offset_body_b >= 0) std::memcpy(&b, inst + info.offset_body_b, 4);
-  const int32_t zero = 0, one = 1;
-  std::memcpy(inst + info.offset_body_a, &zero, 4);
-  if (info.offset_body_b >= 0 && b >= 0) std::memcpy(inst + info.offset_body_b, &one, 4);
-  const bool world = info.offset_body_b >= 0 && b < 0;
-  for (int k = 0; k < 12; ++k) out[k] = 0.0f;
-  visit_kernels([&](auto k) {
-    using K = decltype(k);
-    if (K::kType != type) return;
-    if ((K::kVariant == KernelVariant::world) != world) return;
-    float in[K::kInputs > 0 ? K::kInputs : 1];
-    float f[6 * K::kBodies];
-    K::gather(bodies, *reinterpret_cast<const typename K::Instance*>(inst), params, in);
-    K::template eval_f<float>(in, f);
-    for (int r = 0; r < 6 * K::kBodies; ++r) out[r] = f[r];
-  });
 }
 
 }  // namespace cellphys::spu

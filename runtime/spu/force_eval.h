@@ -26,6 +26,8 @@ struct ForceTargets {
   float* diag_k = nullptr;     // n * 48: K_ii
   float* offdiag_k = nullptr;  // nnz * 48: K_ij
   const BlockStructure* structure = nullptr;
+  // The step the forces are evaluated for: the implicit form's h, and the `h` a descriptor
+  // may read (a contact that will close within the step acts from its start).
   float h = 0.0f;
   // Jacobian product, optional: jv_out_i += dF_i/ddelta_j jv_in_j
   const float* jv_in = nullptr;
@@ -40,15 +42,5 @@ size_t force_scratch_bytes();
 /// Accumulates into the targets (the caller zeroes them). Jacobians are evaluated only when
 /// a target needs them; otherwise the kernels' F-only entry points run.
 void evaluate_forces(const IslandView& island, const ForceTargets& t, float* scratch);
-
-}  // namespace cellphys::spu
-
-namespace cellphys::spu {
-
-/// F of one force instance between bodies[0] (a) and bodies[1] (b, unused when the force is
-/// unary or world-anchored), at their current state: out[0..5] on a, out[6..11] on b.
-/// For couplings the control side cuts when it decouples an island, applied explicitly.
-void evaluate_instance(gen::ForceType type, const void* instance, const gen::Rigid_Body* bodies,
-                       const gen::Island_Params& params, float out[12]);
 
 }  // namespace cellphys::spu

@@ -175,6 +175,7 @@ bool step_explicit(StepContext& c, float h, bool symplectic) {
   const IslandView& v = c.island;
   zero_floats(ws.forces, size_t(ws.n) * kVecFloats);
   ForceTargets t;
+  t.h = h;  // the step the descriptors' h means
   t.forces = ws.forces;
   t.ref = ws.ref;
   evaluate_forces(v, t, ws.force_scratch);
@@ -230,6 +231,7 @@ bool step_rk4(StepContext& c, float h) {
     }
     zero_floats(ws.k1, size_t(n) * kVecFloats);
     ForceTargets t;
+    t.h = h;  // the step the descriptors' h means
     t.forces = ws.k1;
     t.ref = ws.ref;
     evaluate_forces(v, t, ws.force_scratch);
@@ -300,6 +302,7 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
   zero_floats(ws.jv, size_t(n) * kVecFloats);
   {
     ForceTargets t;
+    t.h = tau;  // the step the descriptors' h means
     t.forces = ws.jv;
     t.ref = ws.ref;
     evaluate_forces(v, t, ws.force_scratch);
@@ -326,6 +329,7 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
     // jv += tau dF/ddelta(y0) fdelta2: the kernels at y0 again, Jacobian product only
     zero_floats(ws.x, size_t(n) * kVecFloats);  // discard F from this pass
     ForceTargets t;
+    t.h = tau;  // the step the descriptors' h means
     t.forces = ws.x;
     t.jv_in = ws.forces;
     t.ref = ws.ref;
@@ -359,6 +363,7 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
   zero_floats(dump, size_t(n) * kVecFloats);
   {
     ForceTargets t;
+    t.h = tau;  // the step the descriptors' h means
     t.forces = dump;
     t.jv_in = ws.jv;
     t.jv_out = jv_out;

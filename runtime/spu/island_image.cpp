@@ -168,7 +168,8 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
         !finite_floats(b.angular_velocity, 3) || !finite_floats(b.inertia_body, 6) || !finite_floats(b.inverse_inertia_body, 6) ||
         !std::isfinite(b.mass) || !std::isfinite(b.inverse_mass))
       return "body " + std::to_string(i) + " has a non-finite field";
-    if (!(b.mass > 0.0f) || !(b.inverse_mass > 0.0f)) return "body " + std::to_string(i) + " has no positive mass";
+    // inverse_mass 0 (with a zero inverse inertia) is a kinematic body: it keeps its velocity
+    if (!(b.mass > 0.0f) || !(b.inverse_mass >= 0.0f)) return "body " + std::to_string(i) + " has no positive mass";
   }
   return "";  // num_blocks is checked where the block structure is built (it needs scratch)
 }

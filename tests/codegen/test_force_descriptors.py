@@ -47,6 +47,25 @@ class GoodForceTests(unittest.TestCase):
         sb.force("probe_force.yaml", unary("force(a, stiffness * (anchor - a.x))", let={"m": "a.mass"}))
         self.assertIn("cellphys/gen/forces/probe_force.h", sb.render())
 
+    def test_step_size_h_is_an_argument_not_an_input(self):
+        sb = Sandbox(temp_dir(self))
+        sb.force("probe_force.yaml", unary("force(a, stiffness * h * (anchor - a.x))"))
+        kernel = sb.render()["cellphys/gen/forces/probe_force.h"]
+        self.assertIn("static inline void eval([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out)", kernel)
+        self.assertNotRegex(kernel, r"const S h = in\[")
+        self.assertRegex(kernel, r"out\[0\] = .*\bh\b")
+
+    def test_lagged_let_is_held_and_can_be_given(self):
+        sb = Sandbox(temp_dir(self))
+        sb.force("probe_force.yaml", unary("force(a, stiffness * (anchor - a.x) / s)",
+                                           let={"s": "lagged(1 + dot(a.x, a.x))"}))
+        kernel = sb.render()["cellphys/gen/forces/probe_force.h"]
+        self.assertIn("static constexpr int kHeld = 1;", kernel)
+        self.assertIn("const S L_s = held_in ? held_in[0] : S(", kernel)
+        self.assertIn("if (held_out) held_out[0] = L_s;", kernel)
+        # held: dF/ddelta has no term from differentiating s (only -stiffness / s on the diagonal)
+        self.assertNotIn("d_L_s__", kernel)
+
     def test_real_contact_with_its_struct(self):
         # contact.yaml names the Contact_Force struct descriptor as its instance
         sb = Sandbox(temp_dir(self), real_structs=["contact_force.yaml"])

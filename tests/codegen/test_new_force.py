@@ -103,7 +103,7 @@ class NewForceTests(unittest.TestCase):
         self.assertIsNotNone(m, "no '/// Total ops: N' annotation")
         self.assertIn(f"static constexpr int kOps = {m.group(1)};", kernel)
         self.assertIn("template <class S>", kernel)
-        self.assertIn("static inline void eval([[maybe_unused]] const S* in, S* out)", kernel)
+        self.assertIn("static inline void eval([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out)", kernel)
         # F = -k x: one dF/ddelta block for body a, nothing else
         self.assertIn("static constexpr int kNumBlocks = 1;", kernel)
         self.assertIn("{BlockKind::dF_ddelta, 0, 0},", kernel)

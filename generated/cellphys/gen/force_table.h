@@ -56,7 +56,7 @@ inline constexpr ParamInfo kApplied_WrenchParams[] = {
 inline constexpr ParamInfo kContactParams[] = {
     {"point", ParamType::vec3, 0, 3, false, 0.0f, "contact point, world frame (m)"},
     {"normal", ParamType::vec3, 16, 3, false, 0.0f, "unit normal from a to b, world frame"},
-    {"penetration", ParamType::f32, 32, 1, false, 0.0f, "overlap along the normal at the start of the step (m)"},
+    {"penetration", ParamType::f32, 32, 1, false, 0.0f, "overlap along the normal at the start of the step (m); negative: a gap"},
     {"friction", ParamType::f32, 36, 1, true, 0.0f, "friction coefficient of the pair"},
 };
 
@@ -95,7 +95,7 @@ inline constexpr ParamInfo kAir_DragParams[] = {
 
 inline constexpr ForceInfo kForceTable[] = {
     {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
-    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 4, "Penalty contact: a normal spring-damper that only pushes, plus smooth regularised Coulomb friction."},
+    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 4, "Penalty contact: a normal spring-damper that only pushes, acting from the start of a step in which the contact closes, plus regularised Coulomb friction linearised as a damper."},
     {"damping", ForceType::damping, ForceKind::unary, false, false, "Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), offsetof(Damping_Force, body_a), -1, kDampingParams, 2, "Linear and angular damping: f = -linear m v, tau = -angular I omega (coefficients in 1/s)."},
     {"gravity", ForceType::gravity, ForceKind::global, false, true, "Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), offsetof(Gravity_Force, body_a), -1, kGravityParams, 0, "Uniform gravity on every body of the island."},
     {"gyroscopic", ForceType::gyroscopic, ForceKind::unary, false, false, "Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), offsetof(Gyroscopic_Force, body_a), -1, kGyroscopicParams, 0, "Gyroscopic torque -omega x (I omega) of a body whose inertia is not isotropic."},
@@ -108,9 +108,11 @@ inline constexpr GlobalInfo kGlobalTable[] = {
     {{"contact_stiffness", ParamType::f32, 16, 1, true, 0.0f, "normal stiffness (N/m)"}, {100000.0f}},
     {{"contact_damping", ParamType::f32, 20, 1, true, 0.0f, "normal damping (N s/m)"}, {1000.0f}},
     {{"slip_velocity", ParamType::f32, 24, 1, true, 0.0f, "speed below which Coulomb friction is regularised (m/s)"}, {0.01f}},
+    {{"contact_slop", ParamType::f32, 28, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}},
+    {{"contact_rest_speed", ParamType::f32, 32, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}},
     {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}},
 };
-inline constexpr int kNumGlobals = 4;
+inline constexpr int kNumGlobals = 6;
 
 /// Island_Params with every global at its descriptor default.
 inline Island_Params default_island_params() {
@@ -118,6 +120,8 @@ inline Island_Params default_island_params() {
   p.contact_stiffness = 100000.0f;
   p.contact_damping = 1000.0f;
   p.slip_velocity = 0.01f;
+  p.contact_slop = 0.005f;
+  p.contact_rest_speed = 0.05f;
   p.gravity[0] = 0.0f;
   p.gravity[1] = 0.0f;
   p.gravity[2] = -9.81f;

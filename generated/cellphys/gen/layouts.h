@@ -1219,14 +1219,18 @@ struct alignas(16) Island_Params {
   float contact_stiffness;  ///< @16: f32. normal stiffness (N/m)
   float contact_damping;  ///< @20: f32. normal damping (N s/m)
   float slip_velocity;  ///< @24: f32. speed below which Coulomb friction is regularised (m/s)
-  unsigned char pad_28[4];
+  float contact_slop;  ///< @28: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
+  float contact_rest_speed;  ///< @32: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
+  unsigned char pad_36[12];
 };
-static_assert(sizeof(Island_Params) == 32, "Island_Params: size differs from the descriptor");
+static_assert(sizeof(Island_Params) == 48, "Island_Params: size differs from the descriptor");
 static_assert(alignof(Island_Params) == 16, "Island_Params: alignment differs from the descriptor");
 static_assert(offsetof(Island_Params, gravity) == 0, "Island_Params.gravity: offset differs");
 static_assert(offsetof(Island_Params, contact_stiffness) == 16, "Island_Params.contact_stiffness: offset differs");
 static_assert(offsetof(Island_Params, contact_damping) == 20, "Island_Params.contact_damping: offset differs");
 static_assert(offsetof(Island_Params, slip_velocity) == 24, "Island_Params.slip_velocity: offset differs");
+static_assert(offsetof(Island_Params, contact_slop) == 28, "Island_Params.contact_slop: offset differs");
+static_assert(offsetof(Island_Params, contact_rest_speed) == 32, "Island_Params.contact_rest_speed: offset differs");
 
 /// The fields of Island_Params without padding: what pack() takes and unpack() gives.
 struct Island_Params_Fields {
@@ -1234,6 +1238,8 @@ struct Island_Params_Fields {
   float contact_stiffness = 0;
   float contact_damping = 0;
   float slip_velocity = 0;
+  float contact_slop = 0;
+  float contact_rest_speed = 0;
 };
 
 inline void pack(const Island_Params_Fields& in, Island_Params& out) {
@@ -1244,6 +1250,8 @@ inline void pack(const Island_Params_Fields& in, Island_Params& out) {
   out.contact_stiffness = in.contact_stiffness;
   out.contact_damping = in.contact_damping;
   out.slip_velocity = in.slip_velocity;
+  out.contact_slop = in.contact_slop;
+  out.contact_rest_speed = in.contact_rest_speed;
 }
 
 inline void unpack(const Island_Params& in, Island_Params_Fields& out) {
@@ -1253,9 +1261,11 @@ inline void unpack(const Island_Params& in, Island_Params_Fields& out) {
   out.contact_stiffness = in.contact_stiffness;
   out.contact_damping = in.contact_damping;
   out.slip_velocity = in.slip_velocity;
+  out.contact_slop = in.contact_slop;
+  out.contact_rest_speed = in.contact_rest_speed;
 }
 
-/// Bytes as they cross a DMA transfer or the wire (32 B).
+/// Bytes as they cross a DMA transfer or the wire (48 B).
 inline void pack(const Island_Params_Fields& in, unsigned char* bytes) {
   Island_Params tmp;
   pack(in, tmp);
@@ -1294,7 +1304,7 @@ inline constexpr StructInfo kStructTable[] = {
     {"Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), 4},
     {"Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), 44},
     {"Air_Drag_Force", sizeof(Air_Drag_Force), alignof(Air_Drag_Force), 20},
-    {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 24},
+    {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 32},
 };
 
 }  // namespace cellphys::gen

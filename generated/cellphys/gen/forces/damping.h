@@ -56,7 +56,7 @@ struct Damping_Body_Kernel {
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).
   template <class S>
-  static inline void eval([[maybe_unused]] const S* in, S* out) {
+  static inline void eval([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_qw = in[0];
     [[maybe_unused]] const S a_qx = in[1];
@@ -348,9 +348,14 @@ struct Damping_Body_Kernel {
     out[41] = ((-(a_Iw0_22*o28)) + (o25*o27));
   }
 
-  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 137
+  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  static constexpr int kHeld = 0;
+
+  /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 137
   template <class S>
-  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+  static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
+                            [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_qw = in[0];
     [[maybe_unused]] const S a_qx = in[1];

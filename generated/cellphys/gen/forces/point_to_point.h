@@ -78,7 +78,7 @@ struct Point_To_Point_Pair_Kernel {
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).
   template <class S>
-  static inline void eval([[maybe_unused]] const S* in, S* out) {
+  static inline void eval([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_px = in[0];
     [[maybe_unused]] const S a_py = in[1];
@@ -929,9 +929,14 @@ struct Point_To_Point_Pair_Kernel {
     out[155] = ((h*((d_L_f__0__b_wz*o41) + (d_L_f__1__b_wz*o57))) + (o63*o64));
   }
 
-  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 170
+  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  static constexpr int kHeld = 0;
+
+  /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 170
   template <class S>
-  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+  static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
+                            [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_px = in[0];
     [[maybe_unused]] const S a_py = in[1];
@@ -1069,7 +1074,7 @@ struct Point_To_Point_World_Kernel {
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).
   template <class S>
-  static inline void eval([[maybe_unused]] const S* in, S* out) {
+  static inline void eval([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_px = in[0];
     [[maybe_unused]] const S a_py = in[1];
@@ -1399,9 +1404,14 @@ struct Point_To_Point_World_Kernel {
     out[41] = ((h*((d_L_f__0__a_wz*o17) + (d_L_f__1__a_wz*o12))) + (o20*o21));
   }
 
-  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 88
+  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  static constexpr int kHeld = 0;
+
+  /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 88
   template <class S>
-  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+  static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
+                            [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_px = in[0];
     [[maybe_unused]] const S a_py = in[1];

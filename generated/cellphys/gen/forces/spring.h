@@ -79,7 +79,7 @@ struct Spring_Pair_Kernel {
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).
   template <class S>
-  static inline void eval([[maybe_unused]] const S* in, S* out) {
+  static inline void eval([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_px = in[0];
     [[maybe_unused]] const S a_py = in[1];
@@ -1240,9 +1240,14 @@ struct Spring_Pair_Kernel {
     out[155] = ((h*((d_L_f__0__b_wz*o58) + (d_L_f__1__b_wz*o86))) + (o98*o99));
   }
 
-  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 184
+  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  static constexpr int kHeld = 0;
+
+  /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 184
   template <class S>
-  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+  static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
+                            [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_px = in[0];
     [[maybe_unused]] const S a_py = in[1];
@@ -1392,7 +1397,7 @@ struct Spring_World_Kernel {
 
   /// F and its Jacobian blocks; S is float, double or a SIMD batch (one force per lane).
   template <class S>
-  static inline void eval([[maybe_unused]] const S* in, S* out) {
+  static inline void eval([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_px = in[0];
     [[maybe_unused]] const S a_py = in[1];
@@ -1883,9 +1888,14 @@ struct Spring_World_Kernel {
     out[41] = ((h*((d_L_f__0__a_wz*o23) + (d_L_f__1__a_wz*o15))) + (o29*o30));
   }
 
-  /// F alone (the first 6 * kBodies outputs of eval). Total ops: 102
+  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  static constexpr int kHeld = 0;
+
+  /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 102
   template <class S>
-  static inline void eval_f([[maybe_unused]] const S* in, S* out) {
+  static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
+                            [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
     using namespace cellphys::simd;
     [[maybe_unused]] const S a_px = in[0];
     [[maybe_unused]] const S a_py = in[1];

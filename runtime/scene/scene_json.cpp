@@ -210,11 +210,12 @@ void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
   if (const json* v = r.find(j, "contact")) {
     const std::string q = "settings.contact";
     r.object(*v, q);
-    r.known_fields(*v, q, {"stiffness", "damping", "slip_velocity", "slop", "margin"}, "settings.contact");
+    r.known_fields(*v, q, {"stiffness", "damping", "slip_velocity", "slop", "rest_speed", "margin"}, "settings.contact");
     if (const json* w = r.find(*v, "stiffness")) s.contact_stiffness = r.non_negative(*w, q + ".stiffness");
     if (const json* w = r.find(*v, "damping")) s.contact_damping = r.non_negative(*w, q + ".damping");
     if (const json* w = r.find(*v, "slip_velocity")) s.slip_velocity = r.positive(*w, q + ".slip_velocity");
     if (const json* w = r.find(*v, "slop")) s.contact_slop = r.non_negative(*w, q + ".slop");
+    if (const json* w = r.find(*v, "rest_speed")) s.contact_rest_speed = r.non_negative(*w, q + ".rest_speed");
     if (const json* w = r.find(*v, "margin")) s.contact_margin = r.non_negative(*w, q + ".margin");
   }
   if (const json* v = r.find(j, "local_store_bytes"))
@@ -566,6 +567,7 @@ std::string write_scene(const SceneDesc& scene) {
                    {"damping", tidy(s.contact_damping)},
                    {"slip_velocity", tidy(s.slip_velocity)},
                    {"slop", tidy(s.contact_slop)},
+                   {"rest_speed", tidy(s.contact_rest_speed)},
                    {"margin", tidy(s.contact_margin)}};
   st["local_store_bytes"] = s.local_store_bytes;
   st["region"] = {{"min", arr(s.region_min, 3)}, {"max", arr(s.region_max, 3)}};
@@ -667,7 +669,7 @@ bool operator==(const ppe::WorldSettings& a, const ppe::WorldSettings& b) {
          a.tolerance == b.tolerance && a.max_halvings == b.max_halvings && a.sleeping == b.sleeping &&
          a.workers == b.workers && a.contact_stiffness == b.contact_stiffness &&
          a.contact_damping == b.contact_damping && a.slip_velocity == b.slip_velocity &&
-         a.contact_slop == b.contact_slop &&
+         a.contact_slop == b.contact_slop && a.contact_rest_speed == b.contact_rest_speed &&
          a.contact_margin == b.contact_margin && a.local_store_bytes == b.local_store_bytes &&
          same(a.region_min, b.region_min) && same(a.region_max, b.region_max) && a.sleep_linear == b.sleep_linear &&
          a.sleep_angular == b.sleep_angular && a.sleep_time == b.sleep_time;

@@ -11,8 +11,20 @@ file(GLOB CELLPHYS_GEN_INPUTS CONFIGURE_DEPENDS
 
 set(CELLPHYS_GEN_DIR ${PROJECT_BINARY_DIR}/generated)
 set(CELLPHYS_GEN_STAMP ${CELLPHYS_GEN_DIR}/cellphys/gen/.stamp)
+# The headers are byproducts, so the build knows the sources that include them must wait for
+# a regeneration and be re-checked after it (force headers are named after their descriptor).
+set(CELLPHYS_GEN_HEADERS)
+foreach(name layouts.h layouts.json kernel_types.h force_table.h block_ops.h)
+  list(APPEND CELLPHYS_GEN_HEADERS ${CELLPHYS_GEN_DIR}/cellphys/gen/${name})
+endforeach()
+foreach(yaml ${CELLPHYS_GEN_INPUTS})
+  if(yaml MATCHES "/(descriptors/forces|examples/new_force)/([a-z0-9_]+)\\.yaml$")
+    list(APPEND CELLPHYS_GEN_HEADERS ${CELLPHYS_GEN_DIR}/cellphys/gen/forces/${CMAKE_MATCH_2}.h)
+  endif()
+endforeach()
 add_custom_command(
   OUTPUT ${CELLPHYS_GEN_STAMP}
+  BYPRODUCTS ${CELLPHYS_GEN_HEADERS}
   COMMAND ${CELLPHYS_GENERATOR_PYTHON} ${PROJECT_SOURCE_DIR}/codegen/generate.py --out ${CELLPHYS_GEN_DIR}
   DEPENDS ${CELLPHYS_GEN_INPUTS}
   COMMENT "cellphys: generating kernels and layouts from descriptors"

@@ -477,7 +477,7 @@ TEST(World, PileOf300BoxesIsDecoupledToFitTheLocalStoreAndSettles) {
   World w;
   const std::vector<BodyId> boxes = pile_in_bin(w, 300, 0.25f, 1);
   const size_t capacity = w.settings().local_store_bytes;
-  uint32_t decoupled_steps = 0, max_cut = 0, max_parts_islands = 0, failed = 0;
+  uint32_t decoupled_steps = 0, max_cut = 0, max_parts_islands = 0, failed = 0, max_sweeps = 0;
   size_t peak = 0;
   const int n_steps = 5 * kHz;
   for (int i = 1; i <= n_steps; ++i) {
@@ -487,10 +487,12 @@ TEST(World, PileOf300BoxesIsDecoupledToFitTheLocalStoreAndSettles) {
     if (st.decoupled_islands > 0) ++decoupled_steps;
     max_cut = std::max(max_cut, st.cut_couplings);
     max_parts_islands = std::max(max_parts_islands, st.decoupled_islands);
+    max_sweeps = std::max(max_sweeps, st.decouple_sweeps);
   }
   const float v = max_speed(w, boxes);
   record("pile300_decoupled_steps", decoupled_steps);
   record("pile300_max_cut_couplings", max_cut);
+  record("pile300_max_sweeps", max_sweeps);
   record("pile300_local_store_peak_bytes", double(peak), 7);
   record("pile300_failed_islands_total", failed);
   record("pile300_max_speed_at_5s", v);

@@ -88,14 +88,14 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
   p.bodies.resize(isl.bodies.size() + ghosts.size());
   std::merge(isl.bodies.begin(), isl.bodies.end(), ghosts.begin(), ghosts.end(), p.bodies.begin());
   for (uint32_t id : p.bodies) {
-    const WorldBody& b = pc.bodies[id];
+    const WorldBody& b = pc.start[id];
     const bool ghost = std::binary_search(ghosts.begin(), ghosts.end(), id);
     p.ghost.push_back(ghost);
     Rigid_Body_Fields f = fields_of(b);
-    if (ghost) {  // kinematic: no force moves it; it moves from where the step started
-      const WorldBody& b0 = pc.start[id];
-      std::copy(b0.position, b0.position + 3, f.position);
-      std::copy(b0.orientation, b0.orientation + 4, f.orientation);
+    if (ghost) {  // kinematic, from where the step started at its latest velocity
+      const WorldBody& latest = pc.bodies[id];
+      std::copy(latest.velocity, latest.velocity + 3, f.velocity);
+      std::copy(latest.angular_velocity, latest.angular_velocity + 3, f.angular_velocity);
       f.inverse_mass = 0.0f;
       std::fill(f.inverse_inertia_body, f.inverse_inertia_body + 6, 0.0f);
     }

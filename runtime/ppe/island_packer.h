@@ -1,9 +1,7 @@
 // Pack: an island's bodies, contacts and forces into the bytes a compute kernel takes;
 // decouple islands too big for a local store by cutting them in space; unpack results into
 // the world. A coupling the cut crosses goes into both parts, each of which holds the body
-// across the cut as a kinematic ghost (infinite mass, moving with its start-of-step
-// velocity): both sides stay implicit in the coupling, so a stiff contact across the cut is
-// as stable as one against a moving wall.
+// across the cut as a ghost, so both sides stay implicit in the coupling; see decouple().
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -25,7 +23,7 @@ struct PackContext {
   const std::vector<WorldForce>& forces;
   const std::vector<WorldContact>& contacts;
   const WorldSettings& settings;
-  const std::vector<WorldBody>& start;  // the bodies at the start of the step (ghost poses)
+  const std::vector<WorldBody>& start;  // the bodies at the start of the step
 };
 
 struct PackedIsland {
@@ -36,13 +34,14 @@ struct PackedIsland {
 };
 
 /// The parts of an island that each fit the local store (just the island when it fits), in
-/// the order they are integrated; counts the couplings cut. The parts run one after another
-/// (Gauss-Seidel across the cut): a part sees the ghosts of parts integrated before it moving
-/// with their new velocities, so a cut coupling is never resolved twice over in one step.
+/// the order they are integrated; counts the couplings cut. Integrating the parts in order,
+/// each holding the bodies across its cuts as kinematic ghosts at their latest velocities, is
+/// one block Gauss-Seidel sweep on the island's linear system; sweeps repeat until the
+/// velocities settle (World::step), so the parts converge on the whole island's step.
 std::vector<IslandContent> decouple(const PackContext& pc, IslandContent island, uint32_t& cut_couplings);
 
-/// Packs one island or part. Ghosts take their pose from pc.start and their velocity from
-/// pc.bodies (the new one when their part has been integrated already this step).
+/// Packs one island or part from the start-of-step state (pc.start); ghosts (kinematic: no
+/// force moves them) take their latest velocity from pc.bodies.
 PackedIsland pack_island(const PackContext& pc, const IslandContent& part);
 
 /// Copies a successful result's advanced bodies back into the world.

@@ -18,6 +18,8 @@ struct StepStats {
   uint32_t narrow_phase_pairs = 0; // pairs with at least one contact
   uint32_t contacts = 0;
   uint32_t islands = 0, decoupled_islands = 0, cut_couplings = 0;
+  uint32_t decouple_sweeps = 0;  // block Gauss-Seidel sweeps over the parts of split islands
+  float decouple_change = 0;     // largest velocity change (m/s) in the last sweep
   uint32_t solver_iterations = 0, solves = 0, step_halvings = 0, failed_islands = 0, substeps = 0;
   uint32_t woken = 0, fell_asleep = 0;
   size_t local_store_peak_bytes = 0;

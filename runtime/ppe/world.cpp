@@ -95,6 +95,9 @@ static void validate_settings(const WorldSettings& s) {
     throw WorldError("settings.contact: stiffness, damping and slop must be finite and >= 0, slip_velocity > 0");
   if (s.local_store_bytes < 16 * 1024) throw WorldError("settings.local_store_bytes must be at least 16 KiB");
   if (s.max_halvings > 16) throw WorldError("settings.max_halvings must be at most 16");
+  if (s.decouple_sweeps < 1 || s.decouple_sweeps > 64) throw WorldError("settings.decouple_sweeps must be between 1 and 64");
+  if (!(s.decouple_tolerance >= 0.0f) || !std::isfinite(s.decouple_tolerance))
+    throw WorldError("settings.decouple_tolerance must be finite and >= 0");
 }
 
 World::World(WorldSettings settings) : settings_(settings), impl_(std::make_unique<Impl>()) {
@@ -460,59 +463,83 @@ const StepStats& World::step() {
 
   // 4. Decouple what does not fit a local store.
   t = Clock::now();
-  std::vector<WorldBody> start;  // ghost poses, kept only when an island is split
-  PackContext pc{w.bodies, w.forces, w.contacts, settings_, w.bodies};
+  std::vector<WorldBody> start;  // the start-of-step state, kept only when an island is split
   std::vector<std::vector<IslandContent>> parts(islands.size());
   size_t waves = 0;
-  for (size_t k = 0; k < islands.size(); ++k) {
-    parts[k] = decouple(pc, islands[k], st.cut_couplings);  // a copy: the sleep check below needs it
-    if (parts[k].size() > 1) ++st.decoupled_islands;
-    waves = std::max(waves, parts[k].size());
+  {
+    const PackContext pc{w.bodies, w.forces, w.contacts, settings_, w.bodies};
+    for (size_t k = 0; k < islands.size(); ++k) {
+      parts[k] = decouple(pc, islands[k], st.cut_couplings);  // a copy: the sleep check below needs it
+      if (parts[k].size() > 1) ++st.decoupled_islands;
+      waves = std::max(waves, parts[k].size());
+    }
   }
   if (waves > 1) start = w.bodies;
-  const PackContext wave_pc{w.bodies, w.forces, w.contacts, settings_, waves > 1 ? start : w.bodies};
+  const PackContext pc{w.bodies, w.forces, w.contacts, settings_, waves > 1 ? start : w.bodies};
   st.times.decouple_ms = ms_since(t);
 
-  // 5 and 6. Pack, integrate on the workers, unpack; wave k holds part k of every island (the
-  // parts of a split island run in order). A failed island keeps its state (the kernel
-  // halved its step already).
-  for (size_t wave = 0; wave < waves; ++wave) {
-    t = Clock::now();
-    std::vector<PackedIsland> packed;
-    for (const std::vector<IslandContent>& p : parts)
-      if (wave < p.size()) packed.push_back(pack_island(wave_pc, p[wave]));
-    // largest first: the long islands start early on the workers
-    std::vector<size_t> order(packed.size());
-    std::iota(order.begin(), order.end(), size_t{0});
-    std::stable_sort(order.begin(), order.end(),
-                     [&](size_t x, size_t y) { return packed[x].image.size() > packed[y].image.size(); });
-    std::vector<spu::IslandJob> jobs;
-    for (size_t k : order) {
-      PackedIsland& p = packed[k];
-      p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
-      jobs.push_back({p.image.data(), p.image.size(), p.result.data(), p.result.size()});
+  // 5 and 6. Pack, integrate on the workers, unpack. Wave k holds part k of every island: the
+  // parts of a split island run in order, each from the start state against ghosts at the
+  // latest velocities of the others (a block Gauss-Seidel sweep). Split islands sweep again
+  // until no velocity changes by more than decouple_tolerance. A failed island keeps its state
+  // (the kernel halved its step already).
+  std::vector<float> before;
+  for (uint32_t sweep = 0; sweep < std::max(1u, settings_.decouple_sweeps); ++sweep) {
+    if (sweep > 0 && waves <= 1) break;
+    if (waves > 1) {  // velocities at the end of the previous sweep
+      before.clear();
+      for (size_t k = 0; k < parts.size(); ++k)
+        if (parts[k].size() > 1)
+          for (uint32_t i : islands[k].bodies) before.insert(before.end(), w.bodies[i].velocity, w.bodies[i].velocity + 3);
     }
-    st.times.pack_ms += ms_since(t);
-    t = Clock::now();
-    std::vector<spu::IslandReport> reports;
-    w.workers(settings_).run(jobs, reports);
-    st.times.integrate_ms += ms_since(t);
-    t = Clock::now();
-    for (size_t j = 0; j < order.size(); ++j) {
-      const PackedIsland& p = packed[order[j]];
-      const spu::IslandReport& r = reports[j];
-      st.solver_iterations += r.solver_iterations;
-      st.solves += r.solves;
-      st.step_halvings = std::max(st.step_halvings, r.halvings);
-      st.substeps += r.substeps;
-      st.local_store_peak_bytes = std::max(st.local_store_peak_bytes, r.footprint.total);
-      if (r.status != spu::IslandStatus::ok) {
-        ++st.failed_islands;
-        continue;
+    for (size_t wave = 0; wave < waves; ++wave) {
+      t = Clock::now();
+      std::vector<PackedIsland> packed;
+      for (const std::vector<IslandContent>& p : parts)
+        if (wave < p.size() && (sweep == 0 || p.size() > 1)) packed.push_back(pack_island(pc, p[wave]));
+      // largest first: the long islands start early on the workers
+      std::vector<size_t> order(packed.size());
+      std::iota(order.begin(), order.end(), size_t{0});
+      std::stable_sort(order.begin(), order.end(),
+                       [&](size_t x, size_t y) { return packed[x].image.size() > packed[y].image.size(); });
+      std::vector<spu::IslandJob> jobs;
+      for (size_t k : order) {
+        PackedIsland& p = packed[k];
+        p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
+        jobs.push_back({p.image.data(), p.image.size(), p.result.data(), p.result.size()});
       }
-      unpack_island(p, w.bodies);
+      st.times.pack_ms += ms_since(t);
+      t = Clock::now();
+      std::vector<spu::IslandReport> reports;
+      w.workers(settings_).run(jobs, reports);
+      st.times.integrate_ms += ms_since(t);
+      t = Clock::now();
+      for (size_t j = 0; j < order.size(); ++j) {
+        const PackedIsland& p = packed[order[j]];
+        const spu::IslandReport& r = reports[j];
+        st.solver_iterations += r.solver_iterations;
+        st.solves += r.solves;
+        st.step_halvings = std::max(st.step_halvings, r.halvings);
+        st.substeps += r.substeps;
+        st.local_store_peak_bytes = std::max(st.local_store_peak_bytes, r.footprint.total);
+        if (r.status != spu::IslandStatus::ok) {
+          ++st.failed_islands;
+          continue;
+        }
+        unpack_island(p, w.bodies);
+      }
+      st.times.unpack_ms += ms_since(t);
     }
-    st.times.unpack_ms += ms_since(t);
+    if (waves <= 1) break;
+    st.decouple_sweeps = sweep + 1;
+    float change = 0;
+    size_t at = 0;
+    for (size_t k = 0; k < parts.size(); ++k)
+      if (parts[k].size() > 1)
+        for (uint32_t i : islands[k].bodies)
+          for (int c = 0; c < 3; ++c) change = std::max(change, std::fabs(w.bodies[i].velocity[c] - before[at++]));
+    st.decouple_change = change;
+    if (sweep > 0 && change <= settings_.decouple_tolerance) break;
   }
   t = Clock::now();
   // Sleep: an island whose bodies have all been slow for sleep_time goes to sleep together.

@@ -44,6 +44,10 @@ struct WorldSettings {
   // (dt times its speed and the spin of its farthest point) plus this margin (m).
   float contact_margin = 0.001f;
   size_t local_store_bytes = 256 * 1024;
+  // An island split to fit the local store is swept (its parts integrated in order) until no
+  // velocity changes by more than decouple_tolerance (m/s), at most decouple_sweeps times.
+  uint32_t decouple_sweeps = 8;
+  float decouple_tolerance = 1e-3f;
   // Simulated region: bodies whose bounding box leaves it are not collided.
   float region_min[3] = {-1e4f, -1e4f, -1e4f};
   float region_max[3] = {1e4f, 1e4f, 1e4f};

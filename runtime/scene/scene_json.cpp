@@ -179,7 +179,7 @@ void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
   r.object(j, p);
   r.known_fields(j, p,
                  {"dt", "gravity", "integrator", "solver", "tolerance", "max_halvings", "sleeping", "sleep", "workers",
-                  "contact", "local_store_bytes", "region"},
+                  "contact", "local_store_bytes", "decouple", "region"},
                  "settings");
   if (const json* v = r.find(j, "dt")) s.dt = r.positive(*v, "settings.dt");
   if (const json* v = r.find(j, "gravity")) r.vec(*v, "settings.gravity", s.gravity, 3);
@@ -220,6 +220,13 @@ void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
   }
   if (const json* v = r.find(j, "local_store_bytes"))
     s.local_store_bytes = static_cast<size_t>(r.integer(*v, "settings.local_store_bytes", 16 * 1024, int64_t(1) << 32));
+  if (const json* v = r.find(j, "decouple")) {
+    const std::string q = "settings.decouple";
+    r.object(*v, q);
+    r.known_fields(*v, q, {"sweeps", "tolerance"}, "settings.decouple");
+    if (const json* w = r.find(*v, "sweeps")) s.decouple_sweeps = static_cast<uint32_t>(r.integer(*w, q + ".sweeps", 1, 64));
+    if (const json* w = r.find(*v, "tolerance")) s.decouple_tolerance = r.non_negative(*w, q + ".tolerance");
+  }
   if (const json* v = r.find(j, "region")) {
     const std::string q = "settings.region";
     r.object(*v, q);
@@ -570,6 +577,7 @@ std::string write_scene(const SceneDesc& scene) {
                    {"rest_speed", tidy(s.contact_rest_speed)},
                    {"margin", tidy(s.contact_margin)}};
   st["local_store_bytes"] = s.local_store_bytes;
+  st["decouple"] = {{"sweeps", s.decouple_sweeps}, {"tolerance", tidy(s.decouple_tolerance)}};
   st["region"] = {{"min", arr(s.region_min, 3)}, {"max", arr(s.region_max, 3)}};
   root["settings"] = st;
 
@@ -671,6 +679,7 @@ bool operator==(const ppe::WorldSettings& a, const ppe::WorldSettings& b) {
          a.contact_damping == b.contact_damping && a.slip_velocity == b.slip_velocity &&
          a.contact_slop == b.contact_slop && a.contact_rest_speed == b.contact_rest_speed &&
          a.contact_margin == b.contact_margin && a.local_store_bytes == b.local_store_bytes &&
+         a.decouple_sweeps == b.decouple_sweeps && a.decouple_tolerance == b.decouple_tolerance &&
          same(a.region_min, b.region_min) && same(a.region_max, b.region_max) && a.sleep_linear == b.sleep_linear &&
          a.sleep_angular == b.sleep_angular && a.sleep_time == b.sleep_time;
 }

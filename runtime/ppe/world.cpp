@@ -6,10 +6,9 @@
 #include <cstring>
 #include <numeric>
 
-#include "runtime/ppe/broad_phase.h"
 #include "runtime/ppe/island_packer.h"
 #include "runtime/ppe/mass_properties.h"
-#include "runtime/ppe/worker_pool.h"
+#include "runtime/ppe/world_impl.h"
 #include "runtime/spu/narrow_phase.h"
 #include "runtime/spu/rigid_motion.h"
 
@@ -28,61 +27,7 @@ bool finite(const float* p, int n) {
   return true;
 }
 
-std::string body_name(BodyId id) { return "body " + std::to_string(id); }
-
 }  // namespace
-
-struct World::Impl {
-  std::vector<WorldBody> bodies;
-  std::vector<WorldForce> forces;
-  std::vector<SleepGroup> groups;
-  std::vector<int32_t> free_groups;
-  SweepAndPrune sap;
-  std::unique_ptr<WorkerPool> pool;
-  int pool_workers = 0;
-  size_t pool_bytes = 0;
-  // per-step scratch, kept to avoid reallocation
-  std::vector<Aabb> boxes;
-  std::vector<float> reach;  // per body: distance it may close within the step (m)
-  std::vector<BoxKind> kinds;
-  std::vector<std::pair<uint32_t, uint32_t>> pairs;
-  std::vector<WorldContact> contacts;
-
-  WorkerPool& workers(const WorldSettings& s) {
-    if (!pool || pool_workers != s.workers || pool_bytes != s.local_store_bytes) {
-      pool.reset();
-      pool = std::make_unique<WorkerPool>(s.workers, s.local_store_bytes);
-      pool_workers = s.workers;
-      pool_bytes = s.local_store_bytes;
-    }
-    return *pool;
-  }
-  WorldBody& live(BodyId id) {
-    if (id >= bodies.size() || !bodies[id].alive) throw WorldError(body_name(id) + " does not exist");
-    return bodies[id];
-  }
-  const WorldBody& live(BodyId id) const {
-    if (id >= bodies.size() || !bodies[id].alive) throw WorldError(body_name(id) + " does not exist");
-    return bodies[id];
-  }
-  void wake(BodyId id) {
-    WorldBody& b = bodies[id];
-    b.sleep_timer = 0.0f;
-    if (b.awake || b.is_static) return;
-    const int32_t g = b.sleep_group;
-    if (g < 0) {
-      b.awake = true;
-      return;
-    }
-    for (uint32_t m : groups[g].bodies) {
-      bodies[m].awake = true;
-      bodies[m].sleep_group = -1;
-      bodies[m].sleep_timer = 0.0f;
-    }
-    groups[g] = SleepGroup{};
-    free_groups.push_back(g);
-  }
-};
 
 static void validate_settings(const WorldSettings& s) {
   if (!(s.dt > 0.0f) || !std::isfinite(s.dt)) throw WorldError("settings.dt must be positive and finite");

@@ -123,6 +123,14 @@ class World {
   /// Bitwise hash of every live body's state, for determinism checks.
   uint64_t state_hash() const;
 
+  /// The whole world as versioned, checksummed bytes (runtime/ppe/snapshot.cpp): settings,
+  /// shape dictionary, bodies (removed ones too, so ids stay), forces, sleeping groups and
+  /// the step counter. A world restored from them steps on bit for bit like this one.
+  std::vector<unsigned char> snapshot() const;
+  /// A world from snapshot() bytes. Throws WorldError naming what is wrong (truncated,
+  /// checksum, version, a bad record); nothing is half-restored.
+  static std::unique_ptr<World> restore(const unsigned char* bytes, size_t size);
+
  private:
   struct Impl;
   WorldSettings settings_;

@@ -1,0 +1,411 @@
+// World snapshots: the whole world as bytes, and back. Layout (little-endian, every float by
+// its bits):
+//   header  "CELLSNAP" | u32 version | u32 header bytes (32) | u64 payload bytes |
+//           u32 checksum of the payload (spu::checksum) | u32 zero
+//   payload settings | step counter | shapes | bodies | forces | sleeping groups | free groups
+// A restored world steps on bit for bit: everything a step reads across steps is here (the
+// broad phase's kept sort order only speeds it up; its pairs come out sorted).
+#include <cstring>
+#include <string>
+#include <type_traits>
+
+#include "runtime/ppe/world_impl.h"
+
+namespace cellphys::ppe {
+
+namespace {
+
+constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
+constexpr uint32_t kVersion = 1;
+constexpr size_t kHeaderBytes = 32;
+
+// A new setting must be added to put_settings/get_settings (and kVersion raised).
+static_assert(sizeof(WorldSettings) == 120, "WorldSettings changed: update the snapshot's settings record");
+
+class Writer {
+ public:
+  std::vector<unsigned char> bytes;
+  template <class T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const unsigned char*>(&v);
+    bytes.insert(bytes.end(), p, p + sizeof v);
+  }
+  void put_floats(const float* p, size_t n) {
+    for (size_t i = 0; i < n; ++i) put(p[i]);
+  }
+  void put_u32s(const std::vector<uint32_t>& v) {
+    put(static_cast<uint32_t>(v.size()));
+    for (uint32_t x : v) put(x);
+  }
+  void put_bytes(const void* p, size_t n) {
+    put(static_cast<uint32_t>(n));
+    bytes.insert(bytes.end(), static_cast<const unsigned char*>(p), static_cast<const unsigned char*>(p) + n);
+  }
+};
+
+class Reader {
+ public:
+  Reader(const unsigned char* p, size_t n) : p_(p), n_(n) {}
+  template <class T>
+  T get(const char* what) {
+    if (n_ - at_ < sizeof(T)) throw WorldError(std::string("snapshot: truncated at ") + what);
+    T v;
+    std::memcpy(&v, p_ + at_, sizeof v);
+    at_ += sizeof v;
+    return v;
+  }
+  void get_floats(float* out, size_t n, const char* what) {
+    for (size_t i = 0; i < n; ++i) out[i] = get<float>(what);
+  }
+  uint32_t count(const char* what, size_t min_bytes_each) {
+    const uint32_t c = get<uint32_t>(what);
+    if (min_bytes_each && c > (n_ - at_) / min_bytes_each)
+      throw WorldError(std::string("snapshot: ") + what + " count " + std::to_string(c) + " runs past the end");
+    return c;
+  }
+  std::vector<uint32_t> get_u32s(const char* what) {
+    std::vector<uint32_t> v(count(what, 4));
+    for (uint32_t& x : v) x = get<uint32_t>(what);
+    return v;
+  }
+  std::vector<unsigned char> get_bytes(const char* what) {
+    const uint32_t c = count(what, 1);
+    std::vector<unsigned char> v(p_ + at_, p_ + at_ + c);
+    at_ += c;
+    return v;
+  }
+  bool done() const { return at_ == n_; }
+
+ private:
+  const unsigned char* p_;
+  size_t n_, at_ = 0;
+};
+
+void put_settings(Writer& w, const WorldSettings& s) {
+  w.put(s.dt);
+  w.put_floats(s.gravity, 3);
+  w.put(static_cast<uint32_t>(s.integrator));
+  w.put(static_cast<uint32_t>(s.solver));
+  w.put(s.tolerance);
+  w.put(s.max_halvings);
+  w.put(static_cast<uint32_t>(s.sleeping));
+  w.put(static_cast<int32_t>(s.workers));
+  w.put(s.contact_stiffness);
+  w.put(s.contact_damping);
+  w.put(s.slip_velocity);
+  w.put(s.contact_slop);
+  w.put(s.contact_rest_speed);
+  w.put(s.contact_margin);
+  w.put(static_cast<uint64_t>(s.local_store_bytes));
+  w.put(s.decouple_sweeps);
+  w.put(s.decouple_tolerance);
+  w.put_floats(s.region_min, 3);
+  w.put_floats(s.region_max, 3);
+  w.put(s.sleep_linear);
+  w.put(s.sleep_angular);
+  w.put(s.sleep_time);
+}
+
+WorldSettings get_settings(Reader& r) {
+  const char* what = "settings";
+  WorldSettings s;
+  s.dt = r.get<float>(what);
+  r.get_floats(s.gravity, 3, what);
+  const uint32_t integ = r.get<uint32_t>(what);
+  if (integ >= static_cast<uint32_t>(spu::kNumIntegrators)) throw WorldError("snapshot: unknown integrator " + std::to_string(integ));
+  s.integrator = static_cast<spu::Integrator>(integ);
+  const uint32_t solver = r.get<uint32_t>(what);
+  if (solver > 2) throw WorldError("snapshot: unknown solver " + std::to_string(solver));
+  s.solver = static_cast<spu::Solver>(solver);
+  s.tolerance = r.get<float>(what);
+  s.max_halvings = r.get<uint32_t>(what);
+  s.sleeping = r.get<uint32_t>(what) != 0;
+  s.workers = r.get<int32_t>(what);
+  s.contact_stiffness = r.get<float>(what);
+  s.contact_damping = r.get<float>(what);
+  s.slip_velocity = r.get<float>(what);
+  s.contact_slop = r.get<float>(what);
+  s.contact_rest_speed = r.get<float>(what);
+  s.contact_margin = r.get<float>(what);
+  s.local_store_bytes = static_cast<size_t>(r.get<uint64_t>(what));
+  s.decouple_sweeps = r.get<uint32_t>(what);
+  s.decouple_tolerance = r.get<float>(what);
+  r.get_floats(s.region_min, 3, what);
+  r.get_floats(s.region_max, 3, what);
+  s.sleep_linear = r.get<float>(what);
+  s.sleep_angular = r.get<float>(what);
+  s.sleep_time = r.get<float>(what);
+  return s;
+}
+
+void put_hull(Writer& w, const spu::HullView& h) {
+  w.put(h.num_vertices);
+  w.put_floats(h.vertices, 3 * size_t(h.num_vertices));
+}
+
+bool same_floats(const float* a, const float* b, size_t n) { return n == 0 || std::memcmp(a, b, 4 * n) == 0; }
+bool same_ints(const int32_t* a, const int32_t* b, size_t n) { return n == 0 || std::memcmp(a, b, 4 * n) == 0; }
+
+// Shapes are rebuilt through the dictionary's own constructors and must come out bit for
+// bit as saved (spheres, capsules and boxes are stored as given; a plane's unit normal and a
+// hull's centred vertices are fixed points of normalising and re-hulling, which is checked).
+void put_shapes(Writer& w, const ShapeDictionary& d) {
+  w.put(static_cast<uint32_t>(d.size()));
+  for (uint32_t i = 0; i < d.size(); ++i) {
+    const spu::ShapeView& v = d.view(i);
+    w.put(static_cast<uint32_t>(v.type));
+    switch (v.type) {
+      case spu::ShapeType::sphere: w.put(v.radius); break;
+      case spu::ShapeType::capsule: w.put(v.radius), w.put(v.half_height); break;
+      case spu::ShapeType::box: w.put_floats(v.half_extents, 3); break;
+      case spu::ShapeType::plane: w.put_floats(v.normal, 3), w.put(v.offset); break;
+      case spu::ShapeType::hull: {
+        put_hull(w, v.hull);
+        // the whole hull, to check the rebuilt one against
+        w.put(v.hull.num_faces);
+        w.put_floats(v.hull.planes, 4 * size_t(v.hull.num_faces));
+        w.put(v.hull.num_edges);
+        const int32_t fv = v.hull.face_start[v.hull.num_faces];
+        w.put(fv);
+        for (int k = 0; k <= v.hull.num_faces; ++k) w.put(v.hull.face_start[k]);
+        for (int k = 0; k < fv; ++k) w.put(v.hull.face_vertices[k]);
+        for (int k = 0; k < 2 * v.hull.num_edges; ++k) w.put(v.hull.edges[k]);
+        break;
+      }
+    }
+  }
+}
+
+void get_shapes(Reader& r, ShapeDictionary& d) {
+  const uint32_t n = r.count("shapes", 8);
+  for (uint32_t i = 0; i < n; ++i) {
+    const std::string who = "snapshot: shape " + std::to_string(i);
+    const uint32_t type = r.get<uint32_t>("shape type");
+    try {
+      switch (static_cast<spu::ShapeType>(type)) {
+        case spu::ShapeType::sphere: d.add_sphere(r.get<float>("sphere")); break;
+        case spu::ShapeType::capsule: {
+          const float radius = r.get<float>("capsule"), half = r.get<float>("capsule");
+          d.add_capsule(radius, half);
+          break;
+        }
+        case spu::ShapeType::box: {
+          float h[3];
+          r.get_floats(h, 3, "box");
+          d.add_box(h);
+          break;
+        }
+        case spu::ShapeType::plane: {
+          float nrm[3];
+          r.get_floats(nrm, 3, "plane");
+          const float offset = r.get<float>("plane");
+          const spu::ShapeView& v = d.view(d.add_plane(nrm, offset));
+          if (!same_floats(v.normal, nrm, 3)) throw WorldError(who + ": plane normal does not rebuild bit for bit");
+          break;
+        }
+        case spu::ShapeType::hull: {
+          const int32_t nv = r.get<int32_t>("hull");
+          if (nv < 4 || nv > 1 << 20) throw WorldError(who + ": hull vertex count out of range");
+          std::vector<float> verts(3 * size_t(nv));
+          r.get_floats(verts.data(), verts.size(), "hull vertices");
+          const int32_t nf = r.get<int32_t>("hull");
+          if (nf < 4 || nf > 1 << 20) throw WorldError(who + ": hull face count out of range");
+          std::vector<float> planes(4 * size_t(nf));
+          r.get_floats(planes.data(), planes.size(), "hull planes");
+          const int32_t ne = r.get<int32_t>("hull"), nfv = r.get<int32_t>("hull");
+          if (ne < 0 || ne > 1 << 20 || nfv < 0 || nfv > 1 << 22) throw WorldError(who + ": hull counts out of range");
+          std::vector<int32_t> fs(size_t(nf) + 1), fvs(static_cast<size_t>(nfv)), edges(2 * size_t(ne));
+          for (int32_t& x : fs) x = r.get<int32_t>("hull faces");
+          for (int32_t& x : fvs) x = r.get<int32_t>("hull faces");
+          for (int32_t& x : edges) x = r.get<int32_t>("hull edges");
+          const spu::HullView& h = d.view(d.add_hull(verts.data(), nv)).hull;
+          if (h.num_vertices != nv || h.num_faces != nf || h.num_edges != ne || h.face_start[nf] != nfv ||
+              !same_floats(h.vertices, verts.data(), verts.size()) || !same_floats(h.planes, planes.data(), planes.size()) ||
+              !same_ints(h.face_start, fs.data(), fs.size()) || !same_ints(h.face_vertices, fvs.data(), fvs.size()) ||
+              !same_ints(h.edges, edges.data(), edges.size()))
+            throw WorldError(who + ": hull does not rebuild bit for bit from its vertices");
+          break;
+        }
+        default: throw WorldError(who + ": unknown shape type " + std::to_string(type));
+      }
+    } catch (const ShapeError& e) {
+      throw WorldError(who + ": " + e.what());
+    }
+  }
+}
+
+void put_contact(Writer& w, const WorldContact& c) {
+  w.put(c.a);
+  w.put(c.b);
+  w.put_floats(c.point.point, 3);
+  w.put_floats(c.point.normal, 3);
+  w.put(c.point.penetration);
+  w.put(c.friction);
+}
+
+WorldContact get_contact(Reader& r) {
+  WorldContact c;
+  c.a = r.get<uint32_t>("contact");
+  c.b = r.get<uint32_t>("contact");
+  r.get_floats(c.point.point, 3, "contact");
+  r.get_floats(c.point.normal, 3, "contact");
+  c.point.penetration = r.get<float>("contact");
+  c.friction = r.get<float>("contact");
+  return c;
+}
+
+}  // namespace
+
+std::vector<unsigned char> World::snapshot() const {
+  const Impl& w = *impl_;
+  Writer p;
+  put_settings(p, settings_);
+  p.put(static_cast<uint64_t>(stats_.step));
+  put_shapes(p, shapes_);
+  p.put(static_cast<uint32_t>(w.bodies.size()));
+  for (const WorldBody& b : w.bodies) {
+    p.put(static_cast<uint8_t>(b.alive));
+    p.put(static_cast<uint8_t>(b.is_static));
+    p.put(static_cast<uint8_t>(b.awake));
+    p.put(uint8_t{0});
+    p.put(b.shape);
+    p.put(b.scale);
+    p.put(b.mass);
+    p.put_floats(b.inertia, 6);
+    p.put_floats(b.inverse_inertia, 6);
+    p.put_floats(b.position, 3);
+    p.put_floats(b.orientation, 4);
+    p.put_floats(b.velocity, 3);
+    p.put_floats(b.angular_velocity, 3);
+    p.put(b.friction);
+    p.put(b.linear_damping);
+    p.put(b.angular_damping);
+    p.put(b.sleep_timer);
+    p.put(b.sleep_group);
+  }
+  p.put(static_cast<uint32_t>(w.forces.size()));
+  for (const WorldForce& f : w.forces) {
+    p.put(static_cast<uint8_t>(f.alive));
+    const char* name = gen::kForceTable[static_cast<int>(f.type)].name;
+    p.put_bytes(name, std::strlen(name));  // by name: a force table reordered by a rebuild still reads
+    p.put(f.a);
+    p.put(f.b);
+    p.put_bytes(f.instance.data(), f.instance.size());
+  }
+  p.put(static_cast<uint32_t>(w.groups.size()));
+  for (const SleepGroup& g : w.groups) {
+    p.put_u32s(g.bodies);
+    p.put(static_cast<uint32_t>(g.contacts.size()));
+    for (const WorldContact& c : g.contacts) put_contact(p, c);
+  }
+  p.put(static_cast<uint32_t>(w.free_groups.size()));
+  for (int32_t g : w.free_groups) p.put(g);
+
+  Writer out;
+  out.bytes.insert(out.bytes.end(), kMagic, kMagic + 8);
+  out.put(kVersion);
+  out.put(static_cast<uint32_t>(kHeaderBytes));
+  out.put(static_cast<uint64_t>(p.bytes.size()));
+  out.put(spu::checksum(p.bytes.data(), p.bytes.size()));
+  out.put(uint32_t{0});
+  out.bytes.insert(out.bytes.end(), p.bytes.begin(), p.bytes.end());
+  return out.bytes;
+}
+
+std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
+  if (!bytes || size < kHeaderBytes) throw WorldError("snapshot: shorter than its header");
+  if (std::memcmp(bytes, kMagic, 8) != 0) throw WorldError("snapshot: bad magic (not a cellphys world snapshot)");
+  Reader h(bytes + 8, kHeaderBytes - 8);
+  const uint32_t version = h.get<uint32_t>("header");
+  if (version != kVersion)
+    throw WorldError("snapshot: format version " + std::to_string(version) + ", this build reads " + std::to_string(kVersion));
+  if (h.get<uint32_t>("header") != kHeaderBytes) throw WorldError("snapshot: unexpected header size");
+  const uint64_t payload = h.get<uint64_t>("header");
+  const uint32_t sum = h.get<uint32_t>("header");
+  if (payload != size - kHeaderBytes)
+    throw WorldError("snapshot: header says " + std::to_string(payload) + " payload bytes, got " + std::to_string(size - kHeaderBytes));
+  if (spu::checksum(bytes + kHeaderBytes, payload) != sum) throw WorldError("snapshot: checksum mismatch");
+
+  Reader r(bytes + kHeaderBytes, payload);
+  const WorldSettings settings = get_settings(r);
+  auto world = std::make_unique<World>(settings);  // validates the settings
+  World& W = *world;
+  Impl& w = *W.impl_;
+  W.stats_.step = r.get<uint64_t>("step counter");
+  get_shapes(r, W.shapes_);
+
+  const uint32_t nb = r.count("bodies", 8);
+  w.bodies.resize(nb);
+  for (uint32_t i = 0; i < nb; ++i) {
+    WorldBody& b = w.bodies[i];
+    b.alive = r.get<uint8_t>("body") != 0;
+    b.is_static = r.get<uint8_t>("body") != 0;
+    b.awake = r.get<uint8_t>("body") != 0;
+    r.get<uint8_t>("body");
+    b.shape = r.get<uint32_t>("body");
+    b.scale = r.get<float>("body");
+    b.mass = r.get<float>("body");
+    r.get_floats(b.inertia, 6, "body");
+    r.get_floats(b.inverse_inertia, 6, "body");
+    r.get_floats(b.position, 3, "body");
+    r.get_floats(b.orientation, 4, "body");
+    r.get_floats(b.velocity, 3, "body");
+    r.get_floats(b.angular_velocity, 3, "body");
+    b.friction = r.get<float>("body");
+    b.linear_damping = r.get<float>("body");
+    b.angular_damping = r.get<float>("body");
+    b.sleep_timer = r.get<float>("body");
+    b.sleep_group = r.get<int32_t>("body");
+    if (b.shape >= W.shapes_.size()) throw WorldError("snapshot: " + body_name(i) + " refers to a missing shape");
+  }
+  auto body_ok = [&](uint32_t id, bool world_ok) { return (world_ok && id == kWorldBody) || id < nb; };
+
+  const uint32_t nf = r.count("forces", 16);
+  w.forces.resize(nf);
+  for (uint32_t i = 0; i < nf; ++i) {
+    WorldForce& f = w.forces[i];
+    f.alive = r.get<uint8_t>("force") != 0;
+    const std::vector<unsigned char> name = r.get_bytes("force type");
+    const std::string type(name.begin(), name.end());
+    int t = -1;
+    for (int k = 0; k < gen::kNumForceTypes; ++k)
+      if (type == gen::kForceTable[k].name) t = k;
+    if (t < 0) throw WorldError("snapshot: force " + std::to_string(i) + " has type '" + type + "', which this build lacks");
+    f.type = static_cast<gen::ForceType>(t);
+    f.a = r.get<uint32_t>("force");
+    f.b = r.get<uint32_t>("force");
+    f.instance = r.get_bytes("force instance");
+    if (f.instance.size() != gen::kForceTable[t].instance_size)
+      throw WorldError("snapshot: force " + std::to_string(i) + " (" + type + ") has a different layout in this build");
+    if (!body_ok(f.a, false) || !body_ok(f.b, true)) throw WorldError("snapshot: force " + std::to_string(i) + " refers to a missing body");
+  }
+
+  const uint32_t ng = r.count("sleeping groups", 8);
+  w.groups.resize(ng);
+  for (uint32_t g = 0; g < ng; ++g) {
+    w.groups[g].bodies = r.get_u32s("sleeping group");
+    for (uint32_t id : w.groups[g].bodies)
+      if (!body_ok(id, false)) throw WorldError("snapshot: sleeping group " + std::to_string(g) + " refers to a missing body");
+    const uint32_t nc = r.count("sleeping contacts", 36);
+    for (uint32_t c = 0; c < nc; ++c) {
+      w.groups[g].contacts.push_back(get_contact(r));
+      const WorldContact& wc = w.groups[g].contacts.back();
+      if (!body_ok(wc.a, false) || !body_ok(wc.b, true))
+        throw WorldError("snapshot: sleeping group " + std::to_string(g) + " has a contact with a missing body");
+    }
+  }
+  const uint32_t nfree = r.count("free groups", 4);
+  for (uint32_t k = 0; k < nfree; ++k) {
+    const int32_t g = r.get<int32_t>("free groups");
+    if (g < 0 || static_cast<uint32_t>(g) >= ng) throw WorldError("snapshot: free group out of range");
+    w.free_groups.push_back(g);
+  }
+  for (uint32_t i = 0; i < nb; ++i)
+    if (w.bodies[i].sleep_group < -1 || w.bodies[i].sleep_group >= static_cast<int32_t>(ng))
+      throw WorldError("snapshot: " + body_name(i) + " is in a missing sleeping group");
+  if (!r.done()) throw WorldError("snapshot: trailing bytes after the last record");
+  return world;
+}
+
+}  // namespace cellphys::ppe

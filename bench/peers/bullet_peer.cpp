@@ -1,0 +1,167 @@
+// Bullet (btDiscreteDynamicsWorld, sequential-impulse solver), z up with the scene's gravity.
+// "default": Bullet's defaults (10 solver iterations); "tuned": more iterations (100 unless
+// given). Friction: each body gets sqrt(mu) and Bullet multiplies the pair, giving the
+// geometric mean. Inertia: the diagonal of the body-axes tensor (exact for spheres, boxes and
+// capsules; hulls lose their products of inertia). Sleeping maps onto Bullet's deactivation.
+#include <btBulletDynamicsCommon.h>
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "bench/peers/common_checks.h"
+#include "bench/peers/peer.h"
+
+namespace cellphys::bench {
+namespace {
+
+class BulletPeer : public Peer {
+ public:
+  BulletPeer(const scene::SceneDesc& scene, const EngineConfig& c) {
+    check_forces(scene, "Bullet");
+    const bool tuned = c.variant == "tuned";
+    if (!c.variant.empty() && c.variant != "default" && !tuned)
+      throw std::invalid_argument("bullet variants: default, tuned");
+    dt_ = c.dt > 0 ? c.dt : scene.settings.dt;
+    const std::vector<BodyInfo> info = body_info(scene);
+    forces_ = std::make_unique<ExternalForces>(scene, info);
+    config_ = std::make_unique<btDefaultCollisionConfiguration>();
+    dispatcher_ = std::make_unique<btCollisionDispatcher>(config_.get());
+    broadphase_ = std::make_unique<btDbvtBroadphase>();
+    solver_ = std::make_unique<btSequentialImpulseConstraintSolver>();
+    world_ = std::make_unique<btDiscreteDynamicsWorld>(dispatcher_.get(), broadphase_.get(), solver_.get(), config_.get());
+    const auto& g = scene.settings.gravity;
+    world_->setGravity(btVector3(g[0], g[1], g[2]));
+    iterations_ = c.iterations > 0 ? c.iterations : tuned ? 100 : world_->getSolverInfo().m_numIterations;
+    world_->getSolverInfo().m_numIterations = iterations_;
+    label_ = std::string("bullet ") + (tuned ? "tuned" : "default") + " (" + std::to_string(iterations_) + " iterations)";
+    gDeactivationTime = scene.settings.sleep_time;
+
+    for (size_t i = 0; i < scene.bodies.size(); ++i) {
+      const scene::BodySpec& b = scene.bodies[i];
+      const BodyInfo& bi = info[i];
+      const scene::ShapeSpec& s = scene.shapes[bi.shape];
+      const double sc = b.scale;
+      std::unique_ptr<btCollisionShape> shape;
+      btTransform tr;
+      tr.setIdentity();
+      tr.setOrigin(btVector3(b.position[0], b.position[1], b.position[2]));
+      tr.setRotation(btQuaternion(b.orientation[1], b.orientation[2], b.orientation[3], b.orientation[0]));
+      switch (s.type) {
+        case scene::ShapeType::sphere: shape = std::make_unique<btSphereShape>(s.radius * sc); break;
+        case scene::ShapeType::box: {
+          const btVector3 h(s.half_extents[0] * sc, s.half_extents[1] * sc, s.half_extents[2] * sc);
+          auto box = std::make_unique<btBoxShape>(h);
+          box->setMargin(std::min<btScalar>(0.04f, 0.2f * h[h.minAxis()]));
+          shape = std::move(box);
+          break;
+        }
+        case scene::ShapeType::capsule:
+          shape = std::make_unique<btCapsuleShapeZ>(s.radius * sc, 2 * s.half_height * sc);
+          break;
+        case scene::ShapeType::hull: {
+          auto hull = std::make_unique<btConvexHullShape>();
+          for (size_t k = 0; k + 2 < bi.hull_vertices.size(); k += 3)
+            hull->addPoint(btVector3(bi.hull_vertices[k], bi.hull_vertices[k + 1], bi.hull_vertices[k + 2]), false);
+          hull->recalcLocalAabb();
+          hull->setMargin(0.005f);
+          shape = std::move(hull);
+          break;
+        }
+        case scene::ShapeType::plane:
+          shape = std::make_unique<btStaticPlaneShape>(btVector3(s.normal[0], s.normal[1], s.normal[2]), s.offset);
+          tr.setIdentity();  // the plane is in world coordinates
+          break;
+      }
+      const bool dynamic = !b.is_static && s.type != scene::ShapeType::plane;
+      const btScalar mass = dynamic ? btScalar(bi.mass) : 0;
+      const btVector3 inertia = dynamic ? btVector3(bi.inertia[0], bi.inertia[1], bi.inertia[2]) : btVector3(0, 0, 0);
+      motion_.push_back(std::make_unique<btDefaultMotionState>(tr));
+      btRigidBody::btRigidBodyConstructionInfo ci(mass, motion_.back().get(), shape.get(), inertia);
+      ci.m_friction = std::sqrt(b.friction);
+      ci.m_restitution = 0;
+      auto body = std::make_unique<btRigidBody>(ci);
+      if (dynamic) {
+        body->setLinearVelocity(btVector3(b.velocity[0], b.velocity[1], b.velocity[2]));
+        body->setAngularVelocity(btVector3(b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]));
+        body->setSleepingThresholds(scene.settings.sleep_linear, scene.settings.sleep_angular);
+        if (!scene.settings.sleeping) body->setActivationState(DISABLE_DEACTIVATION);
+        dynamic_.push_back(body.get());
+      }
+      world_->addRigidBody(body.get());
+      bodies_.push_back(std::move(body));
+      shapes_.push_back(std::move(shape));
+    }
+    for (const scene::ForceSpec& f : scene.forces) {
+      if (f.type != "point_to_point") continue;
+      const int a = body_index(scene, f.a), bb = body_index(scene, f.b);
+      const btVector3 pa(param_of(f.params, "point_a", 0), param_of(f.params, "point_a", 1), param_of(f.params, "point_a", 2));
+      const btVector3 pb(param_of(f.params, "point_b", 0), param_of(f.params, "point_b", 1), param_of(f.params, "point_b", 2));
+      btRigidBody& rb = bb < 0 ? btTypedConstraint::getFixedBody() : *bodies_[bb];
+      auto j = std::make_unique<btPoint2PointConstraint>(*bodies_[a], rb, pa, pb);
+      world_->addConstraint(j.get(), true);
+      joints_.push_back(std::move(j));
+    }
+    states_.resize(scene.bodies.size());
+  }
+  ~BulletPeer() override {
+    for (auto& j : joints_) world_->removeConstraint(j.get());
+    for (auto& b : bodies_) world_->removeRigidBody(b.get());
+  }
+  void step() override {
+    if (!forces_->empty()) {
+      for (size_t i = 0; i < bodies_.size(); ++i) states_[i] = state(i);
+      forces_->evaluate(states_, wrench_);
+      for (size_t i = 0; i < bodies_.size(); ++i) {
+        const double* f = &wrench_[6 * i];
+        if (bodies_[i]->getInvMass() == 0) continue;
+        bodies_[i]->applyCentralForce(btVector3(f[0], f[1], f[2]));
+        bodies_[i]->applyTorque(btVector3(f[3], f[4], f[5]));
+      }
+    }
+    world_->stepSimulation(btScalar(dt_), 0, btScalar(dt_));
+  }
+  State state(size_t i) const override {
+    const btRigidBody& b = *bodies_[i];
+    const btTransform& t = b.getCenterOfMassTransform();
+    const btQuaternion q = t.getRotation();
+    State s;
+    for (int k = 0; k < 3; ++k)
+      s.p[k] = t.getOrigin()[k], s.v[k] = b.getLinearVelocity()[k], s.w[k] = b.getAngularVelocity()[k];
+    s.q[0] = q.w(), s.q[1] = q.x(), s.q[2] = q.y(), s.q[3] = q.z();
+    return s;
+  }
+  long active_bodies() const override {
+    long n = 0;
+    for (const btRigidBody* b : dynamic_) n += b->isActive() ? 1 : 0;
+    return n;
+  }
+  double last_iterations() const override { return iterations_; }
+  std::string label() const override { return label_; }
+
+ private:
+  std::unique_ptr<ExternalForces> forces_;
+  double dt_ = 0;
+  int iterations_ = 10;
+  std::string label_;
+  std::unique_ptr<btDefaultCollisionConfiguration> config_;
+  std::unique_ptr<btCollisionDispatcher> dispatcher_;
+  std::unique_ptr<btBroadphaseInterface> broadphase_;
+  std::unique_ptr<btSequentialImpulseConstraintSolver> solver_;
+  std::unique_ptr<btDiscreteDynamicsWorld> world_;
+  std::vector<std::unique_ptr<btCollisionShape>> shapes_;
+  std::vector<std::unique_ptr<btDefaultMotionState>> motion_;
+  std::vector<std::unique_ptr<btRigidBody>> bodies_;
+  std::vector<btRigidBody*> dynamic_;
+  std::vector<std::unique_ptr<btTypedConstraint>> joints_;
+  std::vector<State> states_;
+  std::vector<double> wrench_;
+};
+
+}  // namespace
+
+std::unique_ptr<Peer> make_bullet(const scene::SceneDesc& scene, const EngineConfig& c) {
+  return std::make_unique<BulletPeer>(scene, c);
+}
+
+}  // namespace cellphys::bench

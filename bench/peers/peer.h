@@ -1,0 +1,114 @@
+// Peer engines for the benchmark: one scene (scene::SceneDesc) built in cellphys, Bullet, ODE
+// or MuJoCo with the same geometry, masses, inertias, gravity, friction and time step, stepped
+// through one interface. Only the bench tool links these; the runtime never does.
+//
+// What each peer maps, and how (docs/bench.md has the full table):
+//  - shapes: sphere, box (half extents), capsule (core along body z), hull (the cellphys
+//    hull's re-centred vertices), plane (static);
+//  - masses and inertia tensors: taken from the cellphys world built from the same scene, so
+//    density-given bodies and hulls weigh the same in every engine;
+//  - friction: the geometric mean of the two bodies' coefficients, per contact;
+//  - `applied_wrench`, `air_drag`, `damping` forces, and `spring` in Bullet and ODE: applied by
+//    the bench as external forces evaluated from the state at the start of each step (those
+//    engines have no spring element); in MuJoCo a `spring` is a spatial tendon with the same
+//    stiffness, damping and rest length (MuJoCo's own passive force); `point_to_point`: the engine's own ball joint, rigid, with its
+//    default constraint softness; `gyroscopic`: the engine's own rigid-body dynamics.
+//  - contacts: each engine's own contact model (cellphys: penalty spring-dampers).
+// A scene an engine cannot express throws Unsupported with the reason; no row is invented.
+#pragma once
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "runtime/ppe/world.h"
+#include "runtime/scene/scene.h"
+
+namespace cellphys::bench {
+
+struct Unsupported : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Which engine and which of its configurations.
+///   cellphys: variant = "<integrator>/<solver>" (e.g. implicit_split/cgs); tolerance > 0
+///             overrides the scene's; workers > 0 overrides the scene's.
+///   bullet:   "default" (10 solver iterations) or "tuned" (iterations, default 100)
+///   ode:      "step" (dWorldStep, direct LCP) or "quickstep" (dWorldQuickStep, iterations, default 20)
+///   mujoco:   "euler", "implicit" or "rk4"
+struct EngineConfig {
+  std::string engine = "cellphys";
+  std::string variant;
+  double dt = 0;        // 0: the scene's
+  double tolerance = 0;
+  int workers = 0;
+  int iterations = 0;   // 0: the variant's default
+};
+
+struct State {
+  double p[3], q[4], v[3], w[3];  // position, quaternion w x y z, velocity, angular velocity (world)
+};
+
+class Peer {
+ public:
+  virtual ~Peer() = default;
+  virtual void step() = 0;
+  /// The state of scene body i (scene order, static bodies included).
+  virtual State state(size_t i) const = 0;
+  /// Dynamic bodies currently simulated (not asleep), or -1 if the engine does not say.
+  virtual long active_bodies() const { return -1; }
+  /// Solver iterations of the last step, or -1.
+  virtual double last_iterations() const { return -1; }
+  /// The configuration as run (e.g. "bullet tuned (100 iterations)").
+  virtual std::string label() const = 0;
+};
+
+/// Mass properties and hull geometry of every scene body, as cellphys computes them.
+struct BodyInfo {
+  double mass = 0;          // 0 for static bodies
+  double inertia[6] = {};   // Ixx Iyy Izz Ixy Ixz Iyz, body axes
+  int shape = -1;           // index into scene.shapes
+  std::vector<double> hull_vertices;  // x y z, re-centred and scaled (hulls only)
+  std::vector<double> hull_planes;    // nx ny nz d (n.x = d), scaled
+  std::vector<int> hull_faces;        // per face: count, then vertex indices (outward, counter-clockwise)
+};
+std::vector<BodyInfo> body_info(const scene::SceneDesc& scene);
+
+/// Forces the bench applies itself (spring, applied_wrench, air_drag, damping, body damping):
+/// per scene body, force and torque about the centre of mass, world frame.
+class ExternalForces {
+ public:
+  /// springs = false leaves `spring` forces to the engine (MuJoCo's tendons).
+  ExternalForces(const scene::SceneDesc& scene, const std::vector<BodyInfo>& info, bool springs = true);
+  bool empty() const { return terms_.empty(); }
+  /// Computes forces for every body from states; out has 6 values per body (force, torque).
+  void evaluate(const std::vector<State>& states, std::vector<double>& out) const;
+
+ private:
+  struct Term {
+    int kind;  // 0 spring, 1 wrench, 2 drag, 3 damping
+    int a = -1, b = -1;  // body indices; b = -1: world
+    double pa[3] = {}, pb[3] = {}, k = 0, c = 0, rest = 0, f[3] = {}, t[3] = {};
+  };
+  std::vector<Term> terms_;
+  std::vector<BodyInfo> info_;
+};
+
+/// Index of a scene body id, or -1 for "world".
+int body_index(const scene::SceneDesc& scene, const std::string& id);
+
+std::unique_ptr<Peer> make_cellphys(const scene::SceneDesc& scene, const EngineConfig& c);
+std::unique_ptr<Peer> make_bullet(const scene::SceneDesc& scene, const EngineConfig& c);
+std::unique_ptr<Peer> make_ode(const scene::SceneDesc& scene, const EngineConfig& c);
+std::unique_ptr<Peer> make_mujoco(const scene::SceneDesc& scene, const EngineConfig& c);
+/// Dispatches on c.engine; throws Unsupported for a scene the engine cannot express and
+/// std::invalid_argument for an unknown engine or variant.
+std::unique_ptr<Peer> make_peer(const scene::SceneDesc& scene, const EngineConfig& c);
+
+// Small helpers shared by the peers.
+void quat_rotate(const double q[4], const double v[3], double out[3]);       // R(q) v
+void quat_rotate_inv(const double q[4], const double v[3], double out[3]);   // R(q)^T v
+/// World inertia-tensor product: R I R^T w.
+void world_inertia_mul(const double q[4], const double inertia[6], const double w[3], double out[3]);
+
+}  // namespace cellphys::bench

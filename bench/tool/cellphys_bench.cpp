@@ -1,0 +1,418 @@
+// cellphys_bench: runs one scene file in one engine configuration and prints what happened as
+// one JSON object on stdout. scripts/bench drives it (sweeps, references, charts).
+//
+//   cellphys_bench info
+//   cellphys_bench run SCENE --engine E [--variant V] [--dt H] [--tolerance T] [--workers N]
+//                  [--iterations N] --duration S [--reps R] [--record K]
+//       Steps S simulated seconds R times (each from a freshly built world) and reports the
+//       wall time of each run's stepping (median and all), and the first run's trajectory of
+//       every dynamic body every K steps (K = 0: the initial and final states only).
+//   cellphys_bench throughput SCENE --engine E [...] --timed N --settle S
+//       Times N single steps from the start (bodies awake), steps on untimed to S simulated
+//       seconds, then times N more (most bodies asleep): the median of each phase.
+//   cellphys_bench stability SCENE --engine E [...] --dts H1,H2,... --steps N
+//       Runs N steps at each step size, largest first, until one stays bounded; reports how each
+//       larger one failed: blow-up (non-finite or runaway state), tunnelling (a body through a
+//       ground plane or through the body below it), stretch (a joint opened by more than 10%
+//       of its bodies' distance), energy gain (over 10% above the start).
+// Exit status: 0 with a JSON object (its "status" is ok, unsupported or error), 2 on bad usage.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <btBulletDynamicsCommon.h>
+#include <mujoco/mujoco.h>
+#include <ode/ode.h>
+
+#include "bench/peers/peer.h"
+#include "runtime/spu/simd.h"
+
+namespace {
+
+using namespace cellphys;
+using namespace cellphys::bench;
+using Clock = std::chrono::steady_clock;
+
+std::string jstr(const std::string& s) {
+  std::string o = "\"";
+  for (char ch : s) {
+    if (ch == '"' || ch == '\\') o += '\\', o += ch;
+    else if (ch == '\n') o += "\\n";
+    else if (static_cast<unsigned char>(ch) < 0x20) o += ' ';
+    else o += ch;
+  }
+  return o + "\"";
+}
+
+std::string jnum(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+bool finite_state(const State& s) {
+  for (double x : {s.p[0], s.p[1], s.p[2], s.v[0], s.v[1], s.v[2], s.w[0], s.w[1], s.w[2], s.q[0]})
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+struct Args {
+  std::string command, scene, engine = "cellphys", variant;
+  double dt = 0, tolerance = 0, duration = 1, settle = 0;
+  int workers = 0, iterations = 0, reps = 1, record = 0, timed = 20, steps = 400;
+  std::vector<double> dts;
+};
+
+[[noreturn]] void usage(const std::string& why) {
+  std::cerr << "cellphys_bench: " << why << "\n(see the header of bench/tool/cellphys_bench.cpp)\n";
+  std::exit(2);
+}
+
+Args parse(int argc, char** argv) {
+  Args a;
+  if (argc < 2) usage("no command");
+  a.command = argv[1];
+  int i = 2;
+  if (a.command != "info") {
+    if (argc < 3) usage("no scene file");
+    a.scene = argv[2];
+    i = 3;
+  }
+  for (; i < argc; ++i) {
+    const std::string k = argv[i];
+    if (i + 1 >= argc) usage("missing value for " + k);
+    const std::string v = argv[++i];
+    if (k == "--engine") a.engine = v;
+    else if (k == "--variant") a.variant = v;
+    else if (k == "--dt") a.dt = std::stod(v);
+    else if (k == "--tolerance") a.tolerance = std::stod(v);
+    else if (k == "--duration") a.duration = std::stod(v);
+    else if (k == "--settle") a.settle = std::stod(v);
+    else if (k == "--workers") a.workers = std::stoi(v);
+    else if (k == "--iterations") a.iterations = std::stoi(v);
+    else if (k == "--reps") a.reps = std::max(1, std::stoi(v));
+    else if (k == "--record") a.record = std::stoi(v);
+    else if (k == "--timed") a.timed = std::max(1, std::stoi(v));
+    else if (k == "--steps") a.steps = std::max(1, std::stoi(v));
+    else if (k == "--dts") {
+      std::stringstream ss(v);
+      std::string t;
+      while (std::getline(ss, t, ',')) a.dts.push_back(std::stod(t));
+    } else usage("unknown option " + k);
+  }
+  return a;
+}
+
+EngineConfig config_of(const Args& a, double dt) {
+  EngineConfig c;
+  c.engine = a.engine;
+  c.variant = a.variant;
+  c.dt = dt;
+  c.tolerance = a.tolerance;
+  c.workers = a.workers;
+  c.iterations = a.iterations;
+  return c;
+}
+
+std::vector<size_t> dynamic_bodies(const scene::SceneDesc& s) {
+  std::vector<size_t> out;
+  for (size_t i = 0; i < s.bodies.size(); ++i) {
+    bool plane = false;
+    for (const auto& sh : s.shapes)
+      if (sh.name == s.bodies[i].shape) plane = sh.type == scene::ShapeType::plane;
+    if (!s.bodies[i].is_static && !plane) out.push_back(i);
+  }
+  return out;
+}
+
+void print_state(std::ostream& o, double t, size_t i, const State& s) {
+  o << "[" << jnum(t) << "," << i;
+  for (double x : s.p) o << "," << jnum(x);
+  for (double x : s.q) o << "," << jnum(x);
+  for (double x : s.v) o << "," << jnum(x);
+  for (double x : s.w) o << "," << jnum(x);
+  o << "]";
+}
+
+int cmd_info() {
+  std::cout << "{\"status\":\"ok\",\"compiler\":" << jstr(std::string("g++ ") + __VERSION__)
+            << ",\"simd_path\":" << jstr(simd::kPathName) << ",\"bullet\":" << btGetVersion()
+            << ",\"ode\":" << jstr(dGetConfiguration()) << ",\"mujoco\":" << mj_version() << "}\n";
+  return 0;
+}
+
+int cmd_run(const Args& a, const scene::SceneDesc& sc) {
+  const double dt = a.dt > 0 ? a.dt : sc.settings.dt;
+  const long steps = std::max(1L, std::lround(a.duration / dt));
+  const std::vector<size_t> dyn = dynamic_bodies(sc);
+  std::vector<double> walls;
+  std::ostringstream traj;
+  traj.precision(9);
+  bool finite = true;
+  long done = 0;
+  std::string label;
+  for (int r = 0; r < a.reps; ++r) {
+    auto peer = make_peer(sc, config_of(a, dt));
+    label = peer->label();
+    const bool rec = r == 0;
+    bool first = true;
+    auto record = [&](long n) {
+      for (size_t i : dyn) {
+        traj << (first ? "" : ",");
+        first = false;
+        print_state(traj, n * dt, i, peer->state(i));
+      }
+    };
+    if (rec) record(0);
+    double wall = 0;
+    long n = 0;
+    // Time in chunks between recordings so that recording costs nothing.
+    const long chunk = a.record > 0 ? a.record : steps;
+    while (n < steps) {
+      const long m = std::min(chunk, steps - n);
+      const auto t0 = Clock::now();
+      for (long k = 0; k < m; ++k) peer->step();
+      wall += std::chrono::duration<double>(Clock::now() - t0).count();
+      n += m;
+      bool ok = true;
+      for (size_t i : dyn) ok = ok && finite_state(peer->state(i));
+      if (rec && (a.record > 0 || n == steps || !ok)) record(n);
+      if (!ok) {
+        finite = false;
+        break;
+      }
+    }
+    if (rec) done = n;
+    walls.push_back(wall);
+    if (!finite) break;
+  }
+  const double med = median(walls);
+  std::cout << "{\"status\":\"ok\",\"label\":" << jstr(label) << ",\"dt\":" << jnum(dt) << ",\"steps\":" << steps
+            << ",\"steps_done\":" << done << ",\"finite\":" << (finite ? "true" : "false")
+            << ",\"wall_s_median\":" << jnum(med) << ",\"wall_s\":[";
+  for (size_t k = 0; k < walls.size(); ++k) std::cout << (k ? "," : "") << jnum(walls[k]);
+  std::cout << "],\"cpu_s_per_sim_s\":" << jnum(med / (steps * dt)) << ",\"ms_per_step\":" << jnum(1e3 * med / steps)
+            << ",\"trajectory\":[" << traj.str() << "]}\n";
+  return 0;
+}
+
+int cmd_throughput(const Args& a, const scene::SceneDesc& sc) {
+  const double dt = a.dt > 0 ? a.dt : sc.settings.dt;
+  const auto tb = Clock::now();
+  auto peer = make_peer(sc, config_of(a, dt));
+  const double build_s = std::chrono::duration<double>(Clock::now() - tb).count();
+  const std::vector<size_t> dyn = dynamic_bodies(sc);
+  auto phase = [&](std::vector<double>& ms) {
+    for (int k = 0; k < a.timed; ++k) {
+      const auto t0 = Clock::now();
+      peer->step();
+      ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+  };
+  std::vector<double> awake, settled;
+  phase(awake);
+  const long active_awake = peer->active_bodies();
+  long n = a.timed;
+  const long settle_steps = std::lround(a.settle / dt);
+  while (n < settle_steps) peer->step(), ++n;
+  if (a.settle > 0) phase(settled);
+  bool finite = true;
+  for (size_t i : dyn) finite = finite && finite_state(peer->state(i));
+  std::cout << "{\"status\":\"ok\",\"label\":" << jstr(peer->label()) << ",\"dt\":" << jnum(dt)
+            << ",\"bodies\":" << dyn.size() << ",\"build_s\":" << jnum(build_s)
+            << ",\"ms_awake\":" << jnum(median(awake)) << ",\"active_awake\":" << active_awake
+            << ",\"ms_settled\":" << jnum(median(settled)) << ",\"active_settled\":"
+            << (a.settle > 0 ? peer->active_bodies() : -1) << ",\"finite\":" << (finite ? "true" : "false") << "}\n";
+  return 0;
+}
+
+// ---- stability ----
+
+struct Joint {
+  int a, b;
+  double pa[3], pb[3], ref, k;
+};
+
+struct Checker {
+  const scene::SceneDesc& sc;
+  std::vector<BodyInfo> info;
+  std::vector<size_t> dyn;
+  std::vector<Joint> joints;
+  std::vector<std::pair<int, int>> stacked;  // (lower, upper) pairs sharing a vertical line
+  std::vector<std::pair<double, double>> stacked_gap;
+  double e0 = 0, escale = 0;
+
+  explicit Checker(const scene::SceneDesc& s) : sc(s), info(body_info(s)), dyn(dynamic_bodies(s)) {
+    for (const auto& f : sc.forces) {
+      if (f.type != "point_to_point" && f.type != "spring") continue;
+      Joint j;
+      j.a = body_index(sc, f.a);
+      j.b = body_index(sc, f.b);
+      for (int k = 0; k < 3; ++k) {
+        for (const auto& [n, v] : f.params) {
+          if (n == "point_a") j.pa[k] = v[k];
+          if (n == "point_b") j.pb[k] = v[k];
+        }
+      }
+      j.k = 0;
+      for (const auto& [n, v] : f.params)
+        if (n == "stiffness") j.k = v[0];
+      double d = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double e = sc.bodies[j.a].position[k] - (j.b >= 0 ? double(sc.bodies[j.b].position[k]) : j.pb[k]);
+        d += e * e;
+      }
+      j.ref = f.type == "point_to_point" ? std::sqrt(d) : -1;  // springs are not joints
+      joints.push_back(j);
+    }
+    for (size_t x : dyn)
+      for (size_t y : dyn) {
+        const auto &A = sc.bodies[x], &B = sc.bodies[y];
+        if (x != y && std::hypot(A.position[0] - B.position[0], A.position[1] - B.position[1]) < 1e-3 &&
+            B.position[2] > A.position[2])
+          stacked.push_back({int(x), int(y)});
+      }
+  }
+  double energy(const std::vector<State>& s) const {
+    double e = 0;
+    const auto& g = sc.settings.gravity;
+    for (size_t i : dyn) {
+      const State& x = s[i];
+      double Iw[3];
+      world_inertia_mul(x.q, info[i].inertia, x.w, Iw);
+      e += 0.5 * info[i].mass * (x.v[0] * x.v[0] + x.v[1] * x.v[1] + x.v[2] * x.v[2]);
+      e += 0.5 * (x.w[0] * Iw[0] + x.w[1] * Iw[1] + x.w[2] * Iw[2]);
+      e -= info[i].mass * (g[0] * x.p[0] + g[1] * x.p[1] + g[2] * x.p[2]);
+    }
+    for (const auto& f : sc.forces) {
+      if (f.type != "spring") continue;
+      const int a = body_index(sc, f.a), b = body_index(sc, f.b);
+      double pa[3] = {}, pb[3] = {}, k = 0, rest = 0;
+      for (const auto& [n, v] : f.params) {
+        if (n == "point_a") std::copy(v.begin(), v.begin() + 3, pa);
+        if (n == "point_b") std::copy(v.begin(), v.begin() + 3, pb);
+        if (n == "stiffness") k = v[0];
+        if (n == "rest_length") rest = v[0];
+      }
+      double xa[3], xb[3];
+      quat_rotate(s[a].q, pa, xa);
+      for (int q = 0; q < 3; ++q) xa[q] += s[a].p[q];
+      if (b >= 0) {
+        quat_rotate(s[b].q, pb, xb);
+        for (int q = 0; q < 3; ++q) xb[q] += s[b].p[q];
+      } else {
+        std::copy(pb, pb + 3, xb);
+      }
+      const double len = std::sqrt((xa[0] - xb[0]) * (xa[0] - xb[0]) + (xa[1] - xb[1]) * (xa[1] - xb[1]) +
+                                   (xa[2] - xb[2]) * (xa[2] - xb[2]));
+      e += 0.5 * k * (len - rest) * (len - rest);
+    }
+    return e;
+  }
+  // "" when fine, else the failure mode.
+  std::string check(const std::vector<State>& s) const {
+    for (size_t i : dyn) {
+      if (!finite_state(s[i])) return "blow-up";
+      for (int k = 0; k < 3; ++k)
+        if (std::fabs(s[i].p[k]) > 1e4 || std::fabs(s[i].v[k]) > 1e4) return "blow-up";
+    }
+    for (const auto& b : sc.bodies) {
+      for (const auto& sh : sc.shapes) {
+        if (sh.name != b.shape || sh.type != scene::ShapeType::plane) continue;
+        for (size_t i : dyn)
+          if (sh.normal[0] * s[i].p[0] + sh.normal[1] * s[i].p[1] + sh.normal[2] * s[i].p[2] < sh.offset)
+            return "tunnelling";
+      }
+    }
+    for (auto [lo, up] : stacked) {
+      const double d0 = sc.bodies[up].position[2] - sc.bodies[lo].position[2];
+      if (s[up].p[2] - s[lo].p[2] < 0.5 * d0) return "tunnelling";
+    }
+    for (const Joint& j : joints) {
+      if (j.ref <= 0) continue;
+      double xa[3], xb[3];
+      quat_rotate(s[j.a].q, j.pa, xa);
+      for (int q = 0; q < 3; ++q) xa[q] += s[j.a].p[q];
+      if (j.b >= 0) {
+        quat_rotate(s[j.b].q, j.pb, xb);
+        for (int q = 0; q < 3; ++q) xb[q] += s[j.b].p[q];
+      } else {
+        std::copy(j.pb, j.pb + 3, xb);
+      }
+      if (std::sqrt((xa[0] - xb[0]) * (xa[0] - xb[0]) + (xa[1] - xb[1]) * (xa[1] - xb[1]) +
+                    (xa[2] - xb[2]) * (xa[2] - xb[2])) > 0.1 * j.ref)
+        return "stretch";
+    }
+    if (energy(s) - e0 > 0.1 * escale) return "energy gain";
+    return "";
+  }
+};
+
+int cmd_stability(const Args& a, const scene::SceneDesc& sc) {
+  std::vector<double> dts = a.dts;
+  std::sort(dts.rbegin(), dts.rend());
+  Checker ck(sc);
+  std::vector<State> s(sc.bodies.size());
+  std::ostringstream out;
+  double stable = NAN;
+  std::string label;
+  bool first = true;
+  for (double dt : dts) {
+    auto peer = make_peer(sc, config_of(a, dt));
+    label = peer->label();
+    for (size_t i = 0; i < s.size(); ++i) s[i] = peer->state(i);
+    ck.e0 = ck.energy(s);
+    ck.escale = std::max(std::fabs(ck.e0), 1e-3);
+    std::string mode;
+    int k = 0;
+    for (; k < a.steps && mode.empty(); ++k) {
+      peer->step();
+      for (size_t i : ck.dyn) s[i] = peer->state(i);
+      mode = ck.check(s);
+    }
+    out << (first ? "" : ",") << "{\"dt\":" << jnum(dt) << ",\"mode\":" << jstr(mode.empty() ? "ok" : mode)
+        << ",\"at_step\":" << k << "}";
+    first = false;
+    if (mode.empty()) {
+      stable = dt;
+      break;
+    }
+  }
+  std::cout << "{\"status\":\"ok\",\"label\":" << jstr(label) << ",\"largest_stable_dt\":" << jnum(stable)
+            << ",\"tried\":[" << out.str() << "]}\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Args a = parse(argc, argv);
+  try {
+    if (a.command == "info") return cmd_info();
+    const scene::SceneDesc sc = scene::load_scene(a.scene);
+    if (a.command == "run") return cmd_run(a, sc);
+    if (a.command == "throughput") return cmd_throughput(a, sc);
+    if (a.command == "stability") return cmd_stability(a, sc);
+    usage("unknown command " + a.command);
+  } catch (const Unsupported& e) {
+    std::cout << "{\"status\":\"unsupported\",\"reason\":" << jstr(e.what()) << "}\n";
+  } catch (const std::exception& e) {
+    std::cout << "{\"status\":\"error\",\"reason\":" << jstr(e.what()) << "}\n";
+  }
+  return 0;
+}

@@ -7,9 +7,10 @@
 //       Steps S simulated seconds R times (each from a freshly built world) and reports the
 //       wall time of each run's stepping (median and all), and the first run's trajectory of
 //       every dynamic body every K steps (K = 0: the initial and final states only).
-//   cellphys_bench throughput SCENE --engine E [...] --timed N --settle S
-//       Times N single steps from the start (bodies awake), steps on untimed to S simulated
-//       seconds, then times N more (most bodies asleep): the median of each phase.
+//   cellphys_bench throughput SCENE --engine E [...] [--warmup W] --timed N --settle S
+//       Steps W simulated seconds untimed (0: none), times N single steps (bodies awake), steps
+//       on untimed to S simulated seconds, then times N more (most bodies asleep): the median
+//       of each phase.
 //   cellphys_bench stability SCENE --engine E [...] --dts H1,H2,... --steps N
 //       Runs N steps at each step size, largest first, until one stays bounded; reports how each
 //       larger one failed: blow-up (non-finite or runaway state), tunnelling (a body through a
@@ -73,7 +74,7 @@ bool finite_state(const State& s) {
 
 struct Args {
   std::string command, scene, engine = "cellphys", variant;
-  double dt = 0, tolerance = 0, duration = 1, settle = 0;
+  double dt = 0, tolerance = 0, duration = 1, settle = 0, warmup = 0;
   int workers = 0, iterations = 0, reps = 1, record = 0, timed = 20, steps = 400;
   std::vector<double> dts;
 };
@@ -103,6 +104,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--tolerance") a.tolerance = std::stod(v);
     else if (k == "--duration") a.duration = std::stod(v);
     else if (k == "--settle") a.settle = std::stod(v);
+    else if (k == "--warmup") a.warmup = std::stod(v);
     else if (k == "--workers") a.workers = std::stoi(v);
     else if (k == "--iterations") a.iterations = std::stoi(v);
     else if (k == "--reps") a.reps = std::max(1, std::stoi(v));
@@ -225,9 +227,11 @@ int cmd_throughput(const Args& a, const scene::SceneDesc& sc) {
     }
   };
   std::vector<double> awake, settled;
+  long n = 0;
+  for (const long w = std::lround(a.warmup / dt); n < w; ++n) peer->step();
   phase(awake);
   const long active_awake = peer->active_bodies();
-  long n = a.timed;
+  n += a.timed;
   const long settle_steps = std::lround(a.settle / dt);
   while (n < settle_steps) peer->step(), ++n;
   if (a.settle > 0) phase(settled);

@@ -240,6 +240,36 @@ TEST(Solvers, IterativeSolversDoNotDropASmallRightHandSide) {
   }
 }
 
+// A kinematic body (inverse mass and inverse inertia zero: the control side's ghost of a body
+// in another part of a split island) keeps its velocity and drags the others implicitly: a
+// 1 kg box on a 100 N/m joint to it, both at rest and the joint relaxed, takes the backward
+// Euler step dv = h^2 k v / (m + h^2 k) towards it.
+TEST(Kinematic, ABodyWithZeroInverseMassKeepsItsVelocityAndDragsTheOtherImplicitly) {
+  for (uint32_t solver : {2u, 0u, 1u}) {
+    IslandBuilder ib;
+    ib.set_solver(solver);
+    ib.set_tolerance(1e-6f);
+    ib.add_body(make_box(1.0, 0.1, 0.1, 0.1));
+    Rigid_Body_Fields g = make_box(1.0, 0.1, 0.1, 0.1);
+    g.velocity[0] = 1.0f;
+    g.inverse_mass = 0.0f;
+    std::fill(g.inverse_inertia_body, g.inverse_inertia_body + 6, 0.0f);
+    ib.add_body(g);
+    gen::Point_To_Point_Constraint_Force f{};
+    f.stiffness = 100.0f, f.body_a = 0, f.body_b = 1;
+    ib.add(gen::ForceType::point_to_point, f);
+    const Stepped s = step_image(ib.finish());
+    ASSERT_EQ(s.report.status, IslandStatus::ok) << "solver " << solver;
+    const double h = 1.0 / 60, hk = h * h * 100.0, expect = hk / (1.0 + hk);
+    EXPECT_NEAR(result_step(s.result, 2, 0).delta_velocity[0], expect, 1e-4 * expect) << "solver " << solver;
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(result_step(s.result, 2, 1).delta_velocity[k], 0.0f) << "solver " << solver;
+      EXPECT_EQ(result_step(s.result, 2, 1).delta_angular_velocity[k], 0.0f) << "solver " << solver;
+    }
+    EXPECT_NEAR(result_body(s.result, 2, 1).position[0], h * 1.0, 1e-7) << "the kinematic body moved with its velocity";
+  }
+}
+
 // ---- 9. a failing solve halves the step; a failed island leaves its state untouched ------------
 
 TEST(Halving, UnreachableToleranceFailsAfterMaxHalvingsWithStateUntouched) {

@@ -16,14 +16,19 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "runtime/ppe/island_runner.h"
 #include "runtime/scene/scene.h"
 #include "runtime/spu/simd.h"
 #include "tools/cli.h"
+#ifdef CELLPHYS_HAVE_MPI
+#include "runtime/ppe/mpi_runner.h"
+#endif
 
 #ifndef CELLPHYS_SCENES_DIR
 #define CELLPHYS_SCENES_DIR ""
@@ -58,6 +63,12 @@ const char kRunHelp[] =
     "                    (every body; step 0 and every N-th step)\n"
     "  --every N         with --out: write every N-th step (default 1)\n"
     "  --stats FILE      run statistics as JSON\n"
+    "  --mpi             compute islands on MPI ranks (run under mpirun): rank 0 dispatches,\n"
+    "                    the other ranks are stateless compute nodes (docs/distributed.md)\n"
+    "  --mpi-deadline MS drop a compute node silent this long with islands outstanding\n"
+    "                    (default 5000)\n"
+    "  --mpi-fault F     test hook: corrupt:N (node 1 damages its N-th reply) or silent:N\n"
+    "                    (the last node stops answering after N islands)\n"
     "  -h, --help        this text\n"
     "\n"
     "Exit codes: 0 done, 1 a failure while running or writing, 2 a usage or scene error.\n"
@@ -149,6 +160,9 @@ struct Options {
   int workers = 0;
   std::string out, stats;
   long long every = 1;
+  bool mpi = false;
+  double mpi_deadline_ms = 5000;
+  int mpi_corrupt = -1, mpi_silent = -1;
 };
 
 double parse_positive(const std::string& opt, const char* text) {
@@ -213,6 +227,18 @@ bool parse_options(int argc, char** argv, Options& o) {
       o.every = parse_count(a, next(), 1, 1000000000LL);
     } else if (a == "--stats") {
       o.stats = next();
+    } else if (a == "--mpi") {
+      o.mpi = true;
+    } else if (a == "--mpi-deadline") {
+      o.mpi_deadline_ms = parse_positive(a, next());
+    } else if (a == "--mpi-fault") {
+      const std::string f = next();
+      const size_t colon = f.find(':');
+      const std::string kind = f.substr(0, colon);
+      if (colon == std::string::npos || (kind != "corrupt" && kind != "silent"))
+        throw UsageError{"--mpi-fault takes corrupt:N or silent:N, got '" + f + "'"};
+      const int n = static_cast<int>(parse_count(a, f.c_str() + colon + 1, 0, 1000000000LL));
+      (kind == "corrupt" ? o.mpi_corrupt : o.mpi_silent) = n;
     } else if (!a.empty() && a[0] == '-' && a != "-") {
       throw UsageError{"unknown option '" + a + "'"};
     } else if (o.scene.empty()) {
@@ -367,7 +393,7 @@ std::string scene_label(const std::string& arg, const std::string& file) {
   return arg == file ? file : arg + " (" + file + ")";
 }
 
-int run(const Options& o) {
+int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
   const std::string arg = o.scene.empty() ? kDefaultScene : o.scene;
   const std::string file = resolve_scene(arg);
   scene::SceneDesc desc = scene::load_scene(file);
@@ -386,6 +412,7 @@ int run(const Options& o) {
   scene::BuiltScene built = scene::build_world(desc);
   for (const std::string& w : built.warnings) std::fprintf(stderr, "cellphys: warning: %s\n", w.c_str());
   ppe::World& world = *built.world;
+  if (runner) world.set_runner(runner);
 
   const double dt = desc.settings.dt;
   long long steps = o.steps;
@@ -409,6 +436,7 @@ int run(const Options& o) {
   std::vector<double> step_ms;
   step_ms.reserve(static_cast<size_t>(std::min<long long>(steps, 10000000)));
   uint64_t iterations = 0, solves = 0, halvings = 0, failed = 0, decoupled = 0, contacts_max = 0;
+  ppe::StepStats wire;  // transport and wire-table totals over the run
   size_t ls_peak = 0;
   Progress progress(steps);
   const auto t0 = Clock::now();
@@ -427,6 +455,20 @@ int run(const Options& o) {
     failed += st.failed_islands;
     decoupled += st.decoupled_islands;
     contacts_max = std::max<uint64_t>(contacts_max, st.contacts);
+    wire.bytes_to_nodes += st.bytes_to_nodes;
+    wire.bytes_from_nodes += st.bytes_from_nodes;
+    wire.messages += st.messages;
+    wire.bad_messages += st.bad_messages;
+    wire.recomputed_islands += st.recomputed_islands;
+    wire.reassigned_islands += st.reassigned_islands;
+    wire.dropped_nodes += st.dropped_nodes;
+    wire.island_bodies += st.island_bodies;
+    wire.island_bytes_shared += st.island_bytes_shared;
+    wire.wire_table_to_nodes += st.wire_table_to_nodes;
+    wire.wire_table_to_nodes_compressed += st.wire_table_to_nodes_compressed;
+    wire.wire_table_from_nodes += st.wire_table_from_nodes;
+    wire.image_bytes += st.image_bytes;
+    wire.result_bytes += st.result_bytes;
     ls_peak = std::max(ls_peak, st.local_store_peak_bytes);
     if (out.is_open() && s % o.every == 0) write_rows(out.get(), desc, built, static_cast<uint64_t>(s), double(s) * dt, ids);
     progress.update(s);
@@ -448,6 +490,10 @@ int run(const Options& o) {
   const uint32_t active = steps > 0 ? last.active_bodies : dynamic;
   const uint32_t sleeping = steps > 0 ? last.sleeping_bodies : 0;
   const double iter_mean = solves ? double(iterations) / double(solves) : 0.0;
+  char hash[32];
+  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(world.state_hash()));
+  const char* runner_name = runner ? runner->name() : "threads";
+  const double per_body = wire.island_bodies ? 1.0 / double(wire.island_bodies) : 0.0;
 
   if (stats_file.is_open()) {
     nlohmann::ordered_json j;
@@ -481,6 +527,26 @@ int run(const Options& o) {
     j["decoupled_islands"] = decoupled;
     j["kinetic_energy_initial"] = ke0;
     j["kinetic_energy_final"] = ke1;
+    j["state_hash"] = hash;
+    j["runner"] = runner_name;
+    nlohmann::ordered_json t;
+    t["island_bodies"] = wire.island_bodies;  // body records shipped, summed over steps
+    t["bytes_to_nodes"] = wire.bytes_to_nodes;
+    t["bytes_from_nodes"] = wire.bytes_from_nodes;
+    t["bytes_to_nodes_per_body"] = double(wire.bytes_to_nodes) * per_body;
+    t["bytes_from_nodes_per_body"] = double(wire.bytes_from_nodes) * per_body;
+    t["messages"] = wire.messages;
+    t["table_to_nodes_per_body"] = double(wire.wire_table_to_nodes) * per_body;
+    t["table_to_nodes_compressed_per_body"] = double(wire.wire_table_to_nodes_compressed) * per_body;
+    t["table_from_nodes_per_body"] = double(wire.wire_table_from_nodes) * per_body;
+    t["shared_per_body"] = double(wire.island_bytes_shared) * per_body;
+    t["image_bytes_per_body"] = double(wire.image_bytes) * per_body;
+    t["result_bytes_per_body"] = double(wire.result_bytes) * per_body;
+    t["bad_messages"] = wire.bad_messages;
+    t["recomputed_islands"] = wire.recomputed_islands;
+    t["reassigned_islands"] = wire.reassigned_islands;
+    t["dropped_nodes"] = wire.dropped_nodes;
+    j["transport"] = t;
     const std::string text = j.dump(2) + "\n";
     std::fwrite(text.data(), 1, text.size(), stats_file.get());
   }
@@ -504,6 +570,14 @@ int run(const Options& o) {
   std::printf("local store  peak %zu bytes, %llu decoupled islands\n", ls_peak,
               static_cast<unsigned long long>(decoupled));
   std::printf("energy       kinetic %.6g J at the start, %.6g J at the end\n", ke0, ke1);
+  if (runner)
+    std::printf("transport    %s: %.1f bytes per body out, %.1f back (tables: %.1f compressed, %.1f with geometry, "
+                "%.1f back); %u bad messages, %u islands recomputed, %u reassigned, %u nodes dropped\n",
+                runner_name, double(wire.bytes_to_nodes) * per_body, double(wire.bytes_from_nodes) * per_body,
+                double(wire.wire_table_to_nodes_compressed) * per_body, double(wire.wire_table_to_nodes) * per_body,
+                double(wire.wire_table_from_nodes) * per_body, wire.bad_messages, wire.recomputed_islands,
+                wire.reassigned_islands, wire.dropped_nodes);
+  std::printf("state hash   %s\n", hash);
   if (!o.out.empty()) std::printf("trajectory   %s\n", o.out.c_str());
   if (!o.stats.empty()) std::printf("statistics   %s\n", o.stats.c_str());
   return failed ? 1 : 0;
@@ -524,8 +598,34 @@ int run_main(int argc, char** argv) {
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  std::shared_ptr<ppe::IslandRunner> runner;
+#ifdef CELLPHYS_HAVE_MPI
+  std::unique_ptr<ppe::MpiSession> session;  // outlives the runner and the world
+  if (o.mpi) {
+    ppe::MpiOptions mo;
+    mo.deadline_ms = o.mpi_deadline_ms;
+    mo.corrupt_reply = o.mpi_corrupt;
+    mo.silent_after = o.mpi_silent;
+    try {
+      session = std::make_unique<ppe::MpiSession>(nullptr, nullptr);
+      if (session->rank() > 0) {
+        ppe::run_compute_node(mo);  // until rank 0 is done
+        return 0;
+      }
+      runner = std::make_shared<ppe::MpiRunner>(mo);  // its destructor stops the nodes, whatever happens
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "cellphys: %s\n", e.what());
+      return 1;
+    }
+  }
+#else
+  if (o.mpi) {
+    std::fprintf(stderr, "cellphys run: --mpi: this cellphys was built without MPI (install libopenmpi-dev)\n");
+    return 2;
+  }
+#endif
   try {
-    return run(o);
+    return run(o, runner);
   } catch (const UsageError& e) {
     std::fprintf(stderr, "cellphys run: %s\n", e.message.c_str());
     return 2;

@@ -23,6 +23,23 @@ struct StepStats {
   uint32_t solver_iterations = 0, solves = 0, step_halvings = 0, failed_islands = 0, substeps = 0;
   uint32_t woken = 0, fell_asleep = 0;
   size_t local_store_peak_bytes = 0;
+  // Islands whose result came back unsound (size, checksum, header, or refused by a node
+  // that was sent a sound image) and were recomputed on this process.
+  uint32_t recomputed_islands = 0;
+  // Transport (runtime/ppe/island_runner.h), summed over the step's waves and sweeps:
+  // message bytes each way on the runner's wire (0 for the in-process worker pool).
+  uint64_t bytes_to_nodes = 0, bytes_from_nodes = 0;
+  uint32_t messages = 0, bad_messages = 0, reassigned_islands = 0, dropped_nodes = 0;
+  // The same islands in the seed's wire tables (docs/distributed.md), whatever the runner:
+  // bodies out (ghosts included) at 22 floats plus their shape's geometry, or at 25 floats
+  // with a dictionary reference; 13 floats per body back. Each island's header, force and
+  // contact records are counted in both outbound forms (island_bytes_shared).
+  uint64_t island_bodies = 0;
+  uint64_t island_bytes_shared = 0;    // header, sections, parameters, force and contact records
+  uint64_t wire_table_to_nodes = 0;    // 22 floats + geometry per body, plus the shared bytes
+  uint64_t wire_table_to_nodes_compressed = 0;  // 25 floats per body, plus the shared bytes
+  uint64_t wire_table_from_nodes = 0;  // 13 floats per body
+  uint64_t image_bytes = 0, result_bytes = 0;  // packed images and kernel results, as in memory
   StageTimes times;
 };
 

@@ -9,17 +9,19 @@
 #include <thread>
 #include <vector>
 
+#include "runtime/ppe/island_runner.h"
 #include "runtime/spu/kernel.h"
 
 namespace cellphys::ppe {
 
-class WorkerPool {
+class WorkerPool : public IslandRunner {
  public:
   WorkerPool(int workers, size_t local_store_bytes);
-  ~WorkerPool();
+  ~WorkerPool() override;
   int size() const { return static_cast<int>(workers_.size()); }
   /// Runs every job (in the given order of priority) and returns when all are done.
-  void run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports);
+  void run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) override;
+  const char* name() const override { return "threads"; }
 
  private:
   void loop(int index);

@@ -27,6 +27,45 @@ bool finite(const float* p, int n) {
   return true;
 }
 
+// The seed's wire tables for one packed island (StepStats): per body 22 floats and its
+// shape's geometry, or 25 floats with a dictionary reference, out; 13 floats back. The
+// island's header, force and contact records go out in both forms.
+void count_wire_tables(const PackedIsland& p, const ShapeDictionary& shapes, StepStats& st) {
+  const uint64_t n = p.bodies.size();
+  const uint64_t shared = p.image.size() - n * sizeof(Rigid_Body);
+  uint64_t geometry = 0;
+  const spu::IslandView v = spu::view_island(const_cast<unsigned char*>(p.image.data()));
+  for (uint64_t i = 0; i < n; ++i) geometry += shapes.bytes(v.bodies[i].shape_index);
+  st.island_bodies += n;
+  st.island_bytes_shared += shared;
+  st.wire_table_to_nodes += n * sizeof(Wire_Body_To_Node) + geometry + shared;
+  st.wire_table_to_nodes_compressed += n * sizeof(Wire_Body_To_Node_Compressed) + shared;
+  st.wire_table_from_nodes += n * sizeof(Wire_Node_To_Dispatcher);
+  st.image_bytes += p.image.size();
+  st.result_bytes += p.result.size();
+}
+
+// A result is sound when its header belongs to the island and its bytes match their
+// checksum. A kernel refuses a sound image only when it does not fit (the same anywhere), so
+// a "malformed" refusal means the image was damaged on its way.
+bool sound_result(const PackedIsland& p, const spu::IslandReport& r) {
+  const uint32_t n = static_cast<uint32_t>(p.bodies.size());
+  Island_Result h;
+  if (p.result.size() < sizeof h) return false;
+  std::memcpy(&h, p.result.data(), sizeof h);
+  if (h.magic != spu::kResultMagic || h.num_bodies != n || h.status != static_cast<uint32_t>(r.status)) return false;
+  switch (r.status) {
+    case spu::IslandStatus::does_not_fit: return true;
+    case spu::IslandStatus::malformed: return false;
+    case spu::IslandStatus::ok:
+    case spu::IslandStatus::failed: break;
+  }
+  if (h.total_bytes != spu::result_bytes(n) || p.result.size() != h.total_bytes) return false;
+  const size_t head = spu::align16(sizeof(Island_Result)), steps = size_t{n} * sizeof(Rigid_Body_Step);
+  const unsigned char* base = p.result.data();
+  return spu::checksum(base + head + steps, size_t{n} * sizeof(Rigid_Body), spu::checksum(base + head, steps)) == h.checksum;
+}
+
 }  // namespace
 
 static void validate_settings(const WorldSettings& s) {
@@ -49,6 +88,9 @@ World::World(WorldSettings settings) : settings_(settings), impl_(std::make_uniq
   validate_settings(settings_);
 }
 World::~World() = default;
+
+void World::set_runner(std::shared_ptr<IslandRunner> runner) { impl_->runner = std::move(runner); }
+IslandRunner* World::runner() const { return impl_->runner.get(); }
 
 void World::set_settings(const WorldSettings& s) {
   validate_settings(s);
@@ -452,11 +494,29 @@ const StepStats& World::step() {
         PackedIsland& p = packed[k];
         p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
         jobs.push_back({p.image.data(), p.image.size(), p.result.data(), p.result.size()});
+        count_wire_tables(p, shapes_, st);
       }
       st.times.pack_ms += ms_since(t);
       t = Clock::now();
       std::vector<spu::IslandReport> reports;
-      w.workers(settings_).run(jobs, reports);
+      IslandRunner& runner = w.islands_runner(settings_);
+      runner.set_local_store(settings_.local_store_bytes);
+      runner.run(jobs, reports);
+      const TransportCounters tc = runner.last_transport();
+      st.bytes_to_nodes += tc.bytes_to_nodes;
+      st.bytes_from_nodes += tc.bytes_from_nodes;
+      st.messages += tc.messages_to_nodes + tc.messages_from_nodes;
+      st.bad_messages += tc.bad_messages;
+      st.reassigned_islands += tc.reassigned_islands;
+      st.dropped_nodes += tc.dropped_nodes;
+      // Every result is checked before anything is unpacked; an unsound one (damaged on the
+      // way, or refused by a node that was sent a sound image) is computed again here.
+      for (size_t j = 0; j < order.size(); ++j) {
+        PackedIsland& p = packed[order[j]];
+        if (sound_result(p, reports[j])) continue;
+        reports[j] = w.local_worker(settings_).step(p.image.data(), p.image.size(), p.result.data(), p.result.size());
+        ++st.recomputed_islands;
+      }
       st.times.integrate_ms += ms_since(t);
       t = Clock::now();
       for (size_t j = 0; j < order.size(); ++j) {

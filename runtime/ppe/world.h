@@ -22,6 +22,8 @@ class WorldError : public std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
+class IslandRunner;  // runtime/ppe/island_runner.h
+
 using BodyId = uint32_t;
 using ForceId = uint32_t;
 inline constexpr BodyId kWorldBody = 0xFFFFFFFFu;  // the b side of a world-anchored force
@@ -113,6 +115,12 @@ class World {
   const float* inertia_body(BodyId id) const;
   std::vector<BodyId> bodies() const;  // live ids, ascending
   size_t num_bodies() const;
+
+  /// Computes the islands with `runner` (compute nodes in other processes, say) instead of
+  /// the in-process worker pool of settings().workers threads; nullptr goes back to the pool.
+  /// Results are the same bits either way. The world shares ownership of the runner.
+  void set_runner(std::shared_ptr<IslandRunner> runner);
+  IslandRunner* runner() const;
 
   /// One step of settings().dt.
   const StepStats& step();

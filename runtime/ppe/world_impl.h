@@ -24,6 +24,8 @@ struct World::Impl {
   std::unique_ptr<WorkerPool> pool;
   int pool_workers = 0;
   size_t pool_bytes = 0;
+  std::shared_ptr<IslandRunner> runner;   // set_runner(); the pool when null
+  std::unique_ptr<spu::ComputeWorker> local;  // recomputes islands whose result came back unsound
   // per-step scratch, kept to avoid reallocation
   std::vector<Aabb> boxes;
   std::vector<float> reach;  // per body: distance it may close within the step (m)
@@ -39,6 +41,12 @@ struct World::Impl {
       pool_bytes = s.local_store_bytes;
     }
     return *pool;
+  }
+  IslandRunner& islands_runner(const WorldSettings& s) { return runner ? *runner : workers(s); }
+  spu::ComputeWorker& local_worker(const WorldSettings& s) {
+    if (!local || local->local_store().capacity() != s.local_store_bytes)
+      local = std::make_unique<spu::ComputeWorker>(s.local_store_bytes);
+    return *local;
   }
   WorldBody& live(BodyId id) {
     if (id >= bodies.size() || !bodies[id].alive) throw WorldError(body_name(id) + " does not exist");

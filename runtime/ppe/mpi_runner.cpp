@@ -1,0 +1,275 @@
+#include "runtime/ppe/mpi_runner.h"
+
+#include <mpi.h>
+#include <sched.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include "runtime/ppe/wire.h"
+
+namespace cellphys::ppe {
+
+namespace {
+
+constexpr int kTagJob = 1, kTagResult = 2, kTagStop = 3, kTagBye = 4;
+
+double now_ms() {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Waiting without burning a core another rank may need: yield for a while, then nap.
+class Idle {
+ public:
+  void reset() { spins_ = 0; }
+  void wait() {
+    if (++spins_ < 200) {
+      sched_yield();
+    } else {
+      std::this_thread::sleep_for(std::chrono::microseconds(50));
+    }
+  }
+
+ private:
+  int spins_ = 0;
+};
+
+void check(int rc, const char* what) {
+  if (rc != MPI_SUCCESS) throw std::runtime_error(std::string("MPI: ") + what + " failed");
+}
+
+}  // namespace
+
+MpiSession::MpiSession(int* argc, char*** argv) {
+  int provided = 0;
+  check(MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided), "MPI_Init_thread");
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+}
+
+MpiSession::~MpiSession() {
+  int finalized = 0;
+  MPI_Finalized(&finalized);
+  if (!finalized) MPI_Finalize();
+}
+
+struct MpiRunner::Send {
+  std::vector<unsigned char> bytes;
+  MPI_Request request = MPI_REQUEST_NULL;
+  int node = 0;
+};
+
+MpiRunner::MpiRunner(const MpiOptions& options) : options_(options) {
+  int size = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  for (int r = 1; r < size; ++r) {
+    Node n;
+    n.rank = r;
+    nodes_.push_back(n);
+  }
+}
+
+MpiRunner::~MpiRunner() {
+  try {
+    stop();
+  } catch (...) {
+  }
+}
+
+int MpiRunner::live_nodes() const {
+  return static_cast<int>(std::count_if(nodes_.begin(), nodes_.end(), [](const Node& n) { return n.live; }));
+}
+
+std::vector<uint64_t> MpiRunner::islands_per_node() const {
+  std::vector<uint64_t> v;
+  for (const Node& n : nodes_) v.push_back(n.islands);
+  return v;
+}
+
+MpiRunner::Node* MpiRunner::least_loaded() {
+  Node* best = nullptr;
+  for (Node& n : nodes_)
+    if (n.live && (!best || n.load < best->load)) best = &n;  // ties: the lowest rank
+  return best;
+}
+
+void MpiRunner::send(uint32_t job, Node& node) {
+  const std::vector<unsigned char>& m = messages_[job];
+  auto s = std::make_unique<Send>();
+  s->bytes = m;  // the send owns its buffer: a reassigned job may be in flight twice
+  s->node = node.rank;
+  check(MPI_Isend(s->bytes.data(), static_cast<int>(s->bytes.size()), MPI_BYTE, node.rank, kTagJob, MPI_COMM_WORLD,
+                  &s->request),
+        "MPI_Isend");
+  sends_.push_back(std::move(s));
+  if (node.queue.empty()) node.last_heard = now_ms();
+  node.queue.push_back(job);
+  node.load += static_cast<double>(m.size());
+  last_.bytes_to_nodes += m.size();
+  ++last_.messages_to_nodes;
+}
+
+void MpiRunner::compute_here(uint32_t job) {
+  const spu::IslandJob& j = (*jobs_)[job];
+  if (!local_ || local_->local_store().capacity() != local_store_bytes_)
+    local_ = std::make_unique<spu::ComputeWorker>(local_store_bytes_);
+  (*reports_)[job] = local_->step(j.image, j.bytes, j.result, j.result_capacity);
+  ++local_islands_;
+}
+
+void MpiRunner::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {
+  if (stopped_) throw std::logic_error("MpiRunner::run after stop()");
+  last_ = TransportCounters{};
+  reports.assign(jobs.size(), spu::IslandReport{});
+  if (jobs.empty()) return;
+  ++sequence_;
+  jobs_ = &jobs;
+  reports_ = &reports;
+  messages_.assign(jobs.size(), {});
+  for (Node& n : nodes_) n.load = 0, n.queue.clear();
+
+  // Largest first (the order given) to the node with the least queued.
+  size_t pending = 0;
+  for (uint32_t k = 0; k < jobs.size(); ++k) {
+    wire::encode_job(jobs[k].image, jobs[k].bytes, sequence_, k, local_store_bytes_, messages_[k]);
+    if (Node* n = least_loaded()) {
+      send(k, *n);
+      ++pending;
+    } else {
+      compute_here(k);
+    }
+  }
+  std::vector<unsigned char> buf;
+  Idle idle;
+  while (pending > 0) {
+    int flag = 0;
+    MPI_Status st;
+    check(MPI_Iprobe(MPI_ANY_SOURCE, kTagResult, MPI_COMM_WORLD, &flag, &st), "MPI_Iprobe");
+    if (flag) {
+      idle.reset();
+      int count = 0;
+      MPI_Get_count(&st, MPI_BYTE, &count);
+      buf.resize(static_cast<size_t>(count));
+      check(MPI_Recv(buf.data(), count, MPI_BYTE, st.MPI_SOURCE, kTagResult, MPI_COMM_WORLD, MPI_STATUS_IGNORE),
+            "MPI_Recv");
+      last_.bytes_from_nodes += static_cast<uint64_t>(count);
+      ++last_.messages_from_nodes;
+      Node& n = nodes_[static_cast<size_t>(st.MPI_SOURCE - 1)];
+      if (!n.live || n.queue.empty()) continue;  // a dropped node's late answer
+      // a node answers its islands in the order they were sent (MPI keeps the order)
+      const uint32_t job = n.queue.front();
+      n.queue.pop_front();
+      n.last_heard = now_ms();
+      --pending;
+      ++n.islands;
+      const spu::IslandJob& j = jobs[job];
+      const std::string why =
+          wire::decode_result(buf.data(), buf.size(), sequence_, job, j.image, j.result, j.result_capacity, reports[job]);
+      if (!why.empty()) {
+        // unsound: the world recomputes it (IslandRunner's contract)
+        ++last_.bad_messages;
+        std::memset(j.result, 0, std::min<size_t>(j.result_capacity, sizeof(gen::Island_Result)));
+        reports[job] = spu::IslandReport{};
+        reports[job].status = spu::IslandStatus::malformed;
+        reports[job].error = "from rank " + std::to_string(n.rank) + ": " + why;
+      }
+      continue;
+    }
+    // Deadline: a node with islands outstanding that has said nothing for too long.
+    const double t = now_ms();
+    for (Node& n : nodes_) {
+      if (!n.live || n.queue.empty() || t - n.last_heard < options_.deadline_ms) continue;
+      n.live = false;
+      ++last_.dropped_nodes;
+      std::deque<uint32_t> orphans;
+      orphans.swap(n.queue);
+      for (uint32_t job : orphans) {
+        ++last_.reassigned_islands;
+        if (Node* other = least_loaded()) {
+          send(job, *other);
+        } else {
+          compute_here(job);
+          --pending;
+        }
+      }
+    }
+    idle.wait();
+  }
+  // Every sent buffer stays until its send completes (a dropped node's may never).
+  for (auto it = sends_.begin(); it != sends_.end();) {
+    int done = 0;
+    MPI_Test(&(*it)->request, &done, MPI_STATUS_IGNORE);
+    if (done) it = sends_.erase(it);
+    else ++it;
+  }
+  for (const Node& n : nodes_) last_.nodes += n.live ? 1 : 0;
+  jobs_ = nullptr;
+  reports_ = nullptr;
+}
+
+void MpiRunner::stop() {
+  if (stopped_) return;
+  stopped_ = true;
+  for (const Node& n : nodes_) MPI_Send(nullptr, 0, MPI_BYTE, n.rank, kTagStop, MPI_COMM_WORLD);
+  // Wait for each node's goodbye, discarding late answers of dropped nodes on the way.
+  size_t byes = 0;
+  std::vector<unsigned char> buf;
+  Idle idle;
+  while (byes < nodes_.size()) {
+    int flag = 0;
+    MPI_Status st;
+    MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
+    if (!flag) {
+      idle.wait();
+      continue;
+    }
+    int count = 0;
+    MPI_Get_count(&st, MPI_BYTE, &count);
+    buf.resize(static_cast<size_t>(std::max(count, 1)));
+    MPI_Recv(buf.data(), count, MPI_BYTE, st.MPI_SOURCE, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (st.MPI_TAG == kTagBye) ++byes;
+  }
+  for (auto& s : sends_) MPI_Wait(&s->request, MPI_STATUS_IGNORE);
+  sends_.clear();
+}
+
+uint64_t run_compute_node(const MpiOptions& options) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  wire::NodeKernel kernel;
+  std::vector<unsigned char> in, out;
+  uint64_t received = 0, replies = 0;
+  const bool silent_node = options.silent_after >= 0 && rank == size - 1;
+  Idle idle;
+  for (;;) {
+    int flag = 0;
+    MPI_Status st;
+    check(MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st), "MPI_Iprobe");
+    if (!flag) {
+      idle.wait();
+      continue;
+    }
+    idle.reset();
+    int count = 0;
+    MPI_Get_count(&st, MPI_BYTE, &count);
+    in.resize(static_cast<size_t>(std::max(count, 1)));
+    check(MPI_Recv(in.data(), count, MPI_BYTE, 0, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE), "MPI_Recv");
+    if (st.MPI_TAG == kTagStop) break;
+    if (st.MPI_TAG != kTagJob) continue;
+    if (silent_node && received++ >= static_cast<uint64_t>(options.silent_after)) continue;  // hook: hangs
+    kernel.serve(in.data(), static_cast<size_t>(count), out);
+    if (rank == 1 && options.corrupt_reply >= 0 && replies == static_cast<uint64_t>(options.corrupt_reply))
+      out[out.size() - 1] ^= 0x40;  // hook: damaged on the way
+    ++replies;
+    check(MPI_Send(out.data(), static_cast<int>(out.size()), MPI_BYTE, 0, kTagResult, MPI_COMM_WORLD), "MPI_Send");
+  }
+  MPI_Send(nullptr, 0, MPI_BYTE, 0, kTagBye, MPI_COMM_WORLD);
+  return kernel.islands();
+}
+
+}  // namespace cellphys::ppe

@@ -11,6 +11,7 @@
 #include <mujoco/mujoco.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <memory>
 #include <sstream>
@@ -132,7 +133,7 @@ class MujocoPeer : public Peer {
         continue;
       }
       index_[i] = next_body++;
-      contacts_guess += 4;
+      contacts_guess += 3;
       world << "<body name=\"b" << i << "\"" << pose << "><freejoint/><inertial pos=\"0 0 0\" mass=\"" << bi.mass
             << "\" fullinertia=\"" << bi.inertia[0] << " " << bi.inertia[1] << " " << bi.inertia[2] << " "
             << bi.inertia[3] << " " << bi.inertia[4] << " " << bi.inertia[5] << "\"/>" << geom.str() << "/>" << sites[i]
@@ -156,10 +157,11 @@ class MujocoPeer : public Peer {
                   << " 0 0 0\"/>\n";
         }
     }
-    const size_t nconmax = std::max<size_t>(1000, contacts_guess);
+    const size_t nconmax = std::max<size_t>(200, contacts_guess + 100);  // resting contacts: about 2.5 a body
+    const size_t njmax = 4 * nconmax + 6 * scene.forces.size();  // pyramidal cone: 4 rows a contact
     x << "<mujoco model=\"scene\">\n<compiler angle=\"radian\" inertiafromgeom=\"false\"/>\n"
       << "<option timestep=\"" << dt << "\" gravity=\"" << g[0] << " " << g[1] << " " << g[2] << "\" integrator=\""
-      << integ << "\" jacobian=\"sparse\"/>\n<size nconmax=\"" << nconmax << "\" njmax=\"" << 4 * nconmax + 6 * scene.forces.size() << "\"/>\n"
+      << integ << "\" jacobian=\"sparse\"/>\n<size nconmax=\"" << nconmax << "\" njmax=\"" << njmax << "\"/>\n"
       << "<asset>\n" << assets.str() << "</asset>\n<worldbody>\n" << world_sites.str() << world.str() << "</worldbody>\n"
       << "<tendon>\n" << tendons.str() << "</tendon>\n"
       << "<equality>\n" << eq.str() << "</equality>\n<contact>\n" << contact.str() << "</contact>\n</mujoco>\n";
@@ -174,8 +176,20 @@ class MujocoPeer : public Peer {
     char err[1000] = "";
     model_ = mj_loadXML("scene.xml", vfs.get(), err, sizeof err);
     mj_deleteVFS(vfs.get());
+    if (!model_ && std::strstr(err, "could not create mjData"))
+      throw Unsupported("MuJoCo 2.2.2 could not allocate its dense constraint arrays (njmax " + std::to_string(njmax) +
+                        " rows: about " + std::to_string(int(8e-9 * double(njmax) * double(njmax + 6 * contacts_guess / 3) + 0.5)) +
+                        " GB)");
     if (!model_) throw std::runtime_error(std::string("MuJoCo refused the model: ") + err);
     data_ = mj_makeData(model_);
+    if (!data_) {
+      // MuJoCo 2.2 preallocates dense njmax x nv and njmax x njmax constraint arrays.
+      char why[300];
+      std::snprintf(why, sizeof why,
+                    "MuJoCo 2.2.2 could not allocate its dense constraint arrays (njmax %zu x nv %d, about %.1f GB)",
+                    njmax, model_->nv, 8e-9 * double(njmax) * double(njmax + model_->nv));
+      throw Unsupported(why);
+    }
     for (size_t i = 0; i < scene.bodies.size(); ++i) {
       if (index_[i] < 0) continue;
       const scene::BodySpec& b = scene.bodies[i];

@@ -36,10 +36,17 @@ void z_to(const float n[3], double q[4]) {
   q[0] = w / s, q[1] = ax / s, q[2] = ay / s, q[3] = 0;
 }
 
+// MuJoCo's warnings (a full contact buffer, an unstable state) would go to MUJOCO_LOG.TXT in the
+// working directory; they are counted instead and shown in the label.
+int g_warnings = 0;
+void count_warning(const char*) { ++g_warnings; }
+
 class MujocoPeer : public Peer {
  public:
   MujocoPeer(const scene::SceneDesc& scene, const EngineConfig& c) {
     check_forces(scene, "MuJoCo");
+    mju_user_warning = count_warning;
+    g_warnings = 0;
     const std::string v = c.variant.empty() ? "euler" : c.variant;
     const char* integ = v == "euler" ? "Euler" : v == "implicit" ? "implicit" : v == "rk4" ? "RK4" : nullptr;
     if (!integ) throw std::invalid_argument("mujoco variants: euler, implicit, rk4");
@@ -157,7 +164,8 @@ class MujocoPeer : public Peer {
                   << " 0 0 0\"/>\n";
         }
     }
-    const size_t nconmax = std::max<size_t>(200, contacts_guess + 100);  // resting contacts: about 2.5 a body
+    // Resting contacts: about 2.5 a body in a sparse world, 6 in a pile.
+    const size_t nconmax = std::max<size_t>(1000, contacts_guess + 100);
     const size_t njmax = 4 * nconmax + 6 * scene.forces.size();  // pyramidal cone: 4 rows a contact
     x << "<mujoco model=\"scene\">\n<compiler angle=\"radian\" inertiafromgeom=\"false\"/>\n"
       << "<option timestep=\"" << dt << "\" gravity=\"" << g[0] << " " << g[1] << " " << g[2] << "\" integrator=\""
@@ -241,7 +249,9 @@ class MujocoPeer : public Peer {
     for (int i : index_) n += i >= 0;
     return n;
   }
-  std::string label() const override { return label_; }
+  std::string label() const override {
+    return g_warnings ? label_ + " (" + std::to_string(g_warnings) + " MuJoCo warnings)" : label_;
+  }
 
  private:
   static std::string num(double v) {

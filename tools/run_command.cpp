@@ -598,9 +598,11 @@ int run_main(int argc, char** argv) {
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+#ifdef CELLPHYS_HAVE_MPI
+  std::unique_ptr<ppe::MpiSession> session;  // declared first: outlives the runner and the world
+#endif
   std::shared_ptr<ppe::IslandRunner> runner;
 #ifdef CELLPHYS_HAVE_MPI
-  std::unique_ptr<ppe::MpiSession> session;  // outlives the runner and the world
   if (o.mpi) {
     ppe::MpiOptions mo;
     mo.deadline_ms = o.mpi_deadline_ms;

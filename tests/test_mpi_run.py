@@ -1,0 +1,79 @@
+"""`cellphys run --mpi` under mpirun on loopback: the same bits as the in-process run, the
+seed's wire tables on the wire, damaged replies recomputed and silent nodes dropped.
+
+usage: test_mpi_run.py CELLPHYS MPIRUN  (run by CTest)
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+EXE, MPIRUN = sys.argv[1], sys.argv[2]
+MPI = [MPIRUN, "--oversubscribe", "--allow-run-as-root", "--mca", "btl", "self,vader,tcp",
+       "--mca", "btl_vader_single_copy_mechanism", "none"]
+TIMEOUT = 120
+
+
+def run(args, ranks=None):
+    with tempfile.TemporaryDirectory() as d:
+        stats = os.path.join(d, "stats.json")
+        cmd = ([*MPI, "-np", str(ranks)] if ranks else []) + [EXE, "run", *args, "--stats", stats]
+        if ranks:
+            cmd.append("--mpi")
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
+        if p.returncode != 0:
+            raise AssertionError(f"{' '.join(cmd)} exited {p.returncode}\n{p.stdout}\n{p.stderr}")
+        with open(stats) as f:
+            return json.load(f)
+
+
+class MpiRun(unittest.TestCase):
+    reference = {}
+
+    def local(self, scene):
+        if scene not in self.reference:
+            self.reference[scene] = run([scene, "--duration", "1"])
+        return self.reference[scene]
+
+    def test_pile65_and_world1000_bit_for_bit(self):
+        for scene in ("pile65", "world1000"):
+            with self.subTest(scene=scene):
+                ref = self.local(scene)
+                got = run([scene, "--duration", "1"], ranks=3)
+                self.assertEqual(got["runner"], "mpi")
+                self.assertEqual(got["state_hash"], ref["state_hash"])
+                self.assertEqual(got["steps"], ref["steps"])
+                t = got["transport"]
+                self.assertEqual(t["recomputed_islands"], 0)
+                # back: 13 floats a body plus an 80-byte header per island message
+                self.assertEqual(t["table_from_nodes_per_body"], 52.0)
+                self.assertGreater(t["bytes_from_nodes_per_body"], 52.0)
+                # out: the compressed table (25 floats a body and the island's shared records)
+                # plus a 40-byte header per island message
+                self.assertGreater(t["bytes_to_nodes_per_body"], t["table_to_nodes_compressed_per_body"])
+                self.assertAlmostEqual(t["table_to_nodes_compressed_per_body"] - t["shared_per_body"], 100.0, places=9)
+                header_share = (t["bytes_from_nodes_per_body"] - 52.0) / 80.0 * 40.0
+                self.assertAlmostEqual(t["bytes_to_nodes_per_body"],
+                                       t["table_to_nodes_compressed_per_body"] + header_share, places=6)
+                if scene == "world1000":  # hulls: a dictionary reference beats geometry
+                    self.assertLess(t["table_to_nodes_compressed_per_body"], t["table_to_nodes_per_body"])
+
+    def test_damaged_reply_is_recomputed(self):
+        ref = self.local("world1000")
+        got = run(["world1000", "--duration", "1", "--mpi-fault", "corrupt:7"], ranks=3)
+        self.assertEqual(got["state_hash"], ref["state_hash"])
+        self.assertEqual(got["transport"]["bad_messages"], 1)
+        self.assertEqual(got["transport"]["recomputed_islands"], 1)
+
+    def test_silent_node_is_dropped_and_its_islands_reassigned(self):
+        ref = self.local("world1000")
+        got = run(["world1000", "--duration", "1", "--mpi-fault", "silent:30", "--mpi-deadline", "300"], ranks=3)
+        self.assertEqual(got["state_hash"], ref["state_hash"])
+        self.assertEqual(got["transport"]["dropped_nodes"], 1)
+        self.assertGreater(got["transport"]["reassigned_islands"], 0)
+
+
+if __name__ == "__main__":
+    unittest.main(argv=sys.argv[:1], verbosity=2)

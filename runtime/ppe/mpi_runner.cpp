@@ -97,20 +97,110 @@ MpiRunner::Node* MpiRunner::least_loaded() {
   return best;
 }
 
-void MpiRunner::send(uint32_t job, Node& node) {
-  const std::vector<unsigned char>& m = messages_[job];
-  auto s = std::make_unique<Send>();
-  s->bytes = m;  // the send owns its buffer: a reassigned job may be in flight twice
-  s->node = node.rank;
-  check(MPI_Isend(s->bytes.data(), static_cast<int>(s->bytes.size()), MPI_BYTE, node.rank, kTagJob, MPI_COMM_WORLD,
-                  &s->request),
-        "MPI_Isend");
-  sends_.push_back(std::move(s));
-  if (node.queue.empty()) node.last_heard = now_ms();
-  node.queue.push_back(job);
-  node.load += static_cast<double>(m.size());
-  last_.bytes_to_nodes += m.size();
-  ++last_.messages_to_nodes;
+void MpiRunner::dispatch(const std::vector<uint32_t>& order) {
+  for (uint32_t k : order) {
+    const spu::IslandJob& j = (*jobs_)[k];
+    Node* n = least_loaded();
+    if (!n) {
+      compute_here(k);
+      continue;
+    }
+    gen::Island_Header ih;
+    std::memcpy(&ih, j.image, sizeof ih);
+    n->plan.push_back(k);
+    n->load += static_cast<double>(wire::job_record_bytes(j.bytes, ih.num_bodies));
+  }
+  for (Node& n : nodes_)
+    if (!n.plan.empty()) send_batch(n);
+}
+
+void MpiRunner::send_batch(Node& node) {
+  // A message's size is an int in MPI: a node's share beyond kMaxBatch goes in several.
+  constexpr size_t kMaxBatch = size_t{1} << 30;
+  size_t first = 0;
+  while (first < node.plan.size()) {
+    auto s = std::make_unique<Send>();
+    s->node = node.rank;
+    Batch b;
+    b.token = ++next_token_;
+    wire::begin_batch(wire::kJobsMagic, sequence_, local_store_bytes_, s->bytes);
+    size_t total = sizeof(wire::BatchHeader), end = first;
+    for (; end < node.plan.size(); ++end) {
+      const spu::IslandJob& j = (*jobs_)[node.plan[end]];
+      gen::Island_Header ih;
+      std::memcpy(&ih, j.image, sizeof ih);
+      const size_t bytes = wire::job_record_bytes(j.bytes, ih.num_bodies);
+      if (end > first && total + bytes > kMaxBatch) break;
+      total += bytes;
+    }
+    s->bytes.reserve(total);
+    for (size_t i = first; i < end; ++i) {
+      const uint32_t k = node.plan[i];
+      const spu::IslandJob& j = (*jobs_)[k];
+      wire::append_job(j.image, j.bytes, k, s->bytes);
+      owner_[k] = b.token;
+      b.jobs.push_back(k);
+    }
+    wire::seal_batch(s->bytes);
+    check(MPI_Isend(s->bytes.data(), static_cast<int>(s->bytes.size()), MPI_BYTE, node.rank, kTagJob, MPI_COMM_WORLD,
+                    &s->request),
+          "MPI_Isend");
+    last_.bytes_to_nodes += s->bytes.size();
+    ++last_.messages_to_nodes;
+    sends_.push_back(std::move(s));
+    if (node.queue.empty()) node.last_heard = now_ms();
+    node.queue.push_back(std::move(b));
+    first = end;
+  }
+  node.plan.clear();
+}
+
+void MpiRunner::refuse(uint32_t job, const std::string& why) {
+  // unsound: the world recomputes it (IslandRunner's contract)
+  const spu::IslandJob& j = (*jobs_)[job];
+  ++last_.bad_messages;
+  std::memset(j.result, 0, std::min<size_t>(j.result_capacity, sizeof(gen::Island_Result)));
+  spu::IslandReport& r = (*reports_)[job];
+  r = spu::IslandReport{};
+  r.status = spu::IslandStatus::malformed;
+  r.error = why;
+  done_[job] = 1;
+  --pending_;
+}
+
+void MpiRunner::receive(Node& n, const std::vector<unsigned char>& msg) {
+  // a node answers its batches in the order they were sent (MPI keeps the order)
+  Batch b = std::move(n.queue.front());
+  n.queue.pop_front();
+  n.last_heard = now_ms();
+  const std::string from = "from rank " + std::to_string(n.rank) + ": ";
+  wire::BatchHeader h;
+  std::string why = wire::decode_batch_header(msg.data(), msg.size(), wire::kResultsMagic, h);
+  if (why.empty() && h.sequence != sequence_) why = "answer to another wave";
+  if (why.empty()) {
+    size_t offset = sizeof h;
+    for (uint32_t r = 0; r < h.count; ++r) {
+      wire::ResultRecord rec;
+      const unsigned char* bodies = nullptr;
+      if (!wire::next_result(msg.data(), msg.size(), offset, rec, bodies)) break;  // the rest is lost
+      // a record whose job field was damaged names no island of this batch: skipped (its
+      // island is refused below)
+      if (rec.job >= owner_.size() || owner_[rec.job] != b.token || done_[rec.job]) continue;
+      const spu::IslandJob& j = (*jobs_)[rec.job];
+      const std::string bad =
+          wire::decode_result(rec, bodies, j.image, j.result, j.result_capacity, (*reports_)[rec.job]);
+      if (!bad.empty()) {
+        refuse(rec.job, from + bad);
+        continue;
+      }
+      done_[rec.job] = 1;
+      --pending_;
+      ++n.islands;
+    }
+    why = "no sound result in the node's answer";
+  }
+  for (uint32_t k : b.jobs)
+    if (!done_[k] && owner_[k] == b.token) refuse(k, from + why);
 }
 
 void MpiRunner::compute_here(uint32_t job) {
@@ -119,6 +209,10 @@ void MpiRunner::compute_here(uint32_t job) {
     local_ = std::make_unique<spu::ComputeWorker>(local_store_bytes_);
   (*reports_)[job] = local_->step(j.image, j.bytes, j.result, j.result_capacity);
   ++local_islands_;
+  if (!done_[job]) {
+    done_[job] = 1;
+    --pending_;
+  }
 }
 
 void MpiRunner::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {
@@ -129,23 +223,17 @@ void MpiRunner::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::Is
   ++sequence_;
   jobs_ = &jobs;
   reports_ = &reports;
-  messages_.assign(jobs.size(), {});
-  for (Node& n : nodes_) n.load = 0, n.queue.clear();
+  owner_.assign(jobs.size(), 0);
+  done_.assign(jobs.size(), 0);
+  pending_ = jobs.size();
+  for (Node& n : nodes_) n.load = 0, n.queue.clear(), n.plan.clear();
 
-  // Largest first (the order given) to the node with the least queued.
-  size_t pending = 0;
-  for (uint32_t k = 0; k < jobs.size(); ++k) {
-    wire::encode_job(jobs[k].image, jobs[k].bytes, sequence_, k, local_store_bytes_, messages_[k]);
-    if (Node* n = least_loaded()) {
-      send(k, *n);
-      ++pending;
-    } else {
-      compute_here(k);
-    }
-  }
+  std::vector<uint32_t> order(jobs.size());
+  for (uint32_t k = 0; k < jobs.size(); ++k) order[k] = k;
+  dispatch(order);
   std::vector<unsigned char> buf;
   Idle idle;
-  while (pending > 0) {
+  while (pending_ > 0) {
     int flag = 0;
     MPI_Status st;
     check(MPI_Iprobe(MPI_ANY_SOURCE, kTagResult, MPI_COMM_WORLD, &flag, &st), "MPI_Iprobe");
@@ -160,42 +248,23 @@ void MpiRunner::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::Is
       ++last_.messages_from_nodes;
       Node& n = nodes_[static_cast<size_t>(st.MPI_SOURCE - 1)];
       if (!n.live || n.queue.empty()) continue;  // a dropped node's late answer
-      // a node answers its islands in the order they were sent (MPI keeps the order)
-      const uint32_t job = n.queue.front();
-      n.queue.pop_front();
-      n.last_heard = now_ms();
-      --pending;
-      ++n.islands;
-      const spu::IslandJob& j = jobs[job];
-      const std::string why =
-          wire::decode_result(buf.data(), buf.size(), sequence_, job, j.image, j.result, j.result_capacity, reports[job]);
-      if (!why.empty()) {
-        // unsound: the world recomputes it (IslandRunner's contract)
-        ++last_.bad_messages;
-        std::memset(j.result, 0, std::min<size_t>(j.result_capacity, sizeof(gen::Island_Result)));
-        reports[job] = spu::IslandReport{};
-        reports[job].status = spu::IslandStatus::malformed;
-        reports[job].error = "from rank " + std::to_string(n.rank) + ": " + why;
-      }
+      receive(n, buf);
       continue;
     }
-    // Deadline: a node with islands outstanding that has said nothing for too long.
+    // Deadline: a node with batches outstanding that has said nothing for too long.
     const double t = now_ms();
     for (Node& n : nodes_) {
       if (!n.live || n.queue.empty() || t - n.last_heard < options_.deadline_ms) continue;
       n.live = false;
       ++last_.dropped_nodes;
-      std::deque<uint32_t> orphans;
-      orphans.swap(n.queue);
-      for (uint32_t job : orphans) {
-        ++last_.reassigned_islands;
-        if (Node* other = least_loaded()) {
-          send(job, *other);
-        } else {
-          compute_here(job);
-          --pending;
-        }
-      }
+      std::vector<uint32_t> orphans;
+      for (const Batch& b : n.queue)
+        for (uint32_t k : b.jobs)
+          if (!done_[k]) orphans.push_back(k);
+      n.queue.clear();
+      std::sort(orphans.begin(), orphans.end());  // the given order: largest first
+      last_.reassigned_islands += static_cast<uint32_t>(orphans.size());
+      dispatch(orphans);
     }
     idle.wait();
   }
@@ -261,11 +330,25 @@ uint64_t run_compute_node(const MpiOptions& options) {
     check(MPI_Recv(in.data(), count, MPI_BYTE, 0, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE), "MPI_Recv");
     if (st.MPI_TAG == kTagStop) break;
     if (st.MPI_TAG != kTagJob) continue;
-    if (silent_node && received++ >= static_cast<uint64_t>(options.silent_after)) continue;  // hook: hangs
+    if (silent_node) {  // hook: hangs once it got silent_after islands
+      if (received >= static_cast<uint64_t>(options.silent_after)) continue;
+      wire::BatchHeader h;
+      if (static_cast<size_t>(count) >= sizeof h) {
+        std::memcpy(&h, in.data(), sizeof h);
+        received += h.count;
+      }
+    }
     kernel.serve(in.data(), static_cast<size_t>(count), out);
-    if (rank == 1 && options.corrupt_reply >= 0 && replies == static_cast<uint64_t>(options.corrupt_reply))
-      out[out.size() - 1] ^= 0x40;  // hook: damaged on the way
-    ++replies;
+    const std::vector<size_t>& at = kernel.record_offsets();
+    if (rank == 1 && options.corrupt_reply >= 0) {
+      const uint64_t target = static_cast<uint64_t>(options.corrupt_reply);
+      if (target >= replies && target < replies + at.size()) {  // hook: one island damaged on the way
+        const size_t i = static_cast<size_t>(target - replies);
+        const size_t end = i + 1 < at.size() ? at[i + 1] : out.size();
+        out[end - 1] ^= 0x40;
+      }
+    }
+    replies += at.size();
     check(MPI_Send(out.data(), static_cast<int>(out.size()), MPI_BYTE, 0, kTagResult, MPI_COMM_WORLD), "MPI_Send");
   }
   MPI_Send(nullptr, 0, MPI_BYTE, 0, kTagBye, MPI_COMM_WORLD);

@@ -1,12 +1,13 @@
 // Compute nodes over MPI (Open MPI): the seed's dispatcher model. Rank 0 of MPI_COMM_WORLD
 // is the dispatcher: it owns the world, collides, partitions and packs, and an MpiRunner
-// ships each packed island to a compute node (ranks 1..size-1) as the seed's wire tables
-// (runtime/ppe/wire.h). A node holds no state between islands: it rebuilds the image, runs
-// the same kernel a worker thread runs (spu::ComputeWorker) and sends back 13 floats per
-// body. Islands go largest first to the node with the least work queued.
+// ships the packed islands to compute nodes (ranks 1..size-1) as the seed's wire tables
+// (runtime/ppe/wire.h). Islands go largest first to the node with the least work queued; each
+// node then gets every island it was given in a wave as one message (a batch) and answers
+// with one message. A node holds no state between islands: it rebuilds each image, runs the
+// same kernel a worker thread runs (spu::ComputeWorker) and sends back 13 floats per body.
 //
-// Faults: a result that arrives damaged (size, checksum, header) or refused is recomputed on
-// the dispatcher (World::step checks every result); a node with islands outstanding that
+// Faults: an island whose result arrives damaged (size, checksum, header) or refused is
+// recomputed on the dispatcher, the sound islands of the same batch kept (World::step checks every result); a node with islands outstanding that
 // sends nothing for `deadline_ms` is dropped and its islands sent to the others (or computed
 // on the dispatcher when none is left). A step returns only when every island has a sound
 // result, so the world is never half-stepped. (A node process that dies takes the MPI job
@@ -16,6 +17,7 @@
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "runtime/ppe/island_runner.h"
@@ -25,8 +27,8 @@ namespace cellphys::ppe {
 struct MpiOptions {
   double deadline_ms = 5000;  // a node silent this long with islands outstanding is dropped
   // Test hooks (every rank parses the same command line):
-  int corrupt_reply = -1;  // node 1 damages its reply number N (0-based) after sealing it
-  int silent_after = -1;   // the last node stops answering after N islands (it keeps receiving)
+  int corrupt_reply = -1;  // node 1 damages its island result number N (0-based) after sealing it
+  int silent_after = -1;   // the last node stops answering once it got N islands (it keeps receiving)
 };
 
 /// The process's MPI session: MPI_Init on construction, MPI_Finalize on destruction.
@@ -64,16 +66,26 @@ class MpiRunner final : public IslandRunner {
   void stop();
 
  private:
+  struct Batch {
+    uint32_t token = 0;          // names the batch in owner_
+    std::vector<uint32_t> jobs;  // in the order sent (and answered)
+  };
   struct Node {
     int rank = 0;
     bool live = true;
-    double load = 0;             // bytes queued in this run() call
-    std::deque<uint32_t> queue;  // jobs sent, in order; replies come back in this order
-    double last_heard = 0;       // ms: last reply, or when its queue last became non-empty
+    double load = 0;          // bytes queued in this run() call
+    std::deque<Batch> queue;  // batches sent, in order; replies come back in this order
+    double last_heard = 0;    // ms: last reply, or when its queue last became non-empty
     uint64_t islands = 0;
+    std::vector<uint32_t> plan;  // jobs assigned, not yet sent
   };
   struct Send;
-  void send(uint32_t job, Node& node);
+  // Largest first (the order given) to the least-loaded live node, then one batch per node;
+  // with no node left, computed here.
+  void dispatch(const std::vector<uint32_t>& jobs);
+  void send_batch(Node& node);
+  void receive(Node& node, const std::vector<unsigned char>& msg);
+  void refuse(uint32_t job, const std::string& why);
   Node* least_loaded();
   void compute_here(uint32_t job);
 
@@ -88,7 +100,10 @@ class MpiRunner final : public IslandRunner {
   // the current run() call
   const std::vector<spu::IslandJob>* jobs_ = nullptr;
   std::vector<spu::IslandReport>* reports_ = nullptr;
-  std::vector<std::vector<unsigned char>> messages_;
+  std::vector<uint32_t> owner_;  // per job: the token of the batch whose answer counts
+  std::vector<char> done_;       // per job: has a sound result, or was refused
+  size_t pending_ = 0;
+  uint32_t next_token_ = 0;
   std::vector<std::unique_ptr<Send>> sends_;  // outstanding sends (buffers live until complete)
 };
 

@@ -14,13 +14,29 @@ namespace {
 constexpr size_t kOutBody = sizeof(Wire_Body_To_Node_Compressed);
 constexpr size_t kBackBody = sizeof(Wire_Node_To_Dispatcher);
 
-// Checksum of a message: its header with the checksum field zero, then the rest.
+// Checksum of a record: its header with the checksum field zero, then the bytes after it.
 template <class Header>
-uint32_t message_checksum(const Header& h, const unsigned char* rest, size_t n) {
+uint32_t record_checksum(const Header& h, const unsigned char* rest, size_t n) {
   Header z = h;
   z.checksum = 0;
   return spu::checksum(rest, n, spu::checksum(reinterpret_cast<const unsigned char*>(&z), sizeof z));
 }
+
+// Appends n zero bytes and returns where they start.
+unsigned char* grow(std::vector<unsigned char>& out, size_t n) {
+  const size_t at = out.size();
+  out.resize(at + n);
+  return out.data() + at;
+}
+
+void bump_count(std::vector<unsigned char>& out) {
+  BatchHeader h;
+  std::memcpy(&h, out.data(), sizeof h);
+  ++h.count;
+  std::memcpy(out.data(), &h, sizeof h);
+}
+
+constexpr uint32_t kMaxBodies = 1u << 20;
 
 Wire_Body_To_Node_Compressed to_wire(const Rigid_Body& b) {
   Wire_Body_To_Node_Compressed w{};
@@ -65,23 +81,47 @@ bool from_wire(const Wire_Body_To_Node_Compressed& w, Rigid_Body& out) {
 
 }  // namespace
 
-size_t job_bytes(size_t image_bytes, size_t n) { return sizeof(JobHeader) + image_bytes - n * sizeof(Rigid_Body) + n * kOutBody; }
-size_t result_message_bytes(size_t n) { return sizeof(ResultHeader) + n * kBackBody; }
+size_t job_record_bytes(size_t image_bytes, size_t n) {
+  return sizeof(JobRecord) + image_bytes - n * sizeof(Rigid_Body) + n * kOutBody;
+}
+size_t result_record_bytes(size_t n) { return sizeof(ResultRecord) + n * kBackBody; }
 
-void encode_job(const unsigned char* image, size_t bytes, uint32_t sequence, uint32_t job, uint64_t local_store_bytes,
-                std::vector<unsigned char>& out) {
+void begin_batch(uint32_t magic, uint32_t sequence, uint64_t local_store_bytes, std::vector<unsigned char>& out) {
+  BatchHeader h;
+  h.magic = magic;
+  h.sequence = sequence;
+  h.local_store_bytes = local_store_bytes;
+  out.resize(sizeof h);
+  std::memcpy(out.data(), &h, sizeof h);
+}
+
+void seal_batch(std::vector<unsigned char>& out) {
+  BatchHeader h;
+  std::memcpy(&h, out.data(), sizeof h);
+  h.checksum = record_checksum(h, nullptr, 0);
+  std::memcpy(out.data(), &h, sizeof h);
+}
+
+std::string decode_batch_header(const unsigned char* msg, size_t n, uint32_t magic, BatchHeader& h) {
+  if (n < sizeof h) return "message of " + std::to_string(n) + " bytes, shorter than a batch header";
+  std::memcpy(&h, msg, sizeof h);
+  if (h.magic != magic || h.version != kVersion) return "not a batch of this kind and version";
+  if (record_checksum(h, nullptr, 0) != h.checksum) return "batch header checksum mismatch";
+  return "";
+}
+
+void append_job(const unsigned char* image, size_t bytes, uint32_t job, std::vector<unsigned char>& out) {
   Island_Header ih;
   std::memcpy(&ih, image, sizeof ih);
   const spu::IslandLayout l = spu::island_layout(ih.num_bodies, ih.num_sections);
-  JobHeader h;
-  h.sequence = sequence;
-  h.job = job;
-  h.image_bytes = static_cast<uint32_t>(bytes);
-  h.num_bodies = ih.num_bodies;
-  h.prefix_bytes = static_cast<uint32_t>(l.bodies);
-  h.local_store_bytes = local_store_bytes;
-  out.resize(job_bytes(bytes, ih.num_bodies));
-  unsigned char* p = out.data() + sizeof h;
+  JobRecord r;
+  r.job = job;
+  r.image_bytes = static_cast<uint32_t>(bytes);
+  r.num_bodies = ih.num_bodies;
+  const size_t at = out.size();
+  grow(out, job_record_bytes(bytes, ih.num_bodies));
+  unsigned char* const rec = out.data() + at;
+  unsigned char* p = rec + sizeof r;
   std::memcpy(p, image, l.bodies);
   p += l.bodies;
   for (uint32_t i = 0; i < ih.num_bodies; ++i, p += kOutBody) {
@@ -91,53 +131,74 @@ void encode_job(const unsigned char* image, size_t bytes, uint32_t sequence, uin
     std::memcpy(p, &w, kOutBody);
   }
   std::memcpy(p, image + l.instances, bytes - l.instances);
-  h.checksum = message_checksum(h, out.data() + sizeof h, out.size() - sizeof h);
-  std::memcpy(out.data(), &h, sizeof h);
+  r.checksum = record_checksum(r, rec + sizeof r, out.size() - at - sizeof r);
+  std::memcpy(rec, &r, sizeof r);
+  bump_count(out);
 }
 
-std::string decode_job(const unsigned char* msg, size_t n, JobHeader& h, std::vector<unsigned char>& image) {
-  if (n < sizeof h) return "job shorter than its header";
-  std::memcpy(&h, msg, sizeof h);
-  if (h.magic != kJobMagic || h.version != kVersion) return "not a job message of this version";
-  if (h.num_bodies == 0 || h.num_bodies > (1u << 20)) return "body count out of range";
-  const size_t body_bytes = size_t{h.num_bodies} * sizeof(Rigid_Body);
-  if (h.image_bytes < h.prefix_bytes + body_bytes || h.prefix_bytes < sizeof(Island_Header)) return "sizes inconsistent";
-  if (n != job_bytes(h.image_bytes, h.num_bodies)) return "job of " + std::to_string(n) + " bytes, header implies " +
-                                                          std::to_string(job_bytes(h.image_bytes, h.num_bodies));
-  if (message_checksum(h, msg + sizeof h, n - sizeof h) != h.checksum) return "job checksum mismatch";
-  image.assign(h.image_bytes, 0);
-  const unsigned char* p = msg + sizeof h;
-  std::memcpy(image.data(), p, h.prefix_bytes);
-  p += h.prefix_bytes;
-  for (uint32_t i = 0; i < h.num_bodies; ++i, p += kOutBody) {
+std::string next_job(const unsigned char* msg, size_t n, size_t& offset, JobRecord& r, std::vector<unsigned char>& image,
+                     bool& framed) {
+  framed = false;
+  if (offset + sizeof r > n) return "job record runs past the message";
+  std::memcpy(&r, msg + offset, sizeof r);
+  if (r.num_bodies == 0 || r.num_bodies > kMaxBodies) return "body count out of range";
+  const size_t body_bytes = size_t{r.num_bodies} * sizeof(Rigid_Body);
+  if (r.image_bytes < sizeof(Island_Header) + body_bytes) return "sizes inconsistent";
+  const size_t len = job_record_bytes(r.image_bytes, r.num_bodies);
+  if (len > n - offset) return "job record of " + std::to_string(len) + " bytes runs past the message";
+  const unsigned char* rec = msg + offset;
+  offset += len;
+  framed = true;
+  if (record_checksum(r, rec + sizeof r, len - sizeof r) != r.checksum) return "job checksum mismatch";
+  Island_Header ih;
+  std::memcpy(&ih, rec + sizeof r, sizeof ih);
+  if (ih.num_bodies != r.num_bodies) return "island header does not match the record";
+  const spu::IslandLayout l = spu::island_layout(ih.num_bodies, ih.num_sections);
+  if (l.bodies < sizeof ih || l.bodies + body_bytes > r.image_bytes || l.instances != l.bodies + body_bytes)
+    return "island layout does not fit the record";
+  const size_t prefix = l.bodies;
+  image.assign(r.image_bytes, 0);
+  const unsigned char* p = rec + sizeof r;
+  std::memcpy(image.data(), p, prefix);
+  p += prefix;
+  for (uint32_t i = 0; i < r.num_bodies; ++i, p += kOutBody) {
     Wire_Body_To_Node_Compressed w;
     std::memcpy(&w, p, kOutBody);
     Rigid_Body b;
     if (!from_wire(w, b)) return "body " + std::to_string(i) + ": inertia not invertible";
-    std::memcpy(image.data() + h.prefix_bytes + i * sizeof b, &b, sizeof b);
+    std::memcpy(image.data() + prefix + i * sizeof b, &b, sizeof b);
   }
-  const size_t inst = h.prefix_bytes + body_bytes;
-  std::memcpy(image.data() + inst, p, h.image_bytes - inst);
+  const size_t inst = prefix + body_bytes;
+  std::memcpy(image.data() + inst, p, r.image_bytes - inst);
   // the rebuilt bodies differ from the packer's in fields no kernel reads (damping): re-seal
-  Island_Header ih;
-  std::memcpy(&ih, image.data(), sizeof ih);
   ih.checksum = spu::checksum(image.data() + sizeof ih, image.size() - sizeof ih);
   std::memcpy(image.data(), &ih, sizeof ih);
   return "";
 }
 
-void encode_result(const JobHeader& job, const unsigned char* result, std::vector<unsigned char>& out) {
-  ResultHeader h;
-  h.sequence = job.sequence;
-  h.job = job.job;
-  std::memcpy(&h.result, result, sizeof h.result);
-  const auto status = static_cast<spu::IslandStatus>(h.result.status);
+void append_result(uint32_t job, uint32_t num_bodies, const unsigned char* result, std::vector<unsigned char>& out) {
+  Island_Result ir;
+  std::memcpy(&ir, result, sizeof ir);
+  ResultRecord r;
+  r.job = job;
+  r.status = ir.status;
+  r.island_id = ir.island_id;
+  r.solver_iterations = ir.solver_iterations;
+  r.solves = ir.solves;
+  r.halvings = ir.halvings;
+  r.substeps = ir.substeps;
+  r.solver_code = ir.solver_code;
+  r.local_store_bytes = ir.local_store_bytes;
+  r.total_bytes = ir.total_bytes;
+  const auto status = static_cast<spu::IslandStatus>(ir.status);
   const bool bodies = status == spu::IslandStatus::ok || status == spu::IslandStatus::failed;
-  h.num_bodies = bodies ? job.num_bodies : 0;
-  out.resize(result_message_bytes(h.num_bodies));
-  const unsigned char* src = result + spu::result_bytes(job.num_bodies) - size_t{job.num_bodies} * sizeof(Rigid_Body);
-  unsigned char* p = out.data() + sizeof h;
-  for (uint32_t i = 0; i < h.num_bodies; ++i, p += kBackBody) {
+  r.num_bodies = bodies ? num_bodies : 0;
+  const size_t at = out.size();
+  grow(out, result_record_bytes(r.num_bodies));
+  unsigned char* const rec = out.data() + at;
+  const unsigned char* src = result + spu::result_bytes(num_bodies) - size_t{num_bodies} * sizeof(Rigid_Body);
+  unsigned char* p = rec + sizeof r;
+  for (uint32_t i = 0; i < r.num_bodies; ++i, p += kBackBody) {
     Rigid_Body b;
     std::memcpy(&b, src + i * sizeof b, sizeof b);
     Wire_Node_To_Dispatcher w{};
@@ -147,38 +208,45 @@ void encode_result(const JobHeader& job, const unsigned char* result, std::vecto
     std::copy(b.angular_velocity, b.angular_velocity + 3, w.angular_velocity);
     std::memcpy(p, &w, kBackBody);
   }
-  h.checksum = message_checksum(h, out.data() + sizeof h, out.size() - sizeof h);
-  std::memcpy(out.data(), &h, sizeof h);
+  r.checksum = record_checksum(r, rec + sizeof r, out.size() - at - sizeof r);
+  std::memcpy(rec, &r, sizeof r);
+  bump_count(out);
 }
 
-bool peek_result(const unsigned char* msg, size_t n, uint32_t& sequence, uint32_t& job) {
-  ResultHeader h;
-  if (n < sizeof h) return false;
-  std::memcpy(&h, msg, sizeof h);
-  if (h.magic != kResultMagic) return false;
-  sequence = h.sequence;
-  job = h.job;
+bool next_result(const unsigned char* msg, size_t n, size_t& offset, ResultRecord& rec, const unsigned char*& bodies) {
+  if (offset > n || n - offset < sizeof rec) return false;
+  std::memcpy(&rec, msg + offset, sizeof rec);
+  if (rec.num_bodies > kMaxBodies) return false;
+  const size_t len = result_record_bytes(rec.num_bodies);
+  if (len > n - offset) return false;
+  bodies = msg + offset + sizeof rec;
+  offset += len;
   return true;
 }
 
-std::string decode_result(const unsigned char* msg, size_t n, uint32_t sequence, uint32_t job, const unsigned char* image,
+std::string decode_result(const ResultRecord& h, const unsigned char* msg_bodies, const unsigned char* image,
                           unsigned char* result, size_t result_capacity, spu::IslandReport& report) {
-  ResultHeader h;
-  if (n < sizeof h) return "result shorter than its header";
-  std::memcpy(&h, msg, sizeof h);
-  if (h.magic != kResultMagic || h.version != kVersion) return "not a result message of this version";
-  if (n != result_message_bytes(h.num_bodies)) return "result of " + std::to_string(n) + " bytes for " + std::to_string(h.num_bodies) + " bodies";
-  if (message_checksum(h, msg + sizeof h, n - sizeof h) != h.checksum) return "result checksum mismatch";
-  if (h.sequence != sequence || h.job != job) return "result for another island";
+  if (record_checksum(h, msg_bodies, size_t{h.num_bodies} * kBackBody) != h.checksum) return "result checksum mismatch";
   Island_Header ih;
   std::memcpy(&ih, image, sizeof ih);
   const uint32_t nb = ih.num_bodies;
-  const Island_Result& r = h.result;
-  if (r.magic != spu::kResultMagic || r.num_bodies != nb || r.status > 3) return "kernel result header does not match the island";
-  const auto status = static_cast<spu::IslandStatus>(r.status);
+  if (h.status > 3) return "kernel status out of range";
+  const auto status = static_cast<spu::IslandStatus>(h.status);
   const bool bodies = status == spu::IslandStatus::ok || status == spu::IslandStatus::failed;
   if (h.num_bodies != (bodies ? nb : 0)) return "result carries the wrong number of bodies";
   if (result_capacity < spu::result_bytes(nb)) return "result buffer too small";
+  Island_Result r{};
+  r.magic = spu::kResultMagic;
+  r.status = h.status;
+  r.island_id = h.island_id;
+  r.num_bodies = nb;
+  r.solver_iterations = h.solver_iterations;
+  r.solves = h.solves;
+  r.halvings = h.halvings;
+  r.substeps = h.substeps;
+  r.solver_code = h.solver_code;
+  r.local_store_bytes = h.local_store_bytes;
+  r.total_bytes = h.total_bytes;
   report = spu::IslandReport{};
   report.status = status;
   report.solver_iterations = r.solver_iterations;
@@ -199,7 +267,7 @@ std::string decode_result(const unsigned char* msg, size_t n, uint32_t sequence,
   const size_t head = spu::align16(sizeof(Island_Result));
   auto* steps = result + head;
   unsigned char* out_bodies = steps + size_t{nb} * sizeof(Rigid_Body_Step);
-  const unsigned char* p = msg + sizeof h;
+  const unsigned char* p = msg_bodies;
   for (uint32_t i = 0; i < nb; ++i, p += kBackBody) {
     Wire_Node_To_Dispatcher w;
     std::memcpy(&w, p, kBackBody);
@@ -217,37 +285,44 @@ std::string decode_result(const unsigned char* msg, size_t n, uint32_t sequence,
     std::memcpy(steps + i * sizeof s, &s, sizeof s);
     std::memcpy(out_bodies + i * sizeof b, &b, sizeof b);
   }
-  Island_Result rr = r;
   const size_t steps_bytes = size_t{nb} * sizeof(Rigid_Body_Step);
-  rr.checksum = spu::checksum(out_bodies, size_t{nb} * sizeof(Rigid_Body), spu::checksum(steps, steps_bytes));
+  r.checksum = spu::checksum(out_bodies, size_t{nb} * sizeof(Rigid_Body), spu::checksum(steps, steps_bytes));
   std::memset(result, 0, head);
-  std::memcpy(result, &rr, sizeof rr);
+  std::memcpy(result, &r, sizeof r);
   return "";
 }
 
 void NodeKernel::serve(const unsigned char* msg, size_t n, std::vector<unsigned char>& out) {
-  JobHeader h;
-  const std::string why = decode_job(msg, n, h, image_);
-  if (!why.empty()) {
-    // answer what can be answered: a malformed result (if the header named an island)
-    Island_Result r{};
-    r.magic = spu::kResultMagic;
-    r.status = static_cast<uint32_t>(spu::IslandStatus::malformed);
-    r.num_bodies = h.num_bodies;
-    r.total_bytes = sizeof r;
-    result_.assign(spu::result_bytes(0), 0);
-    std::memcpy(result_.data(), &r, sizeof r);
-    JobHeader z = h;
-    z.num_bodies = 0;
-    encode_result(z, result_.data(), out);
-    return;
+  offsets_.clear();
+  BatchHeader bh;
+  const std::string bad_header = decode_batch_header(msg, n, kJobsMagic, bh);
+  begin_batch(kResultsMagic, bad_header.empty() ? bh.sequence : 0, 0, out);
+  if (bad_header.empty()) {
+    size_t offset = sizeof bh;
+    for (uint32_t k = 0; k < bh.count; ++k) {
+      JobRecord rec;
+      bool framed = false;
+      const std::string why = next_job(msg, n, offset, rec, image_, framed);
+      if (!framed) break;  // the rest cannot be found: the dispatcher recomputes them
+      offsets_.push_back(out.size());
+      if (!why.empty()) {
+        // a malformed result for the island the record names
+        Island_Result r{};
+        r.magic = spu::kResultMagic;
+        r.status = static_cast<uint32_t>(spu::IslandStatus::malformed);
+        r.total_bytes = sizeof r;
+        append_result(rec.job, 0, reinterpret_cast<const unsigned char*>(&r), out);
+        continue;
+      }
+      if (!worker_ || worker_->local_store().capacity() != bh.local_store_bytes)
+        worker_ = std::make_unique<spu::ComputeWorker>(bh.local_store_bytes);
+      result_.assign(spu::result_bytes(rec.num_bodies), 0);
+      worker_->step(image_.data(), image_.size(), result_.data(), result_.size());
+      append_result(rec.job, rec.num_bodies, result_.data(), out);
+      ++islands_;
+    }
   }
-  if (!worker_ || worker_->local_store().capacity() != h.local_store_bytes)
-    worker_ = std::make_unique<spu::ComputeWorker>(h.local_store_bytes);
-  result_.assign(spu::result_bytes(h.num_bodies), 0);
-  worker_->step(image_.data(), image_.size(), result_.data(), result_.size());
-  encode_result(h, result_.data(), out);
-  ++islands_;
+  seal_batch(out);
 }
 
 }  // namespace cellphys::ppe::wire

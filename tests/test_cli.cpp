@@ -321,3 +321,95 @@ TEST_F(Cli, UnwritableOutputFailsWithoutLeavingAnything) {
 }
 
 }  // namespace
+
+// ---- snapshots: --save-snapshot, --snapshot-every, --resume ----
+
+namespace {
+
+std::string stats_hash(const std::string& file) { return json::parse(slurp(file))["state_hash"].get<std::string>(); }
+
+std::string printed_hash(const std::string& out) {
+  const size_t at = out.find("state hash   ");
+  return at == std::string::npos ? std::string() : out.substr(at + 13, 16);
+}
+
+TEST_F(Cli, SaveAndResumeEqualsOneRunBitForBit) {
+  for (const std::string scene : {"pile65", "world1000"}) {
+    SCOPED_TRACE(scene);
+    const Result whole = run({"run", scene, "--steps", "40", "--stats", path("whole.json")});
+    ASSERT_EQ(whole.code, 0) << whole.err;
+    const std::string snap = path("half.snap");
+    const Result first = run({"run", scene, "--steps", "20", "--save-snapshot", snap});
+    ASSERT_EQ(first.code, 0) << first.err;
+    EXPECT_NE(first.out.find("snapshot     " + snap), std::string::npos) << first.out;
+    const Result second = run({"run", "--resume", snap, "--steps", "20", "--stats", path("resumed.json")});
+    ASSERT_EQ(second.code, 0) << second.err;
+    EXPECT_EQ(printed_hash(second.out), printed_hash(whole.out));
+    EXPECT_EQ(printed_hash(second.out).size(), 16u);
+    EXPECT_EQ(stats_hash(path("resumed.json")), stats_hash(path("whole.json")));
+    EXPECT_EQ(json::parse(slurp(path("resumed.json")))["resumed_from"], snap);
+    // --duration counts from the snapshot too: 20 steps of pile65's dt
+    const float dt = json::parse(slurp(path("whole.json")))["dt"].get<float>();
+    const Result by_time = run({"run", "--resume", snap, "--duration", std::to_string(20.0 * dt)});
+    ASSERT_EQ(by_time.code, 0) << by_time.err;
+    EXPECT_EQ(printed_hash(by_time.out), printed_hash(whole.out));
+    // no temporary left next to the snapshot
+    for (const std::string& f : files()) EXPECT_EQ(f.find(".tmp."), std::string::npos) << f;
+    fs::remove(snap);
+  }
+}
+
+TEST_F(Cli, SnapshotEveryNStepsHoldsTheLastOne) {
+  const Result whole = run({"run", "pile65", "--steps", "30"});
+  ASSERT_EQ(whole.code, 0) << whole.err;
+  // every 7 steps, then the final state at step 25: resuming adds the last 5
+  const std::string snap = path("every.snap");
+  const Result r = run({"run", "pile65", "--steps", "25", "--save-snapshot", snap, "--snapshot-every", "7"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Result rest = run({"run", "--resume", snap, "--steps", "5"});
+  ASSERT_EQ(rest.code, 0) << rest.err;
+  EXPECT_EQ(printed_hash(rest.out), printed_hash(whole.out));
+  EXPECT_EQ(run({"run", "pile65", "--snapshot-every", "3"}).code, 2) << "needs --save-snapshot";
+  EXPECT_EQ(run({"run", "pile65", "--resume", snap}).code, 2) << "a scene and a snapshot";
+  EXPECT_EQ(run({"run", "pile65", "--stats", snap, "--save-snapshot", snap}).code, 2) << "the same file twice";
+}
+
+TEST_F(Cli, DamagedOrMissingSnapshotIsRefusedByName) {
+  const std::string snap = path("w.snap");
+  ASSERT_EQ(run({"run", "pile65", "--steps", "5", "--save-snapshot", snap}).code, 0);
+  const std::string good = slurp(snap);
+  ASSERT_GT(good.size(), 100u);
+  struct Damage {
+    const char* what;
+    std::string bytes;
+  };
+  std::string flipped = good;
+  flipped[good.size() / 2] = static_cast<char>(flipped[good.size() / 2] ^ 0x10);
+  std::string magic = good;
+  magic[0] = 'X';
+  const Damage cases[] = {{"a flipped bit", flipped},
+                          {"truncated", good.substr(0, good.size() - 7)},
+                          {"header only", good.substr(0, 20)},
+                          {"empty", ""},
+                          {"bad magic", magic},
+                          {"a scene file", R"({"bodies": []})"}};
+  for (const Damage& d : cases) {
+    SCOPED_TRACE(d.what);
+    const std::string bad = path("bad.snap");
+    spit(bad, d.bytes);
+    const Result r = run({"run", "--resume", bad, "--steps", "3", "--stats", path("s.json"), "--out", path("t.csv")});
+    EXPECT_EQ(r.code, 2) << r.out << r.err;
+    EXPECT_NE(r.err.find(bad), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(path("s.json")));
+    EXPECT_FALSE(fs::exists(path("t.csv")));
+  }
+  const Result missing = run({"run", "--resume", path("nope.snap")});
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_NE(missing.err.find(path("nope.snap")), std::string::npos) << missing.err;
+  // a failed run leaves an existing snapshot as it was
+  const Result fails = run({"run", "pile65", "--steps", "2", "--save-snapshot", snap, "--out", path("no/dir/t.csv")});
+  EXPECT_EQ(fails.code, 1);
+  EXPECT_EQ(slurp(snap), good);
+}
+
+}  // namespace

@@ -1,6 +1,6 @@
-// `cellphys run` and `cellphys scenes`: load a scene (a file or a built-in name), build the
-// world, step it, and report: a summary on stdout, optionally a trajectory CSV and a
-// statistics JSON. Output files are written under a temporary name in the same directory and
+// `cellphys run` and `cellphys scenes`: load a scene (a file or a built-in name) or resume a
+// snapshot, step the world, and report: a summary on stdout, optionally a trajectory CSV, a
+// statistics JSON and a snapshot of the world. Output files are written under a temporary name in the same directory and
 // renamed at the end, so a failed or interrupted run never leaves a partial file.
 #include <sys/stat.h>
 #include <unistd.h>
@@ -46,9 +46,10 @@ constexpr double kDefaultDuration = 5.0;  // s of simulated time when neither --
 
 const char kRunHelp[] =
     "usage: cellphys run [SCENE] [options]\n"
+    "       cellphys run --resume SNAPSHOT [options]\n"
     "\n"
     "Steps SCENE (a scene file, or the name of a built-in scene: `cellphys scenes` lists them;\n"
-    "default: world1000) and prints a summary.\n"
+    "default: world1000), or the world saved in SNAPSHOT, and prints a summary.\n"
     "\n"
     "options:\n"
     "  --duration S      simulate S seconds (default 5)\n"
@@ -63,6 +64,12 @@ const char kRunHelp[] =
     "                    (every body; step 0 and every N-th step)\n"
     "  --every N         with --out: write every N-th step (default 1)\n"
     "  --stats FILE      run statistics as JSON\n"
+    "  --save-snapshot FILE  the world at the end as a snapshot (docs/distributed.md), for\n"
+    "                    --resume; a resumed run steps on bit for bit\n"
+    "  --snapshot-every N    with --save-snapshot: also every N-th step (the file is replaced\n"
+    "                    whole each time)\n"
+    "  --resume FILE     start from a snapshot instead of a scene (--duration and --steps count\n"
+    "                    from there; --dt, --integrator, ... change its saved settings)\n"
     "  --mpi             compute islands on MPI ranks (run under mpirun): rank 0 dispatches,\n"
     "                    the other ranks are stateless compute nodes (docs/distributed.md)\n"
     "  --mpi-deadline MS drop a compute node silent this long with islands outstanding\n"
@@ -71,10 +78,16 @@ const char kRunHelp[] =
     "                    (the last node stops answering after N islands)\n"
     "  -h, --help        this text\n"
     "\n"
-    "Exit codes: 0 done, 1 a failure while running or writing, 2 a usage or scene error.\n"
+    "Exit codes: 0 done, 1 a failure while running or writing, 2 a usage, scene or snapshot\n"
+    "error.\n"
     "Built-in scenes are looked up in $CELLPHYS_SCENES, then in the source tree's examples/scenes.\n";
 
 struct UsageError {
+  std::string message;
+};
+
+// A snapshot that cannot be resumed (missing, unreadable, damaged): exit code 2.
+struct SnapshotError {
   std::string message;
 };
 
@@ -160,6 +173,8 @@ struct Options {
   int workers = 0;
   std::string out, stats;
   long long every = 1;
+  std::string save_snapshot, resume;
+  long long snapshot_every = 0;
   bool mpi = false;
   double mpi_deadline_ms = 5000;
   int mpi_corrupt = -1, mpi_silent = -1;
@@ -227,6 +242,13 @@ bool parse_options(int argc, char** argv, Options& o) {
       o.every = parse_count(a, next(), 1, 1000000000LL);
     } else if (a == "--stats") {
       o.stats = next();
+    } else if (a == "--save-snapshot") {
+      o.save_snapshot = next();
+    } else if (a == "--snapshot-every") {
+      o.snapshot_every = parse_count(a, next(), 1, 1000000000LL);
+    } else if (a == "--resume") {
+      o.resume = next();
+      if (o.resume.empty()) throw UsageError{"--resume needs a file"};
     } else if (a == "--mpi") {
       o.mpi = true;
     } else if (a == "--mpi-deadline") {
@@ -248,11 +270,21 @@ bool parse_options(int argc, char** argv, Options& o) {
     }
   }
   if (have_duration && have_steps) throw UsageError{"give --duration or --steps, not both"};
-  if (!o.out.empty() && !o.stats.empty()) {
-    std::error_code e1, e2;
-    const fs::path a = fs::weakly_canonical(o.out, e1), b = fs::weakly_canonical(o.stats, e2);
-    if (o.out == o.stats || (!e1 && !e2 && a == b)) throw UsageError{"--out and --stats name the same file"};
-  }
+  if (!o.resume.empty() && !o.scene.empty())
+    throw UsageError{"give a scene or --resume SNAPSHOT, not both ('" + o.scene + "' and '" + o.resume + "')"};
+  if (o.snapshot_every > 0 && o.save_snapshot.empty()) throw UsageError{"--snapshot-every needs --save-snapshot FILE"};
+  const std::pair<const char*, const std::string*> outputs[] = {
+      {"--out", &o.out}, {"--stats", &o.stats}, {"--save-snapshot", &o.save_snapshot}};
+  for (size_t i = 0; i < 3; ++i)
+    for (size_t k = i + 1; k < 3; ++k) {
+      const std::string& x = *outputs[i].second;
+      const std::string& y = *outputs[k].second;
+      if (x.empty() || y.empty()) continue;
+      std::error_code e1, e2;
+      const fs::path a = fs::weakly_canonical(x, e1), b = fs::weakly_canonical(y, e2);
+      if (x == y || (!e1 && !e2 && a == b))
+        throw UsageError{std::string(outputs[i].first) + " and " + outputs[k].first + " name the same file"};
+    }
   return true;
 }
 
@@ -339,14 +371,14 @@ std::string csv_field(const std::string& s) {
   return out + "\"";
 }
 
-void write_rows(FILE* f, const scene::SceneDesc& desc, const scene::BuiltScene& built, uint64_t step, double t,
+void write_rows(FILE* f, const ppe::World& world, const std::vector<ppe::BodyId>& bodies, uint64_t step, double t,
                 const std::vector<std::string>& ids) {
   std::string line;
   line.reserve(256);
   char head[64];
   const int n = std::snprintf(head, sizeof head, "%llu,%.9g,", static_cast<unsigned long long>(step), t);
-  for (size_t i = 0; i < desc.bodies.size(); ++i) {
-    const ppe::BodyState s = built.world->state(built.bodies[i]);
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const ppe::BodyState s = world.state(bodies[i]);
     line.assign(head, static_cast<size_t>(n));
     line += ids[i];
     for (float v : s.position) line += ',', put_float(line, v);
@@ -393,28 +425,99 @@ std::string scene_label(const std::string& arg, const std::string& file) {
   return arg == file ? file : arg + " (" + file + ")";
 }
 
-int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
-  const std::string arg = o.scene.empty() ? kDefaultScene : o.scene;
-  const std::string file = resolve_scene(arg);
-  scene::SceneDesc desc = scene::load_scene(file);
+// The world a run steps: built from a scene, or restored from a snapshot.
+struct Loaded {
+  std::string arg, file, description;
+  std::unique_ptr<ppe::World> world;
+  std::vector<ppe::BodyId> bodies;
+  std::vector<std::string> ids;  // CSV body column, in `bodies` order
+  long long forces = -1;         // unknown for a snapshot
+  bool resumed = false;
+};
 
-  // command-line overrides
-  if (o.dt > 0) desc.settings.dt = static_cast<float>(o.dt);
-  if (!o.integrator.empty() && !spu::parse_integrator(o.integrator, &desc.settings.integrator))
+std::vector<unsigned char> read_snapshot_file(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw SnapshotError{path + ": no such snapshot"};
+  if (fs::is_directory(path, ec)) throw SnapshotError{path + ": is a directory, not a snapshot"};
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw SnapshotError{path + ": cannot open: " + std::strerror(errno)};
+  std::vector<unsigned char> bytes;
+  unsigned char buf[1 << 16];
+  size_t n = 0;
+  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) bytes.insert(bytes.end(), buf, buf + n);
+  const bool bad = std::ferror(f) != 0;
+  std::fclose(f);
+  if (bad) throw SnapshotError{path + ": read error"};
+  return bytes;
+}
+
+// Applies the command line's overrides to settings (a scene's or a snapshot's).
+void apply_overrides(const Options& o, ppe::WorldSettings& s) {
+  if (o.dt > 0) s.dt = static_cast<float>(o.dt);
+  if (!o.integrator.empty() && !spu::parse_integrator(o.integrator, &s.integrator))
     throw UsageError{"unknown integrator '" + o.integrator +
                      "' (known: implicit_split, implicit_euler, rosenbrock, symplectic_euler, explicit_euler, rk4)"};
-  if (!o.solver.empty() && !scene::parse_solver(o.solver, &desc.settings.solver))
+  if (!o.solver.empty() && !scene::parse_solver(o.solver, &s.solver))
     throw UsageError{"unknown solver '" + o.solver + "' (known: cgs, bicgstab, direct)"};
-  if (o.tolerance > 0) desc.settings.tolerance = static_cast<float>(o.tolerance);
-  if (o.workers > 0) desc.settings.workers = o.workers;
-  if (!(desc.settings.dt > 0.0f) || !std::isfinite(desc.settings.dt)) throw UsageError{"--dt is too small or too large"};
+  if (o.tolerance > 0) s.tolerance = static_cast<float>(o.tolerance);
+  if (o.workers > 0) s.workers = o.workers;
+  if (!(s.dt > 0.0f) || !std::isfinite(s.dt)) throw UsageError{"--dt is too small or too large"};
+}
 
+Loaded load(const Options& o) {
+  Loaded l;
+  if (!o.resume.empty()) {
+    l.arg = l.file = o.resume;
+    l.resumed = true;
+    const std::vector<unsigned char> bytes = read_snapshot_file(o.resume);
+    try {
+      l.world = ppe::World::restore(bytes.data(), bytes.size());
+    } catch (const ppe::WorldError& e) {
+      throw SnapshotError{o.resume + ": not a snapshot this cellphys can resume: " + e.what()};
+    }
+    ppe::WorldSettings s = l.world->settings();
+    apply_overrides(o, s);
+    try {
+      l.world->set_settings(s);
+    } catch (const ppe::WorldError& e) {
+      throw UsageError{e.what()};
+    }
+    l.bodies = l.world->bodies();
+    for (ppe::BodyId id : l.bodies) l.ids.push_back(std::to_string(id));  // a snapshot keeps no scene ids
+    return l;
+  }
+  l.arg = o.scene.empty() ? kDefaultScene : o.scene;
+  l.file = resolve_scene(l.arg);
+  scene::SceneDesc desc = scene::load_scene(l.file);
+  apply_overrides(o, desc.settings);
   scene::BuiltScene built = scene::build_world(desc);
   for (const std::string& w : built.warnings) std::fprintf(stderr, "cellphys: warning: %s\n", w.c_str());
-  ppe::World& world = *built.world;
+  l.description = desc.description;
+  l.world = std::move(built.world);
+  l.bodies = built.bodies;
+  l.forces = static_cast<long long>(built.forces.size());
+  for (const scene::BodySpec& b : desc.bodies) l.ids.push_back(csv_field(b.id));
+  return l;
+}
+
+// Writes the world's snapshot to `path` under a temporary name, then renames it into place.
+void save_snapshot(const ppe::World& world, const std::string& path) {
+  const std::vector<unsigned char> bytes = world.snapshot();
+  AtomicFile f;
+  f.open(path);
+  std::fwrite(bytes.data(), 1, bytes.size(), f.get());
+  f.commit();
+}
+
+int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
+  Loaded loaded = load(o);
+  const std::string& arg = loaded.arg;
+  const std::string& file = loaded.file;
+  ppe::World& world = *loaded.world;
+  const ppe::WorldSettings& settings = world.settings();
   if (runner) world.set_runner(runner);
 
-  const double dt = desc.settings.dt;
+  const double dt = settings.dt;
   long long steps = o.steps;
   if (steps < 0) {
     const double duration = o.duration > 0 ? o.duration : kDefaultDuration;
@@ -423,12 +526,11 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
   }
 
   AtomicFile out, stats_file;
-  std::vector<std::string> ids;
+  const std::vector<std::string>& ids = loaded.ids;
   if (!o.out.empty()) {
     out.open(o.out);
     std::fputs("step,t,body,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n", out.get());
-    for (const scene::BodySpec& b : desc.bodies) ids.push_back(csv_field(b.id));
-    write_rows(out.get(), desc, built, 0, 0.0, ids);
+    write_rows(out.get(), world, loaded.bodies, 0, 0.0, ids);
   }
   if (!o.stats.empty()) stats_file.open(o.stats);
 
@@ -470,7 +572,9 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
     wire.image_bytes += st.image_bytes;
     wire.result_bytes += st.result_bytes;
     ls_peak = std::max(ls_peak, st.local_store_peak_bytes);
-    if (out.is_open() && s % o.every == 0) write_rows(out.get(), desc, built, static_cast<uint64_t>(s), double(s) * dt, ids);
+    if (out.is_open() && s % o.every == 0)
+      write_rows(out.get(), world, loaded.bodies, static_cast<uint64_t>(s), double(s) * dt, ids);
+    if (o.snapshot_every > 0 && s % o.snapshot_every == 0 && s < steps) save_snapshot(world, o.save_snapshot);
     progress.update(s);
   }
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -484,8 +588,8 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
                         : sorted.size() % 2 ? sorted[sorted.size() / 2]
                                             : 0.5 * (sorted[sorted.size() / 2 - 1] + sorted[sorted.size() / 2]);
   uint32_t statics = 0;
-  for (ppe::BodyId id : built.bodies) statics += world.is_static(id) ? 1 : 0;
-  const uint32_t dynamic = static_cast<uint32_t>(built.bodies.size()) - statics;
+  for (ppe::BodyId id : loaded.bodies) statics += world.is_static(id) ? 1 : 0;
+  const uint32_t dynamic = static_cast<uint32_t>(loaded.bodies.size()) - statics;
   // Before any step, every dynamic body counts as active.
   const uint32_t active = steps > 0 ? last.active_bodies : dynamic;
   const uint32_t sleeping = steps > 0 ? last.sleeping_bodies : 0;
@@ -499,10 +603,10 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
     nlohmann::ordered_json j;
     j["scene"] = arg;
     j["scene_file"] = file;
-    j["integrator"] = spu::integrator_name(desc.settings.integrator);
-    j["solver"] = scene::solver_name(desc.settings.solver);
+    j["integrator"] = spu::integrator_name(settings.integrator);
+    j["solver"] = scene::solver_name(settings.solver);
     j["dt"] = dt;
-    j["workers"] = desc.settings.workers;
+    j["workers"] = settings.workers;
     j["simd_path"] = simd::kPathName;
     j["steps"] = steps;
     j["sim_time_s"] = double(steps) * dt;
@@ -510,9 +614,10 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
     j["ms_per_step_median"] = median;
     j["ms_per_step_mean"] = steps ? wall * 1000.0 / double(steps) : 0.0;
     j["ms_per_step_max"] = sorted.empty() ? 0.0 : sorted.back();
-    j["bodies"] = built.bodies.size();
+    j["bodies"] = loaded.bodies.size();
     j["static_bodies"] = statics;
-    j["forces"] = built.forces.size();
+    if (loaded.forces >= 0) j["forces"] = loaded.forces;
+    else j["forces"] = nullptr;  // a snapshot's forces are not listed
     j["active_bodies"] = active;
     j["sleeping_bodies"] = sleeping;
     j["islands"] = last.islands;
@@ -529,6 +634,8 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
     j["kinetic_energy_final"] = ke1;
     j["state_hash"] = hash;
     j["runner"] = runner_name;
+    if (loaded.resumed) j["resumed_from"] = o.resume;
+    if (!o.save_snapshot.empty()) j["snapshot"] = o.save_snapshot;
     nlohmann::ordered_json t;
     t["island_bodies"] = wire.island_bodies;  // body records shipped, summed over steps
     t["bytes_to_nodes"] = wire.bytes_to_nodes;
@@ -551,15 +658,22 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
     std::fwrite(text.data(), 1, text.size(), stats_file.get());
   }
   // Both files are complete; move them into place (a failure removes what is left).
+  if (!o.save_snapshot.empty()) save_snapshot(world, o.save_snapshot);
   if (out.is_open()) out.commit();
   if (stats_file.is_open()) stats_file.commit();
 
-  std::printf("scene        %s\n", scene_label(arg, file).c_str());
-  if (!desc.description.empty()) std::printf("description  %s\n", desc.description.c_str());
-  std::printf("bodies       %zu (%u static), %zu forces\n", built.bodies.size(), statics, built.forces.size());
+  if (loaded.resumed)
+    std::printf("resumed      %s\n", file.c_str());
+  else
+    std::printf("scene        %s\n", scene_label(arg, file).c_str());
+  if (!loaded.description.empty()) std::printf("description  %s\n", loaded.description.c_str());
+  if (loaded.forces >= 0)
+    std::printf("bodies       %zu (%u static), %lld forces\n", loaded.bodies.size(), statics, loaded.forces);
+  else
+    std::printf("bodies       %zu (%u static)\n", loaded.bodies.size(), statics);
   std::printf("settings     dt %.6g s, %s, %s, tolerance %g, %d worker%s, SIMD %s\n", dt,
-              spu::integrator_name(desc.settings.integrator), scene::solver_name(desc.settings.solver),
-              double(desc.settings.tolerance), desc.settings.workers, desc.settings.workers == 1 ? "" : "s",
+              spu::integrator_name(settings.integrator), scene::solver_name(settings.solver),
+              double(settings.tolerance), settings.workers, settings.workers == 1 ? "" : "s",
               simd::kPathName);
   std::printf("run          %lld steps, %.4g s simulated in %.3f s wall, median %.3f ms per step\n", steps,
               double(steps) * dt, wall, median);
@@ -580,6 +694,7 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
   std::printf("state hash   %s\n", hash);
   if (!o.out.empty()) std::printf("trajectory   %s\n", o.out.c_str());
   if (!o.stats.empty()) std::printf("statistics   %s\n", o.stats.c_str());
+  if (!o.save_snapshot.empty()) std::printf("snapshot     %s\n", o.save_snapshot.c_str());
   return failed ? 1 : 0;
 }
 
@@ -633,6 +748,9 @@ int run_main(int argc, char** argv) {
     return 2;
   } catch (const scene::SceneError& e) {
     std::fprintf(stderr, "cellphys: %s\n", e.what());
+    return 2;
+  } catch (const SnapshotError& e) {
+    std::fprintf(stderr, "cellphys: %s\n", e.message.c_str());
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "cellphys: %s\n", e.what());

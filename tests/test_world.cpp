@@ -473,6 +473,37 @@ TEST(World, DecoupledStackStandsAndSleepsLikeTheWholeOne) {
   EXPECT_NEAR(w.state(boxes.back()).position[2], 0.25 + 0.5 * 9, 0.01);
 }
 
+// A split island whose parts cannot step (an adaptive step at an unreachable tolerance, no
+// halving) is one failed island, reported once per step however many parts and sweeps it
+// took, and keeps its start state.
+TEST(World, SplitIslandThatFailsKeepsItsStateAndCountsOnce) {
+  WorldSettings s;
+  s.local_store_bytes = 16 * 1024;
+  s.integrator = cellphys::spu::Integrator::rosenbrock;
+  s.tolerance = 1e-30f;
+  s.max_halvings = 0;
+  World w(s);
+  ground_plane(w);
+  const std::vector<BodyId> boxes = stack(w, 10, 0.25f, 0.01f);  // 1 cm gaps: falling, not at rest
+  for (BodyId b : boxes) {
+    BodyState st = w.state(b);
+    st.velocity[2] = -0.5f;
+    w.set_state(b, st);
+  }
+  std::vector<BodyState> before;
+  for (BodyId b : boxes) before.push_back(w.state(b));
+  const StepStats& st = w.step();
+  ASSERT_GT(st.decoupled_islands, 0u);
+  EXPECT_EQ(st.failed_islands, 1u) << "sweeps " << st.decouple_sweeps;
+  for (size_t k = 0; k < boxes.size(); ++k) {
+    const BodyState now = w.state(boxes[k]);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(now.position[c], before[k].position[c]) << "box " << k;
+      EXPECT_EQ(now.velocity[c], before[k].velocity[c]) << "box " << k;
+    }
+  }
+}
+
 TEST(World, PileOf300BoxesIsDecoupledToFitTheLocalStoreAndSettles) {
   World w;
   const std::vector<BodyId> boxes = pile_in_bin(w, 300, 0.25f, 1);

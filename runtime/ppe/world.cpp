@@ -469,10 +469,13 @@ const StepStats& World::step() {
   // parts of a split island run in order, each from the start state against ghosts at the
   // latest velocities of the others (a block Gauss-Seidel sweep). Split islands sweep again
   // until no velocity changes by more than decouple_tolerance. A failed island keeps its state
-  // (the kernel halved its step already).
+  // (the kernel halved its step already); a split island with a part that failed in its last
+  // sweep goes back to its start state whole, never half-stepped.
   std::vector<float> before;
+  std::vector<uint8_t> part_failed(islands.size(), 0);  // split islands: a part failed this sweep
   for (uint32_t sweep = 0; sweep < std::max(1u, settings_.decouple_sweeps); ++sweep) {
     if (sweep > 0 && waves <= 1) break;
+    std::fill(part_failed.begin(), part_failed.end(), uint8_t{0});
     if (waves > 1) {  // velocities at the end of the previous sweep
       before.clear();
       for (size_t k = 0; k < parts.size(); ++k)
@@ -482,8 +485,12 @@ const StepStats& World::step() {
     for (size_t wave = 0; wave < waves; ++wave) {
       t = Clock::now();
       std::vector<PackedIsland> packed;
-      for (const std::vector<IslandContent>& p : parts)
-        if (wave < p.size() && (sweep == 0 || p.size() > 1)) packed.push_back(pack_island(pc, p[wave]));
+      std::vector<size_t> island_of_packed;
+      for (size_t k = 0; k < parts.size(); ++k)
+        if (wave < parts[k].size() && (sweep == 0 || parts[k].size() > 1)) {
+          packed.push_back(pack_island(pc, parts[k][wave]));
+          island_of_packed.push_back(k);
+        }
       // largest first: the long islands start early on the workers
       std::vector<size_t> order(packed.size());
       std::iota(order.begin(), order.end(), size_t{0});
@@ -528,7 +535,9 @@ const StepStats& World::step() {
         st.substeps += r.substeps;
         st.local_store_peak_bytes = std::max(st.local_store_peak_bytes, r.footprint.total);
         if (r.status != spu::IslandStatus::ok) {
-          ++st.failed_islands;
+          const size_t k = island_of_packed[order[j]];
+          if (parts[k].size() > 1) part_failed[k] = 1;  // counted once, after the last sweep
+          else ++st.failed_islands;
           continue;
         }
         unpack_island(p, w.bodies);
@@ -544,8 +553,14 @@ const StepStats& World::step() {
         for (uint32_t i : islands[k].bodies)
           for (int c = 0; c < 3; ++c) change = std::max(change, std::fabs(w.bodies[i].velocity[c] - before[at++]));
     st.decouple_change = change;
-    if (sweep > 0 && change <= settings_.decouple_tolerance) break;
+    const bool any_failed = std::find(part_failed.begin(), part_failed.end(), uint8_t{1}) != part_failed.end();
+    if (sweep > 0 && change <= settings_.decouple_tolerance && !any_failed) break;
   }
+  for (size_t k = 0; k < islands.size(); ++k)
+    if (part_failed[k]) {
+      ++st.failed_islands;
+      for (uint32_t i : islands[k].bodies) w.bodies[i] = start[i];
+    }
   t = Clock::now();
   // Sleep: an island whose bodies have all been slow for sleep_time goes to sleep together.
   if (settings_.sleeping) {

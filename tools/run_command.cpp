@@ -521,8 +521,9 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
   long long steps = o.steps;
   if (steps < 0) {
     const double duration = o.duration > 0 ? o.duration : kDefaultDuration;
-    steps = static_cast<long long>(std::ceil(duration / dt - 1e-9));
-    if (steps > 1000000000LL) throw UsageError{"--duration / dt is more than 1e9 steps"};
+    const double n = std::ceil(duration / dt - 1e-9);
+    if (!(n <= 1e9)) throw UsageError{"--duration / dt is more than 1e9 steps"};  // before the cast
+    steps = static_cast<long long>(n);
   }
 
   AtomicFile out, stats_file;
@@ -545,7 +546,8 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
   for (long long s = 1; s <= steps; ++s) {
     if (g_signal.load()) {
       progress.finish();
-      std::fprintf(stderr, "cellphys: interrupted at step %lld of %lld; no output written\n", s - 1, steps);
+      std::fprintf(stderr, "cellphys: interrupted at step %lld of %lld; no trajectory or statistics written%s\n", s - 1,
+                   steps, o.snapshot_every > 0 ? " (periodic snapshots stay)" : "");
       return 128 + g_signal.load();
     }
     const auto a = Clock::now();
@@ -657,10 +659,11 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
     const std::string text = j.dump(2) + "\n";
     std::fwrite(text.data(), 1, text.size(), stats_file.get());
   }
-  // Both files are complete; move them into place (a failure removes what is left).
-  if (!o.save_snapshot.empty()) save_snapshot(world, o.save_snapshot);
+  // Both files are complete; move them into place (a failure removes what is left), then the
+  // snapshot, so a failed commit leaves no new snapshot either.
   if (out.is_open()) out.commit();
   if (stats_file.is_open()) stats_file.commit();
+  if (!o.save_snapshot.empty()) save_snapshot(world, o.save_snapshot);
 
   if (loaded.resumed)
     std::printf("resumed      %s\n", file.c_str());

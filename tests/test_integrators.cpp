@@ -314,8 +314,8 @@ struct SpinningBox {
   }
   static std::array<double, 3> body_omega(const Sim& s) {
     const auto& b = s.bodies[0];
-    const spu::Mat3d R = spu::quat_to_matrix(spu::quat_normalized(quat_of(b)));
-    const spu::Vec3d w = spu::mul_transpose(R, vec(b.angular_velocity));
+    const Mat3d R = quat_to_matrix(quat_normalized(Quatd::load(b.orientation)));
+    const Vec3d w = mul_transpose(R, Vec3d::load(b.angular_velocity));
     return {w.x, w.y, w.z};
   }
 };
@@ -329,17 +329,17 @@ struct Drift {
 Drift spin_drift(const SpinningBox& box, Integrator integ, double h, double seconds) {
   Sim s;
   box.setup(s, integ, h);
-  const spu::Vec3d L0 = angular_momentum(s.bodies[0]);
+  const Vec3d L0 = angular_momentum(s.bodies[0]);
   const double E0 = rotational_energy(s.bodies[0]);
   Drift d;
   s.run(int(std::lround(seconds / h)), [&](int) {
-    const spu::Vec3d L = angular_momentum(s.bodies[0]);
-    d.worst_L_vec = std::max(d.worst_L_vec, norm(sub(L, L0)) / norm(L0));
+    const Vec3d L = angular_momentum(s.bodies[0]);
+    d.worst_L_vec = std::max(d.worst_L_vec, norm(L - L0) / norm(L0));
     d.worst_energy_up = std::max(d.worst_energy_up, rotational_energy(s.bodies[0]) / E0 - 1.0);
   });
-  const spu::Vec3d L = angular_momentum(s.bodies[0]);
+  const Vec3d L = angular_momentum(s.bodies[0]);
   d.L_norm = norm(L) / norm(L0) - 1.0;
-  d.L_vec = norm(sub(L, L0)) / norm(L0);
+  d.L_vec = norm(L - L0) / norm(L0);
   d.energy = rotational_energy(s.bodies[0]) / E0 - 1.0;
   d.failures = s.failures;
   return d;
@@ -566,7 +566,7 @@ TEST(Stability, HeavyChainOfJointsHangsBoundedWithImplicitSplit) {
   s.settings.tolerance = 1e-4f;
   // a link's long axis is body z; turning it by -30 degrees about y sends +z to -dir, so each
   // link's top (+z) points back up the chain
-  const spu::Quat q = spu::quat_exp({0.0, -angle, 0.0});
+  const Quatd q = quat_exp(Vec3d{0.0, -angle, 0.0});
   for (int i = 0; i < kLinks; ++i) {
     const double m = i == kLinks - 1 ? 1000.0 : 1.0;
     Rigid_Body_Fields b = make_box(m, 0.02, 0.02, kHalf);
@@ -580,7 +580,7 @@ TEST(Stability, HeavyChainOfJointsHangsBoundedWithImplicitSplit) {
   const float top[3] = {0, 0, float(kHalf)}, bottom[3] = {0, 0, float(-kHalf)};
   ASSERT_LT(norm(world_point(s.bodies[0], top)), 1e-6);
   for (int i = 1; i < kLinks; ++i)
-    ASSERT_LT(norm(sub(world_point(s.bodies[i], top), world_point(s.bodies[i - 1], bottom))), 1e-6);
+    ASSERT_LT(norm(world_point(s.bodies[i], top) - world_point(s.bodies[i - 1], bottom)), 1e-6);
   s.forces = [&](IslandBuilder& ib) {
     for (int i = 0; i < kLinks; ++i) {
       gen::Point_To_Point_Constraint_Force j{};
@@ -606,10 +606,10 @@ TEST(Stability, HeavyChainOfJointsHangsBoundedWithImplicitSplit) {
     worst_halvings = std::max(worst_halvings, s.last.halvings);
     for (int i = 0; i < kLinks; ++i) {
       ASSERT_TRUE(finite_body(s.bodies[i]));
-      const spu::Vec3d a = world_point(s.bodies[i], top);
-      const spu::Vec3d b = i == 0 ? spu::Vec3d{0, 0, 0} : world_point(s.bodies[i - 1], bottom);
-      worst_stretch = std::max(worst_stretch, norm(sub(a, b)));
-      worst_speed = std::max(worst_speed, norm(vec(s.bodies[i].velocity)));
+      const Vec3d a = world_point(s.bodies[i], top);
+      const Vec3d b = i == 0 ? Vec3d{0, 0, 0} : world_point(s.bodies[i - 1], bottom);
+      worst_stretch = std::max(worst_stretch, norm(a - b));
+      worst_speed = std::max(worst_speed, norm(Vec3d::load(s.bodies[i].velocity)));
     }
   });
   EXPECT_EQ(done, steps) << spu::status_name(s.last.status);

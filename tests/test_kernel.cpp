@@ -127,7 +127,7 @@ Bytes random_spring_island(std::mt19937& rng, Integrator integ, uint32_t solver,
   for (int i = 0; i < n; ++i) {
     Rigid_Body_Fields b = make_box(0.5 + 4.5 * U(rng), 0.05 + 0.2 * U(rng), 0.05 + 0.2 * U(rng), 0.05 + 0.2 * U(rng));
     for (int k = 0; k < 3; ++k) b.position[k] = sym(1.5), b.velocity[k] = sym(1.0), b.angular_velocity[k] = sym(2.0);
-    const spu::Quat q = spu::quat_exp({sym(3.0), sym(3.0), sym(3.0)});
+    const Quatd q = quat_exp(Vec3d{sym(3.0), sym(3.0), sym(3.0)});
     b.orientation[0] = float(q.w), b.orientation[1] = float(q.x), b.orientation[2] = float(q.y), b.orientation[3] = float(q.z);
     bodies.push_back(b);
     ib.add_body(b);
@@ -137,9 +137,9 @@ Bytes random_spring_island(std::mt19937& rng, Integrator integ, uint32_t solver,
     for (int k = 0; k < 3; ++k) f.point_a[k] = sym(0.05), f.point_b[k] = b < 0 ? sym(2.0) : sym(0.05);
     f.stiffness = float(50.0 + 1950.0 * U(rng));
     f.damping = float(20.0 * U(rng));
-    const spu::Vec3d pa = world_point(bodies[a], f.point_a);
-    const spu::Vec3d pb = b < 0 ? vec(f.point_b) : world_point(bodies[b], f.point_b);
-    f.rest_length = float(norm(sub(pa, pb)) * (0.7 + 0.6 * U(rng)));
+    const Vec3d pa = world_point(bodies[a], f.point_a);
+    const Vec3d pb = b < 0 ? Vec3d::load(f.point_b) : world_point(bodies[b], f.point_b);
+    f.rest_length = float(norm(pa - pb) * (0.7 + 0.6 * U(rng)));
     f.body_a = a, f.body_b = b;
     ib.add(gen::ForceType::spring, f);
   };

@@ -36,7 +36,7 @@ double kinetic_energy(const std::vector<Rigid_Body_Fields>& bodies) {
     Rigid_Body rb;
     pack(b, rb);
     const Mat3d R = quat_to_matrix(orientation(rb));
-    const Vec3d wb = mul_transpose(R, load3(b.angular_velocity));
+    const Vec3d wb = mul_transpose(R, Vec3d::load(b.angular_velocity));
     e += 0.5 * b.mass * (b.velocity[0] * b.velocity[0] + b.velocity[1] * b.velocity[1] + b.velocity[2] * b.velocity[2]);
     e += 0.5 * (b.inertia_body[0] * wb.x * wb.x + b.inertia_body[1] * wb.y * wb.y + b.inertia_body[2] * wb.z * wb.z);
   }
@@ -108,7 +108,7 @@ int demo(Integrator integ, int steps) {
     Rigid_Body rb;
     pack(b, rb);
     const Mat3d I = rotate_sym(quat_to_matrix(orientation(rb)), b.inertia_body);
-    const Vec3d L = mul(I, load3(b.angular_velocity));
+    const Vec3d L = mul(I, Vec3d::load(b.angular_velocity));
     return std::sqrt(L.x * L.x + L.y * L.y + L.z * L.z);
   };
   const double L0 = L_of(box[0]);

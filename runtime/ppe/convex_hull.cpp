@@ -11,20 +11,12 @@
 #include <string>
 #include <utility>
 
+#include "runtime/base/vec3.h"
+
 namespace cellphys::ppe {
 namespace {
 
 __extension__ typedef __int128 i128;
-
-struct V3 {
-  double x = 0, y = 0, z = 0;
-};
-V3 operator-(const V3& a, const V3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 operator+(const V3& a, const V3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-V3 operator*(const V3& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-double dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-V3 cross(const V3& a, const V3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double norm(const V3& a) { return std::sqrt(dot(a, a)); }
 
 // Grid coordinates: up to 2^40, so the orientation determinant fits 128 bits exactly.
 struct Q3 {
@@ -58,7 +50,7 @@ std::string num(double v) {
 struct Tri {
   int v[3];
   int nb[3];  // neighbour across the edge v[k] -> v[k+1]
-  V3 n;       // approximate plane, only to pick the farthest point
+  Vec3d n;  // approximate plane, only to pick the farthest point
   double d = 0;
   std::vector<int> outside;  // points strictly above (exact test), assigned to this face
   bool alive = true;
@@ -68,7 +60,7 @@ struct Tri {
 // is then exactly a disc, so the horizon is always one simple loop.
 class Quickhull {
  public:
-  Quickhull(const std::vector<V3>& p, const std::vector<Q3>& q) : P_(p), Q_(q) {}
+  Quickhull(const std::vector<Vec3d>& p, const std::vector<Q3>& q) : P_(p), Q_(q) {}
   /// Hull of the points pts (indices into P), starting from the simplex abcd among them.
   /// May be called again; each run starts afresh.
   void run(const std::vector<int>& pts, int a, int b, int c, int d);
@@ -82,7 +74,7 @@ class Quickhull {
   int add(int a, int b, int c);
   void assign(int p, int first_face);
 
-  const std::vector<V3>& P_;
+  const std::vector<Vec3d>& P_;
   const std::vector<Q3>& Q_;
   std::vector<int> start_;  // per point: the horizon edge starting there, or -1
 };
@@ -91,9 +83,9 @@ int Quickhull::add(int a, int b, int c) {
   Tri t;
   t.v[0] = a, t.v[1] = b, t.v[2] = c;
   t.nb[0] = t.nb[1] = t.nb[2] = -1;
-  const V3 n = cross(P_[b] - P_[a], P_[c] - P_[a]);
+  const Vec3d n = cross(P_[b] - P_[a], P_[c] - P_[a]);
   const double l = norm(n);
-  t.n = l > 0 ? n * (1.0 / l) : V3{};
+  t.n = l > 0 ? n * (1.0 / l) : Vec3d{};
   t.d = dot(t.n, P_[a]);
   faces.push_back(std::move(t));
   return static_cast<int>(faces.size()) - 1;
@@ -201,13 +193,13 @@ void Quickhull::run(const std::vector<int>& pts, int a, int b, int c, int d) {
 // noise near the tolerance make it a pinched or reflex loop, grow again accepting a triangle
 // only while the loop stays simple and convex (retrying refused ones until nothing changes);
 // that may leave more faces than ideal, never an invalid one.
-std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const std::vector<V3>& P, double tol) {
+std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const std::vector<Vec3d>& P, double tol) {
   std::vector<int> id(all.size(), -1), live;
   for (size_t f = 0; f < all.size(); ++f)
     if (all[f].alive) id[f] = static_cast<int>(live.size()), live.push_back(static_cast<int>(f));
   struct T3 {
     int v[3], nb[3];
-    V3 n;
+    Vec3d n;
     double d = 0, area = 0;
   };
   const int T = static_cast<int>(live.size());
@@ -215,11 +207,11 @@ std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const 
   for (int i = 0; i < T; ++i) {
     const Tri& f = all[live[i]];
     for (int k = 0; k < 3; ++k) t[i].v[k] = f.v[k], t[i].nb[k] = id[f.nb[k]];
-    const V3 a = P[f.v[0]], b = P[f.v[1]], c = P[f.v[2]];
-    const V3 n = cross(b - a, c - a);
+    const Vec3d a = P[f.v[0]], b = P[f.v[1]], c = P[f.v[2]];
+    const Vec3d n = cross(b - a, c - a);
     const double l = norm(n);
     t[i].area = 0.5 * l;
-    t[i].n = l > 0 ? n * (1.0 / l) : V3{};
+    t[i].n = l > 0 ? n * (1.0 / l) : Vec3d{};
     t[i].d = dot(t[i].n, (a + b + c) * (1.0 / 3.0));
   }
   std::vector<int> order(T);
@@ -228,7 +220,7 @@ std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const 
 
   // The loop of a boundary map (vertex -> next vertex), empty unless it is one simple loop
   // with no reflex corner deeper than tol (seen along n).
-  auto convex_loop = [&](const std::map<int, int>& next, const V3& n) {
+  auto convex_loop = [&](const std::map<int, int>& next, const Vec3d& n) {
     std::vector<int> loop;
     for (int v = next.begin()->first; loop.size() <= next.size();) {
       loop.push_back(v);
@@ -239,7 +231,7 @@ std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const 
     const size_t m = loop.size();
     if (m != next.size()) return std::vector<int>();  // a hole or a second loop
     for (size_t i = 0; i < m; ++i) {
-      const V3 a = P[loop[(i + m - 1) % m]], b = P[loop[i]], c = P[loop[(i + 1) % m]];
+      const Vec3d a = P[loop[(i + m - 1) % m]], b = P[loop[i]], c = P[loop[(i + 1) % m]];
       const double chord = norm(c - a);
       if (!(chord > 0) || dot(cross(b - a, c - b), n) < -tol * chord) return std::vector<int>();
     }
@@ -312,14 +304,14 @@ std::vector<std::vector<int>> merge_coplanar(const std::vector<Tri>& all, const 
 bool compute_planes(ConvexHull& h) {
   const int nf = static_cast<int>(h.face_start.size()) - 1;
   const int nv = h.num_vertices();
-  auto vtx = [&](int i) { return V3{h.vertices[3 * i], h.vertices[3 * i + 1], h.vertices[3 * i + 2]}; };
+  auto vtx = [&](int i) { return Vec3d::load(h.vertices.data() + 3 * i); };
   h.planes.assign(4 * static_cast<size_t>(std::max(nf, 0)), 0.0f);
   for (int f = 0; f < nf; ++f) {
     const int s = h.face_start[f], e = h.face_start[f + 1];
-    V3 c;
+    Vec3d c{};
     for (int i = s; i < e; ++i) c = c + vtx(h.face_vertices[i]);
     c = c * (1.0 / (e - s));
-    V3 n;
+    Vec3d n{};
     for (int i = s; i < e; ++i) {
       const int j = i + 1 < e ? i + 1 : s;
       n = n + cross(vtx(h.face_vertices[i]) - c, vtx(h.face_vertices[j]) - c);
@@ -327,7 +319,7 @@ bool compute_planes(ConvexHull& h) {
     const double l = norm(n);
     if (!(l > 0) || !std::isfinite(l)) return false;
     const float nx = static_cast<float>(n.x / l), ny = static_cast<float>(n.y / l), nz = static_cast<float>(n.z / l);
-    const V3 nn{nx, ny, nz};
+    const Vec3d nn{nx, ny, nz};
     double d = -std::numeric_limits<double>::infinity();
     for (int v = 0; v < nv; ++v) d = std::max(d, dot(nn, vtx(v)));
     float df = static_cast<float>(d);
@@ -360,21 +352,21 @@ bool valid(const ConvexHull& h) {
     if (!std::binary_search(directed.begin(), directed.end(), std::make_pair(b, a))) return false;
   if (std::count(used.begin(), used.end(), 0) != 0) return false;
   if (nv - static_cast<int>(directed.size() / 2) + nf != 2) return false;
-  V3 c;
-  for (int v = 0; v < nv; ++v) c = c + V3{h.vertices[3 * v], h.vertices[3 * v + 1], h.vertices[3 * v + 2]};
+  Vec3d c{};
+  for (int v = 0; v < nv; ++v) c = c + Vec3d::load(h.vertices.data() + 3 * v);
   c = c * (1.0 / nv);
   for (int f = 0; f < nf; ++f) {
     const float* p = &h.planes[4 * f];
-    if (!(dot(V3{p[0], p[1], p[2]}, c) < p[3])) return false;
+    if (!(dot(Vec3d::load(p), c) < p[3])) return false;
   }
   return true;
 }
 
 // Points within tol of an earlier kept point are dropped: near-duplicates would otherwise
 // survive as vertices joined by sliver faces. Sweep along the axis of largest spread.
-std::vector<int> weld(const std::vector<V3>& P, double tol, int axis) {
+std::vector<int> weld(const std::vector<Vec3d>& P, double tol, int axis) {
   const int n = static_cast<int>(P.size());
-  auto key = [&](int i) { return axis == 0 ? P[i].x : axis == 1 ? P[i].y : P[i].z; };
+  auto key = [&](int i) { return P[i][axis]; };
   std::vector<int> sorted(n), kept;
   std::iota(sorted.begin(), sorted.end(), 0);
   std::stable_sort(sorted.begin(), sorted.end(), [&](int i, int j) { return key(i) < key(j); });
@@ -392,7 +384,7 @@ std::vector<int> weld(const std::vector<V3>& P, double tol, int axis) {
 
 // The welded cloud: coordinates, grid coordinates for the exact tests, and the tolerance.
 struct Cloud {
-  std::vector<V3> P;
+  std::vector<Vec3d> P;
   std::vector<Q3> Q;
   double tol = 0;
 };
@@ -405,20 +397,20 @@ bool collinear(const Q3& a, const Q3& b, const Q3& c) {
 // Four of pts spanning a volume (exactly), farthest-first; false if all are coplanar.
 bool find_simplex(const Cloud& cl, const std::vector<int>& pts, int s[4]) {
   if (pts.size() < 4) return false;
-  const std::vector<V3>& P = cl.P;
+  const std::vector<Vec3d>& P = cl.P;
   const int a = pts[0];
   int b = -1, c = -1, d = -1;
   double best = 0;
   for (int p : pts)
     if (norm(P[p] - P[a]) > best) best = norm(P[p] - P[a]), b = p;
   if (b < 0) return false;
-  const V3 dir = (P[b] - P[a]) * (1.0 / best);
+  const Vec3d dir = (P[b] - P[a]) * (1.0 / best);
   best = -1;
   for (int p : pts)
     if (!collinear(cl.Q[a], cl.Q[b], cl.Q[p]) && norm(cross(P[p] - P[a], dir)) > best)
       best = norm(cross(P[p] - P[a], dir)), c = p;
   if (c < 0) return false;
-  V3 n = cross(P[b] - P[a], P[c] - P[a]);
+  Vec3d n = cross(P[b] - P[a], P[c] - P[a]);
   n = n * (1.0 / norm(n));
   best = -1;
   for (int p : pts)
@@ -460,8 +452,8 @@ std::vector<int> loop_vertices(const std::vector<std::vector<int>>& loops) {
 }
 
 // Outward unit normal (Newell) of a loop and d, the largest n.v over its vertices.
-bool loop_plane(const Cloud& cl, const std::vector<int>& l, V3& n, double& d) {
-  n = V3{};
+bool loop_plane(const Cloud& cl, const std::vector<int>& l, Vec3d& n, double& d) {
+  n = Vec3d{};
   for (size_t i = 0; i < l.size(); ++i) n = n + cross(cl.P[l[i]] - cl.P[l[0]], cl.P[l[(i + 1) % l.size()]] - cl.P[l[0]]);
   const double len = norm(n);
   if (!(len > 0)) return false;
@@ -473,7 +465,7 @@ bool loop_plane(const Cloud& cl, const std::vector<int>& l, V3& n, double& d) {
 
 // Every point of pts within tol of every face plane of loops.
 bool within(const Cloud& cl, const std::vector<std::vector<int>>& loops, const std::vector<int>& pts) {
-  V3 n;
+  Vec3d n;
   double d;
   for (const auto& l : loops) {
     if (!loop_plane(cl, l, n, d)) return false;
@@ -493,7 +485,7 @@ bool solid(const Cloud& cl, const std::vector<std::vector<int>>& loops) {
     for (int v : l) ++faces_at[v];
   for (int v : used)
     if (faces_at[v] < 3) return false;
-  V3 n;
+  Vec3d n;
   double d;
   for (const auto& l : loops) {
     if (!loop_plane(cl, l, n, d)) return false;
@@ -516,7 +508,7 @@ void remove_shallow_vertices(const Cloud& cl, std::vector<std::vector<int>>& loo
   for (int last = -1;;) {
     const std::vector<int> used = loop_vertices(loops);
     std::vector<std::vector<int>> faces_of(cl.P.size());
-    std::vector<V3> normal(loops.size());
+    std::vector<Vec3d> normal(loops.size());
     for (size_t f = 0; f < loops.size(); ++f) {
       const std::vector<int>& l = loops[f];
       for (int v : l) faces_of[v].push_back(static_cast<int>(f));
@@ -535,7 +527,7 @@ void remove_shallow_vertices(const Cloud& cl, std::vector<std::vector<int>>& loo
             for (int w : loops[g])
               if (mark[w] != v) mark[w] = v, near.push_back(w);
       // Quick rejection: a plane along the mean normal at v already separates it by > tol.
-      V3 m;
+      Vec3d m{};
       for (int f : faces_of[v]) m = m + normal[f];
       double top = -std::numeric_limits<double>::infinity();
       for (int w : near) top = std::max(top, dot(m, cl.P[w]));
@@ -588,24 +580,24 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   if (count > limits.max_points)
     fail(std::to_string(count) + " points is more than the limit of " + std::to_string(limits.max_points));
   if (!points) fail("no point array given");
-  std::vector<V3> P(count);
+  std::vector<Vec3d> P(count);
   for (int i = 0; i < count; ++i) {
     for (int k = 0; k < 3; ++k)
       if (!std::isfinite(points[3 * i + k]))
         fail("point " + std::to_string(i) + " is not finite (" + "xyz"[k] + " = " + num(points[3 * i + k]) + ")");
-    P[i] = {points[3 * i], points[3 * i + 1], points[3 * i + 2]};
+    P[i] = Vec3d::load(points + 3 * i);
   }
 
   // One tolerance: relative to the cloud's size plus float rounding at its distance from
   // the origin. Points closer than this to a face count as on it.
-  V3 lo = P[0], hi = P[0];
+  Vec3d lo = P[0], hi = P[0];
   double M = 0;
-  for (const V3& p : P) {
-    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  for (const Vec3d& p : P) {
+    lo = min(lo, p);
+    hi = max(hi, p);
     M = std::max({M, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
   }
-  const V3 span = hi - lo;
+  const Vec3d span = hi - lo;
   const double L = norm(span);
   const double tol = 1e-6 * L + 8.0 * FLT_EPSILON * M;
   const std::string cloud = "degenerate point cloud: all " + std::to_string(count) + " points ";
@@ -619,15 +611,11 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
 
   // Initial simplex from the extreme points; its failures are the degenerate clouds.
   int ext[6] = {0, 0, 0, 0, 0, 0};
-  for (int i = 1; i < n; ++i) {
-    const double c[3] = {P[i].x, P[i].y, P[i].z};
+  for (int i = 1; i < n; ++i)
     for (int k = 0; k < 3; ++k) {
-      const double mn[3] = {P[ext[0]].x, P[ext[1]].y, P[ext[2]].z};
-      const double mx[3] = {P[ext[3]].x, P[ext[4]].y, P[ext[5]].z};
-      if (c[k] < mn[k]) ext[k] = i;
-      if (c[k] > mx[k]) ext[3 + k] = i;
+      if (P[i][k] < P[ext[k]][k]) ext[k] = i;
+      if (P[i][k] > P[ext[3 + k]][k]) ext[3 + k] = i;
     }
-  }
   int a = ext[0], b = ext[3];
   double best = -1;
   for (int i = 0; i < 6; ++i)
@@ -635,7 +623,7 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
       const double d = norm(P[ext[i]] - P[ext[j]]);
       if (d > best) best = d, a = ext[i], b = ext[j];
     }
-  const V3 dir = (P[b] - P[a]) * (1.0 / best);
+  const Vec3d dir = (P[b] - P[a]) * (1.0 / best);
   int c = -1;
   best = -1;
   for (int i = 0; i < n; ++i) {
@@ -643,7 +631,7 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
     if (d > best) best = d, c = i;
   }
   if (best <= tol) fail(cloud + "are collinear (within " + num(tol) + ")");
-  V3 nrm = cross(P[b] - P[a], P[c] - P[a]);
+  Vec3d nrm = cross(P[b] - P[a], P[c] - P[a]);
   nrm = nrm * (1.0 / norm(nrm));
   int d4 = -1;
   best = -1;
@@ -657,7 +645,7 @@ ConvexHull compute_convex_hull(const float* points, int count, const HullLimits&
   Cloud cl;
   const double E = std::max({span.x, span.y, span.z});
   const double g = kGrid / E;
-  for (const V3& p : P) cl.Q.push_back({std::llround((p.x - lo.x) * g), std::llround((p.y - lo.y) * g), std::llround((p.z - lo.z) * g)});
+  for (const Vec3d& p : P) cl.Q.push_back({std::llround((p.x - lo.x) * g), std::llround((p.y - lo.y) * g), std::llround((p.z - lo.z) * g)});
   cl.P = std::move(P);
   cl.tol = tol;
   if (orient(cl.Q[a], cl.Q[b], cl.Q[c], cl.Q[d4]) == 0) fail(cloud + "are coplanar");

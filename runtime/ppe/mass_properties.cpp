@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <string>
 
+#include "runtime/base/vec3.h"
+
 namespace cellphys::ppe {
 namespace {
 
@@ -96,45 +98,33 @@ MassProperties scaled(const spu::ShapeView& s, double scale, double density) {
 MassProperties polyhedron_mass_properties(const spu::HullView& h) {
   if (h.num_vertices < 4 || h.num_faces < 4 || !h.vertices || !h.face_start || !h.face_vertices)
     fail(spu::ShapeType::hull, "not a closed polyhedron");
-  auto vtx = [&](int i, double out[3]) {
-    for (int k = 0; k < 3; ++k) out[k] = h.vertices[3 * i + k];
-  };
-  double ref[3] = {};  // integrate about the vertex mean: smaller terms, less cancellation
-  for (int i = 0; i < h.num_vertices; ++i) {
-    double p[3];
-    vtx(i, p);
-    for (int k = 0; k < 3; ++k) ref[k] += p[k];
-  }
-  for (double& r : ref) r /= h.num_vertices;
+  auto vtx = [&](int i) { return Vec3d::load(h.vertices + 3 * i); };
+  Vec3d ref{};  // integrate about the vertex mean: smaller terms, less cancellation
+  for (int i = 0; i < h.num_vertices; ++i) ref = ref + vtx(i);
+  ref = ref / h.num_vertices;
 
   // Each face fanned into triangles, each triangle with ref a tetrahedron: volume det/6,
   // first moment det/24 (a+b+c), second moments det/120 (aa' + bb' + cc' + ss'), s = a+b+c.
-  double V = 0, S[3] = {}, C[3][3] = {};
+  double V = 0, C[3][3] = {};
+  Vec3d S{};
   for (int f = 0; f < h.num_faces; ++f) {
     const int s = h.face_start[f], e = h.face_start[f + 1];
-    double a[3];
-    vtx(h.face_vertices[s], a);
-    for (int k = 0; k < 3; ++k) a[k] -= ref[k];
+    const Vec3d a = vtx(h.face_vertices[s]) - ref;
     for (int i = s + 1; i + 1 < e; ++i) {
-      double b[3], c[3];
-      vtx(h.face_vertices[i], b);
-      vtx(h.face_vertices[i + 1], c);
-      for (int k = 0; k < 3; ++k) b[k] -= ref[k], c[k] -= ref[k];
-      const double det = a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) +
-                         a[2] * (b[0] * c[1] - b[1] * c[0]);
-      const double sum[3] = {a[0] + b[0] + c[0], a[1] + b[1] + c[1], a[2] + b[2] + c[2]};
+      const Vec3d b = vtx(h.face_vertices[i]) - ref, c = vtx(h.face_vertices[i + 1]) - ref;
+      const double det = dot(a, cross(b, c));
+      const Vec3d sum = a + b + c;
       V += det / 6.0;
-      for (int j = 0; j < 3; ++j) {
-        S[j] += det / 24.0 * sum[j];
+      S = S + sum * (det / 24.0);
+      for (int j = 0; j < 3; ++j)
         for (int k = 0; k < 3; ++k) C[j][k] += det / 120.0 * (a[j] * a[k] + b[j] * b[k] + c[j] * c[k] + sum[j] * sum[k]);
-      }
     }
   }
   MassProperties m;
   m.volume = m.mass = V;
   if (!(V > 0.0) || !std::isfinite(V)) return m;  // callers report the missing volume
-  double g[3];
-  for (int k = 0; k < 3; ++k) g[k] = S[k] / V, m.center_of_mass[k] = ref[k] + g[k];
+  const Vec3d g = S / V;
+  for (int k = 0; k < 3; ++k) m.center_of_mass[k] = ref[k] + g[k];
   for (int j = 0; j < 3; ++j)
     for (int k = 0; k < 3; ++k) C[j][k] -= V * g[j] * g[k];  // parallel axis to the centroid
   m.inertia[0] = C[1][1] + C[2][2];

@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include "runtime/base/quat.h"
 #include "runtime/ppe/convex_hull.h"
 #include "runtime/ppe/mass_properties.h"
 
@@ -72,13 +73,11 @@ void plane_box(const spu::ShapeView& v, float min[3], float max[3]) {
   store(lo, hi, min, max);
 }
 
-void rotation(const float q[4], double R[3][3]) {
-  const double n = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
+Mat3d rotation(const float orientation[4]) {
+  const Quatd q = Quatd::load(orientation);
+  const double n = norm(q);
   if (!(n > 0.0) || !std::isfinite(n)) throw ShapeError("world_aabb: pose orientation is not a usable quaternion");
-  const double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
-  R[0][0] = 1 - 2 * (y * y + z * z), R[0][1] = 2 * (x * y - w * z), R[0][2] = 2 * (x * z + w * y);
-  R[1][0] = 2 * (x * y + w * z), R[1][1] = 1 - 2 * (x * x + z * z), R[1][2] = 2 * (y * z - w * x);
-  R[2][0] = 2 * (x * z - w * y), R[2][1] = 2 * (y * z + w * x), R[2][2] = 1 - 2 * (x * x + y * y);
+  return quat_to_matrix(quat_normalized(q));
 }
 
 }  // namespace
@@ -137,8 +136,7 @@ uint32_t ShapeDictionary::add_plane(const float normal[3], float offset) {
   for (int k = 0; k < 3; ++k)
     if (!std::isfinite(normal[k])) throw ShapeError("plane: normal is not finite (" + num(normal[k]) + ")");
   if (!std::isfinite(offset)) throw ShapeError("plane: offset is not finite (" + num(offset) + ")");
-  const double n =
-      std::sqrt(double(normal[0]) * normal[0] + double(normal[1]) * normal[1] + double(normal[2]) * normal[2]);
+  const double n = norm(Vec3d::load(normal));
   if (!(n > 1e-30)) throw ShapeError("plane: normal is zero");
   auto e = std::make_unique<Entry>();
   e->view.type = spu::ShapeType::plane;
@@ -225,26 +223,24 @@ void ShapeDictionary::world_aabb(uint32_t index, const spu::Pose& pose, float mi
   const spu::ShapeView& v = e.view;
   if (v.type == spu::ShapeType::plane) return plane_box(v, min, max);
   require_positive(kind(v.type), "pose scale", pose.scale);
-  double R[3][3];
-  rotation(pose.orientation, R);
+  const Mat3d R = rotation(pose.orientation);
   const double s = pose.scale;
   double lo[3], hi[3];
   if (v.type == spu::ShapeType::hull) {
     for (int k = 0; k < 3; ++k) lo[k] = kInf, hi[k] = -kInf;
     const float* p = e.hull.vertices.data();
-    for (int i = 0; i < e.hull.num_vertices(); ++i, p += 3)
-      for (int k = 0; k < 3; ++k) {
-        const double w = (R[k][0] * p[0] + R[k][1] * p[1] + R[k][2] * p[2]) * s;
-        lo[k] = std::min(lo[k], w), hi[k] = std::max(hi[k], w);
-      }
+    for (int i = 0; i < e.hull.num_vertices(); ++i, p += 3) {
+      const Vec3d w = mul(R, Vec3d::load(p)) * s;
+      for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], w[k]), hi[k] = std::max(hi[k], w[k]);
+    }
   } else {
     for (int k = 0; k < 3; ++k) {
       double h = 0;  // half extent of the rotated shape along world axis k
       if (v.type == spu::ShapeType::sphere) h = v.radius;
-      if (v.type == spu::ShapeType::capsule) h = v.radius + std::fabs(R[k][2]) * v.half_height;
+      if (v.type == spu::ShapeType::capsule) h = v.radius + std::fabs(R.m[k][2]) * v.half_height;
       if (v.type == spu::ShapeType::box)
-        h = std::fabs(R[k][0]) * v.half_extents[0] + std::fabs(R[k][1]) * v.half_extents[1] +
-            std::fabs(R[k][2]) * v.half_extents[2];
+        h = std::fabs(R.m[k][0]) * v.half_extents[0] + std::fabs(R.m[k][1]) * v.half_extents[1] +
+            std::fabs(R.m[k][2]) * v.half_extents[2];
       lo[k] = -h * s, hi[k] = h * s;
     }
   }

@@ -6,11 +6,11 @@
 #include <cstring>
 #include <numeric>
 
+#include "runtime/base/quat.h"
 #include "runtime/ppe/island_packer.h"
 #include "runtime/ppe/mass_properties.h"
 #include "runtime/ppe/world_impl.h"
 #include "runtime/spu/narrow_phase.h"
-#include "runtime/spu/rigid_motion.h"
 
 namespace cellphys::ppe {
 
@@ -251,11 +251,11 @@ void World::apply_impulse(BodyId id, const float impulse[3], const float point[3
   if (!finite(impulse, 3) || !finite(point, 3)) throw WorldError(body_name(id) + ": impulse and point must be finite");
   if (b.is_static) throw WorldError(body_name(id) + " is static");
   impl_->wake(id);
-  const spu::Vec3d r = {point[0] - double(b.position[0]), point[1] - double(b.position[1]), point[2] - double(b.position[2])};
-  const spu::Vec3d J = {impulse[0], impulse[1], impulse[2]};
-  const spu::Vec3d L = {r.y * J.z - r.z * J.y, r.z * J.x - r.x * J.z, r.x * J.y - r.y * J.x};
-  const spu::Quat q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
-  const spu::Vec3d dw = spu::mul(spu::rotate_sym(spu::quat_to_matrix(q), b.inverse_inertia), L);
+  const Vec3d r = {point[0] - double(b.position[0]), point[1] - double(b.position[1]), point[2] - double(b.position[2])};
+  const Vec3d J = {impulse[0], impulse[1], impulse[2]};
+  const Vec3d L = {r.y * J.z - r.z * J.y, r.z * J.x - r.x * J.z, r.x * J.y - r.y * J.x};
+  const Quatd q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
+  const Vec3d dw = mul(rotate_sym(quat_to_matrix(q), b.inverse_inertia), L);
   for (int k = 0; k < 3; ++k) b.velocity[k] += static_cast<float>(impulse[k] / b.mass);
   b.angular_velocity[0] += float(dw.x), b.angular_velocity[1] += float(dw.y), b.angular_velocity[2] += float(dw.z);
 }
@@ -282,9 +282,9 @@ double World::kinetic_energy() const {
     if (!b.alive || b.is_static) continue;
     e += 0.5 * b.mass * (double(b.velocity[0]) * b.velocity[0] + double(b.velocity[1]) * b.velocity[1] +
                          double(b.velocity[2]) * b.velocity[2]);
-    const spu::Quat q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
-    const spu::Vec3d w = {b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]};
-    const spu::Vec3d Iw = spu::mul(spu::rotate_sym(spu::quat_to_matrix(q), b.inertia), w);
+    const Quatd q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
+    const Vec3d w = {b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]};
+    const Vec3d Iw = mul(rotate_sym(quat_to_matrix(q), b.inertia), w);
     e += 0.5 * (w.x * Iw.x + w.y * Iw.y + w.z * Iw.z);
   }
   return e;

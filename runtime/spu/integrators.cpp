@@ -15,8 +15,8 @@ namespace {
 
 constexpr uint32_t kGyroscopicBit = 1u << static_cast<uint32_t>(ForceType::gyroscopic);
 
-Vec3d lin(const float* v8) { return {v8[0], v8[1], v8[2]}; }
-Vec3d ang(const float* v8) { return {v8[4], v8[5], v8[6]}; }
+Vec3d lin(const float* v8) { return Vec3d::load(v8); }
+Vec3d ang(const float* v8) { return Vec3d::load(v8 + 4); }
 bool finite8(const float* v8) {
   for (int k = 0; k < 8; ++k)
     if (!std::isfinite(v8[k])) return false;
@@ -28,8 +28,8 @@ void velocities(const IslandView& v, float* u) {
   for (int i = 0; i < v.num_bodies(); ++i) {
     const Rigid_Body& b = v.bodies[i];
     float* ui = u + kVecFloats * i;
-    store3(ui, load3(b.velocity));
-    store3(ui + 4, load3(b.angular_velocity));
+    store3(ui, Vec3d::load(b.velocity));
+    store3(ui + 4, Vec3d::load(b.angular_velocity));
   }
 }
 
@@ -55,8 +55,8 @@ void restore_state(const IslandView& v, const float* s) {
 
 // Sets body i to the saved state moved by (dx, dtheta) and with velocity u (padded 8).
 void set_stage(Rigid_Body& b, const float* saved, const Vec3d& dx, const Vec3d& dth, const float* u) {
-  const Quat q0{saved[4], saved[5], saved[6], saved[7]};
-  store3(b.position, {saved[0] + dx.x, saved[1] + dx.y, saved[2] + dx.z});
+  const Quatd q0 = Quatd::load(saved + 4);
+  store3(b.position, Vec3d::load(saved) + dx);
   set_orientation(b, quat_mul(quat_exp(dth), q0));
   store3(b.velocity, lin(u));
   store3(b.angular_velocity, ang(u));
@@ -68,8 +68,7 @@ void accelerations(const IslandView& v, float* f) {
     const Rigid_Body& b = v.bodies[i];
     float* fi = f + kVecFloats * i;
     const Mat3d Iinv = rotate_sym(quat_to_matrix(orientation(b)), b.inverse_inertia_body);
-    const Vec3d a = {fi[0] * double(b.inverse_mass), fi[1] * double(b.inverse_mass), fi[2] * double(b.inverse_mass)};
-    store3(fi, a);
+    store3(fi, lin(fi) * double(b.inverse_mass));
     store3(fi + 4, mul(Iinv, ang(fi)));
   }
 }
@@ -137,10 +136,9 @@ bool step_implicit(StepContext& c, float h, bool split) {
   for (int i = 0; i < ws.n; ++i) {
     const Rigid_Body& b = v.bodies[i];
     const float* du = ws.x + kVecFloats * i;
-    const Quat q0 = orientation(b);
-    const Vec3d w0 = load3(b.angular_velocity);
-    const Vec3d w_kick = {w0.x + du[4], w0.y + du[5], w0.z + du[6]};
-    Quat q1;
+    const Quatd q0 = orientation(b);
+    const Vec3d w_kick = Vec3d::load(b.angular_velocity) + ang(du);
+    Quatd q1;
     Vec3d w1;
     if (split) {
       // the kick changes angular momentum; the drift conserves it exactly
@@ -185,12 +183,12 @@ bool step_explicit(StepContext& c, float h, bool symplectic) {
   for (int i = 0; i < ws.n; ++i) {
     Rigid_Body& b = v.bodies[i];
     const float* a = ws.forces + kVecFloats * i;
-    const Vec3d v0 = load3(b.velocity), w0 = load3(b.angular_velocity);
+    const Vec3d v0 = Vec3d::load(b.velocity), w0 = Vec3d::load(b.angular_velocity);
     const Vec3d v1 = {v0.x + h * a[0], v0.y + h * a[1], v0.z + h * a[2]};
     const Vec3d w1 = {w0.x + h * a[4], w0.y + h * a[5], w0.z + h * a[6]};
     const Vec3d& vx = symplectic ? v1 : v0;
     const Vec3d& wq = symplectic ? w1 : w0;
-    store3(b.position, {b.position[0] + h * vx.x, b.position[1] + h * vx.y, b.position[2] + h * vx.z});
+    store3(b.position, Vec3d::load(b.position) + vx * h);
     set_orientation(b, advance_orientation(orientation(b), wq, h));
     store3(b.velocity, v1);
     store3(b.angular_velocity, w1);
@@ -218,15 +216,15 @@ bool step_rk4(StepContext& c, float h) {
         Rigid_Body& b = v.bodies[i];
         const double ch = kC[s] * h;
         // previous stage velocities were left in the body (set below)
-        const Vec3d vs = load3(b.velocity), ws_ = load3(b.angular_velocity);
-        const Quat qs = orientation(b);
+        const Vec3d vs = Vec3d::load(b.velocity), ws_ = Vec3d::load(b.angular_velocity);
+        const Quatd qs = orientation(b);
         // q'_{s-1} = 1/2 (0, w_{s-1}) q_{s-1} with the unnormalised stage q kept in y? use the body's
-        const Quat dq = quat_mul({0.0, ws_.x, ws_.y, ws_.z}, qs);
-        store3(b.position, {y0[0] + ch * vs.x, y0[1] + ch * vs.y, y0[2] + ch * vs.z});
-        const Quat q{y0[4] + ch * 0.5 * dq.w, y0[5] + ch * 0.5 * dq.x, y0[6] + ch * 0.5 * dq.y, y0[7] + ch * 0.5 * dq.z};
+        const Quatd dq = quat_mul({0.0, ws_.x, ws_.y, ws_.z}, qs);
+        store3(b.position, Vec3d::load(y0) + vs * ch);
+        const Quatd q{y0[4] + ch * 0.5 * dq.w, y0[5] + ch * 0.5 * dq.x, y0[6] + ch * 0.5 * dq.y, y0[7] + ch * 0.5 * dq.z};
         set_orientation(b, q);
-        store3(b.velocity, {y0[8] + ch * kp[0], y0[9] + ch * kp[1], y0[10] + ch * kp[2]});
-        store3(b.angular_velocity, {y0[12] + ch * kp[4], y0[13] + ch * kp[5], y0[14] + ch * kp[6]});
+        store3(b.velocity, Vec3d::load(y0 + 8) + lin(kp) * ch);
+        store3(b.angular_velocity, Vec3d::load(y0 + 12) + ang(kp) * ch);
       }
     }
     zero_floats(ws.k1, size_t(n) * kVecFloats);
@@ -243,8 +241,8 @@ bool step_rk4(StepContext& c, float h) {
         restore_state(v, ws.saved);
         return false;
       }
-      const Vec3d vs = load3(b.velocity), wsv = load3(b.angular_velocity);
-      const Quat dq = quat_mul({0.0, wsv.x, wsv.y, wsv.z}, orientation(b));
+      const Vec3d vs = Vec3d::load(b.velocity), wsv = Vec3d::load(b.angular_velocity);
+      const Quatd dq = quat_mul({0.0, wsv.x, wsv.y, wsv.z}, orientation(b));
       float* acc = ws.acc + 16 * i;
       const double wgt = kW[s];
       acc[0] += float(wgt * vs.x), acc[1] += float(wgt * vs.y), acc[2] += float(wgt * vs.z);
@@ -258,12 +256,11 @@ bool step_rk4(StepContext& c, float h) {
     const float* y0 = ws.saved + 16 * i;
     const float* acc = ws.acc + 16 * i;
     Rigid_Body& b = v.bodies[i];
-    store3(b.position, {y0[0] + h * double(acc[0]), y0[1] + h * double(acc[1]), y0[2] + h * double(acc[2])});
+    store3(b.position, Vec3d::load(y0) + lin(acc) * h);
     set_orientation(b, {y0[4] + h * double(acc[4]), y0[5] + h * double(acc[5]), y0[6] + h * double(acc[6]),
                         y0[7] + h * double(acc[7])});
-    store3(b.velocity, {y0[8] + h * double(acc[8]), y0[9] + h * double(acc[9]), y0[10] + h * double(acc[10])});
-    store3(b.angular_velocity,
-           {y0[12] + h * double(acc[12]), y0[13] + h * double(acc[13]), y0[14] + h * double(acc[14])});
+    store3(b.velocity, Vec3d::load(y0 + 8) + Vec3d::load(acc + 8) * h);
+    store3(b.angular_velocity, Vec3d::load(y0 + 12) + Vec3d::load(acc + 12) * h);
   }
   return true;
 }
@@ -295,9 +292,7 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
       kd[r] = u0[r] + tau * k1[r];
       us[r] = u0[r] + h * k1[r];
     }
-    const Vec3d dx = {h * double(kd[0]), h * double(kd[1]), h * double(kd[2])};
-    const Vec3d dth = {h * double(kd[4]), h * double(kd[5]), h * double(kd[6])};
-    set_stage(v.bodies[i], ws.saved + 16 * i, dx, dth, us);
+    set_stage(v.bodies[i], ws.saved + 16 * i, lin(kd) * h, ang(kd) * h, us);
   }
   zero_floats(ws.jv, size_t(n) * kVecFloats);
   {
@@ -316,9 +311,9 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
     float* a = ws.jv + kVecFloats * i;
     const float* k1 = ws.k1 + kVecFloats * i;
     const Mat3d I0 = rotate_sym(quat_to_matrix(orientation(b)), b.inertia_body);
-    const Vec3d ar = mul(I0, {a[4] - 2.0 * k1[4], a[5] - 2.0 * k1[5], a[6] - 2.0 * k1[6]});
+    const Vec3d ar = mul(I0, ang(a) - ang(k1) * 2.0);
     const double m = b.mass;
-    store3(a, {m * (a[0] - 2.0 * k1[0]), m * (a[1] - 2.0 * k1[1]), m * (a[2] - 2.0 * k1[2])});
+    store3(a, (lin(a) - lin(k1) * 2.0) * m);
     store3(a + 4, ar);
     // fdelta2 into forces (free now) for the Jacobian product
     const float* u0 = ws.u0 + kVecFloats * i;
@@ -407,10 +402,8 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
     alignas(32) float unew[kVecFloats];
     for (int r = 0; r < kVecFloats; ++r) unew[r] = u0[r] + h * (1.5f * k1[r] + 0.5f * k2[r]);
     if (!finite8(unew)) return fail();
-    const Vec3d dx = {h * (1.5 * kd1[0] + 0.5 * kd2[0]), h * (1.5 * kd1[1] + 0.5 * kd2[1]),
-                      h * (1.5 * kd1[2] + 0.5 * kd2[2])};
-    const Vec3d dth = {h * (1.5 * kd1[4] + 0.5 * kd2[4]), h * (1.5 * kd1[5] + 0.5 * kd2[5]),
-                       h * (1.5 * kd1[6] + 0.5 * kd2[6])};
+    const Vec3d dx = (lin(kd1) * 1.5 + lin(kd2) * 0.5) * h;
+    const Vec3d dth = (ang(kd1) * 1.5 + ang(kd2) * 0.5) * h;
     set_stage(v.bodies[i], y0, dx, dth, unew);
   }
   *error = float(std::sqrt(err2 / (6.0 * n)) / c.error_tolerance);

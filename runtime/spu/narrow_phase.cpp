@@ -15,6 +15,8 @@
 #include <cstring>
 #include <limits>
 
+#include "runtime/base/vec3.h"
+
 namespace cellphys::spu {
 namespace {
 
@@ -40,39 +42,26 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // ---- vectors --------------------------------------------------------------------------------
 
-struct V3 {
-  double x, y, z;
-};
-inline V3 operator+(const V3& a, const V3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-inline V3 operator-(const V3& a, const V3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-inline V3 operator-(const V3& a) { return {-a.x, -a.y, -a.z}; }
-inline V3 operator*(const V3& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-inline double dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline V3 cross(const V3& a, const V3& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-inline double len2(const V3& a) { return dot(a, a); }
-inline V3 load3(const float* p) { return {p[0], p[1], p[2]}; }
 inline double clamp01(double t) { return t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t); }
 
 /// A deterministic unit vector perpendicular to u (any, if u is zero).
-V3 any_perpendicular(const V3& u) {
+Vec3d any_perpendicular(const Vec3d& u) {
   const double ax = std::fabs(u.x), ay = std::fabs(u.y), az = std::fabs(u.z);
-  const V3 e = (ax <= ay && ax <= az) ? V3{1, 0, 0} : (ay <= az ? V3{0, 1, 0} : V3{0, 0, 1});
-  const V3 w = cross(u, e);
-  const double l2 = len2(w);
-  return l2 > 0.0 ? w * (1.0 / std::sqrt(l2)) : V3{0, 0, 1};
+  const Vec3d e = (ax <= ay && ax <= az) ? Vec3d{1, 0, 0} : (ay <= az ? Vec3d{0, 1, 0} : Vec3d{0, 0, 1});
+  const Vec3d w = cross(u, e);
+  const double l2 = squared_norm(w);
+  return l2 > 0.0 ? w * (1.0 / std::sqrt(l2)) : Vec3d{0, 0, 1};
 }
 
 /// World frame of a pose: rotation columns, translation and scale. The rotation is exact for
 /// a non-unit quaternion too (2/|q|^2 in place of 2), so no square root is needed.
 struct Frame {
-  V3 c0, c1, c2, t;
+  Vec3d c0, c1, c2, t;
   double s;
-  V3 rotate(const V3& v) const { return c0 * v.x + c1 * v.y + c2 * v.z; }
-  V3 unrotate(const V3& v) const { return {dot(c0, v), dot(c1, v), dot(c2, v)}; }
+  Vec3d rotate(const Vec3d& v) const { return c0 * v.x + c1 * v.y + c2 * v.z; }
+  Vec3d unrotate(const Vec3d& v) const { return {dot(c0, v), dot(c1, v), dot(c2, v)}; }
   /// A point given in unscaled body coordinates.
-  V3 point(const V3& v) const { return t + rotate(v * s); }
+  Vec3d point(const Vec3d& v) const { return t + rotate(v * s); }
 };
 
 Frame frame_of(const Pose& p) {
@@ -84,27 +73,27 @@ Frame frame_of(const Pose& p) {
   f.c0 = {1.0 - k * (y * y + z * z), k * (x * y + w * z), k * (x * z - w * y)};
   f.c1 = {k * (x * y - w * z), 1.0 - k * (x * x + z * z), k * (y * z + w * x)};
   f.c2 = {k * (x * z + w * y), k * (y * z - w * x), 1.0 - k * (x * x + y * y)};
-  f.t = load3(p.position);
+  f.t = Vec3d::load(p.position);
   f.s = p.scale;
   return f;
 }
 
 /// Closest point to x on the segment p0 p1 (p0 if it is degenerate).
-V3 closest_on_segment(const V3& p0, const V3& p1, const V3& x) {
-  const V3 u = p1 - p0;
-  const double uu = len2(u);
+Vec3d closest_on_segment(const Vec3d& p0, const Vec3d& p1, const Vec3d& x) {
+  const Vec3d u = p1 - p0;
+  const double uu = squared_norm(u);
   return uu > 0.0 ? p0 + u * clamp01(dot(x - p0, u) / uu) : p0;
 }
 
 struct SegmentPair {
-  V3 pa, pb;  // closest points on the first and the second segment
+  Vec3d pa, pb;  // closest points on the first and the second segment
 };
 
 /// Closest points of segments a0 a1 and b0 b1 (Ericson, Real-Time Collision Detection 5.1.9).
 /// Parallel segments take the first segment's start, clamped: deterministic.
-SegmentPair closest_segments(const V3& a0, const V3& a1, const V3& b0, const V3& b1) {
-  const V3 d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0;
-  const double a = len2(d1), e = len2(d2), f = dot(d2, r);
+SegmentPair closest_segments(const Vec3d& a0, const Vec3d& a1, const Vec3d& b0, const Vec3d& b1) {
+  const Vec3d d1 = a1 - a0, d2 = b1 - b0, r = a0 - b0;
+  const double a = squared_norm(d1), e = squared_norm(d2), f = dot(d2, r);
   double s = 0.0, t = 0.0;
   if (a <= 0.0 && e <= 0.0) {
   } else if (a <= 0.0) {
@@ -138,7 +127,7 @@ struct Sink {
   int n = 0;
 
   bool keeps(double penetration) const { return penetration > -margin; }
-  void add(const V3& point, const V3& normal, double penetration) {
+  void add(const Vec3d& point, const Vec3d& normal, double penetration) {
     if (n >= kMaxManifoldPoints || !keeps(penetration)) return;
     ContactPoint& c = out[n++];
     c.point[0] = float(point.x), c.point[1] = float(point.y), c.point[2] = float(point.z);
@@ -150,21 +139,21 @@ struct Sink {
 // ---- spheres, capsules, planes --------------------------------------------------------------
 
 struct Segment {
-  V3 p0, p1;
+  Vec3d p0, p1;
   double radius;
 };
 Segment capsule_of(const ShapeView& c, const Frame& f) {
-  const V3 h = f.c2 * (double(c.half_height) * f.s);
+  const Vec3d h = f.c2 * (double(c.half_height) * f.s);
   return {f.t - h, f.t + h, double(c.radius) * f.s};
 }
 
 struct Plane {
-  V3 n;
+  Vec3d n;
   double d;  // n.x <= d inside
 };
 bool plane_of(const ShapeView& p, const Pose& pose, Plane& out) {
-  const V3 n = load3(p.normal);
-  const double l = std::sqrt(len2(n));
+  const Vec3d n = Vec3d::load(p.normal);
+  const double l = norm(n);
   if (!(l > 0.0)) return false;
   out.n = n * (1.0 / l);
   out.d = double(p.offset) / l * double(pose.scale);
@@ -173,17 +162,17 @@ bool plane_of(const ShapeView& p, const Pose& pose, Plane& out) {
 
 /// Two spheres; also every pair whose cores reduce to two closest points. `fallback` is the
 /// normal when the centres coincide (any direction is then as good as another).
-void sphere_sphere(const V3& ca, double ra, const V3& cb, double rb, const V3& fallback, Sink& s) {
-  const V3 d = cb - ca;
-  const double dist2 = len2(d), reach = ra + rb + s.margin;
+void sphere_sphere(const Vec3d& ca, double ra, const Vec3d& cb, double rb, const Vec3d& fallback, Sink& s) {
+  const Vec3d d = cb - ca;
+  const double dist2 = squared_norm(d), reach = ra + rb + s.margin;
   if (dist2 >= reach * reach) return;
   const double dist = std::sqrt(dist2);
-  const V3 n = dist > 0.0 ? d * (1.0 / dist) : fallback;
+  const Vec3d n = dist > 0.0 ? d * (1.0 / dist) : fallback;
   s.add(((ca + n * ra) + (cb - n * rb)) * 0.5, n, ra + rb - dist);
 }
 
 /// Sphere or capsule end (a) against a plane (b): normal -plane normal.
-void sphere_plane(const V3& c, double r, const Plane& pl, Sink& s) {
+void sphere_plane(const Vec3d& c, double r, const Plane& pl, Sink& s) {
   const double h = dot(pl.n, c) - pl.d;
   s.add(c - pl.n * ((r + h) * 0.5), -pl.n, r - h);
 }
@@ -192,16 +181,16 @@ void sphere_plane(const V3& c, double r, const Plane& pl, Sink& s) {
 /// the margin, so a capsule lying flat gets two points and a steep one gets one.
 void capsule_plane(const Segment& c, const Plane& pl, Sink& s) {
   sphere_plane(c.p0, c.radius, pl, s);
-  if (len2(c.p1 - c.p0) > 0.0) sphere_plane(c.p1, c.radius, pl, s);
+  if (squared_norm(c.p1 - c.p0) > 0.0) sphere_plane(c.p1, c.radius, pl, s);
 }
 
 void capsule_capsule(const Segment& a, const Segment& b, Sink& s) {
-  const V3 da = a.p1 - a.p0, db = b.p1 - b.p0;
+  const Vec3d da = a.p1 - a.p0, db = b.p1 - b.p0;
   const SegmentPair cp = closest_segments(a.p0, a.p1, b.p0, b.p1);
-  const V3 ab = cross(da, db);
-  const double aa = len2(da), bb = len2(db), ab2 = len2(ab);
+  const Vec3d ab = cross(da, db);
+  const double aa = squared_norm(da), bb = squared_norm(db), ab2 = squared_norm(ab);
   // Crossing cores: the shortest way out is perpendicular to both, towards b's centre.
-  V3 fallback = any_perpendicular(aa > 0.0 ? da : db);
+  Vec3d fallback = any_perpendicular(aa > 0.0 ? da : db);
   if (ab2 > 0.0) {
     fallback = ab * (1.0 / std::sqrt(ab2));
     if (dot(fallback, (b.p0 + b.p1) - (a.p0 + a.p1)) < 0.0) fallback = -fallback;
@@ -209,18 +198,18 @@ void capsule_capsule(const Segment& a, const Segment& b, Sink& s) {
   if (aa > 0.0 && bb > 0.0 && ab2 <= kParallelSin2 * aa * bb) {
     // Near-parallel: contacts at both ends of the overlap of b's projection on a.
     const double la = std::sqrt(aa);
-    const V3 u = da * (1.0 / la);
+    const Vec3d u = da * (1.0 / la);
     const double t0 = dot(b.p0 - a.p0, u), t1 = dot(b.p1 - a.p0, u);
     const double lo = std::max(0.0, std::min(t0, t1)), hi = std::min(la, std::max(t0, t1));
     if (hi - lo > 1e-6 * la) {
       double deepest = -kInf;
       for (const double t : {lo, hi}) {
-        const V3 pa = a.p0 + u * t, pb = closest_on_segment(b.p0, b.p1, pa);
-        deepest = std::max(deepest, a.radius + b.radius - std::sqrt(len2(pb - pa)));
+        const Vec3d pa = a.p0 + u * t, pb = closest_on_segment(b.p0, b.p1, pa);
+        deepest = std::max(deepest, a.radius + b.radius - norm(pb - pa));
         sphere_sphere(pa, a.radius, pb, b.radius, fallback, s);
       }
       // Cores crossing at a small angle between the ends: the true deepest point as well.
-      const double pen = a.radius + b.radius - std::sqrt(len2(cp.pb - cp.pa));
+      const double pen = a.radius + b.radius - norm(cp.pb - cp.pa);
       if (pen > deepest + 1e-4 * (a.radius + b.radius))
         sphere_sphere(cp.pa, a.radius, cp.pb, b.radius, fallback, s);
       return;
@@ -231,32 +220,31 @@ void capsule_capsule(const Segment& a, const Segment& b, Sink& s) {
 
 /// Sphere (a) against a box (b), in the box's frame: clamp for the closest point outside,
 /// the nearest face from inside.
-void sphere_box(const V3& c, double r, const ShapeView& box, const Frame& f, Sink& s) {
-  const V3 l = f.unrotate(c - f.t);
-  const double lc[3] = {l.x, l.y, l.z};
-  const double h[3] = {box.half_extents[0] * f.s, box.half_extents[1] * f.s, box.half_extents[2] * f.s};
+void sphere_box(const Vec3d& c, double r, const ShapeView& box, const Frame& f, Sink& s) {
+  const Vec3d l = f.unrotate(c - f.t);
+  const Vec3d h = Vec3d::load(box.half_extents) * f.s;
   double q[3];
   bool inside = true;
   for (int k = 0; k < 3; ++k) {
-    q[k] = std::min(std::max(lc[k], -h[k]), h[k]);
-    if (q[k] != lc[k]) inside = false;
+    q[k] = std::min(std::max(l[k], -h[k]), h[k]);
+    if (q[k] != l[k]) inside = false;
   }
   if (!inside) {
-    const V3 dl = {lc[0] - q[0], lc[1] - q[1], lc[2] - q[2]};
-    const double dist2 = len2(dl), reach = r + s.margin;
+    const Vec3d dl = l - Vec3d::load(q);
+    const double dist2 = squared_norm(dl), reach = r + s.margin;
     if (dist2 >= reach * reach) return;
     const double dist = std::sqrt(dist2);  // > 0: the centre is outside
-    const V3 out = f.rotate(dl) * (1.0 / dist);  // from the box towards the sphere
-    const V3 qw = f.t + f.rotate({q[0], q[1], q[2]});
+    const Vec3d out = f.rotate(dl) * (1.0 / dist);  // from the box towards the sphere
+    const Vec3d qw = f.t + f.rotate(Vec3d::load(q));
     s.add(((c - out * r) + qw) * 0.5, -out, r - dist);
     return;
   }
   int k = 0;
   for (int i = 1; i < 3; ++i)
-    if (h[i] - std::fabs(lc[i]) < h[k] - std::fabs(lc[k])) k = i;
-  const V3 axis = k == 0 ? f.c0 : (k == 1 ? f.c1 : f.c2);
-  const V3 out = lc[k] < 0.0 ? -axis : axis;
-  const double height = std::fabs(lc[k]) - h[k];  // <= 0
+    if (h[i] - std::fabs(l[i]) < h[k] - std::fabs(l[k])) k = i;
+  const Vec3d axis = k == 0 ? f.c0 : (k == 1 ? f.c1 : f.c2);
+  const Vec3d out = l[k] < 0.0 ? -axis : axis;
+  const double height = std::fabs(l[k]) - h[k];  // <= 0
   s.add(c - out * ((r + height) * 0.5), -out, r - height);
 }
 
@@ -279,32 +267,32 @@ struct Polytope {
   const int32_t* face_vertices = nullptr;
   const int32_t* edges = nullptr;
   const int16_t (*edge_faces)[2] = nullptr;  // the two faces bordering each edge
-  V3 centre;                                 // mean of the vertices: strictly inside
+  Vec3d centre;                              // mean of the vertices: strictly inside
   double size = 0.0;                         // largest distance of a vertex from the centre
   bool is_box = false;                       // then also its axes and half extents:
-  V3 axis[3];                                // support in O(1), edges in 3 parallel classes
+  Vec3d axis[3];                             // support in O(1), edges in 3 parallel classes
   double half[3];
-  V3 v[kMaxHullVertices];
-  V3 n[kMaxHullFaces];
+  Vec3d v[kMaxHullVertices];
+  Vec3d n[kMaxHullFaces];
   double d[kMaxHullFaces];
   int16_t adjacency[kMaxHullEdges][2];  // edge_faces of a hull
 };
 
 void make_box(const ShapeView& box, const Frame& f, Polytope& P) {
-  const double h[3] = {box.half_extents[0] * f.s, box.half_extents[1] * f.s, box.half_extents[2] * f.s};
+  const Vec3d h = Vec3d::load(box.half_extents) * f.s;
   P.nv = 8, P.nf = 6, P.ne = 12;
   P.face_start = kBoxFaceStart, P.face_vertices = kBoxFaceVertices, P.edges = kBoxEdges;
   P.edge_faces = kBoxEdgeFaces;
   for (int i = 0; i < 8; ++i)
-    P.v[i] = f.t + f.rotate({i & 1 ? h[0] : -h[0], i & 2 ? h[1] : -h[1], i & 4 ? h[2] : -h[2]});
-  const V3 axes[3] = {f.c0, f.c1, f.c2};
+    P.v[i] = f.t + f.rotate({i & 1 ? h.x : -h.x, i & 2 ? h.y : -h.y, i & 4 ? h.z : -h.z});
+  const Vec3d axes[3] = {f.c0, f.c1, f.c2};
   for (int k = 0; k < 3; ++k) {
     const double o = dot(axes[k], f.t);
     P.n[2 * k] = -axes[k], P.d[2 * k] = h[k] - o;
     P.n[2 * k + 1] = axes[k], P.d[2 * k + 1] = h[k] + o;
   }
   P.centre = f.t;
-  P.size = std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+  P.size = norm(h);
   P.is_box = true;
   for (int k = 0; k < 3; ++k) P.axis[k] = axes[k], P.half[k] = h[k];
 }
@@ -365,17 +353,17 @@ bool make_hull(const ShapeView& shape, const Frame& f, bool with_edges, Polytope
   if (!hull_fits(h)) return false;
   P.nv = h.num_vertices, P.nf = h.num_faces, P.ne = h.num_edges;
   P.face_start = h.face_start, P.face_vertices = h.face_vertices, P.edges = h.edges;
-  V3 sum{0, 0, 0};
+  Vec3d sum{0, 0, 0};
   for (int i = 0; i < P.nv; ++i) {
-    P.v[i] = f.point(load3(h.vertices + 3 * i));
+    P.v[i] = f.point(Vec3d::load(h.vertices + 3 * i));
     sum = sum + P.v[i];
   }
   P.centre = sum * (1.0 / P.nv);
   double r2 = 0.0;
-  for (int i = 0; i < P.nv; ++i) r2 = std::max(r2, len2(P.v[i] - P.centre));
+  for (int i = 0; i < P.nv; ++i) r2 = std::max(r2, squared_norm(P.v[i] - P.centre));
   P.size = std::sqrt(r2);
   for (int i = 0; i < P.nf; ++i) {
-    P.n[i] = f.rotate(load3(h.planes + 4 * i));
+    P.n[i] = f.rotate(Vec3d::load(h.planes + 4 * i));
     P.d[i] = double(h.planes[4 * i + 3]) * f.s + dot(P.n[i], f.t);
   }
   if (!with_edges) return true;
@@ -388,7 +376,7 @@ bool make_hull(const ShapeView& shape, const Frame& f, bool with_edges, Polytope
 /// it, the largest triangle, then the point adding the most area. The penalty forces need the
 /// support polygon, not every point. Ties go to the lower index; the indices come out sorted
 /// (clipped polygons keep their winding). eps2: squared length below which points coincide.
-int reduce_manifold(const V3* p, const double* depth, int n, const V3& normal, double eps2, int keep[4]) {
+int reduce_manifold(const Vec3d* p, const double* depth, int n, const Vec3d& normal, double eps2, int keep[4]) {
   if (n <= 4) {
     for (int i = 0; i < n; ++i) keep[i] = i;
     return n;
@@ -399,11 +387,11 @@ int reduce_manifold(const V3* p, const double* depth, int n, const V3& normal, d
   int i1 = -1;
   double best = eps2;
   for (int i = 0; i < n; ++i) {
-    const double d2 = len2(p[i] - p[i0]);
+    const double d2 = squared_norm(p[i] - p[i0]);
     if (d2 > best) best = d2, i1 = i;
   }
   if (i1 < 0) return keep[0] = i0, 1;
-  const V3 e01 = p[i1] - p[i0];
+  const Vec3d e01 = p[i1] - p[i0];
   int i2 = -1;
   double area = 0.0, best_area = eps2 * 1e-3;  // |cross| is a length squared
   for (int i = 0; i < n; ++i) {
@@ -423,8 +411,8 @@ int reduce_manifold(const V3* p, const double* depth, int n, const V3& normal, d
       if (i == i0 || i == i1 || i == i2) continue;
       double outside = 0.0;
       for (int k = 0; k < 3; ++k) {
-        const V3& a = p[tri[k]];
-        const V3& b = p[tri[(k + 1) % 3]];
+        const Vec3d& a = p[tri[k]];
+        const Vec3d& b = p[tri[(k + 1) % 3]];
         outside = std::max(outside, -sgn * dot(cross(b - a, p[i] - a), normal));
       }
       if (outside > most) most = outside, i3 = i;
@@ -439,18 +427,18 @@ int reduce_manifold(const V3* p, const double* depth, int n, const V3& normal, d
 
 /// Squared distance from an outside point x to the polytope, and the closest point q: the
 /// closest point lies on a face whose plane x is above, so only those faces are searched.
-double closest_on_polytope(const Polytope& P, const V3& x, V3& q) {
+double closest_on_polytope(const Polytope& P, const Vec3d& x, Vec3d& q) {
   double best = kInf;
   for (int f = 0; f < P.nf; ++f) {
-    const V3& n = P.n[f];
+    const Vec3d& n = P.n[f];
     const double h = dot(n, x) - P.d[f];
     if (h <= 0.0 || h * h >= best) continue;
     const int b = P.face_start[f], e = P.face_start[f + 1];
-    const V3 y = x - n * h;  // projection on the face plane
+    const Vec3d y = x - n * h;  // projection on the face plane
     bool inside = true;
     for (int k = b; k < e && inside; ++k) {
-      const V3& v0 = P.v[P.face_vertices[k]];
-      const V3& v1 = P.v[P.face_vertices[k + 1 < e ? k + 1 : b]];
+      const Vec3d& v0 = P.v[P.face_vertices[k]];
+      const Vec3d& v1 = P.v[P.face_vertices[k + 1 < e ? k + 1 : b]];
       if (dot(cross(v1 - v0, n), y - v0) > 0.0) inside = false;
     }
     if (inside) {
@@ -458,8 +446,8 @@ double closest_on_polytope(const Polytope& P, const V3& x, V3& q) {
       continue;
     }
     for (int k = b; k < e; ++k) {
-      const V3 c = closest_on_segment(P.v[P.face_vertices[k]], P.v[P.face_vertices[k + 1 < e ? k + 1 : b]], x);
-      const double d2 = len2(x - c);
+      const Vec3d c = closest_on_segment(P.v[P.face_vertices[k]], P.v[P.face_vertices[k + 1 < e ? k + 1 : b]], x);
+      const double d2 = squared_norm(x - c);
       if (d2 < best) best = d2, q = c;
     }
   }
@@ -467,7 +455,7 @@ double closest_on_polytope(const Polytope& P, const V3& x, V3& q) {
 }
 
 /// Sphere (a) against a polytope (b).
-void sphere_polytope(const V3& c, double r, const Polytope& P, Sink& s) {
+void sphere_polytope(const Vec3d& c, double r, const Polytope& P, Sink& s) {
   int face = 0;
   double height = -kInf;
   for (int f = 0; f < P.nf; ++f) {
@@ -476,27 +464,27 @@ void sphere_polytope(const V3& c, double r, const Polytope& P, Sink& s) {
   }
   if (height >= r + s.margin) return;  // a face plane separates them
   if (height <= 0.0) {                 // centre inside: out through the nearest face plane
-    const V3& n = P.n[face];
+    const Vec3d& n = P.n[face];
     s.add(c - n * ((r + height) * 0.5), -n, r - height);
     return;
   }
-  V3 q;
+  Vec3d q;
   const double dist = std::sqrt(closest_on_polytope(P, c, q));  // >= height > 0
   if (!s.keeps(r - dist)) return;
-  const V3 out = (c - q) * (1.0 / dist);
+  const Vec3d out = (c - q) * (1.0 / dist);
   s.add(((c - out * r) + q) * 0.5, -out, r - dist);
 }
 
 /// Clips the core segment to the prism over face f of P and reports both clipped ends against
 /// the face plane (exact there: the face plane supports P). Returns whether a point was added.
 bool segment_on_face(const Segment& c, const Polytope& P, int f, Sink& s) {
-  const V3& n = P.n[f];
-  const V3 u = c.p1 - c.p0;
+  const Vec3d& n = P.n[f];
+  const Vec3d u = c.p1 - c.p0;
   double t0 = 0.0, t1 = 1.0;
   const int b = P.face_start[f], e = P.face_start[f + 1];
   for (int k = b; k < e; ++k) {
-    const V3& v0 = P.v[P.face_vertices[k]];
-    const V3 side = cross(P.v[P.face_vertices[k + 1 < e ? k + 1 : b]] - v0, n);  // outward
+    const Vec3d& v0 = P.v[P.face_vertices[k]];
+    const Vec3d side = cross(P.v[P.face_vertices[k + 1 < e ? k + 1 : b]] - v0, n);  // outward
     const double f0 = dot(side, c.p0 - v0), fu = dot(side, u);  // side distance f0 + t fu
     if (fu == 0.0) {
       if (f0 > 0.0) return false;
@@ -510,7 +498,7 @@ bool segment_on_face(const Segment& c, const Polytope& P, int f, Sink& s) {
   const int before = s.n;
   for (int k = 0; k < 2; ++k) {
     if (k == 1 && t1 - t0 <= 1e-9) break;
-    const V3 x = c.p0 + u * (k ? t1 : t0);
+    const Vec3d x = c.p0 + u * (k ? t1 : t0);
     const double h = dot(n, x) - P.d[f];
     s.add(x - n * ((h + c.radius) * 0.5), -n, c.radius - h);
   }
@@ -524,7 +512,7 @@ struct FaceQuery {
 struct EdgeQuery {
   double sep = -kInf;
   int ea = -1, eb = -1;
-  V3 axis{0, 0, 0};  // unit, pointing out of the first polytope
+  Vec3d axis{0, 0, 0};  // unit, pointing out of the first polytope
 };
 
 /// Capsule (a) against a polytope (b). The core is tested against the separating axes (face
@@ -532,8 +520,8 @@ struct EdgeQuery {
 /// the core is outside, exact closest points give the contact; if it touches or crosses, the
 /// least-penetration axis does. A core lying along a face gives the two clipped ends.
 void capsule_polytope(const Segment& c, const Polytope& P, Sink& s) {
-  const V3 u = c.p1 - c.p0;
-  if (len2(u) == 0.0) return sphere_polytope(c.p0, c.radius, P, s);
+  const Vec3d u = c.p1 - c.p0;
+  if (squared_norm(u) == 0.0) return sphere_polytope(c.p0, c.radius, P, s);
   const double reach = c.radius + s.margin;
   FaceQuery fq;
   for (int f = 0; f < P.nf; ++f) {
@@ -545,11 +533,11 @@ void capsule_polytope(const Segment& c, const Polytope& P, Sink& s) {
   for (int e = 0; e < P.ne; ++e) {
     const double a0 = dot(P.n[P.edge_faces[e][0]], u), a1 = dot(P.n[P.edge_faces[e][1]], u);
     if (!(a0 * a1 < 0.0)) continue;
-    const V3& q0 = P.v[P.edges[2 * e]];
-    const V3 ev = P.v[P.edges[2 * e + 1]] - q0;
-    V3 axis = cross(ev, u);
-    const double l2 = len2(axis);
-    if (l2 <= kEdgeParallelSin2 * len2(ev) * len2(u)) continue;
+    const Vec3d& q0 = P.v[P.edges[2 * e]];
+    const Vec3d ev = P.v[P.edges[2 * e + 1]] - q0;
+    Vec3d axis = cross(ev, u);
+    const double l2 = squared_norm(axis);
+    if (l2 <= kEdgeParallelSin2 * squared_norm(ev) * squared_norm(u)) continue;
     axis = axis * (1.0 / std::sqrt(l2));
     if (dot(axis, q0 - P.centre) < 0.0) axis = -axis;
     const double sep = std::min(dot(axis, c.p0), dot(axis, c.p1)) - dot(axis, q0);
@@ -559,19 +547,19 @@ void capsule_polytope(const Segment& c, const Polytope& P, Sink& s) {
 
   if (std::max(fq.sep, eq.sep) > 0.0) {
     // Core outside: closest points are at an end of the core or between it and an edge.
-    V3 pc = c.p0, qc;
+    Vec3d pc = c.p0, qc;
     double best = closest_on_polytope(P, c.p0, qc);
-    V3 q1;
+    Vec3d q1;
     const double d1 = closest_on_polytope(P, c.p1, q1);
     if (d1 < best) best = d1, pc = c.p1, qc = q1;
     for (int e = 0; e < P.ne; ++e) {
       const SegmentPair sp = closest_segments(c.p0, c.p1, P.v[P.edges[2 * e]], P.v[P.edges[2 * e + 1]]);
-      const double d2 = len2(sp.pb - sp.pa);
+      const double d2 = squared_norm(sp.pb - sp.pa);
       if (d2 < best) best = d2, pc = sp.pa, qc = sp.pb;
     }
     if (best >= reach * reach) return;
     const double dist = std::sqrt(best);  // >= the positive separation
-    const V3 out = (pc - qc) * (1.0 / dist);
+    const Vec3d out = (pc - qc) * (1.0 / dist);
     int face = 0;
     for (int f = 1; f < P.nf; ++f)
       if (dot(P.n[f], out) > dot(P.n[face], out)) face = f;
@@ -580,15 +568,15 @@ void capsule_polytope(const Segment& c, const Polytope& P, Sink& s) {
     return;
   }
   // Core touching or crossing: the least-penetration axis, faces preferred.
-  const double tol = kBiasAbs * std::min(P.size, c.radius + 0.5 * std::sqrt(len2(u)));
+  const double tol = kBiasAbs * std::min(P.size, c.radius + 0.5 * norm(u));
   if (eq.ea >= 0 && eq.sep > fq.sep + kEdgeRel * std::fabs(fq.sep) + tol) {
     const SegmentPair sp = closest_segments(c.p0, c.p1, P.v[P.edges[2 * eq.ea]], P.v[P.edges[2 * eq.ea + 1]]);
     s.add(((sp.pa - eq.axis * c.radius) + sp.pb) * 0.5, -eq.axis, c.radius - eq.sep);
     return;
   }
   if (segment_on_face(c, P, fq.face, s)) return;
-  const V3& n = P.n[fq.face];
-  const V3 x = dot(n, c.p0) <= dot(n, c.p1) ? c.p0 : c.p1;  // the deeper end
+  const Vec3d& n = P.n[fq.face];
+  const Vec3d x = dot(n, c.p0) <= dot(n, c.p1) ? c.p0 : c.p1;  // the deeper end
   const double h = dot(n, x) - P.d[fq.face];
   s.add(x - n * ((h + c.radius) * 0.5), -n, c.radius - h);
 }
@@ -598,7 +586,7 @@ void capsule_polytope(const Segment& c, const Polytope& P, Sink& s) {
 /// The vertices within the margin of the plane, reduced to the four spanning the largest
 /// area: a box lying flat gives its four bottom corners, a hull on a face that face's corners.
 void polytope_plane(const Polytope& P, const Plane& pl, Sink& s) {
-  V3 pts[kMaxHullVertices];
+  Vec3d pts[kMaxHullVertices];
   double depth[kMaxHullVertices];
   int m = 0;
   for (int i = 0; i < P.nv; ++i) {
@@ -615,7 +603,7 @@ void polytope_plane(const Polytope& P, const Plane& pl, Sink& s) {
 
 /// min over P of n.x: a box's from its axes, a hull's from its vertices (two running minima,
 /// so the comparisons do not wait on each other).
-double lowest_along(const Polytope& P, const V3& n) {
+double lowest_along(const Polytope& P, const Vec3d& n) {
   if (P.is_box)
     return dot(n, P.centre) - (P.half[0] * std::fabs(dot(n, P.axis[0])) + P.half[1] * std::fabs(dot(n, P.axis[1])) +
                                P.half[2] * std::fabs(dot(n, P.axis[2])));
@@ -647,13 +635,13 @@ FaceQuery query_faces(const Polytope& A, const Polytope& B, double cutoff) {
 EdgeQuery query_edges_boxes(const Polytope& A, const Polytope& B, double cutoff) {
   // Edge index of the class along axis k (kBoxEdges) for the vertex bits of the other two.
   constexpr int kClassStart[3] = {0, 4, 8};
-  const V3 t = B.centre - A.centre;
+  const Vec3d t = B.centre - A.centre;
   EdgeQuery q;
   for (int ka = 0; ka < 3; ++ka)
     for (int kb = 0; kb < 3; ++kb) {
-      V3 axis = cross(A.axis[ka], B.axis[kb]);  // not normalised until the end: the square
-      const double l2 = len2(axis);              // root runs beside the dot products
-      if (l2 <= kEdgeParallelSin2) continue;     // unit axes
+      Vec3d axis = cross(A.axis[ka], B.axis[kb]);  // not normalised until the end: the square
+      const double l2 = squared_norm(axis);        // root runs beside the dot products
+      if (l2 <= kEdgeParallelSin2) continue;       // unit axes
       const double inv = 1.0 / std::sqrt(l2);
       const double at = dot(axis, t);
       if (at < 0.0) axis = -axis;
@@ -676,13 +664,13 @@ EdgeQuery query_edges_boxes(const Polytope& A, const Polytope& B, double cutoff)
 }
 
 /// The largest w.r over unit w on the shorter great arc from n0 to n1 (an edge's normals).
-double arc_max(const V3& n0, const V3& n1, const V3& r) {
+double arc_max(const Vec3d& n0, const Vec3d& n1, const Vec3d& r) {
   double best = std::max(dot(n0, r), dot(n1, r));
-  const V3 e = cross(n0, n1);
-  const double ee = len2(e);
+  const Vec3d e = cross(n0, n1);
+  const double ee = squared_norm(e);
   if (ee > 0.0) {
-    const V3 rp = r - e * (dot(e, r) / ee);  // r in the arc's plane: the best direction if inside
-    if (dot(cross(n0, rp), e) > 0.0 && dot(cross(rp, n1), e) > 0.0) best = std::max(best, std::sqrt(len2(rp)));
+    const Vec3d rp = r - e * (dot(e, r) / ee);  // r in the arc's plane: the best direction if inside
+    if (dot(cross(n0, rp), e) > 0.0 && dot(cross(rp, n1), e) > 0.0) best = std::max(best, norm(rp));
   }
   return best;
 }
@@ -704,7 +692,7 @@ EdgeQuery query_edges(const Polytope& A, const Polytope& B, double cutoff, doubl
   }
   // Each edge's arc plane, n1 x n0 of its faces (b x a for A; for B, d x c with c, d negated
   // is the same expression).
-  V3 arc_b[kMaxHullEdges];
+  Vec3d arc_b[kMaxHullEdges];
   for (int k = 0; k < nb; ++k) {
     const int j = active_b[k];
     arc_b[j] = cross(B.n[B.edge_faces[j][1]], B.n[B.edge_faces[j][0]]);
@@ -714,13 +702,13 @@ EdgeQuery query_edges(const Polytope& A, const Polytope& B, double cutoff, doubl
   // The best so far as s / sqrt(l2) (unnormalised axis): compared without square roots.
   double best_s = -1.0, best_l2 = 0.0;
   int best_i = -1, best_j = -1;
-  V3 best_axis{0, 0, 0};
+  Vec3d best_axis{0, 0, 0};
   for (int i = 0; i < A.ne; ++i) {
-    const V3& a = A.n[A.edge_faces[i][0]];
-    const V3& b = A.n[A.edge_faces[i][1]];
-    const V3& pa = A.v[A.edges[2 * i]];
+    const Vec3d& a = A.n[A.edge_faces[i][0]];
+    const Vec3d& b = A.n[A.edge_faces[i][1]];
+    const Vec3d& pa = A.v[A.edges[2 * i]];
     if (arc_max(a, b, B.centre - pa) < floor) continue;
-    const V3 b_x_a = cross(b, a);
+    const Vec3d b_x_a = cross(b, a);
     for (int f = 0; f < B.nf; ++f) side[f] = dot(B.n[f], b_x_a);
     // c and d (B's normals negated) on opposite sides of a-b's plane: gathered without
     // branches, as the outcome is a coin toss the branch predictor would keep losing.
@@ -730,19 +718,19 @@ EdgeQuery query_edges(const Polytope& A, const Polytope& B, double cutoff, doubl
       crossing[m] = int16_t(j);
       m += side[B.edge_faces[j][0]] * side[B.edge_faces[j][1]] < 0.0;
     }
-    const V3 ea = A.v[A.edges[2 * i + 1]] - pa;
-    const double la2 = len2(ea);
+    const Vec3d ea = A.v[A.edges[2 * i + 1]] - pa;
+    const double la2 = squared_norm(ea);
     for (int k = 0; k < m; ++k) {
       const int j = crossing[k];
       // ...a and b on opposite sides of c-d's, and the crossing on the near hemisphere.
       const double cba = -side[B.edge_faces[j][0]];
       const double adc = dot(a, arc_b[j]), bdc = dot(b, arc_b[j]);
       if (!(adc * bdc < 0.0 && cba * bdc > 0.0)) continue;
-      const V3& pb = B.v[B.edges[2 * j]];
-      const V3 eb = B.v[B.edges[2 * j + 1]] - pb;
-      const V3 axis = cross(ea, eb);
-      const double l2 = len2(axis);
-      if (l2 <= kEdgeParallelSin2 * la2 * len2(eb)) continue;
+      const Vec3d& pb = B.v[B.edges[2 * j]];
+      const Vec3d eb = B.v[B.edges[2 * j + 1]] - pb;
+      const Vec3d axis = cross(ea, eb);
+      const double l2 = squared_norm(axis);
+      if (l2 <= kEdgeParallelSin2 * la2 * squared_norm(eb)) continue;
       // Separation along the axis turned out of A: s / sqrt(l2).
       double s = dot(axis, pb - pa);
       if (dot(axis, pa - A.centre) < 0.0) s = -s;
@@ -757,19 +745,19 @@ EdgeQuery query_edges(const Polytope& A, const Polytope& B, double cutoff, doubl
   EdgeQuery q;
   if (best_i < 0) return q;
   const double inv = 1.0 / std::sqrt(best_l2);
-  const V3& pa = A.v[A.edges[2 * best_i]];
+  const Vec3d& pa = A.v[A.edges[2 * best_i]];
   q.ea = best_i, q.eb = best_j, q.sep = best_s * inv;
   q.axis = best_axis * (dot(best_axis, pa - A.centre) < 0.0 ? -inv : inv);
   return q;
 }
 
 /// Clips the polygon in[0..n) to the half-space side.x <= offset (Sutherland-Hodgman).
-int clip_polygon(const V3* in, int n, const V3& side, double offset, V3* out) {
+int clip_polygon(const Vec3d* in, int n, const Vec3d& side, double offset, Vec3d* out) {
   int m = 0;
-  V3 prev = in[n - 1];
+  Vec3d prev = in[n - 1];
   double dp = dot(side, prev) - offset;
   for (int i = 0; i < n; ++i) {
-    const V3& cur = in[i];
+    const Vec3d& cur = in[i];
     const double dc = dot(side, cur) - offset;
     if (dp <= 0.0) {
       out[m++] = dc <= 0.0 ? cur : prev + (cur - prev) * (dp / (dp - dc));
@@ -787,9 +775,9 @@ constexpr int kClipCapacity = 2 * kMaxHullVertices;  // incident loop + one per 
 /// A face contact before it is reported: points on I's surface and their depths under the
 /// reference plane (normal n, out of R).
 struct FaceManifold {
-  V3 n;
+  Vec3d n;
   int count = 0;
-  V3 point[kMaxManifoldPoints];
+  Vec3d point[kMaxManifoldPoints];
   double depth[kMaxManifoldPoints];
   double deepest = -kInf;
 };
@@ -799,7 +787,7 @@ struct FaceManifold {
 /// the points below the reference plane (or within the margin above it), reduced to four.
 /// False if no point qualifies.
 bool face_contact(const Polytope& R, int rf, const Polytope& I, double margin, FaceManifold& fm) {
-  const V3 n = R.n[rf];
+  const Vec3d n = R.n[rf];
   const double d = R.d[rf];
   fm.n = n;
   // (The most anti-parallel face overall can miss the deepest vertex, and with it the contact.)
@@ -813,14 +801,14 @@ bool face_contact(const Polytope& R, int rf, const Polytope& I, double margin, F
   const int b = R.face_start[rf], e = R.face_start[rf + 1];
   // (A loop longer than the vertex count, or a vertex on no face: not a hull.)
   if (inc < 0 || I.face_start[inc + 1] - I.face_start[inc] > kMaxHullVertices || e - b > kMaxHullVertices) return false;
-  V3 buf0[kClipCapacity], buf1[kClipCapacity];
-  V3* poly = buf0;
-  V3* next = buf1;
+  Vec3d buf0[kClipCapacity], buf1[kClipCapacity];
+  Vec3d* poly = buf0;
+  Vec3d* next = buf1;
   int m = 0;
   for (int k = I.face_start[inc]; k < I.face_start[inc + 1]; ++k) poly[m++] = I.v[I.face_vertices[k]];
   for (int k = b; k < e && m > 0; ++k) {
-    const V3& v0 = R.v[R.face_vertices[k]];
-    const V3 side = cross(R.v[R.face_vertices[k + 1 < e ? k + 1 : b]] - v0, n);  // outward
+    const Vec3d& v0 = R.v[R.face_vertices[k]];
+    const Vec3d side = cross(R.v[R.face_vertices[k + 1 < e ? k + 1 : b]] - v0, n);  // outward
     m = clip_polygon(poly, m, side, dot(side, v0), next);
     std::swap(poly, next);
   }
@@ -831,10 +819,10 @@ bool face_contact(const Polytope& R, int rf, const Polytope& I, double margin, F
   int k = 0;
   for (int i = 0; i < m; ++i) {
     const double pen = d - dot(n, poly[i]);
-    if (!(pen > -margin) || (k > 0 && len2(poly[i] - poly[k - 1]) <= eps2)) continue;
+    if (!(pen > -margin) || (k > 0 && squared_norm(poly[i] - poly[k - 1]) <= eps2)) continue;
     poly[k] = poly[i], depth[k] = pen, ++k;
   }
-  if (k > 1 && len2(poly[k - 1] - poly[0]) <= eps2) --k;
+  if (k > 1 && squared_norm(poly[k - 1] - poly[0]) <= eps2) --k;
   int keep[4];
   fm.count = reduce_manifold(poly, depth, k, n, eps2, keep);
   for (int i = 0; i < fm.count; ++i) {
@@ -875,7 +863,7 @@ void polytope_polytope(const Polytope& A, const Polytope& B, Sink& s) {
   // contact is at the edges.
   if (ee.ea >= 0 && ee.sep >= face_sep - tol && (!found || fm.deepest < -ee.sep - tol))
     return edge_contact(A, B, ee, s);
-  const V3 normal = ref_b ? -fm.n : fm.n;
+  const Vec3d normal = ref_b ? -fm.n : fm.n;
   if (found) {
     for (int i = 0; i < fm.count; ++i) s.add(fm.point[i] + fm.n * (fm.depth[i] * 0.5), normal, fm.depth[i]);
     return;
@@ -893,11 +881,11 @@ void polytope_polytope(const Polytope& A, const Polytope& B, Sink& s) {
 // One function per family keeps each polytope's stack scratch in its own frame.
 
 void sphere_vs(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, Sink& s) {
-  const V3 c = load3(pa.position);
+  const Vec3d c = Vec3d::load(pa.position);
   const double r = double(a.radius) * pa.scale;
   switch (b.type) {
     case ShapeType::sphere:
-      return sphere_sphere(c, r, load3(pb.position), double(b.radius) * pb.scale, {0, 0, 1}, s);
+      return sphere_sphere(c, r, Vec3d::load(pb.position), double(b.radius) * pb.scale, {0, 0, 1}, s);
     case ShapeType::capsule: {
       const Segment cb = capsule_of(b, frame_of(pb));
       return sphere_sphere(c, r, closest_on_segment(cb.p0, cb.p1, c), cb.radius,
@@ -1020,28 +1008,28 @@ bool hull_supported(const HullView& h) {
       if ((h.edges[2 * e] == h.edges[2 * k] && h.edges[2 * e + 1] == h.edges[2 * k + 1]) ||
           (h.edges[2 * e] == h.edges[2 * k + 1] && h.edges[2 * e + 1] == h.edges[2 * k]))
         return false;
-  V3 lo = load3(h.vertices), hi = lo;
+  Vec3d lo = Vec3d::load(h.vertices), hi = lo;
   for (int i = 1; i < h.num_vertices; ++i) {
-    const V3 v = load3(h.vertices + 3 * i);
-    lo = {std::min(lo.x, v.x), std::min(lo.y, v.y), std::min(lo.z, v.z)};
-    hi = {std::max(hi.x, v.x), std::max(hi.y, v.y), std::max(hi.z, v.z)};
+    const Vec3d v = Vec3d::load(h.vertices + 3 * i);
+    lo = min(lo, v);
+    hi = max(hi, v);
   }
-  const double tol = 1e-4 * std::sqrt(len2(hi - lo));
+  const double tol = 1e-4 * norm(hi - lo);
   if (!(tol > 0.0)) return false;
   for (int f = 0; f < h.num_faces; ++f) {
-    const V3 n = load3(h.planes + 4 * f);
+    const Vec3d n = Vec3d::load(h.planes + 4 * f);
     const double d = h.planes[4 * f + 3];
-    if (!(std::fabs(len2(n) - 1.0) <= 1e-3)) return false;
+    if (!(std::fabs(squared_norm(n) - 1.0) <= 1e-3)) return false;
     for (int i = 0; i < h.num_vertices; ++i)
-      if (!(dot(n, load3(h.vertices + 3 * i)) <= d + tol)) return false;
+      if (!(dot(n, Vec3d::load(h.vertices + 3 * i)) <= d + tol)) return false;
     for (int k = h.face_start[f]; k < h.face_start[f + 1]; ++k)
-      if (!(std::fabs(dot(n, load3(h.vertices + 3 * h.face_vertices[k])) - d) <= tol)) return false;
+      if (!(std::fabs(dot(n, Vec3d::load(h.vertices + 3 * h.face_vertices[k])) - d) <= tol)) return false;
     // Counter-clockwise seen from outside: the loop's area vector points along the normal.
-    V3 area{0, 0, 0};
+    Vec3d area{0, 0, 0};
     const int b = h.face_start[f], e = h.face_start[f + 1];
     for (int k = b; k < e; ++k)
-      area = area + cross(load3(h.vertices + 3 * h.face_vertices[k]),
-                          load3(h.vertices + 3 * h.face_vertices[k + 1 < e ? k + 1 : b]));
+      area = area + cross(Vec3d::load(h.vertices + 3 * h.face_vertices[k]),
+                          Vec3d::load(h.vertices + 3 * h.face_vertices[k + 1 < e ? k + 1 : b]));
     if (!(dot(area, n) > 0.0)) return false;
   }
   return true;

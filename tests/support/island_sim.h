@@ -14,7 +14,7 @@
 #include "cellphys/gen/layouts.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/kernel.h"
-#include "runtime/spu/rigid_motion.h"
+#include "runtime/base/quat.h"
 
 namespace cellphys::test_support {
 
@@ -127,37 +127,28 @@ struct Sim {
 
 // ---- closed-form quantities, in double from the float state ----
 
-inline spu::Vec3d vec(const float* p) { return {p[0], p[1], p[2]}; }
-inline double dot(const spu::Vec3d& a, const spu::Vec3d& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline double norm(const spu::Vec3d& a) { return std::sqrt(dot(a, a)); }
-inline spu::Vec3d sub(const spu::Vec3d& a, const spu::Vec3d& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-
-inline spu::Quat quat_of(const Rigid_Body_Fields& b) {
-  return {b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
-}
-
 /// World angular momentum L = R I_body R^T omega.
-inline spu::Vec3d angular_momentum(const Rigid_Body_Fields& b) {
-  const spu::Mat3d R = spu::quat_to_matrix(spu::quat_normalized(quat_of(b)));
-  return spu::mul(spu::rotate_sym(R, b.inertia_body), vec(b.angular_velocity));
+inline Vec3d angular_momentum(const Rigid_Body_Fields& b) {
+  const Mat3d R = quat_to_matrix(quat_normalized(Quatd::load(b.orientation)));
+  return mul(rotate_sym(R, b.inertia_body), Vec3d::load(b.angular_velocity));
 }
 
 /// Rotational kinetic energy 1/2 omega . L.
 inline double rotational_energy(const Rigid_Body_Fields& b) {
-  return 0.5 * dot(vec(b.angular_velocity), angular_momentum(b));
+  return 0.5 * dot(Vec3d::load(b.angular_velocity), angular_momentum(b));
 }
 
 /// Translational kinetic energy.
 inline double linear_energy(const Rigid_Body_Fields& b) {
-  const spu::Vec3d v = vec(b.velocity);
+  const Vec3d v = Vec3d::load(b.velocity);
   return 0.5 * double(b.mass) * dot(v, v);
 }
 
 /// World position of a body-frame point.
-inline spu::Vec3d world_point(const Rigid_Body_Fields& b, const float* local) {
-  const spu::Mat3d R = spu::quat_to_matrix(spu::quat_normalized(quat_of(b)));
-  const spu::Vec3d r = spu::mul(R, vec(local));
-  return {b.position[0] + r.x, b.position[1] + r.y, b.position[2] + r.z};
+inline Vec3d world_point(const Rigid_Body_Fields& b, const float* local) {
+  const Mat3d R = quat_to_matrix(quat_normalized(Quatd::load(b.orientation)));
+  const Vec3d r = mul(R, Vec3d::load(local));
+  return Vec3d::load(b.position) + r;
 }
 
 inline bool finite_body(const Rigid_Body_Fields& b) {

@@ -48,18 +48,18 @@ class BulletPeer : public Peer {
       tr.setOrigin(btVector3(b.position[0], b.position[1], b.position[2]));
       tr.setRotation(btQuaternion(b.orientation[1], b.orientation[2], b.orientation[3], b.orientation[0]));
       switch (s.type) {
-        case scene::ShapeType::sphere: shape = std::make_unique<btSphereShape>(s.radius * sc); break;
-        case scene::ShapeType::box: {
+        case spu::ShapeType::sphere: shape = std::make_unique<btSphereShape>(s.radius * sc); break;
+        case spu::ShapeType::box: {
           const btVector3 h(s.half_extents[0] * sc, s.half_extents[1] * sc, s.half_extents[2] * sc);
           auto box = std::make_unique<btBoxShape>(h);
           box->setMargin(std::min<btScalar>(0.04f, 0.2f * h[h.minAxis()]));
           shape = std::move(box);
           break;
         }
-        case scene::ShapeType::capsule:
+        case spu::ShapeType::capsule:
           shape = std::make_unique<btCapsuleShapeZ>(s.radius * sc, 2 * s.half_height * sc);
           break;
-        case scene::ShapeType::hull: {
+        case spu::ShapeType::hull: {
           auto hull = std::make_unique<btConvexHullShape>();
           for (size_t k = 0; k + 2 < bi.hull_vertices.size(); k += 3)
             hull->addPoint(btVector3(bi.hull_vertices[k], bi.hull_vertices[k + 1], bi.hull_vertices[k + 2]), false);
@@ -68,12 +68,12 @@ class BulletPeer : public Peer {
           shape = std::move(hull);
           break;
         }
-        case scene::ShapeType::plane:
+        case spu::ShapeType::plane:
           shape = std::make_unique<btStaticPlaneShape>(btVector3(s.normal[0], s.normal[1], s.normal[2]), s.offset);
           tr.setIdentity();  // the plane is in world coordinates
           break;
       }
-      const bool dynamic = !b.is_static && s.type != scene::ShapeType::plane;
+      const bool dynamic = !b.is_static && s.type != spu::ShapeType::plane;
       const btScalar mass = dynamic ? btScalar(bi.mass) : 0;
       const btVector3 inertia = dynamic ? btVector3(bi.inertia[0], bi.inertia[1], bi.inertia[2]) : btVector3(0, 0, 0);
       motion_.push_back(std::make_unique<btDefaultMotionState>(tr));

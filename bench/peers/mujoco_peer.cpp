@@ -101,22 +101,22 @@ class MujocoPeer : public Peer {
       geom.precision(9);
       geom << "<geom name=\"g" << i << "\"";
       switch (s.type) {
-        case scene::ShapeType::sphere: geom << " type=\"sphere\" size=\"" << s.radius * sc << "\""; break;
-        case scene::ShapeType::box:
+        case spu::ShapeType::sphere: geom << " type=\"sphere\" size=\"" << s.radius * sc << "\""; break;
+        case spu::ShapeType::box:
           geom << " type=\"box\" size=\"" << s.half_extents[0] * sc << " " << s.half_extents[1] * sc << " "
                << s.half_extents[2] * sc << "\"";
           break;
-        case scene::ShapeType::capsule:
+        case spu::ShapeType::capsule:
           geom << " type=\"capsule\" size=\"" << s.radius * sc << " " << s.half_height * sc << "\"";
           break;
-        case scene::ShapeType::hull: {
+        case spu::ShapeType::hull: {
           assets << "<mesh name=\"m" << i << "\" vertex=\"";
           for (double p : bi.hull_vertices) assets << p << " ";
           assets << "\"/>\n";
           geom << " type=\"mesh\" mesh=\"m" << i << "\"";
           break;
         }
-        case scene::ShapeType::plane: {
+        case spu::ShapeType::plane: {
           double q[4];
           z_to(s.normal, q);
           const double len = std::sqrt(double(s.normal[0]) * s.normal[0] + double(s.normal[1]) * s.normal[1] +
@@ -132,8 +132,8 @@ class MujocoPeer : public Peer {
       const std::string pose = " pos=\"" + num(b.position[0]) + " " + num(b.position[1]) + " " + num(b.position[2]) +
                                "\" quat=\"" + num(b.orientation[0]) + " " + num(b.orientation[1]) + " " +
                                num(b.orientation[2]) + " " + num(b.orientation[3]) + "\"";
-      if (b.is_static || s.type == scene::ShapeType::plane) {
-        if (s.type == scene::ShapeType::plane)
+      if (b.is_static || s.type == spu::ShapeType::plane) {
+        if (s.type == spu::ShapeType::plane)
           world << geom.str() << "/>\n";
         else
           world << geom.str() << pose << "/>\n";

@@ -63,12 +63,12 @@ class OdePeer : public Peer {
       friction_[i] = b.friction;
       dGeomID geom = nullptr;
       switch (s.type) {
-        case scene::ShapeType::sphere: geom = dCreateSphere(space_, s.radius * sc); break;
-        case scene::ShapeType::box:
+        case spu::ShapeType::sphere: geom = dCreateSphere(space_, s.radius * sc); break;
+        case spu::ShapeType::box:
           geom = dCreateBox(space_, 2 * s.half_extents[0] * sc, 2 * s.half_extents[1] * sc, 2 * s.half_extents[2] * sc);
           break;
-        case scene::ShapeType::capsule: geom = dCreateCapsule(space_, s.radius * sc, 2 * s.half_height * sc); break;
-        case scene::ShapeType::hull: {
+        case spu::ShapeType::capsule: geom = dCreateCapsule(space_, s.radius * sc, 2 * s.half_height * sc); break;
+        case spu::ShapeType::hull: {
           hull_points_.push_back(std::make_unique<std::vector<dReal>>(bi.hull_vertices.begin(), bi.hull_vertices.end()));
           hull_planes_.push_back(std::make_unique<std::vector<dReal>>(bi.hull_planes.begin(), bi.hull_planes.end()));
           hull_faces_.push_back(std::make_unique<std::vector<unsigned>>(bi.hull_faces.begin(), bi.hull_faces.end()));
@@ -77,12 +77,12 @@ class OdePeer : public Peer {
                                hull_faces_.back()->data());
           break;
         }
-        case scene::ShapeType::plane: geom = dCreatePlane(space_, s.normal[0], s.normal[1], s.normal[2], s.offset); break;
+        case spu::ShapeType::plane: geom = dCreatePlane(space_, s.normal[0], s.normal[1], s.normal[2], s.offset); break;
       }
       geoms_[i] = geom;
       dGeomSetData(geom, reinterpret_cast<void*>(i));
       const dQuaternion q = {b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
-      if (s.type == scene::ShapeType::plane) continue;
+      if (s.type == spu::ShapeType::plane) continue;
       if (b.is_static) {
         dGeomSetPosition(geom, b.position[0], b.position[1], b.position[2]);
         dGeomSetQuaternion(geom, q);

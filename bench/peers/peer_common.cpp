@@ -54,7 +54,7 @@ std::vector<BodyInfo> body_info(const scene::SceneDesc& scene) {
       const float* I = w.inertia_body(built.bodies[i]);
       for (int k = 0; k < 6; ++k) o.inertia[k] = I[k];
     }
-    if (spec.type == scene::ShapeType::hull) {
+    if (spec.type == spu::ShapeType::hull) {
       // The dictionary holds shapes in file order (build_world adds them so, to a fresh world).
       const spu::ShapeView& v = w.shapes().view(static_cast<uint32_t>(o.shape));
       if (v.type != spu::ShapeType::hull) throw std::logic_error("shape order mismatch");

@@ -136,7 +136,7 @@ std::vector<size_t> dynamic_bodies(const scene::SceneDesc& s) {
   for (size_t i = 0; i < s.bodies.size(); ++i) {
     bool plane = false;
     for (const auto& sh : s.shapes)
-      if (sh.name == s.bodies[i].shape) plane = sh.type == scene::ShapeType::plane;
+      if (sh.name == s.bodies[i].shape) plane = sh.type == spu::ShapeType::plane;
     if (!s.bodies[i].is_static && !plane) out.push_back(i);
   }
   return out;
@@ -337,7 +337,7 @@ struct Checker {
     }
     for (const auto& b : sc.bodies) {
       for (const auto& sh : sc.shapes) {
-        if (sh.name != b.shape || sh.type != scene::ShapeType::plane) continue;
+        if (sh.name != b.shape || sh.type != spu::ShapeType::plane) continue;
         for (size_t i : dyn)
           if (sh.normal[0] * s[i].p[0] + sh.normal[1] * s[i].p[1] + sh.normal[2] * s[i].p[2] < sh.offset)
             return "tunnelling";

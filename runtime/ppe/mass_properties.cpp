@@ -17,19 +17,8 @@ std::string num(double v) {
   return buf;
 }
 
-const char* kind(spu::ShapeType t) {
-  switch (t) {
-    case spu::ShapeType::sphere: return "sphere";
-    case spu::ShapeType::capsule: return "capsule";
-    case spu::ShapeType::box: return "box";
-    case spu::ShapeType::hull: return "hull";
-    case spu::ShapeType::plane: return "plane";
-  }
-  return "shape";
-}
-
 [[noreturn]] void fail(spu::ShapeType t, const std::string& what) {
-  throw ShapeError(std::string(kind(t)) + " mass properties: " + what);
+  throw ShapeError(std::string(spu::shape_type_name(t)) + " mass properties: " + what);
 }
 
 void require_positive(spu::ShapeType t, const char* what, double v) {

@@ -31,17 +31,6 @@ std::string num(double v) {
   return buf;
 }
 
-const char* kind(spu::ShapeType t) {
-  switch (t) {
-    case spu::ShapeType::sphere: return "sphere";
-    case spu::ShapeType::capsule: return "capsule";
-    case spu::ShapeType::box: return "box";
-    case spu::ShapeType::hull: return "hull";
-    case spu::ShapeType::plane: return "plane";
-  }
-  return "shape";
-}
-
 void require_positive(const char* shape, const char* what, float v) {
   if (!(v > 0.0f) || !std::isfinite(v))
     throw ShapeError(std::string(shape) + ": " + what + " must be positive and finite, got " + num(v));
@@ -92,7 +81,7 @@ ShapeDictionary& ShapeDictionary::operator=(ShapeDictionary&&) noexcept = defaul
 
 uint32_t ShapeDictionary::push(std::unique_ptr<Entry> e) {
   if (entries_.size() >= std::numeric_limits<uint32_t>::max())
-    throw ShapeError(std::string(kind(e->view.type)) + ": the shape dictionary is full");
+    throw ShapeError(std::string(spu::shape_type_name(e->view.type)) + ": the shape dictionary is full");
   const size_t b = e->bytes;
   entries_.push_back(std::move(e));
   bytes_ += b;
@@ -193,7 +182,7 @@ size_t ShapeDictionary::bytes(uint32_t index) const { return entry(index).bytes;
 const HullInfo& ShapeDictionary::hull_info(uint32_t index) const {
   const Entry& e = entry(index);
   if (e.view.type != spu::ShapeType::hull)
-    throw ShapeError("shape " + std::to_string(index) + " is a " + kind(e.view.type) + ", not a hull");
+    throw ShapeError("shape " + std::to_string(index) + " is a " + spu::shape_type_name(e.view.type) + ", not a hull");
   return e.info;
 }
 
@@ -201,7 +190,7 @@ void ShapeDictionary::local_aabb(uint32_t index, float scale, float min[3], floa
   const Entry& e = entry(index);
   const spu::ShapeView& v = e.view;
   if (v.type == spu::ShapeType::plane) return plane_box(v, min, max);
-  require_positive(kind(v.type), "scale", scale);
+  require_positive(spu::shape_type_name(v.type), "scale", scale);
   const double s = scale;
   double lo[3], hi[3];
   for (int k = 0; k < 3; ++k) {
@@ -222,7 +211,7 @@ void ShapeDictionary::world_aabb(uint32_t index, const spu::Pose& pose, float mi
   const Entry& e = entry(index);
   const spu::ShapeView& v = e.view;
   if (v.type == spu::ShapeType::plane) return plane_box(v, min, max);
-  require_positive(kind(v.type), "pose scale", pose.scale);
+  require_positive(spu::shape_type_name(v.type), "pose scale", pose.scale);
   const Mat3d R = rotation(pose.orientation);
   const double s = pose.scale;
   double lo[3], hi[3];

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "runtime/ppe/world.h"
+#include "runtime/spu/shape.h"
 
 namespace cellphys::scene {
 
@@ -26,12 +27,9 @@ class SceneError : public std::runtime_error {
   std::string file_, path_, reason_;
 };
 
-enum class ShapeType { sphere, box, capsule, hull, plane };
-const char* shape_type_name(ShapeType t);
-
 struct ShapeSpec {
   std::string name;
-  ShapeType type = ShapeType::sphere;
+  spu::ShapeType type = spu::ShapeType::sphere;  // by spu::shape_type_name in the file
   float radius = 0.0f;                // sphere, capsule
   float half_extents[3] = {};         // box
   float half_height = 0.0f;           // capsule: core segment -half_height..+half_height on z

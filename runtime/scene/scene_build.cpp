@@ -27,14 +27,14 @@ BuiltScene build_world(const SceneDesc& scene) {
     uint32_t index = 0;
     try {
       switch (s.type) {
-        case ShapeType::sphere: index = w.shapes().add_sphere(s.radius); break;
-        case ShapeType::box: index = w.shapes().add_box(s.half_extents); break;
-        case ShapeType::capsule: index = w.shapes().add_capsule(s.radius, s.half_height); break;
-        case ShapeType::hull:
+        case spu::ShapeType::sphere: index = w.shapes().add_sphere(s.radius); break;
+        case spu::ShapeType::box: index = w.shapes().add_box(s.half_extents); break;
+        case spu::ShapeType::capsule: index = w.shapes().add_capsule(s.radius, s.half_height); break;
+        case spu::ShapeType::hull:
           if (s.points.size() % 3 != 0) throw ppe::ShapeError("hull: points must be x y z triples");
           index = w.shapes().add_hull(s.points.data(), static_cast<int>(s.points.size() / 3));
           break;
-        case ShapeType::plane: index = w.shapes().add_plane(s.normal, s.offset); break;
+        case spu::ShapeType::plane: index = w.shapes().add_plane(s.normal, s.offset); break;
       }
     } catch (const std::invalid_argument& e) {  // ShapeError
       throw SceneError(file, at("shapes", i), e.what());

@@ -236,38 +236,53 @@ void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
   }
 }
 
+// Shape types by their names in spu::shape_type_name, the one name table.
+bool shape_type_named(const std::string& name, spu::ShapeType* out) {
+  for (uint32_t k = 0; k < spu::kNumShapeTypes; ++k)
+    if (name == spu::shape_type_name(spu::ShapeType(k))) return *out = spu::ShapeType(k), true;
+  return false;
+}
+std::string shape_type_names() {
+  std::string all;
+  for (uint32_t k = 0; k < spu::kNumShapeTypes; ++k)
+    all += (k ? ", " : "") + std::string(spu::shape_type_name(spu::ShapeType(k)));
+  return all;
+}
+
 ShapeSpec read_shape(const Reader& r, const json& j, const std::string& p) {
   r.object(j, p);
   ShapeSpec s;
   s.name = r.name(r.need(j, p, "name", "a shape"), p + ".name");
   const std::string t = r.string(r.need(j, p, "type", "a shape"), p + ".type");
-  if (t == "sphere") {
-    s.type = ShapeType::sphere;
-    r.known_fields(j, p, {"name", "type", "radius"}, "a sphere");
-    s.radius = r.number(r.need(j, p, "radius", "a sphere"), p + ".radius");
-  } else if (t == "box") {
-    s.type = ShapeType::box;
-    r.known_fields(j, p, {"name", "type", "half_extents"}, "a box");
-    r.vec(r.need(j, p, "half_extents", "a box"), p + ".half_extents", s.half_extents, 3);
-  } else if (t == "capsule") {
-    s.type = ShapeType::capsule;
-    r.known_fields(j, p, {"name", "type", "radius", "half_height"}, "a capsule");
-    s.radius = r.number(r.need(j, p, "radius", "a capsule"), p + ".radius");
-    s.half_height = r.number(r.need(j, p, "half_height", "a capsule"), p + ".half_height");
-  } else if (t == "hull") {
-    s.type = ShapeType::hull;
-    r.known_fields(j, p, {"name", "type", "points"}, "a hull");
-    const std::string q = p + ".points";
-    const json& pts = r.array(r.need(j, p, "points", "a hull"), q);
-    s.points.resize(3 * pts.size());
-    for (size_t i = 0; i < pts.size(); ++i) r.vec(pts[i], index_path(q, i), &s.points[3 * i], 3);
-  } else if (t == "plane") {
-    s.type = ShapeType::plane;
-    r.known_fields(j, p, {"name", "type", "normal", "offset"}, "a plane");
-    r.vec(r.need(j, p, "normal", "a plane"), p + ".normal", s.normal, 3);
-    if (const json* v = r.find(j, "offset")) s.offset = r.number(*v, p + ".offset");
-  } else {
-    r.fail(p + ".type", "unknown shape type " + shown(t) + " (known: sphere, box, capsule, hull, plane)");
+  if (!shape_type_named(t, &s.type))
+    r.fail(p + ".type", "unknown shape type " + shown(t) + " (known: " + shape_type_names() + ")");
+  switch (s.type) {
+    case spu::ShapeType::sphere:
+      r.known_fields(j, p, {"name", "type", "radius"}, "a sphere");
+      s.radius = r.number(r.need(j, p, "radius", "a sphere"), p + ".radius");
+      break;
+    case spu::ShapeType::box:
+      r.known_fields(j, p, {"name", "type", "half_extents"}, "a box");
+      r.vec(r.need(j, p, "half_extents", "a box"), p + ".half_extents", s.half_extents, 3);
+      break;
+    case spu::ShapeType::capsule:
+      r.known_fields(j, p, {"name", "type", "radius", "half_height"}, "a capsule");
+      s.radius = r.number(r.need(j, p, "radius", "a capsule"), p + ".radius");
+      s.half_height = r.number(r.need(j, p, "half_height", "a capsule"), p + ".half_height");
+      break;
+    case spu::ShapeType::hull: {
+      r.known_fields(j, p, {"name", "type", "points"}, "a hull");
+      const std::string q = p + ".points";
+      const json& pts = r.array(r.need(j, p, "points", "a hull"), q);
+      s.points.resize(3 * pts.size());
+      for (size_t i = 0; i < pts.size(); ++i) r.vec(pts[i], index_path(q, i), &s.points[3 * i], 3);
+      break;
+    }
+    case spu::ShapeType::plane:
+      r.known_fields(j, p, {"name", "type", "normal", "offset"}, "a plane");
+      r.vec(r.need(j, p, "normal", "a plane"), p + ".normal", s.normal, 3);
+      if (const json* v = r.find(j, "offset")) s.offset = r.number(*v, p + ".offset");
+      break;
   }
   return s;
 }
@@ -471,17 +486,6 @@ SceneError::SceneError(std::string file, std::string path, std::string reason)
       path_(std::move(path)),
       reason_(std::move(reason)) {}
 
-const char* shape_type_name(ShapeType t) {
-  switch (t) {
-    case ShapeType::sphere: return "sphere";
-    case ShapeType::box: return "box";
-    case ShapeType::capsule: return "capsule";
-    case ShapeType::hull: return "hull";
-    case ShapeType::plane: return "plane";
-  }
-  return "?";
-}
-
 bool parse_solver(const std::string& name, spu::Solver* out) {
   if (name == "cgs") *out = spu::Solver::cgs;
   else if (name == "bicgstab") *out = spu::Solver::bicgstab;
@@ -528,7 +532,7 @@ SceneDesc parse_scene(const std::string& text, const std::string& name) {
       const ShapeSpec* shape = nullptr;
       for (const ShapeSpec& s : scene.shapes)
         if (s.name == b.shape) shape = &s;
-      const bool is_static = b.is_static || shape->type == ShapeType::plane;
+      const bool is_static = b.is_static || shape->type == spu::ShapeType::plane;
       if (!is_static && b.mass == 0.0f && b.density == 0.0f) r.fail(p, "a dynamic body needs a mass or a density");
       if (!body_ids.insert(b.id).second) r.fail(p + ".id", "a body with id " + shown(b.id) + " already exists");
       scene.bodies.push_back(std::move(b));
@@ -585,21 +589,21 @@ std::string write_scene(const SceneDesc& scene) {
   for (const ShapeSpec& sh : scene.shapes) {
     ojson o = ojson::object();
     o["name"] = sh.name;
-    o["type"] = shape_type_name(sh.type);
+    o["type"] = spu::shape_type_name(sh.type);
     switch (sh.type) {
-      case ShapeType::sphere: o["radius"] = tidy(sh.radius); break;
-      case ShapeType::box: o["half_extents"] = arr(sh.half_extents, 3); break;
-      case ShapeType::capsule:
+      case spu::ShapeType::sphere: o["radius"] = tidy(sh.radius); break;
+      case spu::ShapeType::box: o["half_extents"] = arr(sh.half_extents, 3); break;
+      case spu::ShapeType::capsule:
         o["radius"] = tidy(sh.radius);
         o["half_height"] = tidy(sh.half_height);
         break;
-      case ShapeType::hull: {
+      case spu::ShapeType::hull: {
         ojson pts = ojson::array();
         for (size_t i = 0; i + 2 < sh.points.size(); i += 3) pts.push_back(arr(&sh.points[i], 3));
         o["points"] = pts;
         break;
       }
-      case ShapeType::plane:
+      case spu::ShapeType::plane:
         o["normal"] = arr(sh.normal, 3);
         o["offset"] = tidy(sh.offset);
         break;
@@ -687,11 +691,11 @@ bool operator==(const ppe::WorldSettings& a, const ppe::WorldSettings& b) {
 bool operator==(const ShapeSpec& a, const ShapeSpec& b) {
   if (a.name != b.name || a.type != b.type) return false;
   switch (a.type) {
-    case ShapeType::sphere: return a.radius == b.radius;
-    case ShapeType::box: return same(a.half_extents, b.half_extents);
-    case ShapeType::capsule: return a.radius == b.radius && a.half_height == b.half_height;
-    case ShapeType::hull: return a.points == b.points;
-    case ShapeType::plane: return same(a.normal, b.normal) && a.offset == b.offset;
+    case spu::ShapeType::sphere: return a.radius == b.radius;
+    case spu::ShapeType::box: return same(a.half_extents, b.half_extents);
+    case spu::ShapeType::capsule: return a.radius == b.radius && a.half_height == b.half_height;
+    case spu::ShapeType::hull: return a.points == b.points;
+    case spu::ShapeType::plane: return same(a.normal, b.normal) && a.offset == b.offset;
   }
   return false;
 }

@@ -991,7 +991,7 @@ int collide_ordered(const ShapeView& a, const Pose& pa, const ShapeView& b, cons
   return s.n;
 }
 
-bool known(ShapeType t) { return uint32_t(t) <= uint32_t(ShapeType::plane); }
+bool known(ShapeType t) { return uint32_t(t) < kNumShapeTypes; }
 
 }  // namespace
 

@@ -98,15 +98,15 @@ bool assemble(StepContext& c, float tau, uint32_t skip, float* p_out) {
 bool run_solve(StepContext& c, const float* rhs, float* x) {
   zero_floats(x, size_t(c.ws->n) * kVecFloats);
   const SolveResult r = solve(c.solver, matrix_of(c.ws->structure, c.ws->blocks), rhs, x, c.ws->solver_work, c.solve);
-  c.stats.solver_iterations += r.iterations;
-  c.stats.solves += 1;
+  c.counters.solver_iterations += r.iterations;
+  c.counters.solves += 1;
   if (r.code != kConverged) {
-    c.stats.last_solver_code = r.code;
+    c.counters.last_solver_code = r.code;
     return false;
   }
   for (int i = 0; i < c.ws->n; ++i)
     if (!finite8(x + kVecFloats * i)) {
-      c.stats.last_solver_code = kNotFinite;
+      c.counters.last_solver_code = kNotFinite;
       return false;
     }
   return true;
@@ -409,7 +409,7 @@ bool step_rosenbrock(StepContext& c, float h, float* error) {
   *error = float(std::sqrt(err2 / (6.0 * n)) / c.error_tolerance);
   if (!std::isfinite(*error)) return fail();
   if (*error > 1.0f) {
-    c.stats.rejected += 1;
+    c.counters.rejected += 1;
     return fail();
   }
   return true;

@@ -7,7 +7,9 @@
 
 namespace cellphys::spu {
 
-struct StepStats {
+/// What integrating one island did, over all its substeps and halvings (the kernel copies these
+/// into its IslandReport).
+struct IntegrationCounters {
   int solver_iterations = 0;
   int solves = 0;
   int last_solver_code = 0;
@@ -20,7 +22,7 @@ struct StepContext {
   Solver solver = Solver::cgs;
   SolveSettings solve;
   float error_tolerance = 1e-3f;  // Rosenbrock: local error per step, relative (absolute below 1)
-  StepStats stats;
+  IntegrationCounters counters;
 };
 
 /// Builds the block structure once per island (implicit integrators).

@@ -168,10 +168,10 @@ void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* 
     ok = adaptive(c, h.step, h.max_halvings, r);
   else
     ok = substep(c, p.counts.integrator, h.step, 0, h.max_halvings, r);
-  r.solver_iterations = static_cast<uint32_t>(c.stats.solver_iterations);
-  r.solves = static_cast<uint32_t>(c.stats.solves);
-  r.solver_code = static_cast<uint32_t>(c.stats.last_solver_code);
-  r.rejected = static_cast<uint32_t>(c.stats.rejected);
+  r.solver_iterations = static_cast<uint32_t>(c.counters.solver_iterations);
+  r.solves = static_cast<uint32_t>(c.counters.solves);
+  r.solver_code = static_cast<uint32_t>(c.counters.last_solver_code);
+  r.rejected = static_cast<uint32_t>(c.counters.rejected);
   r.status = ok ? IslandStatus::ok : IslandStatus::failed;
   ls_.release(mark);
 

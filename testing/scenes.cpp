@@ -65,8 +65,8 @@ BodyId add_box(World& w, const float half[3], float mass, const float pos[3], co
   ppe::BodyDesc d;
   d.shape = w.shapes().add_box(half);
   d.mass = mass;
-  copy3(pos, d.position);
-  if (q) std::copy(q, q + 4, d.orientation);
+  copy3(pos, d.state.position);
+  if (q) std::copy(q, q + 4, d.state.orientation);
   d.friction = friction;
   return w.add_body(d);
 }
@@ -75,7 +75,7 @@ BodyId add_sphere(World& w, float r, float mass, const float pos[3], float frict
   ppe::BodyDesc d;
   d.shape = w.shapes().add_sphere(r);
   d.mass = mass;
-  copy3(pos, d.position);
+  copy3(pos, d.state.position);
   d.friction = friction;
   return w.add_body(d);
 }
@@ -92,8 +92,8 @@ std::vector<BodyId> stack(World& w, int n, float half_extent, float gap, float m
   std::vector<BodyId> ids;
   for (int i = 0; i < n; ++i) {
     const float shift = (i % 2 == 1) ? stagger : -stagger;
-    d.position[0] = base[0] + shift, d.position[1] = base[1] + shift;
-    d.position[2] = base[2] + gap + half_extent + float(i) * (2 * half_extent + gap);
+    d.state.position[0] = base[0] + shift, d.state.position[1] = base[1] + shift;
+    d.state.position[2] = base[2] + gap + half_extent + float(i) * (2 * half_extent + gap);
     ids.push_back(w.add_body(d));
   }
   return ids;
@@ -125,10 +125,10 @@ std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent, uint32_t see
   for (int i = 0; i < n; ++i) {
     const int col = i % (k * k), lay = i / (k * k);
     const float jx = r.uniform(-0.1f, 0.1f) * half_extent, jy = r.uniform(-0.1f, 0.1f) * half_extent;
-    box.position[0] = (float(col % k) - 0.5f * float(k - 1)) * spacing + jx;
-    box.position[1] = (float(col / k) - 0.5f * float(k - 1)) * spacing + jy;
-    box.position[2] = 1.3f * half_extent + float(lay) * layer;
-    random_small_rotation(r, 0.15f, box.orientation);
+    box.state.position[0] = (float(col % k) - 0.5f * float(k - 1)) * spacing + jx;
+    box.state.position[1] = (float(col / k) - 0.5f * float(k - 1)) * spacing + jy;
+    box.state.position[2] = 1.3f * half_extent + float(lay) * layer;
+    random_small_rotation(r, 0.15f, box.state.orientation);
     ids.push_back(w.add_body(box));
   }
   // walls: two along x, two along y, standing on the floor, corners closed
@@ -139,10 +139,10 @@ std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent, uint32_t see
   const uint32_t sx = w.shapes().add_box(wx), sy = w.shapes().add_box(wy);
   for (int s = -1; s <= 1; s += 2) {
     wall.shape = sx;
-    wall.position[0] = 0, wall.position[1] = float(s) * (hb + wall_t), wall.position[2] = wall_h;
+    wall.state.position[0] = 0, wall.state.position[1] = float(s) * (hb + wall_t), wall.state.position[2] = wall_h;
     w.add_body(wall);
     wall.shape = sy;
-    wall.position[0] = float(s) * (hb + wall_t), wall.position[1] = 0, wall.position[2] = wall_h;
+    wall.state.position[0] = float(s) * (hb + wall_t), wall.state.position[1] = 0, wall.state.position[2] = wall_h;
     w.add_body(wall);
   }
   return ids;
@@ -179,42 +179,42 @@ std::vector<BodyId> sparse_world(World& w, int n, float area, uint32_t seed) {
     d.scale = size;
     d.density = r.uniform(400, 900);
     d.friction = 0.5f;
-    d.position[0] = cx, d.position[1] = cy;
-    axis_angle(0, 0, 1, yaw, d.orientation);
+    d.state.position[0] = cx, d.state.position[1] = cy;
+    axis_angle(0, 0, 1, yaw, d.state.orientation);
     const bool pair = k % 10 == 5 && int(ids.size()) + 2 <= n;
     if (pair || kind < 0.4f) {
       d.shape = boxes[pair ? 0 : int(r.uniform(0, 2.999f))];
       float lo[3], hi[3];
       sd.local_aabb(d.shape, size, lo, hi);
-      d.position[2] = (pair ? 0.0f : drop) - lo[2];
+      d.state.position[2] = (pair ? 0.0f : drop) - lo[2];
       ids.push_back(w.add_body(d));
       if (pair) {  // a smaller box resting on top, turned a little: a two-body island
         const float base_top = hi[2] - lo[2];
         d.scale = 0.8f * size;
         sd.local_aabb(d.shape, d.scale, lo, hi);
-        d.position[2] = base_top - lo[2];
-        axis_angle(0, 0, 1, yaw + 0.3f, d.orientation);
+        d.state.position[2] = base_top - lo[2];
+        axis_angle(0, 0, 1, yaw + 0.3f, d.state.orientation);
         ids.push_back(w.add_body(d));
       }
     } else if (kind < 0.65f) {
       d.shape = sphere;
-      d.position[2] = drop + size;
+      d.state.position[2] = drop + size;
       ids.push_back(w.add_body(d));
     } else if (kind < 0.9f) {  // lying on its side: body z turned to horizontal, then yawed
       d.shape = capsules[int(r.uniform(0, 1.999f))];
       float tilt[4], spin[4];
       axis_angle(0, 1, 0, 1.5707963f, tilt);
       axis_angle(0, 0, 1, yaw, spin);
-      quat_mul(spin, tilt, d.orientation);
+      quat_mul(spin, tilt, d.state.orientation);
       float lo[3], hi[3];
       sd.local_aabb(d.shape, size, lo, hi);
-      d.position[2] = drop - lo[0];  // radius: the body x extent is the capsule's radius
+      d.state.position[2] = drop - lo[0];  // radius: the body x extent is the capsule's radius
       ids.push_back(w.add_body(d));
     } else {  // hulls are always dropped a little, at an arbitrary yaw
       d.shape = hulls[int(r.uniform(0, 2.999f))];
       float lo[3], hi[3];
       sd.local_aabb(d.shape, size, lo, hi);
-      d.position[2] = 0.05f + drop - lo[2];
+      d.state.position[2] = 0.05f + drop - lo[2];
       ids.push_back(w.add_body(d));
     }
   }
@@ -244,11 +244,11 @@ std::vector<BodyId> chain(World& w, int links, float mass_ratio, float height, b
   const float reach = half_length + 0.5f * gap;  // centre to joint point along the link
   ppe::BodyDesc d;
   d.shape = w.shapes().add_capsule(r, half_length - r);
-  axis_angle(0, 1, 0, 1.5707963f, d.orientation);  // body z along world +x
+  axis_angle(0, 1, 0, 1.5707963f, d.state.orientation);  // body z along world +x
   std::vector<BodyId> ids;
   for (int i = 0; i < links; ++i) {
     d.mass = (i % 2 == 0) ? 1.0f : mass_ratio;
-    d.position[0] = reach + float(i) * 2.0f * reach, d.position[1] = 0, d.position[2] = height;
+    d.state.position[0] = reach + float(i) * 2.0f * reach, d.state.position[1] = 0, d.state.position[2] = height;
     ids.push_back(w.add_body(d));
   }
   // Stiff joints: 1e5 N/m per kg of the heavier link keeps stretch ~ g m_total / k small; damping

@@ -599,7 +599,7 @@ TEST(World, BadInputIsRefusedClearlyAndChangesNothing) {
     BodyDesc d;
     d.shape = box_shape;
     d.mass = 1.0f;
-    d.position[2] = 3.0f;
+    d.state.position[2] = 3.0f;
     return d;
   };
   const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -614,9 +614,9 @@ TEST(World, BadInputIsRefusedClearlyAndChangesNothing) {
       {"NaN mass", "mass must be positive", [&] { BodyDesc d = body(); d.mass = nan; w.add_body(d); }},
       {"zero scale", "scale must be positive", [&] { BodyDesc d = body(); d.scale = 0.0f; w.add_body(d); }},
       {"negative scale", "scale must be positive", [&] { BodyDesc d = body(); d.scale = -1.0f; w.add_body(d); }},
-      {"NaN position", "finite", [&] { BodyDesc d = body(); d.position[1] = nan; w.add_body(d); }},
-      {"infinite velocity", "finite", [&] { BodyDesc d = body(); d.velocity[0] = std::numeric_limits<float>::infinity(); w.add_body(d); }},
-      {"zero quaternion", "zero quaternion", [&] { BodyDesc d = body(); d.orientation[0] = 0.0f; w.add_body(d); }},
+      {"NaN position", "finite", [&] { BodyDesc d = body(); d.state.position[1] = nan; w.add_body(d); }},
+      {"infinite velocity", "finite", [&] { BodyDesc d = body(); d.state.velocity[0] = std::numeric_limits<float>::infinity(); w.add_body(d); }},
+      {"zero quaternion", "zero quaternion", [&] { BodyDesc d = body(); d.state.orientation[0] = 0.0f; w.add_body(d); }},
       {"unknown shape", "does not exist", [&] { BodyDesc d = body(); d.shape = 99; w.add_body(d); }},
       {"negative friction", "friction", [&] { BodyDesc d = body(); d.friction = -0.1f; w.add_body(d); }},
       {"force on a missing body", "does not exist",
@@ -665,7 +665,7 @@ TEST(World, BadInputIsRefusedClearlyAndChangesNothing) {
   }
   // A non-unit quaternion is accepted, normalised, and says so.
   BodyDesc d = body();
-  d.orientation[0] = 2.0f;
+  d.state.orientation[0] = 2.0f;
   const BodyId extra = w.add_body(d);
   ASSERT_FALSE(w.warnings().empty()) << "no warning for a non-unit quaternion";
   EXPECT_TRUE(has(w.warnings().front(), "normalised")) << w.warnings().front();

@@ -39,14 +39,15 @@ class BulletPeer : public Peer {
 
     for (size_t i = 0; i < scene.bodies.size(); ++i) {
       const scene::BodySpec& b = scene.bodies[i];
+      const ppe::BodyState& st = b.state;
       const BodyInfo& bi = info[i];
       const scene::ShapeSpec& s = scene.shapes[bi.shape];
       const double sc = b.scale;
       std::unique_ptr<btCollisionShape> shape;
       btTransform tr;
       tr.setIdentity();
-      tr.setOrigin(btVector3(b.position[0], b.position[1], b.position[2]));
-      tr.setRotation(btQuaternion(b.orientation[1], b.orientation[2], b.orientation[3], b.orientation[0]));
+      tr.setOrigin(btVector3(st.position[0], st.position[1], st.position[2]));
+      tr.setRotation(btQuaternion(st.orientation[1], st.orientation[2], st.orientation[3], st.orientation[0]));
       switch (s.type) {
         case spu::ShapeType::sphere: shape = std::make_unique<btSphereShape>(s.radius * sc); break;
         case spu::ShapeType::box: {
@@ -82,8 +83,8 @@ class BulletPeer : public Peer {
       ci.m_restitution = 0;
       auto body = std::make_unique<btRigidBody>(ci);
       if (dynamic) {
-        body->setLinearVelocity(btVector3(b.velocity[0], b.velocity[1], b.velocity[2]));
-        body->setAngularVelocity(btVector3(b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]));
+        body->setLinearVelocity(btVector3(st.velocity[0], st.velocity[1], st.velocity[2]));
+        body->setAngularVelocity(btVector3(st.angular_velocity[0], st.angular_velocity[1], st.angular_velocity[2]));
         body->setSleepingThresholds(scene.settings.sleep_linear, scene.settings.sleep_angular);
         if (!scene.settings.sleeping) body->setActivationState(DISABLE_DEACTIVATION);
         dynamic_.push_back(body.get());

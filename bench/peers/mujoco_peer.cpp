@@ -94,6 +94,7 @@ class MujocoPeer : public Peer {
     int next_body = 1;
     for (size_t i = 0; i < scene.bodies.size(); ++i) {
       const scene::BodySpec& b = scene.bodies[i];
+      const ppe::BodyState& st = b.state;
       const BodyInfo& bi = info[i];
       const scene::ShapeSpec& s = scene.shapes[bi.shape];
       const double sc = b.scale;
@@ -129,9 +130,9 @@ class MujocoPeer : public Peer {
       }
       geom << " friction=\"" << b.friction << " 0 0\"";
       if (pairs) geom << " contype=\"0\" conaffinity=\"0\"";
-      const std::string pose = " pos=\"" + num(b.position[0]) + " " + num(b.position[1]) + " " + num(b.position[2]) +
-                               "\" quat=\"" + num(b.orientation[0]) + " " + num(b.orientation[1]) + " " +
-                               num(b.orientation[2]) + " " + num(b.orientation[3]) + "\"";
+      const std::string pose = " pos=\"" + num(st.position[0]) + " " + num(st.position[1]) + " " + num(st.position[2]) +
+                               "\" quat=\"" + num(st.orientation[0]) + " " + num(st.orientation[1]) + " " +
+                               num(st.orientation[2]) + " " + num(st.orientation[3]) + "\"";
       if (b.is_static || s.type == spu::ShapeType::plane) {
         if (s.type == spu::ShapeType::plane)
           world << geom.str() << "/>\n";
@@ -200,7 +201,7 @@ class MujocoPeer : public Peer {
     }
     for (size_t i = 0; i < scene.bodies.size(); ++i) {
       if (index_[i] < 0) continue;
-      const scene::BodySpec& b = scene.bodies[i];
+      const ppe::BodyState& b = scene.bodies[i].state;
       const int dof = model_->jnt_dofadr[model_->body_jntadr[index_[i]]];
       double w[3] = {b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]}, wb[3];
       double q[4] = {b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
@@ -213,8 +214,8 @@ class MujocoPeer : public Peer {
     for (size_t i = 0; i < scene.bodies.size(); ++i) {
       State& s = static_state_[i];
       s = State{};
-      for (int k = 0; k < 3; ++k) s.p[k] = scene.bodies[i].position[k];
-      for (int k = 0; k < 4; ++k) s.q[k] = scene.bodies[i].orientation[k];
+      for (int k = 0; k < 3; ++k) s.p[k] = scene.bodies[i].state.position[k];
+      for (int k = 0; k < 4; ++k) s.q[k] = scene.bodies[i].state.orientation[k];
     }
     states_.resize(scene.bodies.size());
   }

@@ -57,6 +57,7 @@ class OdePeer : public Peer {
     geoms_.resize(scene.bodies.size());
     for (size_t i = 0; i < scene.bodies.size(); ++i) {
       const scene::BodySpec& b = scene.bodies[i];
+      const ppe::BodyState& st = b.state;
       const BodyInfo& bi = info[i];
       const scene::ShapeSpec& s = scene.shapes[bi.shape];
       const double sc = b.scale;
@@ -81,10 +82,10 @@ class OdePeer : public Peer {
       }
       geoms_[i] = geom;
       dGeomSetData(geom, reinterpret_cast<void*>(i));
-      const dQuaternion q = {b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
+      const dQuaternion q = {st.orientation[0], st.orientation[1], st.orientation[2], st.orientation[3]};
       if (s.type == spu::ShapeType::plane) continue;
       if (b.is_static) {
-        dGeomSetPosition(geom, b.position[0], b.position[1], b.position[2]);
+        dGeomSetPosition(geom, st.position[0], st.position[1], st.position[2]);
         dGeomSetQuaternion(geom, q);
         continue;
       }
@@ -93,10 +94,10 @@ class OdePeer : public Peer {
       dMassSetParameters(&m, bi.mass, 0, 0, 0, bi.inertia[0], bi.inertia[1], bi.inertia[2], bi.inertia[3],
                          bi.inertia[4], bi.inertia[5]);
       dBodySetMass(body, &m);
-      dBodySetPosition(body, b.position[0], b.position[1], b.position[2]);
+      dBodySetPosition(body, st.position[0], st.position[1], st.position[2]);
       dBodySetQuaternion(body, q);
-      dBodySetLinearVel(body, b.velocity[0], b.velocity[1], b.velocity[2]);
-      dBodySetAngularVel(body, b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]);
+      dBodySetLinearVel(body, st.velocity[0], st.velocity[1], st.velocity[2]);
+      dBodySetAngularVel(body, st.angular_velocity[0], st.angular_velocity[1], st.angular_velocity[2]);
       dGeomSetBody(geom, body);
       bodies_[i] = body;
     }

@@ -278,7 +278,8 @@ struct Checker {
         if (n == "stiffness") j.k = v[0];
       double d = 0;
       for (int k = 0; k < 3; ++k) {
-        const double e = sc.bodies[j.a].position[k] - (j.b >= 0 ? double(sc.bodies[j.b].position[k]) : j.pb[k]);
+        const double e =
+            sc.bodies[j.a].state.position[k] - (j.b >= 0 ? double(sc.bodies[j.b].state.position[k]) : j.pb[k]);
         d += e * e;
       }
       j.ref = f.type == "point_to_point" ? std::sqrt(d) : -1;  // springs are not joints
@@ -286,9 +287,8 @@ struct Checker {
     }
     for (size_t x : dyn)
       for (size_t y : dyn) {
-        const auto &A = sc.bodies[x], &B = sc.bodies[y];
-        if (x != y && std::hypot(A.position[0] - B.position[0], A.position[1] - B.position[1]) < 1e-3 &&
-            B.position[2] > A.position[2])
+        const float *A = sc.bodies[x].state.position, *B = sc.bodies[y].state.position;
+        if (x != y && std::hypot(A[0] - B[0], A[1] - B[1]) < 1e-3 && B[2] > A[2])
           stacked.push_back({int(x), int(y)});
       }
   }
@@ -344,7 +344,7 @@ struct Checker {
       }
     }
     for (auto [lo, up] : stacked) {
-      const double d0 = sc.bodies[up].position[2] - sc.bodies[lo].position[2];
+      const double d0 = sc.bodies[up].state.position[2] - sc.bodies[lo].state.position[2];
       if (s[up].p[2] - s[lo].p[2] < 0.5 * d0) return "tunnelling";
     }
     for (const Joint& j : joints) {

@@ -8,8 +8,8 @@ namespace cellphys::ppe {
 
 spu::Pose pose_of(const WorldBody& b) {
   spu::Pose p;
-  for (int k = 0; k < 3; ++k) p.position[k] = b.position[k];
-  for (int k = 0; k < 4; ++k) p.orientation[k] = b.orientation[k];
+  for (int k = 0; k < 3; ++k) p.position[k] = b.state.position[k];
+  for (int k = 0; k < 4; ++k) p.orientation[k] = b.state.orientation[k];
   p.scale = b.scale;
   return p;
 }

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "cellphys/gen/kernel_types.h"
+#include "runtime/ppe/body_state.h"
 #include "runtime/ppe/shapes.h"
 #include "runtime/spu/shape.h"
 
@@ -15,7 +16,7 @@ struct WorldBody {
   float scale = 1.0f;
   float mass = 0.0f;
   float inertia[6] = {}, inverse_inertia[6] = {};  // body axes: xx yy zz xy xz yz
-  float position[3] = {}, orientation[4] = {1, 0, 0, 0}, velocity[3] = {}, angular_velocity[3] = {};
+  BodyState state;
   float friction = 0.5f, linear_damping = 0.0f, angular_damping = 0.0f;
   float sleep_timer = 0.0f;
   int32_t sleep_group = -1;

@@ -14,10 +14,7 @@ namespace {
 
 Rigid_Body_Fields fields_of(const WorldBody& b) {
   Rigid_Body_Fields f;
-  std::copy(b.position, b.position + 3, f.position);
-  std::copy(b.orientation, b.orientation + 4, f.orientation);
-  std::copy(b.velocity, b.velocity + 3, f.velocity);
-  std::copy(b.angular_velocity, b.angular_velocity + 3, f.angular_velocity);
+  copy_state(b.state, f);
   std::copy(b.inertia, b.inertia + 6, f.inertia_body);
   std::copy(b.inverse_inertia, b.inverse_inertia + 6, f.inverse_inertia_body);
   f.mass = b.mass;
@@ -94,8 +91,8 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
     Rigid_Body_Fields f = fields_of(b);
     if (ghost) {  // kinematic, from where the step started at its latest velocity
       const WorldBody& latest = pc.bodies[id];
-      std::copy(latest.velocity, latest.velocity + 3, f.velocity);
-      std::copy(latest.angular_velocity, latest.angular_velocity + 3, f.angular_velocity);
+      std::copy(latest.state.velocity, latest.state.velocity + 3, f.velocity);
+      std::copy(latest.state.angular_velocity, latest.state.angular_velocity + 3, f.angular_velocity);
       f.inverse_mass = 0.0f;
       std::fill(f.inverse_inertia_body, f.inverse_inertia_body + 6, 0.0f);
     }
@@ -152,13 +149,16 @@ void split(const PackContext& pc, IslandContent isl, std::vector<IslandContent>&
   // Cut across the longest extent at the median body: a plane cuts few couplings.
   float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
   for (uint32_t id : isl.bodies)
-    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], pc.bodies[id].position[k]), hi[k] = std::max(hi[k], pc.bodies[id].position[k]);
+    for (int k = 0; k < 3; ++k) {
+      const float x = pc.bodies[id].state.position[k];
+      lo[k] = std::min(lo[k], x), hi[k] = std::max(hi[k], x);
+    }
   int axis = 0;
   for (int k = 1; k < 3; ++k)
     if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
   std::vector<uint32_t> order = isl.bodies;
   std::stable_sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
-    return pc.bodies[x].position[axis] < pc.bodies[y].position[axis];
+    return pc.bodies[x].state.position[axis] < pc.bodies[y].state.position[axis];
   });
   IslandContent half[2];
   half[0].bodies.assign(order.begin(), order.begin() + order.size() / 2);
@@ -199,11 +199,7 @@ void unpack_island(const PackedIsland& p, std::vector<WorldBody>& bodies) {
     if (p.ghost[i]) continue;  // another part advances it
     Rigid_Body rb;
     std::memcpy(&rb, src + i * sizeof rb, sizeof rb);
-    WorldBody& b = bodies[p.bodies[i]];
-    std::copy(rb.position, rb.position + 3, b.position);
-    std::copy(rb.orientation, rb.orientation + 4, b.orientation);
-    std::copy(rb.velocity, rb.velocity + 3, b.velocity);
-    std::copy(rb.angular_velocity, rb.angular_velocity + 3, b.angular_velocity);
+    copy_state(rb, bodies[p.bodies[i]].state);
   }
 }
 

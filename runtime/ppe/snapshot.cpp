@@ -235,6 +235,20 @@ void get_shapes(Reader& r, ShapeDictionary& d) {
   }
 }
 
+void put_state(Writer& w, const BodyState& s) {
+  w.put_floats(s.position, 3);
+  w.put_floats(s.orientation, 4);
+  w.put_floats(s.velocity, 3);
+  w.put_floats(s.angular_velocity, 3);
+}
+
+void get_state(Reader& r, BodyState& s) {
+  r.get_floats(s.position, 3, "body");
+  r.get_floats(s.orientation, 4, "body");
+  r.get_floats(s.velocity, 3, "body");
+  r.get_floats(s.angular_velocity, 3, "body");
+}
+
 void put_contact(Writer& w, const WorldContact& c) {
   w.put(c.a);
   w.put(c.b);
@@ -274,10 +288,7 @@ std::vector<unsigned char> World::snapshot() const {
     p.put(b.mass);
     p.put_floats(b.inertia, 6);
     p.put_floats(b.inverse_inertia, 6);
-    p.put_floats(b.position, 3);
-    p.put_floats(b.orientation, 4);
-    p.put_floats(b.velocity, 3);
-    p.put_floats(b.angular_velocity, 3);
+    put_state(p, b.state);
     p.put(b.friction);
     p.put(b.linear_damping);
     p.put(b.angular_damping);
@@ -348,10 +359,7 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     b.mass = r.get<float>("body");
     r.get_floats(b.inertia, 6, "body");
     r.get_floats(b.inverse_inertia, 6, "body");
-    r.get_floats(b.position, 3, "body");
-    r.get_floats(b.orientation, 4, "body");
-    r.get_floats(b.velocity, 3, "body");
-    r.get_floats(b.angular_velocity, 3, "body");
+    get_state(r, b.state);
     b.friction = r.get<float>("body");
     b.linear_damping = r.get<float>("body");
     b.angular_damping = r.get<float>("body");

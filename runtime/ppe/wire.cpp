@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "runtime/ppe/body_records.h"
+#include "runtime/ppe/body_state.h"
 
 namespace cellphys::ppe::wire {
 
@@ -40,10 +41,7 @@ constexpr uint32_t kMaxBodies = 1u << 20;
 
 Wire_Body_To_Node_Compressed to_wire(const Rigid_Body& b) {
   Wire_Body_To_Node_Compressed w{};
-  std::copy(b.position, b.position + 3, w.position);
-  std::copy(b.orientation, b.orientation + 4, w.orientation);
-  std::copy(b.velocity, b.velocity + 3, w.velocity);
-  std::copy(b.angular_velocity, b.angular_velocity + 3, w.angular_velocity);
+  copy_state(b, w);
   w.mass = b.mass;
   std::copy(b.inertia_body, b.inertia_body + 6, w.inertia);
   w.friction = b.friction;
@@ -58,10 +56,7 @@ Wire_Body_To_Node_Compressed to_wire(const Rigid_Body& b) {
 // (the same functions on the same bits), zero for a ghost. Damping travels as force records.
 bool from_wire(const Wire_Body_To_Node_Compressed& w, Rigid_Body& out) {
   Rigid_Body_Fields f;
-  std::copy(w.position, w.position + 3, f.position);
-  std::copy(w.orientation, w.orientation + 4, f.orientation);
-  std::copy(w.velocity, w.velocity + 3, f.velocity);
-  std::copy(w.angular_velocity, w.angular_velocity + 3, f.angular_velocity);
+  copy_state(w, f);
   std::copy(w.inertia, w.inertia + 6, f.inertia_body);
   f.mass = w.mass;
   f.friction = w.friction;
@@ -202,10 +197,7 @@ void append_result(uint32_t job, uint32_t num_bodies, const unsigned char* resul
     Rigid_Body b;
     std::memcpy(&b, src + i * sizeof b, sizeof b);
     Wire_Node_To_Dispatcher w{};
-    std::copy(b.position, b.position + 3, w.position);
-    std::copy(b.orientation, b.orientation + 4, w.orientation);
-    std::copy(b.velocity, b.velocity + 3, w.velocity);
-    std::copy(b.angular_velocity, b.angular_velocity + 3, w.angular_velocity);
+    copy_state(b, w);
     std::memcpy(p, &w, kBackBody);
   }
   r.checksum = record_checksum(r, rec + sizeof r, out.size() - at - sizeof r);
@@ -278,10 +270,7 @@ std::string decode_result(const ResultRecord& h, const unsigned char* msg_bodies
       s.delta_velocity[k] = status == spu::IslandStatus::ok ? w.velocity[k] - b.velocity[k] : 0.0f;
       s.delta_angular_velocity[k] = status == spu::IslandStatus::ok ? w.angular_velocity[k] - b.angular_velocity[k] : 0.0f;
     }
-    std::copy(w.position, w.position + 3, b.position);
-    std::copy(w.orientation, w.orientation + 4, b.orientation);
-    std::copy(w.velocity, w.velocity + 3, b.velocity);
-    std::copy(w.angular_velocity, w.angular_velocity + 3, b.angular_velocity);
+    copy_state(w, b);
     std::memcpy(steps + i * sizeof s, &s, sizeof s);
     std::memcpy(out_bodies + i * sizeof b, &b, sizeof b);
   }

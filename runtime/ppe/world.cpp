@@ -102,14 +102,14 @@ BodyId World::add_body(const BodyDesc& d) {
   const std::string who = "body " + std::to_string(impl_->bodies.size());
   if (d.shape >= shapes_.size()) throw WorldError(who + ": shape " + std::to_string(d.shape) + " does not exist");
   if (!(d.scale > 0.0f) || !std::isfinite(d.scale)) throw WorldError(who + ": scale must be positive and finite");
-  if (!finite(d.position, 3) || !finite(d.orientation, 4) || !finite(d.velocity, 3) || !finite(d.angular_velocity, 3))
+  if (!finite(d.state.position, 3) || !finite(d.state.orientation, 4) || !finite(d.state.velocity, 3) || !finite(d.state.angular_velocity, 3))
     throw WorldError(who + ": position, orientation and velocities must be finite");
   if (!(d.friction >= 0.0f) || !std::isfinite(d.friction)) throw WorldError(who + ": friction must be >= 0");
   if (!(d.linear_damping >= 0.0f) || !(d.angular_damping >= 0.0f) || !std::isfinite(d.linear_damping) ||
       !std::isfinite(d.angular_damping))
     throw WorldError(who + ": damping must be >= 0");
-  const double qn = std::sqrt(double(d.orientation[0]) * d.orientation[0] + double(d.orientation[1]) * d.orientation[1] +
-                              double(d.orientation[2]) * d.orientation[2] + double(d.orientation[3]) * d.orientation[3]);
+  const double qn = std::sqrt(double(d.state.orientation[0]) * d.state.orientation[0] + double(d.state.orientation[1]) * d.state.orientation[1] +
+                              double(d.state.orientation[2]) * d.state.orientation[2] + double(d.state.orientation[3]) * d.state.orientation[3]);
   if (qn < 1e-6) throw WorldError(who + ": orientation is a zero quaternion");
   WorldBody b;
   b.alive = true;
@@ -120,12 +120,12 @@ BodyId World::add_body(const BodyDesc& d) {
   b.angular_damping = d.angular_damping;
   const bool plane = shapes_.type(d.shape) == spu::ShapeType::plane;
   b.is_static = d.is_static || plane;
-  std::copy(d.position, d.position + 3, b.position);
-  for (int k = 0; k < 4; ++k) b.orientation[k] = static_cast<float>(d.orientation[k] / qn);
+  std::copy(d.state.position, d.state.position + 3, b.state.position);
+  for (int k = 0; k < 4; ++k) b.state.orientation[k] = static_cast<float>(d.state.orientation[k] / qn);
   if (std::fabs(qn - 1.0) > 1e-4) warnings_.push_back(who + ": orientation was not a unit quaternion; normalised");
   if (!b.is_static) {
-    std::copy(d.velocity, d.velocity + 3, b.velocity);
-    std::copy(d.angular_velocity, d.angular_velocity + 3, b.angular_velocity);
+    std::copy(d.state.velocity, d.state.velocity + 3, b.state.velocity);
+    std::copy(d.state.angular_velocity, d.state.angular_velocity + 3, b.state.angular_velocity);
     if (d.mass > 0.0f && std::isfinite(d.mass)) {
       b.mass = d.mass;
     } else if (d.mass != 0.0f) {
@@ -221,10 +221,10 @@ void World::remove_force(ForceId id) {
 BodyState World::state(BodyId id) const {
   const WorldBody& b = impl_->live(id);
   BodyState s;
-  std::copy(b.position, b.position + 3, s.position);
-  std::copy(b.orientation, b.orientation + 4, s.orientation);
-  std::copy(b.velocity, b.velocity + 3, s.velocity);
-  std::copy(b.angular_velocity, b.angular_velocity + 3, s.angular_velocity);
+  std::copy(b.state.position, b.state.position + 3, s.position);
+  std::copy(b.state.orientation, b.state.orientation + 4, s.orientation);
+  std::copy(b.state.velocity, b.state.velocity + 3, s.velocity);
+  std::copy(b.state.angular_velocity, b.state.angular_velocity + 3, s.angular_velocity);
   return s;
 }
 
@@ -237,11 +237,11 @@ void World::set_state(BodyId id, const BodyState& s) {
                               double(s.orientation[2]) * s.orientation[2] + double(s.orientation[3]) * s.orientation[3]);
   if (qn < 1e-6) throw WorldError(body_name(id) + ": orientation is a zero quaternion");
   if (std::fabs(qn - 1.0) > 1e-4) warnings_.push_back(body_name(id) + ": orientation was not a unit quaternion; normalised");
-  std::copy(s.position, s.position + 3, b.position);
-  for (int k = 0; k < 4; ++k) b.orientation[k] = static_cast<float>(s.orientation[k] / qn);
+  std::copy(s.position, s.position + 3, b.state.position);
+  for (int k = 0; k < 4; ++k) b.state.orientation[k] = static_cast<float>(s.orientation[k] / qn);
   if (!b.is_static) {
-    std::copy(s.velocity, s.velocity + 3, b.velocity);
-    std::copy(s.angular_velocity, s.angular_velocity + 3, b.angular_velocity);
+    std::copy(s.velocity, s.velocity + 3, b.state.velocity);
+    std::copy(s.angular_velocity, s.angular_velocity + 3, b.state.angular_velocity);
   }
   impl_->wake(id);
 }
@@ -251,13 +251,13 @@ void World::apply_impulse(BodyId id, const float impulse[3], const float point[3
   if (!finite(impulse, 3) || !finite(point, 3)) throw WorldError(body_name(id) + ": impulse and point must be finite");
   if (b.is_static) throw WorldError(body_name(id) + " is static");
   impl_->wake(id);
-  const Vec3d r = {point[0] - double(b.position[0]), point[1] - double(b.position[1]), point[2] - double(b.position[2])};
+  const Vec3d r = {point[0] - double(b.state.position[0]), point[1] - double(b.state.position[1]), point[2] - double(b.state.position[2])};
   const Vec3d J = {impulse[0], impulse[1], impulse[2]};
   const Vec3d L = {r.y * J.z - r.z * J.y, r.z * J.x - r.x * J.z, r.x * J.y - r.y * J.x};
-  const Quatd q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
+  const Quatd q{b.state.orientation[0], b.state.orientation[1], b.state.orientation[2], b.state.orientation[3]};
   const Vec3d dw = mul(rotate_sym(quat_to_matrix(q), b.inverse_inertia), L);
-  for (int k = 0; k < 3; ++k) b.velocity[k] += static_cast<float>(impulse[k] / b.mass);
-  b.angular_velocity[0] += float(dw.x), b.angular_velocity[1] += float(dw.y), b.angular_velocity[2] += float(dw.z);
+  for (int k = 0; k < 3; ++k) b.state.velocity[k] += static_cast<float>(impulse[k] / b.mass);
+  b.state.angular_velocity[0] += float(dw.x), b.state.angular_velocity[1] += float(dw.y), b.state.angular_velocity[2] += float(dw.z);
 }
 
 bool World::is_awake(BodyId id) const { return impl_->live(id).awake; }
@@ -280,10 +280,10 @@ double World::kinetic_energy() const {
   double e = 0;
   for (const WorldBody& b : impl_->bodies) {
     if (!b.alive || b.is_static) continue;
-    e += 0.5 * b.mass * (double(b.velocity[0]) * b.velocity[0] + double(b.velocity[1]) * b.velocity[1] +
-                         double(b.velocity[2]) * b.velocity[2]);
-    const Quatd q{b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
-    const Vec3d w = {b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]};
+    e += 0.5 * b.mass * (double(b.state.velocity[0]) * b.state.velocity[0] + double(b.state.velocity[1]) * b.state.velocity[1] +
+                         double(b.state.velocity[2]) * b.state.velocity[2]);
+    const Quatd q{b.state.orientation[0], b.state.orientation[1], b.state.orientation[2], b.state.orientation[3]};
+    const Vec3d w = {b.state.angular_velocity[0], b.state.angular_velocity[1], b.state.angular_velocity[2]};
     const Vec3d Iw = mul(rotate_sym(quat_to_matrix(q), b.inertia), w);
     e += 0.5 * (w.x * Iw.x + w.y * Iw.y + w.z * Iw.z);
   }
@@ -294,7 +294,7 @@ uint64_t World::state_hash() const {
   uint64_t h = 0xCBF29CE484222325ull;
   for (const WorldBody& b : impl_->bodies) {
     if (!b.alive) continue;
-    const float* parts[4] = {b.position, b.orientation, b.velocity, b.angular_velocity};
+    const float* parts[4] = {b.state.position, b.state.orientation, b.state.velocity, b.state.angular_velocity};
     const int n[4] = {3, 4, 3, 3};
     for (int p = 0; p < 4; ++p)
       for (int k = 0; k < n[p]; ++k) {
@@ -336,11 +336,11 @@ const StepStats& World::step() {
     const Aabb& B = w.boxes[i];
     const double rx = 0.5 * (double(B.max[0]) - B.min[0]), ry = 0.5 * (double(B.max[1]) - B.min[1]),
                  rz = 0.5 * (double(B.max[2]) - B.min[2]);
-    const double speed = std::sqrt(double(b.velocity[0]) * b.velocity[0] + double(b.velocity[1]) * b.velocity[1] +
-                                   double(b.velocity[2]) * b.velocity[2]);
-    const double spin = std::sqrt(double(b.angular_velocity[0]) * b.angular_velocity[0] +
-                                  double(b.angular_velocity[1]) * b.angular_velocity[1] +
-                                  double(b.angular_velocity[2]) * b.angular_velocity[2]);
+    const double speed = std::sqrt(double(b.state.velocity[0]) * b.state.velocity[0] + double(b.state.velocity[1]) * b.state.velocity[1] +
+                                   double(b.state.velocity[2]) * b.state.velocity[2]);
+    const double spin = std::sqrt(double(b.state.angular_velocity[0]) * b.state.angular_velocity[0] +
+                                  double(b.state.angular_velocity[1]) * b.state.angular_velocity[1] +
+                                  double(b.state.angular_velocity[2]) * b.state.angular_velocity[2]);
     w.reach[i] = b.is_static ? 0.0f
                              : static_cast<float>(settings_.dt * (speed + spin * std::sqrt(rx * rx + ry * ry + rz * rz)) +
                                                   settings_.contact_margin);
@@ -480,7 +480,7 @@ const StepStats& World::step() {
       before.clear();
       for (size_t k = 0; k < parts.size(); ++k)
         if (parts[k].size() > 1)
-          for (uint32_t i : islands[k].bodies) before.insert(before.end(), w.bodies[i].velocity, w.bodies[i].velocity + 3);
+          for (uint32_t i : islands[k].bodies) before.insert(before.end(), w.bodies[i].state.velocity, w.bodies[i].state.velocity + 3);
     }
     for (size_t wave = 0; wave < waves; ++wave) {
       t = Clock::now();
@@ -551,7 +551,7 @@ const StepStats& World::step() {
     for (size_t k = 0; k < parts.size(); ++k)
       if (parts[k].size() > 1)
         for (uint32_t i : islands[k].bodies)
-          for (int c = 0; c < 3; ++c) change = std::max(change, std::fabs(w.bodies[i].velocity[c] - before[at++]));
+          for (int c = 0; c < 3; ++c) change = std::max(change, std::fabs(w.bodies[i].state.velocity[c] - before[at++]));
     st.decouple_change = change;
     const bool any_failed = std::find(part_failed.begin(), part_failed.end(), uint8_t{1}) != part_failed.end();
     if (sweep > 0 && change <= settings_.decouple_tolerance && !any_failed) break;
@@ -569,9 +569,9 @@ const StepStats& World::step() {
       bool all = true;
       for (uint32_t i : isl.bodies) {
         WorldBody& b = w.bodies[i];
-        const float v2 = b.velocity[0] * b.velocity[0] + b.velocity[1] * b.velocity[1] + b.velocity[2] * b.velocity[2];
-        const float a2 = b.angular_velocity[0] * b.angular_velocity[0] + b.angular_velocity[1] * b.angular_velocity[1] +
-                         b.angular_velocity[2] * b.angular_velocity[2];
+        const float v2 = b.state.velocity[0] * b.state.velocity[0] + b.state.velocity[1] * b.state.velocity[1] + b.state.velocity[2] * b.state.velocity[2];
+        const float a2 = b.state.angular_velocity[0] * b.state.angular_velocity[0] + b.state.angular_velocity[1] * b.state.angular_velocity[1] +
+                         b.state.angular_velocity[2] * b.state.angular_velocity[2];
         b.sleep_timer = (v2 < lin2 && a2 < ang2) ? b.sleep_timer + settings_.dt : 0.0f;
         all = all && b.sleep_timer >= settings_.sleep_time;
       }
@@ -586,8 +586,8 @@ const StepStats& World::step() {
         WorldBody& b = w.bodies[i];
         b.awake = false;
         b.sleep_group = g;
-        std::fill(b.velocity, b.velocity + 3, 0.0f);
-        std::fill(b.angular_velocity, b.angular_velocity + 3, 0.0f);
+        std::fill(b.state.velocity, b.state.velocity + 3, 0.0f);
+        std::fill(b.state.angular_velocity, b.state.angular_velocity + 3, 0.0f);
       }
       st.fell_asleep += static_cast<uint32_t>(isl.bodies.size());
     }

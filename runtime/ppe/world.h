@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "runtime/ppe/body_state.h"
 #include "runtime/ppe/shapes.h"
 #include "runtime/ppe/step_stats.h"
 #include "runtime/spu/island_image.h"
@@ -66,21 +67,11 @@ struct BodyDesc {
   float density = 0.0f;  // kg/m^3, used when mass is 0
   bool has_inertia = false;
   float inertia[6] = {};  // Ixx Iyy Izz Ixy Ixz Iyz, body axes (overrides the shape's)
-  float position[3] = {};
-  float orientation[4] = {1.0f, 0.0f, 0.0f, 0.0f};  // w x y z; normalised with a warning if not unit
-  float velocity[3] = {};
-  float angular_velocity[3] = {};  // world frame
+  BodyState state;        // the orientation is normalised, with a warning, if not unit
   float friction = 0.5f;
   float linear_damping = 0.0f;   // 1/s
   float angular_damping = 0.0f;  // 1/s
   bool is_static = false;
-};
-
-struct BodyState {
-  float position[3];
-  float orientation[4];
-  float velocity[3];
-  float angular_velocity[3];
 };
 
 /// A force instance's parameters by name, as the force table declares them.

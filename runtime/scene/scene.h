@@ -47,10 +47,7 @@ struct BodySpec {
   float density = 0.0f;    // kg/m^3
   bool has_inertia = false;
   float inertia[6] = {};   // Ixx Iyy Izz Ixy Ixz Iyz, body axes
-  float position[3] = {};  // centre of mass, world frame
-  float orientation[4] = {1.0f, 0.0f, 0.0f, 0.0f};  // w x y z
-  float velocity[3] = {};
-  float angular_velocity[3] = {};  // world frame
+  ppe::BodyState state;    // the file's position, orientation, velocity and angular_velocity
   float friction = 0.5f;
   float linear_damping = 0.0f;   // 1/s
   float angular_damping = 0.0f;  // 1/s

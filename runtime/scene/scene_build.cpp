@@ -57,10 +57,7 @@ BuiltScene build_world(const SceneDesc& scene) {
     d.density = b.density;
     d.has_inertia = b.has_inertia;
     std::copy(b.inertia, b.inertia + 6, d.inertia);
-    std::copy(b.position, b.position + 3, d.position);
-    std::copy(b.orientation, b.orientation + 4, d.orientation);
-    std::copy(b.velocity, b.velocity + 3, d.velocity);
-    std::copy(b.angular_velocity, b.angular_velocity + 3, d.angular_velocity);
+    d.state = b.state;
     d.friction = b.friction;
     d.linear_damping = b.linear_damping;
     d.angular_damping = b.angular_damping;

@@ -309,10 +309,10 @@ BodySpec read_body(const Reader& r, const json& j, const std::string& p, const s
     b.has_inertia = true;
     r.vec(*v, p + ".inertia", b.inertia, 6);
   }
-  if (const json* v = r.find(j, "position")) r.vec(*v, p + ".position", b.position, 3);
-  if (const json* v = r.find(j, "orientation")) r.vec(*v, p + ".orientation", b.orientation, 4);
-  if (const json* v = r.find(j, "velocity")) r.vec(*v, p + ".velocity", b.velocity, 3);
-  if (const json* v = r.find(j, "angular_velocity")) r.vec(*v, p + ".angular_velocity", b.angular_velocity, 3);
+  if (const json* v = r.find(j, "position")) r.vec(*v, p + ".position", b.state.position, 3);
+  if (const json* v = r.find(j, "orientation")) r.vec(*v, p + ".orientation", b.state.orientation, 4);
+  if (const json* v = r.find(j, "velocity")) r.vec(*v, p + ".velocity", b.state.velocity, 3);
+  if (const json* v = r.find(j, "angular_velocity")) r.vec(*v, p + ".angular_velocity", b.state.angular_velocity, 3);
   if (const json* v = r.find(j, "friction")) b.friction = r.non_negative(*v, p + ".friction");
   if (const json* v = r.find(j, "damping")) {
     const std::string q = p + ".damping";
@@ -630,10 +630,10 @@ std::string write_scene(const SceneDesc& scene) {
     if (b.mass != 0.0f) o["mass"] = tidy(b.mass);
     if (b.density != 0.0f) o["density"] = tidy(b.density);
     if (b.has_inertia) o["inertia"] = arr(b.inertia, 6);
-    o["position"] = arr(b.position, 3);
-    o["orientation"] = arr(b.orientation, 4);
-    o["velocity"] = arr(b.velocity, 3);
-    o["angular_velocity"] = arr(b.angular_velocity, 3);
+    o["position"] = arr(b.state.position, 3);
+    o["orientation"] = arr(b.state.orientation, 4);
+    o["velocity"] = arr(b.state.velocity, 3);
+    o["angular_velocity"] = arr(b.state.angular_velocity, 3);
     o["friction"] = tidy(b.friction);
     if (b.linear_damping == b.angular_damping)
       o["damping"] = tidy(b.linear_damping);
@@ -674,6 +674,10 @@ bool same(const float (&a)[N], const float (&b)[N]) {
     if (!(a[i] == b[i])) return false;
   return true;
 }
+bool same(const ppe::BodyState& a, const ppe::BodyState& b) {
+  return same(a.position, b.position) && same(a.orientation, b.orientation) && same(a.velocity, b.velocity) &&
+         same(a.angular_velocity, b.angular_velocity);
+}
 }  // namespace
 
 bool operator==(const ppe::WorldSettings& a, const ppe::WorldSettings& b) {
@@ -703,9 +707,7 @@ bool operator==(const ShapeSpec& a, const ShapeSpec& b) {
 bool operator==(const BodySpec& a, const BodySpec& b) {
   return a.id == b.id && a.id_is_integer == b.id_is_integer && a.shape == b.shape && a.scale == b.scale &&
          a.mass == b.mass && a.density == b.density && a.has_inertia == b.has_inertia &&
-         (!a.has_inertia || same(a.inertia, b.inertia)) && same(a.position, b.position) &&
-         same(a.orientation, b.orientation) && same(a.velocity, b.velocity) &&
-         same(a.angular_velocity, b.angular_velocity) && a.friction == b.friction &&
+         (!a.has_inertia || same(a.inertia, b.inertia)) && same(a.state, b.state) && a.friction == b.friction &&
          a.linear_damping == b.linear_damping && a.angular_damping == b.angular_damping && a.is_static == b.is_static;
 }
 

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <utility>
 
+#include <CLI/CLI.hpp>
+
 #include "tools/usage_error.h"
 
 namespace cellphys::cli {
@@ -52,97 +54,114 @@ namespace {
 
 namespace fs = std::filesystem;
 
-double parse_positive(const std::string& opt, const char* text) {
+constexpr long long kMaxCount = 1000000000LL;
+
+double parse_positive(const std::string& opt, const std::string& text) {
   char* end = nullptr;
   errno = 0;
-  const double v = std::strtod(text, &end);
-  if (end == text || *end != '\0' || errno == ERANGE || !std::isfinite(v) || !(v > 0))
-    throw UsageError{opt + " needs a positive number, got '" + std::string(text) + "'"};
+  const double v = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || !(v > 0))
+    throw UsageError{opt + " needs a positive number, got '" + text + "'"};
   return v;
 }
 
-long long parse_count(const std::string& opt, const char* text, long long lo, long long hi) {
+long long parse_count(const std::string& opt, const std::string& text, long long lo, long long hi) {
   char* end = nullptr;
   errno = 0;
-  const long long v = std::strtoll(text, &end, 10);
-  if (end == text || *end != '\0' || errno == ERANGE || v < lo || v > hi)
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (end == text.c_str() || *end != '\0' || errno == ERANGE || v < lo || v > hi)
     throw UsageError{opt + " needs an integer from " + std::to_string(lo) + " to " + std::to_string(hi) + ", got '" +
-                     std::string(text) + "'"};
+                     text + "'"};
   return v;
 }
 
-}  // namespace
-
-bool parse_run_options(int argc, char** argv, RunOptions& o) {
-  bool have_duration = false, have_steps = false;
-  for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i];
-    std::string value;
-    bool has_inline = false;
-    if (a.rfind("--", 0) == 0) {
-      const size_t eq = a.find('=');
-      if (eq != std::string::npos) {
-        value = a.substr(eq + 1);
-        a = a.substr(0, eq);
-        has_inline = true;
-      }
-    }
-    auto next = [&]() -> const char* {
-      if (has_inline) return value.c_str();
-      if (i + 1 >= argc) throw UsageError{a + " needs a value"};
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") return false;
-    if (a == "--duration") {
-      o.duration = parse_positive(a, next());
-      have_duration = true;
-    } else if (a == "--steps") {
-      o.steps = parse_count(a, next(), 0, 1000000000LL);
-      have_steps = true;
-    } else if (a == "--dt") {
-      o.dt = parse_positive(a, next());
-    } else if (a == "--integrator") {
-      o.integrator = next();
-    } else if (a == "--solver") {
-      o.solver = next();
-    } else if (a == "--tolerance") {
-      o.tolerance = parse_positive(a, next());
-    } else if (a == "--workers") {
-      o.workers = static_cast<int>(parse_count(a, next(), 1, 256));
-    } else if (a == "--out") {
-      o.out = next();
-    } else if (a == "--every") {
-      o.every = parse_count(a, next(), 1, 1000000000LL);
-    } else if (a == "--stats") {
-      o.stats = next();
-    } else if (a == "--save-snapshot") {
-      o.save_snapshot = next();
-    } else if (a == "--snapshot-every") {
-      o.snapshot_every = parse_count(a, next(), 1, 1000000000LL);
-    } else if (a == "--resume") {
-      o.resume = next();
-      if (o.resume.empty()) throw UsageError{"--resume needs a file"};
-    } else if (a == "--mpi") {
-      o.mpi = true;
-    } else if (a == "--mpi-deadline") {
-      o.mpi_deadline_ms = parse_positive(a, next());
-    } else if (a == "--mpi-fault") {
-      const std::string f = next();
+// CLI11 splits the arguments into options, values and the scene; each value is checked here as it
+// is met (so the first bad one is the one reported), with a message naming the option and what it
+// takes, and unknown options and a second scene are told in this command's words.
+class Parser {
+ public:
+  explicit Parser(RunOptions& o) : o_(o) {
+    app_.set_help_flag();  // the help is kRunHelp, not CLI11's own
+    app_.allow_extras();   // unknown options and a second scene are left in remaining(), told below
+    app_.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+    app_.add_flag_callback("-h,--help", [] { throw CLI::CallForHelp(); })->trigger_on_parse();
+    positive("--duration", o.duration);
+    count("--steps", o.steps, 0, kMaxCount);
+    positive("--dt", o.dt);
+    text("--integrator", o.integrator);
+    text("--solver", o.solver);
+    positive("--tolerance", o.tolerance);
+    count("--workers", o.workers, 1, 256);
+    text("--out", o.out);
+    count("--every", o.every, 1, kMaxCount);
+    text("--stats", o.stats);
+    text("--save-snapshot", o.save_snapshot);
+    count("--snapshot-every", o.snapshot_every, 1, kMaxCount);
+    value("--resume", [&o](const std::string& f) {
+      if (f.empty()) throw UsageError{"--resume needs a file"};
+      o.resume = f;
+    });
+    app_.add_flag("--mpi", o.mpi);
+    positive("--mpi-deadline", o.mpi_deadline_ms);
+    value("--mpi-fault", [&o](const std::string& f) {
       const size_t colon = f.find(':');
       const std::string kind = f.substr(0, colon);
       if (colon == std::string::npos || (kind != "corrupt" && kind != "silent"))
         throw UsageError{"--mpi-fault takes corrupt:N or silent:N, got '" + f + "'"};
-      const int n = static_cast<int>(parse_count(a, f.c_str() + colon + 1, 0, 1000000000LL));
+      const int n = static_cast<int>(parse_count("--mpi-fault", f.substr(colon + 1), 0, kMaxCount));
       (kind == "corrupt" ? o.mpi_corrupt : o.mpi_silent) = n;
-    } else if (!a.empty() && a[0] == '-' && a != "-") {
-      throw UsageError{"unknown option '" + a + "'"};
-    } else if (o.scene.empty()) {
-      o.scene = a;
-    } else {
-      throw UsageError{"more than one scene given ('" + o.scene + "' and '" + a + "')"};
-    }
+    });
+    app_.add_option("scene", o.scene);
   }
-  if (have_duration && have_steps) throw UsageError{"give --duration or --steps, not both"};
+
+  // Returns false when --help was asked for.
+  bool parse(int argc, char** argv) {
+    try {
+      app_.parse(argc, argv);
+    } catch (const CLI::CallForHelp&) {
+      return false;
+    } catch (const CLI::ArgumentMismatch& e) {
+      // An option that takes a value came last without one (`--steps` or `--steps=`).
+      const std::string last = argv[argc - 1];
+      const std::string name = last.substr(0, last.find('='));
+      const CLI::Option* opt = app_.get_option_no_throw(name);
+      if (opt && opt->get_expected_min() > 0) throw UsageError{name + " needs a value"};
+      throw UsageError{e.what()};
+    } catch (const CLI::ParseError& e) {
+      throw UsageError{e.what()};
+    }
+    for (const std::string& a : app_.remaining()) {
+      if (a == "--") continue;  // the end of options, kept by allow_extras
+      if (a.size() > 1 && a[0] == '-') throw UsageError{"unknown option '" + a.substr(0, a.find('=')) + "'"};
+      throw UsageError{"more than one scene given ('" + o_.scene + "' and '" + a + "')"};
+    }
+    return true;
+  }
+
+ private:
+  void value(const char* name, std::function<void(const std::string&)> set) {
+    app_.add_option_function<std::string>(name, std::move(set))->trigger_on_parse();
+  }
+  void text(const char* name, std::string& to) {
+    value(name, [&to](const std::string& v) { to = v; });
+  }
+  void positive(const char* name, double& to) {
+    value(name, [name, &to](const std::string& v) { to = parse_positive(name, v); });
+  }
+  template <class Int>
+  void count(const char* name, Int& to, long long lo, long long hi) {
+    value(name, [name, &to, lo, hi](const std::string& v) { to = static_cast<Int>(parse_count(name, v, lo, hi)); });
+  }
+
+  RunOptions& o_;
+  CLI::App app_;
+};
+
+}  // namespace
+
+bool parse_run_options(int argc, char** argv, RunOptions& o) {
+  if (!Parser(o).parse(argc, argv)) return false;
+  if (o.duration > 0 && o.steps >= 0) throw UsageError{"give --duration or --steps, not both"};
   if (!o.resume.empty() && !o.scene.empty())
     throw UsageError{"give a scene or --resume SNAPSHOT, not both ('" + o.scene + "' and '" + o.resume + "')"};
   if (o.snapshot_every > 0 && o.save_snapshot.empty()) throw UsageError{"--snapshot-every needs --save-snapshot FILE"};

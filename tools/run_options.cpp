@@ -56,6 +56,13 @@ namespace fs = std::filesystem;
 
 constexpr long long kMaxCount = 1000000000LL;
 
+// The file a path names, to tell two output paths that name one file (`a` and `./a`: made
+// absolute first, as weakly_canonical keeps a path relative when none of it exists).
+fs::path resolved(const std::string& p, std::error_code& ec) {
+  const fs::path abs = fs::absolute(p, ec);
+  return ec ? fs::path() : fs::weakly_canonical(abs, ec);
+}
+
 double parse_positive(const std::string& opt, const std::string& text) {
   char* end = nullptr;
   errno = 0;
@@ -173,7 +180,7 @@ bool parse_run_options(int argc, char** argv, RunOptions& o) {
       const std::string& y = *outputs[k].second;
       if (x.empty() || y.empty()) continue;
       std::error_code e1, e2;
-      const fs::path a = fs::weakly_canonical(x, e1), b = fs::weakly_canonical(y, e2);
+      const fs::path a = resolved(x, e1), b = resolved(y, e2);
       if (x == y || (!e1 && !e2 && a == b))
         throw UsageError{std::string(outputs[i].first) + " and " + outputs[k].first + " name the same file"};
     }

@@ -39,13 +39,14 @@ struct Snapshot {
 };
 
 struct Sums {
-  double broad = 0, mid = 0, narrow = 0, sleep = 0, islands_t = 0, pack = 0, integrate = 0, unpack = 0, total = 0;
+  double broad = 0, mid = 0, narrow = 0, wake = 0, islands_t = 0, decouple = 0, pack = 0, integrate = 0, unpack = 0,
+         sleep = 0, total = 0;
   double contacts = 0, islands = 0, active = 0, iterations = 0, decoupled = 0, failed = 0;
   size_t store = 0;
   void add(const StepStats& s) {
-    broad += s.times.broad_ms, mid += s.times.mid_ms, narrow += s.times.narrow_ms, sleep += s.times.sleep_ms;
-    islands_t += s.times.islands_ms, pack += s.times.pack_ms, integrate += s.times.integrate_ms;
-    unpack += s.times.unpack_ms, total += s.times.total_ms;
+    broad += s.times.broad_ms, mid += s.times.mid_ms, narrow += s.times.narrow_ms, wake += s.times.wake_ms;
+    islands_t += s.times.islands_ms, decouple += s.times.decouple_ms, pack += s.times.pack_ms;
+    integrate += s.times.integrate_ms, unpack += s.times.unpack_ms, sleep += s.times.sleep_ms, total += s.times.total_ms;
     contacts += s.contacts, islands += s.islands, active += s.active_bodies, iterations += s.solver_iterations;
     decoupled += s.decoupled_islands, failed += s.failed_islands;
     store = std::max(store, s.local_store_peak_bytes);
@@ -57,11 +58,13 @@ struct Sums {
     state.counters["broad_us"] = Counter(1e3 * broad, avg);
     state.counters["mid_us"] = Counter(1e3 * mid, avg);
     state.counters["narrow_us"] = Counter(1e3 * narrow, avg);
-    state.counters["sleep_us"] = Counter(1e3 * sleep, avg);
+    state.counters["wake_us"] = Counter(1e3 * wake, avg);
     state.counters["islands_us"] = Counter(1e3 * islands_t, avg);
+    state.counters["decouple_us"] = Counter(1e3 * decouple, avg);
     state.counters["pack_us"] = Counter(1e3 * pack, avg);
     state.counters["integrate_us"] = Counter(1e3 * integrate, avg);
     state.counters["unpack_us"] = Counter(1e3 * unpack, avg);
+    state.counters["sleep_us"] = Counter(1e3 * sleep, avg);
     state.counters["step_us"] = Counter(1e3 * total, avg);
     state.counters["contacts"] = Counter(contacts, avg);
     state.counters["islands"] = Counter(islands, avg);

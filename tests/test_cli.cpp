@@ -214,6 +214,8 @@ TEST_F(Cli, HelpAndUsageErrors) {
                        Bad{{"run", "no_such_scene"}, "unknown scene 'no_such_scene'"},
                        Bad{{"run", "a", "b"}, "more than one scene"},
                        Bad{{"run", "pendulum", "--steps"}, "--steps needs a value"},
+                       Bad{{"run", "pendulum", "--out", "same.csv", "--stats", "./same.csv"},
+                           "--out and --stats name the same file"},
                        Bad{{"frobnicate"}, "unknown command 'frobnicate'"}}) {
     const Result r = run(b.args);
     EXPECT_EQ(r.code, 2) << b.message;

@@ -304,14 +304,14 @@ std::vector<unsigned char> World::snapshot() const {
     p.put(f.b);
     p.put_bytes(f.instance.data(), f.instance.size());
   }
-  p.put(static_cast<uint32_t>(w.groups.size()));
-  for (const SleepGroup& g : w.groups) {
+  p.put(static_cast<uint32_t>(w.sleeping.groups.size()));
+  for (const SleepGroup& g : w.sleeping.groups) {
     p.put_u32s(g.bodies);
     p.put(static_cast<uint32_t>(g.contacts.size()));
     for (const WorldContact& c : g.contacts) put_contact(p, c);
   }
-  p.put(static_cast<uint32_t>(w.free_groups.size()));
-  for (int32_t g : w.free_groups) p.put(g);
+  p.put(static_cast<uint32_t>(w.sleeping.free.size()));
+  for (int32_t g : w.sleeping.free) p.put(g);
 
   Writer out;
   out.bytes.insert(out.bytes.end(), kMagic, kMagic + 8);
@@ -390,15 +390,15 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
   }
 
   const uint32_t ng = r.count("sleeping groups", 8);
-  w.groups.resize(ng);
+  w.sleeping.groups.resize(ng);
   for (uint32_t g = 0; g < ng; ++g) {
-    w.groups[g].bodies = r.get_u32s("sleeping group");
-    for (uint32_t id : w.groups[g].bodies)
+    w.sleeping.groups[g].bodies = r.get_u32s("sleeping group");
+    for (uint32_t id : w.sleeping.groups[g].bodies)
       if (!body_ok(id, false)) throw WorldError("snapshot: sleeping group " + std::to_string(g) + " refers to a missing body");
     const uint32_t nc = r.count("sleeping contacts", 36);
     for (uint32_t c = 0; c < nc; ++c) {
-      w.groups[g].contacts.push_back(get_contact(r));
-      const WorldContact& wc = w.groups[g].contacts.back();
+      w.sleeping.groups[g].contacts.push_back(get_contact(r));
+      const WorldContact& wc = w.sleeping.groups[g].contacts.back();
       if (!body_ok(wc.a, false) || !body_ok(wc.b, true))
         throw WorldError("snapshot: sleeping group " + std::to_string(g) + " has a contact with a missing body");
     }
@@ -407,7 +407,7 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
   for (uint32_t k = 0; k < nfree; ++k) {
     const int32_t g = r.get<int32_t>("free groups");
     if (g < 0 || static_cast<uint32_t>(g) >= ng) throw WorldError("snapshot: free group out of range");
-    w.free_groups.push_back(g);
+    w.sleeping.free.push_back(g);
   }
   for (uint32_t i = 0; i < nb; ++i)
     if (w.bodies[i].sleep_group < -1 || w.bodies[i].sleep_group >= static_cast<int32_t>(ng))

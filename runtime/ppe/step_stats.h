@@ -1,13 +1,33 @@
-// What one step did: the seed's server loop, stage by stage.
+// What one step did, stage by stage (the stages are listed in runtime/ppe/world.h).
 #pragma once
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 
 namespace cellphys::ppe {
 
+/// Wall time of each stage of one step, in milliseconds, under the stage's name.
 struct StageTimes {
-  double broad_ms = 0, mid_ms = 0, narrow_ms = 0, sleep_ms = 0, islands_ms = 0, decouple_ms = 0,
-         pack_ms = 0, integrate_ms = 0, unpack_ms = 0, total_ms = 0;
+  double broad_ms = 0, mid_ms = 0, narrow_ms = 0;  // 1. collide
+  double wake_ms = 0;                              // 2. wake touched groups
+  double islands_ms = 0;                           // 3. build islands
+  double decouple_ms = 0;                          // 4. decouple
+  double pack_ms = 0, integrate_ms = 0, unpack_ms = 0;  // 5. integrate islands (run and check: integrate_ms)
+  double sleep_ms = 0;                             // 6. put quiet islands to sleep
+  double total_ms = 0;
+};
+
+/// Adds the time from construction to destruction to one StageTimes entry.
+class StageTimer {
+ public:
+  explicit StageTimer(double& ms) : ms_(ms), start_(std::chrono::steady_clock::now()) {}
+  ~StageTimer() { ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count(); }
+  StageTimer(const StageTimer&) = delete;
+  StageTimer& operator=(const StageTimer&) = delete;
+
+ private:
+  double& ms_;
+  std::chrono::steady_clock::time_point start_;
 };
 
 struct StepStats {

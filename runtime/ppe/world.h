@@ -1,7 +1,15 @@
-// The world a server links: bodies on a shape dictionary, forces between them, and the
-// seed's six-stage step (collide, revise sleeping, partition, decouple, integrate on the
-// compute kernels, adjust failed steps). Bad input is refused with a WorldError and
-// changes nothing.
+// The world a server links: bodies on a shape dictionary, forces between them, and the step.
+// Bad input is refused with a WorldError and changes nothing.
+//
+// One step, stage by stage (World::step in runtime/ppe/world.cpp; each stage is a function in
+// a file of its own and is timed under its name in StepStats::times):
+//   1. collide          runtime/ppe/step_collide.h    broad, plane, mid and narrow phase
+//   2. wake             runtime/ppe/step_sleep.h      sleeping groups touched by awake bodies
+//   3. build islands    runtime/ppe/step_islands.h    awake bodies joined by contacts and forces
+//   4. decouple         runtime/ppe/step_decouple.h   islands too big for a local store cut in parts
+//   5. integrate        runtime/ppe/step_integrate.h  pack, run on the kernels, check, unpack;
+//                                                     a failed step halves inside the kernel
+//   6. sleep            runtime/ppe/step_sleep.h      quiet islands put to sleep
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -113,7 +121,7 @@ class World {
   void set_runner(std::shared_ptr<IslandRunner> runner);
   IslandRunner* runner() const;
 
-  /// One step of settings().dt.
+  /// One step of settings().dt: the six stages listed at the top of this file.
   const StepStats& step();
   const StepStats& last_stats() const { return stats_; }
   /// Warnings from the last add/set call (e.g. a quaternion normalised).

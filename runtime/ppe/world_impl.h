@@ -7,7 +7,8 @@
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
-#include "runtime/ppe/broad_phase.h"
+#include "runtime/ppe/step_collide.h"
+#include "runtime/ppe/step_sleep.h"
 #include "runtime/ppe/world.h"
 #include "runtime/ppe/worker_pool.h"
 
@@ -18,20 +19,14 @@ inline std::string body_name(BodyId id) { return "body " + std::to_string(id); }
 struct World::Impl {
   std::vector<WorldBody> bodies;
   std::vector<WorldForce> forces;
-  std::vector<SleepGroup> groups;
-  std::vector<int32_t> free_groups;
-  SweepAndPrune sap;
+  SleepingGroups sleeping;
   std::unique_ptr<WorkerPool> pool;
   int pool_workers = 0;
   size_t pool_bytes = 0;
   std::shared_ptr<IslandRunner> runner;   // set_runner(); the pool when null
   std::unique_ptr<spu::ComputeWorker> local;  // recomputes islands whose result came back unsound
-  // per-step scratch, kept to avoid reallocation
-  std::vector<Aabb> boxes;
-  std::vector<float> reach;  // per body: distance it may close within the step (m)
-  std::vector<BoxKind> kinds;
-  std::vector<std::pair<uint32_t, uint32_t>> pairs;
-  std::vector<WorldContact> contacts;
+  CollideScratch collide;               // the sweep's order, kept between steps; buffers
+  std::vector<WorldContact> contacts;   // this step's, reused
 
   WorkerPool& workers(const WorldSettings& s) {
     if (!pool || pool_workers != s.workers || pool_bytes != s.local_store_bytes) {
@@ -56,23 +51,7 @@ struct World::Impl {
     if (id >= bodies.size() || !bodies[id].alive) throw WorldError(body_name(id) + " does not exist");
     return bodies[id];
   }
-  void wake(BodyId id) {
-    WorldBody& b = bodies[id];
-    b.sleep_timer = 0.0f;
-    if (b.awake || b.is_static) return;
-    const int32_t g = b.sleep_group;
-    if (g < 0) {
-      b.awake = true;
-      return;
-    }
-    for (uint32_t m : groups[g].bodies) {
-      bodies[m].awake = true;
-      bodies[m].sleep_group = -1;
-      bodies[m].sleep_timer = 0.0f;
-    }
-    groups[g] = SleepGroup{};
-    free_groups.push_back(g);
-  }
+  void wake(BodyId id) { wake_body(bodies, sleeping, id); }
 };
 
 }  // namespace cellphys::ppe

@@ -1,0 +1,109 @@
+#include "runtime/ppe/step_collide.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "runtime/ppe/world.h"
+#include "runtime/spu/narrow_phase.h"
+
+namespace cellphys::ppe {
+
+namespace {
+
+// Speculative reach: how far a body can close on another within the step (its speed, and
+// the spin of its farthest point, times dt). Boxes grow by it plus half the slop, so a pair
+// is found when its gap may close to within the slop: fast bodies meet contacts before they
+// tunnel, resting ones carry none that cannot act.
+float reach_in_step(const WorldBody& b, const Aabb& box, const WorldSettings& s) {
+  if (b.is_static) return 0.0f;
+  const double rx = 0.5 * (double(box.max[0]) - box.min[0]), ry = 0.5 * (double(box.max[1]) - box.min[1]),
+               rz = 0.5 * (double(box.max[2]) - box.min[2]);
+  const double speed = std::sqrt(double(b.state.velocity[0]) * b.state.velocity[0] + double(b.state.velocity[1]) * b.state.velocity[1] +
+                                 double(b.state.velocity[2]) * b.state.velocity[2]);
+  const double spin = std::sqrt(double(b.state.angular_velocity[0]) * b.state.angular_velocity[0] +
+                                double(b.state.angular_velocity[1]) * b.state.angular_velocity[1] +
+                                double(b.state.angular_velocity[2]) * b.state.angular_velocity[2]);
+  return static_cast<float>(s.dt * (speed + spin * std::sqrt(rx * rx + ry * ry + rz * rz)) + s.contact_margin);
+}
+
+// Boxes of every live non-plane body, grown by its reach; the region cull decides its kind.
+void broad_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                 CollideScratch& c, StepStats& st) {
+  const uint32_t n = static_cast<uint32_t>(bodies.size());
+  c.boxes.resize(n);
+  c.reach.assign(n, 0.0f);
+  c.kinds.assign(n, BoxKind::none);
+  c.planes.clear();
+  for (uint32_t i = 0; i < n; ++i) {
+    const WorldBody& b = bodies[i];
+    if (!b.alive) continue;
+    if (shapes.type(b.shape) == spu::ShapeType::plane) {
+      c.planes.push_back(i);
+      continue;
+    }
+    Aabb& box = c.boxes[i];
+    shapes.world_aabb(b.shape, pose_of(b), box.min, box.max);
+    c.reach[i] = reach_in_step(b, box, s);
+    const float grow = c.reach[i] + 0.5f * s.contact_slop;
+    for (int k = 0; k < 3; ++k) box.min[k] -= grow, box.max[k] += grow;
+    if (!inside_region(box, s.region_min, s.region_max)) {
+      if (!b.is_static) ++st.outside_region;
+      continue;
+    }
+    c.kinds[i] = b.is_static ? BoxKind::fixed : b.awake ? BoxKind::awake : BoxKind::asleep;
+    ++st.broad_phase_boxes;
+  }
+}
+
+// Every awake body whose grown box reaches within half the slop of a plane.
+void plane_pairs(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                 CollideScratch& c) {
+  const uint32_t n = static_cast<uint32_t>(bodies.size());
+  for (uint32_t p : c.planes) {
+    const spu::ShapeView& pv = shapes.view(bodies[p].shape);
+    for (uint32_t i = 0; i < n; ++i) {
+      if (c.kinds[i] != BoxKind::awake) continue;
+      const Aabb& B = c.boxes[i];
+      double lowest = 0;  // the (grown) box corner furthest along -normal
+      for (int k = 0; k < 3; ++k) lowest += pv.normal[k] * double(pv.normal[k] >= 0 ? B.min[k] : B.max[k]);
+      if (lowest - pv.offset <= 0.5 * s.contact_slop) c.pairs.emplace_back(std::min(i, p), std::max(i, p));
+    }
+  }
+}
+
+void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                  const CollideScratch& c, std::vector<WorldContact>& contacts, StepStats& st) {
+  contacts.clear();
+  for (const auto& [i, j] : c.pairs) {
+    uint32_t a = i, b = j;
+    if (bodies[a].is_static) std::swap(a, b);
+    spu::ContactPoint cp[spu::kMaxManifoldPoints];
+    const float margin = s.contact_slop + c.reach[a] + c.reach[b];
+    const int k = spu::collide(shapes.view(bodies[a].shape), pose_of(bodies[a]), shapes.view(bodies[b].shape),
+                               pose_of(bodies[b]), margin, cp);
+    if (k > 0) ++st.narrow_phase_pairs;
+    const float mu = std::sqrt(bodies[a].friction * bodies[b].friction);
+    for (int p = 0; p < k; ++p) contacts.push_back({a, bodies[b].is_static ? kWorldBody : b, cp[p], mu});
+  }
+}
+
+}  // namespace
+
+void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& settings,
+             CollideScratch& scratch, std::vector<WorldContact>& contacts, StepStats& st) {
+  {
+    StageTimer t(st.times.broad_ms);
+    broad_phase(bodies, shapes, settings, scratch, st);
+  }
+  {
+    StageTimer t(st.times.mid_ms);
+    scratch.sap.find_pairs(scratch.boxes, scratch.kinds, scratch.pairs);
+    plane_pairs(bodies, shapes, settings, scratch);
+    std::sort(scratch.pairs.begin(), scratch.pairs.end());
+    st.mid_phase_pairs = static_cast<uint32_t>(scratch.pairs.size());
+  }
+  StageTimer t(st.times.narrow_ms);
+  narrow_phase(bodies, shapes, settings, scratch, contacts, st);
+}
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,32 @@
+// Stage 1 of the step: collision. Broad phase (bounding boxes grown by each body's reach in
+// the step, culled against the simulated region), mid phase (sort and sweep, plus every
+// awake body against every plane), narrow phase (contact manifolds of the pairs found).
+#pragma once
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "runtime/ppe/body_records.h"
+#include "runtime/ppe/broad_phase.h"
+#include "runtime/ppe/step_stats.h"
+
+namespace cellphys::ppe {
+
+struct WorldSettings;
+
+/// What collision keeps between steps (the sweep's order) and reuses (its buffers).
+struct CollideScratch {
+  SweepAndPrune sap;
+  std::vector<Aabb> boxes;
+  std::vector<float> reach;  // per body: distance it may close within the step (m)
+  std::vector<BoxKind> kinds;
+  std::vector<uint32_t> planes;
+  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+};
+
+/// The step's contact points in `contacts` (replaced): the dynamic body first, normals from a
+/// to b, b = kWorldBody for static geometry. Times broad, mid and narrow phase.
+void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& settings,
+             CollideScratch& scratch, std::vector<WorldContact>& contacts, StepStats& st);
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,136 @@
+#include "runtime/ppe/step_integrate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "runtime/ppe/result_check.h"
+#include "runtime/ppe/wire_accounting.h"
+#include "runtime/ppe/world.h"
+
+namespace cellphys::ppe {
+
+namespace {
+
+void add_transport(const TransportCounters& tc, StepStats& st) {
+  st.bytes_to_nodes += tc.bytes_to_nodes;
+  st.bytes_from_nodes += tc.bytes_from_nodes;
+  st.messages += tc.messages_to_nodes + tc.messages_from_nodes;
+  st.bad_messages += tc.bad_messages;
+  st.reassigned_islands += tc.reassigned_islands;
+  st.dropped_nodes += tc.dropped_nodes;
+}
+
+void add_report(const spu::IslandReport& r, StepStats& st) {
+  st.solver_iterations += r.solver_iterations;
+  st.solves += r.solves;
+  st.step_halvings = std::max(st.step_halvings, r.halvings);
+  st.substeps += r.substeps;
+  st.local_store_peak_bytes = std::max(st.local_store_peak_bytes, r.footprint.total);
+}
+
+// One wave: part `wave` of every island (of the split ones only, after the first sweep).
+// A failed part of a split island marks the island in part_failed (counted once, after the
+// last sweep); a failed whole island is counted now and keeps its state.
+void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const DecoupledIslands& d, size_t wave,
+              bool split_only, IslandCompute compute, std::vector<WorldBody>& bodies,
+              std::vector<uint8_t>& part_failed, StepStats& st) {
+  std::vector<PackedIsland> packed;
+  std::vector<size_t> island_of_packed;
+  std::vector<size_t> order;  // largest first: the long islands start early on the workers
+  std::vector<spu::IslandJob> jobs;
+  {
+    StageTimer t(st.times.pack_ms);
+    for (size_t k = 0; k < d.parts.size(); ++k)
+      if (wave < d.parts[k].size() && (!split_only || d.parts[k].size() > 1)) {
+        packed.push_back(pack_island(pc, d.parts[k][wave]));
+        island_of_packed.push_back(k);
+      }
+    order.resize(packed.size());
+    std::iota(order.begin(), order.end(), size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t x, size_t y) { return packed[x].image.size() > packed[y].image.size(); });
+    for (size_t k : order) {
+      PackedIsland& p = packed[k];
+      p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
+      jobs.push_back({p.image.data(), p.image.size(), p.result.data(), p.result.size()});
+      count_wire_tables(p, shapes, st);
+    }
+  }
+  std::vector<spu::IslandReport> reports;
+  {
+    StageTimer t(st.times.integrate_ms);
+    compute.runner.set_local_store(pc.settings.local_store_bytes);
+    compute.runner.run(jobs, reports);
+    add_transport(compute.runner.last_transport(), st);
+    // Every result is checked before anything is unpacked; an unsound one (damaged on the
+    // way, or refused by a node that was sent a sound image) is computed again here.
+    for (size_t j = 0; j < order.size(); ++j) {
+      PackedIsland& p = packed[order[j]];
+      if (sound_result(p, reports[j])) continue;
+      reports[j] = compute.local.step(p.image.data(), p.image.size(), p.result.data(), p.result.size());
+      ++st.recomputed_islands;
+    }
+  }
+  StageTimer t(st.times.unpack_ms);
+  for (size_t j = 0; j < order.size(); ++j) {
+    const spu::IslandReport& r = reports[j];
+    add_report(r, st);
+    if (r.status != spu::IslandStatus::ok) {
+      const size_t k = island_of_packed[order[j]];
+      if (d.parts[k].size() > 1) part_failed[k] = 1;
+      else ++st.failed_islands;
+      continue;
+    }
+    unpack_island(packed[order[j]], bodies);
+  }
+}
+
+// The linear velocities of the bodies of split islands, in island order.
+std::vector<float> split_velocities(const std::vector<IslandContent>& islands, const DecoupledIslands& d,
+                                    const std::vector<WorldBody>& bodies) {
+  std::vector<float> v;
+  for (size_t k = 0; k < d.parts.size(); ++k)
+    if (d.parts[k].size() > 1)
+      for (uint32_t i : islands[k].bodies) v.insert(v.end(), bodies[i].state.velocity, bodies[i].state.velocity + 3);
+  return v;
+}
+
+float largest_change(const std::vector<float>& before, const std::vector<float>& after) {
+  float change = 0;
+  for (size_t k = 0; k < before.size(); ++k) change = std::max(change, std::fabs(after[k] - before[k]));
+  return change;
+}
+
+}  // namespace
+
+void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
+                       const DecoupledIslands& d, const std::vector<WorldForce>& forces,
+                       const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, IslandCompute compute,
+                       StepStats& st) {
+  // Every sweep packs from the start state; it is kept apart only when an island is split.
+  const std::vector<WorldBody> start = d.split() ? bodies : std::vector<WorldBody>{};
+  const PackContext pc{bodies, forces, contacts, s, d.split() ? start : bodies};
+  std::vector<uint8_t> part_failed(islands.size(), 0);  // split islands: a part failed this sweep
+  const uint32_t sweeps = d.split() ? std::max(1u, s.decouple_sweeps) : 1;
+  for (uint32_t sweep = 0; sweep < sweeps; ++sweep) {
+    std::fill(part_failed.begin(), part_failed.end(), uint8_t{0});
+    const std::vector<float> before = split_velocities(islands, d, bodies);
+    for (size_t wave = 0; wave < d.waves; ++wave)
+      run_wave(pc, shapes, d, wave, sweep > 0, compute, bodies, part_failed, st);
+    if (!d.split()) break;
+    st.decouple_sweeps = sweep + 1;
+    st.decouple_change = largest_change(before, split_velocities(islands, d, bodies));
+    const bool any_failed = std::find(part_failed.begin(), part_failed.end(), uint8_t{1}) != part_failed.end();
+    if (sweep > 0 && st.decouple_change <= s.decouple_tolerance && !any_failed) break;
+  }
+  // A split island with a part that failed in its last sweep goes back to its start state
+  // whole, never half-stepped.
+  for (size_t k = 0; k < islands.size(); ++k)
+    if (part_failed[k]) {
+      ++st.failed_islands;
+      for (uint32_t i : islands[k].bodies) bodies[i] = start[i];
+    }
+}
+
+}  // namespace cellphys::ppe

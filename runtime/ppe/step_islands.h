@@ -1,0 +1,18 @@
+// Stage 3 of the step: awake bodies partitioned into islands, the groups that contacts and
+// binary forces join; static bodies and the world join nothing.
+#pragma once
+#include <vector>
+
+#include "runtime/ppe/body_records.h"
+#include "runtime/ppe/island_packer.h"
+#include "runtime/ppe/step_stats.h"
+
+namespace cellphys::ppe {
+
+/// The islands of the awake bodies, each with its bodies (ascending), the contacts and the
+/// forces acting on them; numbered by their smallest body, so the order does not depend on the
+/// order of the couplings. Counts bodies (live, static, active, sleeping), islands, contacts.
+std::vector<IslandContent> build_islands(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
+                                         const std::vector<WorldContact>& contacts, StepStats& st);
+
+}  // namespace cellphys::ppe

@@ -1,0 +1,190 @@
+#include "tools/run_options.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <utility>
+
+#include <CLI/CLI.hpp>
+
+#include "tools/usage_error.h"
+
+namespace cellphys::cli {
+
+const char kRunHelp[] =
+    "usage: cellphys run [SCENE] [options]\n"
+    "       cellphys run --resume SNAPSHOT [options]\n"
+    "\n"
+    "Steps SCENE (a scene file, or the name of a built-in scene: `cellphys scenes` lists them;\n"
+    "default: world1000), or the world saved in SNAPSHOT, and prints a summary.\n"
+    "\n"
+    "options:\n"
+    "  --duration S      simulate S seconds (default 5)\n"
+    "  --steps N         or exactly N steps\n"
+    "  --dt H            step size in seconds (overrides the scene's settings.dt)\n"
+    "  --integrator NAME implicit_split, implicit_euler, rosenbrock, symplectic_euler,\n"
+    "                    explicit_euler, rk4\n"
+    "  --solver NAME     cgs, bicgstab, direct\n"
+    "  --tolerance T     linear solver tolerance\n"
+    "  --workers K       compute workers (threads)\n"
+    "  --out FILE        trajectory CSV: step,t,body,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n"
+    "                    (every body; step 0 and every N-th step)\n"
+    "  --every N         with --out: write every N-th step (default 1)\n"
+    "  --stats FILE      run statistics as JSON\n"
+    "  --save-snapshot FILE  the world at the end as a snapshot (docs/distributed.md), for\n"
+    "                    --resume; a resumed run steps on bit for bit\n"
+    "  --snapshot-every N    with --save-snapshot: also every N-th step (the file is replaced\n"
+    "                    whole each time)\n"
+    "  --resume FILE     start from a snapshot instead of a scene (--duration and --steps count\n"
+    "                    from there; --dt, --integrator, ... change its saved settings)\n"
+    "  --mpi             compute islands on MPI ranks (run under mpirun): rank 0 dispatches,\n"
+    "                    the other ranks are stateless compute nodes (docs/distributed.md)\n"
+    "  --mpi-deadline MS drop a compute node silent this long with islands outstanding\n"
+    "                    (default 5000)\n"
+    "  --mpi-fault F     test hook: corrupt:N (node 1 damages its N-th reply) or silent:N\n"
+    "                    (the last node stops answering after N islands)\n"
+    "  -h, --help        this text\n"
+    "\n"
+    "Exit codes: 0 done, 1 a failure while running or writing, 2 a usage, scene or snapshot\n"
+    "error.\n"
+    "Built-in scenes are looked up in $CELLPHYS_SCENES, then in the source tree's examples/scenes.\n";
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr long long kMaxCount = 1000000000LL;
+
+// The file a path names, to tell two output paths that name one file (`a` and `./a`: made
+// absolute first, as weakly_canonical keeps a path relative when none of it exists).
+fs::path resolved(const std::string& p, std::error_code& ec) {
+  const fs::path abs = fs::absolute(p, ec);
+  return ec ? fs::path() : fs::weakly_canonical(abs, ec);
+}
+
+double parse_positive(const std::string& opt, const std::string& text) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || !(v > 0))
+    throw UsageError{opt + " needs a positive number, got '" + text + "'"};
+  return v;
+}
+
+long long parse_count(const std::string& opt, const std::string& text, long long lo, long long hi) {
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (end == text.c_str() || *end != '\0' || errno == ERANGE || v < lo || v > hi)
+    throw UsageError{opt + " needs an integer from " + std::to_string(lo) + " to " + std::to_string(hi) + ", got '" +
+                     text + "'"};
+  return v;
+}
+
+// CLI11 splits the arguments into options, values and the scene; each value is checked here as it
+// is met (so the first bad one is the one reported), with a message naming the option and what it
+// takes, and unknown options and a second scene are told in this command's words.
+class Parser {
+ public:
+  explicit Parser(RunOptions& o) : o_(o) {
+    app_.set_help_flag();  // the help is kRunHelp, not CLI11's own
+    app_.allow_extras();   // unknown options and a second scene are left in remaining(), told below
+    app_.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+    app_.add_flag_callback("-h,--help", [] { throw CLI::CallForHelp(); })->trigger_on_parse();
+    positive("--duration", o.duration);
+    count("--steps", o.steps, 0, kMaxCount);
+    positive("--dt", o.dt);
+    text("--integrator", o.integrator);
+    text("--solver", o.solver);
+    positive("--tolerance", o.tolerance);
+    count("--workers", o.workers, 1, 256);
+    text("--out", o.out);
+    count("--every", o.every, 1, kMaxCount);
+    text("--stats", o.stats);
+    text("--save-snapshot", o.save_snapshot);
+    count("--snapshot-every", o.snapshot_every, 1, kMaxCount);
+    value("--resume", [&o](const std::string& f) {
+      if (f.empty()) throw UsageError{"--resume needs a file"};
+      o.resume = f;
+    });
+    app_.add_flag("--mpi", o.mpi);
+    positive("--mpi-deadline", o.mpi_deadline_ms);
+    value("--mpi-fault", [&o](const std::string& f) {
+      const size_t colon = f.find(':');
+      const std::string kind = f.substr(0, colon);
+      if (colon == std::string::npos || (kind != "corrupt" && kind != "silent"))
+        throw UsageError{"--mpi-fault takes corrupt:N or silent:N, got '" + f + "'"};
+      const int n = static_cast<int>(parse_count("--mpi-fault", f.substr(colon + 1), 0, kMaxCount));
+      (kind == "corrupt" ? o.mpi_corrupt : o.mpi_silent) = n;
+    });
+    app_.add_option("scene", o.scene);
+  }
+
+  // Returns false when --help was asked for.
+  bool parse(int argc, char** argv) {
+    try {
+      app_.parse(argc, argv);
+    } catch (const CLI::CallForHelp&) {
+      return false;
+    } catch (const CLI::ArgumentMismatch& e) {
+      // An option that takes a value came last without one (`--steps` or `--steps=`).
+      const std::string last = argv[argc - 1];
+      const std::string name = last.substr(0, last.find('='));
+      const CLI::Option* opt = app_.get_option_no_throw(name);
+      if (opt && opt->get_expected_min() > 0) throw UsageError{name + " needs a value"};
+      throw UsageError{e.what()};
+    } catch (const CLI::ParseError& e) {
+      throw UsageError{e.what()};
+    }
+    for (const std::string& a : app_.remaining()) {
+      if (a == "--") continue;  // the end of options, kept by allow_extras
+      if (a.size() > 1 && a[0] == '-') throw UsageError{"unknown option '" + a.substr(0, a.find('=')) + "'"};
+      throw UsageError{"more than one scene given ('" + o_.scene + "' and '" + a + "')"};
+    }
+    return true;
+  }
+
+ private:
+  void value(const char* name, std::function<void(const std::string&)> set) {
+    app_.add_option_function<std::string>(name, std::move(set))->trigger_on_parse();
+  }
+  void text(const char* name, std::string& to) {
+    value(name, [&to](const std::string& v) { to = v; });
+  }
+  void positive(const char* name, double& to) {
+    value(name, [name, &to](const std::string& v) { to = parse_positive(name, v); });
+  }
+  template <class Int>
+  void count(const char* name, Int& to, long long lo, long long hi) {
+    value(name, [name, &to, lo, hi](const std::string& v) { to = static_cast<Int>(parse_count(name, v, lo, hi)); });
+  }
+
+  RunOptions& o_;
+  CLI::App app_;
+};
+
+}  // namespace
+
+bool parse_run_options(int argc, char** argv, RunOptions& o) {
+  if (!Parser(o).parse(argc, argv)) return false;
+  if (o.duration > 0 && o.steps >= 0) throw UsageError{"give --duration or --steps, not both"};
+  if (!o.resume.empty() && !o.scene.empty())
+    throw UsageError{"give a scene or --resume SNAPSHOT, not both ('" + o.scene + "' and '" + o.resume + "')"};
+  if (o.snapshot_every > 0 && o.save_snapshot.empty()) throw UsageError{"--snapshot-every needs --save-snapshot FILE"};
+  const std::pair<const char*, const std::string*> outputs[] = {
+      {"--out", &o.out}, {"--stats", &o.stats}, {"--save-snapshot", &o.save_snapshot}};
+  for (size_t i = 0; i < 3; ++i)
+    for (size_t k = i + 1; k < 3; ++k) {
+      const std::string& x = *outputs[i].second;
+      const std::string& y = *outputs[k].second;
+      if (x.empty() || y.empty()) continue;
+      std::error_code e1, e2;
+      const fs::path a = resolved(x, e1), b = resolved(y, e2);
+      if (x == y || (!e1 && !e2 && a == b))
+        throw UsageError{std::string(outputs[i].first) + " and " + outputs[k].first + " name the same file"};
+    }
+  return true;
+}
+
+}  // namespace cellphys::cli

@@ -17,22 +17,18 @@ void set_mass_properties(const ShapeDictionary& shapes, const BodyDesc& d, const
 }
 
 void apply_impulse(WorldBody& b, const float impulse[3], const float point[3]) {
-  const Vec3d r = {point[0] - double(b.state.position[0]), point[1] - double(b.state.position[1]), point[2] - double(b.state.position[2])};
-  const Vec3d J = {impulse[0], impulse[1], impulse[2]};
-  const Vec3d L = {r.y * J.z - r.z * J.y, r.z * J.x - r.x * J.z, r.x * J.y - r.y * J.x};
-  const Quatd q{b.state.orientation[0], b.state.orientation[1], b.state.orientation[2], b.state.orientation[3]};
-  const Vec3d dw = mul(rotate_sym(quat_to_matrix(q), b.inverse_inertia), L);
+  const Vec3d r = Vec3d::load(point) - Vec3d::load(b.state.position);
+  const Vec3d L = cross(r, Vec3d::load(impulse));
+  const Vec3d dw = mul(rotate_sym(quat_to_matrix(Quatd::load(b.state.orientation)), b.inverse_inertia), L);
   for (int k = 0; k < 3; ++k) b.state.velocity[k] += static_cast<float>(impulse[k] / b.mass);
   b.state.angular_velocity[0] += float(dw.x), b.state.angular_velocity[1] += float(dw.y), b.state.angular_velocity[2] += float(dw.z);
 }
 
 void add_kinetic_energy(const WorldBody& b, double& e) {
-  e += 0.5 * b.mass *
-       (double(b.state.velocity[0]) * b.state.velocity[0] + double(b.state.velocity[1]) * b.state.velocity[1] + double(b.state.velocity[2]) * b.state.velocity[2]);
-  const Quatd q{b.state.orientation[0], b.state.orientation[1], b.state.orientation[2], b.state.orientation[3]};
-  const Vec3d w = {b.state.angular_velocity[0], b.state.angular_velocity[1], b.state.angular_velocity[2]};
-  const Vec3d Iw = mul(rotate_sym(quat_to_matrix(q), b.inertia), w);
-  e += 0.5 * (w.x * Iw.x + w.y * Iw.y + w.z * Iw.z);
+  e += 0.5 * b.mass * squared_norm(Vec3d::load(b.state.velocity));
+  const Vec3d w = Vec3d::load(b.state.angular_velocity);
+  const Vec3d Iw = mul(rotate_sym(quat_to_matrix(Quatd::load(b.state.orientation)), b.inertia), w);
+  e += 0.5 * dot(w, Iw);
 }
 
 uint64_t hash_state(const WorldBody& b, uint64_t h) {

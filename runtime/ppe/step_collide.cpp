@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "runtime/base/vec3.h"
 #include "runtime/ppe/world.h"
 #include "runtime/spu/narrow_phase.h"
 
@@ -16,14 +17,9 @@ namespace {
 // tunnel, resting ones carry none that cannot act.
 float reach_in_step(const WorldBody& b, const Aabb& box, const WorldSettings& s) {
   if (b.is_static) return 0.0f;
-  const double rx = 0.5 * (double(box.max[0]) - box.min[0]), ry = 0.5 * (double(box.max[1]) - box.min[1]),
-               rz = 0.5 * (double(box.max[2]) - box.min[2]);
-  const double speed = std::sqrt(double(b.state.velocity[0]) * b.state.velocity[0] + double(b.state.velocity[1]) * b.state.velocity[1] +
-                                 double(b.state.velocity[2]) * b.state.velocity[2]);
-  const double spin = std::sqrt(double(b.state.angular_velocity[0]) * b.state.angular_velocity[0] +
-                                double(b.state.angular_velocity[1]) * b.state.angular_velocity[1] +
-                                double(b.state.angular_velocity[2]) * b.state.angular_velocity[2]);
-  return static_cast<float>(s.dt * (speed + spin * std::sqrt(rx * rx + ry * ry + rz * rz)) + s.contact_margin);
+  const Vec3d half = (Vec3d::load(box.max) - Vec3d::load(box.min)) * 0.5;
+  const double speed = norm(Vec3d::load(b.state.velocity)), spin = norm(Vec3d::load(b.state.angular_velocity));
+  return static_cast<float>(s.dt * (speed + spin * norm(half)) + s.contact_margin);
 }
 
 // Boxes of every live non-plane body, grown by its reach; the region cull decides its kind.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "runtime/base/vec3.h"
 #include "runtime/ppe/world.h"
 
 namespace cellphys::ppe {
@@ -59,9 +60,7 @@ void sleep_quiet_islands(const WorldSettings& s, const std::vector<IslandContent
     bool all = true;
     for (uint32_t i : isl.bodies) {
       WorldBody& b = bodies[i];
-      const float v2 = b.state.velocity[0] * b.state.velocity[0] + b.state.velocity[1] * b.state.velocity[1] + b.state.velocity[2] * b.state.velocity[2];
-      const float a2 = b.state.angular_velocity[0] * b.state.angular_velocity[0] + b.state.angular_velocity[1] * b.state.angular_velocity[1] +
-                       b.state.angular_velocity[2] * b.state.angular_velocity[2];
+      const float v2 = squared_norm(Vec3f::load(b.state.velocity)), a2 = squared_norm(Vec3f::load(b.state.angular_velocity));
       b.sleep_timer = (v2 < lin2 && a2 < ang2) ? b.sleep_timer + s.dt : 0.0f;
       all = all && b.sleep_timer >= s.sleep_time;
     }

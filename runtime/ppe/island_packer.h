@@ -1,7 +1,6 @@
-// Pack: an island's bodies, contacts and forces into the bytes a compute kernel takes;
-// decouple islands too big for a local store by cutting them in space; unpack results into
-// the world. A coupling the cut crosses goes into both parts, each of which holds the body
-// across the cut as a ghost, so both sides stay implicit in the coupling; see decouple().
+// Pack: an island's bodies, contacts and forces (or a part of a decoupled island, with the
+// bodies across its cuts as kinematic ghosts) into the bytes a compute kernel takes; unpack
+// results into the world.
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -32,13 +31,6 @@ struct PackedIsland {
   std::vector<unsigned char> image;
   std::vector<unsigned char> result;
 };
-
-/// The parts of an island that each fit the local store (just the island when it fits), in
-/// the order they are integrated; counts the couplings cut. Integrating the parts in order,
-/// each holding the bodies across its cuts as kinematic ghosts at their latest velocities, is
-/// one block Gauss-Seidel sweep on the island's linear system; sweeps repeat until the
-/// velocities settle (World::step), so the parts converge on the whole island's step.
-std::vector<IslandContent> decouple(const PackContext& pc, IslandContent island, uint32_t& cut_couplings);
 
 /// Packs one island or part from the start-of-step state (pc.start); ghosts (kinematic: no
 /// force moves them) take their latest velocity from pc.bodies.

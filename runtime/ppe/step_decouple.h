@@ -1,14 +1,23 @@
-// Stage 4 of the step: islands too big for a local store are cut into parts (decouple() in
-// runtime/ppe/island_packer.h); the parts of a split island are integrated in order, one part
-// per wave.
+// Stage 4 of the step: islands too big for a local store are cut in space into parts that fit.
+// A coupling the cut crosses goes into both parts, each of which holds the body across the cut
+// as a ghost, so both sides stay implicit in the coupling; the parts of a split island are
+// integrated in order, one part per wave (runtime/ppe/step_integrate.h).
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "runtime/ppe/island_packer.h"
 #include "runtime/ppe/step_stats.h"
 
 namespace cellphys::ppe {
+
+/// The parts of an island that each fit the local store (just the island when it fits), in
+/// the order they are integrated; counts the couplings cut. Integrating the parts in order,
+/// each holding the bodies across its cuts as kinematic ghosts at their latest velocities, is
+/// one block Gauss-Seidel sweep on the island's linear system; sweeps repeat until the
+/// velocities settle (integrate_islands), so the parts converge on the whole island's step.
+std::vector<IslandContent> decouple(const PackContext& pc, IslandContent island, uint32_t& cut_couplings);
 
 struct DecoupledIslands {
   std::vector<std::vector<IslandContent>> parts;  // per island: its parts in integration order

@@ -25,6 +25,16 @@ bool finite(const float* p, int n) {
   return true;
 }
 
+// A checked state into a body: the orientation normalised (with a warning when it was not
+// unit); a static body keeps zero velocities.
+void take_state(const BodyState& s, const std::string& who, std::vector<std::string>& warnings, WorldBody& b) {
+  std::copy(s.position, s.position + 3, b.state.position);
+  normalise_orientation(s.orientation, b.state.orientation, who, warnings);
+  if (b.is_static) return;
+  std::copy(s.velocity, s.velocity + 3, b.state.velocity);
+  std::copy(s.angular_velocity, s.angular_velocity + 3, b.state.angular_velocity);
+}
+
 }  // namespace
 
 static void validate_settings(const WorldSettings& s) {
@@ -69,13 +79,8 @@ BodyId World::add_body(const BodyDesc& d) {
   b.linear_damping = d.linear_damping;
   b.angular_damping = d.angular_damping;
   b.is_static = is_static;
-  std::copy(d.state.position, d.state.position + 3, b.state.position);
-  normalise_orientation(d.state.orientation, b.state.orientation, who, warnings_);
-  if (!b.is_static) {
-    std::copy(d.state.velocity, d.state.velocity + 3, b.state.velocity);
-    std::copy(d.state.angular_velocity, d.state.angular_velocity + 3, b.state.angular_velocity);
-    set_mass_properties(shapes_, d, who, b);
-  }
+  take_state(d.state, who, warnings_, b);
+  if (!b.is_static) set_mass_properties(shapes_, d, who, b);
   impl_->bodies.push_back(b);
   return static_cast<BodyId>(impl_->bodies.size() - 1);
 }
@@ -130,25 +135,14 @@ void World::remove_force(ForceId id) {
 }
 
 BodyState World::state(BodyId id) const {
-  const WorldBody& b = impl_->live(id);
-  BodyState s;
-  std::copy(b.state.position, b.state.position + 3, s.position);
-  std::copy(b.state.orientation, b.state.orientation + 4, s.orientation);
-  std::copy(b.state.velocity, b.state.velocity + 3, s.velocity);
-  std::copy(b.state.angular_velocity, b.state.angular_velocity + 3, s.angular_velocity);
-  return s;
+  return impl_->live(id).state;
 }
 
 void World::set_state(BodyId id, const BodyState& s) {
   warnings_.clear();
   WorldBody& b = impl_->live(id);
   check_body_state(s, body_name(id));
-  std::copy(s.position, s.position + 3, b.state.position);
-  normalise_orientation(s.orientation, b.state.orientation, body_name(id), warnings_);
-  if (!b.is_static) {
-    std::copy(s.velocity, s.velocity + 3, b.state.velocity);
-    std::copy(s.angular_velocity, s.angular_velocity + 3, b.state.angular_velocity);
-  }
+  take_state(s, body_name(id), warnings_, b);
   impl_->wake(id);
 }
 

@@ -7,7 +7,8 @@ file(GLOB CELLPHYS_GEN_INPUTS CONFIGURE_DEPENDS
   ${PROJECT_SOURCE_DIR}/codegen/descriptors/structs/*.yaml
   ${PROJECT_SOURCE_DIR}/codegen/descriptors/forces/*.yaml
   ${PROJECT_SOURCE_DIR}/examples/new_force/*.yaml
-  ${PROJECT_SOURCE_DIR}/templates/*.j2)
+  ${PROJECT_SOURCE_DIR}/templates/*.j2
+  ${PROJECT_SOURCE_DIR}/templates/util/*.jinja)
 
 set(CELLPHYS_GEN_DIR ${PROJECT_BINARY_DIR}/generated)
 set(CELLPHYS_GEN_STAMP ${CELLPHYS_GEN_DIR}/cellphys/gen/.stamp)

@@ -32,6 +32,8 @@ add_custom_command(
   VERBATIM)
 add_custom_target(cellphys_codegen DEPENDS ${CELLPHYS_GEN_STAMP})
 
+# The generated headers include the SIMD layer (runtime/base) and nothing else of the runtime.
 add_library(cellphys_generated INTERFACE)
 add_dependencies(cellphys_generated cellphys_codegen)
-target_include_directories(cellphys_generated INTERFACE ${CELLPHYS_GEN_DIR} ${PROJECT_SOURCE_DIR})
+target_include_directories(cellphys_generated INTERFACE ${CELLPHYS_GEN_DIR})
+target_link_libraries(cellphys_generated INTERFACE cellphys_base)

@@ -24,7 +24,7 @@
 
 #include "runtime/ppe/island_runner.h"
 #include "runtime/scene/scene.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 #include "tools/cli.h"
 #ifdef CELLPHYS_HAVE_MPI
 #include "runtime/ppe/mpi_runner.h"

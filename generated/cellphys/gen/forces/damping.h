@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 

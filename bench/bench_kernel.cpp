@@ -5,11 +5,11 @@
 #include <cstring>
 #include <vector>
 
+#include "runtime/base/simd.h"
 #include "runtime/spu/assembly.h"
 #include "runtime/spu/integrators.h"
 #include "runtime/spu/kernel.h"
 #include "runtime/spu/rigid_motion.h"
-#include "runtime/spu/simd.h"
 #include "testing/reference_island.h"
 
 #if !defined(CELLPHYS_SIMD_SCALAR) && (defined(__AVX2__) || defined(__AVX512F__))

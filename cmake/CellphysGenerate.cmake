@@ -7,7 +7,8 @@ file(GLOB CELLPHYS_GEN_INPUTS CONFIGURE_DEPENDS
   ${PROJECT_SOURCE_DIR}/codegen/descriptors/structs/*.yaml
   ${PROJECT_SOURCE_DIR}/codegen/descriptors/forces/*.yaml
   ${PROJECT_SOURCE_DIR}/examples/new_force/*.yaml
-  ${PROJECT_SOURCE_DIR}/templates/*.j2)
+  ${PROJECT_SOURCE_DIR}/templates/*.j2
+  ${PROJECT_SOURCE_DIR}/templates/util/*.jinja)
 
 set(CELLPHYS_GEN_DIR ${PROJECT_BINARY_DIR}/generated)
 set(CELLPHYS_GEN_STAMP ${CELLPHYS_GEN_DIR}/cellphys/gen/.stamp)
@@ -31,6 +32,8 @@ add_custom_command(
   VERBATIM)
 add_custom_target(cellphys_codegen DEPENDS ${CELLPHYS_GEN_STAMP})
 
+# The generated headers include the SIMD layer (runtime/base) and nothing else of the runtime.
 add_library(cellphys_generated INTERFACE)
 add_dependencies(cellphys_generated cellphys_codegen)
-target_include_directories(cellphys_generated INTERFACE ${CELLPHYS_GEN_DIR} ${PROJECT_SOURCE_DIR})
+target_include_directories(cellphys_generated INTERFACE ${CELLPHYS_GEN_DIR})
+target_link_libraries(cellphys_generated INTERFACE cellphys_base)

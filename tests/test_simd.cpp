@@ -1,4 +1,4 @@
-// Tests for runtime/spu/simd.h on whichever path the build selects
+// Tests for runtime/base/simd.h on whichever path the build selects
 // (CELLPHYS_SIMD_SCALAR, AVX2+FMA or AVX-512).
 #include <math.h>  // also puts std::sqrt etc. into :: (ambiguity check below)
 
@@ -10,7 +10,7 @@
 #include <limits>
 #include <random>
 
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace {
 

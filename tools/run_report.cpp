@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runtime/scene/scene.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::cli {
 

@@ -33,7 +33,7 @@
 #include <ode/ode.h>
 
 #include "bench/peers/peer.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace {
 

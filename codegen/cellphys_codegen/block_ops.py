@@ -1,8 +1,6 @@
 """Symbolic pieces of the generated block operations (6x6 logical blocks, padded 8x6)."""
 import sympy as sp
 
-from . import cxx_printer
-
 
 def padded_row(r):
     """Logical row 0..5 -> row in the padded 8-float column (x y z _ x y z _)."""
@@ -62,13 +60,3 @@ def jacobi_inverse_stages():
     out[:3, :3] = Pi + U * Sci * T
     return A, stages, out, (detP, detS)
 
-
-def emit_stages(stages, prefix):
-    """Each stage CSE'd on its own, in order; returns code lines 'const S name = expr;'."""
-    lines, ops = [], 0
-    for k, stage in enumerate(stages):
-        tmps, outs, n = cxx_printer.emit([e for _, e in stage], f"{prefix}{k}_")
-        ops += n
-        lines += [f"const {ty} {t} = {c};" for ty, t, c in tmps]
-        lines += [f"const S {sym.name} = {c};" for (sym, _), c in zip(stage, outs)]
-    return lines, ops

@@ -52,6 +52,14 @@ class Block:
 
 
 @dataclass
+class Stage:
+    """One let of a kernel: its value and, unless held, the derivatives that are not trivial."""
+    origin: str  # the descriptor line it comes from, as the generated code names it
+    held: bool  # a lagged() let, held through the step
+    items: list  # [(symbol, expression)]
+
+
+@dataclass
 class Kernel:
     force: "Force"
     variant: str  # "body", "pair" or "world"
@@ -60,9 +68,11 @@ class Kernel:
     forces: list  # 6 * num_bodies expressions
     blocks: list = field(default_factory=list)
     pre: dict = field(default_factory=dict)  # preamble symbol -> expression of the inputs
-    stages: list = field(default_factory=list)  # per let: [(symbol, expression)] of its value and derivatives
-    held: list = field(default_factory=list)  # per stage: True for a lagged() let (held through the step)
+    pre_origins: dict = field(default_factory=dict)  # preamble symbol -> the let or apply entry that first used it
+    stages: list = field(default_factory=list)  # one Stage per let, in order
     implicit: dict = field(default_factory=dict)  # outputs and block pairs of the implicit form
+    apply_origin: str = ""  # the descriptor's apply list
+    applies: list = field(default_factory=list)  # per apply entry: (origin, body slot or None for the world)
 
     @property
     def cxx_name(self):
@@ -151,7 +161,7 @@ def _instance_struct(path, d, name, kind, params, structs):
 
 def load_force(path, structs):
     path = Path(path)
-    d = yaml_loader.load(path)
+    d, lines = yaml_loader.load_with_lines(path)
     if not isinstance(d, dict):
         raise DescriptorError(path, "(file)", "must be a mapping")
     unknown = unknown_keys(d, TOP_KEYS)
@@ -184,13 +194,16 @@ def load_force(path, structs):
     force = Force(name, kind, d.get("doc", ""), d.get("symmetric", False), d.get("world_anchor", False),
                   params, globals_, instance, str(path))
     variants = {"global": ["body"], "unary": ["body"], "binary": ["pair"] + (["world"] if force.world_anchor else [])}
-    force.kernels = [_build_kernel(force, v, d, path) for v in variants[kind]]
+    force.kernels = [_build_kernel(force, v, d, lines, path) for v in variants[kind]]
     return force
 
 
+def _origin(path, lines, field, what):
+    """How generated code names a descriptor entry: 'let depth (contact.yaml:27)'."""
+    return f"{what} ({Path(path).name}:{lines[field]})"
 
 
-def _build_kernel(force, variant, d, path):
+def _build_kernel(force, variant, d, lines, path):
     ctx = km.Context()
     bodies = [km.Body("a", ctx)] + ([km.Body("b", ctx)] if variant == "pair" else [])
     names = {"a": bodies[0]}
@@ -215,6 +228,8 @@ def _build_kernel(force, variant, d, path):
         why = naming.problem(lname, "let")
         if why or lname in km.FUNCTIONS or lname in names or lname == "h":
             raise DescriptorError(path, f"let.{lname}", why or f"{lname!r} is not a free identifier")
+        origin = _origin(path, lines, f"let.{lname}", f"let {lname}")
+        ctx.origin = origin
         value = evaluate(text, names, path, f"let.{lname}")
         held = isinstance(value, km.Lagged)
         if held:
@@ -229,12 +244,15 @@ def _build_kernel(force, variant, d, path):
             names[lname] = syms[0]
         else:
             raise DescriptorError(path, f"let.{lname}", f"{text!r} is neither a number nor a vector")
-        lets.append((list(zip(syms, exprs)), held))
+        lets.append((list(zip(syms, exprs)), held, origin))
     apply = d["apply"]
     if not isinstance(apply, list) or not apply:
         raise DescriptorError(path, "apply", "must be a non-empty list of force(...), torque(...) or force_at_point(...)")
     F = [sp.zeros(6, 1) for _ in bodies]
+    applies = []
     for i, text in enumerate(apply):
+        origin = _origin(path, lines, f"apply[{i}]", f"apply[{i}]")
+        ctx.origin = origin
         c = evaluate(text, names, path, f"apply[{i}]")
         if not isinstance(c, km.Contribution):
             raise DescriptorError(path, f"apply[{i}]", f"{text!r} is not force(...), torque(...) or force_at_point(...)")
@@ -243,8 +261,10 @@ def _build_kernel(force, variant, d, path):
                 raise DescriptorError(path, f"apply[{i}]", f"the {vname} in {text!r} is not a 3-vector")
             _check_scalars(v, path, f"apply[{i}]", text)
         if isinstance(c.body, km.World):
+            applies.append((origin, None))
             continue
         k = bodies.index(c.body)
+        applies.append((origin, k))
         F[k] += sp.Matrix.vstack(c.force, c.torque)
 
     zero = {s: 0 for b in bodies for s in b.delta}
@@ -253,7 +273,7 @@ def _build_kernel(force, variant, d, path):
     let_syms = set()
     deriv = {}  # (let symbol, z) -> symbol of its total derivative at delta = 0
     stages = []
-    for group, held in lets:
+    for group, held, origin in lets:
         stage = []
         for sym, expr in group:
             stage.append((sym, expr.xreplace(zero)))
@@ -266,8 +286,9 @@ def _build_kernel(force, variant, d, path):
                     deriv[(sym, z)] = sp.Symbol(f"d_{sym.name}__{z.name}", real=True)
                     stage.append((deriv[(sym, z)], dz))
         let_syms.update(sym for sym, _ in group)
-        stages.append(stage)
-    kernel = Kernel(force, variant, len(bodies), [], [], pre=ctx.pre)
+        stages.append(Stage(origin, held, stage))
+    kernel = Kernel(force, variant, len(bodies), [], [], pre=ctx.pre,
+                    apply_origin=_origin(path, lines, "apply", "apply"), applies=applies)
     for k, b in enumerate(bodies):
         kernel.forces += [e.xreplace(zero) for e in F[k]]
     for i, bi in enumerate(bodies):
@@ -279,18 +300,18 @@ def _build_kernel(force, variant, d, path):
                 if any(e != 0 for e in exprs):
                     kernel.blocks.append(Block(kind, i, j, exprs))
     kernel.stages = stages
-    kernel.held = [held for _, held in lets]
     everything = kernel.forces + [e for blk in kernel.blocks for e in blk.exprs]
-    everything_and_lets = everything + [e for st in stages for _, e in st]
+    everything_and_lets = everything + [e for st in stages for _, e in st.items]
     for e in everything_and_lets:
         bad = e.atoms(sp.Derivative, sp.Subs, sp.DiracDelta) or e.has(sp.nan, sp.zoo, sp.oo)
         if bad:
             raise DescriptorError(path, "apply", f"the force is not differentiable where it is evaluated ({bad})")
     # inputs: only the symbols the expressions (and the preamble they use) read, in a fixed order
-    defined = {sym for st in stages for sym, _ in st}
+    defined = {sym for st in stages for sym, _ in st.items}
     used = set().union(set(), *[e.free_symbols for e in everything_and_lets]) - defined - {H}
     used_pre = [s for s in ctx.pre if s in used]
     kernel.pre = {s: ctx.pre[s] for s in used_pre}
+    kernel.pre_origins = {s: ctx.origins[s] for s in used_pre}
     used = (used - set(used_pre)).union(set(), *[ctx.pre[s].free_symbols for s in used_pre]) - {H}
     # the implicit form multiplies dF/ddelta by the bodies' velocities: they are inputs then
     if any(blk.kind == "dd" for blk in kernel.blocks):

@@ -59,6 +59,8 @@ class Context:
 
     def __init__(self):
         self.pre = {}
+        self.origin = None  # what the descriptor is evaluating (set by the caller), noted per new symbol
+        self.origins = {}
         self._cache = {}
 
     def vector(self, key, name, expr):
@@ -66,6 +68,7 @@ class Context:
             syms = [sp.Symbol(f"{name}{len(self._cache)}_{i}", real=True) for i in range(expr.rows)]
             for s_, e in zip(syms, expr):
                 self.pre[s_] = e
+                self.origins[s_] = self.origin
             self._cache[key] = sp.Matrix(syms)
         return self._cache[key]
 
@@ -75,6 +78,7 @@ class Context:
             syms = [sp.Symbol(f"{name}{len(self._cache)}_{r}{c}", real=True) for r, c in idx]
             for s_, (r, c) in zip(syms, idx):
                 self.pre[s_] = M[r, c]
+                self.origins[s_] = self.origin
             a, b, c_, d, e, f = syms
             self._cache[key] = sp.Matrix([[a, d, e], [d, b, f], [e, f, c_]])
         return self._cache[key]

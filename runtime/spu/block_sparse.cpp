@@ -2,7 +2,7 @@
 #include "runtime/spu/block_sparse.h"
 
 #include "cellphys/gen/block_ops.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::spu {
 

@@ -3,7 +3,7 @@
 #include <cstring>
 
 #include "cellphys/gen/block_ops.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::spu {
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "cellphys/gen/block_ops.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::spu {
 namespace {

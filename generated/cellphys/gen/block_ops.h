@@ -6,7 +6,7 @@
 #pragma once
 #include <cmath>
 
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 

@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 
@@ -52,9 +52,11 @@ struct Air_Drag_Body_Kernel {
     [[maybe_unused]] const S p_wind__0 = in[4];
     [[maybe_unused]] const S p_wind__1 = in[5];
     [[maybe_unused]] const S p_wind__2 = in[6];
+    // let vrel (air_drag.yaml:9)
     const S L_vrel__0 = (a_vx - p_wind__0);
     const S L_vrel__1 = (a_vy - p_wind__1);
     const S L_vrel__2 = (a_vz - p_wind__2);
+    // apply (air_drag.yaml:10), shared subexpressions
     const S o0 = (L_vrel__0*L_vrel__0);
     const S o1 = (L_vrel__1*L_vrel__1);
     const S o2 = (L_vrel__2*L_vrel__2);
@@ -65,12 +67,14 @@ struct Air_Drag_Body_Kernel {
     const S o7 = (-(L_vrel__1*o6));
     const S o8 = (-(L_vrel__2*o6));
     const S o9 = (-(L_vrel__1*L_vrel__2*o5));
+    // F_a from apply[0] (air_drag.yaml:11)
     out[0] = (-(L_vrel__0*o4));
     out[1] = (-(L_vrel__1*o4));
     out[2] = (-(L_vrel__2*o4));
     out[3] = S(0);
     out[4] = S(0);
     out[5] = S(0);
+    // dF_a/du_a from apply[0] (air_drag.yaml:11)
     out[6] = ((-(o0*o5)) - o4);
     out[7] = o7;
     out[8] = o8;
@@ -128,9 +132,11 @@ struct Air_Drag_Body_Kernel {
     [[maybe_unused]] const S p_wind__0 = in[4];
     [[maybe_unused]] const S p_wind__1 = in[5];
     [[maybe_unused]] const S p_wind__2 = in[6];
+    // let vrel (air_drag.yaml:9)
     const S L_vrel__0 = (a_vx - p_wind__0);
     const S L_vrel__1 = (a_vy - p_wind__1);
     const S L_vrel__2 = (a_vz - p_wind__2);
+    // apply (air_drag.yaml:10), shared subexpressions
     const S o0 = (L_vrel__0*L_vrel__0);
     const S o1 = (L_vrel__1*L_vrel__1);
     const S o2 = (L_vrel__2*L_vrel__2);
@@ -141,12 +147,14 @@ struct Air_Drag_Body_Kernel {
     const S o7 = (-(L_vrel__1*o6));
     const S o8 = (-(L_vrel__2*o6));
     const S o9 = (-(L_vrel__1*L_vrel__2*h*o5));
+    // g_a from apply[0] (air_drag.yaml:11)
     out[0] = (-(L_vrel__0*o4));
     out[1] = (-(L_vrel__1*o4));
     out[2] = (-(L_vrel__2*o4));
     out[3] = S(0);
     out[4] = S(0);
     out[5] = S(0);
+    // K_aa from apply[0] (air_drag.yaml:11)
     out[6] = (h*((-(o0*o5)) - o4));
     out[7] = o7;
     out[8] = o8;
@@ -201,10 +209,13 @@ struct Air_Drag_Body_Kernel {
     [[maybe_unused]] const S p_wind__0 = in[4];
     [[maybe_unused]] const S p_wind__1 = in[5];
     [[maybe_unused]] const S p_wind__2 = in[6];
+    // let vrel (air_drag.yaml:9)
     const S L_vrel__0 = (a_vx - p_wind__0);
     const S L_vrel__1 = (a_vy - p_wind__1);
     const S L_vrel__2 = (a_vz - p_wind__2);
+    // apply (air_drag.yaml:10), shared subexpressions
     const S o0 = (p_drag*sqrt(((L_vrel__0*L_vrel__0) + (L_vrel__1*L_vrel__1) + (L_vrel__2*L_vrel__2))));
+    // F_a from apply[0] (air_drag.yaml:11)
     out[0] = (-(L_vrel__0*o0));
     out[1] = (-(L_vrel__1*o0));
     out[2] = (-(L_vrel__2*o0));

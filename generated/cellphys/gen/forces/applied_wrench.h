@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 
@@ -48,6 +48,7 @@ struct Applied_Wrench_Body_Kernel {
     [[maybe_unused]] const S p_torque_world__0 = in[3];
     [[maybe_unused]] const S p_torque_world__1 = in[4];
     [[maybe_unused]] const S p_torque_world__2 = in[5];
+    // F_a from apply[0] (applied_wrench.yaml:9), apply[1] (applied_wrench.yaml:10)
     out[0] = p_force_world__0;
     out[1] = p_force_world__1;
     out[2] = p_force_world__2;
@@ -72,6 +73,7 @@ struct Applied_Wrench_Body_Kernel {
     [[maybe_unused]] const S p_torque_world__0 = in[3];
     [[maybe_unused]] const S p_torque_world__1 = in[4];
     [[maybe_unused]] const S p_torque_world__2 = in[5];
+    // g_a from apply[0] (applied_wrench.yaml:9), apply[1] (applied_wrench.yaml:10)
     out[0] = p_force_world__0;
     out[1] = p_force_world__1;
     out[2] = p_force_world__2;
@@ -95,6 +97,7 @@ struct Applied_Wrench_Body_Kernel {
     [[maybe_unused]] const S p_torque_world__0 = in[3];
     [[maybe_unused]] const S p_torque_world__1 = in[4];
     [[maybe_unused]] const S p_torque_world__2 = in[5];
+    // F_a from apply[0] (applied_wrench.yaml:9), apply[1] (applied_wrench.yaml:10)
     out[0] = p_force_world__0;
     out[1] = p_force_world__1;
     out[2] = p_force_world__2;

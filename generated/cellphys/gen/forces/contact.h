@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 
@@ -152,7 +152,7 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S g_slip_velocity = in[50];
     [[maybe_unused]] const S g_contact_slop = in[51];
     [[maybe_unused]] const S g_contact_rest_speed = in[52];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:23), let rb (contact.yaml:24)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -206,12 +206,15 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
+    // let ra (contact.yaml:23)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
+    // let rb (contact.yaml:24)
     [[maybe_unused]] const S L_rb__0 = b_o1_0;
     [[maybe_unused]] const S L_rb__1 = b_o1_1;
     [[maybe_unused]] const S L_rb__2 = b_o1_2;
+    // let depth (contact.yaml:27)
     const S L_depth = ((-(p_normal__0*((-a_o0_0) - a_px + b_o1_0 + b_px))) - (p_normal__1*((-a_o0_1) - a_py + b_o1_1 + b_py)) - (p_normal__2*((-a_o0_2) - a_pz + b_o1_2 + b_pz)) + p_penetration);
     const S d_L_depth__a_dtx = ((a_o0_1*p_normal__2) - (a_o0_2*p_normal__1));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) + (a_o0_2*p_normal__0));
@@ -222,6 +225,7 @@ struct Contact_Pair_Kernel {
     const S d_L_depth__b_dtx = ((-(b_o1_1*p_normal__2)) + (b_o1_2*p_normal__1));
     const S d_L_depth__b_dty = ((b_o1_0*p_normal__2) - (b_o1_2*p_normal__0));
     const S d_L_depth__b_dtz = ((-(b_o1_0*p_normal__1)) + (b_o1_1*p_normal__0));
+    // let vrel (contact.yaml:28)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S d_L_vrel__0__b_wz = (-L_rb__1);
@@ -231,6 +235,7 @@ struct Contact_Pair_Kernel {
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
     const S d_L_vrel__2__b_wy = (-L_rb__0);
+    // let vn (contact.yaml:29)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -241,7 +246,9 @@ struct Contact_Pair_Kernel {
     const S d_L_vn__b_wx = ((L_rb__1*p_normal__2) + (d_L_vrel__1__b_wx*p_normal__1));
     const S d_L_vn__b_wy = ((L_rb__2*p_normal__0) + (d_L_vrel__2__b_wy*p_normal__2));
     const S d_L_vn__b_wz = ((L_rb__0*p_normal__1) + (d_L_vrel__0__b_wz*p_normal__0));
+    // let closing (contact.yaml:35)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
+    // let fn (contact.yaml:36)
     const S l6_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
     const auto l6_0_1 = (l6_0_0 > S(0));
     const auto l6_0_2 = (L_depth > S(0));
@@ -272,6 +279,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fn__b_wx = (d_L_vn__b_wx*l6_0_4);
     const S d_L_fn__b_wy = (d_L_vn__b_wy*l6_0_4);
     const S d_L_fn__b_wz = (d_L_vn__b_wz*l6_0_4);
+    // let vt (contact.yaml:37)
     const S l7_0_0 = (-(p_normal__0*p_normal__1));
     const S l7_0_1 = (-(p_normal__0*p_normal__2));
     const S l7_0_2 = (-(p_normal__1*p_normal__2));
@@ -314,7 +322,9 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__2__b_wx = (L_rb__1 - (d_L_vn__b_wx*p_normal__2));
     const S d_L_vt__2__b_wy = ((-(d_L_vn__b_wy*p_normal__2)) + d_L_vrel__2__b_wy);
     const S d_L_vt__2__b_wz = (-(d_L_vn__b_wz*p_normal__2));
+    // let slip (contact.yaml:41)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
+    // let ft (contact.yaml:42)
     const auto l9_0_0 = (L_fn > S(0));
     const S l9_0_1 = (p_friction/(L_slip));
     const S l9_0_2 = (l9_0_1*select(l9_0_0, L_fn, S(0)));
@@ -397,6 +407,7 @@ struct Contact_Pair_Kernel {
     const S d_L_ft__2__b_wx = ((-(d_L_fn__b_wx*l9_0_6)) - (d_L_vt__2__b_wx*l9_0_2));
     const S d_L_ft__2__b_wy = ((-(d_L_fn__b_wy*l9_0_6)) - (d_L_vt__2__b_wy*l9_0_2));
     const S d_L_ft__2__b_wz = ((-(d_L_fn__b_wz*l9_0_6)) - (d_L_vt__2__b_wz*l9_0_2));
+    // let f (contact.yaml:43)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -472,18 +483,21 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
+    // F_a from apply[0] (contact.yaml:45)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
+    // F_b from apply[1] (contact.yaml:46)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0));
+    // dF_a/ddelta_a from apply[0] (contact.yaml:45)
     out[12] = (-d_L_f__0__a_dx);
     out[13] = (-d_L_f__1__a_dx);
     out[14] = (-d_L_f__2__a_dx);
@@ -520,6 +534,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[46] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[47] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
+    // dF_a/ddelta_b from apply[0] (contact.yaml:45)
     out[48] = (-d_L_f__0__b_dx);
     out[49] = (-d_L_f__1__b_dx);
     out[50] = (-d_L_f__2__b_dx);
@@ -556,6 +571,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((-(L_ra__1*d_L_f__2__b_dtz)) + (L_ra__2*d_L_f__1__b_dtz));
     out[82] = ((L_ra__0*d_L_f__2__b_dtz) - (L_ra__2*d_L_f__0__b_dtz));
     out[83] = ((-(L_ra__0*d_L_f__1__b_dtz)) + (L_ra__1*d_L_f__0__b_dtz));
+    // dF_a/du_a from apply[0] (contact.yaml:45)
     out[84] = (-d_L_f__0__a_vx);
     out[85] = (-d_L_f__1__a_vx);
     out[86] = (-d_L_f__2__a_vx);
@@ -592,6 +608,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz));
     out[118] = ((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz));
     out[119] = ((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz));
+    // dF_a/du_b from apply[0] (contact.yaml:45)
     out[120] = (-d_L_f__0__b_vx);
     out[121] = (-d_L_f__1__b_vx);
     out[122] = (-d_L_f__2__b_vx);
@@ -628,6 +645,7 @@ struct Contact_Pair_Kernel {
     out[153] = ((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz));
     out[154] = ((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz));
     out[155] = ((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz));
+    // dF_b/ddelta_a from apply[1] (contact.yaml:46)
     out[156] = d_L_f__0__a_dx;
     out[157] = d_L_f__1__a_dx;
     out[158] = d_L_f__2__a_dx;
@@ -664,6 +682,7 @@ struct Contact_Pair_Kernel {
     out[189] = ((L_rb__1*d_L_f__2__a_dtz) - (L_rb__2*d_L_f__1__a_dtz));
     out[190] = ((-(L_rb__0*d_L_f__2__a_dtz)) + (L_rb__2*d_L_f__0__a_dtz));
     out[191] = ((L_rb__0*d_L_f__1__a_dtz) - (L_rb__1*d_L_f__0__a_dtz));
+    // dF_b/ddelta_b from apply[1] (contact.yaml:46)
     out[192] = d_L_f__0__b_dx;
     out[193] = d_L_f__1__b_dx;
     out[194] = d_L_f__2__b_dx;
@@ -700,6 +719,7 @@ struct Contact_Pair_Kernel {
     out[225] = ((L_rb__1*d_L_f__2__b_dtz) - (L_rb__2*d_L_f__1__b_dtz));
     out[226] = ((-(L_rb__0*d_L_f__2__b_dtz)) + (L_rb__2*d_L_f__0__b_dtz));
     out[227] = ((L_rb__0*d_L_f__1__b_dtz) - (L_rb__1*d_L_f__0__b_dtz));
+    // dF_b/du_a from apply[1] (contact.yaml:46)
     out[228] = d_L_f__0__a_vx;
     out[229] = d_L_f__1__a_vx;
     out[230] = d_L_f__2__a_vx;
@@ -736,6 +756,7 @@ struct Contact_Pair_Kernel {
     out[261] = ((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz));
     out[262] = ((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz));
     out[263] = ((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz));
+    // dF_b/du_b from apply[1] (contact.yaml:46)
     out[264] = d_L_f__0__b_vx;
     out[265] = d_L_f__1__b_vx;
     out[266] = d_L_f__2__b_vx;
@@ -842,7 +863,7 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S g_slip_velocity = in[50];
     [[maybe_unused]] const S g_contact_slop = in[51];
     [[maybe_unused]] const S g_contact_rest_speed = in[52];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:23), let rb (contact.yaml:24)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -896,12 +917,15 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
+    // let ra (contact.yaml:23)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
+    // let rb (contact.yaml:24)
     [[maybe_unused]] const S L_rb__0 = b_o1_0;
     [[maybe_unused]] const S L_rb__1 = b_o1_1;
     [[maybe_unused]] const S L_rb__2 = b_o1_2;
+    // let depth (contact.yaml:27)
     const S L_depth = ((-(p_normal__0*((-a_o0_0) - a_px + b_o1_0 + b_px))) - (p_normal__1*((-a_o0_1) - a_py + b_o1_1 + b_py)) - (p_normal__2*((-a_o0_2) - a_pz + b_o1_2 + b_pz)) + p_penetration);
     const S d_L_depth__a_dtx = ((a_o0_1*p_normal__2) - (a_o0_2*p_normal__1));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) + (a_o0_2*p_normal__0));
@@ -912,6 +936,7 @@ struct Contact_Pair_Kernel {
     const S d_L_depth__b_dtx = ((-(b_o1_1*p_normal__2)) + (b_o1_2*p_normal__1));
     const S d_L_depth__b_dty = ((b_o1_0*p_normal__2) - (b_o1_2*p_normal__0));
     const S d_L_depth__b_dtz = ((-(b_o1_0*p_normal__1)) + (b_o1_1*p_normal__0));
+    // let vrel (contact.yaml:28)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S d_L_vrel__0__b_wz = (-L_rb__1);
@@ -921,6 +946,7 @@ struct Contact_Pair_Kernel {
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
     const S d_L_vrel__2__b_wy = (-L_rb__0);
+    // let vn (contact.yaml:29)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -931,7 +957,9 @@ struct Contact_Pair_Kernel {
     const S d_L_vn__b_wx = ((L_rb__1*p_normal__2) + (d_L_vrel__1__b_wx*p_normal__1));
     const S d_L_vn__b_wy = ((L_rb__2*p_normal__0) + (d_L_vrel__2__b_wy*p_normal__2));
     const S d_L_vn__b_wz = ((L_rb__0*p_normal__1) + (d_L_vrel__0__b_wz*p_normal__0));
+    // let closing (contact.yaml:35)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
+    // let fn (contact.yaml:36)
     const S l6_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
     const auto l6_0_1 = (l6_0_0 > S(0));
     const auto l6_0_2 = (L_depth > S(0));
@@ -962,6 +990,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fn__b_wx = (d_L_vn__b_wx*l6_0_4);
     const S d_L_fn__b_wy = (d_L_vn__b_wy*l6_0_4);
     const S d_L_fn__b_wz = (d_L_vn__b_wz*l6_0_4);
+    // let vt (contact.yaml:37)
     const S l7_0_0 = (-(p_normal__0*p_normal__1));
     const S l7_0_1 = (-(p_normal__0*p_normal__2));
     const S l7_0_2 = (-(p_normal__1*p_normal__2));
@@ -1004,7 +1033,9 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__2__b_wx = (L_rb__1 - (d_L_vn__b_wx*p_normal__2));
     const S d_L_vt__2__b_wy = ((-(d_L_vn__b_wy*p_normal__2)) + d_L_vrel__2__b_wy);
     const S d_L_vt__2__b_wz = (-(d_L_vn__b_wz*p_normal__2));
+    // let slip (contact.yaml:41)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
+    // let ft (contact.yaml:42)
     const auto l9_0_0 = (L_fn > S(0));
     const S l9_0_1 = (p_friction/(L_slip));
     const S l9_0_2 = (l9_0_1*select(l9_0_0, L_fn, S(0)));
@@ -1087,6 +1118,7 @@ struct Contact_Pair_Kernel {
     const S d_L_ft__2__b_wx = ((-(d_L_fn__b_wx*l9_0_6)) - (d_L_vt__2__b_wx*l9_0_2));
     const S d_L_ft__2__b_wy = ((-(d_L_fn__b_wy*l9_0_6)) - (d_L_vt__2__b_wy*l9_0_2));
     const S d_L_ft__2__b_wz = ((-(d_L_fn__b_wz*l9_0_6)) - (d_L_vt__2__b_wz*l9_0_2));
+    // let f (contact.yaml:43)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -1162,6 +1194,7 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
+    // apply (contact.yaml:44), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -1286,18 +1319,21 @@ struct Contact_Pair_Kernel {
     const S o121 = ((d_L_f__0__b_dtz*o87) + (d_L_f__0__b_wz*h));
     const S o122 = ((d_L_f__1__b_dtz*o87) + (d_L_f__1__b_wz*h));
     const S o123 = ((d_L_f__2__b_dtz*o87) + (d_L_f__2__b_wz*h));
+    // g_a from apply[0] (contact.yaml:45)
     out[0] = (-o12);
     out[1] = (-o13);
     out[2] = (-o14);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o15) + (o1*o16) + (o10*o25) + (o11*o26) + (o17*o2) + (o18*o3) + (o19*o4) + (o20*o5) + (o21*o6) + (o22*o7) + (o23*o8) + (o24*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o27) + (o1*o28) + (o10*o37) + (o11*o38) + (o2*o29) + (o3*o30) + (o31*o4) + (o32*o5) + (o33*o6) + (o34*o7) + (o35*o8) + (o36*o9));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o39) + (o1*o40) + (o10*o49) + (o11*o50) + (o2*o41) + (o3*o42) + (o4*o43) + (o44*o5) + (o45*o6) + (o46*o7) + (o47*o8) + (o48*o9));
+    // g_b from apply[1] (contact.yaml:46)
     out[6] = o12;
     out[7] = o13;
     out[8] = o14;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1) + (o0*o51) + (o1*o52) + (o10*o61) + (o11*o62) + (o2*o53) + (o3*o54) + (o4*o55) + (o5*o56) + (o57*o6) + (o58*o7) + (o59*o8) + (o60*o9));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0) + (o0*o63) + (o1*o64) + (o10*o73) + (o11*o74) + (o2*o65) + (o3*o66) + (o4*o67) + (o5*o68) + (o6*o69) + (o7*o70) + (o71*o8) + (o72*o9));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0) + (o0*o75) + (o1*o76) + (o10*o85) + (o11*o86) + (o2*o77) + (o3*o78) + (o4*o79) + (o5*o80) + (o6*o81) + (o7*o82) + (o8*o83) + (o84*o9));
+    // K_aa from apply[0] (contact.yaml:45)
     out[12] = (-o88);
     out[13] = (-o89);
     out[14] = (-o90);
@@ -1334,6 +1370,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((h*((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz))) + (o20*o87));
     out[46] = ((h*((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz))) + (o32*o87));
     out[47] = ((h*((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz))) + (o44*o87));
+    // K_ab from apply[0] (contact.yaml:45)
     out[48] = (-o106);
     out[49] = (-o107);
     out[50] = (-o108);
@@ -1370,6 +1407,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((h*((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz))) + (o26*o87));
     out[82] = ((h*((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz))) + (o38*o87));
     out[83] = ((h*((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz))) + (o50*o87));
+    // K_ba from apply[1] (contact.yaml:46)
     out[84] = o88;
     out[85] = o89;
     out[86] = o90;
@@ -1406,6 +1444,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((h*((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz))) + (o56*o87));
     out[118] = ((h*((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz))) + (o68*o87));
     out[119] = ((h*((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz))) + (o80*o87));
+    // K_bb from apply[1] (contact.yaml:46)
     out[120] = o106;
     out[121] = o107;
     out[122] = o108;
@@ -1506,6 +1545,7 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S g_slip_velocity = in[50];
     [[maybe_unused]] const S g_contact_slop = in[51];
     [[maybe_unused]] const S g_contact_rest_speed = in[52];
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:23), let rb (contact.yaml:24)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -1559,44 +1599,57 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
+    // let ra (contact.yaml:23)
     const S L_ra__0 = held_in ? held_in[0] : S(a_o0_0);
     if (held_out) held_out[0] = L_ra__0;
     const S L_ra__1 = held_in ? held_in[1] : S(a_o0_1);
     if (held_out) held_out[1] = L_ra__1;
     const S L_ra__2 = held_in ? held_in[2] : S(a_o0_2);
     if (held_out) held_out[2] = L_ra__2;
+    // let rb (contact.yaml:24)
     const S L_rb__0 = held_in ? held_in[3] : S(b_o1_0);
     if (held_out) held_out[3] = L_rb__0;
     const S L_rb__1 = held_in ? held_in[4] : S(b_o1_1);
     if (held_out) held_out[4] = L_rb__1;
     const S L_rb__2 = held_in ? held_in[5] : S(b_o1_2);
     if (held_out) held_out[5] = L_rb__2;
+    // let depth (contact.yaml:27)
     const S L_depth = ((-(p_normal__0*((-a_o0_0) - a_px + b_o1_0 + b_px))) - (p_normal__1*((-a_o0_1) - a_py + b_o1_1 + b_py)) - (p_normal__2*((-a_o0_2) - a_pz + b_o1_2 + b_pz)) + p_penetration);
+    // let vrel (contact.yaml:28)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) + (L_rb__0*b_wz) - (L_rb__2*b_wx) - a_vy + b_vy);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
+    // let vn (contact.yaml:29)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
+    // let closing (contact.yaml:35)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
+    // let fn (contact.yaml:36)
     const S l6_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
     const S L_fn = select((L_depth > S(0)), select((l6_0_0 > S(0)), l6_0_0, S(0)), (L_closing*l6_0_0));
+    // let vt (contact.yaml:37)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S L_vt__1 = ((-(L_vn*p_normal__1)) + L_vrel__1);
     const S L_vt__2 = ((-(L_vn*p_normal__2)) + L_vrel__2);
+    // let slip (contact.yaml:41)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
+    // let ft (contact.yaml:42)
     const S l9_0_0 = (p_friction*select((L_fn > S(0)), L_fn, S(0))/(L_slip));
     const S L_ft__0 = (-(L_vt__0*l9_0_0));
     const S L_ft__1 = (-(L_vt__1*l9_0_0));
     const S L_ft__2 = (-(L_vt__2*l9_0_0));
+    // let f (contact.yaml:43)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
+    // F_a from apply[0] (contact.yaml:45)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
+    // F_b from apply[1] (contact.yaml:46)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
@@ -1703,7 +1756,7 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S g_slip_velocity = in[30];
     [[maybe_unused]] const S g_contact_slop = in[31];
     [[maybe_unused]] const S g_contact_rest_speed = in[32];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:23)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -1729,22 +1782,27 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
+    // let ra (contact.yaml:23)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
+    // let rb (contact.yaml:24)
     [[maybe_unused]] const S L_rb__0 = S(0);
     [[maybe_unused]] const S L_rb__1 = S(0);
     [[maybe_unused]] const S L_rb__2 = S(0);
+    // let depth (contact.yaml:27)
     const S L_depth = ((-(p_normal__0*((-a_o0_0) - a_px + p_point__0))) - (p_normal__1*((-a_o0_1) - a_py + p_point__1)) - (p_normal__2*((-a_o0_2) - a_pz + p_point__2)) + p_penetration);
     const S d_L_depth__a_dtx = ((a_o0_1*p_normal__2) - (a_o0_2*p_normal__1));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) + (a_o0_2*p_normal__0));
     const S d_L_depth__a_dtz = ((a_o0_0*p_normal__1) - (a_o0_1*p_normal__0));
+    // let vrel (contact.yaml:28)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S d_L_vrel__1__a_wz = (-L_ra__0);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
+    // let vn (contact.yaml:29)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -1752,7 +1810,9 @@ struct Contact_World_Kernel {
     const S d_L_vn__a_wx = ((L_ra__2*p_normal__1) + (d_L_vrel__2__a_wx*p_normal__2));
     const S d_L_vn__a_wy = ((L_ra__0*p_normal__2) + (d_L_vrel__0__a_wy*p_normal__0));
     const S d_L_vn__a_wz = ((L_ra__1*p_normal__0) + (d_L_vrel__1__a_wz*p_normal__1));
+    // let closing (contact.yaml:35)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
+    // let fn (contact.yaml:36)
     const S l6_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
     const auto l6_0_1 = (l6_0_0 > S(0));
     const auto l6_0_2 = (L_depth > S(0));
@@ -1771,6 +1831,7 @@ struct Contact_World_Kernel {
     const S d_L_fn__a_wx = (d_L_vn__a_wx*l6_0_4);
     const S d_L_fn__a_wy = (d_L_vn__a_wy*l6_0_4);
     const S d_L_fn__a_wz = (d_L_vn__a_wz*l6_0_4);
+    // let vt (contact.yaml:37)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -1792,7 +1853,9 @@ struct Contact_World_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
+    // let slip (contact.yaml:41)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
+    // let ft (contact.yaml:42)
     const auto l9_0_0 = (L_fn > S(0));
     const S l9_0_1 = (p_friction/(L_slip));
     const S l9_0_2 = (l9_0_1*select(l9_0_0, L_fn, S(0)));
@@ -1839,6 +1902,7 @@ struct Contact_World_Kernel {
     const S d_L_ft__2__a_wx = ((-(d_L_fn__a_wx*l9_0_6)) - (d_L_vt__2__a_wx*l9_0_2));
     const S d_L_ft__2__a_wy = ((-(d_L_fn__a_wy*l9_0_6)) - (d_L_vt__2__a_wy*l9_0_2));
     const S d_L_ft__2__a_wz = ((-(d_L_fn__a_wz*l9_0_6)) - (d_L_vt__2__a_wz*l9_0_2));
+    // let f (contact.yaml:43)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -1878,12 +1942,14 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
+    // F_a from apply[0] (contact.yaml:45)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
+    // dF_a/ddelta_a from apply[0] (contact.yaml:45)
     out[6] = (-d_L_f__0__a_dx);
     out[7] = (-d_L_f__1__a_dx);
     out[8] = (-d_L_f__2__a_dx);
@@ -1920,6 +1986,7 @@ struct Contact_World_Kernel {
     out[39] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[40] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[41] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
+    // dF_a/du_a from apply[0] (contact.yaml:45)
     out[42] = (-d_L_f__0__a_vx);
     out[43] = (-d_L_f__1__a_vx);
     out[44] = (-d_L_f__2__a_vx);
@@ -2003,7 +2070,7 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S g_slip_velocity = in[30];
     [[maybe_unused]] const S g_contact_slop = in[31];
     [[maybe_unused]] const S g_contact_rest_speed = in[32];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:23)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -2029,22 +2096,27 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
+    // let ra (contact.yaml:23)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
+    // let rb (contact.yaml:24)
     [[maybe_unused]] const S L_rb__0 = S(0);
     [[maybe_unused]] const S L_rb__1 = S(0);
     [[maybe_unused]] const S L_rb__2 = S(0);
+    // let depth (contact.yaml:27)
     const S L_depth = ((-(p_normal__0*((-a_o0_0) - a_px + p_point__0))) - (p_normal__1*((-a_o0_1) - a_py + p_point__1)) - (p_normal__2*((-a_o0_2) - a_pz + p_point__2)) + p_penetration);
     const S d_L_depth__a_dtx = ((a_o0_1*p_normal__2) - (a_o0_2*p_normal__1));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) + (a_o0_2*p_normal__0));
     const S d_L_depth__a_dtz = ((a_o0_0*p_normal__1) - (a_o0_1*p_normal__0));
+    // let vrel (contact.yaml:28)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S d_L_vrel__1__a_wz = (-L_ra__0);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
+    // let vn (contact.yaml:29)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -2052,7 +2124,9 @@ struct Contact_World_Kernel {
     const S d_L_vn__a_wx = ((L_ra__2*p_normal__1) + (d_L_vrel__2__a_wx*p_normal__2));
     const S d_L_vn__a_wy = ((L_ra__0*p_normal__2) + (d_L_vrel__0__a_wy*p_normal__0));
     const S d_L_vn__a_wz = ((L_ra__1*p_normal__0) + (d_L_vrel__1__a_wz*p_normal__1));
+    // let closing (contact.yaml:35)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
+    // let fn (contact.yaml:36)
     const S l6_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
     const auto l6_0_1 = (l6_0_0 > S(0));
     const auto l6_0_2 = (L_depth > S(0));
@@ -2071,6 +2145,7 @@ struct Contact_World_Kernel {
     const S d_L_fn__a_wx = (d_L_vn__a_wx*l6_0_4);
     const S d_L_fn__a_wy = (d_L_vn__a_wy*l6_0_4);
     const S d_L_fn__a_wz = (d_L_vn__a_wz*l6_0_4);
+    // let vt (contact.yaml:37)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -2092,7 +2167,9 @@ struct Contact_World_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
+    // let slip (contact.yaml:41)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
+    // let ft (contact.yaml:42)
     const auto l9_0_0 = (L_fn > S(0));
     const S l9_0_1 = (p_friction/(L_slip));
     const S l9_0_2 = (l9_0_1*select(l9_0_0, L_fn, S(0)));
@@ -2139,6 +2216,7 @@ struct Contact_World_Kernel {
     const S d_L_ft__2__a_wx = ((-(d_L_fn__a_wx*l9_0_6)) - (d_L_vt__2__a_wx*l9_0_2));
     const S d_L_ft__2__a_wy = ((-(d_L_fn__a_wy*l9_0_6)) - (d_L_vt__2__a_wy*l9_0_2));
     const S d_L_ft__2__a_wz = ((-(d_L_fn__a_wz*l9_0_6)) - (d_L_vt__2__a_wz*l9_0_2));
+    // let f (contact.yaml:43)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -2178,6 +2256,7 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
+    // apply (contact.yaml:44), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -2203,12 +2282,14 @@ struct Contact_World_Kernel {
     const S o22 = ((-(L_ra__0*d_L_f__1__a_dty)) + (L_ra__1*d_L_f__0__a_dty));
     const S o23 = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
     const S o24 = (h*h);
+    // g_a from apply[0] (contact.yaml:45)
     out[0] = ((-L_f__0) - (d_L_f__0__a_dtx*o3) - (d_L_f__0__a_dty*o4) - (d_L_f__0__a_dtz*o5) - (d_L_f__0__a_dx*o0) - (d_L_f__0__a_dy*o1) - (d_L_f__0__a_dz*o2));
     out[1] = ((-L_f__1) - (d_L_f__1__a_dtx*o3) - (d_L_f__1__a_dty*o4) - (d_L_f__1__a_dtz*o5) - (d_L_f__1__a_dx*o0) - (d_L_f__1__a_dy*o1) - (d_L_f__1__a_dz*o2));
     out[2] = ((-L_f__2) - (d_L_f__2__a_dtx*o3) - (d_L_f__2__a_dty*o4) - (d_L_f__2__a_dtz*o5) - (d_L_f__2__a_dx*o0) - (d_L_f__2__a_dy*o1) - (d_L_f__2__a_dz*o2));
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o6) + (o1*o7) + (o10*o4) + (o11*o5) + (o2*o8) + (o3*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o12) + (o1*o13) + (o14*o2) + (o15*o3) + (o16*o4) + (o17*o5));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o18) + (o1*o19) + (o2*o20) + (o21*o3) + (o22*o4) + (o23*o5));
+    // K_aa from apply[0] (contact.yaml:45)
     out[6] = ((-(d_L_f__0__a_dx*o24)) - (d_L_f__0__a_vx*h));
     out[7] = ((-(d_L_f__1__a_dx*o24)) - (d_L_f__1__a_vx*h));
     out[8] = ((-(d_L_f__2__a_dx*o24)) - (d_L_f__2__a_vx*h));
@@ -2289,6 +2370,7 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S g_slip_velocity = in[30];
     [[maybe_unused]] const S g_contact_slop = in[31];
     [[maybe_unused]] const S g_contact_rest_speed = in[32];
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:23)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -2314,38 +2396,50 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
+    // let ra (contact.yaml:23)
     const S L_ra__0 = held_in ? held_in[0] : S(a_o0_0);
     if (held_out) held_out[0] = L_ra__0;
     const S L_ra__1 = held_in ? held_in[1] : S(a_o0_1);
     if (held_out) held_out[1] = L_ra__1;
     const S L_ra__2 = held_in ? held_in[2] : S(a_o0_2);
     if (held_out) held_out[2] = L_ra__2;
+    // let rb (contact.yaml:24)
     const S L_rb__0 = held_in ? held_in[3] : S(S(0));
     if (held_out) held_out[3] = L_rb__0;
     const S L_rb__1 = held_in ? held_in[4] : S(S(0));
     if (held_out) held_out[4] = L_rb__1;
     const S L_rb__2 = held_in ? held_in[5] : S(S(0));
     if (held_out) held_out[5] = L_rb__2;
+    // let depth (contact.yaml:27)
     const S L_depth = ((-(p_normal__0*((-a_o0_0) - a_px + p_point__0))) - (p_normal__1*((-a_o0_1) - a_py + p_point__1)) - (p_normal__2*((-a_o0_2) - a_pz + p_point__2)) + p_penetration);
+    // let vrel (contact.yaml:28)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
+    // let vn (contact.yaml:29)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
+    // let closing (contact.yaml:35)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
+    // let fn (contact.yaml:36)
     const S l6_0_0 = ((L_depth*g_contact_stiffness) - (L_vn*g_contact_damping));
     const S L_fn = select((L_depth > S(0)), select((l6_0_0 > S(0)), l6_0_0, S(0)), (L_closing*l6_0_0));
+    // let vt (contact.yaml:37)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S L_vt__1 = ((-(L_vn*p_normal__1)) + L_vrel__1);
     const S L_vt__2 = ((-(L_vn*p_normal__2)) + L_vrel__2);
+    // let slip (contact.yaml:41)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
+    // let ft (contact.yaml:42)
     const S l9_0_0 = (p_friction*select((L_fn > S(0)), L_fn, S(0))/(L_slip));
     const S L_ft__0 = (-(L_vt__0*l9_0_0));
     const S L_ft__1 = (-(L_vt__1*l9_0_0));
     const S L_ft__2 = (-(L_vt__2*l9_0_0));
+    // let f (contact.yaml:43)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
+    // F_a from apply[0] (contact.yaml:45)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);

@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 
@@ -77,7 +77,7 @@ struct Damping_Body_Kernel {
     [[maybe_unused]] const S a_Iyz = in[16];
     [[maybe_unused]] const S p_linear = in[17];
     [[maybe_unused]] const S p_angular = in[18];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by apply[1] (damping.yaml:10)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
@@ -107,6 +107,7 @@ struct Damping_Body_Kernel {
     const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
     const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
     const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    // apply (damping.yaml:8), shared subexpressions
     const S o0 = (a_m*p_linear);
     const S o1 = (a_Iw0_00*p_angular);
     const S o2 = (a_Iw0_01*p_angular);
@@ -131,12 +132,14 @@ struct Damping_Body_Kernel {
     const S o21 = (-o2);
     const S o22 = (-o4);
     const S o23 = (-o8);
+    // F_a from apply[0] (damping.yaml:9), apply[1] (damping.yaml:10)
     out[0] = (-(a_vx*o0));
     out[1] = (-(a_vy*o0));
     out[2] = (-(a_vz*o0));
     out[3] = ((-(a_wx*o1)) - o3 - o5);
     out[4] = ((-(a_wy*o7)) - o6 - o9);
     out[5] = ((-(a_wz*o12)) - o10 - o11);
+    // dF_a/ddelta_a from apply[0] (damping.yaml:9), apply[1] (damping.yaml:10)
     out[6] = S(0);
     out[7] = S(0);
     out[8] = S(0);
@@ -173,6 +176,7 @@ struct Damping_Body_Kernel {
     out[39] = ((-(a_wy*o19)) + (S(2)*o6) + o9);
     out[40] = ((-(a_wx*o19)) - (S(2)*o3) - o5);
     out[41] = ((-o14) - o18);
+    // dF_a/du_a from apply[0] (damping.yaml:9), apply[1] (damping.yaml:10)
     out[42] = o20;
     out[43] = S(0);
     out[44] = S(0);
@@ -242,7 +246,7 @@ struct Damping_Body_Kernel {
     [[maybe_unused]] const S a_Iyz = in[16];
     [[maybe_unused]] const S p_linear = in[17];
     [[maybe_unused]] const S p_angular = in[18];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by apply[1] (damping.yaml:10)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
@@ -272,6 +276,7 @@ struct Damping_Body_Kernel {
     const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
     const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
     const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    // apply (damping.yaml:8), shared subexpressions
     const S o0 = (a_m*p_linear);
     const S o1 = (a_wx*p_angular);
     const S o2 = (a_wy*p_angular);
@@ -304,12 +309,14 @@ struct Damping_Body_Kernel {
     const S o29 = (a_Iw0_01*o28);
     const S o30 = (a_Iw0_02*o28);
     const S o31 = (a_Iw0_12*o28);
+    // g_a from apply[0] (damping.yaml:9), apply[1] (damping.yaml:10)
     out[0] = (-(a_vx*o0));
     out[1] = (-(a_vy*o0));
     out[2] = (-(a_vz*o0));
     out[3] = ((-(a_Iw0_00*o1)) + (a_wx*h*o8) + (a_wy*h*o13) + (a_wz*h*o17) - o3 - o5);
     out[4] = ((-(a_Iw0_11*o2)) + (a_wx*h*o19) + (a_wy*h*o21) + (a_wz*h*o22) - o14 - o16);
     out[5] = ((-(a_Iw0_22*o4)) + (a_wx*h*o23) + (a_wy*h*o24) + (a_wz*h*o25) - o12 - o9);
+    // K_aa from apply[0] (damping.yaml:9), apply[1] (damping.yaml:10)
     out[6] = o26;
     out[7] = S(0);
     out[8] = S(0);
@@ -376,6 +383,7 @@ struct Damping_Body_Kernel {
     [[maybe_unused]] const S a_Iyz = in[16];
     [[maybe_unused]] const S p_linear = in[17];
     [[maybe_unused]] const S p_angular = in[18];
+    // body-frame quantities rotated to world, first used by apply[1] (damping.yaml:10)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
@@ -405,10 +413,12 @@ struct Damping_Body_Kernel {
     const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
     const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
     const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    // apply (damping.yaml:8), shared subexpressions
     const S o0 = (a_m*p_linear);
     const S o1 = (a_wx*p_angular);
     const S o2 = (a_wy*p_angular);
     const S o3 = (a_wz*p_angular);
+    // F_a from apply[0] (damping.yaml:9), apply[1] (damping.yaml:10)
     out[0] = (-(a_vx*o0));
     out[1] = (-(a_vy*o0));
     out[2] = (-(a_vz*o0));

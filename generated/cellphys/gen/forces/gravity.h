@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 
@@ -44,6 +44,7 @@ struct Gravity_Body_Kernel {
     [[maybe_unused]] const S g_gravity__0 = in[1];
     [[maybe_unused]] const S g_gravity__1 = in[2];
     [[maybe_unused]] const S g_gravity__2 = in[3];
+    // F_a from apply[0] (gravity.yaml:8)
     out[0] = (a_m*g_gravity__0);
     out[1] = (a_m*g_gravity__1);
     out[2] = (a_m*g_gravity__2);
@@ -66,6 +67,7 @@ struct Gravity_Body_Kernel {
     [[maybe_unused]] const S g_gravity__0 = in[1];
     [[maybe_unused]] const S g_gravity__1 = in[2];
     [[maybe_unused]] const S g_gravity__2 = in[3];
+    // g_a from apply[0] (gravity.yaml:8)
     out[0] = (a_m*g_gravity__0);
     out[1] = (a_m*g_gravity__1);
     out[2] = (a_m*g_gravity__2);
@@ -87,6 +89,7 @@ struct Gravity_Body_Kernel {
     [[maybe_unused]] const S g_gravity__0 = in[1];
     [[maybe_unused]] const S g_gravity__1 = in[2];
     [[maybe_unused]] const S g_gravity__2 = in[3];
+    // F_a from apply[0] (gravity.yaml:8)
     out[0] = (a_m*g_gravity__0);
     out[1] = (a_m*g_gravity__1);
     out[2] = (a_m*g_gravity__2);

@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 
@@ -71,7 +71,7 @@ struct Gyroscopic_Body_Kernel {
     [[maybe_unused]] const S a_Ixy = in[13];
     [[maybe_unused]] const S a_Ixz = in[14];
     [[maybe_unused]] const S a_Iyz = in[15];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by apply[0] (gyroscopic.yaml:6)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
@@ -101,6 +101,7 @@ struct Gyroscopic_Body_Kernel {
     const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
     const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
     const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    // apply (gyroscopic.yaml:5), shared subexpressions
     const S o0 = (a_Iw0_02*a_wx);
     const S o1 = (a_Iw0_12*a_wy);
     const S o2 = (a_Iw0_22*a_wz);
@@ -138,12 +139,14 @@ struct Gyroscopic_Body_Kernel {
     const S o34 = ((a_wx*o32) + o12 + o33);
     const S o35 = (S(2)*o5);
     const S o36 = ((a_wy*o32) - o35 - o7);
+    // F_a from apply[0] (gyroscopic.yaml:6)
     out[0] = S(0);
     out[1] = S(0);
     out[2] = S(0);
     out[3] = ((-(a_wy*o4)) + (a_wz*o9));
     out[4] = ((a_wx*o4) - (a_wz*o14));
     out[5] = ((-(a_wx*o9)) + (a_wy*o14));
+    // dF_a/ddelta_a from apply[0] (gyroscopic.yaml:6)
     out[6] = S(0);
     out[7] = S(0);
     out[8] = S(0);
@@ -180,6 +183,7 @@ struct Gyroscopic_Body_Kernel {
     out[39] = ((-(a_wy*o31)) + (a_wz*o34));
     out[40] = ((a_wx*o31) - (a_wz*o36));
     out[41] = ((-(a_wx*o34)) + (a_wy*o36));
+    // dF_a/du_a from apply[0] (gyroscopic.yaml:6)
     out[42] = S(0);
     out[43] = S(0);
     out[44] = S(0);
@@ -246,7 +250,7 @@ struct Gyroscopic_Body_Kernel {
     [[maybe_unused]] const S a_Ixy = in[13];
     [[maybe_unused]] const S a_Ixz = in[14];
     [[maybe_unused]] const S a_Iyz = in[15];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by apply[0] (gyroscopic.yaml:6)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
@@ -276,6 +280,7 @@ struct Gyroscopic_Body_Kernel {
     const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
     const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
     const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    // apply (gyroscopic.yaml:5), shared subexpressions
     const S o0 = (a_Iw0_01*a_wx);
     const S o1 = (a_Iw0_11*a_wy);
     const S o2 = (a_Iw0_12*a_wz);
@@ -325,12 +330,14 @@ struct Gyroscopic_Body_Kernel {
     const S o46 = ((-(a_wx*o25)) + (a_wy*o40));
     const S o47 = ((-(a_wx*o32)) + (a_wy*o43));
     const S o48 = (h*h);
+    // g_a from apply[0] (gyroscopic.yaml:6)
     out[0] = S(0);
     out[1] = S(0);
     out[2] = S(0);
     out[3] = ((-(a_wy*o9)) + (a_wz*o4) + (o16*o17) + (o26*o27) + (o33*o34));
     out[4] = ((a_wx*o9) - (a_wz*o36) + (o17*o38) + (o27*o41) + (o34*o44));
     out[5] = ((-(a_wx*o4)) + (a_wy*o36) + (o17*o45) + (o27*o46) + (o34*o47));
+    // K_aa from apply[0] (gyroscopic.yaml:6)
     out[6] = S(0);
     out[7] = S(0);
     out[8] = S(0);
@@ -394,6 +401,7 @@ struct Gyroscopic_Body_Kernel {
     [[maybe_unused]] const S a_Ixy = in[13];
     [[maybe_unused]] const S a_Ixz = in[14];
     [[maybe_unused]] const S a_Iyz = in[15];
+    // body-frame quantities rotated to world, first used by apply[0] (gyroscopic.yaml:6)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((S(2)*a_qx*a_qy) - p0_1);
@@ -423,9 +431,11 @@ struct Gyroscopic_Body_Kernel {
     const S a_Iw0_01 = ((p0_10*p0_13) + (p0_11*p0_14) + (p0_16*p0_9));
     const S a_Iw0_02 = ((p0_10*p0_22) + (p0_11*p0_20) + (p0_21*p0_9));
     const S a_Iw0_12 = ((p0_17*p0_22) + (p0_18*p0_20) + (p0_19*p0_21));
+    // apply (gyroscopic.yaml:5), shared subexpressions
     const S o0 = ((a_Iw0_02*a_wx) + (a_Iw0_12*a_wy) + (a_Iw0_22*a_wz));
     const S o1 = ((a_Iw0_01*a_wx) + (a_Iw0_11*a_wy) + (a_Iw0_12*a_wz));
     const S o2 = ((a_Iw0_00*a_wx) + (a_Iw0_01*a_wy) + (a_Iw0_02*a_wz));
+    // F_a from apply[0] (gyroscopic.yaml:6)
     out[0] = S(0);
     out[1] = S(0);
     out[2] = S(0);

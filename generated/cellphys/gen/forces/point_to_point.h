@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 
@@ -114,7 +114,7 @@ struct Point_To_Point_Pair_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[31];
     [[maybe_unused]] const S p_stiffness = in[32];
     [[maybe_unused]] const S p_damping = in[33];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13), let pb (point_to_point.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -137,18 +137,21 @@ struct Point_To_Point_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
+    // let pa (point_to_point.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (point_to_point.yaml:14)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
+    // let f (point_to_point.yaml:15)
     const S l2_0_0 = (b_r1_2*b_wy);
     const S l2_0_1 = (a_r0_2*a_wy);
     const S l2_0_2 = (b_r1_1*b_wz);
@@ -206,6 +209,7 @@ struct Point_To_Point_Pair_Kernel {
     const S d_L_f__2__a_wy = l2_0_6;
     const S d_L_f__2__b_wx = l2_0_15;
     const S d_L_f__2__b_wy = (-l2_0_10);
+    // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (L_pa__2 - a_pz);
     const S o1 = (L_pa__1 - a_py);
     const S o2 = (L_pa__0 - a_px);
@@ -220,18 +224,21 @@ struct Point_To_Point_Pair_Kernel {
     const S o11 = (-o4);
     const S o12 = (-p_stiffness);
     const S o13 = (-p_damping);
+    // F_a from apply[0] (point_to_point.yaml:17)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
+    // F_b from apply[1] (point_to_point.yaml:18)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4));
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5));
     out[11] = ((L_f__0*o4) - (L_f__1*o5));
+    // dF_a/ddelta_a from apply[0] (point_to_point.yaml:17)
     out[12] = d_L_f__0__a_dx;
     out[13] = S(0);
     out[14] = S(0);
@@ -268,6 +275,7 @@ struct Point_To_Point_Pair_Kernel {
     out[45] = ((L_f__2*a_r0_0) + (d_L_f__1__a_dtz*o7) + (d_L_f__2__a_dtz*o1));
     out[46] = ((-(L_f__2*d_L_pa__0__a_dtz)) + (d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o8));
     out[47] = ((-(L_f__0*a_r0_0)) + (L_f__1*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o6) + (d_L_f__1__a_dtz*o2));
+    // dF_a/ddelta_b from apply[0] (point_to_point.yaml:17)
     out[48] = p_stiffness;
     out[49] = S(0);
     out[50] = S(0);
@@ -304,6 +312,7 @@ struct Point_To_Point_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o7) + (d_L_f__2__b_dtz*o1));
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o8));
     out[83] = ((d_L_f__0__b_dtz*o6) + (d_L_f__1__b_dtz*o2));
+    // dF_a/du_a from apply[0] (point_to_point.yaml:17)
     out[84] = d_L_f__0__a_vx;
     out[85] = S(0);
     out[86] = S(0);
@@ -340,6 +349,7 @@ struct Point_To_Point_Pair_Kernel {
     out[117] = (d_L_f__1__a_wz*o7);
     out[118] = (d_L_f__0__a_wz*o0);
     out[119] = ((d_L_f__0__a_wz*o6) + (d_L_f__1__a_wz*o2));
+    // dF_a/du_b from apply[0] (point_to_point.yaml:17)
     out[120] = p_damping;
     out[121] = S(0);
     out[122] = S(0);
@@ -376,6 +386,7 @@ struct Point_To_Point_Pair_Kernel {
     out[153] = (d_L_f__1__b_wz*o7);
     out[154] = (d_L_f__0__b_wz*o0);
     out[155] = ((d_L_f__0__b_wz*o6) + (d_L_f__1__b_wz*o2));
+    // dF_b/ddelta_a from apply[1] (point_to_point.yaml:18)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = S(0);
     out[158] = S(0);
@@ -412,6 +423,7 @@ struct Point_To_Point_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o11));
     out[190] = ((d_L_f__0__a_dtz*o9) + (d_L_f__2__a_dtz*o5));
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o10));
+    // dF_b/ddelta_b from apply[1] (point_to_point.yaml:18)
     out[192] = o12;
     out[193] = S(0);
     out[194] = S(0);
@@ -448,6 +460,7 @@ struct Point_To_Point_Pair_Kernel {
     out[225] = ((-(L_f__2*b_r1_0)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o11));
     out[226] = ((L_f__2*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o9) + (d_L_f__2__b_dtz*o5));
     out[227] = ((L_f__0*b_r1_0) - (L_f__1*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o10));
+    // dF_b/du_a from apply[1] (point_to_point.yaml:18)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = S(0);
     out[230] = S(0);
@@ -484,6 +497,7 @@ struct Point_To_Point_Pair_Kernel {
     out[261] = (d_L_f__1__a_wz*o3);
     out[262] = (d_L_f__0__a_wz*o9);
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o10));
+    // dF_b/du_b from apply[1] (point_to_point.yaml:18)
     out[264] = o13;
     out[265] = S(0);
     out[266] = S(0);
@@ -571,7 +585,7 @@ struct Point_To_Point_Pair_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[31];
     [[maybe_unused]] const S p_stiffness = in[32];
     [[maybe_unused]] const S p_damping = in[33];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13), let pb (point_to_point.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -594,18 +608,21 @@ struct Point_To_Point_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
+    // let pa (point_to_point.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (point_to_point.yaml:14)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
+    // let f (point_to_point.yaml:15)
     const S l2_0_0 = (b_r1_2*b_wy);
     const S l2_0_1 = (a_r0_2*a_wy);
     const S l2_0_2 = (b_r1_1*b_wz);
@@ -663,6 +680,7 @@ struct Point_To_Point_Pair_Kernel {
     const S d_L_f__2__a_wy = l2_0_6;
     const S d_L_f__2__b_wx = l2_0_15;
     const S d_L_f__2__b_wy = (-l2_0_10);
+    // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -771,18 +789,21 @@ struct Point_To_Point_Pair_Kernel {
     const S o105 = ((d_L_f__1__b_dtz*o64) + o104);
     const S o106 = (d_L_f__2__b_dtz*o64);
     const S o107 = (-o91);
+    // g_a from apply[0] (point_to_point.yaml:17)
     out[0] = o9;
     out[1] = o12;
     out[2] = o15;
     out[3] = ((-(L_f__1*o17)) + (L_f__2*o16) + (o1*o19) + (o10*o18) + (o11*o18) + (o13*o16) + (o14*o16) + (o2*o20) + (o21*o3) + (o22*o6) + (o23*o7) + (o24*o8));
     out[4] = ((L_f__0*o17) - (L_f__2*o25) + (o0*o17) + (o1*o27) + (o13*o26) + (o14*o26) + (o17*o5) + (o2*o28) + (o29*o3) + (o30*o6) + (o31*o7) + (o32*o8));
     out[5] = ((-(L_f__0*o16)) + (L_f__1*o25) + (o0*o33) + (o1*o34) + (o10*o25) + (o11*o25) + (o2*o35) + (o3*o36) + (o33*o5) + (o37*o6) + (o38*o7) + (o39*o8));
+    // g_b from apply[1] (point_to_point.yaml:18)
     out[6] = (-o9);
     out[7] = (-o12);
     out[8] = (-o15);
     out[9] = ((L_f__1*o40) - (L_f__2*o41) + (o1*o43) + (o10*o40) + (o11*o40) + (o13*o42) + (o14*o42) + (o2*o44) + (o3*o45) + (o46*o6) + (o47*o7) + (o48*o8));
     out[10] = ((-(L_f__0*o40)) + (L_f__2*o49) + (o0*o50) + (o1*o51) + (o13*o49) + (o14*o49) + (o2*o52) + (o3*o53) + (o5*o50) + (o54*o6) + (o55*o7) + (o56*o8));
     out[11] = ((L_f__0*o41) - (L_f__1*o49) + (o0*o41) + (o1*o58) + (o10*o57) + (o11*o57) + (o2*o59) + (o3*o60) + (o41*o5) + (o6*o61) + (o62*o7) + (o63*o8));
+    // K_aa from apply[0] (point_to_point.yaml:17)
     out[12] = o67;
     out[13] = S(0);
     out[14] = S(0);
@@ -819,6 +840,7 @@ struct Point_To_Point_Pair_Kernel {
     out[45] = ((o18*o86) + (o21*o64));
     out[46] = ((o17*o84) + (o29*o64));
     out[47] = ((h*((d_L_f__0__a_wz*o33) + (d_L_f__1__a_wz*o25))) + (o36*o64));
+    // K_ab from apply[0] (point_to_point.yaml:17)
     out[48] = o91;
     out[49] = S(0);
     out[50] = S(0);
@@ -855,6 +877,7 @@ struct Point_To_Point_Pair_Kernel {
     out[81] = ((o104*o18) + (o24*o64));
     out[82] = ((o102*o17) + (o32*o64));
     out[83] = ((h*((d_L_f__0__b_wz*o33) + (d_L_f__1__b_wz*o25))) + (o39*o64));
+    // K_ba from apply[1] (point_to_point.yaml:18)
     out[84] = (-o67);
     out[85] = S(0);
     out[86] = S(0);
@@ -891,6 +914,7 @@ struct Point_To_Point_Pair_Kernel {
     out[117] = ((o40*o86) + (o45*o64));
     out[118] = ((o50*o84) + (o53*o64));
     out[119] = ((h*((d_L_f__0__a_wz*o41) + (d_L_f__1__a_wz*o57))) + (o60*o64));
+    // K_bb from apply[1] (point_to_point.yaml:18)
     out[120] = o107;
     out[121] = S(0);
     out[122] = S(0);
@@ -972,6 +996,7 @@ struct Point_To_Point_Pair_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[31];
     [[maybe_unused]] const S p_stiffness = in[32];
     [[maybe_unused]] const S p_damping = in[33];
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13), let pb (point_to_point.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -994,27 +1019,33 @@ struct Point_To_Point_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
+    // let pa (point_to_point.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
+    // let pb (point_to_point.yaml:14)
     const S L_pb__0 = (b_px + b_r1_0);
     const S L_pb__1 = (b_py + b_r1_1);
     const S L_pb__2 = (b_pz + b_r1_2);
+    // let f (point_to_point.yaml:15)
     const S L_f__0 = ((p_damping*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)) + (p_stiffness*((-L_pa__0) + L_pb__0)));
     const S L_f__1 = ((p_damping*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)) + (p_stiffness*((-L_pa__1) + L_pb__1)));
     const S L_f__2 = ((p_damping*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)) + (p_stiffness*((-L_pa__2) + L_pb__2)));
+    // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (L_pa__2 - a_pz);
     const S o1 = (L_pa__1 - a_py);
     const S o2 = (L_pa__0 - a_px);
     const S o3 = (L_pb__2 - b_pz);
     const S o4 = (L_pb__1 - b_py);
     const S o5 = (L_pb__0 - b_px);
+    // F_a from apply[0] (point_to_point.yaml:17)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
+    // F_b from apply[1] (point_to_point.yaml:18)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -1097,7 +1128,7 @@ struct Point_To_Point_World_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[18];
     [[maybe_unused]] const S p_stiffness = in[19];
     [[maybe_unused]] const S p_damping = in[20];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1109,15 +1140,18 @@ struct Point_To_Point_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
+    // let pa (point_to_point.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (point_to_point.yaml:14)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let f (point_to_point.yaml:15)
     const S l2_0_0 = (a_r0_2*a_wy);
     const S l2_0_1 = (-p_stiffness);
     const S l2_0_2 = (a_r0_1*a_wy);
@@ -1152,18 +1186,21 @@ struct Point_To_Point_World_Kernel {
     const S d_L_f__2__a_vz = l2_0_6;
     const S d_L_f__2__a_wx = (-l2_0_8);
     const S d_L_f__2__a_wy = l2_0_4;
+    // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (L_pa__2 - a_pz);
     const S o1 = (L_pa__1 - a_py);
     const S o2 = (L_pa__0 - a_px);
     const S o3 = (-o1);
     const S o4 = (-o0);
     const S o5 = (-o2);
+    // F_a from apply[0] (point_to_point.yaml:17)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
+    // dF_a/ddelta_a from apply[0] (point_to_point.yaml:17)
     out[6] = d_L_f__0__a_dx;
     out[7] = S(0);
     out[8] = S(0);
@@ -1200,6 +1237,7 @@ struct Point_To_Point_World_Kernel {
     out[39] = ((L_f__2*a_r0_0) + (d_L_f__1__a_dtz*o4) + (d_L_f__2__a_dtz*o1));
     out[40] = ((-(L_f__2*d_L_pa__0__a_dtz)) + (d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o5));
     out[41] = ((-(L_f__0*a_r0_0)) + (L_f__1*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o3) + (d_L_f__1__a_dtz*o2));
+    // dF_a/du_a from apply[0] (point_to_point.yaml:17)
     out[42] = d_L_f__0__a_vx;
     out[43] = S(0);
     out[44] = S(0);
@@ -1271,7 +1309,7 @@ struct Point_To_Point_World_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[18];
     [[maybe_unused]] const S p_stiffness = in[19];
     [[maybe_unused]] const S p_damping = in[20];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1283,15 +1321,18 @@ struct Point_To_Point_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
+    // let pa (point_to_point.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (point_to_point.yaml:14)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let f (point_to_point.yaml:15)
     const S l2_0_0 = (a_r0_2*a_wy);
     const S l2_0_1 = (-p_stiffness);
     const S l2_0_2 = (a_r0_1*a_wy);
@@ -1326,6 +1367,7 @@ struct Point_To_Point_World_Kernel {
     const S d_L_f__2__a_vz = l2_0_6;
     const S d_L_f__2__a_wx = (-l2_0_8);
     const S d_L_f__2__a_wy = l2_0_4;
+    // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -1360,12 +1402,14 @@ struct Point_To_Point_World_Kernel {
     const S o31 = (d_L_f__2__a_wy*h);
     const S o32 = (d_L_f__0__a_wz*h);
     const S o33 = (d_L_f__1__a_wz*h);
+    // g_a from apply[0] (point_to_point.yaml:17)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o1) + (d_L_f__0__a_dty*o2) + (d_L_f__0__a_dtz*o3) + o0);
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o1) + (d_L_f__1__a_dty*o2) + (d_L_f__1__a_dtz*o3) + o4);
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o1) + (d_L_f__2__a_dty*o2) + (d_L_f__2__a_dtz*o3) + o5);
     out[3] = ((-(L_f__1*o7)) + (L_f__2*o6) + (o1*o9) + (o10*o2) + (o11*o3) + (o4*o8) + (o5*o6));
     out[4] = ((L_f__0*o7) - (L_f__2*o12) + (o0*o7) + (o1*o14) + (o13*o5) + (o15*o2) + (o16*o3));
     out[5] = ((-(L_f__0*o6)) + (L_f__1*o12) + (o0*o17) + (o1*o18) + (o12*o4) + (o19*o2) + (o20*o3));
+    // K_aa from apply[0] (point_to_point.yaml:17)
     out[6] = (o22 + o23);
     out[7] = S(0);
     out[8] = S(0);
@@ -1434,6 +1478,7 @@ struct Point_To_Point_World_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[18];
     [[maybe_unused]] const S p_stiffness = in[19];
     [[maybe_unused]] const S p_damping = in[20];
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1445,18 +1490,23 @@ struct Point_To_Point_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
+    // let pa (point_to_point.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
+    // let pb (point_to_point.yaml:14)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let f (point_to_point.yaml:15)
     const S L_f__0 = ((p_damping*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)) + (p_stiffness*((-L_pa__0) + L_pb__0)));
     const S L_f__1 = ((p_damping*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)) + (p_stiffness*((-L_pa__1) + L_pb__1)));
     const S L_f__2 = ((p_damping*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)) + (p_stiffness*((-L_pa__2) + L_pb__2)));
+    // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (L_pa__2 - a_pz);
     const S o1 = (L_pa__1 - a_py);
     const S o2 = (L_pa__0 - a_px);
+    // F_a from apply[0] (point_to_point.yaml:17)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

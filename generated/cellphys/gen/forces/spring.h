@@ -4,7 +4,7 @@
 #pragma once
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
-#include "runtime/spu/simd.h"
+#include "runtime/base/simd.h"
 
 namespace cellphys::gen {
 
@@ -116,7 +116,7 @@ struct Spring_Pair_Kernel {
     [[maybe_unused]] const S p_stiffness = in[32];
     [[maybe_unused]] const S p_damping = in[33];
     [[maybe_unused]] const S p_rest_length = in[34];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let pa (spring.yaml:13), let pb (spring.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -139,18 +139,21 @@ struct Spring_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
+    // let pa (spring.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (spring.yaml:14)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
+    // let d (spring.yaml:15)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -160,6 +163,7 @@ struct Spring_Pair_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
+    // let length (spring.yaml:16)
     const S l3_0_0 = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2)));
     const S l3_0_1 = (S(1)/(l3_0_0));
     const S l3_0_2 = (L_d__0*l3_0_1);
@@ -178,6 +182,7 @@ struct Spring_Pair_Kernel {
     const S d_L_length__b_dtx = ((b_r1_1*l3_0_4) + (d_L_pb__1__b_dtx*l3_0_3));
     const S d_L_length__b_dty = ((b_r1_2*l3_0_2) + (d_L_pb__2__b_dty*l3_0_4));
     const S d_L_length__b_dtz = ((b_r1_0*l3_0_3) + (d_L_pb__0__b_dtz*l3_0_2));
+    // let n (spring.yaml:17)
     const S l4_0_0 = (S(1)/(L_length));
     const S l4_0_1 = (S(1)/(L_length*L_length));
     const S l4_0_2 = (L_d__0*l4_0_1);
@@ -223,6 +228,7 @@ struct Spring_Pair_Kernel {
     const S d_L_n__2__b_dtx = ((b_r1_1*l4_0_0) - (d_L_length__b_dtx*l4_0_5));
     const S d_L_n__2__b_dty = ((-(d_L_length__b_dty*l4_0_5)) + (d_L_pb__2__b_dty*l4_0_0));
     const S d_L_n__2__b_dtz = (-(d_L_length__b_dtz*l4_0_5));
+    // let speed (spring.yaml:18)
     const S l5_0_0 = (a_r0_1*a_wz);
     const S l5_0_1 = (b_r1_2*b_wy);
     const S l5_0_2 = (a_r0_2*a_wy);
@@ -264,6 +270,7 @@ struct Spring_Pair_Kernel {
     const S d_L_speed__b_wx = ((-(L_n__1*b_r1_2)) + (L_n__2*b_r1_1));
     const S d_L_speed__b_wy = ((L_n__0*b_r1_2) - (L_n__2*b_r1_0));
     const S d_L_speed__b_wz = ((-(L_n__0*b_r1_1)) + (L_n__1*b_r1_0));
+    // let f (spring.yaml:19)
     const S l6_0_0 = ((L_speed*p_damping) + (p_stiffness*(L_length - p_rest_length)));
     const S l6_0_1 = (L_n__0*p_stiffness);
     const S l6_0_2 = (L_n__0*p_damping);
@@ -349,6 +356,7 @@ struct Spring_Pair_Kernel {
     const S d_L_f__2__b_wx = (d_L_speed__b_wx*l6_0_9);
     const S d_L_f__2__b_wy = (d_L_speed__b_wy*l6_0_9);
     const S d_L_f__2__b_wz = (d_L_speed__b_wz*l6_0_9);
+    // apply (spring.yaml:20), shared subexpressions
     const S o0 = (L_pa__2 - a_pz);
     const S o1 = (L_pa__1 - a_py);
     const S o2 = (L_pa__0 - a_px);
@@ -361,18 +369,21 @@ struct Spring_Pair_Kernel {
     const S o9 = (-o4);
     const S o10 = (-o3);
     const S o11 = (-o5);
+    // F_a from apply[0] (spring.yaml:21)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
+    // F_b from apply[1] (spring.yaml:22)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4));
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5));
     out[11] = ((L_f__0*o4) - (L_f__1*o5));
+    // dF_a/ddelta_a from apply[0] (spring.yaml:21)
     out[12] = d_L_f__0__a_dx;
     out[13] = d_L_f__1__a_dx;
     out[14] = d_L_f__2__a_dx;
@@ -409,6 +420,7 @@ struct Spring_Pair_Kernel {
     out[45] = ((L_f__2*a_r0_0) + (d_L_f__1__a_dtz*o6) + (d_L_f__2__a_dtz*o1));
     out[46] = ((-(L_f__2*d_L_pa__0__a_dtz)) + (d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o7));
     out[47] = ((-(L_f__0*a_r0_0)) + (L_f__1*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o8) + (d_L_f__1__a_dtz*o2));
+    // dF_a/ddelta_b from apply[0] (spring.yaml:21)
     out[48] = d_L_f__0__b_dx;
     out[49] = d_L_f__1__b_dx;
     out[50] = d_L_f__2__b_dx;
@@ -445,6 +457,7 @@ struct Spring_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o6) + (d_L_f__2__b_dtz*o1));
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o7));
     out[83] = ((d_L_f__0__b_dtz*o8) + (d_L_f__1__b_dtz*o2));
+    // dF_a/du_a from apply[0] (spring.yaml:21)
     out[84] = d_L_f__0__a_vx;
     out[85] = d_L_f__1__a_vx;
     out[86] = d_L_f__2__a_vx;
@@ -481,6 +494,7 @@ struct Spring_Pair_Kernel {
     out[117] = ((d_L_f__1__a_wz*o6) + (d_L_f__2__a_wz*o1));
     out[118] = ((d_L_f__0__a_wz*o0) + (d_L_f__2__a_wz*o7));
     out[119] = ((d_L_f__0__a_wz*o8) + (d_L_f__1__a_wz*o2));
+    // dF_a/du_b from apply[0] (spring.yaml:21)
     out[120] = d_L_f__0__b_vx;
     out[121] = d_L_f__1__b_vx;
     out[122] = d_L_f__2__b_vx;
@@ -517,6 +531,7 @@ struct Spring_Pair_Kernel {
     out[153] = ((d_L_f__1__b_wz*o6) + (d_L_f__2__b_wz*o1));
     out[154] = ((d_L_f__0__b_wz*o0) + (d_L_f__2__b_wz*o7));
     out[155] = ((d_L_f__0__b_wz*o8) + (d_L_f__1__b_wz*o2));
+    // dF_b/ddelta_a from apply[1] (spring.yaml:22)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = (-d_L_f__1__a_dx);
     out[158] = (-d_L_f__2__a_dx);
@@ -553,6 +568,7 @@ struct Spring_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o9));
     out[190] = ((d_L_f__0__a_dtz*o10) + (d_L_f__2__a_dtz*o5));
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o11));
+    // dF_b/ddelta_b from apply[1] (spring.yaml:22)
     out[192] = (-d_L_f__0__b_dx);
     out[193] = (-d_L_f__1__b_dx);
     out[194] = (-d_L_f__2__b_dx);
@@ -589,6 +605,7 @@ struct Spring_Pair_Kernel {
     out[225] = ((-(L_f__2*b_r1_0)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o9));
     out[226] = ((L_f__2*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o10) + (d_L_f__2__b_dtz*o5));
     out[227] = ((L_f__0*b_r1_0) - (L_f__1*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o11));
+    // dF_b/du_a from apply[1] (spring.yaml:22)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = (-d_L_f__1__a_vx);
     out[230] = (-d_L_f__2__a_vx);
@@ -625,6 +642,7 @@ struct Spring_Pair_Kernel {
     out[261] = ((d_L_f__1__a_wz*o3) + (d_L_f__2__a_wz*o9));
     out[262] = ((d_L_f__0__a_wz*o10) + (d_L_f__2__a_wz*o5));
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o11));
+    // dF_b/du_b from apply[1] (spring.yaml:22)
     out[264] = (-d_L_f__0__b_vx);
     out[265] = (-d_L_f__1__b_vx);
     out[266] = (-d_L_f__2__b_vx);
@@ -713,7 +731,7 @@ struct Spring_Pair_Kernel {
     [[maybe_unused]] const S p_stiffness = in[32];
     [[maybe_unused]] const S p_damping = in[33];
     [[maybe_unused]] const S p_rest_length = in[34];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let pa (spring.yaml:13), let pb (spring.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -736,18 +754,21 @@ struct Spring_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
+    // let pa (spring.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (spring.yaml:14)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
+    // let d (spring.yaml:15)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -757,6 +778,7 @@ struct Spring_Pair_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
+    // let length (spring.yaml:16)
     const S l3_0_0 = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2)));
     const S l3_0_1 = (S(1)/(l3_0_0));
     const S l3_0_2 = (L_d__0*l3_0_1);
@@ -775,6 +797,7 @@ struct Spring_Pair_Kernel {
     const S d_L_length__b_dtx = ((b_r1_1*l3_0_4) + (d_L_pb__1__b_dtx*l3_0_3));
     const S d_L_length__b_dty = ((b_r1_2*l3_0_2) + (d_L_pb__2__b_dty*l3_0_4));
     const S d_L_length__b_dtz = ((b_r1_0*l3_0_3) + (d_L_pb__0__b_dtz*l3_0_2));
+    // let n (spring.yaml:17)
     const S l4_0_0 = (S(1)/(L_length));
     const S l4_0_1 = (S(1)/(L_length*L_length));
     const S l4_0_2 = (L_d__0*l4_0_1);
@@ -820,6 +843,7 @@ struct Spring_Pair_Kernel {
     const S d_L_n__2__b_dtx = ((b_r1_1*l4_0_0) - (d_L_length__b_dtx*l4_0_5));
     const S d_L_n__2__b_dty = ((-(d_L_length__b_dty*l4_0_5)) + (d_L_pb__2__b_dty*l4_0_0));
     const S d_L_n__2__b_dtz = (-(d_L_length__b_dtz*l4_0_5));
+    // let speed (spring.yaml:18)
     const S l5_0_0 = (a_r0_1*a_wz);
     const S l5_0_1 = (b_r1_2*b_wy);
     const S l5_0_2 = (a_r0_2*a_wy);
@@ -861,6 +885,7 @@ struct Spring_Pair_Kernel {
     const S d_L_speed__b_wx = ((-(L_n__1*b_r1_2)) + (L_n__2*b_r1_1));
     const S d_L_speed__b_wy = ((L_n__0*b_r1_2) - (L_n__2*b_r1_0));
     const S d_L_speed__b_wz = ((-(L_n__0*b_r1_1)) + (L_n__1*b_r1_0));
+    // let f (spring.yaml:19)
     const S l6_0_0 = ((L_speed*p_damping) + (p_stiffness*(L_length - p_rest_length)));
     const S l6_0_1 = (L_n__0*p_stiffness);
     const S l6_0_2 = (L_n__0*p_damping);
@@ -946,6 +971,7 @@ struct Spring_Pair_Kernel {
     const S d_L_f__2__b_wx = (d_L_speed__b_wx*l6_0_9);
     const S d_L_f__2__b_wy = (d_L_speed__b_wy*l6_0_9);
     const S d_L_f__2__b_wz = (d_L_speed__b_wz*l6_0_9);
+    // apply (spring.yaml:20), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -1082,18 +1108,21 @@ struct Spring_Pair_Kernel {
     const S o133 = ((d_L_f__0__b_dtz*o99) + (d_L_f__0__b_wz*h));
     const S o134 = ((d_L_f__1__b_dtz*o99) + (d_L_f__1__b_wz*h));
     const S o135 = ((d_L_f__2__b_dtz*o99) + (d_L_f__2__b_wz*h));
+    // g_a from apply[0] (spring.yaml:21)
     out[0] = o12;
     out[1] = o13;
     out[2] = o14;
     out[3] = ((-(L_f__1*o16)) + (L_f__2*o15) + (o0*o18) + (o1*o19) + (o10*o28) + (o11*o29) + (o2*o20) + (o21*o3) + (o22*o4) + (o23*o5) + (o24*o6) + (o25*o7) + (o26*o8) + (o27*o9));
     out[4] = ((L_f__0*o16) - (L_f__2*o30) + (o0*o32) + (o1*o33) + (o10*o42) + (o11*o43) + (o2*o34) + (o3*o35) + (o36*o4) + (o37*o5) + (o38*o6) + (o39*o7) + (o40*o8) + (o41*o9));
     out[5] = ((-(L_f__0*o15)) + (L_f__1*o30) + (o0*o45) + (o1*o46) + (o10*o55) + (o11*o56) + (o2*o47) + (o3*o48) + (o4*o49) + (o5*o50) + (o51*o6) + (o52*o7) + (o53*o8) + (o54*o9));
+    // g_b from apply[1] (spring.yaml:22)
     out[6] = (-o12);
     out[7] = (-o13);
     out[8] = (-o14);
     out[9] = ((L_f__1*o57) - (L_f__2*o58) + (o0*o60) + (o1*o61) + (o10*o70) + (o11*o71) + (o2*o62) + (o3*o63) + (o4*o64) + (o5*o65) + (o6*o66) + (o67*o7) + (o68*o8) + (o69*o9));
     out[10] = ((-(L_f__0*o57)) + (L_f__2*o72) + (o0*o74) + (o1*o75) + (o10*o84) + (o11*o85) + (o2*o76) + (o3*o77) + (o4*o78) + (o5*o79) + (o6*o80) + (o7*o81) + (o8*o82) + (o83*o9));
     out[11] = ((L_f__0*o58) - (L_f__1*o72) + (o0*o87) + (o1*o88) + (o10*o97) + (o11*o98) + (o2*o89) + (o3*o90) + (o4*o91) + (o5*o92) + (o6*o93) + (o7*o94) + (o8*o95) + (o9*o96));
+    // K_aa from apply[0] (spring.yaml:21)
     out[12] = o100;
     out[13] = o101;
     out[14] = o102;
@@ -1130,6 +1159,7 @@ struct Spring_Pair_Kernel {
     out[45] = ((h*((d_L_f__1__a_wz*o17) + (d_L_f__2__a_wz*o15))) + (o23*o99));
     out[46] = ((h*((d_L_f__0__a_wz*o16) + (d_L_f__2__a_wz*o31))) + (o37*o99));
     out[47] = ((h*((d_L_f__0__a_wz*o44) + (d_L_f__1__a_wz*o30))) + (o50*o99));
+    // K_ab from apply[0] (spring.yaml:21)
     out[48] = o118;
     out[49] = o119;
     out[50] = o120;
@@ -1166,6 +1196,7 @@ struct Spring_Pair_Kernel {
     out[81] = ((h*((d_L_f__1__b_wz*o17) + (d_L_f__2__b_wz*o15))) + (o29*o99));
     out[82] = ((h*((d_L_f__0__b_wz*o16) + (d_L_f__2__b_wz*o31))) + (o43*o99));
     out[83] = ((h*((d_L_f__0__b_wz*o44) + (d_L_f__1__b_wz*o30))) + (o56*o99));
+    // K_ba from apply[1] (spring.yaml:22)
     out[84] = (-o100);
     out[85] = (-o101);
     out[86] = (-o102);
@@ -1202,6 +1233,7 @@ struct Spring_Pair_Kernel {
     out[117] = ((h*((d_L_f__1__a_wz*o57) + (d_L_f__2__a_wz*o59))) + (o65*o99));
     out[118] = ((h*((d_L_f__0__a_wz*o73) + (d_L_f__2__a_wz*o72))) + (o79*o99));
     out[119] = ((h*((d_L_f__0__a_wz*o58) + (d_L_f__1__a_wz*o86))) + (o92*o99));
+    // K_bb from apply[1] (spring.yaml:22)
     out[120] = (-o118);
     out[121] = (-o119);
     out[122] = (-o120);
@@ -1284,6 +1316,7 @@ struct Spring_Pair_Kernel {
     [[maybe_unused]] const S p_stiffness = in[32];
     [[maybe_unused]] const S p_damping = in[33];
     [[maybe_unused]] const S p_rest_length = in[34];
+    // body-frame quantities rotated to world, first used by let pa (spring.yaml:13), let pb (spring.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1306,37 +1339,47 @@ struct Spring_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
+    // let pa (spring.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
+    // let pb (spring.yaml:14)
     const S L_pb__0 = (b_px + b_r1_0);
     const S L_pb__1 = (b_py + b_r1_1);
     const S L_pb__2 = (b_pz + b_r1_2);
+    // let d (spring.yaml:15)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
+    // let length (spring.yaml:16)
     const S L_length = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2)));
+    // let n (spring.yaml:17)
     const S l4_0_0 = (S(1)/(L_length));
     const S L_n__0 = (L_d__0*l4_0_0);
     const S L_n__1 = (L_d__1*l4_0_0);
     const S L_n__2 = (L_d__2*l4_0_0);
+    // let speed (spring.yaml:18)
     const S L_speed = ((L_n__0*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)) + (L_n__1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)) + (L_n__2*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)));
+    // let f (spring.yaml:19)
     const S l6_0_0 = ((L_speed*p_damping) + (p_stiffness*(L_length - p_rest_length)));
     const S L_f__0 = (L_n__0*l6_0_0);
     const S L_f__1 = (L_n__1*l6_0_0);
     const S L_f__2 = (L_n__2*l6_0_0);
+    // apply (spring.yaml:20), shared subexpressions
     const S o0 = (L_pa__2 - a_pz);
     const S o1 = (L_pa__1 - a_py);
     const S o2 = (L_pa__0 - a_px);
     const S o3 = (L_pb__2 - b_pz);
     const S o4 = (L_pb__1 - b_py);
     const S o5 = (L_pb__0 - b_px);
+    // F_a from apply[0] (spring.yaml:21)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
+    // F_b from apply[1] (spring.yaml:22)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -1421,7 +1464,7 @@ struct Spring_World_Kernel {
     [[maybe_unused]] const S p_stiffness = in[19];
     [[maybe_unused]] const S p_damping = in[20];
     [[maybe_unused]] const S p_rest_length = in[21];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let pa (spring.yaml:13)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1433,15 +1476,18 @@ struct Spring_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
+    // let pa (spring.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (spring.yaml:14)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let d (spring.yaml:15)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -1451,6 +1497,7 @@ struct Spring_World_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
+    // let length (spring.yaml:16)
     const S l3_0_0 = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2)));
     const S l3_0_1 = (S(1)/(l3_0_0));
     const S l3_0_2 = (L_d__0*l3_0_1);
@@ -1463,6 +1510,7 @@ struct Spring_World_Kernel {
     const S d_L_length__a_dtx = ((d_L_d__1__a_dtx*l3_0_3) + (d_L_d__2__a_dtx*l3_0_4));
     const S d_L_length__a_dty = ((d_L_d__0__a_dty*l3_0_2) + (d_L_d__2__a_dty*l3_0_4));
     const S d_L_length__a_dtz = ((d_L_d__0__a_dtz*l3_0_2) + (d_L_d__1__a_dtz*l3_0_3));
+    // let n (spring.yaml:17)
     const S l4_0_0 = (S(1)/(L_length));
     const S l4_0_1 = (S(1)/(L_length*L_length));
     const S l4_0_2 = (L_d__0*l4_0_1);
@@ -1489,6 +1537,7 @@ struct Spring_World_Kernel {
     const S d_L_n__2__a_dtx = ((d_L_d__2__a_dtx*l4_0_0) - (d_L_length__a_dtx*l4_0_4));
     const S d_L_n__2__a_dty = ((d_L_d__2__a_dty*l4_0_0) - (d_L_length__a_dty*l4_0_4));
     const S d_L_n__2__a_dtz = (-(d_L_length__a_dtz*l4_0_4));
+    // let speed (spring.yaml:18)
     const S l5_0_0 = (a_r0_2*a_wy);
     const S l5_0_1 = ((a_r0_1*a_wz) - a_vx - l5_0_0);
     const S l5_0_2 = (a_r0_0*a_wz);
@@ -1511,6 +1560,7 @@ struct Spring_World_Kernel {
     const S d_L_speed__a_wx = ((L_n__1*a_r0_2) - (L_n__2*a_r0_1));
     const S d_L_speed__a_wy = ((-(L_n__0*a_r0_2)) + (L_n__2*a_r0_0));
     const S d_L_speed__a_wz = ((L_n__0*a_r0_1) - (L_n__1*a_r0_0));
+    // let f (spring.yaml:19)
     const S l6_0_0 = ((L_speed*p_damping) + (p_stiffness*(L_length - p_rest_length)));
     const S l6_0_1 = (L_n__0*p_stiffness);
     const S l6_0_2 = (L_n__0*p_damping);
@@ -1557,18 +1607,21 @@ struct Spring_World_Kernel {
     const S d_L_f__2__a_wx = (d_L_speed__a_wx*l6_0_6);
     const S d_L_f__2__a_wy = (d_L_speed__a_wy*l6_0_6);
     const S d_L_f__2__a_wz = (d_L_speed__a_wz*l6_0_6);
+    // apply (spring.yaml:20), shared subexpressions
     const S o0 = (L_pa__2 - a_pz);
     const S o1 = (L_pa__1 - a_py);
     const S o2 = (L_pa__0 - a_px);
     const S o3 = (-o0);
     const S o4 = (-o2);
     const S o5 = (-o1);
+    // F_a from apply[0] (spring.yaml:21)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
+    // dF_a/ddelta_a from apply[0] (spring.yaml:21)
     out[6] = d_L_f__0__a_dx;
     out[7] = d_L_f__1__a_dx;
     out[8] = d_L_f__2__a_dx;
@@ -1605,6 +1658,7 @@ struct Spring_World_Kernel {
     out[39] = ((L_f__2*a_r0_0) + (d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o1));
     out[40] = ((-(L_f__2*d_L_pa__0__a_dtz)) + (d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o4));
     out[41] = ((-(L_f__0*a_r0_0)) + (L_f__1*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o5) + (d_L_f__1__a_dtz*o2));
+    // dF_a/du_a from apply[0] (spring.yaml:21)
     out[42] = d_L_f__0__a_vx;
     out[43] = d_L_f__1__a_vx;
     out[44] = d_L_f__2__a_vx;
@@ -1677,7 +1731,7 @@ struct Spring_World_Kernel {
     [[maybe_unused]] const S p_stiffness = in[19];
     [[maybe_unused]] const S p_damping = in[20];
     [[maybe_unused]] const S p_rest_length = in[21];
-    // body-frame quantities rotated to world
+    // body-frame quantities rotated to world, first used by let pa (spring.yaml:13)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1689,15 +1743,18 @@ struct Spring_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
+    // let pa (spring.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (spring.yaml:14)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let d (spring.yaml:15)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -1707,6 +1764,7 @@ struct Spring_World_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
+    // let length (spring.yaml:16)
     const S l3_0_0 = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2)));
     const S l3_0_1 = (S(1)/(l3_0_0));
     const S l3_0_2 = (L_d__0*l3_0_1);
@@ -1719,6 +1777,7 @@ struct Spring_World_Kernel {
     const S d_L_length__a_dtx = ((d_L_d__1__a_dtx*l3_0_3) + (d_L_d__2__a_dtx*l3_0_4));
     const S d_L_length__a_dty = ((d_L_d__0__a_dty*l3_0_2) + (d_L_d__2__a_dty*l3_0_4));
     const S d_L_length__a_dtz = ((d_L_d__0__a_dtz*l3_0_2) + (d_L_d__1__a_dtz*l3_0_3));
+    // let n (spring.yaml:17)
     const S l4_0_0 = (S(1)/(L_length));
     const S l4_0_1 = (S(1)/(L_length*L_length));
     const S l4_0_2 = (L_d__0*l4_0_1);
@@ -1745,6 +1804,7 @@ struct Spring_World_Kernel {
     const S d_L_n__2__a_dtx = ((d_L_d__2__a_dtx*l4_0_0) - (d_L_length__a_dtx*l4_0_4));
     const S d_L_n__2__a_dty = ((d_L_d__2__a_dty*l4_0_0) - (d_L_length__a_dty*l4_0_4));
     const S d_L_n__2__a_dtz = (-(d_L_length__a_dtz*l4_0_4));
+    // let speed (spring.yaml:18)
     const S l5_0_0 = (a_r0_2*a_wy);
     const S l5_0_1 = ((a_r0_1*a_wz) - a_vx - l5_0_0);
     const S l5_0_2 = (a_r0_0*a_wz);
@@ -1767,6 +1827,7 @@ struct Spring_World_Kernel {
     const S d_L_speed__a_wx = ((L_n__1*a_r0_2) - (L_n__2*a_r0_1));
     const S d_L_speed__a_wy = ((-(L_n__0*a_r0_2)) + (L_n__2*a_r0_0));
     const S d_L_speed__a_wz = ((L_n__0*a_r0_1) - (L_n__1*a_r0_0));
+    // let f (spring.yaml:19)
     const S l6_0_0 = ((L_speed*p_damping) + (p_stiffness*(L_length - p_rest_length)));
     const S l6_0_1 = (L_n__0*p_stiffness);
     const S l6_0_2 = (L_n__0*p_damping);
@@ -1813,6 +1874,7 @@ struct Spring_World_Kernel {
     const S d_L_f__2__a_wx = (d_L_speed__a_wx*l6_0_6);
     const S d_L_f__2__a_wy = (d_L_speed__a_wy*l6_0_6);
     const S d_L_f__2__a_wz = (d_L_speed__a_wz*l6_0_6);
+    // apply (spring.yaml:20), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -1844,12 +1906,14 @@ struct Spring_World_Kernel {
     const S o28 = ((L_f__1*a_r0_2) + (d_L_f__0__a_dty*o23) + (d_L_f__1__a_dty*o15));
     const S o29 = ((-(L_f__0*a_r0_0)) + (L_f__1*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o23) + (d_L_f__1__a_dtz*o15));
     const S o30 = (h*h);
+    // g_a from apply[0] (spring.yaml:21)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o3) + (d_L_f__0__a_dty*o4) + (d_L_f__0__a_dtz*o5) + (d_L_f__0__a_dx*o0) + (d_L_f__0__a_dy*o1) + (d_L_f__0__a_dz*o2));
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o3) + (d_L_f__1__a_dty*o4) + (d_L_f__1__a_dtz*o5) + (d_L_f__1__a_dx*o0) + (d_L_f__1__a_dy*o1) + (d_L_f__1__a_dz*o2));
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o3) + (d_L_f__2__a_dty*o4) + (d_L_f__2__a_dtz*o5) + (d_L_f__2__a_dx*o0) + (d_L_f__2__a_dy*o1) + (d_L_f__2__a_dz*o2));
     out[3] = ((-(L_f__1*o7)) + (L_f__2*o6) + (o0*o9) + (o1*o10) + (o11*o2) + (o12*o3) + (o13*o4) + (o14*o5));
     out[4] = ((L_f__0*o7) - (L_f__2*o15) + (o0*o17) + (o1*o18) + (o19*o2) + (o20*o3) + (o21*o4) + (o22*o5));
     out[5] = ((-(L_f__0*o6)) + (L_f__1*o15) + (o0*o24) + (o1*o25) + (o2*o26) + (o27*o3) + (o28*o4) + (o29*o5));
+    // K_aa from apply[0] (spring.yaml:21)
     out[6] = ((d_L_f__0__a_dx*o30) + (d_L_f__0__a_vx*h));
     out[7] = ((d_L_f__1__a_dx*o30) + (d_L_f__1__a_vx*h));
     out[8] = ((d_L_f__2__a_dx*o30) + (d_L_f__2__a_vx*h));
@@ -1919,6 +1983,7 @@ struct Spring_World_Kernel {
     [[maybe_unused]] const S p_stiffness = in[19];
     [[maybe_unused]] const S p_damping = in[20];
     [[maybe_unused]] const S p_rest_length = in[21];
+    // body-frame quantities rotated to world, first used by let pa (spring.yaml:13)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1930,28 +1995,37 @@ struct Spring_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
+    // let pa (spring.yaml:13)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
+    // let pb (spring.yaml:14)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let d (spring.yaml:15)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
+    // let length (spring.yaml:16)
     const S L_length = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2)));
+    // let n (spring.yaml:17)
     const S l4_0_0 = (S(1)/(L_length));
     const S L_n__0 = (L_d__0*l4_0_0);
     const S L_n__1 = (L_d__1*l4_0_0);
     const S L_n__2 = (L_d__2*l4_0_0);
+    // let speed (spring.yaml:18)
     const S L_speed = ((L_n__0*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)) + (L_n__1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)) + (L_n__2*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
+    // let f (spring.yaml:19)
     const S l6_0_0 = ((L_speed*p_damping) + (p_stiffness*(L_length - p_rest_length)));
     const S L_f__0 = (L_n__0*l6_0_0);
     const S L_f__1 = (L_n__1*l6_0_0);
     const S L_f__2 = (L_n__2*l6_0_0);
+    // apply (spring.yaml:20), shared subexpressions
     const S o0 = (L_pa__2 - a_pz);
     const S o1 = (L_pa__1 - a_py);
     const S o2 = (L_pa__0 - a_px);
+    // F_a from apply[0] (spring.yaml:21)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

@@ -1,4 +1,4 @@
-// One implicit step of the seed's reference island (65 bodies, 400 contacts, 199 blocks),
+// One implicit step of the reference island (65 bodies, 400 contacts, 199 blocks),
 // whole and by phase, and this core's FMA peak for the efficiency ratio.
 #include <benchmark/benchmark.h>
 

@@ -1,10 +1,10 @@
-// Island solver costs on a matrix shaped like the seed's reference island: 65 bodies,
+// Island solver costs on a matrix shaped like the reference island: 65 bodies,
 // 67 touching pairs x 6 contacts (402 contacts), 65 + 134 = 199 non-zero blocks,
 // stored block-Jacobi scaled (unit diagonal) as block_sparse.h describes.
 //
 // Flop count for spmv: 72 useful flops per stored 6x6 block (36 multiplies + 36 adds on
 // logical entries; the padding lanes the SIMD code also computes are not counted). The
-// unit diagonal is a copy and counts nothing; with a stored diagonal (the seed's unscaled
+// unit diagonal is a copy and counts nothing; with a stored diagonal (the reference design's unscaled
 // form, Arg 1) each diagonal block counts 72 as well.
 #include <benchmark/benchmark.h>
 

@@ -1,8 +1,8 @@
-// One world step of the seed's scenes, with the step's work (contacts, islands, active bodies,
+// One world step of the reference design's scenes, with the step's work (contacts, islands, active bodies,
 // solver iterations, local store) and its stages (broad, mid, narrow, sleep, islands, pack,
 // integrate, unpack; microseconds per step, averaged over the iterations) as counters, on 1
 // and 2 workers:
-//  - the 65-box pile after 0.5 s of settling, all awake (the seed's reference scene, 1 kg boxes;
+//  - the 65-box pile after 0.5 s of settling, all awake (the reference scene, 1 kg boxes;
 //    and the same pile of 62.5 kg crates);
 //  - the sparse 1,000-body world at its start (all awake) and after 10 s (most asleep).
 // The awake cases restore the same state before every step (outside the timing), so every
@@ -89,7 +89,7 @@ void time_restored_steps(benchmark::State& state, World& w, const Snapshot& snap
   state.counters["max_speed"] = max_speed(w, snap.ids);  // after the timed step: a sanity flag
 }
 
-// args: box mass in tenths of a kg (10 = the seed's 1 kg, 625 = a 62.5 kg crate), workers
+// args: box mass in tenths of a kg (10 = the reference design's 1 kg, 625 = a 62.5 kg crate), workers
 void BM_Pile65Step(benchmark::State& state) {
   const float mass = float(state.range(0)) / 10.0f;
   WorldSettings s;

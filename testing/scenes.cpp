@@ -151,7 +151,7 @@ std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent, uint32_t see
 std::vector<BodyId> sparse_world(World& w, int n, float area, uint32_t seed) {
   Rng r(seed);
   ground_plane(w, 0.5f);
-  // A few dictionary shapes at unit size, scaled per body (the seed's shape index + scale).
+  // A few dictionary shapes at unit size, scaled per body (the reference design's shape index + scale).
   ppe::ShapeDictionary& sd = w.shapes();
   const float b0[3] = {1, 1, 1}, b1[3] = {1, 0.7f, 0.5f}, b2[3] = {1, 0.5f, 0.25f};
   const uint32_t boxes[3] = {sd.add_box(b0), sd.add_box(b1), sd.add_box(b2)};

@@ -4,7 +4,7 @@
 // gives the same scene on every standard library).
 //
 // Conventions: gravity is -z, the ground is the plane z = 0 (solid below), lengths in metres,
-// masses in kilograms. Boxes default to 1 kg, as the seed's reference group
+// masses in kilograms. Boxes default to 1 kg, as the reference group
 // (testing/reference_island.h).
 #pragma once
 #include <cstdint>
@@ -28,8 +28,8 @@ BodyId ground_plane(World& w, float friction = 0.5f);
 std::vector<BodyId> stack(World& w, int n, float half_extent, float gap = 0.0f, float mass = 1.0f,
                           const float base[3] = nullptr, float friction = 0.5f, float stagger = 0.0f);
 
-/// The seed's reference scene: n boxes of half-extent `half_extent` (the seed's 0.25 m) and
-/// `mass` kg (the seed's reference group: 1 kg), dropped with small random rotations (up to
+/// The reference scene: n boxes of half-extent `half_extent` (the reference design's 0.25 m) and
+/// `mass` kg (the reference group: 1 kg), dropped with small random rotations (up to
 /// 0.15 rad about a random axis) and horizontal jitter (up to 0.1 half-extent) from a k x k grid
 /// of columns (2.4 half-extents apart, layers 2.6 half-extents apart, the lowest 0.3
 /// half-extent above the floor) into a bin: the ground plane (added here) and 4 static wall

@@ -406,7 +406,7 @@ TEST(TorqueFree, SeedImplicitEulerDoesNotGainEnergy) {
   const Drift d = spin_drift(SpinningBox{}, Integrator::implicit_euler, kH, 10.0);
   record_drift("implicit_euler", d);
   EXPECT_EQ(d.failures, 0);
-  EXPECT_LE(d.energy, 1e-4) << "the seed's step may lose energy, never gain it";
+  EXPECT_LE(d.energy, 1e-4) << "the reference design's step may lose energy, never gain it";
   EXPECT_LE(d.worst_energy_up, 1e-4);
 }
 
@@ -629,7 +629,7 @@ TEST(Stability, HeavyChainOfJointsHangsBoundedWithImplicitSplit) {
 }
 
 TEST(Stability, IntermediateAxisSpinAt20RadPerSecond) {
-  // the Dzhanibekov flip at h w = 1/3: the seed's step must not gain energy, the split one
+  // the Dzhanibekov flip at h w = 1/3: the reference design's step must not gain energy, the split one
   // must keep it (and the momentum vector)
   SpinningBox box;
   box.w0 = {0.2, 20.0, 0.2};

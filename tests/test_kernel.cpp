@@ -1,5 +1,5 @@
 // The compute kernel's contract: solvers that agree with the direct oracle, halving on
-// failure with the state untouched, the seed's local-store budget, refusal of islands that
+// failure with the state untouched, the reference design's local-store budget, refusal of islands that
 // do not fit or are malformed, the emulated DMA and local-store rules, and determinism.
 #include <gtest/gtest.h>
 
@@ -84,7 +84,7 @@ bool result_bodies_equal_input(const Bytes& res, const Bytes& img) {
 
 // A chain of n links (0.2 m long, 1 kg) joined by stiff point_to_point joints (1e6 N/m), the
 // first to the world, each joint starting 5 cm open and the links spinning: a stiff,
-// non-symmetric system on which the seed's iteration limit (12 n) is tight.
+// non-symmetric system on which the reference design's iteration limit (12 n) is tight.
 Bytes stiff_chain(int n, float tol, uint32_t solver, uint32_t max_halvings, float h = 1.0f / 60,
                   float stiffness = 1e6f) {
   IslandBuilder ib;
@@ -375,7 +375,7 @@ TEST(Halving, FreeRotationThatCannotConvergeAtHIsSplit) {
   EXPECT_NEAR(rotational_energy(after) / rotational_energy(b), 1.0, 1e-5);
 }
 
-// ---- 10. the seed's reference island fits the seed's budget -------------------------------------
+// ---- 10. the reference island fits the reference design's budget -------------------------------------
 
 TEST(Footprint, ReferenceIslandFitsTheSeedsLocalStoreBudget) {
   const Bytes img = reference_image();
@@ -399,7 +399,7 @@ TEST(Footprint, ReferenceIslandFitsTheSeedsLocalStoreBudget) {
   record("reference_footprint_total", double(s.report.footprint.total), 8);
   record("reference_local_store_peak", double(s.report.local_store_peak), 8);
   EXPECT_EQ(sum, s.report.footprint.total);
-  EXPECT_LE(s.report.footprint.total, 126020u) << "the seed's figure, double buffering included";
+  EXPECT_LE(s.report.footprint.total, 126020u) << "the reference design's figure, double buffering included";
   EXPECT_LE(s.report.local_store_peak, 126020u);
   EXPECT_LE(s.report.local_store_peak, s.report.footprint.total) << "the accounting must bound the real use";
   EXPECT_EQ(result_header(s.result).local_store_bytes, uint32_t(s.report.footprint.total));

@@ -1,4 +1,4 @@
-// Block-sparse mat-vec and the island solvers (CGS as the seed, BiCGSTAB, sparse LU oracle)
+// Block-sparse mat-vec and the island solvers (CGS as the reference design, BiCGSTAB, sparse LU oracle)
 // against dense double references, on random and physically shaped systems.
 #include <gtest/gtest.h>
 
@@ -223,7 +223,7 @@ Physical stiff_chain(int n, double k, std::mt19937& rng, double skew_eps = 0.01)
   return physical_system(n, pairs, k, skew_eps, rng);
 }
 
-// The seed's reference island: 65 bodies, 67 touching pairs with 6 contacts each (402
+// The reference island: 65 bodies, 67 touching pairs with 6 contacts each (402
 // contacts), 65 + 134 = 199 non-zero blocks; a random tree plus three extra pairs.
 Physical reference_island(std::mt19937& rng) {
   const int n = 65;
@@ -386,7 +386,7 @@ TEST(Krylov, ReferenceIsland65BodiesConvergesWithSeedSettings) {
   for (Solver which : {Solver::cgs, Solver::bicgstab}) {
     const std::string key = name(which);
     BVec x(65);
-    SolveResult r = run(which, p.sys, p.b, x, {});  // the seed's rel_tol = abs_tol = 1e-3
+    SolveResult r = run(which, p.sys, p.b, x, {});  // the reference design's rel_tol = abs_tol = 1e-3
     ASSERT_EQ(r.code, kConverged) << key;
     EXPECT_LT(r.residual, 1e-3f) << key;
     EXPECT_LT(true_rel_residual(p.sys, p.b, x), 2e-3) << key;  // recurrence and truth stay close here
@@ -443,7 +443,7 @@ TEST(Krylov, HardSystemsTerminateWithTruthfulCodes) {
 }
 
 // ---------------------------------------------------------------------------------------
-// The seed's stopping rule, limits and failure codes
+// The reference design's stopping rule, limits and failure codes
 
 TEST(Krylov, StopsAtTheFirstPassMeetingRelativeOrAbsoluteTolerance) {
   std::mt19937 rng(41);
@@ -484,7 +484,7 @@ TEST(Krylov, MaxIterationsIsRespected) {
     EXPECT_EQ(r.code, kMaxIterations) << name(which);
     EXPECT_EQ(r.iterations, 2) << name(which);
   }
-  // Default limit: the seed's 2 * 6 * n, here with an unreachable tolerance.
+  // Default limit: the reference design's 2 * 6 * n, here with an unreachable tolerance.
   Physical small = stiff_chain(3, 30.0, rng);
   SolveSettings never;
   never.rel_tol = 0.0f;
@@ -503,7 +503,7 @@ TEST(Krylov, MaxIterationsIsRespected) {
 TEST(Krylov, TinyRightHandSideReturnsAtOnceWithXUntouched) {
   std::mt19937 rng(47);
   Physical p = stiff_chain(4, 3.0, rng);
-  VectorXd b = p.b * (0.5e-4 / p.b.norm());  // |b| < 1e-4, the seed's early out
+  VectorXd b = p.b * (0.5e-4 / p.b.norm());  // |b| < 1e-4, the reference design's early out
   for (Solver which : {Solver::cgs, Solver::bicgstab}) {
     BVec x = to_bvec(random_vector(rng, 24));
     const BVec before = x;
@@ -541,7 +541,7 @@ TEST(Krylov, RhoZeroBreakdownReturnsCode2) {
     BVec x(2);
     SolveResult r = run(which, s, b, x, {});
     EXPECT_EQ(r.code, kRhoZero) << name(which);
-    EXPECT_EQ(r.iterations, 2) << name(which);  // counted as the seed does, the breakdown pass included
+    EXPECT_EQ(r.iterations, 2) << name(which);  // counted as the reference design does, the breakdown pass included
   }
   BVec x(2);
   SolveResult r = run(Solver::direct, s, b, x, {});

@@ -1,5 +1,5 @@
 // Packed layouts: pack -> unpack round-trips bit-exactly, padding is zero, sizes are the
-// seed's where the seed's layout is kept.
+// reference design's where the reference design's layout is kept.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -79,7 +79,7 @@ TEST(Layouts, Mat33RowsArePaddedToFourFloats) {
 }
 
 TEST(Layouts, SeedSizesWhereTheSeedLayoutIsKept) {
-  // The seed: Contact_Force 48 B, W_Element 64 B, Rigid_Body_Step 32 B. Rigid_Body is 144 B
+  // The reference design: Contact_Force 48 B, W_Element 64 B, Rigid_Body_Step 32 B. Rigid_Body is 144 B
   // here, not 160: the orientation is a quaternion (16 B) instead of a padded Matrix33 (48 B),
   // and the body-frame inertia and its inverse are symmetric (6 floats each).
   EXPECT_EQ(sizeof(Contact_Force), 48u);

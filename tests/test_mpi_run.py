@@ -1,5 +1,5 @@
 """`cellphys run --mpi` under mpirun on loopback: the same bits as the in-process run, the
-seed's wire tables on the wire in one batch per node and wave, damaged replies recomputed and
+reference design's wire tables on the wire in one batch per node and wave, damaged replies recomputed and
 silent nodes dropped.
 
 usage: test_mpi_run.py CELLPHYS MPIRUN  (run by CTest)

@@ -1,11 +1,11 @@
 // The world, scene by scene: resting and stacking, rolling and sliding on an incline against
-// closed forms, the seed's 65-box pile (contacts, settling, sleep), a sparse 1,000-body world
+// closed forms, the reference design's 65-box pile (contacts, settling, sleep), a sparse 1,000-body world
 // whose cost follows its active bodies, island partition, decoupling a 300-box pile to fit the
 // local store, bit-identical results across worker counts, refusal of bad input without side
 // effects, and sleeping and waking.
 //
 // Scenes use the default WorldSettings (implicit_split at 60 Hz, 1e5 N/m and 1e3 N s/m per
-// contact point, 0.01 m/s friction regularisation) and the seed's 1 kg boxes of 0.25 m
+// contact point, 0.01 m/s friction regularisation) and the reference design's 1 kg boxes of 0.25 m
 // half-extent unless a test says otherwise. Criteria are physical; a scene that misbehaves
 // is a runtime defect to fix, not a tolerance to widen.
 #include <gtest/gtest.h>
@@ -298,7 +298,7 @@ TEST(World, SlidingBoxComesToRestAndStays) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// 4. The seed's reference scene: 65 boxes into a bin
+// 4. The reference scene: 65 boxes into a bin
 
 TEST(World, SeedPileOf65BoxesMakesAbout400ContactsSettlesAndSleeps) {
   World w;

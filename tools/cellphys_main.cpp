@@ -16,7 +16,7 @@ const char kHelp[] =
     "  run [SCENE] [options]   step a scene and report (the default command; with no SCENE,\n"
     "                          the built-in default world 'world1000')\n"
     "  scenes                  list the built-in scenes with their descriptions\n"
-    "  kernel-demo [options]   the compute kernel alone: the seed's 65-box reference group\n"
+    "  kernel-demo [options]   the compute kernel alone: the reference design's 65-box group\n"
     "                          and a spinning box (no world)\n"
     "  help                    this text; `cellphys COMMAND --help` for a command's options\n"
     "\n"

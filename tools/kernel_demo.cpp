@@ -1,4 +1,4 @@
-// `cellphys kernel-demo`: the seed's reference group (65 boxes, 400 contacts) stepped through
+// `cellphys kernel-demo`: the reference group (65 boxes, 400 contacts) stepped through
 // the compute kernel alone, and a torque-free spinning box, with a summary a person can read.
 // (This was the command's default job before scene files.)
 #include <algorithm>
@@ -23,7 +23,7 @@ using namespace cellphys::spu;
 int usage(FILE* out) {
   std::fprintf(out,
                "usage: cellphys kernel-demo [--integrator NAME] [--steps N]\n"
-               "  step the seed's 65-box reference group and a spinning box through the compute\n"
+               "  step the reference design's 65-box group and a spinning box through the compute\n"
                "  kernel alone (no world), N steps of the box (default 600)\n"
                "  integrators implicit_split (default), implicit_euler, rosenbrock, symplectic_euler,\n"
                "              explicit_euler, rk4\n");
@@ -75,7 +75,7 @@ bool run(Build build, std::vector<Rigid_Body_Fields>& bodies, int steps, Integra
 
 int demo(Integrator integ, int steps) {
   std::printf("cellphys 0.1: the compute kernel on this machine (SIMD path %s)\n\n", simd::kPathName);
-  // 1. The seed's reference group, one step, timed over repeats (median).
+  // 1. The reference group, one step, timed over repeats (median).
   IslandBuilder ref;
   ref.set_integrator(integ);
   testing::build_reference_island(ref);
@@ -91,8 +91,8 @@ int demo(Integrator integ, int steps) {
     times.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
   }
   std::sort(times.begin(), times.end());
-  std::printf("reference group (the seed's: 65 boxes in two layers, 400 penalty contacts)\n");
-  std::printf("  non-zero blocks %u, local store %zu of %zu bytes (the seed's figure: 126,020)\n",
+  std::printf("reference group (the reference design's: 65 boxes in two layers, 400 penalty contacts)\n");
+  std::printf("  non-zero blocks %u, local store %zu of %zu bytes (the reference design's figure: 126,020)\n",
               v.header->num_blocks + v.header->num_bodies, r.footprint.total, LocalStore::kDefaultCapacity);
   std::printf("  one %s step: %s, %u solver iterations, median %.1f us\n\n", integrator_name(integ),
               status_name(r.status), r.solver_iterations, times[times.size() / 2]);

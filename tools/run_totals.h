@@ -12,7 +12,7 @@ namespace cellphys::cli {
 struct RunTotals {
   // summed over the steps
   uint64_t solver_iterations = 0, solves = 0, step_halvings = 0, failed_islands = 0, decoupled_islands = 0;
-  // transport and the seed's wire tables (runtime/ppe/step_stats.h), summed over the steps
+  // transport and the reference design's wire tables (runtime/ppe/step_stats.h), summed over the steps
   uint64_t bytes_to_nodes = 0, bytes_from_nodes = 0, messages = 0, bad_messages = 0, recomputed_islands = 0,
            reassigned_islands = 0, dropped_nodes = 0, island_bodies = 0, island_bytes_shared = 0,
            wire_table_to_nodes = 0, wire_table_to_nodes_compressed = 0, wire_table_from_nodes = 0, image_bytes = 0,

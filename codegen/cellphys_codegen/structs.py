@@ -7,7 +7,7 @@ from . import yaml_loader
 from .errors import DescriptorError
 
 # type -> (bytes, alignment, C element type, stored floats, logical floats)
-# vec3/quat/mat33 rows are stored as 4 floats so one row is one 128-bit register (the seed's padding).
+# vec3/quat/mat33 rows are stored as 4 floats so one row is one 128-bit register (the reference design's padding).
 TYPES = {
     "f32": (4, 4, "float", 1, 1),
     "i32": (4, 4, "int32_t", 1, 1),

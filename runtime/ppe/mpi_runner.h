@@ -1,6 +1,6 @@
-// Compute nodes over MPI (Open MPI): the seed's dispatcher model. Rank 0 of MPI_COMM_WORLD
+// Compute nodes over MPI (Open MPI): the reference design's dispatcher model. Rank 0 of MPI_COMM_WORLD
 // is the dispatcher: it owns the world, collides, partitions and packs, and an MpiRunner
-// ships the packed islands to compute nodes (ranks 1..size-1) as the seed's wire tables
+// ships the packed islands to compute nodes (ranks 1..size-1) as the reference design's wire tables
 // (runtime/ppe/wire.h). Islands go largest first to the node with the least work queued; each
 // node then gets every island it was given in a wave as one message (a batch) and answers
 // with one message. A node holds no state between islands: it rebuilds each image, runs the

@@ -1,5 +1,5 @@
 // The shape dictionary: every collision shape is stored once and bodies refer to it by index
-// plus a uniform scale (the seed's compressed shape reference), so geometry never travels
+// plus a uniform scale (the reference design's compressed shape reference), so geometry never travels
 // with a body. Entries are immutable once added and their views stay valid for the
 // dictionary's lifetime, so the narrow phase may hold on to them.
 #pragma once

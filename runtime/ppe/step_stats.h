@@ -50,7 +50,7 @@ struct StepStats {
   // message bytes each way on the runner's wire (0 for the in-process worker pool).
   uint64_t bytes_to_nodes = 0, bytes_from_nodes = 0;
   uint32_t messages = 0, bad_messages = 0, reassigned_islands = 0, dropped_nodes = 0;
-  // The same islands in the seed's wire tables (docs/distributed.md), whatever the runner:
+  // The same islands in the reference design's wire tables (docs/distributed.md), whatever the runner:
   // bodies out (ghosts included) at 22 floats plus their shape's geometry, or at 25 floats
   // with a dictionary reference; 13 floats per body back. Each island's header, force and
   // contact records are counted in both outbound forms (island_bytes_shared).

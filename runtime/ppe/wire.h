@@ -1,4 +1,4 @@
-// The messages between a dispatcher and its compute nodes, in the seed's wire tables
+// The messages between a dispatcher and its compute nodes, in the reference design's wire tables
 // (codegen/descriptors/structs/wire_*.yaml), with no transport in them (mpi_runner.cpp moves
 // them). Both sides are this build's code on the same architecture (little-endian,
 // IEEE floats): the bytes are the structs.

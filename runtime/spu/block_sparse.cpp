@@ -14,7 +14,7 @@ using simd::vf8;
 static_assert(kBlockFloats == gen::kBlockFloats && kVecFloats == gen::kVecFloats,
               "block_sparse.h and the generated block ops must agree on the layout");
 
-// The seed's mul(): one pass over block rows, each row's sum started from the diagonal term
+// The reference design's mul(): one pass over block rows, each row's sum started from the diagonal term
 // and accumulated over the row's blocks in storage order, so the result depends on the data
 // and the storage order only. The row sum lives in a local and A's fields in locals: the
 // SIMD stores may alias anything, and would otherwise force reloads after every block.

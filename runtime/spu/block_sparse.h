@@ -1,12 +1,12 @@
-// The island's system matrix in the seed's shape: 6x6 logical blocks stored as padded 8x6
+// The island's system matrix in the reference design's shape: 6x6 logical blocks stored as padded 8x6
 // column-major floats, off-diagonal blocks grouped per block row with their column index,
 // vectors padded to 8 floats per body (x y z _ x y z _).
 //
-// One departure from the seed, measured and kept: the matrix is stored block-Jacobi scaled,
+// One departure from the reference design, measured and kept: the matrix is stored block-Jacobi scaled,
 // Â = D^-1 A with D = diag(A_ii), so every diagonal block is the identity and is not
-// stored. It is the seed's block-Jacobi preconditioner applied once, on the left, at
+// stored. It is the reference design's block-Jacobi preconditioner applied once, on the left, at
 // assembly; it saves the diagonal blocks and their inverses in the local store (25 KiB for
-// the seed's 65-body island) and the preconditioner solve in every iteration.
+// the reference design's 65-body island) and the preconditioner solve in every iteration.
 #pragma once
 #include <cstdint>
 

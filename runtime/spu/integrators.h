@@ -29,7 +29,7 @@ struct StepContext {
 bool prepare(StepContext& c);
 
 /// split = true: linearly implicit Euler for every force but the gyroscopic torque, then the
-/// conserving free-rotation update; split = false: the seed's step.
+/// conserving free-rotation update; split = false: the reference design's step.
 bool step_implicit(StepContext& c, float h, bool split);
 /// ROS2 over h; *error receives the scaled local error estimate (<= 1 accepts). The state is
 /// committed only when the step succeeds and the error is acceptable.

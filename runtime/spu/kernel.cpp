@@ -175,7 +175,7 @@ void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* 
   r.status = ok ? IslandStatus::ok : IslandStatus::failed;
   ls_.release(mark);
 
-  // The result: header, the seed's Rigid_Body_Step per body, and the advanced bodies (the
+  // The result: header, the reference design's Rigid_Body_Step per body, and the advanced bodies (the
   // original bodies when the step failed: nothing half-stepped leaves the kernel).
   for (int i = 0; i < n; ++i)
     for (int k = 0; k < 3; ++k) {
@@ -219,7 +219,7 @@ void ComputeWorker::step_batch(const IslandJob* jobs, size_t count, IslandReport
   // Two input and two output slots, sized for the largest island of the batch, below the
   // working set: island k computes from slot k % 2 while island k + 1 is fetched into the
   // other and island k - 1's result drains from the other output slot. An island whose
-  // own footprint (with double buffering, as the seed counts it) does not fit is refused.
+  // own footprint (with double buffering, as the reference design counts it) does not fit is refused.
   std::vector<Plan> plans(count);
   std::vector<char> ok(count, 0);
   size_t in_slot = 0, out_slot = 0, work = 0;
@@ -242,7 +242,7 @@ void ComputeWorker::step_batch(const IslandJob* jobs, size_t count, IslandReport
       const RegionBytes& b = reports[k].footprint.bytes;
       auto* in = static_cast<unsigned char*>(ls_.allocate(b[int(Region::input)], 32, Region::input));
       auto* out = static_cast<unsigned char*>(ls_.allocate(b[int(Region::output)], 32, Region::output));
-      ls_.allocate(b[int(Region::double_buffer)], 32, Region::double_buffer);  // accounted as the seed does
+      ls_.allocate(b[int(Region::double_buffer)], 32, Region::double_buffer);  // accounted as the reference design does
       plans[k].out_tag = kTagOut;
       dma_.get(in, jobs[k].image, jobs[k].bytes, kTagIn);
       dma_.wait(1u << kTagIn);

@@ -13,7 +13,7 @@
 namespace cellphys::spu {
 namespace {
 
-// dst = a + s b (the seed's vec_add_scaled); dst may alias a or b.
+// dst = a + s b (the reference design's vec_add_scaled); dst may alias a or b.
 void add_scaled(int n, float* dst, const float* a, float s, const float* b) {
   using namespace simd;
   const vf8 ss = splats<vf8>(s);
@@ -25,7 +25,7 @@ void add_scaled(int n, float* dst, const float* a, float s, const float* b) {
 float norm(int n, const float* a) { return std::sqrt(dot(n, a, a)); }
 
 int iteration_limit(const BlockRowMatrix& A, const SolveSettings& s) {
-  return s.max_iterations > 0 ? s.max_iterations : 2 * 6 * A.n;  // the seed's max_iters
+  return s.max_iterations > 0 ? s.max_iterations : 2 * 6 * A.n;  // the reference design's max_iters
 }
 
 // r = b - A x, with tmp as scratch.
@@ -50,7 +50,7 @@ SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, 
 
   SolveResult res;
   const float norm_b = norm(n, b);
-  if (norm_b <= s.zero_rhs) return res;  // the seed: nothing to solve, x untouched
+  if (norm_b <= s.zero_rhs) return res;  // the reference design: nothing to solve, x untouched
   const int max_iters = iteration_limit(A, s);
 
   residual(A, b, x, r, q_hat);
@@ -64,7 +64,7 @@ SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, 
     if (!std::isfinite(res.residual)) { res.code = kNotFinite; return res; }
     if (res.residual < s.rel_tol || rr < s.abs_tol) { res.code = kConverged; return res; }
     if (iter >= max_iters) { res.code = kMaxIterations; return res; }
-    ++res.iterations;  // the seed's ++*Pdest_num_iters: counts a breakdown pass too
+    ++res.iterations;  // the reference design's ++*Pdest_num_iters: counts a breakdown pass too
 
     rho_1 = dot(n, r_tilde, r);
     if (rho_1 == 0.0f) { res.code = kRhoZero; return res; }
@@ -80,7 +80,7 @@ SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, 
     }
 
     // Preconditioner: block-Jacobi was applied once at assembly (block_sparse.h), so the
-    // seed's precond.solve is the identity here: p_hat = p.
+    // reference design's precond.solve is the identity here: p_hat = p.
     const float* p_hat = p;
     spmv(A, p_hat, v_hat);
     const float den = dot(n, r_tilde, v_hat);
@@ -113,7 +113,7 @@ SolveResult bicgstab(const BlockRowMatrix& A, const float* b, float* x, float* w
 
   SolveResult res;
   const float norm_b = norm(n, b);
-  if (norm_b <= s.zero_rhs) return res;  // same early out as the seed's CGS
+  if (norm_b <= s.zero_rhs) return res;  // same early out as the reference design's CGS
   const int max_iters = iteration_limit(A, s);
 
   residual(A, b, x, r, v);

@@ -10,14 +10,14 @@ namespace cellphys::spu {
 
 enum class Solver : uint32_t { cgs = 0, bicgstab = 1, direct = 2 };
 
-/// The seed's failure codes, kept: 0 converged, 1 max iterations, 2 rho = 0, 3 denominator = 0.
+/// The reference design's failure codes, kept: 0 converged, 1 max iterations, 2 rho = 0, 3 denominator = 0.
 enum SolveCode : int { kConverged = 0, kMaxIterations = 1, kRhoZero = 2, kDenominatorZero = 3, kNotFinite = 4 };
 
 struct SolveSettings {
-  float rel_tol = 1e-3f;   // the seed's rel_tol: stop when |r| / |b| < rel_tol
-  float abs_tol = 1e-3f;   // the seed's abs_tol: or when |r| < abs_tol
-  int max_iterations = 0;  // 0: the seed's rule, 2 * 6 * n
-  // |b| at or below which there is nothing to solve and x is returned untouched. The seed
+  float rel_tol = 1e-3f;   // the reference design's rel_tol: stop when |r| / |b| < rel_tol
+  float abs_tol = 1e-3f;   // the reference design's abs_tol: or when |r| < abs_tol
+  int max_iterations = 0;  // 0: the reference design's rule, 2 * 6 * n
+  // |b| at or below which there is nothing to solve and x is returned untouched. The reference design
   // used 1e-4 (absolute); the kernel uses 0, because b = h W g shrinks with the step and a
   // small but real right-hand side (a spring near its crossing, a Rosenbrock substep)
   // must still be solved.
@@ -34,7 +34,7 @@ struct SolveResult {
 inline constexpr int kCgsWorkVectors = 7;
 inline constexpr int kBicgstabWorkVectors = 7;
 
-/// Conjugate gradient squared, as the seed's SPU_conjugate_gradient_squared (stopping rule,
+/// Conjugate gradient squared, as the reference design's SPU_conjugate_gradient_squared (stopping rule,
 /// iteration limit and failure codes kept). x holds the initial guess and receives the solution.
 SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, const SolveSettings& s);
 

@@ -1,4 +1,4 @@
-// Narrow phase: contact points between two convex shapes (the seed's "narrow-phase jobs on
+// Narrow phase: contact points between two convex shapes (the reference design's "narrow-phase jobs on
 // packed shape data"). Pure functions of shape views and poses: no state, no allocation,
 // scratch on the stack within fixed bounds (about 100 KB for two hulls at the bounds below),
 // ties broken by index, never by address, so the same inputs give the same bits.

@@ -16,8 +16,8 @@ from .structs import layout, unknown_keys
 KINDS = ("global", "unary", "binary")
 PARAM_TYPES = ("f32", "vec3")
 TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "instance", "params", "globals", "let", "apply"}
-PARAM_KEYS = {"type", "min", "doc"}
-GLOBAL_KEYS = {"type", "min", "doc", "default"}
+PARAM_KEYS = {"type", "min", "greater_than", "doc"}
+GLOBAL_KEYS = {"type", "min", "greater_than", "doc", "default"}
 
 
 @dataclass
@@ -26,6 +26,7 @@ class Param:
     type: str
     doc: str
     min: float = None
+    min_exclusive: bool = False  # declared with greater_than: the value must exceed min
     default: list = None  # globals only
 
     @property
@@ -109,10 +110,13 @@ def _params(path, raw, where, keys):
             raise DescriptorError(path, loc, "missing 'type'")
         if not isinstance(spec["type"], str) or spec["type"] not in PARAM_TYPES:
             raise DescriptorError(path, f"{loc}.type", f"unknown type {spec['type']!r} (known: {', '.join(PARAM_TYPES)})")
-        p = Param(name, spec["type"], spec.get("doc", ""), spec.get("min"))
+        if "min" in spec and "greater_than" in spec:
+            raise DescriptorError(path, f"{loc}.greater_than", "give min or greater_than, not both")
+        bound = "greater_than" if "greater_than" in spec else "min"
+        p = Param(name, spec["type"], spec.get("doc", ""), spec.get(bound), bound == "greater_than")
         if p.min is not None and (isinstance(p.min, bool) or not isinstance(p.min, (int, float))
                                   or not math.isfinite(p.min)):
-            raise DescriptorError(path, f"{loc}.min", f"must be a number (and finite), got {p.min!r}")
+            raise DescriptorError(path, f"{loc}.{bound}", f"must be a number (and finite), got {p.min!r}")
         if "default" in spec or keys is GLOBAL_KEYS:
             d = spec.get("default")
             d = d if isinstance(d, list) else [d]

@@ -356,9 +356,8 @@ ForceSpec read_force(const Reader& r, const json& j, const std::string& p, const
       r.vec(*it, q, values.data(), 3);
     else
       values[0] = r.number(*it, q);
-    if (pi->has_min)
-      for (float v : values)
-        if (v < pi->min) r.fail(q, "must be >= " + std::to_string(pi->min));
+    for (float v : values)
+      if (!pi->admits(v)) r.fail(q, std::string("must be ") + pi->min_relation() + " " + std::to_string(pi->min));
     f.params.emplace_back(k, std::move(values));
   }
   return f;

@@ -76,6 +76,19 @@ class GoodForceTests(unittest.TestCase):
         self.assertIn("struct Contact_World_Kernel {", kernel)
         self.assertIn("using Instance = Contact_Force;", kernel)
 
+    def test_greater_than_is_an_exclusive_lower_bound(self):
+        # min: v >= bound; greater_than: v > bound (a divisor, say); both reach the force table
+        sb = Sandbox(temp_dir(self))
+        sb.force("probe_force.yaml", "name: probe_force\nkind: unary\nparams:\n"
+                                     "  stiffness: {type: f32, min: 0, doc: N/m}\n"
+                                     "  length: {type: f32, greater_than: 0.5, doc: m}\n"
+                                     "globals:\n  probe_speed: {type: f32, default: 1.0, greater_than: 0, doc: m/s}\n"
+                                     "apply: ['force(a, stiffness * probe_speed / length * a.x)']\n")
+        table = sb.render()["cellphys/gen/force_table.h"]
+        self.assertRegex(table, r'\{"stiffness", ParamType::f32, \d+, 1, true, 0\.0f, "N/m"\},')
+        self.assertRegex(table, r'\{"length", ParamType::f32, \d+, 1, true, 0\.5f, "m", true\},')
+        self.assertRegex(table, r'\{"probe_speed", ParamType::f32, \d+, 1, true, 0\.0f, "m/s", true\}')
+
 
 class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
     def setUp(self):
@@ -142,6 +155,14 @@ class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
     def test_param_min_not_a_number(self):
         self.check(UNARY + "  extra: {type: f32, min: low}\napply: ['force(a, a.x)']\n", "params.extra.min",
                    r"must be a number")
+
+    def test_param_greater_than_not_a_number(self):
+        self.check(UNARY + "  extra: {type: f32, greater_than: .nan}\napply: ['force(a, a.x)']\n",
+                   "params.extra.greater_than", r"must be a number \(and finite\)")
+
+    def test_param_min_and_greater_than_together(self):
+        self.check(UNARY + "  extra: {type: f32, min: 0, greater_than: 0}\napply: ['force(a, a.x)']\n",
+                   "params.extra.greater_than", r"give min or greater_than, not both")
 
     def test_params_not_a_mapping(self):
         self.check("name: probe_force\nkind: unary\nparams: [stiffness]\napply: ['force(a, a.x)']\n", "params",

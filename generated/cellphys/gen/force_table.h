@@ -25,6 +25,12 @@ struct ParamInfo {
   bool has_min;
   float min;
   const char* doc;
+  bool min_exclusive = false;  ///< the value must exceed min (a descriptor's greater_than)
+
+  /// Within the declared lower bound (a NaN is not, where there is one).
+  bool admits(float v) const { return !has_min || (min_exclusive ? v > min : v >= min); }
+  /// How a value must compare with min, for messages.
+  const char* min_relation() const { return min_exclusive ? ">" : ">="; }
 };
 
 struct GlobalInfo {
@@ -107,7 +113,7 @@ inline constexpr ForceInfo kForceTable[] = {
 inline constexpr GlobalInfo kGlobalTable[] = {
     {{"contact_stiffness", ParamType::f32, 16, 1, true, 0.0f, "normal stiffness (N/m)"}, {100000.0f}},
     {{"contact_damping", ParamType::f32, 20, 1, true, 0.0f, "normal damping (N s/m)"}, {1000.0f}},
-    {{"slip_velocity", ParamType::f32, 24, 1, true, 0.0f, "speed below which Coulomb friction is regularised (m/s)"}, {0.01f}},
+    {{"slip_velocity", ParamType::f32, 24, 1, true, 0.0f, "speed below which Coulomb friction is regularised (m/s)", true}, {0.01f}},
     {{"contact_slop", ParamType::f32, 28, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}},
     {{"contact_rest_speed", ParamType::f32, 32, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}},
     {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}},

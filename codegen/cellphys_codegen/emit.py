@@ -161,7 +161,8 @@ def render(structs_dir, force_dirs, src_root):
             kernels=[_kernel_view_of(f, k, src_root) for k in f.kernels],
         ))
     global_views = [dict(name=g.name, type=g.type, lanes=g.lanes, offset=gstruct.field(g.name).offset,
-                         default=g.default, min=g.min, min_exclusive=g.min_exclusive, doc=g.doc) for g in globals_]
+                         default=g.default, min=g.min, min_exclusive=g.min_exclusive, doc=g.doc,
+                         setting=g.setting) for g in globals_]
     A, stages, inv, dets = block_ops.jacobi_inverse_stages()
     inv_lines, inv_ops = block_ops.emit_stages(stages, "j")
     inv_out = [(8 * c + block_ops.padded_row(r), cxx_printer.cxx(inv[r, c])) for c in range(6) for r in range(6)]

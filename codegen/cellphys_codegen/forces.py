@@ -28,6 +28,7 @@ class Param:
     min: float = None
     min_exclusive: bool = False  # declared with greater_than: the value must exceed min
     default: list = None  # globals only
+    setting: str = None  # globals only: the place under a scene's settings (island_globals)
 
     @property
     def lanes(self):
@@ -382,17 +383,34 @@ def load_forces(directories, structs):
     return forces
 
 
+def scene_setting(force, name):
+    """Where global `name` of `force` sits under a scene's settings: one named like its force at
+    the top (gravity), <force>_<key> at <force>.<key> (contact.slop), any other at <force>.<name>."""
+    if name == force:
+        return name
+    return f"{force}.{name[len(force) + 1:] if name.startswith(force + '_') else name}"
+
+
 def island_globals(forces):
-    """Every force's globals, merged into one Island_Params block (same name must mean the same)."""
-    out, origin = [], {}
+    """Every force's globals, merged into one Island_Params block (same name must mean the same),
+    each with its scene setting (that of the first force declaring it)."""
+    out, origin, settings = [], {}, {}
     for f in forces:
         for g in f.globals:
             if g.name in origin:
                 prev = origin[g.name]
-                if prev[1].type != g.type or prev[1].default != g.default:
+                if (prev[1].type, prev[1].default, prev[1].min, prev[1].min_exclusive) != \
+                        (g.type, g.default, g.min, g.min_exclusive):
                     raise DescriptorError(f.source, f"globals.{g.name}",
                                           f"also declared differently by {prev[0]}")
+                g.setting = prev[1].setting
                 continue
+            g.setting = scene_setting(f.name, g.name)
+            for other, who in settings.items():
+                if other == g.setting or other.startswith(g.setting + ".") or g.setting.startswith(other + "."):
+                    raise DescriptorError(f.source, f"globals.{g.name}", f"its scene setting settings.{g.setting} "
+                                          f"collides with settings.{other} of global {who}")
+            settings[g.setting] = g.name
             origin[g.name] = (f.source, g)
             out.append(g)
     return out

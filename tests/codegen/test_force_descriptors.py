@@ -89,6 +89,22 @@ class GoodForceTests(unittest.TestCase):
         self.assertRegex(table, r'\{"length", ParamType::f32, \d+, 1, true, 0\.5f, "m", true\},')
         self.assertRegex(table, r'\{"probe_speed", ParamType::f32, \d+, 1, true, 0\.0f, "m/s", true\}')
 
+    def test_globals_struct_pack_and_scene_places(self):
+        sb = Sandbox(temp_dir(self))  # with pull, whose pull_accel sits at pull.accel
+        sb.force("probe_force.yaml", "name: probe_force\nkind: unary\n"
+                                     "globals:\n  probe_force_speed: {type: f32, default: 2.0, min: 0}\n"
+                                     "  spread: {type: vec3, default: [1.0, 2.0, 3.0]}\n"
+                                     "apply: ['force(a, probe_force_speed * spread)']\n")
+        table = sb.render()["cellphys/gen/force_table.h"]
+        self.assertIn("  float probe_force_speed = 2.0f;", table)
+        self.assertIn("  float spread[3] = {1.0f, 2.0f, 3.0f};", table)
+        self.assertIn("  out.probe_force_speed = in.probe_force_speed;", table)
+        self.assertIn("  std::memcpy(out.spread, in.spread, sizeof in.spread);", table)
+        self.assertRegex(table, r'\{\{"probe_force_speed", .*\}, \{2\.0f\}, "probe_force\.speed", '
+                                r'offsetof\(Force_Globals, probe_force_speed\)\},')
+        self.assertIn('"probe_force.spread", offsetof(Force_Globals, spread)}', table)
+        self.assertIn('"pull.accel", offsetof(Force_Globals, pull_accel)}', table)
+
 
 class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
     def setUp(self):
@@ -205,6 +221,16 @@ class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
                    name="zz_probe.yaml")
 
     # ---- instance structs ----
+    def test_globals_whose_scene_places_collide(self):
+        # probe_force at the top of settings, probe_force_speed inside a group of that name
+        self.check("name: probe_force\nkind: unary\nglobals:\n  probe_force: {type: f32, default: 1.0}\n"
+                   "  probe_force_speed: {type: f32, default: 1.0}\napply: ['force(a, probe_force * probe_force_speed * a.x)']\n",
+                   "globals.probe_force_speed", r"settings\.probe_force\.speed collides with settings\.probe_force ")
+        # slip and probe_force_slip both at probe_force.slip
+        self.check("name: probe_force\nkind: unary\nglobals:\n  slip: {type: f32, default: 1.0}\n"
+                   "  probe_force_slip: {type: f32, default: 1.0}\napply: ['force(a, slip * probe_force_slip * a.x)']\n",
+                   "globals.probe_force_slip", r"collides with settings\.probe_force\.slip of global slip")
+
     def test_instance_naming_a_missing_struct(self):
         self.check(unary("force(a, a.x)") + "instance: Nope_Force\n", "instance", r"no struct descriptor named 'Nope_Force'")
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "runtime/spu/local_store.h"
+
 namespace cellphys::ppe {
 
 float* global_lanes(gen::Force_Globals& globals, const gen::GlobalInfo& g) {
@@ -25,7 +27,8 @@ void validate_settings(const WorldSettings& s) {
   if (!(s.dt > 0.0f) || !std::isfinite(s.dt)) throw WorldError("settings.dt must be positive and finite");
   if (!(s.tolerance > 0.0f) || !std::isfinite(s.tolerance)) throw WorldError("settings.tolerance must be positive");
   if (s.workers < 1 || s.workers > 256) throw WorldError("settings.workers must be between 1 and 256");
-  if (s.local_store_bytes < 16 * 1024) throw WorldError("settings.local_store_bytes must be at least 16 KiB");
+  if (s.local_store_bytes < 16 * 1024 || s.local_store_bytes > spu::LocalStore::kMaxCapacity)
+    throw WorldError("settings.local_store_bytes must be between 16 KiB and 1 GiB");
   if (s.max_halvings > 16) throw WorldError("settings.max_halvings must be at most 16");
   if (s.decouple_sweeps < 1 || s.decouple_sweeps > 64) throw WorldError("settings.decouple_sweeps must be between 1 and 64");
   if (!(s.decouple_tolerance >= 0.0f) || !std::isfinite(s.decouple_tolerance))

@@ -18,6 +18,7 @@
 #include "cellphys/gen/force_table.h"
 #include "runtime/ppe/settings.h"
 #include "runtime/scene/scene.h"
+#include "runtime/spu/local_store.h"
 
 namespace cellphys::scene {
 
@@ -276,7 +277,7 @@ void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
     if (const json* w = r.find(*v, "margin")) s.contact_margin = r.non_negative(*w, "settings.contact.margin");
   }
   if (const json* v = r.find(j, "local_store_bytes"))
-    s.local_store_bytes = static_cast<size_t>(r.integer(*v, "settings.local_store_bytes", 16 * 1024, int64_t(1) << 32));
+    s.local_store_bytes = static_cast<size_t>(r.integer(*v, "settings.local_store_bytes", 16 * 1024, spu::LocalStore::kMaxCapacity));
   if (const json* v = r.find(j, "decouple")) {
     const std::string q = "settings.decouple";
     r.object(*v, q);

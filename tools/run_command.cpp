@@ -100,7 +100,7 @@ int run_main(int argc, char** argv) {
   RunOptions o;
   try {
     if (!parse_run_options(argc, argv, o)) {
-      std::fputs(kRunHelp, stdout);
+      std::fputs(run_help().c_str(), stdout);
       return 0;
     }
   } catch (const UsageError& e) {

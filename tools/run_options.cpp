@@ -1,6 +1,7 @@
 #include "tools/run_options.h"
 
 #include <cerrno>
+#include <cstdio>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -8,11 +9,17 @@
 
 #include <CLI/CLI.hpp>
 
+#include "runtime/ppe/settings.h"
+#include "runtime/spu/island_image.h"
+#include "runtime/spu/krylov.h"
 #include "tools/usage_error.h"
 
 namespace cellphys::cli {
 
-const char kRunHelp[] =
+namespace {
+
+// printf format: the integrators, the solvers and the workers' limit come from their tables.
+const char kRunHelpFormat[] =
     "usage: cellphys run [SCENE] [options]\n"
     "       cellphys run --resume SNAPSHOT [options]\n"
     "\n"
@@ -23,11 +30,10 @@ const char kRunHelp[] =
     "  --duration S      simulate S seconds (default 5)\n"
     "  --steps N         or exactly N steps\n"
     "  --dt H            step size in seconds (overrides the scene's settings.dt)\n"
-    "  --integrator NAME implicit_split, implicit_euler, rosenbrock, symplectic_euler,\n"
-    "                    explicit_euler, rk4\n"
-    "  --solver NAME     cgs, bicgstab, direct\n"
+    "  --integrator NAME %s\n"
+    "  --solver NAME     %s\n"
     "  --tolerance T     linear solver tolerance\n"
-    "  --workers K       compute workers (threads)\n"
+    "  --workers K       compute workers (threads), 1 to %d\n"
     "  --out FILE        trajectory CSV: step,t,body,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n"
     "                    (every body; step 0 and every N-th step)\n"
     "  --every N         with --out: write every N-th step (default 1)\n"
@@ -49,6 +55,17 @@ const char kRunHelp[] =
     "Exit codes: 0 done, 1 a failure while running or writing, 2 a usage, scene or snapshot\n"
     "error.\n"
     "Built-in scenes are looked up in $CELLPHYS_SCENES, then in the source tree's examples/scenes.\n";
+
+}  // namespace
+
+std::string run_help() {
+  const std::string integrators = spu::integrator_names(), solvers = spu::solver_names();
+  const int n = std::snprintf(nullptr, 0, kRunHelpFormat, integrators.c_str(), solvers.c_str(), ppe::kMaxWorkers);
+  std::string text(static_cast<size_t>(n) + 1, '\0');
+  std::snprintf(text.data(), text.size(), kRunHelpFormat, integrators.c_str(), solvers.c_str(), ppe::kMaxWorkers);
+  text.resize(static_cast<size_t>(n));
+  return text;
+}
 
 namespace {
 
@@ -88,7 +105,7 @@ long long parse_count(const std::string& opt, const std::string& text, long long
 class Parser {
  public:
   explicit Parser(RunOptions& o) : o_(o) {
-    app_.set_help_flag();  // the help is kRunHelp, not CLI11's own
+    app_.set_help_flag();  // the help is run_help(), not CLI11's own
     app_.allow_extras();   // unknown options and a second scene are left in remaining(), told below
     app_.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
     app_.add_flag_callback("-h,--help", [] { throw CLI::CallForHelp(); })->trigger_on_parse();
@@ -98,7 +115,7 @@ class Parser {
     text("--integrator", o.integrator);
     text("--solver", o.solver);
     positive("--tolerance", o.tolerance);
-    count("--workers", o.workers, 1, 256);
+    count("--workers", o.workers, 1, ppe::kMaxWorkers);
     text("--out", o.out);
     count("--every", o.every, 1, kMaxCount);
     text("--stats", o.stats);

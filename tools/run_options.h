@@ -21,7 +21,8 @@ struct RunOptions {
   int mpi_corrupt = -1, mpi_silent = -1;
 };
 
-extern const char kRunHelp[];
+/// The help text of `cellphys run`.
+std::string run_help();
 
 // Parses argv[1..argc) into `o` (argv[0] is the subcommand's name); returns false when --help
 // was asked for. Throws UsageError naming the option, for a bad option or value and for options

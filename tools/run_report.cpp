@@ -52,7 +52,7 @@ std::string stats_json(const RunOptions& o, const RunWorld& w, const RunOutcome&
   j["scene"] = w.arg;
   j["scene_file"] = w.file;
   j["integrator"] = spu::integrator_name(settings.integrator);
-  j["solver"] = scene::solver_name(settings.solver);
+  j["solver"] = spu::solver_name(settings.solver);
   j["dt"] = dt;
   j["workers"] = settings.workers;
   j["simd_path"] = simd::kPathName;
@@ -121,7 +121,7 @@ void print_summary(const RunOptions& o, const RunWorld& w, const RunOutcome& r) 
   else
     std::printf("bodies       %zu (%u static)\n", w.bodies.size(), d.static_bodies);
   std::printf("settings     dt %.6g s, %s, %s, tolerance %g, %d worker%s, SIMD %s\n", dt,
-              spu::integrator_name(settings.integrator), scene::solver_name(settings.solver),
+              spu::integrator_name(settings.integrator), spu::solver_name(settings.solver),
               double(settings.tolerance), settings.workers, settings.workers == 1 ? "" : "s", simd::kPathName);
   std::printf("run          %lld steps, %.4g s simulated in %.3f s wall, median %.3f ms per step\n", r.steps,
               double(r.steps) * dt, r.wall_s, d.median_ms);

@@ -17,10 +17,9 @@ namespace {
 void apply_overrides(const RunOptions& o, ppe::WorldSettings& s) {
   if (o.dt > 0) s.dt = static_cast<float>(o.dt);
   if (!o.integrator.empty() && !spu::parse_integrator(o.integrator, &s.integrator))
-    throw UsageError{"unknown integrator '" + o.integrator +
-                     "' (known: implicit_split, implicit_euler, rosenbrock, symplectic_euler, explicit_euler, rk4)"};
-  if (!o.solver.empty() && !scene::parse_solver(o.solver, &s.solver))
-    throw UsageError{"unknown solver '" + o.solver + "' (known: cgs, bicgstab, direct)"};
+    throw UsageError{"unknown integrator '" + o.integrator + "' (known: " + spu::integrator_names() + ")"};
+  if (!o.solver.empty() && !spu::parse_solver(o.solver, &s.solver))
+    throw UsageError{"unknown solver '" + o.solver + "' (known: " + spu::solver_names() + ")"};
   if (o.tolerance > 0) s.tolerance = static_cast<float>(o.tolerance);
   if (o.workers > 0) s.workers = o.workers;
   if (!(s.dt > 0.0f) || !std::isfinite(s.dt)) throw UsageError{"--dt is too small or too large"};

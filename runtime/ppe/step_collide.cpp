@@ -40,7 +40,7 @@ void broad_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& sh
     Aabb& box = c.boxes[i];
     shapes.world_aabb(b.shape, pose_of(b), box.min, box.max);
     c.reach[i] = reach_in_step(b, box, s);
-    const float grow = c.reach[i] + 0.5f * s.contact_slop;
+    const float grow = c.reach[i] + 0.5f * s.globals.contact_slop;
     for (int k = 0; k < 3; ++k) box.min[k] -= grow, box.max[k] += grow;
     if (!inside_region(box, s.region_min, s.region_max)) {
       if (!b.is_static) ++st.outside_region;
@@ -62,7 +62,7 @@ void plane_pairs(const std::vector<WorldBody>& bodies, const ShapeDictionary& sh
       const Aabb& B = c.boxes[i];
       double lowest = 0;  // the (grown) box corner furthest along -normal
       for (int k = 0; k < 3; ++k) lowest += pv.normal[k] * double(pv.normal[k] >= 0 ? B.min[k] : B.max[k]);
-      if (lowest - pv.offset <= 0.5 * s.contact_slop) c.pairs.emplace_back(std::min(i, p), std::max(i, p));
+      if (lowest - pv.offset <= 0.5 * s.globals.contact_slop) c.pairs.emplace_back(std::min(i, p), std::max(i, p));
     }
   }
 }
@@ -74,7 +74,7 @@ void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& s
     uint32_t a = i, b = j;
     if (bodies[a].is_static) std::swap(a, b);
     spu::ContactPoint cp[spu::kMaxManifoldPoints];
-    const float margin = s.contact_slop + c.reach[a] + c.reach[b];
+    const float margin = s.globals.contact_slop + c.reach[a] + c.reach[b];
     const int k = spu::collide(shapes.view(bodies[a].shape), pose_of(bodies[a]), shapes.view(bodies[b].shape),
                                pose_of(bodies[b]), margin, cp);
     if (k > 0) ++st.narrow_phase_pairs;

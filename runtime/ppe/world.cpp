@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "runtime/ppe/body_maths.h"
+#include "runtime/ppe/settings.h"
 #include "runtime/ppe/step_collide.h"
 #include "runtime/ppe/step_decouple.h"
 #include "runtime/ppe/step_integrate.h"
@@ -36,22 +37,6 @@ void take_state(const BodyState& s, const std::string& who, std::vector<std::str
 }
 
 }  // namespace
-
-static void validate_settings(const WorldSettings& s) {
-  if (!(s.dt > 0.0f) || !std::isfinite(s.dt)) throw WorldError("settings.dt must be positive and finite");
-  if (!finite(s.gravity, 3)) throw WorldError("settings.gravity must be finite");
-  if (!(s.tolerance > 0.0f) || !std::isfinite(s.tolerance)) throw WorldError("settings.tolerance must be positive");
-  if (s.workers < 1 || s.workers > 256) throw WorldError("settings.workers must be between 1 and 256");
-  if (!(s.contact_stiffness >= 0.0f) || !(s.contact_damping >= 0.0f) || !(s.slip_velocity > 0.0f) ||
-      !(s.contact_slop >= 0.0f) || !(s.contact_rest_speed >= 0.0f) || !std::isfinite(s.contact_rest_speed) || !std::isfinite(s.contact_stiffness) || !std::isfinite(s.contact_damping) ||
-      !std::isfinite(s.slip_velocity) || !std::isfinite(s.contact_slop))
-    throw WorldError("settings.contact: stiffness, damping and slop must be finite and >= 0, slip_velocity > 0");
-  if (s.local_store_bytes < 16 * 1024) throw WorldError("settings.local_store_bytes must be at least 16 KiB");
-  if (s.max_halvings > 16) throw WorldError("settings.max_halvings must be at most 16");
-  if (s.decouple_sweeps < 1 || s.decouple_sweeps > 64) throw WorldError("settings.decouple_sweeps must be between 1 and 64");
-  if (!(s.decouple_tolerance >= 0.0f) || !std::isfinite(s.decouple_tolerance))
-    throw WorldError("settings.decouple_tolerance must be finite and >= 0");
-}
 
 World::World(WorldSettings settings) : settings_(settings), impl_(std::make_unique<Impl>()) {
   validate_settings(settings_);
@@ -148,8 +133,7 @@ void World::set_state(BodyId id, const BodyState& s) {
 
 void World::apply_impulse(BodyId id, const float impulse[3], const float point[3]) {
   WorldBody& b = impl_->live(id);
-  if (!std::isfinite(impulse[0]) || !std::isfinite(impulse[1]) || !std::isfinite(impulse[2]) || !std::isfinite(point[0]) ||
-      !std::isfinite(point[1]) || !std::isfinite(point[2]))
+  if (!finite(impulse, 3) || !finite(point, 3))
     throw WorldError(body_name(id) + ": impulse and point must be finite");
   if (b.is_static) throw WorldError(body_name(id) + " is static");
   impl_->wake(id);

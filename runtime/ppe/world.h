@@ -18,11 +18,13 @@
 #include <utility>
 #include <vector>
 
+#include "cellphys/gen/force_table.h"
 #include "runtime/ppe/body_state.h"
 #include "runtime/ppe/shapes.h"
 #include "runtime/ppe/step_stats.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/krylov.h"
+#include "runtime/spu/local_store.h"
 
 namespace cellphys::ppe {
 
@@ -37,35 +39,28 @@ using BodyId = uint32_t;
 using ForceId = uint32_t;
 inline constexpr BodyId kWorldBody = 0xFFFFFFFFu;  // the b side of a world-anchored force
 
+/// A world's settings at their defaults. What each means, its bounds (checked by the World)
+/// and its place in a scene file: the table in runtime/ppe/settings.cpp.
 struct WorldSettings {
   float dt = 1.0f / 60.0f;
-  float gravity[3] = {0.0f, 0.0f, -9.81f};
+  /// The forces' globals (gravity, the contact's stiffness, ...), declared by the force
+  /// descriptors with their defaults, bounds and places (gen::kGlobalTable).
+  gen::Force_Globals globals;
   spu::Integrator integrator = spu::Integrator::implicit_split;
   spu::Solver solver = spu::Solver::cgs;
   float tolerance = 1e-3f;
   uint32_t max_halvings = 8;
   bool sleeping = true;
   int workers = 1;
-  float contact_stiffness = 1.0e5f;  // N/m (per contact point)
-  float contact_damping = 1.0e3f;    // N s/m
-  float slip_velocity = 0.01f;       // m/s, Coulomb friction regularisation
-  float contact_slop = 0.005f;       // m: a contact closing to within this gap acts from the step's start
-  float contact_rest_speed = 0.05f;  // m/s: a touching contact opening slower than this still acts
-  // Contacts are generated for gaps up to contact_slop plus each body's reach in the step
-  // (dt times its speed and the spin of its farthest point) plus this margin (m).
   float contact_margin = 0.001f;
-  size_t local_store_bytes = 256 * 1024;
-  // An island split to fit the local store is swept (its parts integrated in order) until no
-  // velocity changes by more than decouple_tolerance (m/s), at most decouple_sweeps times.
+  size_t local_store_bytes = spu::LocalStore::kDefaultCapacity;
   uint32_t decouple_sweeps = 8;
   float decouple_tolerance = 1e-3f;
-  // Simulated region: bodies whose bounding box leaves it are not collided.
   float region_min[3] = {-1e4f, -1e4f, -1e4f};
   float region_max[3] = {1e4f, 1e4f, 1e4f};
-  // An island sleeps when every body has been slower than these for sleep_time seconds.
-  float sleep_linear = 0.05f;   // m/s
-  float sleep_angular = 0.05f;  // rad/s
-  float sleep_time = 0.5f;      // s
+  float sleep_linear = 0.05f;
+  float sleep_angular = 0.05f;
+  float sleep_time = 0.5f;
 };
 
 struct BodyDesc {

@@ -75,8 +75,8 @@ void set_force_params(const ForceInfo& info, const ForceParams& params, std::vec
     if (!finite(values.data(), static_cast<int>(values.size())))
       throw WorldError("force " + type + ": parameter '" + name + "' is not finite");
     for (float v : values)
-      if (p->has_min && v < p->min)
-        throw WorldError("force " + type + ": parameter '" + name + "' must be >= " + std::to_string(p->min));
+      if (!p->admits(v))
+        throw WorldError("force " + type + ": parameter '" + name + "' must be " + p->min_relation() + " " + std::to_string(p->min));
     std::memcpy(instance.data() + p->offset, values.data(), 4 * values.size());
   }
 }

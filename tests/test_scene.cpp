@@ -114,17 +114,17 @@ TEST(Scene, SettingsMapOntoWorldSettings) {
                                          "s.json");
   const ppe::WorldSettings& s = d.settings;
   EXPECT_EQ(s.dt, 0.005f);
-  EXPECT_EQ(s.gravity[1], -1.0f);
-  EXPECT_EQ(s.gravity[2], -2.0f);
+  EXPECT_EQ(s.globals.gravity[1], -1.0f);
+  EXPECT_EQ(s.globals.gravity[2], -2.0f);
   EXPECT_EQ(s.integrator, spu::Integrator::rosenbrock);
   EXPECT_EQ(s.solver, spu::Solver::bicgstab);
   EXPECT_EQ(s.tolerance, 1e-5f);
   EXPECT_FALSE(s.sleeping);
   EXPECT_EQ(s.workers, 3);
   EXPECT_EQ(s.max_halvings, 4u);
-  EXPECT_EQ(s.contact_stiffness, 2e5f);
-  EXPECT_EQ(s.contact_damping, 300.0f);
-  EXPECT_EQ(s.slip_velocity, 0.02f);
+  EXPECT_EQ(s.globals.contact_stiffness, 2e5f);
+  EXPECT_EQ(s.globals.contact_damping, 300.0f);
+  EXPECT_EQ(s.globals.slip_velocity, 0.02f);
   EXPECT_EQ(s.contact_margin, 0.02f);
   EXPECT_EQ(s.sleep_time, 1.5f);
   for (const char* name : {"implicit_split", "implicit_euler", "rosenbrock", "symplectic_euler", "explicit_euler", "rk4"}) {
@@ -194,6 +194,56 @@ TEST(Scene, EveryGeneratedForceTypeIsReachableByName) {
     ++reached;
   }
   EXPECT_GE(reached, 5);
+}
+
+// Every force global sits in settings at its generated place (gravity at the top, a global
+// <force>_<key> at <force>.<key>, another at <force>.<name>), is read, written and compared
+// there, and is held to its declared bound, by the reader and by the World alike: a new force's
+// global needs no C++ change.
+TEST(Scene, EveryForceGlobalIsSetAtItsPlaceInSettings) {
+  ASSERT_GT(gen::kNumGlobals, 0);
+  for (int i = 0; i < gen::kNumGlobals; ++i) {
+    const gen::GlobalInfo& g = gen::kGlobalTable[i];
+    SCOPED_TRACE(g.param.name);
+    const std::string setting = g.setting, name = g.param.name;
+    const size_t dot = setting.find('.');
+    if (dot == std::string::npos) {
+      EXPECT_EQ(setting, name);
+    }
+    auto at_place = [&](const std::string& value) {
+      const std::string leaf = "\"" + setting.substr(dot + 1) + "\": " + value;
+      return R"({"settings": {)" + (dot == std::string::npos ? leaf : "\"" + setting.substr(0, dot) + "\": {" + leaf + "}") +
+             "}}";
+    };
+    const float base = g.param.has_min ? g.param.min : 0.0f;
+    const std::string value = g.param.lanes == 1 ? std::to_string(base + 1.5f)
+                                                 : "[" + std::to_string(base + 1.5f) + ", 2.5, -3.5]";
+    const SceneDesc d = scene::parse_scene(at_place(value), "globals.json");
+    const float* lanes = reinterpret_cast<const float*>(reinterpret_cast<const unsigned char*>(&d.settings.globals) +
+                                                        g.field_offset);
+    EXPECT_EQ(lanes[0], base + 1.5f);
+    EXPECT_FALSE(scene::operator==(d.settings, ppe::WorldSettings{}));
+    EXPECT_TRUE(scene::parse_scene(scene::write_scene(d), "again.json") == d);
+    EXPECT_NO_THROW(scene::build_world(d));
+    if (!g.param.has_min) continue;
+    const std::string below = std::to_string(g.param.min_exclusive ? g.param.min : g.param.min - 1.0f);
+    try {
+      scene::parse_scene(at_place(g.param.lanes == 1 ? below : "[" + below + ", 0, 0]"), "low.json");
+      ADD_FAILURE() << "below its bound, accepted";
+    } catch (const SceneError& e) {
+      EXPECT_EQ(e.path(), "settings." + setting + (g.param.lanes == 1 ? "" : "[0]")) << e.what();
+      EXPECT_NE(e.reason().find("must be"), std::string::npos) << e.what();
+    }
+    ppe::WorldSettings s = d.settings;
+    float* bad = reinterpret_cast<float*>(reinterpret_cast<unsigned char*>(&s.globals) + g.field_offset);
+    bad[0] = g.param.min_exclusive ? g.param.min : g.param.min - 1.0f;
+    try {
+      ppe::World w(s);
+      ADD_FAILURE() << "below its bound, accepted by the World";
+    } catch (const ppe::WorldError& e) {
+      EXPECT_NE(std::string(e.what()).find("settings.globals." + name), std::string::npos) << e.what();
+    }
+  }
 }
 
 struct BadCase {

@@ -2,6 +2,7 @@
 // damaged snapshot is refused with the reason.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "runtime/ppe/world.h"
@@ -54,13 +55,13 @@ TEST(Snapshot, ForcesRemovedBodiesAndSettingsSurvive) {
   w.remove_body(boxes[1]);
   auto s = w.settings();
   s.integrator = cellphys::spu::Integrator::rosenbrock;
-  s.contact_slop = 0.004f;
+  s.globals.contact_slop = 0.004f;
   w.set_settings(s);
   check_resume(w, 10, 20);
   const auto bytes = w.snapshot();
   auto r = World::restore(bytes.data(), bytes.size());
   EXPECT_EQ(r->settings().integrator, cellphys::spu::Integrator::rosenbrock);
-  EXPECT_EQ(r->settings().contact_slop, 0.004f);
+  EXPECT_EQ(r->settings().globals.contact_slop, 0.004f);
   EXPECT_EQ(r->last_stats().step, w.last_stats().step);
   EXPECT_THROW(r->state(boxes[1]), WorldError) << "a removed body stays removed";
   EXPECT_EQ(r->bodies(), w.bodies());
@@ -89,8 +90,34 @@ TEST(Snapshot, DamageIsRefusedWithTheReason) {
   b[0] = 'X';
   refused(b, "bad magic");
   b = good;
-  b[8] = 2;
-  refused(b, "format version 2");
+  b[8] = 1;  // the first format, before settings were stored by name
+  refused(b, "format version 1");
+  b[8] = 99;
+  refused(b, "format version 99");
+}
+
+// Settings are stored by name: one this build lacks (from a build with other forces, say) is
+// refused by its name, as is one this build has that the snapshot lacks.
+TEST(Snapshot, SettingsAreMatchedByName) {
+  World w;
+  cellphys::testing::ground_plane(w);
+  w.step();
+  const std::vector<unsigned char> good = w.snapshot();
+  const std::string name = cellphys::gen::kGlobalTable[0].setting;
+  const auto at = std::search(good.begin() + 32, good.end(), name.begin(), name.end());
+  ASSERT_NE(at, good.end());
+  std::vector<unsigned char> b = good;
+  b[at - good.begin() + name.size() - 1] = '#';
+  const uint32_t sum = cellphys::spu::checksum(b.data() + 32, b.size() - 32);  // sealed again: only the name differs
+  std::memcpy(b.data() + 24, &sum, 4);
+  try {
+    World::restore(b.data(), b.size());
+    ADD_FAILURE() << "accepted a setting this build lacks";
+  } catch (const WorldError& e) {
+    const std::string renamed = name.substr(0, name.size() - 1) + "#";
+    EXPECT_NE(std::string(e.what()).find("setting '" + renamed + "', which this build lacks"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

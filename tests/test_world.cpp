@@ -158,7 +158,7 @@ TEST(World, SphereRollsDownInclineWithoutSlidingAtFiveSeventhsGSinTheta) {
   const Incline in = incline(w, theta, mu);
   // Resting on the incline at its static compression m g cos(theta) / k, so the contact acts
   // from the first step (a contact that starts at zero depth has its own test above).
-  const float m = 1.0f, sink = m * kG * std::cos(theta) / w.settings().contact_stiffness;
+  const float m = 1.0f, sink = m * kG * std::cos(theta) / w.settings().globals.contact_stiffness;
   float p[3];
   point_on_incline(in, 0.0f, r - sink, p);
   const BodyId ball = add_sphere(w, r, m, p, mu);

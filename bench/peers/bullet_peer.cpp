@@ -30,7 +30,7 @@ class BulletPeer : public Peer {
     broadphase_ = std::make_unique<btDbvtBroadphase>();
     solver_ = std::make_unique<btSequentialImpulseConstraintSolver>();
     world_ = std::make_unique<btDiscreteDynamicsWorld>(dispatcher_.get(), broadphase_.get(), solver_.get(), config_.get());
-    const auto& g = scene.settings.gravity;
+    const auto& g = scene.settings.globals.gravity;
     world_->setGravity(btVector3(g[0], g[1], g[2]));
     iterations_ = c.iterations > 0 ? c.iterations : tuned ? 100 : world_->getSolverInfo().m_numIterations;
     world_->getSolverInfo().m_numIterations = iterations_;

@@ -89,7 +89,7 @@ class MujocoPeer : public Peer {
               << param_of(fs.params, "damping") << "\" springlength=\"" << param_of(fs.params, "rest_length")
               << "\"><site site=\"s" << f << "a\"/><site site=\"s" << f << "b\"/></spatial>\n";
     }
-    const auto& g = scene.settings.gravity;
+    const auto& g = scene.settings.globals.gravity;
     index_.assign(scene.bodies.size(), -1);
     int next_body = 1;
     for (size_t i = 0; i < scene.bodies.size(); ++i) {

@@ -39,7 +39,7 @@ class OdePeer : public Peer {
     world_ = dWorldCreate();
     space_ = dHashSpaceCreate(nullptr);
     contacts_ = dJointGroupCreate(0);
-    const auto& g = scene.settings.gravity;
+    const auto& g = scene.settings.globals.gravity;
     dWorldSetGravity(world_, g[0], g[1], g[2]);
     dWorldSetContactSurfaceLayer(world_, 0.001);
     iterations_ = c.iterations > 0 ? c.iterations : 20;

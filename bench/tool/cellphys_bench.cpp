@@ -294,7 +294,7 @@ struct Checker {
   }
   double energy(const std::vector<State>& s) const {
     double e = 0;
-    const auto& g = sc.settings.gravity;
+    const auto& g = sc.settings.globals.gravity;
     for (size_t i : dyn) {
       const State& x = s[i];
       double Iw[3];

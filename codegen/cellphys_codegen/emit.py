@@ -155,13 +155,14 @@ def render(structs_dir, force_dirs, src_root):
             name=f.name, index=i, kind=f.kind, doc=f.doc, symmetric=f.symmetric, world_anchor=f.world_anchor,
             origin=rel(f.source), instance=inst.name, camel=camel(f.name),
             params=[dict(name=p.name, type=p.type, lanes=p.lanes, offset=inst.field(p.name).offset,
-                         min=p.min, doc=p.doc) for p in f.params],
+                         min=p.min, min_exclusive=p.min_exclusive, doc=p.doc) for p in f.params],
             globals=[g.name for g in f.globals],
             body_b=inst.field("body_b") is not None,
             kernels=[_kernel_view_of(f, k, src_root) for k in f.kernels],
         ))
     global_views = [dict(name=g.name, type=g.type, lanes=g.lanes, offset=gstruct.field(g.name).offset,
-                         default=g.default, min=g.min, doc=g.doc) for g in globals_]
+                         default=g.default, min=g.min, min_exclusive=g.min_exclusive, doc=g.doc,
+                         setting=g.setting) for g in globals_]
     A, stages, inv, dets = block_ops.jacobi_inverse_stages()
     inv_lines, inv_ops = block_ops.emit_stages(stages, "j")
     inv_out = [(8 * c + block_ops.padded_row(r), cxx_printer.cxx(inv[r, c])) for c in range(6) for r in range(6)]

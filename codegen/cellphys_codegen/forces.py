@@ -16,8 +16,8 @@ from .structs import layout, unknown_keys
 KINDS = ("global", "unary", "binary")
 PARAM_TYPES = ("f32", "vec3")
 TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "instance", "params", "globals", "let", "apply"}
-PARAM_KEYS = {"type", "min", "doc"}
-GLOBAL_KEYS = {"type", "min", "doc", "default"}
+PARAM_KEYS = {"type", "min", "greater_than", "doc"}
+GLOBAL_KEYS = {"type", "min", "greater_than", "doc", "default"}
 
 
 @dataclass
@@ -26,7 +26,9 @@ class Param:
     type: str
     doc: str
     min: float = None
+    min_exclusive: bool = False  # declared with greater_than: the value must exceed min
     default: list = None  # globals only
+    setting: str = None  # globals only: the place under a scene's settings (island_globals)
 
     @property
     def lanes(self):
@@ -109,10 +111,13 @@ def _params(path, raw, where, keys):
             raise DescriptorError(path, loc, "missing 'type'")
         if not isinstance(spec["type"], str) or spec["type"] not in PARAM_TYPES:
             raise DescriptorError(path, f"{loc}.type", f"unknown type {spec['type']!r} (known: {', '.join(PARAM_TYPES)})")
-        p = Param(name, spec["type"], spec.get("doc", ""), spec.get("min"))
+        if "min" in spec and "greater_than" in spec:
+            raise DescriptorError(path, f"{loc}.greater_than", "give min or greater_than, not both")
+        bound = "greater_than" if "greater_than" in spec else "min"
+        p = Param(name, spec["type"], spec.get("doc", ""), spec.get(bound), bound == "greater_than")
         if p.min is not None and (isinstance(p.min, bool) or not isinstance(p.min, (int, float))
                                   or not math.isfinite(p.min)):
-            raise DescriptorError(path, f"{loc}.min", f"must be a number (and finite), got {p.min!r}")
+            raise DescriptorError(path, f"{loc}.{bound}", f"must be a number (and finite), got {p.min!r}")
         if "default" in spec or keys is GLOBAL_KEYS:
             d = spec.get("default")
             d = d if isinstance(d, list) else [d]
@@ -378,17 +383,34 @@ def load_forces(directories, structs):
     return forces
 
 
+def scene_setting(force, name):
+    """Where global `name` of `force` sits under a scene's settings: one named like its force at
+    the top (gravity), <force>_<key> at <force>.<key> (contact.slop), any other at <force>.<name>."""
+    if name == force:
+        return name
+    return f"{force}.{name[len(force) + 1:] if name.startswith(force + '_') else name}"
+
+
 def island_globals(forces):
-    """Every force's globals, merged into one Island_Params block (same name must mean the same)."""
-    out, origin = [], {}
+    """Every force's globals, merged into one Island_Params block (same name must mean the same),
+    each with its scene setting (that of the first force declaring it)."""
+    out, origin, settings = [], {}, {}
     for f in forces:
         for g in f.globals:
             if g.name in origin:
                 prev = origin[g.name]
-                if prev[1].type != g.type or prev[1].default != g.default:
+                if (prev[1].type, prev[1].default, prev[1].min, prev[1].min_exclusive) != \
+                        (g.type, g.default, g.min, g.min_exclusive):
                     raise DescriptorError(f.source, f"globals.{g.name}",
                                           f"also declared differently by {prev[0]}")
+                g.setting = prev[1].setting
                 continue
+            g.setting = scene_setting(f.name, g.name)
+            for other, who in settings.items():
+                if other == g.setting or other.startswith(g.setting + ".") or g.setting.startswith(other + "."):
+                    raise DescriptorError(f.source, f"globals.{g.name}", f"its scene setting settings.{g.setting} "
+                                          f"collides with settings.{other} of global {who}")
+            settings[g.setting] = g.name
             origin[g.name] = (f.source, g)
             out.append(g)
     return out

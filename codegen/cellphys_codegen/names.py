@@ -12,7 +12,7 @@ throw true try typedef typeid typename union unsigned using virtual void volatil
 xor xor_eq int8_t int16_t int32_t int64_t uint8_t uint16_t uint32_t uint64_t size_t
 """.split())
 
-RESERVED_TYPES = frozenset({"Island_Params", "StructInfo", "ParamInfo", "GlobalInfo", "ForceInfo", "BlockSlot",
+RESERVED_TYPES = frozenset({"Island_Params", "Force_Globals", "StructInfo", "ParamInfo", "GlobalInfo", "ForceInfo", "BlockSlot",
                             "ForceType", "ForceKind", "KernelVariant", "BlockKind", "ParamType"})
 
 

@@ -51,16 +51,6 @@ Contact_Force contact_instance(const WorldContact& c, int32_t a, int32_t b) {
   return packed;
 }
 
-// The world's settings for the forces' globals.
-void set_params(const WorldSettings& s, Island_Params& g) {
-  std::copy(s.gravity, s.gravity + 3, g.gravity);
-  g.contact_stiffness = s.contact_stiffness;
-  g.contact_damping = s.contact_damping;
-  g.slip_velocity = s.slip_velocity;
-  g.contact_slop = s.contact_slop;
-  g.contact_rest_speed = s.contact_rest_speed;
-}
-
 void set_bodies(const ForceInfo& info, std::vector<unsigned char>& inst, int32_t a, int32_t b) {
   std::memcpy(inst.data() + info.offset_body_a, &a, 4);
   if (info.offset_body_b >= 0) std::memcpy(inst.data() + info.offset_body_b, &b, 4);
@@ -74,7 +64,7 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
   ib.set_solver(static_cast<uint32_t>(s.solver));
   ib.set_tolerance(s.tolerance);
   ib.set_max_halvings(s.max_halvings);
-  set_params(s, ib.params());
+  pack(s.globals, ib.params());
   PackedIsland p;
   // ghosts: the bodies of other parts its contacts and forces reach
   std::vector<uint32_t> ghosts;
@@ -117,7 +107,7 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
       ib.add(ForceType::gyroscopic, gy);
     }
   }
-  if (s.gravity[0] != 0 || s.gravity[1] != 0 || s.gravity[2] != 0) ib.add_global(ForceType::gravity);
+  if (s.globals.gravity[0] != 0 || s.globals.gravity[1] != 0 || s.globals.gravity[2] != 0) ib.add_global(ForceType::gravity);
   // contacts grouped by body pair, in a fixed order
   std::vector<uint32_t> cs = isl.contacts;
   std::stable_sort(cs.begin(), cs.end(), [&](uint32_t x, uint32_t y) {

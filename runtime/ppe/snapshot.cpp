@@ -9,6 +9,7 @@
 #include <string>
 #include <type_traits>
 
+#include "runtime/ppe/settings.h"
 #include "runtime/ppe/world_impl.h"
 
 namespace cellphys::ppe {
@@ -16,7 +17,7 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;
 constexpr size_t kHeaderBytes = 32;
 
 // A new setting must be added to put_settings/get_settings (and kVersion raised).
@@ -84,18 +85,12 @@ class Reader {
 
 void put_settings(Writer& w, const WorldSettings& s) {
   w.put(s.dt);
-  w.put_floats(s.gravity, 3);
   w.put(static_cast<uint32_t>(s.integrator));
   w.put(static_cast<uint32_t>(s.solver));
   w.put(s.tolerance);
   w.put(s.max_halvings);
   w.put(static_cast<uint32_t>(s.sleeping));
   w.put(static_cast<int32_t>(s.workers));
-  w.put(s.contact_stiffness);
-  w.put(s.contact_damping);
-  w.put(s.slip_velocity);
-  w.put(s.contact_slop);
-  w.put(s.contact_rest_speed);
   w.put(s.contact_margin);
   w.put(static_cast<uint64_t>(s.local_store_bytes));
   w.put(s.decouple_sweeps);
@@ -105,13 +100,41 @@ void put_settings(Writer& w, const WorldSettings& s) {
   w.put(s.sleep_linear);
   w.put(s.sleep_angular);
   w.put(s.sleep_time);
+  // the forces' globals by their scene names: a build with other forces refuses them by name
+  w.put(static_cast<uint32_t>(gen::kNumGlobals));
+  for (int i = 0; i < gen::kNumGlobals; ++i) {
+    const gen::GlobalInfo& g = gen::kGlobalTable[i];
+    w.put_bytes(g.setting, std::strlen(g.setting));
+    w.put_bytes(global_lanes(s.globals, g), 4 * size_t{g.param.lanes});
+  }
+}
+
+void get_globals(Reader& r, gen::Force_Globals& globals) {
+  std::vector<bool> seen(gen::kNumGlobals);
+  const uint32_t n = r.count("settings", 8);
+  for (uint32_t k = 0; k < n; ++k) {
+    const std::vector<unsigned char> name = r.get_bytes("setting name");
+    const std::string setting(name.begin(), name.end());
+    int i = 0;
+    while (i < gen::kNumGlobals && setting != gen::kGlobalTable[i].setting) ++i;
+    if (i == gen::kNumGlobals) throw WorldError("snapshot: setting '" + setting + "', which this build lacks");
+    if (seen[i]) throw WorldError("snapshot: setting '" + setting + "' given twice");
+    seen[i] = true;
+    const gen::GlobalInfo& g = gen::kGlobalTable[i];
+    const std::vector<unsigned char> value = r.get_bytes("setting value");
+    if (value.size() != 4 * size_t{g.param.lanes})
+      throw WorldError("snapshot: setting '" + setting + "' has " + std::to_string(value.size()) + " bytes, this build's " +
+                       std::to_string(4 * g.param.lanes));
+    std::memcpy(global_lanes(globals, g), value.data(), value.size());
+  }
+  for (int i = 0; i < gen::kNumGlobals; ++i)
+    if (!seen[i]) throw WorldError(std::string("snapshot: setting '") + gen::kGlobalTable[i].setting + "' is missing");
 }
 
 WorldSettings get_settings(Reader& r) {
   const char* what = "settings";
   WorldSettings s;
   s.dt = r.get<float>(what);
-  r.get_floats(s.gravity, 3, what);
   const uint32_t integ = r.get<uint32_t>(what);
   if (integ >= static_cast<uint32_t>(spu::kNumIntegrators)) throw WorldError("snapshot: unknown integrator " + std::to_string(integ));
   s.integrator = static_cast<spu::Integrator>(integ);
@@ -122,11 +145,6 @@ WorldSettings get_settings(Reader& r) {
   s.max_halvings = r.get<uint32_t>(what);
   s.sleeping = r.get<uint32_t>(what) != 0;
   s.workers = r.get<int32_t>(what);
-  s.contact_stiffness = r.get<float>(what);
-  s.contact_damping = r.get<float>(what);
-  s.slip_velocity = r.get<float>(what);
-  s.contact_slop = r.get<float>(what);
-  s.contact_rest_speed = r.get<float>(what);
   s.contact_margin = r.get<float>(what);
   s.local_store_bytes = static_cast<size_t>(r.get<uint64_t>(what));
   s.decouple_sweeps = r.get<uint32_t>(what);
@@ -136,6 +154,7 @@ WorldSettings get_settings(Reader& r) {
   s.sleep_linear = r.get<float>(what);
   s.sleep_angular = r.get<float>(what);
   s.sleep_time = r.get<float>(what);
+  get_globals(r, s.globals);
   return s;
 }
 

@@ -8,6 +8,7 @@
 
 #include "runtime/ppe/island_packer.h"
 #include "runtime/ppe/mass_properties.h"
+#include "runtime/ppe/settings.h"
 #include "runtime/ppe/world_impl.h"
 #include "runtime/spu/narrow_phase.h"
 #include "runtime/spu/rigid_motion.h"
@@ -67,22 +68,6 @@ bool sound_result(const PackedIsland& p, const spu::IslandReport& r) {
 }
 
 }  // namespace
-
-static void validate_settings(const WorldSettings& s) {
-  if (!(s.dt > 0.0f) || !std::isfinite(s.dt)) throw WorldError("settings.dt must be positive and finite");
-  if (!finite(s.gravity, 3)) throw WorldError("settings.gravity must be finite");
-  if (!(s.tolerance > 0.0f) || !std::isfinite(s.tolerance)) throw WorldError("settings.tolerance must be positive");
-  if (s.workers < 1 || s.workers > 256) throw WorldError("settings.workers must be between 1 and 256");
-  if (!(s.contact_stiffness >= 0.0f) || !(s.contact_damping >= 0.0f) || !(s.slip_velocity > 0.0f) ||
-      !(s.contact_slop >= 0.0f) || !(s.contact_rest_speed >= 0.0f) || !std::isfinite(s.contact_rest_speed) || !std::isfinite(s.contact_stiffness) || !std::isfinite(s.contact_damping) ||
-      !std::isfinite(s.slip_velocity) || !std::isfinite(s.contact_slop))
-    throw WorldError("settings.contact: stiffness, damping and slop must be finite and >= 0, slip_velocity > 0");
-  if (s.local_store_bytes < 16 * 1024) throw WorldError("settings.local_store_bytes must be at least 16 KiB");
-  if (s.max_halvings > 16) throw WorldError("settings.max_halvings must be at most 16");
-  if (s.decouple_sweeps < 1 || s.decouple_sweeps > 64) throw WorldError("settings.decouple_sweeps must be between 1 and 64");
-  if (!(s.decouple_tolerance >= 0.0f) || !std::isfinite(s.decouple_tolerance))
-    throw WorldError("settings.decouple_tolerance must be finite and >= 0");
-}
 
 World::World(WorldSettings settings) : settings_(settings), impl_(std::make_unique<Impl>()) {
   validate_settings(settings_);
@@ -200,8 +185,8 @@ ForceId World::add_force(const std::string& type, BodyId a, BodyId b, const Forc
     if (!finite(values.data(), static_cast<int>(values.size())))
       throw WorldError("force " + type + ": parameter '" + name + "' is not finite");
     for (float v : values)
-      if (p->has_min && v < p->min)
-        throw WorldError("force " + type + ": parameter '" + name + "' must be >= " + std::to_string(p->min));
+      if (!p->admits(v))
+        throw WorldError("force " + type + ": parameter '" + name + "' must be " + p->min_relation() + " " + std::to_string(p->min));
     std::memcpy(f.instance.data() + p->offset, values.data(), 4 * values.size());
   }
   impl_->wake(a);
@@ -344,7 +329,7 @@ const StepStats& World::step() {
     w.reach[i] = b.is_static ? 0.0f
                              : static_cast<float>(settings_.dt * (speed + spin * std::sqrt(rx * rx + ry * ry + rz * rz)) +
                                                   settings_.contact_margin);
-    const float grow = w.reach[i] + 0.5f * settings_.contact_slop;
+    const float grow = w.reach[i] + 0.5f * settings_.globals.contact_slop;
     for (int k = 0; k < 3; ++k) w.boxes[i].min[k] -= grow, w.boxes[i].max[k] += grow;
     if (!inside_region(w.boxes[i], settings_.region_min, settings_.region_max)) {
       if (!b.is_static) ++st.outside_region;
@@ -364,7 +349,7 @@ const StepStats& World::step() {
       const Aabb& B = w.boxes[i];
       double lowest = 0;  // the (grown) box corner furthest along -normal
       for (int k = 0; k < 3; ++k) lowest += pv.normal[k] * double(pv.normal[k] >= 0 ? B.min[k] : B.max[k]);
-      if (lowest - pv.offset <= 0.5 * settings_.contact_slop) w.pairs.emplace_back(std::min(i, p), std::max(i, p));
+      if (lowest - pv.offset <= 0.5 * settings_.globals.contact_slop) w.pairs.emplace_back(std::min(i, p), std::max(i, p));
     }
   }
   std::sort(w.pairs.begin(), w.pairs.end());
@@ -377,7 +362,7 @@ const StepStats& World::step() {
     uint32_t a = i, b = j;
     if (w.bodies[a].is_static) std::swap(a, b);
     spu::ContactPoint cp[spu::kMaxManifoldPoints];
-    const float margin = settings_.contact_slop + w.reach[a] + w.reach[b];
+    const float margin = settings_.globals.contact_slop + w.reach[a] + w.reach[b];
     const int k = spu::collide(shapes_.view(w.bodies[a].shape), pose_of(w.bodies[a]), shapes_.view(w.bodies[b].shape),
                                pose_of(w.bodies[b]), margin, cp);
     if (k > 0) ++st.narrow_phase_pairs;

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "cellphys/gen/force_table.h"
 #include "runtime/ppe/shapes.h"
 #include "runtime/ppe/step_stats.h"
 #include "runtime/spu/island_image.h"
@@ -30,18 +31,15 @@ inline constexpr BodyId kWorldBody = 0xFFFFFFFFu;  // the b side of a world-anch
 
 struct WorldSettings {
   float dt = 1.0f / 60.0f;
-  float gravity[3] = {0.0f, 0.0f, -9.81f};
+  // The forces' globals (gravity, the contact's stiffness, ...): the force descriptors declare
+  // them with their defaults, bounds and places in a scene file (gen::kGlobalTable).
+  gen::Force_Globals globals;
   spu::Integrator integrator = spu::Integrator::implicit_split;
   spu::Solver solver = spu::Solver::cgs;
   float tolerance = 1e-3f;
   uint32_t max_halvings = 8;
   bool sleeping = true;
   int workers = 1;
-  float contact_stiffness = 1.0e5f;  // N/m (per contact point)
-  float contact_damping = 1.0e3f;    // N s/m
-  float slip_velocity = 0.01f;       // m/s, Coulomb friction regularisation
-  float contact_slop = 0.005f;       // m: a contact closing to within this gap acts from the step's start
-  float contact_rest_speed = 0.05f;  // m/s: a touching contact opening slower than this still acts
   // Contacts are generated for gaps up to contact_slop plus each body's reach in the step
   // (dt times its speed and the spin of its farthest point) plus this margin (m).
   float contact_margin = 0.001f;

@@ -1,5 +1,6 @@
 // Scene files as JSON: a strict reader (every field known, typed, finite, in range where the
 // file alone can tell) and a writer whose output reads back to an equal SceneDesc.
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -15,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cellphys/gen/force_table.h"
+#include "runtime/ppe/settings.h"
 #include "runtime/scene/scene.h"
 
 namespace cellphys::scene {
@@ -82,14 +84,14 @@ class Reader {
   }
 
   // Every key of `j` must be in `allowed`.
-  void known_fields(const json& j, const std::string& path, std::initializer_list<const char*> allowed,
-                    const char* what) const {
+  void known_fields(const json& j, const std::string& path, const std::vector<std::string>& allowed,
+                    const std::string& what) const {
     for (auto it = j.begin(); it != j.end(); ++it) {
       bool ok = false;
-      for (const char* a : allowed) ok = ok || it.key() == a;
+      for (const std::string& a : allowed) ok = ok || it.key() == a;
       if (!ok) {
         std::string list;
-        for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
         fail(key_path(path, it.key()), std::string("unknown field ") + shown(it.key()) + " in " + what +
                                            " (known: " + list + ")");
       }
@@ -174,15 +176,77 @@ class Reader {
   std::string file_;
 };
 
+// The forces' globals sit in settings by their generated places ("gravity", "contact.slop"):
+// the group of a place is the part before its last dot ("" at the top).
+std::string group_of(const std::string& setting) {
+  const size_t dot = setting.rfind('.');
+  return dot == std::string::npos ? "" : setting.substr(0, dot);
+}
+
+// The keys directly under `group` that the forces' globals take, with `hand` (the other
+// settings there) first.
+std::vector<std::string> global_keys(const std::string& group, std::vector<std::string> hand) {
+  for (int i = 0; i < gen::kNumGlobals; ++i) {
+    const std::string setting = gen::kGlobalTable[i].setting;
+    if (!group.empty() && setting.rfind(group + ".", 0) != 0) continue;
+    const std::string rest = group.empty() ? setting : setting.substr(group.size() + 1);
+    const std::string key = rest.substr(0, rest.find('.'));
+    if (std::find(hand.begin(), hand.end(), key) == hand.end()) hand.push_back(key);
+  }
+  return hand;
+}
+
+// Reads the globals whose place is directly under `group` from j (the object at `path`).
+void read_globals(const Reader& r, const json& j, const std::string& group, const std::string& path,
+                  ppe::WorldSettings& s) {
+  for (int i = 0; i < gen::kNumGlobals; ++i) {
+    const gen::GlobalInfo& g = gen::kGlobalTable[i];
+    const std::string setting = g.setting;
+    if (group_of(setting) != group) continue;
+    const std::string key = group.empty() ? setting : setting.substr(group.size() + 1);
+    const json* v = r.find(j, key.c_str());
+    if (!v) continue;
+    const std::string q = key_path(path, key);
+    float* lanes = ppe::global_lanes(s.globals, g);
+    if (g.param.lanes == 1)
+      lanes[0] = r.number(*v, q);
+    else
+      r.vec(*v, q, lanes, g.param.lanes);
+    for (uint32_t l = 0; l < g.param.lanes; ++l) {
+      const std::string why = ppe::global_problem(g, lanes[l]);
+      if (!why.empty()) r.fail(g.param.lanes == 1 ? q : index_path(q, l), why);
+    }
+  }
+}
+
+bool is_global(const std::string& setting) {
+  for (int i = 0; i < gen::kNumGlobals; ++i)
+    if (setting == gen::kGlobalTable[i].setting) return true;
+  return false;
+}
+
+// settings.<group>: its globals and the other settings there (`hand`, read by the caller).
+void read_global_group(const Reader& r, const json& j, const std::string& group, std::vector<std::string> hand,
+                       ppe::WorldSettings& s) {
+  const std::string q = "settings." + group;
+  r.object(j, q);
+  r.known_fields(j, q, global_keys(group, std::move(hand)), q);
+  read_globals(r, j, group, q, s);
+}
+
 void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
   const std::string p = "settings";
   r.object(j, p);
-  r.known_fields(j, p,
-                 {"dt", "gravity", "integrator", "solver", "tolerance", "max_halvings", "sleeping", "sleep", "workers",
-                  "contact", "local_store_bytes", "decouple", "region"},
-                 "settings");
+  const std::vector<std::string> hand = {"dt", "integrator", "solver", "tolerance", "max_halvings", "sleeping",
+                                         "sleep", "workers", "contact", "local_store_bytes", "decouple", "region"};
+  const std::vector<std::string> top = global_keys("", hand);
+  r.known_fields(j, p, top, "settings");
+  read_globals(r, j, "", p, s);
+  for (const std::string& key : top) {  // a group of globals alone (a force's with no other settings)
+    const json* v = r.find(j, key.c_str());
+    if (v && std::find(hand.begin(), hand.end(), key) == hand.end() && !is_global(key)) read_global_group(r, *v, key, {}, s);
+  }
   if (const json* v = r.find(j, "dt")) s.dt = r.positive(*v, "settings.dt");
-  if (const json* v = r.find(j, "gravity")) r.vec(*v, "settings.gravity", s.gravity, 3);
   if (const json* v = r.find(j, "integrator")) {
     const std::string n = r.string(*v, "settings.integrator");
     if (!spu::parse_integrator(n, &s.integrator))
@@ -208,15 +272,8 @@ void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
   }
   if (const json* v = r.find(j, "workers")) s.workers = static_cast<int>(r.integer(*v, "settings.workers", 1, 256));
   if (const json* v = r.find(j, "contact")) {
-    const std::string q = "settings.contact";
-    r.object(*v, q);
-    r.known_fields(*v, q, {"stiffness", "damping", "slip_velocity", "slop", "rest_speed", "margin"}, "settings.contact");
-    if (const json* w = r.find(*v, "stiffness")) s.contact_stiffness = r.non_negative(*w, q + ".stiffness");
-    if (const json* w = r.find(*v, "damping")) s.contact_damping = r.non_negative(*w, q + ".damping");
-    if (const json* w = r.find(*v, "slip_velocity")) s.slip_velocity = r.positive(*w, q + ".slip_velocity");
-    if (const json* w = r.find(*v, "slop")) s.contact_slop = r.non_negative(*w, q + ".slop");
-    if (const json* w = r.find(*v, "rest_speed")) s.contact_rest_speed = r.non_negative(*w, q + ".rest_speed");
-    if (const json* w = r.find(*v, "margin")) s.contact_margin = r.non_negative(*w, q + ".margin");
+    read_global_group(r, *v, "contact", {"margin"}, s);
+    if (const json* w = r.find(*v, "margin")) s.contact_margin = r.non_negative(*w, "settings.contact.margin");
   }
   if (const json* v = r.find(j, "local_store_bytes"))
     s.local_store_bytes = static_cast<size_t>(r.integer(*v, "settings.local_store_bytes", 16 * 1024, int64_t(1) << 32));
@@ -356,9 +413,8 @@ ForceSpec read_force(const Reader& r, const json& j, const std::string& p, const
       r.vec(*it, q, values.data(), 3);
     else
       values[0] = r.number(*it, q);
-    if (pi->has_min)
-      for (float v : values)
-        if (v < pi->min) r.fail(q, "must be >= " + std::to_string(pi->min));
+    for (float v : values)
+      if (!pi->admits(v)) r.fail(q, std::string("must be ") + pi->min_relation() + " " + std::to_string(pi->min));
     f.params.emplace_back(k, std::move(values));
   }
   return f;
@@ -562,7 +618,6 @@ std::string write_scene(const SceneDesc& scene) {
   root["description"] = scene.description;
   ojson st = ojson::object();
   st["dt"] = tidy(s.dt);
-  st["gravity"] = arr(s.gravity, 3);
   st["integrator"] = spu::integrator_name(s.integrator);
   st["solver"] = solver_name(s.solver);
   st["tolerance"] = tidy(s.tolerance);
@@ -570,15 +625,17 @@ std::string write_scene(const SceneDesc& scene) {
   st["sleeping"] = s.sleeping;
   st["sleep"] = {{"linear", tidy(s.sleep_linear)}, {"angular", tidy(s.sleep_angular)}, {"time", tidy(s.sleep_time)}};
   st["workers"] = s.workers;
-  st["contact"] = {{"stiffness", tidy(s.contact_stiffness)},
-                   {"damping", tidy(s.contact_damping)},
-                   {"slip_velocity", tidy(s.slip_velocity)},
-                   {"slop", tidy(s.contact_slop)},
-                   {"rest_speed", tidy(s.contact_rest_speed)},
-                   {"margin", tidy(s.contact_margin)}};
+  st["contact"] = {{"margin", tidy(s.contact_margin)}};
   st["local_store_bytes"] = s.local_store_bytes;
   st["decouple"] = {{"sweeps", s.decouple_sweeps}, {"tolerance", tidy(s.decouple_tolerance)}};
   st["region"] = {{"min", arr(s.region_min, 3)}, {"max", arr(s.region_max, 3)}};
+  for (int i = 0; i < gen::kNumGlobals; ++i) {
+    const gen::GlobalInfo& g = gen::kGlobalTable[i];
+    const std::string setting = g.setting, group = group_of(setting);
+    const float* lanes = ppe::global_lanes(s.globals, g);
+    ojson& at = group.empty() ? st : st[group];
+    at[group.empty() ? setting : setting.substr(group.size() + 1)] = g.param.lanes == 1 ? ojson(tidy(lanes[0])) : arr(lanes, g.param.lanes);
+  }
   root["settings"] = st;
 
   ojson shapes = ojson::array();
@@ -673,12 +730,15 @@ bool same(const float (&a)[N], const float (&b)[N]) {
 }  // namespace
 
 bool operator==(const ppe::WorldSettings& a, const ppe::WorldSettings& b) {
-  return a.dt == b.dt && same(a.gravity, b.gravity) && a.integrator == b.integrator && a.solver == b.solver &&
+  for (int i = 0; i < gen::kNumGlobals; ++i) {
+    const gen::GlobalInfo& g = gen::kGlobalTable[i];
+    const float *x = ppe::global_lanes(a.globals, g), *y = ppe::global_lanes(b.globals, g);
+    for (uint32_t l = 0; l < g.param.lanes; ++l)
+      if (!(x[l] == y[l])) return false;
+  }
+  return a.dt == b.dt && a.integrator == b.integrator && a.solver == b.solver &&
          a.tolerance == b.tolerance && a.max_halvings == b.max_halvings && a.sleeping == b.sleeping &&
-         a.workers == b.workers && a.contact_stiffness == b.contact_stiffness &&
-         a.contact_damping == b.contact_damping && a.slip_velocity == b.slip_velocity &&
-         a.contact_slop == b.contact_slop && a.contact_rest_speed == b.contact_rest_speed &&
-         a.contact_margin == b.contact_margin && a.local_store_bytes == b.local_store_bytes &&
+         a.workers == b.workers && a.contact_margin == b.contact_margin && a.local_store_bytes == b.local_store_bytes &&
          a.decouple_sweeps == b.decouple_sweeps && a.decouple_tolerance == b.decouple_tolerance &&
          same(a.region_min, b.region_min) && same(a.region_max, b.region_max) && a.sleep_linear == b.sleep_linear &&
          a.sleep_angular == b.sleep_angular && a.sleep_time == b.sleep_time;

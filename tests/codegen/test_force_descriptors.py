@@ -76,6 +76,35 @@ class GoodForceTests(unittest.TestCase):
         self.assertIn("struct Contact_World_Kernel {", kernel)
         self.assertIn("using Instance = Contact_Force;", kernel)
 
+    def test_greater_than_is_an_exclusive_lower_bound(self):
+        # min: v >= bound; greater_than: v > bound (a divisor, say); both reach the force table
+        sb = Sandbox(temp_dir(self))
+        sb.force("probe_force.yaml", "name: probe_force\nkind: unary\nparams:\n"
+                                     "  stiffness: {type: f32, min: 0, doc: N/m}\n"
+                                     "  length: {type: f32, greater_than: 0.5, doc: m}\n"
+                                     "globals:\n  probe_speed: {type: f32, default: 1.0, greater_than: 0, doc: m/s}\n"
+                                     "apply: ['force(a, stiffness * probe_speed / length * a.x)']\n")
+        table = sb.render()["cellphys/gen/force_table.h"]
+        self.assertRegex(table, r'\{"stiffness", ParamType::f32, \d+, 1, true, 0\.0f, "N/m"\},')
+        self.assertRegex(table, r'\{"length", ParamType::f32, \d+, 1, true, 0\.5f, "m", true\},')
+        self.assertRegex(table, r'\{"probe_speed", ParamType::f32, \d+, 1, true, 0\.0f, "m/s", true\}')
+
+    def test_globals_struct_pack_and_scene_places(self):
+        sb = Sandbox(temp_dir(self))  # with pull, whose pull_accel sits at pull.accel
+        sb.force("probe_force.yaml", "name: probe_force\nkind: unary\n"
+                                     "globals:\n  probe_force_speed: {type: f32, default: 2.0, min: 0}\n"
+                                     "  spread: {type: vec3, default: [1.0, 2.0, 3.0]}\n"
+                                     "apply: ['force(a, probe_force_speed * spread)']\n")
+        table = sb.render()["cellphys/gen/force_table.h"]
+        self.assertIn("  float probe_force_speed = 2.0f;", table)
+        self.assertIn("  float spread[3] = {1.0f, 2.0f, 3.0f};", table)
+        self.assertIn("  out.probe_force_speed = in.probe_force_speed;", table)
+        self.assertIn("  std::memcpy(out.spread, in.spread, sizeof in.spread);", table)
+        self.assertRegex(table, r'\{\{"probe_force_speed", .*\}, \{2\.0f\}, "probe_force\.speed", '
+                                r'offsetof\(Force_Globals, probe_force_speed\)\},')
+        self.assertIn('"probe_force.spread", offsetof(Force_Globals, spread)}', table)
+        self.assertIn('"pull.accel", offsetof(Force_Globals, pull_accel)}', table)
+
 
 class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
     def setUp(self):
@@ -143,6 +172,14 @@ class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
         self.check(UNARY + "  extra: {type: f32, min: low}\napply: ['force(a, a.x)']\n", "params.extra.min",
                    r"must be a number")
 
+    def test_param_greater_than_not_a_number(self):
+        self.check(UNARY + "  extra: {type: f32, greater_than: .nan}\napply: ['force(a, a.x)']\n",
+                   "params.extra.greater_than", r"must be a number \(and finite\)")
+
+    def test_param_min_and_greater_than_together(self):
+        self.check(UNARY + "  extra: {type: f32, min: 0, greater_than: 0}\napply: ['force(a, a.x)']\n",
+                   "params.extra.greater_than", r"give min or greater_than, not both")
+
     def test_params_not_a_mapping(self):
         self.check("name: probe_force\nkind: unary\nparams: [stiffness]\napply: ['force(a, a.x)']\n", "params",
                    r"must be a mapping")
@@ -184,6 +221,16 @@ class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
                    name="zz_probe.yaml")
 
     # ---- instance structs ----
+    def test_globals_whose_scene_places_collide(self):
+        # probe_force at the top of settings, probe_force_speed inside a group of that name
+        self.check("name: probe_force\nkind: unary\nglobals:\n  probe_force: {type: f32, default: 1.0}\n"
+                   "  probe_force_speed: {type: f32, default: 1.0}\napply: ['force(a, probe_force * probe_force_speed * a.x)']\n",
+                   "globals.probe_force_speed", r"settings\.probe_force\.speed collides with settings\.probe_force ")
+        # slip and probe_force_slip both at probe_force.slip
+        self.check("name: probe_force\nkind: unary\nglobals:\n  slip: {type: f32, default: 1.0}\n"
+                   "  probe_force_slip: {type: f32, default: 1.0}\napply: ['force(a, slip * probe_force_slip * a.x)']\n",
+                   "globals.probe_force_slip", r"collides with settings\.probe_force\.slip of global slip")
+
     def test_instance_naming_a_missing_struct(self):
         self.check(unary("force(a, a.x)") + "instance: Nope_Force\n", "instance", r"no struct descriptor named 'Nope_Force'")
 

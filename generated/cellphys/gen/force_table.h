@@ -24,11 +24,20 @@ struct ParamInfo {
   bool has_min;
   float min;
   const char* doc;
+  bool min_exclusive = false;  ///< the value must exceed min (a descriptor's greater_than)
+
+  /// Within the declared lower bound (a NaN is not, where there is one).
+  bool admits(float v) const { return !has_min || (min_exclusive ? v > min : v >= min); }
+  /// How a value must compare with min, for messages.
+  const char* min_relation() const { return min_exclusive ? ">" : ">="; }
 };
 
+/// One global of the forces: ParamInfo's offset is in Island_Params.
 struct GlobalInfo {
   ParamInfo param;
   float default_value[3];
+  const char* setting;    ///< its place under a scene file's settings: "gravity", "contact.stiffness"
+  uint32_t field_offset;  ///< byte offset in Force_Globals
 };
 
 struct ForceInfo {
@@ -97,27 +106,41 @@ inline constexpr ForceInfo kForceTable[] = {
     {"spring", ForceType::spring, ForceKind::binary, true, false, "Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), offsetof(Spring_Force, body_a), offsetof(Spring_Force, body_b), kSpringParams, 5, "A damped spring between two body points (or a body point and a fixed world point)."},
 };
 
+/// Every global of the forces, at its descriptor default: what a world's settings hold.
+struct Force_Globals {
+  float contact_stiffness = 100000.0f;  ///< normal stiffness (N/m)
+  float contact_damping = 1000.0f;  ///< normal damping (N s/m)
+  float slip_velocity = 0.01f;  ///< speed below which Coulomb friction is regularised (m/s)
+  float contact_slop = 0.005f;  ///< gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
+  float contact_rest_speed = 0.05f;  ///< opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
+  float gravity[3] = {0.0f, 0.0f, -9.81f};  ///< gravitational acceleration (m/s^2)
+};
+
+/// The globals as a packed island carries them.
+inline void pack(const Force_Globals& in, Island_Params& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.contact_stiffness = in.contact_stiffness;
+  out.contact_damping = in.contact_damping;
+  out.slip_velocity = in.slip_velocity;
+  out.contact_slop = in.contact_slop;
+  out.contact_rest_speed = in.contact_rest_speed;
+  std::memcpy(out.gravity, in.gravity, sizeof in.gravity);
+}
+
 inline constexpr GlobalInfo kGlobalTable[] = {
-    {{"contact_stiffness", ParamType::f32, 16, 1, true, 0.0f, "normal stiffness (N/m)"}, {100000.0f}},
-    {{"contact_damping", ParamType::f32, 20, 1, true, 0.0f, "normal damping (N s/m)"}, {1000.0f}},
-    {{"slip_velocity", ParamType::f32, 24, 1, true, 0.0f, "speed below which Coulomb friction is regularised (m/s)"}, {0.01f}},
-    {{"contact_slop", ParamType::f32, 28, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}},
-    {{"contact_rest_speed", ParamType::f32, 32, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}},
-    {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}},
+    {{"contact_stiffness", ParamType::f32, 16, 1, true, 0.0f, "normal stiffness (N/m)"}, {100000.0f}, "contact.stiffness", offsetof(Force_Globals, contact_stiffness)},
+    {{"contact_damping", ParamType::f32, 20, 1, true, 0.0f, "normal damping (N s/m)"}, {1000.0f}, "contact.damping", offsetof(Force_Globals, contact_damping)},
+    {{"slip_velocity", ParamType::f32, 24, 1, true, 0.0f, "speed below which Coulomb friction is regularised (m/s)", true}, {0.01f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
+    {{"contact_slop", ParamType::f32, 28, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
+    {{"contact_rest_speed", ParamType::f32, 32, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}, "contact.rest_speed", offsetof(Force_Globals, contact_rest_speed)},
+    {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}, "gravity", offsetof(Force_Globals, gravity)},
 };
 inline constexpr int kNumGlobals = 6;
 
 /// Island_Params with every global at its descriptor default.
 inline Island_Params default_island_params() {
-  Island_Params p{};
-  p.contact_stiffness = 100000.0f;
-  p.contact_damping = 1000.0f;
-  p.slip_velocity = 0.01f;
-  p.contact_slop = 0.005f;
-  p.contact_rest_speed = 0.05f;
-  p.gravity[0] = 0.0f;
-  p.gravity[1] = 0.0f;
-  p.gravity[2] = -9.81f;
+  Island_Params p;
+  pack(Force_Globals{}, p);
   return p;
 }
 

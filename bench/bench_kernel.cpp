@@ -124,9 +124,9 @@ void BM_Phase_Solve(benchmark::State& state) {
     r = solve(static_cast<Solver>(state.range(0)), A, p.ws.forces, p.ws.x, p.ws.solver_work, s);
   }
   state.counters["iterations"] = r.iterations;
-  state.SetLabel(state.range(0) == 0 ? "cgs" : state.range(0) == 1 ? "bicgstab" : "direct");
+  state.SetLabel(solver_name(static_cast<Solver>(state.range(0))));
 }
-BENCHMARK(BM_Phase_Solve)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Phase_Solve)->DenseRange(0, kNumSolvers - 1)->Unit(benchmark::kMicrosecond);
 
 // Single-core FP32 FMA peak: independent accumulator chains, enough to cover the latency.
 void BM_PeakFma(benchmark::State& state) {

@@ -329,6 +329,8 @@ std::vector<BadCase> bad_cases() {
       {"unknown solver", R"({"settings": {"solver": "gmres"}})", "settings.solver", "unknown solver"},
       {"workers out of range", R"({"settings": {"workers": 0}})", "settings.workers", "between 1 and 256"},
       {"negative dt", R"({"settings": {"dt": -0.01}})", "settings.dt", "must be positive"},
+      {"local store over 1 GiB", R"({"settings": {"local_store_bytes": 2147483648}})", "settings.local_store_bytes",
+       "between 16384 and 1073741824"},
       {"truncated file", with_bodies(two).substr(0, with_bodies(two).size() - 20), "bodies[1]", "not valid JSON"},
       {"not JSON", "shapes: [sphere]\n", "", "not valid JSON"},
       {"empty file", "", "", "not valid JSON"},

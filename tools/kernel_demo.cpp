@@ -25,8 +25,8 @@ int usage(FILE* out) {
                "usage: cellphys kernel-demo [--integrator NAME] [--steps N]\n"
                "  step the seed's 65-box reference group and a spinning box through the compute\n"
                "  kernel alone (no world), N steps of the box (default 600)\n"
-               "  integrators implicit_split (default), implicit_euler, rosenbrock, symplectic_euler,\n"
-               "              explicit_euler, rk4\n");
+               "  integrators %s (default: %s)\n",
+               integrator_names().c_str(), integrator_name(Integrator::implicit_split));
   return out == stderr ? 2 : 0;
 }
 

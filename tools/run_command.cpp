@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runtime/ppe/island_runner.h"
+#include "runtime/ppe/settings.h"
 #include "runtime/scene/scene.h"
 #include "runtime/spu/simd.h"
 #include "tools/cli.h"
@@ -44,6 +45,7 @@ using Clock = std::chrono::steady_clock;
 const char kDefaultScene[] = "world1000";
 constexpr double kDefaultDuration = 5.0;  // s of simulated time when neither --duration nor --steps
 
+// printf format: the integrators, the solvers and the workers' limit come from their tables.
 const char kRunHelp[] =
     "usage: cellphys run [SCENE] [options]\n"
     "       cellphys run --resume SNAPSHOT [options]\n"
@@ -55,11 +57,10 @@ const char kRunHelp[] =
     "  --duration S      simulate S seconds (default 5)\n"
     "  --steps N         or exactly N steps\n"
     "  --dt H            step size in seconds (overrides the scene's settings.dt)\n"
-    "  --integrator NAME implicit_split, implicit_euler, rosenbrock, symplectic_euler,\n"
-    "                    explicit_euler, rk4\n"
-    "  --solver NAME     cgs, bicgstab, direct\n"
+    "  --integrator NAME %s\n"
+    "  --solver NAME     %s\n"
     "  --tolerance T     linear solver tolerance\n"
-    "  --workers K       compute workers (threads)\n"
+    "  --workers K       compute workers (threads), 1 to %d\n"
     "  --out FILE        trajectory CSV: step,t,body,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n"
     "                    (every body; step 0 and every N-th step)\n"
     "  --every N         with --out: write every N-th step (default 1)\n"
@@ -235,7 +236,7 @@ bool parse_options(int argc, char** argv, Options& o) {
     } else if (a == "--tolerance") {
       o.tolerance = parse_positive(a, next());
     } else if (a == "--workers") {
-      o.workers = static_cast<int>(parse_count(a, next(), 1, 256));
+      o.workers = static_cast<int>(parse_count(a, next(), 1, ppe::kMaxWorkers));
     } else if (a == "--out") {
       o.out = next();
     } else if (a == "--every") {
@@ -455,10 +456,9 @@ std::vector<unsigned char> read_snapshot_file(const std::string& path) {
 void apply_overrides(const Options& o, ppe::WorldSettings& s) {
   if (o.dt > 0) s.dt = static_cast<float>(o.dt);
   if (!o.integrator.empty() && !spu::parse_integrator(o.integrator, &s.integrator))
-    throw UsageError{"unknown integrator '" + o.integrator +
-                     "' (known: implicit_split, implicit_euler, rosenbrock, symplectic_euler, explicit_euler, rk4)"};
-  if (!o.solver.empty() && !scene::parse_solver(o.solver, &s.solver))
-    throw UsageError{"unknown solver '" + o.solver + "' (known: cgs, bicgstab, direct)"};
+    throw UsageError{"unknown integrator '" + o.integrator + "' (known: " + spu::integrator_names() + ")"};
+  if (!o.solver.empty() && !spu::parse_solver(o.solver, &s.solver))
+    throw UsageError{"unknown solver '" + o.solver + "' (known: " + spu::solver_names() + ")"};
   if (o.tolerance > 0) s.tolerance = static_cast<float>(o.tolerance);
   if (o.workers > 0) s.workers = o.workers;
   if (!(s.dt > 0.0f) || !std::isfinite(s.dt)) throw UsageError{"--dt is too small or too large"};
@@ -606,7 +606,7 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
     j["scene"] = arg;
     j["scene_file"] = file;
     j["integrator"] = spu::integrator_name(settings.integrator);
-    j["solver"] = scene::solver_name(settings.solver);
+    j["solver"] = spu::solver_name(settings.solver);
     j["dt"] = dt;
     j["workers"] = settings.workers;
     j["simd_path"] = simd::kPathName;
@@ -675,7 +675,7 @@ int run(const Options& o, std::shared_ptr<ppe::IslandRunner> runner) {
   else
     std::printf("bodies       %zu (%u static)\n", loaded.bodies.size(), statics);
   std::printf("settings     dt %.6g s, %s, %s, tolerance %g, %d worker%s, SIMD %s\n", dt,
-              spu::integrator_name(settings.integrator), scene::solver_name(settings.solver),
+              spu::integrator_name(settings.integrator), spu::solver_name(settings.solver),
               double(settings.tolerance), settings.workers, settings.workers == 1 ? "" : "s",
               simd::kPathName);
   std::printf("run          %lld steps, %.4g s simulated in %.3f s wall, median %.3f ms per step\n", steps,
@@ -707,7 +707,7 @@ int run_main(int argc, char** argv) {
   Options o;
   try {
     if (!parse_options(argc, argv, o)) {
-      std::fputs(kRunHelp, stdout);
+      std::printf(kRunHelp, spu::integrator_names().c_str(), spu::solver_names().c_str(), ppe::kMaxWorkers);
       return 0;
     }
   } catch (const UsageError& e) {

@@ -16,7 +16,7 @@ class CellphysPeer : public Peer {
       const std::string integ = c.variant.substr(0, slash);
       if (!spu::parse_integrator(integ, &s.settings.integrator))
         throw std::invalid_argument("unknown integrator '" + integ + "'");
-      if (slash != std::string::npos && !scene::parse_solver(c.variant.substr(slash + 1), &s.settings.solver))
+      if (slash != std::string::npos && !spu::parse_solver(c.variant.substr(slash + 1), &s.settings.solver))
         throw std::invalid_argument("unknown solver '" + c.variant.substr(slash + 1) + "'");
     }
     if (c.dt > 0) s.settings.dt = static_cast<float>(c.dt);
@@ -24,7 +24,7 @@ class CellphysPeer : public Peer {
     if (c.workers > 0) s.settings.workers = c.workers;
     built_ = scene::build_world(s);
     label_ = std::string("cellphys ") + spu::integrator_name(s.settings.integrator) + "/" +
-             scene::solver_name(s.settings.solver);
+             spu::solver_name(s.settings.solver);
   }
   void step() override {
     const ppe::StepStats& st = built_.world->step();

@@ -3,6 +3,10 @@
 //   header  "CELLSNAP" | u32 version | u32 header bytes (32) | u64 payload bytes |
 //           u32 checksum of the payload (spu::checksum) | u32 zero
 //   payload settings | step counter | shapes | bodies | forces | sleeping groups | free groups
+//   settings: u32 count, then per setting (runtime/ppe/settings.h) its scene path and its value
+//           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
+//           each as u32 length + bytes: matched by name, so a build with other forces refuses
+//           a setting it lacks, or lacks one it has, by name
 // A restored world steps on bit for bit: everything a step reads across steps is here (the
 // broad phase's kept sort order only speeds it up; its pairs come out sorted).
 #include <cstring>
@@ -17,14 +21,9 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 2;
+constexpr uint32_t kVersion = 3;
 constexpr size_t kHeaderBytes = 32;
 
-// A new setting must be added to put_settings/get_settings (and kVersion raised). The globals are
-// written by name and differ between force sets, so they are not counted: 88 bytes beside them,
-// 4 more of padding before local_store_bytes when their size is 4 mod 8.
-static_assert(sizeof(WorldSettings) - sizeof(gen::Force_Globals) == (sizeof(gen::Force_Globals) % 8 ? 92 : 88),
-              "WorldSettings changed: update the snapshot's settings record");
 
 class Writer {
  public:
@@ -86,78 +85,79 @@ class Reader {
   size_t n_, at_ = 0;
 };
 
-void put_settings(Writer& w, const WorldSettings& s) {
-  w.put(s.dt);
-  w.put(static_cast<uint32_t>(s.integrator));
-  w.put(static_cast<uint32_t>(s.solver));
-  w.put(s.tolerance);
-  w.put(s.max_halvings);
-  w.put(static_cast<uint32_t>(s.sleeping));
-  w.put(static_cast<int32_t>(s.workers));
-  w.put(s.contact_margin);
-  w.put(static_cast<uint64_t>(s.local_store_bytes));
-  w.put(s.decouple_sweeps);
-  w.put(s.decouple_tolerance);
-  w.put_floats(s.region_min, 3);
-  w.put_floats(s.region_max, 3);
-  w.put(s.sleep_linear);
-  w.put(s.sleep_angular);
-  w.put(s.sleep_time);
-  // the forces' globals by their scene names: a build with other forces refuses them by name
-  w.put(static_cast<uint32_t>(gen::kNumGlobals));
-  for (int i = 0; i < gen::kNumGlobals; ++i) {
-    const gen::GlobalInfo& g = gen::kGlobalTable[i];
-    w.put_bytes(g.setting, std::strlen(g.setting));
-    w.put_bytes(global_lanes(s.globals, g), 4 * size_t{g.param.lanes});
+// A setting's value as the snapshot stores it.
+std::vector<unsigned char> setting_bytes(const WorldSettings& s, const Setting& row) {
+  const void* f = field_of(s, row);
+  Writer w;
+  switch (row.type) {
+    case SettingType::f32: w.put(*static_cast<const float*>(f)); break;
+    case SettingType::vec3: w.put_floats(static_cast<const float*>(f), 3); break;
+    case SettingType::u32: w.put(*static_cast<const uint32_t*>(f)); break;
+    case SettingType::i32: w.put(static_cast<int32_t>(*static_cast<const int*>(f))); break;
+    case SettingType::size: w.put(static_cast<uint64_t>(*static_cast<const size_t*>(f))); break;
+    case SettingType::boolean: w.put(static_cast<uint8_t>(*static_cast<const bool*>(f))); break;
+    case SettingType::integrator: w.put(static_cast<uint32_t>(*static_cast<const spu::Integrator*>(f))); break;
+    case SettingType::solver: w.put(static_cast<uint32_t>(*static_cast<const spu::Solver*>(f))); break;
   }
+  return w.bytes;
 }
 
-void get_globals(Reader& r, gen::Force_Globals& globals) {
-  std::vector<bool> seen(gen::kNumGlobals);
-  const uint32_t n = r.count("settings", 8);
-  for (uint32_t k = 0; k < n; ++k) {
-    const std::vector<unsigned char> name = r.get_bytes("setting name");
-    const std::string setting(name.begin(), name.end());
-    int i = 0;
-    while (i < gen::kNumGlobals && setting != gen::kGlobalTable[i].setting) ++i;
-    if (i == gen::kNumGlobals) throw WorldError("snapshot: setting '" + setting + "', which this build lacks");
-    if (seen[i]) throw WorldError("snapshot: setting '" + setting + "' given twice");
-    seen[i] = true;
-    const gen::GlobalInfo& g = gen::kGlobalTable[i];
-    const std::vector<unsigned char> value = r.get_bytes("setting value");
-    if (value.size() != 4 * size_t{g.param.lanes})
-      throw WorldError("snapshot: setting '" + setting + "' has " + std::to_string(value.size()) + " bytes, this build's " +
-                       std::to_string(4 * g.param.lanes));
-    std::memcpy(global_lanes(globals, g), value.data(), value.size());
+void put_settings(Writer& w, const WorldSettings& s) {
+  w.put(static_cast<uint32_t>(settings_table().size()));
+  for (const Setting& row : settings_table()) {
+    w.put_bytes(row.path.data(), row.path.size());
+    const std::vector<unsigned char> value = setting_bytes(s, row);
+    w.put_bytes(value.data(), value.size());
   }
-  for (int i = 0; i < gen::kNumGlobals; ++i)
-    if (!seen[i]) throw WorldError(std::string("snapshot: setting '") + gen::kGlobalTable[i].setting + "' is missing");
 }
 
 WorldSettings get_settings(Reader& r) {
-  const char* what = "settings";
   WorldSettings s;
-  s.dt = r.get<float>(what);
-  const uint32_t integ = r.get<uint32_t>(what);
-  if (integ >= static_cast<uint32_t>(spu::kNumIntegrators)) throw WorldError("snapshot: unknown integrator " + std::to_string(integ));
-  s.integrator = static_cast<spu::Integrator>(integ);
-  const uint32_t solver = r.get<uint32_t>(what);
-  if (solver > 2) throw WorldError("snapshot: unknown solver " + std::to_string(solver));
-  s.solver = static_cast<spu::Solver>(solver);
-  s.tolerance = r.get<float>(what);
-  s.max_halvings = r.get<uint32_t>(what);
-  s.sleeping = r.get<uint32_t>(what) != 0;
-  s.workers = r.get<int32_t>(what);
-  s.contact_margin = r.get<float>(what);
-  s.local_store_bytes = static_cast<size_t>(r.get<uint64_t>(what));
-  s.decouple_sweeps = r.get<uint32_t>(what);
-  s.decouple_tolerance = r.get<float>(what);
-  r.get_floats(s.region_min, 3, what);
-  r.get_floats(s.region_max, 3, what);
-  s.sleep_linear = r.get<float>(what);
-  s.sleep_angular = r.get<float>(what);
-  s.sleep_time = r.get<float>(what);
-  get_globals(r, s.globals);
+  const std::vector<Setting>& table = settings_table();
+  std::vector<bool> seen(table.size());
+  const uint32_t n = r.count("settings", 8);
+  for (uint32_t k = 0; k < n; ++k) {
+    const std::vector<unsigned char> name = r.get_bytes("setting name");
+    const std::string path(name.begin(), name.end());
+    const Setting* row = find_setting(path);
+    if (!row) throw WorldError("snapshot: setting '" + path + "', which this build lacks");
+    const size_t i = static_cast<size_t>(row - table.data());
+    if (seen[i]) throw WorldError("snapshot: setting '" + path + "' given twice");
+    seen[i] = true;
+    const std::vector<unsigned char> value = r.get_bytes("setting value");
+    const size_t want = setting_bytes(s, *row).size();
+    if (value.size() != want)
+      throw WorldError("snapshot: setting '" + path + "' has " + std::to_string(value.size()) + " bytes, this build's " +
+                       std::to_string(want));
+    Reader v(value.data(), value.size());
+    void* f = field_of(s, *row);
+    switch (row->type) {
+      case SettingType::f32: *static_cast<float*>(f) = v.get<float>("setting"); break;
+      case SettingType::vec3: v.get_floats(static_cast<float*>(f), 3, "setting"); break;
+      case SettingType::u32: *static_cast<uint32_t*>(f) = v.get<uint32_t>("setting"); break;
+      case SettingType::i32: *static_cast<int*>(f) = v.get<int32_t>("setting"); break;
+      case SettingType::size: *static_cast<size_t*>(f) = static_cast<size_t>(v.get<uint64_t>("setting")); break;
+      case SettingType::boolean: *static_cast<bool*>(f) = v.get<uint8_t>("setting") != 0; break;
+      case SettingType::integrator:
+      case SettingType::solver: {
+        const uint32_t e = v.get<uint32_t>("setting");
+        const std::string why = value_problem(*row, e);  // before it becomes an enum it does not name
+        if (!why.empty()) throw WorldError("snapshot: setting '" + path + "': " + why);
+        if (row->type == SettingType::integrator)
+          *static_cast<spu::Integrator*>(f) = static_cast<spu::Integrator>(e);
+        else
+          *static_cast<spu::Solver*>(f) = static_cast<spu::Solver>(e);
+        break;
+      }
+    }
+  }
+  for (size_t i = 0; i < table.size(); ++i)
+    if (!seen[i]) throw WorldError("snapshot: setting '" + table[i].path + "' is missing");
+  try {
+    validate_settings(s);
+  } catch (const WorldError& e) {
+    throw WorldError(std::string("snapshot: ") + e.what());
+  }
   return s;
 }
 
@@ -351,7 +351,7 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
 
   Reader r(bytes + kHeaderBytes, payload);
   const WorldSettings settings = get_settings(r);
-  auto world = std::make_unique<World>(settings);  // validates the settings
+  auto world = std::make_unique<World>(settings);
   World& W = *world;
   Impl& w = *W.impl_;
   W.stats_.step = r.get<uint64_t>("step counter");

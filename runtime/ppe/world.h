@@ -15,6 +15,7 @@
 #include "runtime/ppe/step_stats.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/krylov.h"
+#include "runtime/spu/local_store.h"
 
 namespace cellphys::ppe {
 
@@ -29,10 +30,12 @@ using BodyId = uint32_t;
 using ForceId = uint32_t;
 inline constexpr BodyId kWorldBody = 0xFFFFFFFFu;  // the b side of a world-anchored force
 
+/// A world's settings at their defaults. What each means, its bounds (checked by the World)
+/// and its place in a scene file: the table in runtime/ppe/settings.cpp.
 struct WorldSettings {
   float dt = 1.0f / 60.0f;
-  // The forces' globals (gravity, the contact's stiffness, ...): the force descriptors declare
-  // them with their defaults, bounds and places in a scene file (gen::kGlobalTable).
+  /// The forces' globals (gravity, the contact's stiffness, ...), declared by the force
+  /// descriptors with their defaults, bounds and places (gen::kGlobalTable).
   gen::Force_Globals globals;
   spu::Integrator integrator = spu::Integrator::implicit_split;
   spu::Solver solver = spu::Solver::cgs;
@@ -40,21 +43,15 @@ struct WorldSettings {
   uint32_t max_halvings = 8;
   bool sleeping = true;
   int workers = 1;
-  // Contacts are generated for gaps up to contact_slop plus each body's reach in the step
-  // (dt times its speed and the spin of its farthest point) plus this margin (m).
   float contact_margin = 0.001f;
-  size_t local_store_bytes = 256 * 1024;
-  // An island split to fit the local store is swept (its parts integrated in order) until no
-  // velocity changes by more than decouple_tolerance (m/s), at most decouple_sweeps times.
+  size_t local_store_bytes = spu::LocalStore::kDefaultCapacity;
   uint32_t decouple_sweeps = 8;
   float decouple_tolerance = 1e-3f;
-  // Simulated region: bodies whose bounding box leaves it are not collided.
   float region_min[3] = {-1e4f, -1e4f, -1e4f};
   float region_max[3] = {1e4f, 1e4f, 1e4f};
-  // An island sleeps when every body has been slower than these for sleep_time seconds.
-  float sleep_linear = 0.05f;   // m/s
-  float sleep_angular = 0.05f;  // rad/s
-  float sleep_time = 0.5f;      // s
+  float sleep_linear = 0.05f;
+  float sleep_angular = 0.05f;
+  float sleep_time = 0.5f;
 };
 
 struct BodyDesc {

@@ -105,8 +105,4 @@ struct BuiltScene {
 /// SceneError with the path of the offending entry.
 BuiltScene build_world(const SceneDesc& scene);
 
-/// Settings names, for the command line and messages.
-bool parse_solver(const std::string& name, spu::Solver* out);
-const char* solver_name(spu::Solver s);
-
 }  // namespace cellphys::scene

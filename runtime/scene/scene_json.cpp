@@ -176,120 +176,79 @@ class Reader {
   std::string file_;
 };
 
-// The forces' globals sit in settings by their generated places ("gravity", "contact.slop"):
-// the group of a place is the part before its last dot ("" at the top).
-std::string group_of(const std::string& setting) {
-  const size_t dot = setting.rfind('.');
-  return dot == std::string::npos ? "" : setting.substr(0, dot);
-}
-
-// The keys directly under `group` that the forces' globals take, with `hand` (the other
-// settings there) first.
-std::vector<std::string> global_keys(const std::string& group, std::vector<std::string> hand) {
-  for (int i = 0; i < gen::kNumGlobals; ++i) {
-    const std::string setting = gen::kGlobalTable[i].setting;
-    if (!group.empty() && setting.rfind(group + ".", 0) != 0) continue;
-    const std::string rest = group.empty() ? setting : setting.substr(group.size() + 1);
+// Settings come from their table (runtime/ppe/settings.h): a setting's path is its place under
+// "settings", its group the part before the last dot ("" at the top).
+std::vector<std::string> keys_under(const std::string& group) {
+  std::vector<std::string> keys;
+  for (const ppe::Setting& row : ppe::settings_table()) {
+    if (!group.empty() && row.path.rfind(group + ".", 0) != 0) continue;
+    const std::string rest = group.empty() ? row.path : row.path.substr(group.size() + 1);
     const std::string key = rest.substr(0, rest.find('.'));
-    if (std::find(hand.begin(), hand.end(), key) == hand.end()) hand.push_back(key);
+    if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
   }
-  return hand;
+  return keys;
 }
 
-// Reads the globals whose place is directly under `group` from j (the object at `path`).
-void read_globals(const Reader& r, const json& j, const std::string& group, const std::string& path,
+void read_setting(const Reader& r, const json& j, const std::string& path, const ppe::Setting& row,
                   ppe::WorldSettings& s) {
-  for (int i = 0; i < gen::kNumGlobals; ++i) {
-    const gen::GlobalInfo& g = gen::kGlobalTable[i];
-    const std::string setting = g.setting;
-    if (group_of(setting) != group) continue;
-    const std::string key = group.empty() ? setting : setting.substr(group.size() + 1);
-    const json* v = r.find(j, key.c_str());
-    if (!v) continue;
-    const std::string q = key_path(path, key);
-    float* lanes = ppe::global_lanes(s.globals, g);
-    if (g.param.lanes == 1)
-      lanes[0] = r.number(*v, q);
-    else
-      r.vec(*v, q, lanes, g.param.lanes);
-    for (uint32_t l = 0; l < g.param.lanes; ++l) {
-      const std::string why = ppe::global_problem(g, lanes[l]);
-      if (!why.empty()) r.fail(g.param.lanes == 1 ? q : index_path(q, l), why);
+  void* f = ppe::field_of(s, row);
+  auto check = [&](double v, const std::string& where) {
+    const std::string why = ppe::value_problem(row, v);
+    if (!why.empty()) r.fail(where, why);
+  };
+  auto whole = [&](int64_t lo, int64_t hi) {
+    const int64_t v = r.integer(j, path, lo, hi);
+    check(double(v), path);
+    return v;
+  };
+  switch (row.type) {
+    case ppe::SettingType::f32:
+      *static_cast<float*>(f) = r.number(j, path);
+      check(*static_cast<float*>(f), path);
+      break;
+    case ppe::SettingType::vec3:
+      r.vec(j, path, static_cast<float*>(f), 3);
+      for (size_t k = 0; k < 3; ++k) check(static_cast<float*>(f)[k], index_path(path, k));
+      break;
+    case ppe::SettingType::u32:
+      *static_cast<uint32_t*>(f) = static_cast<uint32_t>(whole(0, std::numeric_limits<uint32_t>::max()));
+      break;
+    case ppe::SettingType::i32:
+      *static_cast<int*>(f) = static_cast<int>(whole(std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
+      break;
+    case ppe::SettingType::size:
+      *static_cast<size_t*>(f) = static_cast<size_t>(whole(0, std::numeric_limits<int64_t>::max()));
+      break;
+    case ppe::SettingType::boolean: *static_cast<bool*>(f) = r.boolean(j, path); break;
+    case ppe::SettingType::integrator: {
+      const std::string n = r.string(j, path);
+      if (!spu::parse_integrator(n, static_cast<spu::Integrator*>(f)))
+        r.fail(path, "unknown integrator " + shown(n) + " (known: " + spu::integrator_names() + ")");
+      break;
+    }
+    case ppe::SettingType::solver: {
+      const std::string n = r.string(j, path);
+      if (!spu::parse_solver(n, static_cast<spu::Solver*>(f)))
+        r.fail(path, "unknown solver " + shown(n) + " (known: " + spu::solver_names() + ")");
+      break;
     }
   }
 }
 
-bool is_global(const std::string& setting) {
-  for (int i = 0; i < gen::kNumGlobals; ++i)
-    if (setting == gen::kGlobalTable[i].setting) return true;
-  return false;
-}
-
-// settings.<group>: its globals and the other settings there (`hand`, read by the caller).
-void read_global_group(const Reader& r, const json& j, const std::string& group, std::vector<std::string> hand,
-                       ppe::WorldSettings& s) {
-  const std::string q = "settings." + group;
-  r.object(j, q);
-  r.known_fields(j, q, global_keys(group, std::move(hand)), q);
-  read_globals(r, j, group, q, s);
-}
-
-void read_settings(const Reader& r, const json& j, ppe::WorldSettings& s) {
-  const std::string p = "settings";
+// The object settings.<group> (settings itself for ""): every key a setting or a group of them.
+void read_settings(const Reader& r, const json& j, const std::string& group, ppe::WorldSettings& s) {
+  const std::string p = group.empty() ? "settings" : "settings." + group;
   r.object(j, p);
-  const std::vector<std::string> hand = {"dt", "integrator", "solver", "tolerance", "max_halvings", "sleeping",
-                                         "sleep", "workers", "contact", "local_store_bytes", "decouple", "region"};
-  const std::vector<std::string> top = global_keys("", hand);
-  r.known_fields(j, p, top, "settings");
-  read_globals(r, j, "", p, s);
-  for (const std::string& key : top) {  // a group of globals alone (a force's with no other settings)
+  const std::vector<std::string> keys = keys_under(group);
+  r.known_fields(j, p, keys, p);
+  for (const std::string& key : keys) {
     const json* v = r.find(j, key.c_str());
-    if (v && std::find(hand.begin(), hand.end(), key) == hand.end() && !is_global(key)) read_global_group(r, *v, key, {}, s);
-  }
-  if (const json* v = r.find(j, "dt")) s.dt = r.positive(*v, "settings.dt");
-  if (const json* v = r.find(j, "integrator")) {
-    const std::string n = r.string(*v, "settings.integrator");
-    if (!spu::parse_integrator(n, &s.integrator))
-      r.fail("settings.integrator",
-             "unknown integrator " + shown(n) +
-                 " (known: implicit_split, implicit_euler, rosenbrock, symplectic_euler, explicit_euler, rk4)");
-  }
-  if (const json* v = r.find(j, "solver")) {
-    const std::string n = r.string(*v, "settings.solver");
-    if (!parse_solver(n, &s.solver)) r.fail("settings.solver", "unknown solver " + shown(n) + " (known: cgs, bicgstab, direct)");
-  }
-  if (const json* v = r.find(j, "tolerance")) s.tolerance = r.positive(*v, "settings.tolerance");
-  if (const json* v = r.find(j, "max_halvings"))
-    s.max_halvings = static_cast<uint32_t>(r.integer(*v, "settings.max_halvings", 0, 16));
-  if (const json* v = r.find(j, "sleeping")) s.sleeping = r.boolean(*v, "settings.sleeping");
-  if (const json* v = r.find(j, "sleep")) {
-    const std::string q = "settings.sleep";
-    r.object(*v, q);
-    r.known_fields(*v, q, {"linear", "angular", "time"}, "settings.sleep");
-    if (const json* w = r.find(*v, "linear")) s.sleep_linear = r.non_negative(*w, q + ".linear");
-    if (const json* w = r.find(*v, "angular")) s.sleep_angular = r.non_negative(*w, q + ".angular");
-    if (const json* w = r.find(*v, "time")) s.sleep_time = r.non_negative(*w, q + ".time");
-  }
-  if (const json* v = r.find(j, "workers")) s.workers = static_cast<int>(r.integer(*v, "settings.workers", 1, 256));
-  if (const json* v = r.find(j, "contact")) {
-    read_global_group(r, *v, "contact", {"margin"}, s);
-    if (const json* w = r.find(*v, "margin")) s.contact_margin = r.non_negative(*w, "settings.contact.margin");
-  }
-  if (const json* v = r.find(j, "local_store_bytes"))
-    s.local_store_bytes = static_cast<size_t>(r.integer(*v, "settings.local_store_bytes", 16 * 1024, int64_t(1) << 32));
-  if (const json* v = r.find(j, "decouple")) {
-    const std::string q = "settings.decouple";
-    r.object(*v, q);
-    r.known_fields(*v, q, {"sweeps", "tolerance"}, "settings.decouple");
-    if (const json* w = r.find(*v, "sweeps")) s.decouple_sweeps = static_cast<uint32_t>(r.integer(*w, q + ".sweeps", 1, 64));
-    if (const json* w = r.find(*v, "tolerance")) s.decouple_tolerance = r.non_negative(*w, q + ".tolerance");
-  }
-  if (const json* v = r.find(j, "region")) {
-    const std::string q = "settings.region";
-    r.object(*v, q);
-    r.known_fields(*v, q, {"min", "max"}, "settings.region");
-    if (const json* w = r.find(*v, "min")) r.vec(*w, q + ".min", s.region_min, 3);
-    if (const json* w = r.find(*v, "max")) r.vec(*w, q + ".max", s.region_max, 3);
+    if (!v) continue;
+    const std::string path = key_path(group, key);
+    if (const ppe::Setting* row = ppe::find_setting(path))
+      read_setting(r, *v, "settings." + path, *row, s);
+    else
+      read_settings(r, *v, path, s);
   }
 }
 
@@ -519,6 +478,21 @@ ojson arr(const float* v, size_t n) {
   return a;
 }
 
+ojson setting_json(const ppe::WorldSettings& s, const ppe::Setting& row) {
+  const void* f = ppe::field_of(s, row);
+  switch (row.type) {
+    case ppe::SettingType::f32: return tidy(*static_cast<const float*>(f));
+    case ppe::SettingType::vec3: return arr(static_cast<const float*>(f), 3);
+    case ppe::SettingType::u32: return *static_cast<const uint32_t*>(f);
+    case ppe::SettingType::i32: return *static_cast<const int*>(f);
+    case ppe::SettingType::size: return *static_cast<const size_t*>(f);
+    case ppe::SettingType::boolean: return *static_cast<const bool*>(f);
+    case ppe::SettingType::integrator: return spu::integrator_name(*static_cast<const spu::Integrator*>(f));
+    case ppe::SettingType::solver: return spu::solver_name(*static_cast<const spu::Solver*>(f));
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 SceneError::SceneError(std::string file, std::string path, std::string reason)
@@ -538,23 +512,6 @@ const char* shape_type_name(ShapeType t) {
   return "?";
 }
 
-bool parse_solver(const std::string& name, spu::Solver* out) {
-  if (name == "cgs") *out = spu::Solver::cgs;
-  else if (name == "bicgstab") *out = spu::Solver::bicgstab;
-  else if (name == "direct") *out = spu::Solver::direct;
-  else return false;
-  return true;
-}
-
-const char* solver_name(spu::Solver s) {
-  switch (s) {
-    case spu::Solver::cgs: return "cgs";
-    case spu::Solver::bicgstab: return "bicgstab";
-    case spu::Solver::direct: return "direct";
-  }
-  return "?";
-}
-
 SceneDesc parse_scene(const std::string& text, const std::string& name) {
   const Reader r(name);
   const json root = parse_json(text, name);
@@ -563,7 +520,7 @@ SceneDesc parse_scene(const std::string& text, const std::string& name) {
   SceneDesc scene;
   scene.source = name;
   if (const json* v = r.find(root, "description")) scene.description = r.string(*v, "description");
-  if (const json* v = r.find(root, "settings")) read_settings(r, *v, scene.settings);
+  if (const json* v = r.find(root, "settings")) read_settings(r, *v, "", scene.settings);
 
   std::set<std::string> shape_names;
   if (const json* v = r.find(root, "shapes")) {
@@ -617,24 +574,12 @@ std::string write_scene(const SceneDesc& scene) {
   ojson root = ojson::object();
   root["description"] = scene.description;
   ojson st = ojson::object();
-  st["dt"] = tidy(s.dt);
-  st["integrator"] = spu::integrator_name(s.integrator);
-  st["solver"] = solver_name(s.solver);
-  st["tolerance"] = tidy(s.tolerance);
-  st["max_halvings"] = s.max_halvings;
-  st["sleeping"] = s.sleeping;
-  st["sleep"] = {{"linear", tidy(s.sleep_linear)}, {"angular", tidy(s.sleep_angular)}, {"time", tidy(s.sleep_time)}};
-  st["workers"] = s.workers;
-  st["contact"] = {{"margin", tidy(s.contact_margin)}};
-  st["local_store_bytes"] = s.local_store_bytes;
-  st["decouple"] = {{"sweeps", s.decouple_sweeps}, {"tolerance", tidy(s.decouple_tolerance)}};
-  st["region"] = {{"min", arr(s.region_min, 3)}, {"max", arr(s.region_max, 3)}};
-  for (int i = 0; i < gen::kNumGlobals; ++i) {
-    const gen::GlobalInfo& g = gen::kGlobalTable[i];
-    const std::string setting = g.setting, group = group_of(setting);
-    const float* lanes = ppe::global_lanes(s.globals, g);
-    ojson& at = group.empty() ? st : st[group];
-    at[group.empty() ? setting : setting.substr(group.size() + 1)] = g.param.lanes == 1 ? ojson(tidy(lanes[0])) : arr(lanes, g.param.lanes);
+  for (const ppe::Setting& row : ppe::settings_table()) {
+    ojson* at = &st;
+    std::string rest = row.path;
+    for (size_t dot; (dot = rest.find('.')) != std::string::npos; rest = rest.substr(dot + 1))
+      at = &(*at)[rest.substr(0, dot)];
+    (*at)[rest] = setting_json(s, row);
   }
   root["settings"] = st;
 
@@ -721,6 +666,11 @@ std::string write_scene(const SceneDesc& scene) {
 // ---- equality ----
 
 namespace {
+template <class T>
+const T* as(const void* field) {
+  return static_cast<const T*>(field);
+}
+
 template <size_t N>
 bool same(const float (&a)[N], const float (&b)[N]) {
   for (size_t i = 0; i < N; ++i)
@@ -730,18 +680,25 @@ bool same(const float (&a)[N], const float (&b)[N]) {
 }  // namespace
 
 bool operator==(const ppe::WorldSettings& a, const ppe::WorldSettings& b) {
-  for (int i = 0; i < gen::kNumGlobals; ++i) {
-    const gen::GlobalInfo& g = gen::kGlobalTable[i];
-    const float *x = ppe::global_lanes(a.globals, g), *y = ppe::global_lanes(b.globals, g);
-    for (uint32_t l = 0; l < g.param.lanes; ++l)
-      if (!(x[l] == y[l])) return false;
+  for (const ppe::Setting& row : ppe::settings_table()) {
+    const void *x = ppe::field_of(a, row), *y = ppe::field_of(b, row);
+    const size_t lanes = row.type == ppe::SettingType::vec3 ? 3 : 1;
+    bool same_value = true;
+    switch (row.type) {
+      case ppe::SettingType::f32:
+      case ppe::SettingType::vec3:  // as numbers: 0 equals -0, NaN nothing
+        for (size_t k = 0; k < lanes; ++k) same_value = same_value && as<float>(x)[k] == as<float>(y)[k];
+        break;
+      case ppe::SettingType::u32: same_value = *as<uint32_t>(x) == *as<uint32_t>(y); break;
+      case ppe::SettingType::i32: same_value = *as<int>(x) == *as<int>(y); break;
+      case ppe::SettingType::size: same_value = *as<size_t>(x) == *as<size_t>(y); break;
+      case ppe::SettingType::boolean: same_value = *as<bool>(x) == *as<bool>(y); break;
+      case ppe::SettingType::integrator: same_value = *as<spu::Integrator>(x) == *as<spu::Integrator>(y); break;
+      case ppe::SettingType::solver: same_value = *as<spu::Solver>(x) == *as<spu::Solver>(y); break;
+    }
+    if (!same_value) return false;
   }
-  return a.dt == b.dt && a.integrator == b.integrator && a.solver == b.solver &&
-         a.tolerance == b.tolerance && a.max_halvings == b.max_halvings && a.sleeping == b.sleeping &&
-         a.workers == b.workers && a.contact_margin == b.contact_margin && a.local_store_bytes == b.local_store_bytes &&
-         a.decouple_sweeps == b.decouple_sweeps && a.decouple_tolerance == b.decouple_tolerance &&
-         same(a.region_min, b.region_min) && same(a.region_max, b.region_max) && a.sleep_linear == b.sleep_linear &&
-         a.sleep_angular == b.sleep_angular && a.sleep_time == b.sleep_time;
+  return true;
 }
 
 bool operator==(const ShapeSpec& a, const ShapeSpec& b) {

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "runtime/spu/krylov.h"
+
 namespace cellphys::spu {
 
 using namespace cellphys::gen;
@@ -53,6 +55,12 @@ bool parse_integrator(const std::string& name, Integrator* out) {
       return true;
     }
   return false;
+}
+
+std::string integrator_names() {
+  std::string out;
+  for (const char* n : kIntegratorNames) out += (out.empty() ? "" : ", ") + std::string(n);
+  return out;
 }
 
 const char* status_name(IslandStatus s) {
@@ -120,10 +128,10 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
   if (h.num_bodies == 0 || h.num_bodies > (1u << 20)) return "body count " + std::to_string(h.num_bodies) + " out of range";
   if (h.num_sections > static_cast<uint32_t>(kNumForceTypes)) return "more sections than force types";
   if (h.integrator >= static_cast<uint32_t>(kNumIntegrators)) return "unknown integrator " + std::to_string(h.integrator);
-  if (h.solver > 2) return "unknown solver " + std::to_string(h.solver);
+  if (h.solver >= static_cast<uint32_t>(kNumSolvers)) return "unknown solver " + std::to_string(h.solver);
   if (!(h.step > 0.0f) || !std::isfinite(h.step)) return "step size must be positive and finite";
   if (!(h.tolerance > 0.0f) || !std::isfinite(h.tolerance)) return "tolerance must be positive and finite";
-  if (h.max_halvings > 16) return "max_halvings over 16";
+  if (h.max_halvings > kMaxHalvings) return "max_halvings over " + std::to_string(kMaxHalvings);
   const IslandLayout l = island_layout(h.num_bodies, h.num_sections);
   if (l.instances > bytes) return "too short for its bodies";
   if (checksum(image + sizeof(Island_Header), bytes - sizeof(Island_Header)) != h.checksum) return "checksum mismatch";

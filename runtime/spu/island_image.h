@@ -31,6 +31,11 @@ enum class Integrator : uint32_t {
 inline constexpr int kNumIntegrators = 6;
 const char* integrator_name(Integrator i);
 bool parse_integrator(const std::string& name, Integrator* out);
+/// "implicit_split, implicit_euler, ...": for messages and help text.
+std::string integrator_names();
+
+/// A failed step is retried as two halves, down to 1/2^max_halvings of it; at most this many.
+inline constexpr uint32_t kMaxHalvings = 16;
 
 enum class IslandStatus : uint32_t { ok = 0, failed = 1, does_not_fit = 2, malformed = 3 };
 const char* status_name(IslandStatus s);

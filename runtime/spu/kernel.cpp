@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "runtime/spu/integrators.h"
+#include "runtime/spu/krylov.h"
 
 namespace cellphys::spu {
 
@@ -97,7 +98,7 @@ bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
   const Island_Header& h = p.header;
   if (h.magic != kIslandMagic || h.version != kIslandVersion || h.total_bytes != job.bytes || h.num_bodies == 0 ||
       h.num_sections > static_cast<uint32_t>(kNumForceTypes) || h.integrator >= static_cast<uint32_t>(kNumIntegrators) ||
-      h.solver > 2) {
+      h.solver >= static_cast<uint32_t>(kNumSolvers)) {
     write_refusal(job, r, IslandStatus::malformed, "bad header: " + validate_island(job.image, job.bytes));
     return false;
   }

@@ -226,6 +226,30 @@ SolveResult direct_lu(const BlockRowMatrix& A, const float* b, float* x) {
   return res;
 }
 
+namespace {
+constexpr const char* kSolverNames[kNumSolvers] = {"cgs", "bicgstab", "direct"};
+}  // namespace
+
+const char* solver_name(Solver s) {
+  const auto k = static_cast<uint32_t>(s);
+  return k < kNumSolvers ? kSolverNames[k] : "?";
+}
+
+bool parse_solver(const std::string& name, Solver* out) {
+  for (int k = 0; k < kNumSolvers; ++k)
+    if (name == kSolverNames[k]) {
+      *out = static_cast<Solver>(k);
+      return true;
+    }
+  return false;
+}
+
+std::string solver_names() {
+  std::string out;
+  for (const char* n : kSolverNames) out += (out.empty() ? "" : ", ") + std::string(n);
+  return out;
+}
+
 SolveResult solve(Solver which, const BlockRowMatrix& A, const float* b, float* x, float* work,
                   const SolveSettings& s) {
   switch (which) {

@@ -3,12 +3,18 @@
 // which is the test oracle and a reference point on the charts and uses the heap.
 #pragma once
 #include <cstdint>
+#include <string>
 
 #include "runtime/spu/block_sparse.h"
 
 namespace cellphys::spu {
 
 enum class Solver : uint32_t { cgs = 0, bicgstab = 1, direct = 2 };
+inline constexpr int kNumSolvers = 3;
+const char* solver_name(Solver s);
+bool parse_solver(const std::string& name, Solver* out);
+/// "cgs, bicgstab, direct": for messages and help text.
+std::string solver_names();
 
 /// The seed's failure codes, kept: 0 converged, 1 max iterations, 2 rho = 0, 3 denominator = 0.
 enum SolveCode : int { kConverged = 0, kMaxIterations = 1, kRhoZero = 2, kDenominatorZero = 3, kNotFinite = 4 };

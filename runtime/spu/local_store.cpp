@@ -21,7 +21,7 @@ const char* region_name(Region r) {
 }
 
 LocalStore::LocalStore(size_t capacity) : capacity_(capacity) {
-  if (capacity < 1024 || capacity > (size_t{1} << 30))
+  if (capacity < kMinCapacity || capacity > kMaxCapacity)
     throw std::invalid_argument("LocalStore: capacity must be between 1 KiB and 1 GiB");
   storage_.reset(new unsigned char[capacity + kAlign]);
   const auto addr = reinterpret_cast<uintptr_t>(storage_.get());

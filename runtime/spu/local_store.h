@@ -28,6 +28,7 @@ using RegionBytes = std::array<size_t, kNumRegions>;
 class LocalStore {
  public:
   static constexpr size_t kDefaultCapacity = 256 * 1024;
+  static constexpr size_t kMinCapacity = 1024, kMaxCapacity = size_t{1} << 30;
   static constexpr size_t kAlign = 128;  // a DMA-friendly base alignment
 
   explicit LocalStore(size_t capacity = kDefaultCapacity);

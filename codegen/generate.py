@@ -27,11 +27,10 @@ def main(argv=None):
     mode.add_argument("--check", help="checked-in tree to compare a fresh generation with")
     ap.add_argument("--structs", default=str(ROOT / "codegen/descriptors/structs"))
     ap.add_argument("--forces", action="append",
-                    help="force descriptor directory (repeatable; default: codegen/descriptors/forces "
-                         "and examples/new_force)")
+                    help="force descriptor directory (repeatable; default: codegen/descriptors/forces)")
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args(argv)
-    force_dirs = args.forces or [str(ROOT / "codegen/descriptors/forces"), str(ROOT / "examples/new_force")]
+    force_dirs = args.forces or [str(ROOT / "codegen/descriptors/forces")]
     t0 = time.perf_counter()
     try:
         files = render(args.structs, force_dirs, ROOT)

@@ -527,7 +527,7 @@ bool reference_force(const Case<K>& c, std::vector<double>& F) {
     put(F, 0, Vec3::Zero(), -A.w.cross(A.Iw * A.w));
   } else if (name == "air_drag") {
     const Vec3 vrel = A.v - vec3_at(param(c, "wind"));
-    put(F, 0, -*param(c, "drag") * vrel.norm() * vrel, Vec3::Zero());
+    put(F, 0, -global(c, "air_density") * *param(c, "drag") * vrel.norm() * vrel, Vec3::Zero());
   } else if (name == "applied_wrench") {
     put(F, 0, vec3_at(param(c, "force_world")), vec3_at(param(c, "torque_world")));
   } else if (name == "spring") {

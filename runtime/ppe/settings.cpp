@@ -12,7 +12,9 @@ namespace cellphys::ppe {
 namespace {
 
 static_assert(std::is_standard_layout_v<WorldSettings>, "the table addresses WorldSettings' members by offset");
-static_assert(sizeof(WorldSettings) == 88 + sizeof(gen::Force_Globals),
+// The globals' size depends on the force set, and the size_t after them is 8-aligned: they take
+// their size rounded up to 8 (a set whose globals are 4 mod 8 bytes leaves 4 of padding).
+static_assert(sizeof(WorldSettings) == 88 + (sizeof(gen::Force_Globals) + 7) / 8 * 8,
               "WorldSettings changed: a new member needs a row in the table below");
 
 template <class T>

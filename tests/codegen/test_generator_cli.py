@@ -3,7 +3,8 @@ import re
 import shutil
 import unittest
 
-from codegen_support import (TETHER_FORCE, Sandbox, run_generator, snapshot, temp_dir, write)
+from codegen_support import (EXAMPLE_FORCES, REAL_FORCES, ROOT, TETHER_FORCE, Sandbox, run_generator, snapshot, temp_dir,
+                             write)
 
 ERROR_LINE = re.compile(r"^cellphys codegen: error: (?P<file>[^:\n]+): (?P<field>[^:\n]+): (?P<reason>.+)$", re.M)
 
@@ -220,6 +221,18 @@ class CheckTests(unittest.TestCase):
         write(self.gen / "forces", "stale.h", "")
         r = self.check(1)
         self.assertIn("cellphys/gen/forces/stale.h", r.stdout + r.stderr)
+
+
+class DefaultForceSetTests(unittest.TestCase):
+    """Without --forces the generator reads codegen/descriptors/forces alone: the checked-in generated/ is that
+    default generation (the codegen_drift test), so it holds exactly the production forces and no example's."""
+
+    def test_checked_in_tree_holds_the_production_forces_only(self):
+        generated = sorted(p.stem for p in (ROOT / "generated/cellphys/gen/forces").glob("*.h"))
+        self.assertEqual(generated, sorted(p.stem for p in REAL_FORCES.glob("*.yaml")))
+        table = (ROOT / "generated/cellphys/gen/force_table.h").read_text()
+        for example in EXAMPLE_FORCES.glob("*.yaml"):
+            self.assertNotIn(f'"{example.stem}"', table, f"{example.name} is in the production force table")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,6 @@
 #include "cellphys/gen/forces/gyroscopic.h"
 #include "cellphys/gen/forces/point_to_point.h"
 #include "cellphys/gen/forces/spring.h"
-#include "cellphys/gen/forces/air_drag.h"
 
 namespace cellphys::gen {
 
@@ -97,11 +96,6 @@ inline constexpr ParamInfo kSpringParams[] = {
     {"rest_length", ParamType::f32, 40, 1, true, 0.0f, "m"},
 };
 
-inline constexpr ParamInfo kAir_DragParams[] = {
-    {"drag", ParamType::f32, 16, 1, true, 0.0f, "0.5 rho C_d A (kg/m)"},
-    {"wind", ParamType::vec3, 0, 3, false, 0.0f, "air velocity, world frame (m/s)"},
-};
-
 inline constexpr ForceInfo kForceTable[] = {
     {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
     {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 4, "Penalty contact: a normal spring-damper that only pushes, acting from the start of a step in which the contact closes, plus regularised Coulomb friction linearised as a damper."},
@@ -110,7 +104,6 @@ inline constexpr ForceInfo kForceTable[] = {
     {"gyroscopic", ForceType::gyroscopic, ForceKind::unary, false, false, "Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), offsetof(Gyroscopic_Force, body_a), -1, kGyroscopicParams, 0, "Gyroscopic torque -omega x (I omega) of a body whose inertia is not isotropic."},
     {"point_to_point", ForceType::point_to_point, ForceKind::binary, true, false, "Point_To_Point_Constraint_Force", sizeof(Point_To_Point_Constraint_Force), alignof(Point_To_Point_Constraint_Force), offsetof(Point_To_Point_Constraint_Force, body_a), offsetof(Point_To_Point_Constraint_Force, body_b), kPoint_To_PointParams, 4, "Point-to-point constraint as a stiff zero-length spring-damper between two body points."},
     {"spring", ForceType::spring, ForceKind::binary, true, false, "Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), offsetof(Spring_Force, body_a), offsetof(Spring_Force, body_b), kSpringParams, 5, "A damped spring between two body points (or a body point and a fixed world point)."},
-    {"air_drag", ForceType::air_drag, ForceKind::unary, false, false, "Air_Drag_Force", sizeof(Air_Drag_Force), alignof(Air_Drag_Force), offsetof(Air_Drag_Force, body_a), -1, kAir_DragParams, 2, "Quadratic air drag at the centre of mass: f = -drag |v - wind| (v - wind)."},
 };
 
 /// Every global of the forces, at its descriptor default: what a world's settings hold.
@@ -164,7 +157,6 @@ inline void visit_kernels(Visitor&& v) {
   v(Point_To_Point_World_Kernel{});
   v(Spring_Pair_Kernel{});
   v(Spring_World_Kernel{});
-  v(Air_Drag_Body_Kernel{});
 }
 
 }  // namespace cellphys::gen

@@ -14,9 +14,8 @@ enum class ForceType : uint32_t {
   gyroscopic = 4,
   point_to_point = 5,
   spring = 6,
-  air_drag = 7,
 };
-inline constexpr int kNumForceTypes = 8;
+inline constexpr int kNumForceTypes = 7;
 
 /// global: every body of an island; unary: one body; binary: two bodies or a body and the world.
 enum class ForceKind : uint32_t { global, unary, binary };

@@ -1161,57 +1161,6 @@ inline void unpack(const unsigned char* bytes, Spring_Force_Fields& out) {
   unpack(tmp, out);
 }
 
-// ---- Air_Drag_Force (examples/new_force/air_drag.yaml) ----
-/// Instance of the air_drag force.
-struct alignas(16) Air_Drag_Force {
-  float wind[4];  ///< @0: vec3 (padded). air velocity, world frame (m/s)
-  float drag;  ///< @16: f32. 0.5 rho C_d A (kg/m)
-  int32_t body_a;  ///< @20: i32
-  unsigned char pad_24[8];
-};
-static_assert(sizeof(Air_Drag_Force) == 32, "Air_Drag_Force: size differs from the descriptor");
-static_assert(alignof(Air_Drag_Force) == 16, "Air_Drag_Force: alignment differs from the descriptor");
-static_assert(offsetof(Air_Drag_Force, wind) == 0, "Air_Drag_Force.wind: offset differs");
-static_assert(offsetof(Air_Drag_Force, drag) == 16, "Air_Drag_Force.drag: offset differs");
-static_assert(offsetof(Air_Drag_Force, body_a) == 20, "Air_Drag_Force.body_a: offset differs");
-
-/// The fields of Air_Drag_Force without padding: what pack() takes and unpack() gives.
-struct Air_Drag_Force_Fields {
-  float wind[3]{};
-  float drag = 0;
-  int32_t body_a = 0;
-};
-
-inline void pack(const Air_Drag_Force_Fields& in, Air_Drag_Force& out) {
-  std::memset(static_cast<void*>(&out), 0, sizeof out);
-  out.wind[0] = in.wind[0];
-  out.wind[1] = in.wind[1];
-  out.wind[2] = in.wind[2];
-  out.drag = in.drag;
-  out.body_a = in.body_a;
-}
-
-inline void unpack(const Air_Drag_Force& in, Air_Drag_Force_Fields& out) {
-  out.wind[0] = in.wind[0];
-  out.wind[1] = in.wind[1];
-  out.wind[2] = in.wind[2];
-  out.drag = in.drag;
-  out.body_a = in.body_a;
-}
-
-/// Bytes as they cross a DMA transfer or the wire (32 B).
-inline void pack(const Air_Drag_Force_Fields& in, unsigned char* bytes) {
-  Air_Drag_Force tmp;
-  pack(in, tmp);
-  std::memcpy(bytes, &tmp, sizeof tmp);
-}
-
-inline void unpack(const unsigned char* bytes, Air_Drag_Force_Fields& out) {
-  Air_Drag_Force tmp;
-  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
-  unpack(tmp, out);
-}
-
 // ---- Island_Params (the globals of the force descriptors) ----
 /// Island-wide parameters of the forces (their globals).
 struct alignas(16) Island_Params {
@@ -1303,7 +1252,6 @@ inline constexpr StructInfo kStructTable[] = {
     {"Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), 4},
     {"Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), 4},
     {"Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), 44},
-    {"Air_Drag_Force", sizeof(Air_Drag_Force), alignof(Air_Drag_Force), 20},
     {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 32},
 };
 

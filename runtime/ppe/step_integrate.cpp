@@ -33,7 +33,7 @@ void add_report(const spu::IslandReport& r, StepStats& st) {
 // A failed part of a split island marks the island in part_failed (counted once, after the
 // last sweep); a failed whole island is counted now and keeps its state.
 void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const DecoupledIslands& d, size_t wave,
-              bool split_only, IslandCompute compute, std::vector<WorldBody>& bodies,
+              bool split_only, const IslandCompute& compute, std::vector<WorldBody>& bodies,
               std::vector<uint8_t>& part_failed, StepStats& st) {
   std::vector<PackedIsland> packed;
   std::vector<size_t> island_of_packed;
@@ -60,15 +60,16 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   std::vector<spu::IslandReport> reports;
   {
     StageTimer t(st.times.integrate_ms);
-    compute.runner.set_local_store(pc.settings.local_store_bytes);
-    compute.runner.run(jobs, reports);
-    add_transport(compute.runner.last_transport(), st);
+    IslandRunner& runner = compute.runner();
+    runner.set_local_store(pc.settings.local_store_bytes);
+    runner.run(jobs, reports);
+    add_transport(runner.last_transport(), st);
     // Every result is checked before anything is unpacked; an unsound one (damaged on the
     // way, or refused by a node that was sent a sound image) is computed again here.
     for (size_t j = 0; j < order.size(); ++j) {
       PackedIsland& p = packed[order[j]];
       if (sound_result(p, reports[j])) continue;
-      reports[j] = compute.local.step(p.image.data(), p.image.size(), p.result.data(), p.result.size());
+      reports[j] = compute.local().step(p.image.data(), p.image.size(), p.result.data(), p.result.size());
       ++st.recomputed_islands;
     }
   }
@@ -106,10 +107,14 @@ float largest_change(const std::vector<float>& before, const std::vector<float>&
 
 void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
                        const DecoupledIslands& d, const std::vector<WorldForce>& forces,
-                       const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, IslandCompute compute,
+                       const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, const IslandCompute& compute,
                        StepStats& st) {
   // Every sweep packs from the start state; it is kept apart only when an island is split.
-  const std::vector<WorldBody> start = d.split() ? bodies : std::vector<WorldBody>{};
+  std::vector<WorldBody> start;
+  if (d.split()) {
+    StageTimer t(st.times.pack_ms);
+    start = bodies;
+  }
   const PackContext pc{bodies, forces, contacts, s, d.split() ? start : bodies};
   std::vector<uint8_t> part_failed(islands.size(), 0);  // split islands: a part failed this sweep
   const uint32_t sweeps = d.split() ? std::max(1u, s.decouple_sweeps) : 1;

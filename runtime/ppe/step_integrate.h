@@ -6,6 +6,7 @@
 // velocity changes by more than the decoupling tolerance. Step-size halving happens inside
 // the kernel; an island whose step still fails keeps its start state and is counted.
 #pragma once
+#include <functional>
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
@@ -18,16 +19,17 @@ namespace cellphys::ppe {
 struct WorldSettings;
 
 /// Where islands are computed: the runner, and the worker that recomputes a result that came
-/// back unsound.
+/// back unsound. Each is asked for only when needed (a step with no islands starts no
+/// workers; the local worker's store is allocated only for a result that came back unsound).
 struct IslandCompute {
-  IslandRunner& runner;
-  spu::ComputeWorker& local;
+  std::function<IslandRunner&()> runner;
+  std::function<spu::ComputeWorker&()> local;
 };
 
 /// Advances the bodies of every island by one step of s.dt.
 void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
                        const DecoupledIslands& parts, const std::vector<WorldForce>& forces,
-                       const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, IslandCompute compute,
+                       const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, const IslandCompute& compute,
                        StepStats& st);
 
 }  // namespace cellphys::ppe

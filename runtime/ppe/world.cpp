@@ -1,8 +1,6 @@
 #include "runtime/ppe/world.h"
 
 #include <algorithm>
-#include <cmath>
-#include <cstring>
 
 #include "runtime/ppe/body_maths.h"
 #include "runtime/ppe/settings.h"
@@ -19,12 +17,6 @@ namespace cellphys::ppe {
 using namespace cellphys::gen;
 
 namespace {
-
-bool finite(const float* p, int n) {
-  for (int i = 0; i < n; ++i)
-    if (!std::isfinite(p[i])) return false;
-  return true;
-}
 
 // A checked state into a body: the orientation normalised (with a warning when it was not
 // unit); a static body keeps zero velocities.
@@ -133,8 +125,7 @@ void World::set_state(BodyId id, const BodyState& s) {
 
 void World::apply_impulse(BodyId id, const float impulse[3], const float point[3]) {
   WorldBody& b = impl_->live(id);
-  if (!finite(impulse, 3) || !finite(point, 3))
-    throw WorldError(body_name(id) + ": impulse and point must be finite");
+  check_impulse(impulse, point, body_name(id));
   if (b.is_static) throw WorldError(body_name(id) + " is static");
   impl_->wake(id);
   ppe::apply_impulse(b, impulse, point);
@@ -183,7 +174,7 @@ const StepStats& World::step() {
     const DecoupledIslands parts =                                                      // 4
         decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands, st);
     integrate_islands(settings_, shapes_, islands, parts, w.forces, w.contacts, w.bodies,  // 5
-                      IslandCompute{w.islands_runner(settings_), w.local_worker(settings_)}, st);
+                      w.compute(settings_), st);
     sleep_quiet_islands(settings_, islands, w.contacts, w.bodies, w.sleeping, st);       // 6
   }
   stats_ = st;

@@ -46,6 +46,10 @@ void check_body_state(const BodyState& s, const std::string& who) {
   if (quaternion_norm(s.orientation) < 1e-6) throw WorldError(who + ": orientation is a zero quaternion");
 }
 
+void check_impulse(const float impulse[3], const float point[3], const std::string& who) {
+  if (!finite(impulse, 3) || !finite(point, 3)) throw WorldError(who + ": impulse and point must be finite");
+}
+
 void normalise_orientation(const float q[4], float out[4], const std::string& who, std::vector<std::string>& warnings) {
   const double qn = quaternion_norm(q);
   for (int k = 0; k < 4; ++k) out[k] = static_cast<float>(q[k] / qn);

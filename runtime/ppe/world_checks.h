@@ -16,6 +16,9 @@ void check_body_desc(const ShapeDictionary& shapes, const BodyDesc& d, bool is_s
 /// A body state: finite, with a non-zero quaternion.
 void check_body_state(const BodyState& s, const std::string& who);
 
+/// An impulse and the world point it acts at: finite.
+void check_impulse(const float impulse[3], const float point[3], const std::string& who);
+
 /// q scaled to unit length into `out`; a warning for `who` when it was not unit already. The
 /// caller has checked that q is not zero.
 void normalise_orientation(const float q[4], float out[4], const std::string& who, std::vector<std::string>& warnings);

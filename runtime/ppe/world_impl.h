@@ -8,6 +8,7 @@
 
 #include "runtime/ppe/body_records.h"
 #include "runtime/ppe/step_collide.h"
+#include "runtime/ppe/step_integrate.h"
 #include "runtime/ppe/step_sleep.h"
 #include "runtime/ppe/world.h"
 #include "runtime/ppe/worker_pool.h"
@@ -42,6 +43,11 @@ struct World::Impl {
     if (!local || local->local_store().capacity() != s.local_store_bytes)
       local = std::make_unique<spu::ComputeWorker>(s.local_store_bytes);
     return *local;
+  }
+  // Where the step computes islands; each part is made on first use.
+  IslandCompute compute(const WorldSettings& s) {
+    return {[this, &s]() -> IslandRunner& { return islands_runner(s); },
+            [this, &s]() -> spu::ComputeWorker& { return local_worker(s); }};
   }
   WorldBody& live(BodyId id) {
     if (id >= bodies.size() || !bodies[id].alive) throw WorldError(body_name(id) + " does not exist");

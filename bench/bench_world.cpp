@@ -1,7 +1,7 @@
-// One world step of the reference design's scenes, with the step's work (contacts, islands, active bodies,
-// solver iterations, local store) and its stages (broad, mid, narrow, sleep, islands, pack,
-// integrate, unpack; microseconds per step, averaged over the iterations) as counters, on 1
-// and 2 workers:
+// One world step of the reference design's scenes, with the step's work (contacts, islands, active
+// bodies, solver iterations, local store) and its stages (ppe::kStageTimeFields: broad, mid,
+// narrow, wake, islands, decouple, pack, integrate, unpack, sleep; microseconds per step,
+// averaged over the iterations) as counters, on 1 and 2 workers:
 //  - the 65-box pile after 0.5 s of settling, all awake (the reference scene, 1 kg boxes;
 //    and the same pile of 62.5 kg crates);
 //  - the sparse 1,000-body world at its start (all awake) and after 10 s (most asleep).
@@ -22,7 +22,10 @@ namespace {
 using namespace cellphys;
 using namespace cellphys::testing;
 using ppe::BodyState;
+using ppe::StageTimeField;
+using ppe::StageTimes;
 using ppe::StepStats;
+using ppe::kStageTimeFields;
 using ppe::WorldSettings;
 
 struct Snapshot {
@@ -39,14 +42,11 @@ struct Snapshot {
 };
 
 struct Sums {
-  double broad = 0, mid = 0, narrow = 0, wake = 0, islands_t = 0, decouple = 0, pack = 0, integrate = 0, unpack = 0,
-         sleep = 0, total = 0;
+  StageTimes stages;  // summed over the steps
   double contacts = 0, islands = 0, active = 0, iterations = 0, decoupled = 0, failed = 0;
   size_t store = 0;
   void add(const StepStats& s) {
-    broad += s.times.broad_ms, mid += s.times.mid_ms, narrow += s.times.narrow_ms, wake += s.times.wake_ms;
-    islands_t += s.times.islands_ms, decouple += s.times.decouple_ms, pack += s.times.pack_ms;
-    integrate += s.times.integrate_ms, unpack += s.times.unpack_ms, sleep += s.times.sleep_ms, total += s.times.total_ms;
+    for (const StageTimeField& f : kStageTimeFields) stages.*f.ms += s.times.*f.ms;
     contacts += s.contacts, islands += s.islands, active += s.active_bodies, iterations += s.solver_iterations;
     decoupled += s.decoupled_islands, failed += s.failed_islands;
     store = std::max(store, s.local_store_peak_bytes);
@@ -54,18 +54,11 @@ struct Sums {
   void report(benchmark::State& state) const {
     using benchmark::Counter;
     const auto avg = Counter::kAvgIterations;
-    // stage times in microseconds per step
-    state.counters["broad_us"] = Counter(1e3 * broad, avg);
-    state.counters["mid_us"] = Counter(1e3 * mid, avg);
-    state.counters["narrow_us"] = Counter(1e3 * narrow, avg);
-    state.counters["wake_us"] = Counter(1e3 * wake, avg);
-    state.counters["islands_us"] = Counter(1e3 * islands_t, avg);
-    state.counters["decouple_us"] = Counter(1e3 * decouple, avg);
-    state.counters["pack_us"] = Counter(1e3 * pack, avg);
-    state.counters["integrate_us"] = Counter(1e3 * integrate, avg);
-    state.counters["unpack_us"] = Counter(1e3 * unpack, avg);
-    state.counters["sleep_us"] = Counter(1e3 * sleep, avg);
-    state.counters["step_us"] = Counter(1e3 * total, avg);
+    // stage times in microseconds per step, by the stage's name (the whole step: step_us)
+    for (const StageTimeField& f : kStageTimeFields) {
+      const std::string name = f.ms == &StageTimes::total_ms ? "step" : f.name;
+      state.counters[name + "_us"] = Counter(1e3 * (stages.*f.ms), avg);
+    }
     state.counters["contacts"] = Counter(contacts, avg);
     state.counters["islands"] = Counter(islands, avg);
     state.counters["active"] = Counter(active, avg);
@@ -100,7 +93,7 @@ void BM_Pile65Step(benchmark::State& state) {
   Snapshot snap;
   snap.take(w, boxes);
   time_restored_steps(state, w, snap);
-  state.SetLabel(std::string(mass == 1.0f ? "seed 1 kg boxes" : "crates") + ", after 0.5 s");
+  state.SetLabel(std::string(mass == 1.0f ? "reference 1 kg boxes" : "crates") + ", after 0.5 s");
 }
 BENCHMARK(BM_Pile65Step)
     ->ArgNames({"mass_dg", "workers"})

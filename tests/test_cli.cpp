@@ -132,6 +132,27 @@ TEST_F(Cli, EveryBuiltinSceneRunsWithSaneStatistics) {
   }
 }
 
+// Each stage of the step is timed under its name (docs/scene-format.md), and the stages are
+// disjoint parts of the step, so their times add up to at most the step's.
+TEST_F(Cli, StatsGiveEachStageOfTheStepItsTimeUnderItsName) {
+  const std::string stats = path("stages.json");
+  const Result r = run({"run", "pile65", "--steps", "20", "--stats", stats});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const json stages = json::parse(slurp(stats))["stage_ms_mean"];
+  const std::vector<std::string> names = {"broad", "mid",       "narrow", "wake",  "islands", "decouple",
+                                          "pack",  "integrate", "unpack", "sleep", "total"};
+  ASSERT_EQ(stages.size(), names.size()) << stages.dump();
+  double parts = 0;
+  for (const std::string& n : names) {
+    ASSERT_TRUE(stages.contains(n) && stages[n].is_number()) << n << " in " << stages.dump();
+    const double ms = stages[n].get<double>();
+    EXPECT_TRUE(std::isfinite(ms) && ms >= 0.0) << n << " = " << ms;
+    if (n != "total") parts += ms;
+  }
+  EXPECT_GT(stages["integrate"].get<double>(), 0.0);  // pile65 is awake and integrated every step
+  EXPECT_LE(parts, stages["total"].get<double>() * (1 + 1e-9)) << stages.dump();
+}
+
 TEST_F(Cli, DurationEveryAndTheTrajectoryCsv) {
   const std::string csv = path("traj.csv"), stats = path("stats.json");
   // pendulum: dt 1/120; 0.1 s is 12 steps; every 5th step plus step 0: steps 0, 5, 10

@@ -62,6 +62,10 @@ std::string stats_json(const RunOptions& o, const RunWorld& w, const RunOutcome&
   j["ms_per_step_median"] = d.median_ms;
   j["ms_per_step_mean"] = r.steps ? r.wall_s * 1000.0 / double(r.steps) : 0.0;
   j["ms_per_step_max"] = t.max_step_ms();
+  nlohmann::ordered_json stages;  // mean ms per step of each stage, in step order
+  for (const ppe::StageTimeField& f : ppe::kStageTimeFields)
+    stages[f.name] = r.steps ? t.stage_ms.*f.ms / double(r.steps) : 0.0;
+  j["stage_ms_mean"] = stages;
   j["bodies"] = w.bodies.size();
   j["static_bodies"] = d.static_bodies;
   if (w.forces >= 0) j["forces"] = w.forces;

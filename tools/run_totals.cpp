@@ -66,6 +66,7 @@ void RunTotals::add(const StepStats& s, double ms) {
       case Over::last: t = v; break;
     }
   }
+  for (const ppe::StageTimeField& f : ppe::kStageTimeFields) stage_ms.*f.ms += s.times.*f.ms;
   step_ms.push_back(ms);
 }
 

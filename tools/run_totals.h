@@ -21,6 +21,7 @@ struct RunTotals {
   uint64_t contacts_max = 0, local_store_peak_bytes = 0;
   // after the last step (0 before any)
   uint64_t active_bodies = 0, sleeping_bodies = 0, islands = 0, contacts = 0;
+  ppe::StageTimes stage_ms;     // each stage's time, summed over the steps
   std::vector<double> step_ms;  // wall time of each step
 
   explicit RunTotals(long long steps);  // reserves for that many steps

@@ -17,6 +17,20 @@ struct StageTimes {
   double total_ms = 0;
 };
 
+/// Every entry of StageTimes with its name, in step order: reports list the stages from it.
+struct StageTimeField {
+  const char* name;
+  double StageTimes::*ms;
+};
+inline constexpr StageTimeField kStageTimeFields[] = {
+    {"broad", &StageTimes::broad_ms},       {"mid", &StageTimes::mid_ms},
+    {"narrow", &StageTimes::narrow_ms},     {"wake", &StageTimes::wake_ms},
+    {"islands", &StageTimes::islands_ms},   {"decouple", &StageTimes::decouple_ms},
+    {"pack", &StageTimes::pack_ms},         {"integrate", &StageTimes::integrate_ms},
+    {"unpack", &StageTimes::unpack_ms},     {"sleep", &StageTimes::sleep_ms},
+    {"total", &StageTimes::total_ms},
+};
+
 /// Adds the time from construction to destruction to one StageTimes entry.
 class StageTimer {
  public:

@@ -196,9 +196,11 @@ void read_setting(const Reader& r, const json& j, const std::string& path, const
     const std::string why = ppe::value_problem(row, v);
     if (!why.empty()) r.fail(where, why);
   };
+  // The setting's own bounds first, so a bad value hears them rather than its C++ type's range.
   auto whole = [&](int64_t lo, int64_t hi) {
-    const int64_t v = r.integer(j, path, lo, hi);
+    const int64_t v = r.integer(j, path, std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::max());
     check(double(v), path);
+    if (v < lo || v > hi) r.fail(path, "must be between " + std::to_string(lo) + " and " + std::to_string(hi));
     return v;
   };
   switch (row.type) {

@@ -9,7 +9,7 @@ namespace cellphys::bench {
 /// Throws Unsupported for a force type the peers cannot map (e.g. a hand-placed contact).
 inline void check_forces(const scene::SceneDesc& scene, const char* engine) {
   for (const scene::ForceSpec& f : scene.forces) {
-    if (f.type == "spring" || f.type == "point_to_point" || f.type == "applied_wrench" || f.type == "air_drag" ||
+    if (f.type == "spring" || f.type == "point_to_point" || f.type == "applied_wrench" ||
         f.type == "damping" || f.type == "gyroscopic")
       continue;
     throw Unsupported(std::string(engine) + " has no equivalent of force '" + f.type + "'");

@@ -8,7 +8,7 @@
 //  - masses and inertia tensors: taken from the cellphys world built from the same scene, so
 //    density-given bodies and hulls weigh the same in every engine;
 //  - friction: the geometric mean of the two bodies' coefficients, per contact;
-//  - `applied_wrench`, `air_drag`, `damping` forces, and `spring` in Bullet and ODE: applied by
+//  - `applied_wrench`, `damping` forces, and `spring` in Bullet and ODE: applied by
 //    the bench as external forces evaluated from the state at the start of each step (those
 //    engines have no spring element); in MuJoCo a `spring` is a spatial tendon with the same
 //    stiffness, damping and rest length (MuJoCo's own passive force); `point_to_point`: the engine's own ball joint, rigid, with its
@@ -74,7 +74,7 @@ struct BodyInfo {
 };
 std::vector<BodyInfo> body_info(const scene::SceneDesc& scene);
 
-/// Forces the bench applies itself (spring, applied_wrench, air_drag, damping, body damping):
+/// Forces the bench applies itself (spring, applied_wrench, damping, body damping):
 /// per scene body, force and torque about the centre of mass, world frame.
 class ExternalForces {
  public:
@@ -86,7 +86,7 @@ class ExternalForces {
 
  private:
   struct Term {
-    int kind;  // 0 spring, 1 wrench, 2 drag, 3 damping
+    int kind;  // 0 spring, 1 wrench, 2 damping
     int a = -1, b = -1;  // body indices; b = -1: world
     double pa[3] = {}, pb[3] = {}, k = 0, c = 0, rest = 0, f[3] = {}, t[3] = {};
   };

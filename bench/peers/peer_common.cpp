@@ -110,12 +110,8 @@ ExternalForces::ExternalForces(const scene::SceneDesc& scene, const std::vector<
     } else if (f.type == "applied_wrench") {
       t.kind = 1;
       for (int k = 0; k < 3; ++k) t.f[k] = param(f.params, "force_world", k), t.t[k] = param(f.params, "torque_world", k);
-    } else if (f.type == "air_drag") {
-      t.kind = 2;
-      t.c = param(f.params, "drag");
-      for (int k = 0; k < 3; ++k) t.f[k] = param(f.params, "wind", k);
     } else if (f.type == "damping") {
-      t.kind = 3;
+      t.kind = 2;
       t.k = param(f.params, "linear");
       t.c = param(f.params, "angular");
     } else {
@@ -127,7 +123,7 @@ ExternalForces::ExternalForces(const scene::SceneDesc& scene, const std::vector<
     const scene::BodySpec& b = scene.bodies[i];
     if (b.is_static || (b.linear_damping == 0 && b.angular_damping == 0)) continue;
     Term t;
-    t.kind = 3;
+    t.kind = 2;
     t.a = static_cast<int>(i);
     t.k = b.linear_damping;
     t.c = b.angular_damping;
@@ -176,11 +172,6 @@ void ExternalForces::evaluate(const std::vector<State>& s, std::vector<double>& 
       if (t.b >= 0) add(&out[6 * t.b], rb, -1.0);
     } else if (t.kind == 1) {
       for (int k = 0; k < 3; ++k) fa[k] += t.f[k], fa[3 + k] += t.t[k];
-    } else if (t.kind == 2) {
-      double rel[3], sp = 0;
-      for (int k = 0; k < 3; ++k) rel[k] = A.v[k] - t.f[k], sp += rel[k] * rel[k];
-      sp = std::sqrt(sp);
-      for (int k = 0; k < 3; ++k) fa[k] -= t.c * sp * rel[k];
     } else {
       const BodyInfo& bi = info_[t.a];
       double Iw[3];

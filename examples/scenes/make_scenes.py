@@ -107,7 +107,7 @@ def ground_body(friction=0.5):
     return {"id": "ground", "shape": "ground", "static": True, "friction": friction}
 
 
-# ---- pile65: the seed's reference group ----
+# ---- pile65: the reference design's 65-box group ----
 
 
 def pile(n=65, h=0.25, seed=1, mass=1.0):
@@ -138,7 +138,7 @@ def pile(n=65, h=0.25, seed=1, mass=1.0):
         bodies.append({"id": "wall_" + side, "shape": "wall_y", "static": True,
                        "position": vec([s * (hb + wall_t), 0, wall_h]), "friction": 0.5})
     return {
-        "description": "The seed's reference group: 65 boxes (0.25 m half-extent, 1 kg) dropped into a bin "
+        "description": "The reference design's 65-box group: 65 boxes (0.25 m half-extent, 1 kg) dropped into a bin "
                        "(ground plane and 4 static walls); about 400 contacts once settled.",
         "settings": {"dt": num(1 / 60), "integrator": "implicit_split", "solver": "cgs"},
         "shapes": [GROUND, {"name": "box", "type": "box", "half_extents": [h, h, h]},

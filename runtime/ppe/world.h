@@ -3,7 +3,7 @@
 //
 // One step, stage by stage (World::step in runtime/ppe/world.cpp; each stage is a function in
 // a file of its own and is timed under its name in StepStats::times):
-//   1. collide          runtime/ppe/step_collide.h    broad, plane, mid and narrow phase
+//   1. collide          runtime/ppe/step_collide.h    broad, mid (with planes) and narrow phase
 //   2. wake             runtime/ppe/step_sleep.h      sleeping groups touched by awake bodies
 //   3. build islands    runtime/ppe/step_islands.h    awake bodies joined by contacts and forces
 //   4. decouple         runtime/ppe/step_decouple.h   islands too big for a local store cut in parts

@@ -22,7 +22,7 @@ inline constexpr uint32_t kIslandVersion = 1;
 /// Integration methods (docs/integrators.md). implicit_split is the default.
 enum class Integrator : uint32_t {
   implicit_split = 0,    // linearly implicit Euler for forces + conserving midpoint rotation
-  implicit_euler = 1,    // the seed's: linearly implicit Euler, gyroscopic torque in the solve
+  implicit_euler = 1,    // the reference design's: linearly implicit Euler, gyroscopic torque in the solve
   rosenbrock = 2,        // ROS2, second order, L-stable, embedded error estimate, adaptive substeps
   symplectic_euler = 3,  // explicit, what most game engines use
   explicit_euler = 4,

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cellphys/gen/force_table.h"
+#include "runtime/base/enum_names.h"
 #include "runtime/ppe/settings.h"
 #include "runtime/scene/scene.h"
 
@@ -254,26 +255,15 @@ void read_settings(const Reader& r, const json& j, const std::string& group, ppe
   }
 }
 
-// Shape types by their names in spu::shape_type_name, the one name table.
-bool shape_type_named(const std::string& name, spu::ShapeType* out) {
-  for (uint32_t k = 0; k < spu::kNumShapeTypes; ++k)
-    if (name == spu::shape_type_name(spu::ShapeType(k))) return *out = spu::ShapeType(k), true;
-  return false;
-}
-std::string shape_type_names() {
-  std::string all;
-  for (uint32_t k = 0; k < spu::kNumShapeTypes; ++k)
-    all += (k ? ", " : "") + std::string(spu::shape_type_name(spu::ShapeType(k)));
-  return all;
-}
+
 
 ShapeSpec read_shape(const Reader& r, const json& j, const std::string& p) {
   r.object(j, p);
   ShapeSpec s;
   s.name = r.name(r.need(j, p, "name", "a shape"), p + ".name");
   const std::string t = r.string(r.need(j, p, "type", "a shape"), p + ".type");
-  if (!shape_type_named(t, &s.type))
-    r.fail(p + ".type", "unknown shape type " + shown(t) + " (known: " + shape_type_names() + ")");
+  if (!base::value_named(spu::kShapeTypeNames, t, &s.type))
+    r.fail(p + ".type", "unknown shape type " + shown(t) + " (known: " + base::all_names(spu::kShapeTypeNames) + ")");
   switch (s.type) {
     case spu::ShapeType::sphere:
       r.known_fields(j, p, {"name", "type", "radius"}, "a sphere");

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "runtime/base/enum_names.h"
 #include "runtime/spu/krylov.h"
 
 namespace cellphys::spu {
@@ -43,25 +44,9 @@ void for_each_pair_instance(const IslandView& v, F&& f) {
 }
 }  // namespace
 
-const char* integrator_name(Integrator i) {
-  const auto k = static_cast<uint32_t>(i);
-  return k < kNumIntegrators ? kIntegratorNames[k] : "?";
-}
-
-bool parse_integrator(const std::string& name, Integrator* out) {
-  for (int k = 0; k < kNumIntegrators; ++k)
-    if (name == kIntegratorNames[k]) {
-      *out = static_cast<Integrator>(k);
-      return true;
-    }
-  return false;
-}
-
-std::string integrator_names() {
-  std::string out;
-  for (const char* n : kIntegratorNames) out += (out.empty() ? "" : ", ") + std::string(n);
-  return out;
-}
+const char* integrator_name(Integrator i) { return base::name_of(kIntegratorNames, i); }
+bool parse_integrator(const std::string& name, Integrator* out) { return base::value_named(kIntegratorNames, name, out); }
+std::string integrator_names() { return base::all_names(kIntegratorNames); }
 
 const char* status_name(IslandStatus s) {
   switch (s) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cellphys/gen/block_ops.h"
+#include "runtime/base/enum_names.h"
 #include "runtime/base/simd.h"
 
 namespace cellphys::spu {
@@ -230,25 +231,9 @@ namespace {
 constexpr const char* kSolverNames[kNumSolvers] = {"cgs", "bicgstab", "direct"};
 }  // namespace
 
-const char* solver_name(Solver s) {
-  const auto k = static_cast<uint32_t>(s);
-  return k < kNumSolvers ? kSolverNames[k] : "?";
-}
-
-bool parse_solver(const std::string& name, Solver* out) {
-  for (int k = 0; k < kNumSolvers; ++k)
-    if (name == kSolverNames[k]) {
-      *out = static_cast<Solver>(k);
-      return true;
-    }
-  return false;
-}
-
-std::string solver_names() {
-  std::string out;
-  for (const char* n : kSolverNames) out += (out.empty() ? "" : ", ") + std::string(n);
-  return out;
-}
+const char* solver_name(Solver s) { return base::name_of(kSolverNames, s); }
+bool parse_solver(const std::string& name, Solver* out) { return base::value_named(kSolverNames, name, out); }
+std::string solver_names() { return base::all_names(kSolverNames); }
 
 SolveResult solve(Solver which, const BlockRowMatrix& A, const float* b, float* x, float* work,
                   const SolveSettings& s) {

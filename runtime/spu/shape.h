@@ -3,23 +3,18 @@
 #pragma once
 #include <cstdint>
 
+#include "runtime/base/enum_names.h"
+
 namespace cellphys::spu {
 
 // The values are stored in world snapshots (runtime/ppe/snapshot.cpp): new types go at the end.
 enum class ShapeType : uint32_t { sphere = 0, capsule = 1, box = 2, hull = 3, plane = 4 };
 inline constexpr uint32_t kNumShapeTypes = 5;
 
-/// The type's name, as scene files and messages spell it ("shape" for a value out of range).
-constexpr const char* shape_type_name(ShapeType t) {
-  switch (t) {
-    case ShapeType::sphere: return "sphere";
-    case ShapeType::capsule: return "capsule";
-    case ShapeType::box: return "box";
-    case ShapeType::hull: return "hull";
-    case ShapeType::plane: return "plane";
-  }
-  return "shape";
-}
+/// The names as scene files and messages spell them, in value order.
+inline constexpr const char* kShapeTypeNames[kNumShapeTypes] = {"sphere", "capsule", "box", "hull", "plane"};
+/// The type's name ("shape" for a value out of range).
+constexpr const char* shape_type_name(ShapeType t) { return base::name_of(kShapeTypeNames, t, "shape"); }
 
 /// A convex polyhedron. Faces are outward planes n.x = d (|n| = 1) with their vertex loops,
 /// counter-clockwise seen from outside; every undirected edge is listed once.

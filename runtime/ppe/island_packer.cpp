@@ -39,8 +39,11 @@ Contact_Force contact_instance(const WorldContact& c, int32_t a, int32_t b) {
   Contact_Force_Fields f;
   std::copy(c.point.point, c.point.point + 3, f.point);
   std::copy(c.point.normal, c.point.normal + 3, f.normal);
+  std::copy(c.anchor, c.anchor + 3, f.anchor);
   f.penetration = c.point.penetration;
   f.friction = c.friction;
+  f.mass = c.mass;
+  f.sticking = c.sticking;
   f.body_a = a;
   f.body_b = b;
   Contact_Force packed;

@@ -12,9 +12,23 @@ namespace cellphys::ppe {
 namespace {
 
 static_assert(std::is_standard_layout_v<WorldSettings>, "the table addresses WorldSettings' members by offset");
-// The globals' size depends on the force set, and the size_t after them is 8-aligned: they take
-// their size rounded up to 8 (a set whose globals are 4 mod 8 bytes leaves 4 of padding).
-static_assert(sizeof(WorldSettings) == 88 + (sizeof(gen::Force_Globals) + 7) / 8 * 8,
+// WorldSettings' members by type, in order: a member added there and not here (nor to the
+// table below) fails this, for any force set's globals.
+struct SettingsShape {
+  float dt;
+  gen::Force_Globals globals;
+  spu::Integrator integrator;
+  spu::Solver solver;
+  float tolerance;
+  uint32_t max_halvings;
+  bool sleeping;
+  int workers;
+  float contact_margin, contact_load_depth;
+  size_t local_store_bytes;
+  uint32_t decouple_sweeps;
+  float decouple_tolerance, region_min[3], region_max[3], sleep_linear, sleep_angular, sleep_time;
+};
+static_assert(sizeof(WorldSettings) == sizeof(SettingsShape),
               "WorldSettings changed: a new member needs a row in the table below");
 
 template <class T>
@@ -54,6 +68,9 @@ std::vector<Setting> world_settings() {
       CELLPHYS_SETTING(contact_margin, "contact.margin", at_least(0),
                        "contacts are generated for gaps up to the contact slop plus each body's reach in the step (dt "
                        "times its speed and the spin of its farthest point) plus this margin (m)"),
+      CELLPHYS_SETTING(contact_load_depth, "contact.load_depth", above(0),
+                       "a contact pair sinking deeper than this under what it carries is stiffened until it does not: "
+                       "a heavy body resting on a light one (m)"),
       CELLPHYS_SETTING(local_store_bytes, "local_store_bytes",
                        between(double(kMinLocalStoreBytes), double(spu::LocalStore::kMaxCapacity)),
                        "a compute worker's local store; an island too big for it is split (bytes)"),

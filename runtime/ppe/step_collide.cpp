@@ -79,14 +79,14 @@ void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& s
                                pose_of(bodies[b]), margin, cp);
     if (k > 0) ++st.narrow_phase_pairs;
     const float mu = std::sqrt(bodies[a].friction * bodies[b].friction);
-    for (int p = 0; p < k; ++p) contacts.push_back({a, bodies[b].is_static ? kWorldBody : b, cp[p], mu});
+    for (int p = 0; p < k; ++p) contacts.push_back({a, bodies[b].is_static ? kWorldBody : b, cp[p], mu, 0.0f, {}, 1.0f});
   }
 }
 
 }  // namespace
 
 void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& settings,
-             CollideScratch& scratch, std::vector<WorldContact>& contacts, StepStats& st) {
+             CollideScratch& scratch, ContactMemory& memory, std::vector<WorldContact>& contacts, StepStats& st) {
   {
     StageTimer t(st.times.broad_ms);
     broad_phase(bodies, shapes, settings, scratch, st);
@@ -100,6 +100,7 @@ void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes
   }
   StageTimer t(st.times.narrow_ms);
   narrow_phase(bodies, shapes, settings, scratch, contacts, st);
+  recall_contacts(bodies, settings, memory, contacts);
 }
 
 }  // namespace cellphys::ppe

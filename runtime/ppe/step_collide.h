@@ -8,6 +8,7 @@
 
 #include "runtime/ppe/body_records.h"
 #include "runtime/ppe/broad_phase.h"
+#include "runtime/ppe/contact_memory.h"
 #include "runtime/ppe/step_stats.h"
 
 namespace cellphys::ppe {
@@ -25,8 +26,9 @@ struct CollideScratch {
 };
 
 /// The step's contact points in `contacts` (replaced): the dynamic body first, normals from a
-/// to b, b = kWorldBody for static geometry. Times broad, mid and narrow phase.
+/// to b, b = kWorldBody for static geometry, each with its mass and friction strain from the
+/// pair's memory (then updated). Times broad, mid and narrow phase (with the recall).
 void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& settings,
-             CollideScratch& scratch, std::vector<WorldContact>& contacts, StepStats& st);
+             CollideScratch& scratch, ContactMemory& memory, std::vector<WorldContact>& contacts, StepStats& st);
 
 }  // namespace cellphys::ppe

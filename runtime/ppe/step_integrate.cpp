@@ -31,10 +31,10 @@ void add_report(const spu::IslandReport& r, StepStats& st) {
 
 // One wave: part `wave` of every island (of the split ones only, after the first sweep).
 // A failed part of a split island marks the island in part_failed (counted once, after the
-// last sweep); a failed whole island is counted now and keeps its state.
+// last sweep); a failed whole island is counted and marked in failed now and keeps its state.
 void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const DecoupledIslands& d, size_t wave,
               bool split_only, const IslandCompute& compute, std::vector<WorldBody>& bodies,
-              std::vector<uint8_t>& part_failed, StepStats& st) {
+              std::vector<uint8_t>& part_failed, std::vector<uint8_t>& failed, StepStats& st) {
   std::vector<PackedIsland> packed;
   std::vector<size_t> island_of_packed;
   std::vector<size_t> order;  // largest first: the long islands start early on the workers
@@ -80,7 +80,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
     if (r.status != spu::IslandStatus::ok) {
       const size_t k = island_of_packed[order[j]];
       if (d.parts[k].size() > 1) part_failed[k] = 1;
-      else ++st.failed_islands;
+      else ++st.failed_islands, failed[k] = 1;
       continue;
     }
     unpack_island(packed[order[j]], bodies);
@@ -105,7 +105,7 @@ float largest_change(const std::vector<float>& before, const std::vector<float>&
 
 }  // namespace
 
-void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
+std::vector<uint8_t> integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
                        const DecoupledIslands& d, const std::vector<WorldForce>& forces,
                        const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, const IslandCompute& compute,
                        StepStats& st) {
@@ -117,12 +117,13 @@ void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, co
   }
   const PackContext pc{bodies, forces, contacts, s, d.split() ? start : bodies};
   std::vector<uint8_t> part_failed(islands.size(), 0);  // split islands: a part failed this sweep
+  std::vector<uint8_t> failed(islands.size(), 0);
   const uint32_t sweeps = d.split() ? std::max(1u, s.decouple_sweeps) : 1;
   for (uint32_t sweep = 0; sweep < sweeps; ++sweep) {
     std::fill(part_failed.begin(), part_failed.end(), uint8_t{0});
     const std::vector<float> before = split_velocities(islands, d, bodies);
     for (size_t wave = 0; wave < d.waves; ++wave)
-      run_wave(pc, shapes, d, wave, sweep > 0, compute, bodies, part_failed, st);
+      run_wave(pc, shapes, d, wave, sweep > 0, compute, bodies, part_failed, failed, st);
     if (!d.split()) break;
     st.decouple_sweeps = sweep + 1;
     st.decouple_change = largest_change(before, split_velocities(islands, d, bodies));
@@ -134,8 +135,10 @@ void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, co
   for (size_t k = 0; k < islands.size(); ++k)
     if (part_failed[k]) {
       ++st.failed_islands;
+      failed[k] = 1;
       for (uint32_t i : islands[k].bodies) bodies[i] = start[i];
     }
+  return failed;
 }
 
 }  // namespace cellphys::ppe

@@ -26,8 +26,9 @@ struct IslandCompute {
   std::function<spu::ComputeWorker&()> local;
 };
 
-/// Advances the bodies of every island by one step of s.dt.
-void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
+/// Advances the bodies of every island by one step of s.dt. Returns, per island, whether its
+/// step failed (its bodies kept their start state).
+std::vector<uint8_t> integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
                        const DecoupledIslands& parts, const std::vector<WorldForce>& forces,
                        const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, const IslandCompute& compute,
                        StepStats& st);

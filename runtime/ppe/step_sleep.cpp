@@ -51,17 +51,20 @@ void wake_touched_groups(std::vector<WorldBody>& bodies, const std::vector<World
 }
 
 void sleep_quiet_islands(const WorldSettings& s, const std::vector<IslandContent>& islands,
+                         const std::vector<uint8_t>& failed,
                          const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies,
                          SleepingGroups& sleeping, StepStats& st) {
   StageTimer t(st.times.sleep_ms);
   if (!s.sleeping) return;
   const float lin2 = s.sleep_linear * s.sleep_linear, ang2 = s.sleep_angular * s.sleep_angular;
-  for (const IslandContent& isl : islands) {
+  for (size_t k = 0; k < islands.size(); ++k) {
+    const IslandContent& isl = islands[k];
     bool all = true;
     for (uint32_t i : isl.bodies) {
       WorldBody& b = bodies[i];
       const float v2 = squared_norm(Vec3f::load(b.state.velocity)), a2 = squared_norm(Vec3f::load(b.state.angular_velocity));
-      b.sleep_timer = (v2 < lin2 && a2 < ang2) ? b.sleep_timer + s.dt : 0.0f;
+      // an island whose step failed is not at rest, however still it was kept
+      b.sleep_timer = (v2 < lin2 && a2 < ang2 && !failed[k]) ? b.sleep_timer + s.dt : 0.0f;
       all = all && b.sleep_timer >= s.sleep_time;
     }
     if (!all || isl.bodies.empty()) continue;

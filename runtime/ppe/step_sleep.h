@@ -31,9 +31,10 @@ void wake_touched_groups(std::vector<WorldBody>& bodies, const std::vector<World
 
 /// Stage 6: advances every island body's sleep timer; an island whose bodies have all been
 /// slower than the sleep thresholds for the sleep time goes to sleep as one group, with its
-/// contacts and its velocities zeroed.
+/// contacts and its velocities zeroed. An island whose step failed (`failed`, per island)
+/// restarts its timers: it is never left to sleep in the state that failed.
 void sleep_quiet_islands(const WorldSettings& s, const std::vector<IslandContent>& islands,
-                         const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies,
+                         const std::vector<uint8_t>& failed, const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies,
                          SleepingGroups& sleeping, StepStats& st);
 
 }  // namespace cellphys::ppe

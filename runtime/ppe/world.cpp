@@ -71,6 +71,7 @@ void World::remove_body(BodyId id) {
       if (f.b != id && f.b != kWorldBody) impl_->wake(f.b);
       f.alive = false;
     }
+  forget_body(impl_->contact_memory, id);
   b.alive = false;
 }
 
@@ -168,14 +169,14 @@ const StepStats& World::step() {
   st.step = stats_.step + 1;
   {
     StageTimer total(st.times.total_ms);
-    collide(w.bodies, shapes_, settings_, w.collide, w.contacts, st);                    // 1
+    collide(w.bodies, shapes_, settings_, w.collide, w.contact_memory, w.contacts, st);   // 1
     wake_touched_groups(w.bodies, w.forces, w.contacts, w.sleeping, st);                 // 2
     const std::vector<IslandContent> islands = build_islands(w.bodies, w.forces, w.contacts, st);  // 3
     const DecoupledIslands parts =                                                      // 4
         decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands, st);
-    integrate_islands(settings_, shapes_, islands, parts, w.forces, w.contacts, w.bodies,  // 5
-                      w.compute(settings_), st);
-    sleep_quiet_islands(settings_, islands, w.contacts, w.bodies, w.sleeping, st);       // 6
+    const std::vector<uint8_t> failed = integrate_islands(settings_, shapes_, islands, parts, w.forces,  // 5
+                                                          w.contacts, w.bodies, w.compute(settings_), st);
+    sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 6
   }
   stats_ = st;
   return stats_;

@@ -53,6 +53,7 @@ struct WorldSettings {
   bool sleeping = true;
   int workers = 1;
   float contact_margin = 0.001f;
+  float contact_load_depth = 1e-4f;
   size_t local_store_bytes = spu::LocalStore::kDefaultCapacity;
   uint32_t decouple_sweeps = 8;
   float decouple_tolerance = 1e-3f;

@@ -27,6 +27,7 @@ struct World::Impl {
   std::shared_ptr<IslandRunner> runner;   // set_runner(); the pool when null
   std::unique_ptr<spu::ComputeWorker> local;  // recomputes islands whose result came back unsound
   CollideScratch collide;               // the sweep's order, kept between steps; buffers
+  ContactMemory contact_memory;         // friction anchors and contact masses, kept between steps
   std::vector<WorldContact> contacts;   // this step's, reused
 
   WorkerPool& workers(const WorldSettings& s) {

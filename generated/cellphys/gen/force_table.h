@@ -64,8 +64,11 @@ inline constexpr ParamInfo kApplied_WrenchParams[] = {
 inline constexpr ParamInfo kContactParams[] = {
     {"point", ParamType::vec3, 0, 3, false, 0.0f, "contact point, world frame (m)"},
     {"normal", ParamType::vec3, 16, 3, false, 0.0f, "unit normal from a to b, world frame"},
-    {"penetration", ParamType::f32, 32, 1, false, 0.0f, "overlap along the normal at the start of the step (m); negative: a gap"},
-    {"friction", ParamType::f32, 36, 1, true, 0.0f, "friction coefficient of the pair"},
+    {"anchor", ParamType::vec3, 32, 3, false, 0.0f, "tangential offset (m, world frame) of b's friction anchor from a's at the start of the step: how far a sticking contact is strained"},
+    {"penetration", ParamType::f32, 48, 1, false, 0.0f, "overlap along the normal at the start of the step (m); negative: a gap"},
+    {"friction", ParamType::f32, 52, 1, true, 0.0f, "friction coefficient of the pair"},
+    {"mass", ParamType::f32, 56, 1, true, 0.0f, "the contact's mass (kg): the pair's effective mass along the normal at the point, raised by the world to the load the pair carries"},
+    {"sticking", ParamType::f32, 60, 1, true, 0.0f, "1: friction holds the contact to its anchor; 0: it slides (the world decides from the anchor's strain and the slip)"},
 };
 
 inline constexpr ParamInfo kDampingParams[] = {
@@ -98,7 +101,7 @@ inline constexpr ParamInfo kSpringParams[] = {
 
 inline constexpr ForceInfo kForceTable[] = {
     {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
-    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 4, "Penalty contact: a normal spring-damper that only pushes, acting from the start of a step in which the contact closes, plus regularised Coulomb friction linearised as a damper."},
+    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 7, "Soft contact: a normal spring-damper that only pushes, tuned per contact mass to a frequency and damping ratio (Box2D's soft step), acting from the start of a step in which the contact closes; friction that sticks to an anchor inside the Coulomb cone and slides as regularised Coulomb friction outside it."},
     {"damping", ForceType::damping, ForceKind::unary, false, false, "Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), offsetof(Damping_Force, body_a), -1, kDampingParams, 2, "Linear and angular damping: f = -linear m v, tau = -angular I omega (coefficients in 1/s)."},
     {"gravity", ForceType::gravity, ForceKind::global, false, true, "Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), offsetof(Gravity_Force, body_a), -1, kGravityParams, 0, "Uniform gravity on every body of the island."},
     {"gyroscopic", ForceType::gyroscopic, ForceKind::unary, false, false, "Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), offsetof(Gyroscopic_Force, body_a), -1, kGyroscopicParams, 0, "Gyroscopic torque -omega x (I omega) of a body whose inertia is not isotropic."},
@@ -108,10 +111,13 @@ inline constexpr ForceInfo kForceTable[] = {
 
 /// Every global of the forces, at its descriptor default: what a world's settings hold.
 struct Force_Globals {
-  float contact_stiffness = 100000.0f;  ///< normal stiffness (N/m)
-  float contact_damping = 1000.0f;  ///< normal damping (N s/m)
-  float slip_velocity = 0.01f;  ///< speed below which Coulomb friction is regularised (m/s)
-  float contact_slop = 0.005f;  ///< gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
+  float contact_hertz = 30.0f;  ///< soft contact frequency (Hz): stiffness mass (2 pi hertz)^2
+  float contact_damping_ratio = 10.0f;  ///< soft contact damping ratio: damping 2 ratio mass (2 pi hertz)
+  float contact_stiffness = 0.0f;  ///< fixed normal stiffness (N/m) instead of the soft one; 0: soft
+  float contact_damping = 0.0f;  ///< fixed normal damping (N s/m) instead of the soft one; 0: soft
+  float contact_push_speed = 3.0f;  ///< speed (m/s) at which overlap deeper than the slop is pushed out, moving the bodies apart without giving them that speed
+  float slip_velocity = 0.01f;  ///< speed below which sliding Coulomb friction is regularised (m/s)
+  float contact_slop = 0.005f;  ///< gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step); also the deepest overlap the spring acts on (deeper overlap is pushed out)
   float contact_rest_speed = 0.05f;  ///< opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
   float gravity[3] = {0.0f, 0.0f, -9.81f};  ///< gravitational acceleration (m/s^2)
 };
@@ -119,8 +125,11 @@ struct Force_Globals {
 /// The globals as a packed island carries them.
 inline void pack(const Force_Globals& in, Island_Params& out) {
   std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.contact_hertz = in.contact_hertz;
+  out.contact_damping_ratio = in.contact_damping_ratio;
   out.contact_stiffness = in.contact_stiffness;
   out.contact_damping = in.contact_damping;
+  out.contact_push_speed = in.contact_push_speed;
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
@@ -128,14 +137,17 @@ inline void pack(const Force_Globals& in, Island_Params& out) {
 }
 
 inline constexpr GlobalInfo kGlobalTable[] = {
-    {{"contact_stiffness", ParamType::f32, 16, 1, true, 0.0f, "normal stiffness (N/m)"}, {100000.0f}, "contact.stiffness", offsetof(Force_Globals, contact_stiffness)},
-    {{"contact_damping", ParamType::f32, 20, 1, true, 0.0f, "normal damping (N s/m)"}, {1000.0f}, "contact.damping", offsetof(Force_Globals, contact_damping)},
-    {{"slip_velocity", ParamType::f32, 24, 1, true, 0.0f, "speed below which Coulomb friction is regularised (m/s)", true}, {0.01f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
-    {{"contact_slop", ParamType::f32, 28, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
-    {{"contact_rest_speed", ParamType::f32, 32, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}, "contact.rest_speed", offsetof(Force_Globals, contact_rest_speed)},
+    {{"contact_hertz", ParamType::f32, 16, 1, true, 0.0f, "soft contact frequency (Hz): stiffness mass (2 pi hertz)^2", true}, {30.0f}, "contact.hertz", offsetof(Force_Globals, contact_hertz)},
+    {{"contact_damping_ratio", ParamType::f32, 20, 1, true, 0.0f, "soft contact damping ratio: damping 2 ratio mass (2 pi hertz)"}, {10.0f}, "contact.damping_ratio", offsetof(Force_Globals, contact_damping_ratio)},
+    {{"contact_stiffness", ParamType::f32, 24, 1, true, 0.0f, "fixed normal stiffness (N/m) instead of the soft one; 0: soft"}, {0.0f}, "contact.stiffness", offsetof(Force_Globals, contact_stiffness)},
+    {{"contact_damping", ParamType::f32, 28, 1, true, 0.0f, "fixed normal damping (N s/m) instead of the soft one; 0: soft"}, {0.0f}, "contact.damping", offsetof(Force_Globals, contact_damping)},
+    {{"contact_push_speed", ParamType::f32, 32, 1, true, 0.0f, "speed (m/s) at which overlap deeper than the slop is pushed out, moving the bodies apart without giving them that speed"}, {3.0f}, "contact.push_speed", offsetof(Force_Globals, contact_push_speed)},
+    {{"slip_velocity", ParamType::f32, 36, 1, true, 0.0f, "speed below which sliding Coulomb friction is regularised (m/s)", true}, {0.01f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
+    {{"contact_slop", ParamType::f32, 40, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step); also the deepest overlap the spring acts on (deeper overlap is pushed out)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
+    {{"contact_rest_speed", ParamType::f32, 44, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}, "contact.rest_speed", offsetof(Force_Globals, contact_rest_speed)},
     {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}, "gravity", offsetof(Force_Globals, gravity)},
 };
-inline constexpr int kNumGlobals = 6;
+inline constexpr int kNumGlobals = 9;
 
 /// Island_Params with every global at its descriptor default.
 inline Island_Params default_island_params() {

@@ -13,26 +13,36 @@ namespace cellphys::gen {
 struct alignas(16) Contact_Force {
   float point[4];  ///< @0: vec3 (padded). contact point, world frame (m)
   float normal[4];  ///< @16: vec3 (padded). unit normal, world frame, pointing from body a to body b
-  float penetration;  ///< @32: f32. depth of overlap along the normal (m), positive when touching
-  float friction;  ///< @36: f32. friction coefficient of the pair (geometric mean of the bodies')
-  int32_t body_a;  ///< @40: i32. island index of body a
-  int32_t body_b;  ///< @44: i32. island index of body b, or -1 for static geometry
+  float anchor[4];  ///< @32: vec3 (padded). tangential offset (m, world frame) of b's friction anchor from a's at the start of the step
+  float penetration;  ///< @48: f32. depth of overlap along the normal (m), positive when touching
+  float friction;  ///< @52: f32. friction coefficient of the pair (geometric mean of the bodies')
+  float mass;  ///< @56: f32. the contact's mass (kg): the pair's effective mass at the point, or the load it carries
+  float sticking;  ///< @60: f32. 1: friction holds the contact to its anchor; 0: it slides
+  int32_t body_a;  ///< @64: i32. island index of body a
+  int32_t body_b;  ///< @68: i32. island index of body b, or -1 for static geometry
+  unsigned char pad_72[8];
 };
-static_assert(sizeof(Contact_Force) == 48, "Contact_Force: size differs from the descriptor");
+static_assert(sizeof(Contact_Force) == 80, "Contact_Force: size differs from the descriptor");
 static_assert(alignof(Contact_Force) == 16, "Contact_Force: alignment differs from the descriptor");
 static_assert(offsetof(Contact_Force, point) == 0, "Contact_Force.point: offset differs");
 static_assert(offsetof(Contact_Force, normal) == 16, "Contact_Force.normal: offset differs");
-static_assert(offsetof(Contact_Force, penetration) == 32, "Contact_Force.penetration: offset differs");
-static_assert(offsetof(Contact_Force, friction) == 36, "Contact_Force.friction: offset differs");
-static_assert(offsetof(Contact_Force, body_a) == 40, "Contact_Force.body_a: offset differs");
-static_assert(offsetof(Contact_Force, body_b) == 44, "Contact_Force.body_b: offset differs");
+static_assert(offsetof(Contact_Force, anchor) == 32, "Contact_Force.anchor: offset differs");
+static_assert(offsetof(Contact_Force, penetration) == 48, "Contact_Force.penetration: offset differs");
+static_assert(offsetof(Contact_Force, friction) == 52, "Contact_Force.friction: offset differs");
+static_assert(offsetof(Contact_Force, mass) == 56, "Contact_Force.mass: offset differs");
+static_assert(offsetof(Contact_Force, sticking) == 60, "Contact_Force.sticking: offset differs");
+static_assert(offsetof(Contact_Force, body_a) == 64, "Contact_Force.body_a: offset differs");
+static_assert(offsetof(Contact_Force, body_b) == 68, "Contact_Force.body_b: offset differs");
 
 /// The fields of Contact_Force without padding: what pack() takes and unpack() gives.
 struct Contact_Force_Fields {
   float point[3]{};
   float normal[3]{};
+  float anchor[3]{};
   float penetration = 0;
   float friction = 0;
+  float mass = 0;
+  float sticking = 0;
   int32_t body_a = 0;
   int32_t body_b = 0;
 };
@@ -45,8 +55,13 @@ inline void pack(const Contact_Force_Fields& in, Contact_Force& out) {
   out.normal[0] = in.normal[0];
   out.normal[1] = in.normal[1];
   out.normal[2] = in.normal[2];
+  out.anchor[0] = in.anchor[0];
+  out.anchor[1] = in.anchor[1];
+  out.anchor[2] = in.anchor[2];
   out.penetration = in.penetration;
   out.friction = in.friction;
+  out.mass = in.mass;
+  out.sticking = in.sticking;
   out.body_a = in.body_a;
   out.body_b = in.body_b;
 }
@@ -58,13 +73,18 @@ inline void unpack(const Contact_Force& in, Contact_Force_Fields& out) {
   out.normal[0] = in.normal[0];
   out.normal[1] = in.normal[1];
   out.normal[2] = in.normal[2];
+  out.anchor[0] = in.anchor[0];
+  out.anchor[1] = in.anchor[1];
+  out.anchor[2] = in.anchor[2];
   out.penetration = in.penetration;
   out.friction = in.friction;
+  out.mass = in.mass;
+  out.sticking = in.sticking;
   out.body_a = in.body_a;
   out.body_b = in.body_b;
 }
 
-/// Bytes as they cross a DMA transfer or the wire (48 B).
+/// Bytes as they cross a DMA transfer or the wire (80 B).
 inline void pack(const Contact_Force_Fields& in, unsigned char* bytes) {
   Contact_Force tmp;
   pack(in, tmp);
@@ -1165,27 +1185,35 @@ inline void unpack(const unsigned char* bytes, Spring_Force_Fields& out) {
 /// Island-wide parameters of the forces (their globals).
 struct alignas(16) Island_Params {
   float gravity[4];  ///< @0: vec3 (padded). gravitational acceleration (m/s^2)
-  float contact_stiffness;  ///< @16: f32. normal stiffness (N/m)
-  float contact_damping;  ///< @20: f32. normal damping (N s/m)
-  float slip_velocity;  ///< @24: f32. speed below which Coulomb friction is regularised (m/s)
-  float contact_slop;  ///< @28: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
-  float contact_rest_speed;  ///< @32: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
-  unsigned char pad_36[12];
+  float contact_hertz;  ///< @16: f32. soft contact frequency (Hz): stiffness mass (2 pi hertz)^2
+  float contact_damping_ratio;  ///< @20: f32. soft contact damping ratio: damping 2 ratio mass (2 pi hertz)
+  float contact_stiffness;  ///< @24: f32. fixed normal stiffness (N/m) instead of the soft one; 0: soft
+  float contact_damping;  ///< @28: f32. fixed normal damping (N s/m) instead of the soft one; 0: soft
+  float contact_push_speed;  ///< @32: f32. speed (m/s) at which overlap deeper than the slop is pushed out, moving the bodies apart without giving them that speed
+  float slip_velocity;  ///< @36: f32. speed below which sliding Coulomb friction is regularised (m/s)
+  float contact_slop;  ///< @40: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step); also the deepest overlap the spring acts on (deeper overlap is pushed out)
+  float contact_rest_speed;  ///< @44: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
 };
 static_assert(sizeof(Island_Params) == 48, "Island_Params: size differs from the descriptor");
 static_assert(alignof(Island_Params) == 16, "Island_Params: alignment differs from the descriptor");
 static_assert(offsetof(Island_Params, gravity) == 0, "Island_Params.gravity: offset differs");
-static_assert(offsetof(Island_Params, contact_stiffness) == 16, "Island_Params.contact_stiffness: offset differs");
-static_assert(offsetof(Island_Params, contact_damping) == 20, "Island_Params.contact_damping: offset differs");
-static_assert(offsetof(Island_Params, slip_velocity) == 24, "Island_Params.slip_velocity: offset differs");
-static_assert(offsetof(Island_Params, contact_slop) == 28, "Island_Params.contact_slop: offset differs");
-static_assert(offsetof(Island_Params, contact_rest_speed) == 32, "Island_Params.contact_rest_speed: offset differs");
+static_assert(offsetof(Island_Params, contact_hertz) == 16, "Island_Params.contact_hertz: offset differs");
+static_assert(offsetof(Island_Params, contact_damping_ratio) == 20, "Island_Params.contact_damping_ratio: offset differs");
+static_assert(offsetof(Island_Params, contact_stiffness) == 24, "Island_Params.contact_stiffness: offset differs");
+static_assert(offsetof(Island_Params, contact_damping) == 28, "Island_Params.contact_damping: offset differs");
+static_assert(offsetof(Island_Params, contact_push_speed) == 32, "Island_Params.contact_push_speed: offset differs");
+static_assert(offsetof(Island_Params, slip_velocity) == 36, "Island_Params.slip_velocity: offset differs");
+static_assert(offsetof(Island_Params, contact_slop) == 40, "Island_Params.contact_slop: offset differs");
+static_assert(offsetof(Island_Params, contact_rest_speed) == 44, "Island_Params.contact_rest_speed: offset differs");
 
 /// The fields of Island_Params without padding: what pack() takes and unpack() gives.
 struct Island_Params_Fields {
   float gravity[3]{};
+  float contact_hertz = 0;
+  float contact_damping_ratio = 0;
   float contact_stiffness = 0;
   float contact_damping = 0;
+  float contact_push_speed = 0;
   float slip_velocity = 0;
   float contact_slop = 0;
   float contact_rest_speed = 0;
@@ -1196,8 +1224,11 @@ inline void pack(const Island_Params_Fields& in, Island_Params& out) {
   out.gravity[0] = in.gravity[0];
   out.gravity[1] = in.gravity[1];
   out.gravity[2] = in.gravity[2];
+  out.contact_hertz = in.contact_hertz;
+  out.contact_damping_ratio = in.contact_damping_ratio;
   out.contact_stiffness = in.contact_stiffness;
   out.contact_damping = in.contact_damping;
+  out.contact_push_speed = in.contact_push_speed;
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
@@ -1207,8 +1238,11 @@ inline void unpack(const Island_Params& in, Island_Params_Fields& out) {
   out.gravity[0] = in.gravity[0];
   out.gravity[1] = in.gravity[1];
   out.gravity[2] = in.gravity[2];
+  out.contact_hertz = in.contact_hertz;
+  out.contact_damping_ratio = in.contact_damping_ratio;
   out.contact_stiffness = in.contact_stiffness;
   out.contact_damping = in.contact_damping;
+  out.contact_push_speed = in.contact_push_speed;
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
@@ -1236,7 +1270,7 @@ struct StructInfo {
 
 /// Every layout, with the sizes the compiler gave them.
 inline constexpr StructInfo kStructTable[] = {
-    {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 40},
+    {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 60},
     {"Island_Header", sizeof(Island_Header), alignof(Island_Header), 52},
     {"Island_Result", sizeof(Island_Result), alignof(Island_Result), 48},
     {"Island_Section", sizeof(Island_Section), alignof(Island_Section), 16},
@@ -1252,7 +1286,7 @@ inline constexpr StructInfo kStructTable[] = {
     {"Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), 4},
     {"Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), 4},
     {"Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), 44},
-    {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 32},
+    {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 44},
 };
 
 }  // namespace cellphys::gen

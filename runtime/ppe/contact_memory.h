@@ -1,0 +1,43 @@
+// What a body pair's contact points keep from one step to the next: the friction anchors
+// where they stuck, and the mass the pair's contacts carry (the soft contact's stiffness and
+// damping follow it; docs/contacts.md).
+#pragma once
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "runtime/ppe/body_records.h"
+#include "runtime/spu/shape.h"
+
+namespace cellphys::ppe {
+
+struct WorldSettings;
+
+struct ContactMemory {
+  /// A friction anchor: the material points of a and b that stuck together (body frames; the
+  /// world's in the world frame), whether the point slid in the step, and its slip speed then.
+  struct Anchor {
+    float on_a[3], on_b[3];
+    float slip;
+    uint32_t sliding;
+  };
+  struct Pair {
+    float mass = 0.0f;  // the largest contact mass the pair used (kg)
+    uint32_t count = 0;
+    Anchor anchors[spu::kMaxManifoldPoints];
+  };
+  std::unordered_map<uint64_t, Pair> pairs;  // by pair_key(a, b)
+};
+
+inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }
+
+/// Gives each of this step's contacts (grouped by pair, as collide() writes them) its mass
+/// and its friction strain from the pair's memory, and makes this step's the memory. Pairs
+/// of sleeping bodies are remembered as they were; pairs no longer touching are forgotten.
+void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, ContactMemory& memory,
+                     std::vector<WorldContact>& contacts);
+
+/// Forgets every pair with body `id` (removed: its id may be given to a new body).
+void forget_body(ContactMemory& memory, uint32_t id);
+
+}  // namespace cellphys::ppe

@@ -30,6 +30,7 @@ class CellphysPeer : public Peer {
     const ppe::StepStats& st = built_.world->step();
     active_ = st.active_bodies;
     iterations_ = st.solves ? double(st.solver_iterations) / st.solves : 0.0;
+    failed_ = st.failed_islands > 0;
   }
   State state(size_t i) const override {
     const ppe::BodyState b = built_.world->state(built_.bodies[i]);
@@ -40,12 +41,14 @@ class CellphysPeer : public Peer {
   }
   long active_bodies() const override { return active_; }
   double last_iterations() const override { return iterations_; }
+  int last_step_failed() const override { return failed_; }
   std::string label() const override { return label_; }
 
  private:
   scene::BuiltScene built_;
   long active_ = -1;
   double iterations_ = -1;
+  int failed_ = 0;
   std::string label_;
 };
 

@@ -231,7 +231,9 @@ class MujocoPeer : public Peer {
         if (index_[i] >= 0)
           for (int k = 0; k < 6; ++k) data_->xfrc_applied[6 * index_[i] + k] = wrench_[6 * i + k];
     }
+    const long before = warnings();
     mj_step(model_, data_);
+    failed_ = warnings() > before;
   }
   State state(size_t i) const override {
     if (index_[i] < 0) return static_state_[i];
@@ -250,11 +252,18 @@ class MujocoPeer : public Peer {
     for (int i : index_) n += i >= 0;
     return n;
   }
+  int last_step_failed() const override { return failed_; }
   std::string label() const override {
     return g_warnings ? label_ + " (" + std::to_string(g_warnings) + " MuJoCo warnings)" : label_;
   }
 
  private:
+  // MuJoCo counts every warning in mjData (and reports only the first of a kind).
+  long warnings() const {
+    long n = 0;
+    for (int k = 0; k < mjNWARNING; ++k) n += data_->warning[k].number;
+    return n;
+  }
   static std::string num(double v) {
     std::ostringstream o;
     o.precision(9);
@@ -268,6 +277,7 @@ class MujocoPeer : public Peer {
   std::vector<int> index_;  // MuJoCo body id of each scene body, -1 for static ones
   std::vector<State> static_state_, states_;
   std::vector<double> wrench_;
+  int failed_ = 0;
 };
 
 }  // namespace

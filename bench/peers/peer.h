@@ -59,6 +59,10 @@ class Peer {
   virtual long active_bodies() const { return -1; }
   /// Solver iterations of the last step, or -1.
   virtual double last_iterations() const { return -1; }
+  /// 1 if the engine reports that the last step failed (cellphys: an island's solve failed and
+  /// kept its start state; MuJoCo: a warning such as a bad acceleration, which resets the state),
+  /// 0 if it reports none, -1 if the engine does not say (ODE, Bullet).
+  virtual int last_step_failed() const { return -1; }
   /// The configuration as run (e.g. "bullet tuned (100 iterations)").
   virtual std::string label() const = 0;
 };

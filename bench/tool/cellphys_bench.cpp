@@ -11,11 +11,26 @@
 //       Steps W simulated seconds untimed (0: none), times N single steps (bodies awake), steps
 //       on untimed to S simulated seconds, then times N more (most bodies asleep): the median
 //       of each phase.
-//   cellphys_bench stability SCENE --engine E [...] --dts H1,H2,... --steps N
+//   cellphys_bench stability SCENE --engine E [...] --dts H1,H2,... --steps N [--max-speed V]
+//                  [--separate-within S] [--separation D]
 //       Runs N steps at each step size, largest first, until one stays bounded; reports how each
 //       larger one failed: blow-up (non-finite or runaway state), tunnelling (a body through a
 //       ground plane or through the body below it), stretch (a joint opened by more than 10%
-//       of its bodies' distance), energy gain (over 10% above the start).
+//       of its bodies' distance), energy gain (over 10% above the start). For spawns in overlap,
+//       which gain energy by design: --max-speed V fails a body faster than V m/s (too fast)
+//       instead of checking the energy; --separate-within S runs each step size for at least S
+//       simulated seconds and fails it if two boxes, or a box and a plane, still overlap by more
+//       than D m (default 0.01) at S (overlap left).
+//   cellphys_bench situation SCENE --engine E [--variant V] [--dt H] --duration S [--separation D]
+//                  [--budget W]
+//       Steps S simulated seconds, timing the steps, and measures after each one (untimed): how
+//       deep each box is in what it rested on at the start (the box below or the ground; largest
+//       and final), the deepest overlap of any pair, the time from which no pair overlaps by more
+//       than D m (default 0.01) to the end, the fastest body (over the run and at the end), the
+//       highest centre, the closest two centres at the end, the steps the engine reports failed,
+//       the energy (kinetic + gravitational + spring) at every whole simulated second, and each
+//       body's first and last position. --budget W stops after W wall seconds of stepping
+//       (steps_done says where).
 // Exit status: 0 with a JSON object (its "status" is ok, unsupported or error), 2 on bad usage.
 #include <algorithm>
 #include <chrono>
@@ -33,6 +48,7 @@
 #include <ode/ode.h>
 
 #include "bench/peers/peer.h"
+#include "bench/tool/overlap.h"
 #include "runtime/base/simd.h"
 
 namespace {
@@ -72,9 +88,12 @@ bool finite_state(const State& s) {
   return true;
 }
 
+double speed(const State& s) { return std::sqrt(s.v[0] * s.v[0] + s.v[1] * s.v[1] + s.v[2] * s.v[2]); }
+
 struct Args {
   std::string command, scene, engine = "cellphys", variant;
   double dt = 0, tolerance = 0, duration = 1, settle = 0, warmup = 0;
+  double max_speed = 0, separate_within = 0, separation = 0.01, budget = 0;
   int workers = 0, iterations = 0, reps = 1, record = 0, timed = 20, steps = 400;
   std::vector<double> dts;
 };
@@ -109,6 +128,10 @@ Args parse(int argc, char** argv) {
     else if (k == "--iterations") a.iterations = std::stoi(v);
     else if (k == "--reps") a.reps = std::max(1, std::stoi(v));
     else if (k == "--record") a.record = std::stoi(v);
+    else if (k == "--max-speed") a.max_speed = std::stod(v);
+    else if (k == "--separate-within") a.separate_within = std::stod(v);
+    else if (k == "--separation") a.separation = std::stod(v);
+    else if (k == "--budget") a.budget = std::stod(v);
     else if (k == "--timed") a.timed = std::max(1, std::stoi(v));
     else if (k == "--steps") a.steps = std::max(1, std::stoi(v));
     else if (k == "--dts") {
@@ -260,6 +283,7 @@ struct Checker {
   std::vector<std::pair<int, int>> stacked;  // (lower, upper) pairs sharing a vertical line
   std::vector<std::pair<double, double>> stacked_gap;
   double e0 = 0, escale = 0;
+  double max_speed = 0;  // > 0: a faster body fails, and the energy is not checked
 
   explicit Checker(const scene::SceneDesc& s) : sc(s), info(body_info(s)), dyn(dynamic_bodies(s)) {
     for (const auto& f : sc.forces) {
@@ -362,6 +386,11 @@ struct Checker {
                     (xa[2] - xb[2]) * (xa[2] - xb[2])) > 0.1 * j.ref)
         return "stretch";
     }
+    if (max_speed > 0) {
+      for (size_t i : dyn)
+        if (speed(s[i]) > max_speed) return "too fast";
+      return "";
+    }
     if (energy(s) - e0 > 0.1 * escale) return "energy gain";
     return "";
   }
@@ -371,6 +400,8 @@ int cmd_stability(const Args& a, const scene::SceneDesc& sc) {
   std::vector<double> dts = a.dts;
   std::sort(dts.rbegin(), dts.rend());
   Checker ck(sc);
+  ck.max_speed = a.max_speed;
+  const Overlaps overlaps(sc);
   std::vector<State> s(sc.bodies.size());
   std::ostringstream out;
   double stable = NAN;
@@ -383,11 +414,14 @@ int cmd_stability(const Args& a, const scene::SceneDesc& sc) {
     ck.e0 = ck.energy(s);
     ck.escale = std::max(std::fabs(ck.e0), 1e-3);
     std::string mode;
-    int k = 0;
-    for (; k < a.steps && mode.empty(); ++k) {
+    const long separate_at = a.separate_within > 0 ? std::lround(std::ceil(a.separate_within / dt - 1e-9)) : -1;
+    const long steps = std::max<long>(a.steps, separate_at);
+    long k = 0;
+    for (; k < steps && mode.empty(); ++k) {
       peer->step();
       for (size_t i : ck.dyn) s[i] = peer->state(i);
       mode = ck.check(s);
+      if (mode.empty() && k + 1 == separate_at && overlaps.deepest(s) > a.separation) mode = "overlap left";
     }
     out << (first ? "" : ",") << "{\"dt\":" << jnum(dt) << ",\"mode\":" << jstr(mode.empty() ? "ok" : mode)
         << ",\"at_step\":" << k << "}";
@@ -402,6 +436,80 @@ int cmd_stability(const Args& a, const scene::SceneDesc& sc) {
   return 0;
 }
 
+int cmd_situation(const Args& a, const scene::SceneDesc& sc) {
+  const double dt = a.dt > 0 ? a.dt : sc.settings.dt;
+  const long steps = std::max(1L, std::lround(a.duration / dt));
+  const long per_second = std::max(1L, std::lround(1.0 / dt));
+  auto peer = make_peer(sc, config_of(a, dt));
+  const Checker ck(sc);
+  const Overlaps overlaps(sc);
+  const std::vector<int>& below = overlaps.below();
+  std::vector<State> s(sc.bodies.size());
+  for (size_t i = 0; i < s.size(); ++i) s[i] = peer->state(i);
+  const std::vector<State> start = s;
+  std::vector<double> rest_max(s.size(), 0), rest(s.size(), 0), energy{ck.energy(s)};
+  double max_speed = 0, max_height = -INFINITY, deepest_max = 0, deepest = 0, wall = 0;
+  long failed = 0, last_overlap = overlaps.deepest(s) > a.separation ? 0 : -1, n = 0;
+  bool says_failed = true, finite = true;
+  for (size_t i : ck.dyn) max_height = std::max(max_height, s[i].p[2]);
+  while (n < steps && finite && !(a.budget > 0 && wall > a.budget)) {
+    const auto t0 = Clock::now();
+    peer->step();
+    wall += std::chrono::duration<double>(Clock::now() - t0).count();
+    ++n;
+    const int f = peer->last_step_failed();
+    says_failed = says_failed && f >= 0;
+    failed += f > 0;
+    for (size_t i : ck.dyn) {
+      s[i] = peer->state(i);
+      finite = finite && finite_state(s[i]);
+      max_speed = std::max(max_speed, speed(s[i]));
+      max_height = std::max(max_height, s[i].p[2]);
+    }
+    if (!finite) break;
+    for (size_t i : ck.dyn) {
+      if (below[i] < 0) continue;
+      rest[i] = std::max(0.0, overlaps.depth(i, below[i], s));
+      rest_max[i] = std::max(rest_max[i], rest[i]);
+    }
+    deepest = overlaps.deepest(s);
+    deepest_max = std::max(deepest_max, deepest);
+    if (deepest > a.separation) last_overlap = n;
+    if (n % per_second == 0) energy.push_back(ck.energy(s));
+  }
+  double min_distance = INFINITY, speed_end = 0;
+  for (size_t i : ck.dyn) speed_end = std::max(speed_end, speed(s[i]));
+  for (size_t x : ck.dyn)
+    for (size_t y : ck.dyn)
+      if (x < y)
+        min_distance = std::min(min_distance, std::sqrt((s[x].p[0] - s[y].p[0]) * (s[x].p[0] - s[y].p[0]) +
+                                                        (s[x].p[1] - s[y].p[1]) * (s[x].p[1] - s[y].p[1]) +
+                                                        (s[x].p[2] - s[y].p[2]) * (s[x].p[2] - s[y].p[2])));
+  // Separated: no pair over the bound from some step to the end of a finished run.
+  const bool separated = finite && n == steps && last_overlap < n;
+  std::cout << "{\"status\":\"ok\",\"label\":" << jstr(peer->label()) << ",\"dt\":" << jnum(dt) << ",\"steps\":" << steps
+            << ",\"steps_done\":" << n << ",\"finite\":" << (finite ? "true" : "false")
+            << ",\"ms_per_step\":" << jnum(1e3 * wall / std::max(1L, n)) << ",\"failed_steps\":"
+            << (says_failed ? std::to_string(failed) : "null") << ",\"max_speed\":" << jnum(max_speed)
+            << ",\"speed_end\":" << jnum(speed_end)
+            << ",\"max_height\":" << jnum(max_height) << ",\"deepest_max\":" << jnum(deepest_max)
+            << ",\"deepest_end\":" << jnum(deepest) << ",\"separated_at\":"
+            << (separated ? jnum((last_overlap + 1) * dt) : "null") << ",\"min_distance_end\":" << jnum(min_distance)
+            << ",\"energy\":[";
+  for (size_t k = 0; k < energy.size(); ++k) std::cout << (k ? "," : "") << jnum(energy[k]);
+  std::cout << "],\"bodies\":[";
+  bool first = true;
+  for (size_t i : ck.dyn) {
+    std::cout << (first ? "" : ",") << "{\"index\":" << i << ",\"id\":" << jstr(sc.bodies[i].id)
+              << ",\"below\":" << below[i] << ",\"rest_max\":" << jnum(rest_max[i]) << ",\"rest_end\":" << jnum(rest[i])
+              << ",\"start\":[" << jnum(start[i].p[0]) << "," << jnum(start[i].p[1]) << "," << jnum(start[i].p[2])
+              << "],\"end\":[" << jnum(s[i].p[0]) << "," << jnum(s[i].p[1]) << "," << jnum(s[i].p[2]) << "]}";
+    first = false;
+  }
+  std::cout << "]}\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -412,6 +520,7 @@ int main(int argc, char** argv) {
     if (a.command == "run") return cmd_run(a, sc);
     if (a.command == "throughput") return cmd_throughput(a, sc);
     if (a.command == "stability") return cmd_stability(a, sc);
+    if (a.command == "situation") return cmd_situation(a, sc);
     usage("unknown command " + a.command);
   } catch (const Unsupported& e) {
     std::cout << "{\"status\":\"unsupported\",\"reason\":" << jstr(e.what()) << "}\n";

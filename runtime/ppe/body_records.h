@@ -34,7 +34,8 @@ struct WorldContact {
   uint32_t a, b;
   spu::ContactPoint point;
   float friction;
-  float mass = 0.0f;         // the contact's mass (kg), from the pair's memory
+  float mass = 0.0f;         // the contact's effective mass along its normal (kg)
+  float load = 0.0f;         // what it carries, as a mass (kg), from the pair's memory
   float anchor[3] = {};      // friction strain at the start of the step (m, world frame)
   float sticking = 1.0f;     // 1: friction holds it to its anchor; 0: it slides
 };

@@ -53,10 +53,6 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
                      std::vector<WorldContact>& contacts) {
   // An anchor is the same one while this step's point is this close to where it stuck.
   const double match = std::max(2.0 * s.globals.contact_slop, 1e-3);
-  // No contact carries more than everything that can weigh on it.
-  double total_mass = 0;
-  for (const WorldBody& b : bodies)
-    if (b.alive && !b.is_static) total_mass += b.mass;
   ContactMemory next;
   for (const auto& [key, pair] : memory.pairs) {  // sleepers' contacts are not collided
     const uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
@@ -69,13 +65,6 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     const auto old_it = memory.pairs.find(pair_key(a, b));
     const ContactMemory::Pair* old = old_it == memory.pairs.end() ? nullptr : &old_it->second;
     const Frame fa = frame_of(bodies, a), fb = frame_of(bodies, b);
-    // The load the pair carried, as a mass: last step's mass raised (or lowered) by how far
-    // the pair sank against contact.load_depth. At rest this is the fixed point that makes
-    // a contact sink by load_depth under whatever it holds; at most 4x lower a step.
-    double deepest = 0;
-    for (size_t i = first; i < end; ++i) deepest = std::max(deepest, double(contacts[i].point.penetration));
-    deepest = std::min(deepest, double(s.globals.contact_slop));  // deeper is pushed out, not carried
-    const double load = old ? std::min(old->mass * std::max(deepest / s.contact_load_depth, 0.25), total_mass) : 0.0;
     ContactMemory::Pair now;
     bool used[spu::kMaxManifoldPoints] = {};
     for (size_t i = first; i < end && now.count < spu::kMaxManifoldPoints; ++i) {
@@ -83,8 +72,7 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       const Vec3d p = Vec3d::load(c.point.point), n = Vec3d::load(c.point.normal);
       double w = inverse_mass_along(bodies[a], fa, p, n);
       if (b != kWorldBody) w += inverse_mass_along(bodies[b], fb, p, n);
-      c.mass = float(std::max(1.0 / w, load));
-      now.mass = std::max(now.mass, c.mass);
+      c.mass = float(1.0 / w);
       // The anchor this point stuck to, if it is still near it.
       int best = -1;
       double best_d = match;
@@ -99,7 +87,7 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       Vec3d vt = velocity_at(bodies, b, p) - velocity_at(bodies, a, p);
       vt = vt - n * dot(vt, n);
       const double slip = norm(vt), depth = std::max(double(c.point.penetration), 0.0);
-      const double k_per_mass = s.globals.contact_stiffness > 0 ? s.globals.contact_stiffness / c.mass
+      const double k_per_mass = s.globals.contact_stiffness > 0 ? s.globals.contact_stiffness / std::max(c.mass, c.load)
                                                                   : squared(2 * kPi * s.globals.contact_hertz);
       const bool stoppable = slip <= s.dt * c.friction * k_per_mass * depth;
       ContactMemory::Anchor& an = now.anchors[now.count++];

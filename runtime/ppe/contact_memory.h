@@ -1,6 +1,5 @@
 // What a body pair's contact points keep from one step to the next: the friction anchors
-// where they stuck, and the mass the pair's contacts carry (the soft contact's stiffness and
-// damping follow it; docs/contacts.md).
+// where they stuck (docs/contacts.md).
 #pragma once
 #include <cstdint>
 #include <unordered_map>
@@ -22,7 +21,6 @@ struct ContactMemory {
     uint32_t sliding;
   };
   struct Pair {
-    float mass = 0.0f;  // the largest contact mass the pair used (kg)
     uint32_t count = 0;
     Anchor anchors[spu::kMaxManifoldPoints];
   };
@@ -31,8 +29,9 @@ struct ContactMemory {
 
 inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }
 
-/// Gives each of this step's contacts (grouped by pair, as collide() writes them) its mass
-/// and its friction strain from the pair's memory, and makes this step's the memory. Pairs
+/// Gives each of this step's contacts (grouped by pair, as collide() writes them) its
+/// effective mass along the normal and its friction strain and mode from the pair's memory,
+/// and makes this step's the memory. Pairs
 /// of sleeping bodies are remembered as they were; pairs no longer touching are forgotten.
 void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, ContactMemory& memory,
                      std::vector<WorldContact>& contacts);

@@ -43,6 +43,7 @@ Contact_Force contact_instance(const WorldContact& c, int32_t a, int32_t b) {
   f.penetration = c.point.penetration;
   f.friction = c.friction;
   f.mass = c.mass;
+  f.load = c.load;
   f.sticking = c.sticking;
   f.body_a = a;
   f.body_b = b;

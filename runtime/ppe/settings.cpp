@@ -69,8 +69,8 @@ std::vector<Setting> world_settings() {
                        "contacts are generated for gaps up to the contact slop plus each body's reach in the step (dt "
                        "times its speed and the spin of its farthest point) plus this margin (m)"),
       CELLPHYS_SETTING(contact_load_depth, "contact.load_depth", above(0),
-                       "a contact pair sinking deeper than this under what it carries is stiffened until it does not: "
-                       "a heavy body resting on a light one (m)"),
+                       "a contact is stiffened to sink no deeper than this under the weight resting on it, so a light "
+                       "body holds a heavy one (m)"),
       CELLPHYS_SETTING(local_store_bytes, "local_store_bytes",
                        between(double(kMinLocalStoreBytes), double(spu::LocalStore::kMaxCapacity)),
                        "a compute worker's local store; an island too big for it is split (bytes)"),

@@ -2,13 +2,15 @@
 // its bits):
 //   header  "CELLSNAP" | u32 version | u32 header bytes (32) | u64 payload bytes |
 //           u32 checksum of the payload (spu::checksum) | u32 zero
-//   payload settings | step counter | shapes | bodies | forces | sleeping groups | free groups
+//   payload settings | step counter | shapes | bodies | forces | sleeping groups | free groups |
+//           contact memory (pairs in key order: key, anchors)
 //   settings: u32 count, then per setting (runtime/ppe/settings.h) its scene path and its value
 //           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
 //           each as u32 length + bytes: matched by name, so a build with other forces refuses
 //           a setting it lacks, or lacks one it has, by name
 // A restored world steps on bit for bit: everything a step reads across steps is here (the
 // broad phase's kept sort order only speeds it up; its pairs come out sorted).
+#include <algorithm>
 #include <cstring>
 #include <string>
 #include <type_traits>
@@ -21,7 +23,7 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 3;
+constexpr uint32_t kVersion = 4;
 constexpr size_t kHeaderBytes = 32;
 
 
@@ -278,6 +280,26 @@ void put_contact(Writer& w, const WorldContact& c) {
   w.put_floats(c.point.normal, 3);
   w.put(c.point.penetration);
   w.put(c.friction);
+  w.put(c.mass);
+  w.put(c.load);
+  w.put_floats(c.anchor, 3);
+  w.put(c.sticking);
+}
+
+void put_anchor(Writer& w, const ContactMemory::Anchor& a) {
+  w.put_floats(a.on_a, 3);
+  w.put_floats(a.on_b, 3);
+  w.put(a.slip);
+  w.put(a.sliding);
+}
+
+ContactMemory::Anchor get_anchor(Reader& r) {
+  ContactMemory::Anchor a;
+  r.get_floats(a.on_a, 3, "contact anchor");
+  r.get_floats(a.on_b, 3, "contact anchor");
+  a.slip = r.get<float>("contact anchor");
+  a.sliding = r.get<uint32_t>("contact anchor");
+  return a;
 }
 
 WorldContact get_contact(Reader& r) {
@@ -288,6 +310,10 @@ WorldContact get_contact(Reader& r) {
   r.get_floats(c.point.normal, 3, "contact");
   c.point.penetration = r.get<float>("contact");
   c.friction = r.get<float>("contact");
+  c.mass = r.get<float>("contact");
+  c.load = r.get<float>("contact");
+  r.get_floats(c.anchor, 3, "contact");
+  c.sticking = r.get<float>("contact");
   return c;
 }
 
@@ -334,6 +360,16 @@ std::vector<unsigned char> World::snapshot() const {
   }
   p.put(static_cast<uint32_t>(w.sleeping.free.size()));
   for (int32_t g : w.sleeping.free) p.put(g);
+  std::vector<uint64_t> keys;  // in key order: the same world writes the same bytes
+  for (const auto& kv : w.contact_memory.pairs) keys.push_back(kv.first);
+  std::sort(keys.begin(), keys.end());
+  p.put(static_cast<uint32_t>(keys.size()));
+  for (uint64_t key : keys) {
+    const ContactMemory::Pair& pair = w.contact_memory.pairs.at(key);
+    p.put(key);
+    p.put(pair.count);
+    for (uint32_t k = 0; k < pair.count; ++k) put_anchor(p, pair.anchors[k]);
+  }
 
   Writer out;
   out.bytes.insert(out.bytes.end(), kMagic, kMagic + 8);
@@ -417,7 +453,7 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     w.sleeping.groups[g].bodies = r.get_u32s("sleeping group");
     for (uint32_t id : w.sleeping.groups[g].bodies)
       if (!body_ok(id, false)) throw WorldError("snapshot: sleeping group " + std::to_string(g) + " refers to a missing body");
-    const uint32_t nc = r.count("sleeping contacts", 36);
+    const uint32_t nc = r.count("sleeping contacts", 56);
     for (uint32_t c = 0; c < nc; ++c) {
       w.sleeping.groups[g].contacts.push_back(get_contact(r));
       const WorldContact& wc = w.sleeping.groups[g].contacts.back();
@@ -430,6 +466,17 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     const int32_t g = r.get<int32_t>("free groups");
     if (g < 0 || static_cast<uint32_t>(g) >= ng) throw WorldError("snapshot: free group out of range");
     w.sleeping.free.push_back(g);
+  }
+  const uint32_t npairs = r.count("contact memory", 12);
+  for (uint32_t k = 0; k < npairs; ++k) {
+    const uint64_t key = r.get<uint64_t>("contact memory");
+    ContactMemory::Pair pair;
+    pair.count = r.get<uint32_t>("contact memory");
+    if (pair.count > spu::kMaxManifoldPoints) throw WorldError("snapshot: a contact pair has more anchors than a manifold");
+    for (uint32_t a = 0; a < pair.count; ++a) pair.anchors[a] = get_anchor(r);
+    if (!body_ok(uint32_t(key >> 32), false) || !body_ok(uint32_t(key), true))
+      throw WorldError("snapshot: the contact memory refers to a missing body");
+    w.contact_memory.pairs[key] = pair;
   }
   for (uint32_t i = 0; i < nb; ++i)
     if (w.bodies[i].sleep_group < -1 || w.bodies[i].sleep_group >= static_cast<int32_t>(ng))

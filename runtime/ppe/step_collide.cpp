@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "runtime/base/vec3.h"
+#include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/world.h"
 #include "runtime/spu/narrow_phase.h"
 
@@ -79,7 +80,7 @@ void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& s
                                pose_of(bodies[b]), margin, cp);
     if (k > 0) ++st.narrow_phase_pairs;
     const float mu = std::sqrt(bodies[a].friction * bodies[b].friction);
-    for (int p = 0; p < k; ++p) contacts.push_back({a, bodies[b].is_static ? kWorldBody : b, cp[p], mu, 0.0f, {}, 1.0f});
+    for (int p = 0; p < k; ++p) contacts.push_back({a, bodies[b].is_static ? kWorldBody : b, cp[p], mu, 0.0f, 0.0f, {}, 1.0f});
   }
 }
 
@@ -101,6 +102,7 @@ void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes
   StageTimer t(st.times.narrow_ms);
   narrow_phase(bodies, shapes, settings, scratch, contacts, st);
   recall_contacts(bodies, settings, memory, contacts);
+  carry_loads(bodies, settings, contacts);
 }
 
 }  // namespace cellphys::ppe

@@ -67,8 +67,9 @@ inline constexpr ParamInfo kContactParams[] = {
     {"anchor", ParamType::vec3, 32, 3, false, 0.0f, "tangential offset (m, world frame) of b's friction anchor from a's at the start of the step: how far a sticking contact is strained"},
     {"penetration", ParamType::f32, 48, 1, false, 0.0f, "overlap along the normal at the start of the step (m); negative: a gap"},
     {"friction", ParamType::f32, 52, 1, true, 0.0f, "friction coefficient of the pair"},
-    {"mass", ParamType::f32, 56, 1, true, 0.0f, "the contact's mass (kg): the pair's effective mass along the normal at the point, raised by the world to the load the pair carries"},
-    {"sticking", ParamType::f32, 60, 1, true, 0.0f, "1: friction holds the contact to its anchor; 0: it slides (the world decides from the anchor's strain and the slip)"},
+    {"mass", ParamType::f32, 56, 1, true, 0.0f, "the contact's effective mass along its normal (kg): of the pair at the point"},
+    {"load", ParamType::f32, 60, 1, true, 0.0f, "the load the contact carries, as a mass (kg; the world finds it from how far the pair sank): the contact is tuned to the larger of mass and load"},
+    {"sticking", ParamType::f32, 64, 1, true, 0.0f, "1: friction holds the contact to its anchor; 0: it slides (the world decides from the anchor's strain and the slip)"},
 };
 
 inline constexpr ParamInfo kDampingParams[] = {
@@ -101,7 +102,7 @@ inline constexpr ParamInfo kSpringParams[] = {
 
 inline constexpr ForceInfo kForceTable[] = {
     {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
-    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 7, "Soft contact: a normal spring-damper that only pushes, tuned per contact mass to a frequency and damping ratio (Box2D's soft step), acting from the start of a step in which the contact closes; friction that sticks to an anchor inside the Coulomb cone and slides as regularised Coulomb friction outside it."},
+    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 8, "Soft contact: a normal spring-damper that only pushes, tuned per contact mass to a frequency and damping ratio (Box2D's soft step), acting from the start of a step in which the contact closes; friction that sticks to an anchor inside the Coulomb cone and slides as regularised Coulomb friction outside it."},
     {"damping", ForceType::damping, ForceKind::unary, false, false, "Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), offsetof(Damping_Force, body_a), -1, kDampingParams, 2, "Linear and angular damping: f = -linear m v, tau = -angular I omega (coefficients in 1/s)."},
     {"gravity", ForceType::gravity, ForceKind::global, false, true, "Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), offsetof(Gravity_Force, body_a), -1, kGravityParams, 0, "Uniform gravity on every body of the island."},
     {"gyroscopic", ForceType::gyroscopic, ForceKind::unary, false, false, "Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), offsetof(Gyroscopic_Force, body_a), -1, kGyroscopicParams, 0, "Gyroscopic torque -omega x (I omega) of a body whose inertia is not isotropic."},

@@ -16,11 +16,12 @@ struct alignas(16) Contact_Force {
   float anchor[4];  ///< @32: vec3 (padded). tangential offset (m, world frame) of b's friction anchor from a's at the start of the step
   float penetration;  ///< @48: f32. depth of overlap along the normal (m), positive when touching
   float friction;  ///< @52: f32. friction coefficient of the pair (geometric mean of the bodies')
-  float mass;  ///< @56: f32. the contact's mass (kg): the pair's effective mass at the point, or the load it carries
-  float sticking;  ///< @60: f32. 1: friction holds the contact to its anchor; 0: it slides
-  int32_t body_a;  ///< @64: i32. island index of body a
-  int32_t body_b;  ///< @68: i32. island index of body b, or -1 for static geometry
-  unsigned char pad_72[8];
+  float mass;  ///< @56: f32. the contact's effective mass along its normal (kg)
+  float load;  ///< @60: f32. the load the contact carries, as a mass (kg): its stiffness follows the larger of the two
+  float sticking;  ///< @64: f32. 1: friction holds the contact to its anchor; 0: it slides
+  int32_t body_a;  ///< @68: i32. island index of body a
+  int32_t body_b;  ///< @72: i32. island index of body b, or -1 for static geometry
+  unsigned char pad_76[4];
 };
 static_assert(sizeof(Contact_Force) == 80, "Contact_Force: size differs from the descriptor");
 static_assert(alignof(Contact_Force) == 16, "Contact_Force: alignment differs from the descriptor");
@@ -30,9 +31,10 @@ static_assert(offsetof(Contact_Force, anchor) == 32, "Contact_Force.anchor: offs
 static_assert(offsetof(Contact_Force, penetration) == 48, "Contact_Force.penetration: offset differs");
 static_assert(offsetof(Contact_Force, friction) == 52, "Contact_Force.friction: offset differs");
 static_assert(offsetof(Contact_Force, mass) == 56, "Contact_Force.mass: offset differs");
-static_assert(offsetof(Contact_Force, sticking) == 60, "Contact_Force.sticking: offset differs");
-static_assert(offsetof(Contact_Force, body_a) == 64, "Contact_Force.body_a: offset differs");
-static_assert(offsetof(Contact_Force, body_b) == 68, "Contact_Force.body_b: offset differs");
+static_assert(offsetof(Contact_Force, load) == 60, "Contact_Force.load: offset differs");
+static_assert(offsetof(Contact_Force, sticking) == 64, "Contact_Force.sticking: offset differs");
+static_assert(offsetof(Contact_Force, body_a) == 68, "Contact_Force.body_a: offset differs");
+static_assert(offsetof(Contact_Force, body_b) == 72, "Contact_Force.body_b: offset differs");
 
 /// The fields of Contact_Force without padding: what pack() takes and unpack() gives.
 struct Contact_Force_Fields {
@@ -42,6 +44,7 @@ struct Contact_Force_Fields {
   float penetration = 0;
   float friction = 0;
   float mass = 0;
+  float load = 0;
   float sticking = 0;
   int32_t body_a = 0;
   int32_t body_b = 0;
@@ -61,6 +64,7 @@ inline void pack(const Contact_Force_Fields& in, Contact_Force& out) {
   out.penetration = in.penetration;
   out.friction = in.friction;
   out.mass = in.mass;
+  out.load = in.load;
   out.sticking = in.sticking;
   out.body_a = in.body_a;
   out.body_b = in.body_b;
@@ -79,6 +83,7 @@ inline void unpack(const Contact_Force& in, Contact_Force_Fields& out) {
   out.penetration = in.penetration;
   out.friction = in.friction;
   out.mass = in.mass;
+  out.load = in.load;
   out.sticking = in.sticking;
   out.body_a = in.body_a;
   out.body_b = in.body_b;
@@ -1270,7 +1275,7 @@ struct StructInfo {
 
 /// Every layout, with the sizes the compiler gave them.
 inline constexpr StructInfo kStructTable[] = {
-    {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 60},
+    {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 64},
     {"Island_Header", sizeof(Island_Header), alignof(Island_Header), 52},
     {"Island_Result", sizeof(Island_Result), alignof(Island_Result), 48},
     {"Island_Section", sizeof(Island_Section), alignof(Island_Section), 16},

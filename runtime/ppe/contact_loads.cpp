@@ -1,0 +1,70 @@
+#include "runtime/ppe/contact_loads.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "runtime/base/vec3.h"
+#include "runtime/ppe/world.h"
+
+namespace cellphys::ppe {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+// A contact holds its upper body up if its normal is within about 84 degrees of vertical:
+// walls do not carry what leans on them.
+constexpr double kSupportCosine = 0.1;
+
+}  // namespace
+
+void carry_loads(const std::vector<WorldBody>& bodies, const WorldSettings& s, std::vector<WorldContact>& contacts) {
+  for (WorldContact& c : contacts) c.load = 0.0f;
+  const Vec3d g = Vec3d::load(s.globals.gravity);
+  const double gn = norm(g);
+  if (gn <= 0 || contacts.empty()) return;
+  const Vec3d down = g * (1.0 / gn);
+  // Per contact: the body it holds up (-1: none) and how squarely (|n . down|).
+  std::vector<int64_t> upper(contacts.size(), -1);
+  std::vector<double> share(contacts.size(), 0.0);
+  std::vector<double> support(bodies.size(), 0.0);  // per body: the sum of its supports' shares
+  for (size_t i = 0; i < contacts.size(); ++i) {
+    const WorldContact& c = contacts[i];
+    const double along = dot(Vec3d::load(c.point.normal), down);  // n from a to b
+    if (std::fabs(along) < kSupportCosine) continue;
+    // gravity presses b into a when n points up from a (along < 0): b rests on a
+    const uint32_t top = along < 0 ? c.b : c.a;
+    if (top == kWorldBody || bodies[top].is_static) continue;
+    upper[i] = top;
+    share[i] = std::fabs(along);
+    support[top] += share[i];
+  }
+  // Top to bottom: a body's weight, with what rests on it, splits over its supports.
+  std::vector<uint32_t> order;
+  for (uint32_t i = 0; i < bodies.size(); ++i)
+    if (support[i] > 0) order.push_back(i);
+  auto height = [&](uint32_t i) { return -dot(Vec3d::load(bodies[i].state.position), down); };
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) { return height(x) > height(y); });
+  std::vector<double> weight(bodies.size(), 0.0);  // mass pressing on each body's supports (kg)
+  std::vector<size_t> by_upper(contacts.size());
+  std::iota(by_upper.begin(), by_upper.end(), size_t{0});
+  std::stable_sort(by_upper.begin(), by_upper.end(), [&](size_t x, size_t y) { return upper[x] < upper[y]; });
+  std::vector<size_t> first_of(bodies.size() + 1, contacts.size());
+  for (size_t k = contacts.size(); k-- > 0;)
+    if (upper[by_upper[k]] >= 0) first_of[size_t(upper[by_upper[k]])] = k;
+  const double omega = 2 * kPi * s.globals.contact_hertz;
+  const double to_load = gn / (omega * omega * s.contact_load_depth);  // weight (kg) -> load mass
+  for (uint32_t top : order) {
+    weight[top] += bodies[top].mass;
+    for (size_t k = first_of[top]; k < contacts.size() && upper[by_upper[k]] == int64_t(top); ++k) {
+      const size_t i = by_upper[k];
+      const double carried = weight[top] * share[i] / support[top];
+      WorldContact& c = contacts[i];
+      c.load = float(carried * to_load);
+      const uint32_t below = c.a == top ? c.b : c.a;
+      if (below != kWorldBody && !bodies[below].is_static) weight[below] += carried;
+    }
+  }
+}
+
+}  // namespace cellphys::ppe

@@ -95,11 +95,15 @@ template <class K> double* param(Case<K>& c, const char* name) {
 template <class K> const double* param(const Case<K>& c, const char* name) {
   return param(const_cast<Case<K>&>(c), name);
 }
-template <class K> double global(const Case<K>& c, const char* name) {
+template <class K> double* global_at(Case<K>& c, const char* name) {
   for (const auto& gi : g::kGlobalTable)
-    if (std::strcmp(gi.param.name, name) == 0) return c.glob[gi.param.offset / 4];
+    if (std::strcmp(gi.param.name, name) == 0) return c.glob + gi.param.offset / 4;
   ADD_FAILURE() << "no global " << name;
-  return 0;
+  static double none = 0;
+  return &none;
+}
+template <class K> double global(const Case<K>& c, const char* name) {
+  return *global_at(const_cast<Case<K>&>(c), name);
 }
 // The contact point is a world point attached to both bodies at the start of the step.
 template <class K> bool contact_like() {
@@ -296,14 +300,17 @@ template <class K> Vec3 attachment(const Case<K>& c, const char* name, int body)
   return B.x + B.R * r;
 }
 
-struct ContactRef { Vec3 pa, pb, f; double depth, vn, k, c, slop, rest; };
+struct ContactRef { Vec3 pa, pb, f; double depth, held, vn, k, c, slop, rest; };
 // The contact straight from the descriptor: pa, pb are the material points of a and b that were
 // at `point` at the reference pose (the world's is `point` itself); depth = penetration - (pb - pa).n.
 template <class K> ContactRef contact_ref(const Case<K>& c) {
   ContactRef r;
   const Vec3 p = vec3_at(param(c, "point")), n = vec3_at(param(c, "normal"));
-  r.k = global(c, "contact_stiffness");
-  r.c = global(c, "contact_damping");
+  // Soft unless fixed: k = m w^2, c = 2 zeta m w at w = 2 pi hertz.
+  const double mass = *param(c, "mass"), omega = 2 * M_PI * global(c, "contact_hertz");
+  const double k_fixed = global(c, "contact_stiffness"), c_fixed = global(c, "contact_damping");
+  r.k = k_fixed > 0 ? k_fixed : mass * omega * omega;
+  r.c = c_fixed > 0 ? c_fixed : 2 * global(c, "contact_damping_ratio") * mass * omega;
   r.slop = global(c, "contact_slop");
   r.rest = global(c, "contact_rest_speed");
   const double mu = *param(c, "friction"), slip = global(c, "slip_velocity");
@@ -317,15 +324,21 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
     at = B.x + off;
     vel[body] = B.v + B.w.cross(off);
   }
-  r.depth = *param(c, "penetration") - n.dot(r.pb - r.pa);
+  const Vec3 moved = r.pb - r.pa;
+  r.depth = *param(c, "penetration") - n.dot(moved);
+  r.held = std::min(r.depth, r.slop);  // deeper overlap is pushed out, not sprung
   const Vec3 vrel = vel[1] - vel[0];
   r.vn = n.dot(vrel);
   // overlapping: pushes only; closing within the step (or to within the slop): linear through 0
-  const double spring = r.k * r.depth - r.c * r.vn;
   const bool closing = r.vn <= r.rest && r.depth - kEvalH * r.vn > -r.slop;
-  const double fn = r.depth > 0 ? std::max(0.0, spring) : closing ? spring : 0.0;
+  const double fn = r.depth > 0 ? std::max(0.0, r.k * r.held - r.c * r.vn) : closing ? r.k * r.depth - r.c * r.vn : 0.0;
   const Vec3 vt = vrel - r.vn * n;
-  r.f = fn * n - mu * std::max(fn, 0.0) * vt / std::sqrt(vt.squaredNorm() + slip * slip);
+  // sticking: the normal spring-damper, tangentially, towards the anchor; sliding: Coulomb
+  const Vec3 strain = vec3_at(param(c, "anchor")) + moved - n.dot(moved) * n;
+  const Vec3 stick = -(r.k * strain + r.c * vt);
+  const Vec3 slide = -mu * std::max(fn, 0.0) * vt / std::sqrt(vt.squaredNorm() + slip * slip);
+  const double sticking = *param(c, "sticking");
+  r.f = fn * n + sticking * stick + (1 - sticking) * slide;
   return r;
 }
 
@@ -360,12 +373,24 @@ Case<K> random_case(Rng& rng) {
       *rest = rng.uni(0.2, 0.8) * L;
     }
     if (contact_like<K>()) {
+      // The world's contact: a mass of a pebble to a crate, sticking or sliding, strained from
+      // its anchor by up to the slop, in the tangent plane. The stiffness and damping are soft
+      // (from the mass) or, a quarter of the time each, fixed around the old penalty values.
+      const Vec3 n = vec3_at(param(c, "normal")), a = rng.vec(-0.005, 0.005);
+      set3(param(c, "anchor"), a - n.dot(a) * n);
+      *param(c, "mass") = rng.uni(0.2, 10);
+      *param(c, "sticking") = rng.uni(0, 1) < 0.5 ? 0 : 1;
+      if (rng.uni(0, 1) < 0.25) *global_at(c, "contact_stiffness") = 1e5 * rng.uni(0.5, 2);
+      if (rng.uni(0, 1) < 0.25) *global_at(c, "contact_damping") = 1e3 * rng.uni(0.5, 2);
       if (rng.uni(0, 1) < 0.75) {
-        // Overlapping by 0.001..0.05 once the bodies' motion since the reference pose is
-        // counted, well clear of the positive_part kink so central differences stay on one branch.
-        *param(c, "penetration") += rng.uni(0.001, 0.05) - contact_ref(c).depth;
+        // Overlapping, once the bodies' motion since the reference pose is counted, by less
+        // than the slop or more (the spring then holds the slop), well clear of the kinks at
+        // 0, at the slop and of positive_part so central differences stay on one branch.
+        const double slop = global(c, "contact_slop");
+        const double depth = rng.uni(0, 1) < 0.5 ? rng.uni(0.1, 0.9) * slop : rng.uni(1.1, 10) * slop;
+        *param(c, "penetration") += depth - contact_ref(c).depth;
         const ContactRef r = contact_ref(c);
-        if (r.k * r.depth - r.c * r.vn < 0.5 * r.k * r.depth) continue;
+        if (r.k * r.held - r.c * r.vn < 0.5 * r.k * r.held) continue;
       } else {
         // A gap, closing within the step: depth in (-slop + h vn, 0), 1e-4 m clear of both ends.
         const ContactRef r0 = contact_ref(c);
@@ -800,35 +825,54 @@ TEST(ContactKernel, NoForceAndNoBlocksWhenSeparated) {
       const ContactRef r = contact_ref(c);
       ASSERT_LT(r.depth, 0);
       ASSERT_TRUE(r.vn > r.rest || r.depth - kEvalH * r.vn < -r.slop);
-      expect_all_outputs_zero(c, "gap not closing, state " + std::to_string(s));
+      // No normal force, so no friction either: sliding (a Coulomb force of zero) or sticking
+      // (a friction cone of zero radius), whatever the strain of the anchor.
+      for (int sticking : {0, 1}) {
+        *param(c, "sticking") = sticking;
+        expect_all_outputs_zero(c, "gap not closing, sticking " + std::to_string(sticking) + ", state " + std::to_string(s));
+      }
     }
   });
 }
 
-// Touching at rest (zero depth, zero relative velocity): no force yet, but the normal
-// stiffness is there, so the implicit step meets the surface instead of sinking for a step.
+// Touching at rest (zero depth, zero relative velocity, at the anchor): no force yet, but the
+// normal stiffness is there, so the implicit step meets the surface instead of sinking for a
+// step; a sticking contact's anchor holds it tangentially with the same stiffness. The
+// stiffness is the soft one, mass (2 pi hertz)^2, unless a fixed one is set.
 TEST(ContactKernel, TouchingAtRestHasNoForceButTheNormalStiffness) {
   for_contact_kernels([](auto k) {
     using K = decltype(k);
     SCOPED_TRACE(kernel_name<K>());
     Rng rng(6500);
-    Case<K> c = random_case<K>(rng);
-    for (int b = 0; b < 2; ++b) {  // both at rest, at their reference poses
-      set3(c.body[b] + kVel, Vec3::Zero());
-      set3(c.body[b] + kAngVel, Vec3::Zero());
-      set3(c.ref + kRefWords * b, vec3_at(c.body[b] + kPos));
-      for (int l = 0; l < 4; ++l) c.ref[kRefWords * b + 4 + l] = c.body[b][kQuat + l];
+    for (int s = 0; s < 4; ++s) {
+      Case<K> c = random_case<K>(rng);
+      for (int b = 0; b < 2; ++b) {  // both at rest, at their reference poses
+        set3(c.body[b] + kVel, Vec3::Zero());
+        set3(c.body[b] + kAngVel, Vec3::Zero());
+        set3(c.ref + kRefWords * b, vec3_at(c.body[b] + kPos));
+        for (int l = 0; l < 4; ++l) c.ref[kRefWords * b + 4 + l] = c.body[b][kQuat + l];
+      }
+      *param(c, "penetration") = 0;
+      set3(param(c, "anchor"), Vec3::Zero());
+      const bool sticking = s % 2, fixed = s >= 2;
+      *param(c, "sticking") = sticking;
+      *global_at(c, "contact_stiffness") = fixed ? 2e5 : 0;
+      const double omega = 2 * M_PI * global(c, "contact_hertz");
+      const double stiffness = fixed ? 2e5 : *param(c, "mass") * omega * omega;
+      SCOPED_TRACE(std::string(sticking ? "sticking" : "sliding") + (fixed ? ", fixed stiffness" : ", soft"));
+      const ContactRef r = contact_ref(c);
+      ASSERT_NEAR(r.depth, 0, 1e-12);  // computed: rounding either way
+      const std::vector<double> out = eval_case<double>(c);
+      EXPECT_LT(f_norm(out, K::kBodies), 1e-9 * stiffness);
+      const Vec3 n = vec3_at(param(c, "normal"));
+      const Blocks J = kernel_blocks<K>(out);
+      // dF_a/ddelta_a, linear part: moving a by n deepens the contact by 1, so F_a = -k n (n . dx);
+      // sticking, moving it along the tangent strains the anchor by as much: -k (I - n n^T) more.
+      const Eigen::Matrix3d want = sticking ? Eigen::Matrix3d(-stiffness * Eigen::Matrix3d::Identity())
+                                            : Eigen::Matrix3d(-stiffness * n * n.transpose());
+      EXPECT_LT((J.m[0][0][0].topLeftCorner<3, 3>() - want).norm(), 1e-9 * stiffness)
+          << "kernel:\n" << J.m[0][0][0].topLeftCorner<3, 3>() << "\nwant:\n" << want;
     }
-    *param(c, "penetration") = 0;
-    const ContactRef r = contact_ref(c);
-    ASSERT_NEAR(r.depth, 0, 1e-12);  // computed: rounding either way
-    const std::vector<double> out = eval_case<double>(c);
-    EXPECT_LT(f_norm(out, K::kBodies), 1e-9 * r.k);
-    const Vec3 n = vec3_at(param(c, "normal"));
-    const Blocks J = kernel_blocks<K>(out);
-    // dF_a/ddelta_a, linear part: moving a by n deepens the contact by 1, so F_a = -k n (n . dx)
-    const Eigen::Matrix3d want = -r.k * n * n.transpose();
-    EXPECT_LT((J.m[0][0][0].topLeftCorner<3, 3>() - want).norm(), 1e-9 * r.k);
   });
 }
 
@@ -842,15 +886,19 @@ TEST(ContactKernel, NormalForceClampsToZeroWhenSeparatingFast) {
       Case<K> c = random_case<K>(rng);
       while (contact_ref(c).depth <= 0) c = random_case<K>(rng);  // overlapping cases only
       const ContactRef r = contact_ref(c);
-      // Make c vn = (1.5..10) k depth: overlapping, but separating faster than the spring pushes.
-      const double dvn = rng.uni(1.5, 10) * r.k * r.depth / r.c - r.vn;
+      // Make c vn = (1.5..10) k held: overlapping, but separating faster than the spring pushes.
+      const double dvn = rng.uni(1.5, 10) * r.k * r.held / r.c - r.vn;
       const Vec3 n = vec3_at(param(c, "normal"));
       double* v = kPair<K> ? c.body[1] + kVel : c.body[0] + kVel;  // vrel = v_b(pb) - v_a(pa)
       set3(v, vec3_at(v) + (kPair<K> ? dvn : -dvn) * n);
       const ContactRef r2 = contact_ref(c);
       ASSERT_GT(r2.depth, 0);
-      ASSERT_LT(r2.k * r2.depth - r2.c * r2.vn, 0);
-      expect_all_outputs_zero(c, "separating fast, state " + std::to_string(s));
+      ASSERT_LT(r2.k * r2.held - r2.c * r2.vn, 0);
+      // No normal force, so no friction, sliding or sticking (see NoForceAndNoBlocksWhenSeparated).
+      for (int sticking : {0, 1}) {
+        *param(c, "sticking") = sticking;
+        expect_all_outputs_zero(c, "separating fast, sticking " + std::to_string(sticking) + ", state " + std::to_string(s));
+      }
     }
   });
 }

@@ -300,18 +300,20 @@ template <class K> Vec3 attachment(const Case<K>& c, const char* name, int body)
   return B.x + B.R * r;
 }
 
-struct ContactRef { Vec3 pa, pb, f; double depth, held, vn, k, c, slop, rest; };
+struct ContactRef { Vec3 pa, pb, f; double depth, held, vn, k, c, slop, hold, rest; };
 // The contact straight from the descriptor: pa, pb are the material points of a and b that were
 // at `point` at the reference pose (the world's is `point` itself); depth = penetration - (pb - pa).n.
 template <class K> ContactRef contact_ref(const Case<K>& c) {
   ContactRef r;
   const Vec3 p = vec3_at(param(c, "point")), n = vec3_at(param(c, "normal"));
   // Soft unless fixed: k = m w^2, c = 2 zeta m w at w = 2 pi hertz.
-  const double mass = *param(c, "mass"), omega = 2 * M_PI * global(c, "contact_hertz");
+  // tuned to the larger of its effective mass and the load it carries
+  const double mass = std::max(*param(c, "mass"), *param(c, "load")), omega = 2 * M_PI * global(c, "contact_hertz");
   const double k_fixed = global(c, "contact_stiffness"), c_fixed = global(c, "contact_damping");
   r.k = k_fixed > 0 ? k_fixed : mass * omega * omega;
   r.c = c_fixed > 0 ? c_fixed : 2 * global(c, "contact_damping_ratio") * mass * omega;
   r.slop = global(c, "contact_slop");
+  r.hold = global(c, "contact_hold_depth");
   r.rest = global(c, "contact_rest_speed");
   const double mu = *param(c, "friction"), slip = global(c, "slip_velocity");
   Vec3 vel[2];
@@ -326,7 +328,7 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
   }
   const Vec3 moved = r.pb - r.pa;
   r.depth = *param(c, "penetration") - n.dot(moved);
-  r.held = std::min(r.depth, r.slop);  // deeper overlap is pushed out, not sprung
+  r.held = std::min(r.depth, r.hold);  // deeper overlap is pushed out, not sprung
   const Vec3 vrel = vel[1] - vel[0];
   r.vn = n.dot(vrel);
   // overlapping: pushes only; closing within the step (or to within the slop): linear through 0
@@ -337,7 +339,8 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
   const Vec3 strain = vec3_at(param(c, "anchor")) + moved - n.dot(moved) * n;
   const Vec3 stick = -(r.k * strain + r.c * vt);
   const Vec3 slide = -mu * std::max(fn, 0.0) * vt / std::sqrt(vt.squaredNorm() + slip * slip);
-  const double sticking = *param(c, "sticking");
+  // friction needs a normal force: an opening contact, or a gap staying open, holds nothing
+  const double sticking = mu * std::max(fn, 0.0) > 0 ? *param(c, "sticking") : 0.0;
   r.f = fn * n + sticking * stick + (1 - sticking) * slide;
   return r;
 }
@@ -379,15 +382,17 @@ Case<K> random_case(Rng& rng) {
       const Vec3 n = vec3_at(param(c, "normal")), a = rng.vec(-0.005, 0.005);
       set3(param(c, "anchor"), a - n.dot(a) * n);
       *param(c, "mass") = rng.uni(0.2, 10);
+      // the weight resting on it, as a mass: none, or up to a crate on a pebble
+      *param(c, "load") = rng.uni(0, 1) < 0.5 ? 0 : rng.uni(0.1, 100);
       *param(c, "sticking") = rng.uni(0, 1) < 0.5 ? 0 : 1;
       if (rng.uni(0, 1) < 0.25) *global_at(c, "contact_stiffness") = 1e5 * rng.uni(0.5, 2);
       if (rng.uni(0, 1) < 0.25) *global_at(c, "contact_damping") = 1e3 * rng.uni(0.5, 2);
       if (rng.uni(0, 1) < 0.75) {
         // Overlapping, once the bodies' motion since the reference pose is counted, by less
-        // than the slop or more (the spring then holds the slop), well clear of the kinks at
-        // 0, at the slop and of positive_part so central differences stay on one branch.
-        const double slop = global(c, "contact_slop");
-        const double depth = rng.uni(0, 1) < 0.5 ? rng.uni(0.1, 0.9) * slop : rng.uni(1.1, 10) * slop;
+        // than the hold depth or more (the spring then holds that), well clear of the kinks at
+        // 0, at the hold depth and of positive_part so central differences stay on one branch.
+        const double hold = global(c, "contact_hold_depth");
+        const double depth = rng.uni(0, 1) < 0.5 ? rng.uni(0.1, 0.9) * hold : rng.uni(1.1, 10) * hold;
         *param(c, "penetration") += depth - contact_ref(c).depth;
         const ContactRef r = contact_ref(c);
         if (r.k * r.held - r.c * r.vn < 0.5 * r.k * r.held) continue;
@@ -858,6 +863,7 @@ TEST(ContactKernel, TouchingAtRestHasNoForceButTheNormalStiffness) {
       *param(c, "sticking") = sticking;
       *global_at(c, "contact_stiffness") = fixed ? 2e5 : 0;
       const double omega = 2 * M_PI * global(c, "contact_hertz");
+      *param(c, "load") = 0;  // nothing rests on it yet
       const double stiffness = fixed ? 2e5 : *param(c, "mass") * omega * omega;
       SCOPED_TRACE(std::string(sticking ? "sticking" : "sliding") + (fixed ? ", fixed stiffness" : ", soft"));
       const ContactRef r = contact_ref(c);
@@ -866,12 +872,15 @@ TEST(ContactKernel, TouchingAtRestHasNoForceButTheNormalStiffness) {
       EXPECT_LT(f_norm(out, K::kBodies), 1e-9 * stiffness);
       const Vec3 n = vec3_at(param(c, "normal"));
       const Blocks J = kernel_blocks<K>(out);
-      // dF_a/ddelta_a, linear part: moving a by n deepens the contact by 1, so F_a = -k n (n . dx);
-      // sticking, moving it along the tangent strains the anchor by as much: -k (I - n n^T) more.
-      const Eigen::Matrix3d want = sticking ? Eigen::Matrix3d(-stiffness * Eigen::Matrix3d::Identity())
-                                            : Eigen::Matrix3d(-stiffness * n * n.transpose());
-      EXPECT_LT((J.m[0][0][0].topLeftCorner<3, 3>() - want).norm(), 1e-9 * stiffness)
-          << "kernel:\n" << J.m[0][0][0].topLeftCorner<3, 3>() << "\nwant:\n" << want;
+      // dF_a/ddelta_a, linear part: moving a by n deepens the contact by 1, so F_a = -k n (n . dx).
+      // Sliding, with no normal force yet there is no friction: no tangential stiffness. Marked
+      // sticking, the zero depth rounds to a load of either sign: no tangential stiffness, or the
+      // anchor's -k (I - n n^T) on top, nothing else.
+      const Eigen::Matrix3d normal = -stiffness * n * n.transpose();
+      const Eigen::Matrix3d block = J.m[0][0][0].topLeftCorner<3, 3>();
+      const double off = (block - normal).norm(), anchored = (block + stiffness * Eigen::Matrix3d::Identity()).norm();
+      EXPECT_LT(sticking ? std::min(off, anchored) : off, 1e-9 * stiffness)
+          << "kernel:\n" << block << "\nwant:\n" << normal;
     }
   });
 }

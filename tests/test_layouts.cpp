@@ -83,8 +83,8 @@ TEST(Layouts, SeedSizesWhereTheSeedLayoutIsKept) {
   // here, not 160: the orientation is a quaternion (16 B) instead of a padded Matrix33 (48 B),
   // and the body-frame inertia and its inverse are symmetric (6 floats each).
   // Contact_Force no longer keeps the reference design's 48 B: the soft contact carries its friction
-  // anchor (a padded vec3, 16 B), its mass and whether it sticks (4 B each), 72 B rounded up to its
-  // 16 B alignment.
+  // anchor (a padded vec3, 16 B), its effective mass, its load and whether it sticks (4 B each), 76 B
+  // rounded up to its 16 B alignment.
   EXPECT_EQ(sizeof(Contact_Force), 80u);
   EXPECT_EQ(sizeof(W_Element), 64u);
   EXPECT_EQ(sizeof(Rigid_Body_Step), 32u);

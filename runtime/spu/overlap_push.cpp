@@ -35,7 +35,7 @@ void push_out_overlaps(const IslandView& v, float h, float* scratch) {
       contacts = v.instances<Contact_Force>(v.sections[s]), count = v.sections[s].count;
   if (!contacts || step_budget <= 0) return;
   bool any = false;
-  for (uint32_t c = 0; c < count && !any; ++c) any = contacts[c].penetration > g.contact_slop;
+  for (uint32_t c = 0; c < count && !any; ++c) any = contacts[c].penetration > g.contact_hold_depth;
   if (!any) return;
   // Per body: its displacement (xyz) and its level (w): contacts away from what cannot move
   // (the world, a ghost of another part). A contact moves its upper body only, so the
@@ -71,7 +71,7 @@ void push_out_overlaps(const IslandView& v, float h, float* scratch) {
       if (wa + wb <= 0) continue;
       const Vec3d nrm = Vec3d::load(k.normal);
       const double depth = k.penetration - dot(moved(scratch, k.body_b) - moved(scratch, k.body_a), nrm);
-      const double push = std::min(depth - g.contact_slop, per_sweep);
+      const double push = std::min(depth - g.contact_hold_depth, per_sweep);
       if (push <= 0) continue;
       if (wa > 0) add(scratch, k.body_a, nrm * (-push * wa / (wa + wb)));
       if (wb > 0) add(scratch, k.body_b, nrm * (push * wb / (wa + wb)));

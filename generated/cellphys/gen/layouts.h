@@ -1194,12 +1194,14 @@ struct alignas(16) Island_Params {
   float contact_damping_ratio;  ///< @20: f32. soft contact damping ratio: damping 2 ratio mass (2 pi hertz)
   float contact_stiffness;  ///< @24: f32. fixed normal stiffness (N/m) instead of the soft one; 0: soft
   float contact_damping;  ///< @28: f32. fixed normal damping (N s/m) instead of the soft one; 0: soft
-  float contact_push_speed;  ///< @32: f32. speed (m/s) at which overlap deeper than the slop is pushed out, moving the bodies apart without giving them that speed
-  float slip_velocity;  ///< @36: f32. speed below which sliding Coulomb friction is regularised (m/s)
-  float contact_slop;  ///< @40: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step); also the deepest overlap the spring acts on (deeper overlap is pushed out)
-  float contact_rest_speed;  ///< @44: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
+  float contact_push_speed;  ///< @32: f32. speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed
+  float contact_hold_depth;  ///< @36: f32. deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
+  float slip_velocity;  ///< @40: f32. speed below which sliding Coulomb friction is regularised (m/s)
+  float contact_slop;  ///< @44: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
+  float contact_rest_speed;  ///< @48: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
+  unsigned char pad_52[12];
 };
-static_assert(sizeof(Island_Params) == 48, "Island_Params: size differs from the descriptor");
+static_assert(sizeof(Island_Params) == 64, "Island_Params: size differs from the descriptor");
 static_assert(alignof(Island_Params) == 16, "Island_Params: alignment differs from the descriptor");
 static_assert(offsetof(Island_Params, gravity) == 0, "Island_Params.gravity: offset differs");
 static_assert(offsetof(Island_Params, contact_hertz) == 16, "Island_Params.contact_hertz: offset differs");
@@ -1207,9 +1209,10 @@ static_assert(offsetof(Island_Params, contact_damping_ratio) == 20, "Island_Para
 static_assert(offsetof(Island_Params, contact_stiffness) == 24, "Island_Params.contact_stiffness: offset differs");
 static_assert(offsetof(Island_Params, contact_damping) == 28, "Island_Params.contact_damping: offset differs");
 static_assert(offsetof(Island_Params, contact_push_speed) == 32, "Island_Params.contact_push_speed: offset differs");
-static_assert(offsetof(Island_Params, slip_velocity) == 36, "Island_Params.slip_velocity: offset differs");
-static_assert(offsetof(Island_Params, contact_slop) == 40, "Island_Params.contact_slop: offset differs");
-static_assert(offsetof(Island_Params, contact_rest_speed) == 44, "Island_Params.contact_rest_speed: offset differs");
+static_assert(offsetof(Island_Params, contact_hold_depth) == 36, "Island_Params.contact_hold_depth: offset differs");
+static_assert(offsetof(Island_Params, slip_velocity) == 40, "Island_Params.slip_velocity: offset differs");
+static_assert(offsetof(Island_Params, contact_slop) == 44, "Island_Params.contact_slop: offset differs");
+static_assert(offsetof(Island_Params, contact_rest_speed) == 48, "Island_Params.contact_rest_speed: offset differs");
 
 /// The fields of Island_Params without padding: what pack() takes and unpack() gives.
 struct Island_Params_Fields {
@@ -1219,6 +1222,7 @@ struct Island_Params_Fields {
   float contact_stiffness = 0;
   float contact_damping = 0;
   float contact_push_speed = 0;
+  float contact_hold_depth = 0;
   float slip_velocity = 0;
   float contact_slop = 0;
   float contact_rest_speed = 0;
@@ -1234,6 +1238,7 @@ inline void pack(const Island_Params_Fields& in, Island_Params& out) {
   out.contact_stiffness = in.contact_stiffness;
   out.contact_damping = in.contact_damping;
   out.contact_push_speed = in.contact_push_speed;
+  out.contact_hold_depth = in.contact_hold_depth;
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
@@ -1248,12 +1253,13 @@ inline void unpack(const Island_Params& in, Island_Params_Fields& out) {
   out.contact_stiffness = in.contact_stiffness;
   out.contact_damping = in.contact_damping;
   out.contact_push_speed = in.contact_push_speed;
+  out.contact_hold_depth = in.contact_hold_depth;
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
 }
 
-/// Bytes as they cross a DMA transfer or the wire (48 B).
+/// Bytes as they cross a DMA transfer or the wire (64 B).
 inline void pack(const Island_Params_Fields& in, unsigned char* bytes) {
   Island_Params tmp;
   pack(in, tmp);
@@ -1291,7 +1297,7 @@ inline constexpr StructInfo kStructTable[] = {
     {"Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), 4},
     {"Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), 4},
     {"Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), 44},
-    {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 44},
+    {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 48},
 };
 
 }  // namespace cellphys::gen

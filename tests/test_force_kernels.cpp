@@ -338,7 +338,12 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
   // sticking: the normal spring-damper, tangentially, towards the anchor; sliding: Coulomb
   const Vec3 strain = vec3_at(param(c, "anchor")) + moved - n.dot(moved) * n;
   const Vec3 stick = -(r.k * strain + r.c * vt);
-  const Vec3 slide = -mu * std::max(fn, 0.0) * vt / std::sqrt(vt.squaredNorm() + slip * slip);
+  // sliding: Coulomb linearised about the held slip (mu fn along it, a damper across) while the
+  // slip is faster than friction stops in a step; slower, a damper along the slip itself
+  const double fmax = mu * std::max(fn, 0.0), held_slip = std::sqrt(vt.squaredNorm() + slip * slip);
+  const Vec3 dir = vt / held_slip;
+  const bool fast = held_slip * *param(c, "mass") > kEvalH * fmax;
+  const Vec3 slide = fast ? Vec3(-fmax * (dir + (vt - vt.dot(dir) * dir) / held_slip)) : Vec3(-fmax * vt / held_slip);
   // friction needs a normal force: an opening contact, or a gap staying open, holds nothing
   const double sticking = mu * std::max(fn, 0.0) > 0 ? *param(c, "sticking") : 0.0;
   r.f = fn * n + sticking * stick + (1 - sticking) * slide;

@@ -257,7 +257,7 @@ TEST(World, BoxOnInclineSlidesAtGTimesSinMinusMuCos) {
   const double expected = kG * (std::sin(theta) - mu * std::cos(theta));
   record("incline_slide_acceleration", r.acceleration);
   record("incline_slide_expected", expected);
-  EXPECT_NEAR(r.acceleration, expected, 0.05 * expected);
+  EXPECT_NEAR(r.acceleration, expected, 0.02 * expected);
   EXPECT_LT(r.lift, 0.005) << "the box left the surface";
 }
 

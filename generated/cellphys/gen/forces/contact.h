@@ -10,7 +10,7 @@ namespace cellphys::gen {
 
 /// contact (pair): F for 2 bodies and 8 Jacobian block(s).
 /// out = [F_a (6), F_b (6), dF_a/ddelta_a (36), dF_a/ddelta_b (36), dF_a/du_a (36), dF_a/du_b (36), dF_b/ddelta_a (36), dF_b/ddelta_b (36), dF_b/du_a (36), dF_b/du_b (36)]
-/// Total ops: 1751
+/// Total ops: 2136
 struct Contact_Pair_Kernel {
   using Instance = Contact_Force;
   static constexpr ForceType kType = ForceType::contact;
@@ -19,7 +19,7 @@ struct Contact_Pair_Kernel {
   static constexpr int kInputs = 62;
   static constexpr int kNumBlocks = 8;
   static constexpr int kOutputs = 300;
-  static constexpr int kOps = 1751;
+  static constexpr int kOps = 2136;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_ddelta, 0, 1},
@@ -536,92 +536,228 @@ struct Contact_Pair_Kernel {
     const S d_L_fmax__b_wx = (d_L_fn__b_wx*l16_0_1);
     const S d_L_fmax__b_wy = (d_L_fn__b_wy*l16_0_1);
     const S d_L_fmax__b_wz = (d_L_fn__b_wz*l16_0_1);
-    // let slip (contact.yaml:70)
+    // let slip (contact.yaml:71)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let holds (contact.yaml:73)
+    // let dir (contact.yaml:72)
+    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
+    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
+    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
+    // let fast (contact.yaml:73)
+    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:74)
+    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l20_0_2 = (L_dir__0*L_dir__1);
+    const S l20_0_3 = (L_dir__0*L_dir__2);
+    const S l20_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l20_0_5 = (L_dir__1*L_dir__2);
+    const S l20_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l20_0_1) - (d_L_vt__1__a_vx*l20_0_2) - (d_L_vt__2__a_vx*l20_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l20_0_1) - (d_L_vt__1__a_vy*l20_0_2) - (d_L_vt__2__a_vy*l20_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l20_0_1) - (d_L_vt__1__a_vz*l20_0_2) - (d_L_vt__2__a_vz*l20_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l20_0_1) - (d_L_vt__1__a_wx*l20_0_2) - (d_L_vt__2__a_wx*l20_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l20_0_1) - (d_L_vt__1__a_wy*l20_0_2) - (d_L_vt__2__a_wy*l20_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l20_0_1) - (d_L_vt__1__a_wz*l20_0_2) - (d_L_vt__2__a_wz*l20_0_3));
+    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l20_0_1) - (d_L_vt__1__b_vx*l20_0_2) - (d_L_vt__2__b_vx*l20_0_3));
+    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l20_0_1) - (d_L_vt__1__b_vy*l20_0_2) - (d_L_vt__2__b_vy*l20_0_3));
+    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l20_0_1) - (d_L_vt__1__b_vz*l20_0_2) - (d_L_vt__2__b_vz*l20_0_3));
+    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l20_0_1) - (d_L_vt__1__b_wx*l20_0_2) - (d_L_vt__2__b_wx*l20_0_3));
+    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l20_0_1) - (d_L_vt__1__b_wy*l20_0_2) - (d_L_vt__2__b_wy*l20_0_3));
+    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l20_0_1) - (d_L_vt__1__b_wz*l20_0_2) - (d_L_vt__2__b_wz*l20_0_3));
+    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l20_0_2)) + (d_L_vt__1__a_vx*l20_0_4) - (d_L_vt__2__a_vx*l20_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l20_0_2)) + (d_L_vt__1__a_vy*l20_0_4) - (d_L_vt__2__a_vy*l20_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l20_0_2)) + (d_L_vt__1__a_vz*l20_0_4) - (d_L_vt__2__a_vz*l20_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l20_0_2)) + (d_L_vt__1__a_wx*l20_0_4) - (d_L_vt__2__a_wx*l20_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l20_0_2)) + (d_L_vt__1__a_wy*l20_0_4) - (d_L_vt__2__a_wy*l20_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l20_0_2)) + (d_L_vt__1__a_wz*l20_0_4) - (d_L_vt__2__a_wz*l20_0_5));
+    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l20_0_2)) + (d_L_vt__1__b_vx*l20_0_4) - (d_L_vt__2__b_vx*l20_0_5));
+    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l20_0_2)) + (d_L_vt__1__b_vy*l20_0_4) - (d_L_vt__2__b_vy*l20_0_5));
+    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l20_0_2)) + (d_L_vt__1__b_vz*l20_0_4) - (d_L_vt__2__b_vz*l20_0_5));
+    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l20_0_2)) + (d_L_vt__1__b_wx*l20_0_4) - (d_L_vt__2__b_wx*l20_0_5));
+    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l20_0_2)) + (d_L_vt__1__b_wy*l20_0_4) - (d_L_vt__2__b_wy*l20_0_5));
+    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l20_0_2)) + (d_L_vt__1__b_wz*l20_0_4) - (d_L_vt__2__b_wz*l20_0_5));
+    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l20_0_3)) - (d_L_vt__1__a_vx*l20_0_5) + (d_L_vt__2__a_vx*l20_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l20_0_3)) - (d_L_vt__1__a_vy*l20_0_5) + (d_L_vt__2__a_vy*l20_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l20_0_3)) - (d_L_vt__1__a_vz*l20_0_5) + (d_L_vt__2__a_vz*l20_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
+    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l20_0_3)) - (d_L_vt__1__b_vx*l20_0_5) + (d_L_vt__2__b_vx*l20_0_6));
+    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l20_0_3)) - (d_L_vt__1__b_vy*l20_0_5) + (d_L_vt__2__b_vy*l20_0_6));
+    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l20_0_3)) - (d_L_vt__1__b_vz*l20_0_5) + (d_L_vt__2__b_vz*l20_0_6));
+    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l20_0_3)) - (d_L_vt__1__b_wx*l20_0_5) + (d_L_vt__2__b_wx*l20_0_6));
+    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l20_0_3)) - (d_L_vt__1__b_wy*l20_0_5) + (d_L_vt__2__b_wy*l20_0_6));
+    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l20_0_3)) - (d_L_vt__1__b_wz*l20_0_5) + (d_L_vt__2__b_wz*l20_0_6));
+    // let sliding (contact.yaml:75)
+    const S l21_0_0 = (S(1)/(L_slip));
+    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
+    const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
+    const S l21_0_3 = (-l21_0_2);
+    const S l21_0_4 = (L_fast*L_fmax*l21_0_0);
+    const S l21_0_5 = (L_fmax*l21_0_1);
+    const S l21_0_6 = ((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1));
+    const S l21_0_7 = (-l21_0_6);
+    const S l21_0_8 = ((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1));
+    const S l21_0_9 = (-l21_0_8);
+    const S L_sliding__0 = (-(L_fmax*l21_0_2));
+    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l21_0_3);
+    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l21_0_3);
+    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l21_0_3);
+    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l21_0_3);
+    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l21_0_3);
+    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l21_0_3);
+    const S d_L_sliding__0__b_dx = (d_L_fmax__b_dx*l21_0_3);
+    const S d_L_sliding__0__b_dy = (d_L_fmax__b_dy*l21_0_3);
+    const S d_L_sliding__0__b_dz = (d_L_fmax__b_dz*l21_0_3);
+    const S d_L_sliding__0__b_dtx = (d_L_fmax__b_dtx*l21_0_3);
+    const S d_L_sliding__0__b_dty = (d_L_fmax__b_dty*l21_0_3);
+    const S d_L_sliding__0__b_dtz = (d_L_fmax__b_dtz*l21_0_3);
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_3) - (d_L_vt__0__a_vx*l21_0_5));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_3) - (d_L_vt__0__a_vy*l21_0_5));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_3) - (d_L_vt__0__a_vz*l21_0_5));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_3) - (d_L_vt__0__a_wx*l21_0_5));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_3) - (d_L_vt__0__a_wy*l21_0_5));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_3) - (d_L_vt__0__a_wz*l21_0_5));
+    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_3) - (d_L_vt__0__b_vx*l21_0_5));
+    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_3) - (d_L_vt__0__b_vy*l21_0_5));
+    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_3) - (d_L_vt__0__b_vz*l21_0_5));
+    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_3) - (d_L_vt__0__b_wx*l21_0_5));
+    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_3) - (d_L_vt__0__b_wy*l21_0_5));
+    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_3) - (d_L_vt__0__b_wz*l21_0_5));
+    const S L_sliding__1 = (-(L_fmax*l21_0_6));
+    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l21_0_7);
+    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l21_0_7);
+    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l21_0_7);
+    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l21_0_7);
+    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l21_0_7);
+    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l21_0_7);
+    const S d_L_sliding__1__b_dx = (d_L_fmax__b_dx*l21_0_7);
+    const S d_L_sliding__1__b_dy = (d_L_fmax__b_dy*l21_0_7);
+    const S d_L_sliding__1__b_dz = (d_L_fmax__b_dz*l21_0_7);
+    const S d_L_sliding__1__b_dtx = (d_L_fmax__b_dtx*l21_0_7);
+    const S d_L_sliding__1__b_dty = (d_L_fmax__b_dty*l21_0_7);
+    const S d_L_sliding__1__b_dtz = (d_L_fmax__b_dtz*l21_0_7);
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_7) - (d_L_vt__1__a_vx*l21_0_5));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_7) - (d_L_vt__1__a_vy*l21_0_5));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_7) - (d_L_vt__1__a_vz*l21_0_5));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_7) - (d_L_vt__1__a_wx*l21_0_5));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_7) - (d_L_vt__1__a_wy*l21_0_5));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_7) - (d_L_vt__1__a_wz*l21_0_5));
+    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_7) - (d_L_vt__1__b_vx*l21_0_5));
+    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_7) - (d_L_vt__1__b_vy*l21_0_5));
+    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_7) - (d_L_vt__1__b_vz*l21_0_5));
+    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_7) - (d_L_vt__1__b_wx*l21_0_5));
+    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_7) - (d_L_vt__1__b_wy*l21_0_5));
+    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_7) - (d_L_vt__1__b_wz*l21_0_5));
+    const S L_sliding__2 = (-(L_fmax*l21_0_8));
+    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l21_0_9);
+    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l21_0_9);
+    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l21_0_9);
+    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l21_0_9);
+    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l21_0_9);
+    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l21_0_9);
+    const S d_L_sliding__2__b_dx = (d_L_fmax__b_dx*l21_0_9);
+    const S d_L_sliding__2__b_dy = (d_L_fmax__b_dy*l21_0_9);
+    const S d_L_sliding__2__b_dz = (d_L_fmax__b_dz*l21_0_9);
+    const S d_L_sliding__2__b_dtx = (d_L_fmax__b_dtx*l21_0_9);
+    const S d_L_sliding__2__b_dty = (d_L_fmax__b_dty*l21_0_9);
+    const S d_L_sliding__2__b_dtz = (d_L_fmax__b_dtz*l21_0_9);
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_9) - (d_L_vt__2__a_vx*l21_0_5));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_9) - (d_L_vt__2__a_vy*l21_0_5));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_9) - (d_L_vt__2__a_vz*l21_0_5));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
+    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_9) - (d_L_vt__2__b_vx*l21_0_5));
+    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_9) - (d_L_vt__2__b_vy*l21_0_5));
+    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_9) - (d_L_vt__2__b_vz*l21_0_5));
+    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_9) - (d_L_vt__2__b_wx*l21_0_5));
+    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_9) - (d_L_vt__2__b_wy*l21_0_5));
+    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_9) - (d_L_vt__2__b_wz*l21_0_5));
+    // let holds (contact.yaml:78)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:74)
-    const S l19_0_0 = ((S(1) - L_holds)/(L_slip));
-    const S l19_0_1 = (L_vt__0*l19_0_0);
-    const S l19_0_2 = (L_fmax*l19_0_0);
-    const S l19_0_3 = (L_vt__1*l19_0_0);
-    const S l19_0_4 = (L_vt__2*l19_0_0);
-    const S L_ft__0 = ((-(L_fmax*l19_0_1)) + (L_fs__0*L_holds));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) - (d_L_fmax__a_dx*l19_0_1));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) - (d_L_fmax__a_dy*l19_0_1));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) - (d_L_fmax__a_dz*l19_0_1));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) - (d_L_fmax__a_dtx*l19_0_1));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) - (d_L_fmax__a_dty*l19_0_1));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) - (d_L_fmax__a_dtz*l19_0_1));
-    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) - (d_L_fmax__b_dx*l19_0_1));
-    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) - (d_L_fmax__b_dy*l19_0_1));
-    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) - (d_L_fmax__b_dz*l19_0_1));
-    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) - (d_L_fmax__b_dtx*l19_0_1));
-    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) - (d_L_fmax__b_dty*l19_0_1));
-    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) - (d_L_fmax__b_dtz*l19_0_1));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) - (d_L_fmax__a_vx*l19_0_1) - (d_L_vt__0__a_vx*l19_0_2));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) - (d_L_fmax__a_vy*l19_0_1) - (d_L_vt__0__a_vy*l19_0_2));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) - (d_L_fmax__a_vz*l19_0_1) - (d_L_vt__0__a_vz*l19_0_2));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) - (d_L_fmax__a_wx*l19_0_1) - (d_L_vt__0__a_wx*l19_0_2));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) - (d_L_fmax__a_wy*l19_0_1) - (d_L_vt__0__a_wy*l19_0_2));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) - (d_L_fmax__a_wz*l19_0_1) - (d_L_vt__0__a_wz*l19_0_2));
-    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) - (d_L_fmax__b_vx*l19_0_1) - (d_L_vt__0__b_vx*l19_0_2));
-    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) - (d_L_fmax__b_vy*l19_0_1) - (d_L_vt__0__b_vy*l19_0_2));
-    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) - (d_L_fmax__b_vz*l19_0_1) - (d_L_vt__0__b_vz*l19_0_2));
-    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) - (d_L_fmax__b_wx*l19_0_1) - (d_L_vt__0__b_wx*l19_0_2));
-    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) - (d_L_fmax__b_wy*l19_0_1) - (d_L_vt__0__b_wy*l19_0_2));
-    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) - (d_L_fmax__b_wz*l19_0_1) - (d_L_vt__0__b_wz*l19_0_2));
-    const S L_ft__1 = ((L_fs__1*L_holds) - (L_vt__1*l19_0_2));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) - (d_L_fmax__a_dx*l19_0_3));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) - (d_L_fmax__a_dy*l19_0_3));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) - (d_L_fmax__a_dz*l19_0_3));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) - (d_L_fmax__a_dtx*l19_0_3));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) - (d_L_fmax__a_dty*l19_0_3));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) - (d_L_fmax__a_dtz*l19_0_3));
-    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) - (d_L_fmax__b_dx*l19_0_3));
-    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) - (d_L_fmax__b_dy*l19_0_3));
-    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) - (d_L_fmax__b_dz*l19_0_3));
-    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) - (d_L_fmax__b_dtx*l19_0_3));
-    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) - (d_L_fmax__b_dty*l19_0_3));
-    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) - (d_L_fmax__b_dtz*l19_0_3));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) - (d_L_fmax__a_vx*l19_0_3) - (d_L_vt__1__a_vx*l19_0_2));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) - (d_L_fmax__a_vy*l19_0_3) - (d_L_vt__1__a_vy*l19_0_2));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) - (d_L_fmax__a_vz*l19_0_3) - (d_L_vt__1__a_vz*l19_0_2));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) - (d_L_fmax__a_wx*l19_0_3) - (d_L_vt__1__a_wx*l19_0_2));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) - (d_L_fmax__a_wy*l19_0_3) - (d_L_vt__1__a_wy*l19_0_2));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) - (d_L_fmax__a_wz*l19_0_3) - (d_L_vt__1__a_wz*l19_0_2));
-    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) - (d_L_fmax__b_vx*l19_0_3) - (d_L_vt__1__b_vx*l19_0_2));
-    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) - (d_L_fmax__b_vy*l19_0_3) - (d_L_vt__1__b_vy*l19_0_2));
-    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) - (d_L_fmax__b_vz*l19_0_3) - (d_L_vt__1__b_vz*l19_0_2));
-    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) - (d_L_fmax__b_wx*l19_0_3) - (d_L_vt__1__b_wx*l19_0_2));
-    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) - (d_L_fmax__b_wy*l19_0_3) - (d_L_vt__1__b_wy*l19_0_2));
-    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) - (d_L_fmax__b_wz*l19_0_3) - (d_L_vt__1__b_wz*l19_0_2));
-    const S L_ft__2 = ((L_fs__2*L_holds) - (L_vt__2*l19_0_2));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) - (d_L_fmax__a_dx*l19_0_4));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) - (d_L_fmax__a_dy*l19_0_4));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) - (d_L_fmax__a_dz*l19_0_4));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) - (d_L_fmax__a_dtx*l19_0_4));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) - (d_L_fmax__a_dty*l19_0_4));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) - (d_L_fmax__a_dtz*l19_0_4));
-    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) - (d_L_fmax__b_dx*l19_0_4));
-    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) - (d_L_fmax__b_dy*l19_0_4));
-    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) - (d_L_fmax__b_dz*l19_0_4));
-    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) - (d_L_fmax__b_dtx*l19_0_4));
-    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) - (d_L_fmax__b_dty*l19_0_4));
-    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) - (d_L_fmax__b_dtz*l19_0_4));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) - (d_L_fmax__a_vx*l19_0_4) - (d_L_vt__2__a_vx*l19_0_2));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) - (d_L_fmax__a_vy*l19_0_4) - (d_L_vt__2__a_vy*l19_0_2));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) - (d_L_fmax__a_vz*l19_0_4) - (d_L_vt__2__a_vz*l19_0_2));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) - (d_L_fmax__a_wx*l19_0_4) - (d_L_vt__2__a_wx*l19_0_2));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) - (d_L_fmax__a_wy*l19_0_4) - (d_L_vt__2__a_wy*l19_0_2));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) - (d_L_fmax__a_wz*l19_0_4) - (d_L_vt__2__a_wz*l19_0_2));
-    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) - (d_L_fmax__b_vx*l19_0_4) - (d_L_vt__2__b_vx*l19_0_2));
-    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) - (d_L_fmax__b_vy*l19_0_4) - (d_L_vt__2__b_vy*l19_0_2));
-    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) - (d_L_fmax__b_vz*l19_0_4) - (d_L_vt__2__b_vz*l19_0_2));
-    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) - (d_L_fmax__b_wx*l19_0_4) - (d_L_vt__2__b_wx*l19_0_2));
-    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) - (d_L_fmax__b_wy*l19_0_4) - (d_L_vt__2__b_wy*l19_0_2));
-    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) - (d_L_fmax__b_wz*l19_0_4) - (d_L_vt__2__b_wz*l19_0_2));
-    // let f (contact.yaml:75)
+    // let ft (contact.yaml:79)
+    const S l23_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
+    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
+    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l23_0_0));
+    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l23_0_0));
+    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l23_0_0));
+    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l23_0_0));
+    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l23_0_0));
+    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) + (d_L_sliding__0__b_dx*l23_0_0));
+    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) + (d_L_sliding__0__b_dy*l23_0_0));
+    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) + (d_L_sliding__0__b_dz*l23_0_0));
+    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) + (d_L_sliding__0__b_dtx*l23_0_0));
+    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) + (d_L_sliding__0__b_dty*l23_0_0));
+    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) + (d_L_sliding__0__b_dtz*l23_0_0));
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l23_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l23_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l23_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l23_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l23_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l23_0_0));
+    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l23_0_0));
+    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l23_0_0));
+    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l23_0_0));
+    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l23_0_0));
+    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l23_0_0));
+    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l23_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
+    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l23_0_0));
+    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l23_0_0));
+    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l23_0_0));
+    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l23_0_0));
+    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l23_0_0));
+    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l23_0_0));
+    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) + (d_L_sliding__1__b_dx*l23_0_0));
+    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) + (d_L_sliding__1__b_dy*l23_0_0));
+    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) + (d_L_sliding__1__b_dz*l23_0_0));
+    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) + (d_L_sliding__1__b_dtx*l23_0_0));
+    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) + (d_L_sliding__1__b_dty*l23_0_0));
+    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) + (d_L_sliding__1__b_dtz*l23_0_0));
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l23_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l23_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l23_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l23_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l23_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l23_0_0));
+    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l23_0_0));
+    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l23_0_0));
+    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l23_0_0));
+    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l23_0_0));
+    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l23_0_0));
+    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l23_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
+    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l23_0_0));
+    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l23_0_0));
+    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l23_0_0));
+    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l23_0_0));
+    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l23_0_0));
+    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l23_0_0));
+    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) + (d_L_sliding__2__b_dx*l23_0_0));
+    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) + (d_L_sliding__2__b_dy*l23_0_0));
+    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) + (d_L_sliding__2__b_dz*l23_0_0));
+    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) + (d_L_sliding__2__b_dtx*l23_0_0));
+    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) + (d_L_sliding__2__b_dty*l23_0_0));
+    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) + (d_L_sliding__2__b_dtz*l23_0_0));
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l23_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l23_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l23_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
+    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l23_0_0));
+    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l23_0_0));
+    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l23_0_0));
+    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l23_0_0));
+    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l23_0_0));
+    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l23_0_0));
+    // let f (contact.yaml:80)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -697,21 +833,21 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // F_a from apply[0] (contact.yaml:77)
+    // F_a from apply[0] (contact.yaml:82)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:78)
+    // F_b from apply[1] (contact.yaml:83)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:77)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:82)
     out[12] = (-d_L_f__0__a_dx);
     out[13] = (-d_L_f__1__a_dx);
     out[14] = (-d_L_f__2__a_dx);
@@ -748,7 +884,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[46] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[47] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/ddelta_b from apply[0] (contact.yaml:77)
+    // dF_a/ddelta_b from apply[0] (contact.yaml:82)
     out[48] = (-d_L_f__0__b_dx);
     out[49] = (-d_L_f__1__b_dx);
     out[50] = (-d_L_f__2__b_dx);
@@ -785,7 +921,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((-(L_ra__1*d_L_f__2__b_dtz)) + (L_ra__2*d_L_f__1__b_dtz));
     out[82] = ((L_ra__0*d_L_f__2__b_dtz) - (L_ra__2*d_L_f__0__b_dtz));
     out[83] = ((-(L_ra__0*d_L_f__1__b_dtz)) + (L_ra__1*d_L_f__0__b_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:77)
+    // dF_a/du_a from apply[0] (contact.yaml:82)
     out[84] = (-d_L_f__0__a_vx);
     out[85] = (-d_L_f__1__a_vx);
     out[86] = (-d_L_f__2__a_vx);
@@ -822,7 +958,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz));
     out[118] = ((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz));
     out[119] = ((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz));
-    // dF_a/du_b from apply[0] (contact.yaml:77)
+    // dF_a/du_b from apply[0] (contact.yaml:82)
     out[120] = (-d_L_f__0__b_vx);
     out[121] = (-d_L_f__1__b_vx);
     out[122] = (-d_L_f__2__b_vx);
@@ -859,7 +995,7 @@ struct Contact_Pair_Kernel {
     out[153] = ((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz));
     out[154] = ((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz));
     out[155] = ((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz));
-    // dF_b/ddelta_a from apply[1] (contact.yaml:78)
+    // dF_b/ddelta_a from apply[1] (contact.yaml:83)
     out[156] = d_L_f__0__a_dx;
     out[157] = d_L_f__1__a_dx;
     out[158] = d_L_f__2__a_dx;
@@ -896,7 +1032,7 @@ struct Contact_Pair_Kernel {
     out[189] = ((L_rb__1*d_L_f__2__a_dtz) - (L_rb__2*d_L_f__1__a_dtz));
     out[190] = ((-(L_rb__0*d_L_f__2__a_dtz)) + (L_rb__2*d_L_f__0__a_dtz));
     out[191] = ((L_rb__0*d_L_f__1__a_dtz) - (L_rb__1*d_L_f__0__a_dtz));
-    // dF_b/ddelta_b from apply[1] (contact.yaml:78)
+    // dF_b/ddelta_b from apply[1] (contact.yaml:83)
     out[192] = d_L_f__0__b_dx;
     out[193] = d_L_f__1__b_dx;
     out[194] = d_L_f__2__b_dx;
@@ -933,7 +1069,7 @@ struct Contact_Pair_Kernel {
     out[225] = ((L_rb__1*d_L_f__2__b_dtz) - (L_rb__2*d_L_f__1__b_dtz));
     out[226] = ((-(L_rb__0*d_L_f__2__b_dtz)) + (L_rb__2*d_L_f__0__b_dtz));
     out[227] = ((L_rb__0*d_L_f__1__b_dtz) - (L_rb__1*d_L_f__0__b_dtz));
-    // dF_b/du_a from apply[1] (contact.yaml:78)
+    // dF_b/du_a from apply[1] (contact.yaml:83)
     out[228] = d_L_f__0__a_vx;
     out[229] = d_L_f__1__a_vx;
     out[230] = d_L_f__2__a_vx;
@@ -970,7 +1106,7 @@ struct Contact_Pair_Kernel {
     out[261] = ((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz));
     out[262] = ((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz));
     out[263] = ((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz));
-    // dF_b/du_b from apply[1] (contact.yaml:78)
+    // dF_b/du_b from apply[1] (contact.yaml:83)
     out[264] = d_L_f__0__b_vx;
     out[265] = d_L_f__1__b_vx;
     out[266] = d_L_f__2__b_vx;
@@ -1011,7 +1147,7 @@ struct Contact_Pair_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2268
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2653
   static constexpr int kNumImplicitBlocks = 4;
   static constexpr int kImplicitOutputs = 156;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -1452,92 +1588,228 @@ struct Contact_Pair_Kernel {
     const S d_L_fmax__b_wx = (d_L_fn__b_wx*l16_0_1);
     const S d_L_fmax__b_wy = (d_L_fn__b_wy*l16_0_1);
     const S d_L_fmax__b_wz = (d_L_fn__b_wz*l16_0_1);
-    // let slip (contact.yaml:70)
+    // let slip (contact.yaml:71)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let holds (contact.yaml:73)
+    // let dir (contact.yaml:72)
+    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
+    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
+    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
+    // let fast (contact.yaml:73)
+    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:74)
+    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l20_0_2 = (L_dir__0*L_dir__1);
+    const S l20_0_3 = (L_dir__0*L_dir__2);
+    const S l20_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l20_0_5 = (L_dir__1*L_dir__2);
+    const S l20_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l20_0_1) - (d_L_vt__1__a_vx*l20_0_2) - (d_L_vt__2__a_vx*l20_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l20_0_1) - (d_L_vt__1__a_vy*l20_0_2) - (d_L_vt__2__a_vy*l20_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l20_0_1) - (d_L_vt__1__a_vz*l20_0_2) - (d_L_vt__2__a_vz*l20_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l20_0_1) - (d_L_vt__1__a_wx*l20_0_2) - (d_L_vt__2__a_wx*l20_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l20_0_1) - (d_L_vt__1__a_wy*l20_0_2) - (d_L_vt__2__a_wy*l20_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l20_0_1) - (d_L_vt__1__a_wz*l20_0_2) - (d_L_vt__2__a_wz*l20_0_3));
+    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l20_0_1) - (d_L_vt__1__b_vx*l20_0_2) - (d_L_vt__2__b_vx*l20_0_3));
+    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l20_0_1) - (d_L_vt__1__b_vy*l20_0_2) - (d_L_vt__2__b_vy*l20_0_3));
+    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l20_0_1) - (d_L_vt__1__b_vz*l20_0_2) - (d_L_vt__2__b_vz*l20_0_3));
+    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l20_0_1) - (d_L_vt__1__b_wx*l20_0_2) - (d_L_vt__2__b_wx*l20_0_3));
+    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l20_0_1) - (d_L_vt__1__b_wy*l20_0_2) - (d_L_vt__2__b_wy*l20_0_3));
+    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l20_0_1) - (d_L_vt__1__b_wz*l20_0_2) - (d_L_vt__2__b_wz*l20_0_3));
+    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l20_0_2)) + (d_L_vt__1__a_vx*l20_0_4) - (d_L_vt__2__a_vx*l20_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l20_0_2)) + (d_L_vt__1__a_vy*l20_0_4) - (d_L_vt__2__a_vy*l20_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l20_0_2)) + (d_L_vt__1__a_vz*l20_0_4) - (d_L_vt__2__a_vz*l20_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l20_0_2)) + (d_L_vt__1__a_wx*l20_0_4) - (d_L_vt__2__a_wx*l20_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l20_0_2)) + (d_L_vt__1__a_wy*l20_0_4) - (d_L_vt__2__a_wy*l20_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l20_0_2)) + (d_L_vt__1__a_wz*l20_0_4) - (d_L_vt__2__a_wz*l20_0_5));
+    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l20_0_2)) + (d_L_vt__1__b_vx*l20_0_4) - (d_L_vt__2__b_vx*l20_0_5));
+    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l20_0_2)) + (d_L_vt__1__b_vy*l20_0_4) - (d_L_vt__2__b_vy*l20_0_5));
+    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l20_0_2)) + (d_L_vt__1__b_vz*l20_0_4) - (d_L_vt__2__b_vz*l20_0_5));
+    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l20_0_2)) + (d_L_vt__1__b_wx*l20_0_4) - (d_L_vt__2__b_wx*l20_0_5));
+    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l20_0_2)) + (d_L_vt__1__b_wy*l20_0_4) - (d_L_vt__2__b_wy*l20_0_5));
+    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l20_0_2)) + (d_L_vt__1__b_wz*l20_0_4) - (d_L_vt__2__b_wz*l20_0_5));
+    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l20_0_3)) - (d_L_vt__1__a_vx*l20_0_5) + (d_L_vt__2__a_vx*l20_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l20_0_3)) - (d_L_vt__1__a_vy*l20_0_5) + (d_L_vt__2__a_vy*l20_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l20_0_3)) - (d_L_vt__1__a_vz*l20_0_5) + (d_L_vt__2__a_vz*l20_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
+    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l20_0_3)) - (d_L_vt__1__b_vx*l20_0_5) + (d_L_vt__2__b_vx*l20_0_6));
+    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l20_0_3)) - (d_L_vt__1__b_vy*l20_0_5) + (d_L_vt__2__b_vy*l20_0_6));
+    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l20_0_3)) - (d_L_vt__1__b_vz*l20_0_5) + (d_L_vt__2__b_vz*l20_0_6));
+    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l20_0_3)) - (d_L_vt__1__b_wx*l20_0_5) + (d_L_vt__2__b_wx*l20_0_6));
+    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l20_0_3)) - (d_L_vt__1__b_wy*l20_0_5) + (d_L_vt__2__b_wy*l20_0_6));
+    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l20_0_3)) - (d_L_vt__1__b_wz*l20_0_5) + (d_L_vt__2__b_wz*l20_0_6));
+    // let sliding (contact.yaml:75)
+    const S l21_0_0 = (S(1)/(L_slip));
+    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
+    const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
+    const S l21_0_3 = (-l21_0_2);
+    const S l21_0_4 = (L_fast*L_fmax*l21_0_0);
+    const S l21_0_5 = (L_fmax*l21_0_1);
+    const S l21_0_6 = ((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1));
+    const S l21_0_7 = (-l21_0_6);
+    const S l21_0_8 = ((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1));
+    const S l21_0_9 = (-l21_0_8);
+    const S L_sliding__0 = (-(L_fmax*l21_0_2));
+    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l21_0_3);
+    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l21_0_3);
+    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l21_0_3);
+    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l21_0_3);
+    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l21_0_3);
+    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l21_0_3);
+    const S d_L_sliding__0__b_dx = (d_L_fmax__b_dx*l21_0_3);
+    const S d_L_sliding__0__b_dy = (d_L_fmax__b_dy*l21_0_3);
+    const S d_L_sliding__0__b_dz = (d_L_fmax__b_dz*l21_0_3);
+    const S d_L_sliding__0__b_dtx = (d_L_fmax__b_dtx*l21_0_3);
+    const S d_L_sliding__0__b_dty = (d_L_fmax__b_dty*l21_0_3);
+    const S d_L_sliding__0__b_dtz = (d_L_fmax__b_dtz*l21_0_3);
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_3) - (d_L_vt__0__a_vx*l21_0_5));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_3) - (d_L_vt__0__a_vy*l21_0_5));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_3) - (d_L_vt__0__a_vz*l21_0_5));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_3) - (d_L_vt__0__a_wx*l21_0_5));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_3) - (d_L_vt__0__a_wy*l21_0_5));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_3) - (d_L_vt__0__a_wz*l21_0_5));
+    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_3) - (d_L_vt__0__b_vx*l21_0_5));
+    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_3) - (d_L_vt__0__b_vy*l21_0_5));
+    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_3) - (d_L_vt__0__b_vz*l21_0_5));
+    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_3) - (d_L_vt__0__b_wx*l21_0_5));
+    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_3) - (d_L_vt__0__b_wy*l21_0_5));
+    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_3) - (d_L_vt__0__b_wz*l21_0_5));
+    const S L_sliding__1 = (-(L_fmax*l21_0_6));
+    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l21_0_7);
+    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l21_0_7);
+    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l21_0_7);
+    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l21_0_7);
+    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l21_0_7);
+    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l21_0_7);
+    const S d_L_sliding__1__b_dx = (d_L_fmax__b_dx*l21_0_7);
+    const S d_L_sliding__1__b_dy = (d_L_fmax__b_dy*l21_0_7);
+    const S d_L_sliding__1__b_dz = (d_L_fmax__b_dz*l21_0_7);
+    const S d_L_sliding__1__b_dtx = (d_L_fmax__b_dtx*l21_0_7);
+    const S d_L_sliding__1__b_dty = (d_L_fmax__b_dty*l21_0_7);
+    const S d_L_sliding__1__b_dtz = (d_L_fmax__b_dtz*l21_0_7);
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_7) - (d_L_vt__1__a_vx*l21_0_5));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_7) - (d_L_vt__1__a_vy*l21_0_5));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_7) - (d_L_vt__1__a_vz*l21_0_5));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_7) - (d_L_vt__1__a_wx*l21_0_5));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_7) - (d_L_vt__1__a_wy*l21_0_5));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_7) - (d_L_vt__1__a_wz*l21_0_5));
+    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_7) - (d_L_vt__1__b_vx*l21_0_5));
+    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_7) - (d_L_vt__1__b_vy*l21_0_5));
+    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_7) - (d_L_vt__1__b_vz*l21_0_5));
+    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_7) - (d_L_vt__1__b_wx*l21_0_5));
+    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_7) - (d_L_vt__1__b_wy*l21_0_5));
+    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_7) - (d_L_vt__1__b_wz*l21_0_5));
+    const S L_sliding__2 = (-(L_fmax*l21_0_8));
+    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l21_0_9);
+    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l21_0_9);
+    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l21_0_9);
+    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l21_0_9);
+    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l21_0_9);
+    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l21_0_9);
+    const S d_L_sliding__2__b_dx = (d_L_fmax__b_dx*l21_0_9);
+    const S d_L_sliding__2__b_dy = (d_L_fmax__b_dy*l21_0_9);
+    const S d_L_sliding__2__b_dz = (d_L_fmax__b_dz*l21_0_9);
+    const S d_L_sliding__2__b_dtx = (d_L_fmax__b_dtx*l21_0_9);
+    const S d_L_sliding__2__b_dty = (d_L_fmax__b_dty*l21_0_9);
+    const S d_L_sliding__2__b_dtz = (d_L_fmax__b_dtz*l21_0_9);
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_9) - (d_L_vt__2__a_vx*l21_0_5));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_9) - (d_L_vt__2__a_vy*l21_0_5));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_9) - (d_L_vt__2__a_vz*l21_0_5));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
+    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_9) - (d_L_vt__2__b_vx*l21_0_5));
+    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_9) - (d_L_vt__2__b_vy*l21_0_5));
+    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_9) - (d_L_vt__2__b_vz*l21_0_5));
+    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_9) - (d_L_vt__2__b_wx*l21_0_5));
+    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_9) - (d_L_vt__2__b_wy*l21_0_5));
+    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_9) - (d_L_vt__2__b_wz*l21_0_5));
+    // let holds (contact.yaml:78)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:74)
-    const S l19_0_0 = ((S(1) - L_holds)/(L_slip));
-    const S l19_0_1 = (L_vt__0*l19_0_0);
-    const S l19_0_2 = (L_fmax*l19_0_0);
-    const S l19_0_3 = (L_vt__1*l19_0_0);
-    const S l19_0_4 = (L_vt__2*l19_0_0);
-    const S L_ft__0 = ((-(L_fmax*l19_0_1)) + (L_fs__0*L_holds));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) - (d_L_fmax__a_dx*l19_0_1));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) - (d_L_fmax__a_dy*l19_0_1));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) - (d_L_fmax__a_dz*l19_0_1));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) - (d_L_fmax__a_dtx*l19_0_1));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) - (d_L_fmax__a_dty*l19_0_1));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) - (d_L_fmax__a_dtz*l19_0_1));
-    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) - (d_L_fmax__b_dx*l19_0_1));
-    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) - (d_L_fmax__b_dy*l19_0_1));
-    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) - (d_L_fmax__b_dz*l19_0_1));
-    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) - (d_L_fmax__b_dtx*l19_0_1));
-    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) - (d_L_fmax__b_dty*l19_0_1));
-    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) - (d_L_fmax__b_dtz*l19_0_1));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) - (d_L_fmax__a_vx*l19_0_1) - (d_L_vt__0__a_vx*l19_0_2));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) - (d_L_fmax__a_vy*l19_0_1) - (d_L_vt__0__a_vy*l19_0_2));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) - (d_L_fmax__a_vz*l19_0_1) - (d_L_vt__0__a_vz*l19_0_2));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) - (d_L_fmax__a_wx*l19_0_1) - (d_L_vt__0__a_wx*l19_0_2));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) - (d_L_fmax__a_wy*l19_0_1) - (d_L_vt__0__a_wy*l19_0_2));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) - (d_L_fmax__a_wz*l19_0_1) - (d_L_vt__0__a_wz*l19_0_2));
-    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) - (d_L_fmax__b_vx*l19_0_1) - (d_L_vt__0__b_vx*l19_0_2));
-    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) - (d_L_fmax__b_vy*l19_0_1) - (d_L_vt__0__b_vy*l19_0_2));
-    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) - (d_L_fmax__b_vz*l19_0_1) - (d_L_vt__0__b_vz*l19_0_2));
-    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) - (d_L_fmax__b_wx*l19_0_1) - (d_L_vt__0__b_wx*l19_0_2));
-    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) - (d_L_fmax__b_wy*l19_0_1) - (d_L_vt__0__b_wy*l19_0_2));
-    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) - (d_L_fmax__b_wz*l19_0_1) - (d_L_vt__0__b_wz*l19_0_2));
-    const S L_ft__1 = ((L_fs__1*L_holds) - (L_vt__1*l19_0_2));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) - (d_L_fmax__a_dx*l19_0_3));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) - (d_L_fmax__a_dy*l19_0_3));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) - (d_L_fmax__a_dz*l19_0_3));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) - (d_L_fmax__a_dtx*l19_0_3));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) - (d_L_fmax__a_dty*l19_0_3));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) - (d_L_fmax__a_dtz*l19_0_3));
-    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) - (d_L_fmax__b_dx*l19_0_3));
-    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) - (d_L_fmax__b_dy*l19_0_3));
-    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) - (d_L_fmax__b_dz*l19_0_3));
-    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) - (d_L_fmax__b_dtx*l19_0_3));
-    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) - (d_L_fmax__b_dty*l19_0_3));
-    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) - (d_L_fmax__b_dtz*l19_0_3));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) - (d_L_fmax__a_vx*l19_0_3) - (d_L_vt__1__a_vx*l19_0_2));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) - (d_L_fmax__a_vy*l19_0_3) - (d_L_vt__1__a_vy*l19_0_2));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) - (d_L_fmax__a_vz*l19_0_3) - (d_L_vt__1__a_vz*l19_0_2));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) - (d_L_fmax__a_wx*l19_0_3) - (d_L_vt__1__a_wx*l19_0_2));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) - (d_L_fmax__a_wy*l19_0_3) - (d_L_vt__1__a_wy*l19_0_2));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) - (d_L_fmax__a_wz*l19_0_3) - (d_L_vt__1__a_wz*l19_0_2));
-    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) - (d_L_fmax__b_vx*l19_0_3) - (d_L_vt__1__b_vx*l19_0_2));
-    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) - (d_L_fmax__b_vy*l19_0_3) - (d_L_vt__1__b_vy*l19_0_2));
-    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) - (d_L_fmax__b_vz*l19_0_3) - (d_L_vt__1__b_vz*l19_0_2));
-    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) - (d_L_fmax__b_wx*l19_0_3) - (d_L_vt__1__b_wx*l19_0_2));
-    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) - (d_L_fmax__b_wy*l19_0_3) - (d_L_vt__1__b_wy*l19_0_2));
-    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) - (d_L_fmax__b_wz*l19_0_3) - (d_L_vt__1__b_wz*l19_0_2));
-    const S L_ft__2 = ((L_fs__2*L_holds) - (L_vt__2*l19_0_2));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) - (d_L_fmax__a_dx*l19_0_4));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) - (d_L_fmax__a_dy*l19_0_4));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) - (d_L_fmax__a_dz*l19_0_4));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) - (d_L_fmax__a_dtx*l19_0_4));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) - (d_L_fmax__a_dty*l19_0_4));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) - (d_L_fmax__a_dtz*l19_0_4));
-    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) - (d_L_fmax__b_dx*l19_0_4));
-    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) - (d_L_fmax__b_dy*l19_0_4));
-    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) - (d_L_fmax__b_dz*l19_0_4));
-    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) - (d_L_fmax__b_dtx*l19_0_4));
-    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) - (d_L_fmax__b_dty*l19_0_4));
-    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) - (d_L_fmax__b_dtz*l19_0_4));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) - (d_L_fmax__a_vx*l19_0_4) - (d_L_vt__2__a_vx*l19_0_2));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) - (d_L_fmax__a_vy*l19_0_4) - (d_L_vt__2__a_vy*l19_0_2));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) - (d_L_fmax__a_vz*l19_0_4) - (d_L_vt__2__a_vz*l19_0_2));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) - (d_L_fmax__a_wx*l19_0_4) - (d_L_vt__2__a_wx*l19_0_2));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) - (d_L_fmax__a_wy*l19_0_4) - (d_L_vt__2__a_wy*l19_0_2));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) - (d_L_fmax__a_wz*l19_0_4) - (d_L_vt__2__a_wz*l19_0_2));
-    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) - (d_L_fmax__b_vx*l19_0_4) - (d_L_vt__2__b_vx*l19_0_2));
-    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) - (d_L_fmax__b_vy*l19_0_4) - (d_L_vt__2__b_vy*l19_0_2));
-    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) - (d_L_fmax__b_vz*l19_0_4) - (d_L_vt__2__b_vz*l19_0_2));
-    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) - (d_L_fmax__b_wx*l19_0_4) - (d_L_vt__2__b_wx*l19_0_2));
-    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) - (d_L_fmax__b_wy*l19_0_4) - (d_L_vt__2__b_wy*l19_0_2));
-    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) - (d_L_fmax__b_wz*l19_0_4) - (d_L_vt__2__b_wz*l19_0_2));
-    // let f (contact.yaml:75)
+    // let ft (contact.yaml:79)
+    const S l23_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
+    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
+    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l23_0_0));
+    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l23_0_0));
+    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l23_0_0));
+    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l23_0_0));
+    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l23_0_0));
+    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) + (d_L_sliding__0__b_dx*l23_0_0));
+    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) + (d_L_sliding__0__b_dy*l23_0_0));
+    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) + (d_L_sliding__0__b_dz*l23_0_0));
+    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) + (d_L_sliding__0__b_dtx*l23_0_0));
+    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) + (d_L_sliding__0__b_dty*l23_0_0));
+    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) + (d_L_sliding__0__b_dtz*l23_0_0));
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l23_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l23_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l23_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l23_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l23_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l23_0_0));
+    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l23_0_0));
+    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l23_0_0));
+    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l23_0_0));
+    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l23_0_0));
+    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l23_0_0));
+    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l23_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
+    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l23_0_0));
+    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l23_0_0));
+    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l23_0_0));
+    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l23_0_0));
+    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l23_0_0));
+    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l23_0_0));
+    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) + (d_L_sliding__1__b_dx*l23_0_0));
+    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) + (d_L_sliding__1__b_dy*l23_0_0));
+    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) + (d_L_sliding__1__b_dz*l23_0_0));
+    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) + (d_L_sliding__1__b_dtx*l23_0_0));
+    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) + (d_L_sliding__1__b_dty*l23_0_0));
+    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) + (d_L_sliding__1__b_dtz*l23_0_0));
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l23_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l23_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l23_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l23_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l23_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l23_0_0));
+    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l23_0_0));
+    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l23_0_0));
+    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l23_0_0));
+    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l23_0_0));
+    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l23_0_0));
+    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l23_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
+    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l23_0_0));
+    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l23_0_0));
+    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l23_0_0));
+    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l23_0_0));
+    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l23_0_0));
+    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l23_0_0));
+    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) + (d_L_sliding__2__b_dx*l23_0_0));
+    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) + (d_L_sliding__2__b_dy*l23_0_0));
+    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) + (d_L_sliding__2__b_dz*l23_0_0));
+    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) + (d_L_sliding__2__b_dtx*l23_0_0));
+    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) + (d_L_sliding__2__b_dty*l23_0_0));
+    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) + (d_L_sliding__2__b_dtz*l23_0_0));
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l23_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l23_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l23_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
+    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l23_0_0));
+    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l23_0_0));
+    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l23_0_0));
+    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l23_0_0));
+    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l23_0_0));
+    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l23_0_0));
+    // let f (contact.yaml:80)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -1613,7 +1885,7 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // apply (contact.yaml:76), shared subexpressions
+    // apply (contact.yaml:81), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -1738,21 +2010,21 @@ struct Contact_Pair_Kernel {
     const S o121 = ((d_L_f__0__b_dtz*o87) + (d_L_f__0__b_wz*h));
     const S o122 = ((d_L_f__1__b_dtz*o87) + (d_L_f__1__b_wz*h));
     const S o123 = ((d_L_f__2__b_dtz*o87) + (d_L_f__2__b_wz*h));
-    // g_a from apply[0] (contact.yaml:77)
+    // g_a from apply[0] (contact.yaml:82)
     out[0] = (-o12);
     out[1] = (-o13);
     out[2] = (-o14);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o15) + (o1*o16) + (o10*o25) + (o11*o26) + (o17*o2) + (o18*o3) + (o19*o4) + (o20*o5) + (o21*o6) + (o22*o7) + (o23*o8) + (o24*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o27) + (o1*o28) + (o10*o37) + (o11*o38) + (o2*o29) + (o3*o30) + (o31*o4) + (o32*o5) + (o33*o6) + (o34*o7) + (o35*o8) + (o36*o9));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o39) + (o1*o40) + (o10*o49) + (o11*o50) + (o2*o41) + (o3*o42) + (o4*o43) + (o44*o5) + (o45*o6) + (o46*o7) + (o47*o8) + (o48*o9));
-    // g_b from apply[1] (contact.yaml:78)
+    // g_b from apply[1] (contact.yaml:83)
     out[6] = o12;
     out[7] = o13;
     out[8] = o14;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1) + (o0*o51) + (o1*o52) + (o10*o61) + (o11*o62) + (o2*o53) + (o3*o54) + (o4*o55) + (o5*o56) + (o57*o6) + (o58*o7) + (o59*o8) + (o60*o9));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0) + (o0*o63) + (o1*o64) + (o10*o73) + (o11*o74) + (o2*o65) + (o3*o66) + (o4*o67) + (o5*o68) + (o6*o69) + (o7*o70) + (o71*o8) + (o72*o9));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0) + (o0*o75) + (o1*o76) + (o10*o85) + (o11*o86) + (o2*o77) + (o3*o78) + (o4*o79) + (o5*o80) + (o6*o81) + (o7*o82) + (o8*o83) + (o84*o9));
-    // K_aa from apply[0] (contact.yaml:77)
+    // K_aa from apply[0] (contact.yaml:82)
     out[12] = (-o88);
     out[13] = (-o89);
     out[14] = (-o90);
@@ -1789,7 +2061,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((h*((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz))) + (o20*o87));
     out[46] = ((h*((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz))) + (o32*o87));
     out[47] = ((h*((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz))) + (o44*o87));
-    // K_ab from apply[0] (contact.yaml:77)
+    // K_ab from apply[0] (contact.yaml:82)
     out[48] = (-o106);
     out[49] = (-o107);
     out[50] = (-o108);
@@ -1826,7 +2098,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((h*((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz))) + (o26*o87));
     out[82] = ((h*((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz))) + (o38*o87));
     out[83] = ((h*((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz))) + (o50*o87));
-    // K_ba from apply[1] (contact.yaml:78)
+    // K_ba from apply[1] (contact.yaml:83)
     out[84] = o88;
     out[85] = o89;
     out[86] = o90;
@@ -1863,7 +2135,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((h*((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz))) + (o56*o87));
     out[118] = ((h*((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz))) + (o68*o87));
     out[119] = ((h*((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz))) + (o80*o87));
-    // K_bb from apply[1] (contact.yaml:78)
+    // K_bb from apply[1] (contact.yaml:83)
     out[120] = o106;
     out[121] = o107;
     out[122] = o108;
@@ -1903,10 +2175,10 @@ struct Contact_Pair_Kernel {
   }
 
   /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
-  static constexpr int kHeld = 7;
+  static constexpr int kHeld = 10;
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 364
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 413
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -2084,28 +2356,49 @@ struct Contact_Pair_Kernel {
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
     // let fmax (contact.yaml:65)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:70)
+    // let slip (contact.yaml:71)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let holds (contact.yaml:73)
+    // let dir (contact.yaml:72)
+    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l18_0_0));
+    if (held_out) held_out[7] = L_dir__0;
+    const S L_dir__1 = held_in ? held_in[8] : S((L_vt__1*l18_0_0));
+    if (held_out) held_out[8] = L_dir__1;
+    const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l18_0_0));
+    if (held_out) held_out[9] = L_dir__2;
+    // let fast (contact.yaml:73)
+    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:74)
+    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
+    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
+    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
+    // let sliding (contact.yaml:75)
+    const S l21_0_0 = (S(1)/(L_slip));
+    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
+    const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1))));
+    const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1))));
+    const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1))));
+    // let holds (contact.yaml:78)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:74)
-    const S l19_0_0 = (L_fmax*(S(1) - L_holds)/(L_slip));
-    const S L_ft__0 = ((L_fs__0*L_holds) - (L_vt__0*l19_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) - (L_vt__1*l19_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) - (L_vt__2*l19_0_0));
-    // let f (contact.yaml:75)
+    // let ft (contact.yaml:79)
+    const S l23_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
+    // let f (contact.yaml:80)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:77)
+    // F_a from apply[0] (contact.yaml:82)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:78)
+    // F_b from apply[1] (contact.yaml:83)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
@@ -2117,7 +2410,7 @@ struct Contact_Pair_Kernel {
 
 /// contact (world): F for 1 body and 2 Jacobian block(s).
 /// out = [F_a (6), dF_a/ddelta_a (36), dF_a/du_a (36)]
-/// Total ops: 831
+/// Total ops: 1054
 struct Contact_World_Kernel {
   using Instance = Contact_Force;
   static constexpr ForceType kType = ForceType::contact;
@@ -2126,7 +2419,7 @@ struct Contact_World_Kernel {
   static constexpr int kInputs = 42;
   static constexpr int kNumBlocks = 2;
   static constexpr int kOutputs = 78;
-  static constexpr int kOps = 831;
+  static constexpr int kOps = 1054;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_du, 0, 0},
@@ -2442,56 +2735,138 @@ struct Contact_World_Kernel {
     const S d_L_fmax__a_wx = (d_L_fn__a_wx*l16_0_1);
     const S d_L_fmax__a_wy = (d_L_fn__a_wy*l16_0_1);
     const S d_L_fmax__a_wz = (d_L_fn__a_wz*l16_0_1);
-    // let slip (contact.yaml:70)
+    // let slip (contact.yaml:71)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let holds (contact.yaml:73)
+    // let dir (contact.yaml:72)
+    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
+    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
+    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
+    // let fast (contact.yaml:73)
+    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:74)
+    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l20_0_2 = (L_dir__0*L_dir__1);
+    const S l20_0_3 = (L_dir__0*L_dir__2);
+    const S l20_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l20_0_5 = (L_dir__1*L_dir__2);
+    const S l20_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l20_0_1) - (d_L_vt__1__a_vx*l20_0_2) - (d_L_vt__2__a_vx*l20_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l20_0_1) - (d_L_vt__1__a_vy*l20_0_2) - (d_L_vt__2__a_vy*l20_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l20_0_1) - (d_L_vt__1__a_vz*l20_0_2) - (d_L_vt__2__a_vz*l20_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l20_0_1) - (d_L_vt__1__a_wx*l20_0_2) - (d_L_vt__2__a_wx*l20_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l20_0_1) - (d_L_vt__1__a_wy*l20_0_2) - (d_L_vt__2__a_wy*l20_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l20_0_1) - (d_L_vt__1__a_wz*l20_0_2) - (d_L_vt__2__a_wz*l20_0_3));
+    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l20_0_2)) + (d_L_vt__1__a_vx*l20_0_4) - (d_L_vt__2__a_vx*l20_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l20_0_2)) + (d_L_vt__1__a_vy*l20_0_4) - (d_L_vt__2__a_vy*l20_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l20_0_2)) + (d_L_vt__1__a_vz*l20_0_4) - (d_L_vt__2__a_vz*l20_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l20_0_2)) + (d_L_vt__1__a_wx*l20_0_4) - (d_L_vt__2__a_wx*l20_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l20_0_2)) + (d_L_vt__1__a_wy*l20_0_4) - (d_L_vt__2__a_wy*l20_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l20_0_2)) + (d_L_vt__1__a_wz*l20_0_4) - (d_L_vt__2__a_wz*l20_0_5));
+    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l20_0_3)) - (d_L_vt__1__a_vx*l20_0_5) + (d_L_vt__2__a_vx*l20_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l20_0_3)) - (d_L_vt__1__a_vy*l20_0_5) + (d_L_vt__2__a_vy*l20_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l20_0_3)) - (d_L_vt__1__a_vz*l20_0_5) + (d_L_vt__2__a_vz*l20_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
+    // let sliding (contact.yaml:75)
+    const S l21_0_0 = (S(1)/(L_slip));
+    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
+    const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
+    const S l21_0_3 = (-l21_0_2);
+    const S l21_0_4 = (L_fast*L_fmax*l21_0_0);
+    const S l21_0_5 = (L_fmax*l21_0_1);
+    const S l21_0_6 = ((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1));
+    const S l21_0_7 = (-l21_0_6);
+    const S l21_0_8 = ((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1));
+    const S l21_0_9 = (-l21_0_8);
+    const S L_sliding__0 = (-(L_fmax*l21_0_2));
+    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l21_0_3);
+    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l21_0_3);
+    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l21_0_3);
+    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l21_0_3);
+    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l21_0_3);
+    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l21_0_3);
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_3) - (d_L_vt__0__a_vx*l21_0_5));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_3) - (d_L_vt__0__a_vy*l21_0_5));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_3) - (d_L_vt__0__a_vz*l21_0_5));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_3) - (d_L_vt__0__a_wx*l21_0_5));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_3) - (d_L_vt__0__a_wy*l21_0_5));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_3) - (d_L_vt__0__a_wz*l21_0_5));
+    const S L_sliding__1 = (-(L_fmax*l21_0_6));
+    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l21_0_7);
+    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l21_0_7);
+    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l21_0_7);
+    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l21_0_7);
+    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l21_0_7);
+    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l21_0_7);
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_7) - (d_L_vt__1__a_vx*l21_0_5));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_7) - (d_L_vt__1__a_vy*l21_0_5));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_7) - (d_L_vt__1__a_vz*l21_0_5));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_7) - (d_L_vt__1__a_wx*l21_0_5));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_7) - (d_L_vt__1__a_wy*l21_0_5));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_7) - (d_L_vt__1__a_wz*l21_0_5));
+    const S L_sliding__2 = (-(L_fmax*l21_0_8));
+    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l21_0_9);
+    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l21_0_9);
+    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l21_0_9);
+    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l21_0_9);
+    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l21_0_9);
+    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l21_0_9);
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_9) - (d_L_vt__2__a_vx*l21_0_5));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_9) - (d_L_vt__2__a_vy*l21_0_5));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_9) - (d_L_vt__2__a_vz*l21_0_5));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
+    // let holds (contact.yaml:78)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:74)
-    const S l19_0_0 = ((S(1) - L_holds)/(L_slip));
-    const S l19_0_1 = (L_vt__0*l19_0_0);
-    const S l19_0_2 = (L_fmax*l19_0_0);
-    const S l19_0_3 = (L_vt__1*l19_0_0);
-    const S l19_0_4 = (L_vt__2*l19_0_0);
-    const S L_ft__0 = ((-(L_fmax*l19_0_1)) + (L_fs__0*L_holds));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) - (d_L_fmax__a_dx*l19_0_1));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) - (d_L_fmax__a_dy*l19_0_1));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) - (d_L_fmax__a_dz*l19_0_1));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) - (d_L_fmax__a_dtx*l19_0_1));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) - (d_L_fmax__a_dty*l19_0_1));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) - (d_L_fmax__a_dtz*l19_0_1));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) - (d_L_fmax__a_vx*l19_0_1) - (d_L_vt__0__a_vx*l19_0_2));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) - (d_L_fmax__a_vy*l19_0_1) - (d_L_vt__0__a_vy*l19_0_2));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) - (d_L_fmax__a_vz*l19_0_1) - (d_L_vt__0__a_vz*l19_0_2));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) - (d_L_fmax__a_wx*l19_0_1) - (d_L_vt__0__a_wx*l19_0_2));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) - (d_L_fmax__a_wy*l19_0_1) - (d_L_vt__0__a_wy*l19_0_2));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) - (d_L_fmax__a_wz*l19_0_1) - (d_L_vt__0__a_wz*l19_0_2));
-    const S L_ft__1 = ((L_fs__1*L_holds) - (L_vt__1*l19_0_2));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) - (d_L_fmax__a_dx*l19_0_3));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) - (d_L_fmax__a_dy*l19_0_3));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) - (d_L_fmax__a_dz*l19_0_3));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) - (d_L_fmax__a_dtx*l19_0_3));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) - (d_L_fmax__a_dty*l19_0_3));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) - (d_L_fmax__a_dtz*l19_0_3));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) - (d_L_fmax__a_vx*l19_0_3) - (d_L_vt__1__a_vx*l19_0_2));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) - (d_L_fmax__a_vy*l19_0_3) - (d_L_vt__1__a_vy*l19_0_2));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) - (d_L_fmax__a_vz*l19_0_3) - (d_L_vt__1__a_vz*l19_0_2));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) - (d_L_fmax__a_wx*l19_0_3) - (d_L_vt__1__a_wx*l19_0_2));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) - (d_L_fmax__a_wy*l19_0_3) - (d_L_vt__1__a_wy*l19_0_2));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) - (d_L_fmax__a_wz*l19_0_3) - (d_L_vt__1__a_wz*l19_0_2));
-    const S L_ft__2 = ((L_fs__2*L_holds) - (L_vt__2*l19_0_2));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) - (d_L_fmax__a_dx*l19_0_4));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) - (d_L_fmax__a_dy*l19_0_4));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) - (d_L_fmax__a_dz*l19_0_4));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) - (d_L_fmax__a_dtx*l19_0_4));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) - (d_L_fmax__a_dty*l19_0_4));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) - (d_L_fmax__a_dtz*l19_0_4));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) - (d_L_fmax__a_vx*l19_0_4) - (d_L_vt__2__a_vx*l19_0_2));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) - (d_L_fmax__a_vy*l19_0_4) - (d_L_vt__2__a_vy*l19_0_2));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) - (d_L_fmax__a_vz*l19_0_4) - (d_L_vt__2__a_vz*l19_0_2));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) - (d_L_fmax__a_wx*l19_0_4) - (d_L_vt__2__a_wx*l19_0_2));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) - (d_L_fmax__a_wy*l19_0_4) - (d_L_vt__2__a_wy*l19_0_2));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) - (d_L_fmax__a_wz*l19_0_4) - (d_L_vt__2__a_wz*l19_0_2));
-    // let f (contact.yaml:75)
+    // let ft (contact.yaml:79)
+    const S l23_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
+    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
+    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l23_0_0));
+    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l23_0_0));
+    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l23_0_0));
+    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l23_0_0));
+    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l23_0_0));
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l23_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l23_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l23_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l23_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l23_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l23_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
+    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l23_0_0));
+    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l23_0_0));
+    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l23_0_0));
+    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l23_0_0));
+    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l23_0_0));
+    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l23_0_0));
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l23_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l23_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l23_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l23_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l23_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l23_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
+    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l23_0_0));
+    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l23_0_0));
+    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l23_0_0));
+    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l23_0_0));
+    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l23_0_0));
+    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l23_0_0));
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l23_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l23_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l23_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
+    // let f (contact.yaml:80)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -2531,14 +2906,14 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // F_a from apply[0] (contact.yaml:77)
+    // F_a from apply[0] (contact.yaml:82)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:77)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:82)
     out[6] = (-d_L_f__0__a_dx);
     out[7] = (-d_L_f__1__a_dx);
     out[8] = (-d_L_f__2__a_dx);
@@ -2575,7 +2950,7 @@ struct Contact_World_Kernel {
     out[39] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[40] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[41] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:77)
+    // dF_a/du_a from apply[0] (contact.yaml:82)
     out[42] = (-d_L_f__0__a_vx);
     out[43] = (-d_L_f__1__a_vx);
     out[44] = (-d_L_f__2__a_vx);
@@ -2616,7 +2991,7 @@ struct Contact_World_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1000
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1223
   static constexpr int kNumImplicitBlocks = 1;
   static constexpr int kImplicitOutputs = 42;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -2880,56 +3255,138 @@ struct Contact_World_Kernel {
     const S d_L_fmax__a_wx = (d_L_fn__a_wx*l16_0_1);
     const S d_L_fmax__a_wy = (d_L_fn__a_wy*l16_0_1);
     const S d_L_fmax__a_wz = (d_L_fn__a_wz*l16_0_1);
-    // let slip (contact.yaml:70)
+    // let slip (contact.yaml:71)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let holds (contact.yaml:73)
+    // let dir (contact.yaml:72)
+    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
+    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
+    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
+    // let fast (contact.yaml:73)
+    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:74)
+    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l20_0_2 = (L_dir__0*L_dir__1);
+    const S l20_0_3 = (L_dir__0*L_dir__2);
+    const S l20_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l20_0_5 = (L_dir__1*L_dir__2);
+    const S l20_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l20_0_1) - (d_L_vt__1__a_vx*l20_0_2) - (d_L_vt__2__a_vx*l20_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l20_0_1) - (d_L_vt__1__a_vy*l20_0_2) - (d_L_vt__2__a_vy*l20_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l20_0_1) - (d_L_vt__1__a_vz*l20_0_2) - (d_L_vt__2__a_vz*l20_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l20_0_1) - (d_L_vt__1__a_wx*l20_0_2) - (d_L_vt__2__a_wx*l20_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l20_0_1) - (d_L_vt__1__a_wy*l20_0_2) - (d_L_vt__2__a_wy*l20_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l20_0_1) - (d_L_vt__1__a_wz*l20_0_2) - (d_L_vt__2__a_wz*l20_0_3));
+    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l20_0_2)) + (d_L_vt__1__a_vx*l20_0_4) - (d_L_vt__2__a_vx*l20_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l20_0_2)) + (d_L_vt__1__a_vy*l20_0_4) - (d_L_vt__2__a_vy*l20_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l20_0_2)) + (d_L_vt__1__a_vz*l20_0_4) - (d_L_vt__2__a_vz*l20_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l20_0_2)) + (d_L_vt__1__a_wx*l20_0_4) - (d_L_vt__2__a_wx*l20_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l20_0_2)) + (d_L_vt__1__a_wy*l20_0_4) - (d_L_vt__2__a_wy*l20_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l20_0_2)) + (d_L_vt__1__a_wz*l20_0_4) - (d_L_vt__2__a_wz*l20_0_5));
+    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l20_0_3)) - (d_L_vt__1__a_vx*l20_0_5) + (d_L_vt__2__a_vx*l20_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l20_0_3)) - (d_L_vt__1__a_vy*l20_0_5) + (d_L_vt__2__a_vy*l20_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l20_0_3)) - (d_L_vt__1__a_vz*l20_0_5) + (d_L_vt__2__a_vz*l20_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
+    // let sliding (contact.yaml:75)
+    const S l21_0_0 = (S(1)/(L_slip));
+    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
+    const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
+    const S l21_0_3 = (-l21_0_2);
+    const S l21_0_4 = (L_fast*L_fmax*l21_0_0);
+    const S l21_0_5 = (L_fmax*l21_0_1);
+    const S l21_0_6 = ((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1));
+    const S l21_0_7 = (-l21_0_6);
+    const S l21_0_8 = ((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1));
+    const S l21_0_9 = (-l21_0_8);
+    const S L_sliding__0 = (-(L_fmax*l21_0_2));
+    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l21_0_3);
+    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l21_0_3);
+    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l21_0_3);
+    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l21_0_3);
+    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l21_0_3);
+    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l21_0_3);
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_3) - (d_L_vt__0__a_vx*l21_0_5));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_3) - (d_L_vt__0__a_vy*l21_0_5));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_3) - (d_L_vt__0__a_vz*l21_0_5));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_3) - (d_L_vt__0__a_wx*l21_0_5));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_3) - (d_L_vt__0__a_wy*l21_0_5));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_3) - (d_L_vt__0__a_wz*l21_0_5));
+    const S L_sliding__1 = (-(L_fmax*l21_0_6));
+    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l21_0_7);
+    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l21_0_7);
+    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l21_0_7);
+    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l21_0_7);
+    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l21_0_7);
+    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l21_0_7);
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_7) - (d_L_vt__1__a_vx*l21_0_5));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_7) - (d_L_vt__1__a_vy*l21_0_5));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_7) - (d_L_vt__1__a_vz*l21_0_5));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_7) - (d_L_vt__1__a_wx*l21_0_5));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_7) - (d_L_vt__1__a_wy*l21_0_5));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_7) - (d_L_vt__1__a_wz*l21_0_5));
+    const S L_sliding__2 = (-(L_fmax*l21_0_8));
+    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l21_0_9);
+    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l21_0_9);
+    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l21_0_9);
+    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l21_0_9);
+    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l21_0_9);
+    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l21_0_9);
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_9) - (d_L_vt__2__a_vx*l21_0_5));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_9) - (d_L_vt__2__a_vy*l21_0_5));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_9) - (d_L_vt__2__a_vz*l21_0_5));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
+    // let holds (contact.yaml:78)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:74)
-    const S l19_0_0 = ((S(1) - L_holds)/(L_slip));
-    const S l19_0_1 = (L_vt__0*l19_0_0);
-    const S l19_0_2 = (L_fmax*l19_0_0);
-    const S l19_0_3 = (L_vt__1*l19_0_0);
-    const S l19_0_4 = (L_vt__2*l19_0_0);
-    const S L_ft__0 = ((-(L_fmax*l19_0_1)) + (L_fs__0*L_holds));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) - (d_L_fmax__a_dx*l19_0_1));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) - (d_L_fmax__a_dy*l19_0_1));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) - (d_L_fmax__a_dz*l19_0_1));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) - (d_L_fmax__a_dtx*l19_0_1));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) - (d_L_fmax__a_dty*l19_0_1));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) - (d_L_fmax__a_dtz*l19_0_1));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) - (d_L_fmax__a_vx*l19_0_1) - (d_L_vt__0__a_vx*l19_0_2));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) - (d_L_fmax__a_vy*l19_0_1) - (d_L_vt__0__a_vy*l19_0_2));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) - (d_L_fmax__a_vz*l19_0_1) - (d_L_vt__0__a_vz*l19_0_2));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) - (d_L_fmax__a_wx*l19_0_1) - (d_L_vt__0__a_wx*l19_0_2));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) - (d_L_fmax__a_wy*l19_0_1) - (d_L_vt__0__a_wy*l19_0_2));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) - (d_L_fmax__a_wz*l19_0_1) - (d_L_vt__0__a_wz*l19_0_2));
-    const S L_ft__1 = ((L_fs__1*L_holds) - (L_vt__1*l19_0_2));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) - (d_L_fmax__a_dx*l19_0_3));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) - (d_L_fmax__a_dy*l19_0_3));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) - (d_L_fmax__a_dz*l19_0_3));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) - (d_L_fmax__a_dtx*l19_0_3));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) - (d_L_fmax__a_dty*l19_0_3));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) - (d_L_fmax__a_dtz*l19_0_3));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) - (d_L_fmax__a_vx*l19_0_3) - (d_L_vt__1__a_vx*l19_0_2));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) - (d_L_fmax__a_vy*l19_0_3) - (d_L_vt__1__a_vy*l19_0_2));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) - (d_L_fmax__a_vz*l19_0_3) - (d_L_vt__1__a_vz*l19_0_2));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) - (d_L_fmax__a_wx*l19_0_3) - (d_L_vt__1__a_wx*l19_0_2));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) - (d_L_fmax__a_wy*l19_0_3) - (d_L_vt__1__a_wy*l19_0_2));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) - (d_L_fmax__a_wz*l19_0_3) - (d_L_vt__1__a_wz*l19_0_2));
-    const S L_ft__2 = ((L_fs__2*L_holds) - (L_vt__2*l19_0_2));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) - (d_L_fmax__a_dx*l19_0_4));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) - (d_L_fmax__a_dy*l19_0_4));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) - (d_L_fmax__a_dz*l19_0_4));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) - (d_L_fmax__a_dtx*l19_0_4));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) - (d_L_fmax__a_dty*l19_0_4));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) - (d_L_fmax__a_dtz*l19_0_4));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) - (d_L_fmax__a_vx*l19_0_4) - (d_L_vt__2__a_vx*l19_0_2));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) - (d_L_fmax__a_vy*l19_0_4) - (d_L_vt__2__a_vy*l19_0_2));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) - (d_L_fmax__a_vz*l19_0_4) - (d_L_vt__2__a_vz*l19_0_2));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) - (d_L_fmax__a_wx*l19_0_4) - (d_L_vt__2__a_wx*l19_0_2));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) - (d_L_fmax__a_wy*l19_0_4) - (d_L_vt__2__a_wy*l19_0_2));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) - (d_L_fmax__a_wz*l19_0_4) - (d_L_vt__2__a_wz*l19_0_2));
-    // let f (contact.yaml:75)
+    // let ft (contact.yaml:79)
+    const S l23_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
+    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
+    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l23_0_0));
+    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l23_0_0));
+    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l23_0_0));
+    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l23_0_0));
+    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l23_0_0));
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l23_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l23_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l23_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l23_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l23_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l23_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
+    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l23_0_0));
+    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l23_0_0));
+    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l23_0_0));
+    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l23_0_0));
+    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l23_0_0));
+    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l23_0_0));
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l23_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l23_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l23_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l23_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l23_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l23_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
+    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l23_0_0));
+    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l23_0_0));
+    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l23_0_0));
+    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l23_0_0));
+    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l23_0_0));
+    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l23_0_0));
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l23_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l23_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l23_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
+    // let f (contact.yaml:80)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -2969,7 +3426,7 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // apply (contact.yaml:76), shared subexpressions
+    // apply (contact.yaml:81), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -2995,14 +3452,14 @@ struct Contact_World_Kernel {
     const S o22 = ((-(L_ra__0*d_L_f__1__a_dty)) + (L_ra__1*d_L_f__0__a_dty));
     const S o23 = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
     const S o24 = (h*h);
-    // g_a from apply[0] (contact.yaml:77)
+    // g_a from apply[0] (contact.yaml:82)
     out[0] = ((-L_f__0) - (d_L_f__0__a_dtx*o3) - (d_L_f__0__a_dty*o4) - (d_L_f__0__a_dtz*o5) - (d_L_f__0__a_dx*o0) - (d_L_f__0__a_dy*o1) - (d_L_f__0__a_dz*o2));
     out[1] = ((-L_f__1) - (d_L_f__1__a_dtx*o3) - (d_L_f__1__a_dty*o4) - (d_L_f__1__a_dtz*o5) - (d_L_f__1__a_dx*o0) - (d_L_f__1__a_dy*o1) - (d_L_f__1__a_dz*o2));
     out[2] = ((-L_f__2) - (d_L_f__2__a_dtx*o3) - (d_L_f__2__a_dty*o4) - (d_L_f__2__a_dtz*o5) - (d_L_f__2__a_dx*o0) - (d_L_f__2__a_dy*o1) - (d_L_f__2__a_dz*o2));
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o6) + (o1*o7) + (o10*o4) + (o11*o5) + (o2*o8) + (o3*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o12) + (o1*o13) + (o14*o2) + (o15*o3) + (o16*o4) + (o17*o5));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o18) + (o1*o19) + (o2*o20) + (o21*o3) + (o22*o4) + (o23*o5));
-    // K_aa from apply[0] (contact.yaml:77)
+    // K_aa from apply[0] (contact.yaml:82)
     out[6] = ((-(d_L_f__0__a_dx*o24)) - (d_L_f__0__a_vx*h));
     out[7] = ((-(d_L_f__1__a_dx*o24)) - (d_L_f__1__a_vx*h));
     out[8] = ((-(d_L_f__2__a_dx*o24)) - (d_L_f__2__a_vx*h));
@@ -3042,10 +3499,10 @@ struct Contact_World_Kernel {
   }
 
   /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
-  static constexpr int kHeld = 7;
+  static constexpr int kHeld = 10;
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 227
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 276
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -3175,21 +3632,42 @@ struct Contact_World_Kernel {
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
     // let fmax (contact.yaml:65)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:70)
+    // let slip (contact.yaml:71)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let holds (contact.yaml:73)
+    // let dir (contact.yaml:72)
+    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l18_0_0));
+    if (held_out) held_out[7] = L_dir__0;
+    const S L_dir__1 = held_in ? held_in[8] : S((L_vt__1*l18_0_0));
+    if (held_out) held_out[8] = L_dir__1;
+    const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l18_0_0));
+    if (held_out) held_out[9] = L_dir__2;
+    // let fast (contact.yaml:73)
+    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:74)
+    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
+    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
+    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
+    // let sliding (contact.yaml:75)
+    const S l21_0_0 = (S(1)/(L_slip));
+    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
+    const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1))));
+    const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1))));
+    const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1))));
+    // let holds (contact.yaml:78)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:74)
-    const S l19_0_0 = (L_fmax*(S(1) - L_holds)/(L_slip));
-    const S L_ft__0 = ((L_fs__0*L_holds) - (L_vt__0*l19_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) - (L_vt__1*l19_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) - (L_vt__2*l19_0_0));
-    // let f (contact.yaml:75)
+    // let ft (contact.yaml:79)
+    const S l23_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
+    // let f (contact.yaml:80)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:77)
+    // F_a from apply[0] (contact.yaml:82)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);

@@ -67,50 +67,72 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     const Frame fa = frame_of(bodies, a), fb = frame_of(bodies, b);
     ContactMemory::Pair now;
     bool used[spu::kMaxManifoldPoints] = {};
-    for (size_t i = first; i < end && now.count < spu::kMaxManifoldPoints; ++i) {
-      WorldContact& c = contacts[i];
+    int matched[spu::kMaxManifoldPoints];
+    Vec3d strain[spu::kMaxManifoldPoints];
+    Vec3d total_strain{0, 0, 0};
+    double total_depth = 0, fastest = 0, k_per_mass = 0, damping_per_k = 0;
+    const size_t count = std::min(end - first, size_t(spu::kMaxManifoldPoints));
+    for (size_t i = 0; i < count; ++i) {
+      WorldContact& c = contacts[first + i];
       const Vec3d p = Vec3d::load(c.point.point), n = Vec3d::load(c.point.normal);
       double w = inverse_mass_along(bodies[a], fa, p, n);
       if (b != kWorldBody) w += inverse_mass_along(bodies[b], fb, p, n);
       c.mass = float(1.0 / w);
-      // The anchor this point stuck to, if it is still near it.
-      int best = -1;
+      // the contact's spring and damper, as the descriptor tunes them
+      const double m = std::max(c.mass, c.load), omega = 2 * kPi * s.globals.contact_hertz;
+      const double k = s.globals.contact_stiffness > 0 ? s.globals.contact_stiffness : m * omega * omega;
+      const double cd = s.globals.contact_damping > 0 ? s.globals.contact_damping : 2 * s.globals.contact_damping_ratio * m * omega;
+      k_per_mass = std::max(k_per_mass, k / m);
+      damping_per_k = std::max(damping_per_k, cd / k);
+      // The anchor this point stuck to, if it is still near it, and how far it is strained.
+      matched[i] = -1;
       double best_d = match;
       for (uint32_t k = 0; old && k < old->count; ++k) {
         const double d = norm(fa.to_world(old->anchors[k].on_a) - p);
-        if (!used[k] && d < best_d) best = int(k), best_d = d;
+        if (!used[k] && d < best_d) matched[i] = int(k), best_d = d;
       }
-      // Sticking or sliding. A sticking point slides once its strain leaves the friction cone
-      // (mu times the depth: the tangential spring's force against the normal one's). A sliding
-      // point sticks again once its slip slows, to what friction stops within a step (h mu
-      // k/m depth); a slip that grows, down a slope steeper than the friction angle, goes on.
-      Vec3d vt = velocity_at(bodies, b, p) - velocity_at(bodies, a, p);
-      vt = vt - n * dot(vt, n);
-      const double slip = norm(vt), depth = std::max(double(c.point.penetration), 0.0);
-      const double k_per_mass = s.globals.contact_stiffness > 0 ? s.globals.contact_stiffness / std::max(c.mass, c.load)
-                                                                  : squared(2 * kPi * s.globals.contact_hertz);
-      const bool stoppable = slip <= s.dt * c.friction * k_per_mass * depth;
+      strain[i] = {0, 0, 0};
+      if (matched[i] >= 0) {
+        used[matched[i]] = true;
+        const ContactMemory::Anchor& an = old->anchors[matched[i]];
+        strain[i] = fb.to_world(an.on_b) - fa.to_world(an.on_a);
+        strain[i] = strain[i] - n * dot(strain[i], n);
+      }
+      const Vec3d vrel = velocity_at(bodies, b, p) - velocity_at(bodies, a, p);
+      const double vn = dot(vrel, n);
+      fastest = std::max(fastest, norm(vrel - n * vn));
+      total_strain = total_strain + strain[i];
+      // the normal force, in units of depth: the spring's, and the damper's while it closes
+      total_depth += std::max(double(c.point.penetration) - cd / k * vn, 0.0);
+    }
+    // Sticking or sliding, for the pair as a whole (its points share the two bodies' motion, not
+    // their loads: a box on a slope presses its downhill edge harder). A sticking pair slides
+    // once its strain leaves the friction cone (mu times the depth: the tangential spring's
+    // force against the normal one's). A sliding pair sticks again once its slip slows to what
+    // friction stops within a step (h mu k/m depth) and within half the cone (the damper brings
+    // a slip v to rest over v c/k of strain); a slip that grows, down a slope steeper than the
+    // friction angle, goes on; a slip as slow as the regularisation's (a box creeping on a slope
+    // it should hold) sticks.
+    const double mu = contacts[first].friction, depth = total_depth / double(count);
+    const bool stoppable = fastest <= s.dt * mu * k_per_mass * depth && fastest * damping_per_k <= 0.5 * mu * depth;
+    bool sliding;
+    if (!old) sliding = !stoppable;
+    else if (old->sliding) sliding = !(stoppable && (fastest <= old->slip || fastest <= s.globals.slip_velocity));
+    else sliding = norm(total_strain) > mu * total_depth;
+    now.sliding = sliding;
+    now.slip = float(fastest);
+    for (size_t i = 0; i < count; ++i) {
+      WorldContact& c = contacts[first + i];
       ContactMemory::Anchor& an = now.anchors[now.count++];
-      Vec3d strain{0, 0, 0};
-      bool sliding;
-      if (best >= 0) {
-        used[best] = true;
-        an = old->anchors[best];
-        strain = fb.to_world(an.on_b) - fa.to_world(an.on_a);
-        strain = strain - n * dot(strain, n);
-        sliding = an.sliding ? !(stoppable && slip <= an.slip) : norm(strain) > c.friction * depth;
+      if (sliding || matched[i] < 0) {  // anchored afresh where it is
+        strain[i] = {0, 0, 0};
+        fa.to_local(Vec3d::load(c.point.point), an.on_a);
+        fb.to_local(Vec3d::load(c.point.point), an.on_b);
       } else {
-        sliding = !stoppable;
+        an = old->anchors[matched[i]];
       }
-      if (sliding || best < 0) {  // a sliding point is anchored afresh where it is
-        strain = {0, 0, 0};
-        fa.to_local(p, an.on_a);
-        fb.to_local(p, an.on_b);
-      }
-      an.slip = float(slip);
-      an.sliding = sliding;
       c.sticking = sliding ? 0.0f : 1.0f;
-      put3(c.anchor, strain);
+      put3(c.anchor, strain[i]);
     }
     next.pairs[pair_key(a, b)] = now;
   }

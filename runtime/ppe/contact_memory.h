@@ -14,13 +14,14 @@ struct WorldSettings;
 
 struct ContactMemory {
   /// A friction anchor: the material points of a and b that stuck together (body frames; the
-  /// world's in the world frame), whether the point slid in the step, and its slip speed then.
+  /// world's in the world frame).
   struct Anchor {
     float on_a[3], on_b[3];
-    float slip;
-    uint32_t sliding;
   };
+  /// A touching pair: whether it slid in the step, its fastest slip then (m/s), its anchors.
   struct Pair {
+    uint32_t sliding = 0;
+    float slip = 0.0f;
     uint32_t count = 0;
     Anchor anchors[spu::kMaxManifoldPoints];
   };

@@ -3,7 +3,7 @@
 //   header  "CELLSNAP" | u32 version | u32 header bytes (32) | u64 payload bytes |
 //           u32 checksum of the payload (spu::checksum) | u32 zero
 //   payload settings | step counter | shapes | bodies | forces | sleeping groups | free groups |
-//           contact memory (pairs in key order: key, anchors)
+//           contact memory (pairs in key order: key, sliding, slip, anchors)
 //   settings: u32 count, then per setting (runtime/ppe/settings.h) its scene path and its value
 //           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
 //           each as u32 length + bytes: matched by name, so a build with other forces refuses
@@ -289,16 +289,12 @@ void put_contact(Writer& w, const WorldContact& c) {
 void put_anchor(Writer& w, const ContactMemory::Anchor& a) {
   w.put_floats(a.on_a, 3);
   w.put_floats(a.on_b, 3);
-  w.put(a.slip);
-  w.put(a.sliding);
 }
 
 ContactMemory::Anchor get_anchor(Reader& r) {
   ContactMemory::Anchor a;
   r.get_floats(a.on_a, 3, "contact anchor");
   r.get_floats(a.on_b, 3, "contact anchor");
-  a.slip = r.get<float>("contact anchor");
-  a.sliding = r.get<uint32_t>("contact anchor");
   return a;
 }
 
@@ -367,6 +363,8 @@ std::vector<unsigned char> World::snapshot() const {
   for (uint64_t key : keys) {
     const ContactMemory::Pair& pair = w.contact_memory.pairs.at(key);
     p.put(key);
+    p.put(pair.sliding);
+    p.put(pair.slip);
     p.put(pair.count);
     for (uint32_t k = 0; k < pair.count; ++k) put_anchor(p, pair.anchors[k]);
   }
@@ -471,6 +469,8 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
   for (uint32_t k = 0; k < npairs; ++k) {
     const uint64_t key = r.get<uint64_t>("contact memory");
     ContactMemory::Pair pair;
+    pair.sliding = r.get<uint32_t>("contact memory");
+    pair.slip = r.get<float>("contact memory");
     pair.count = r.get<uint32_t>("contact memory");
     if (pair.count > spu::kMaxManifoldPoints) throw WorldError("snapshot: a contact pair has more anchors than a manifold");
     for (uint32_t a = 0; a < pair.count; ++a) pair.anchors[a] = get_anchor(r);

@@ -101,8 +101,8 @@ void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes
   }
   StageTimer t(st.times.narrow_ms);
   narrow_phase(bodies, shapes, settings, scratch, contacts, st);
-  recall_contacts(bodies, settings, memory, contacts);
   carry_loads(bodies, settings, contacts);
+  recall_contacts(bodies, settings, memory, contacts);
 }
 
 }  // namespace cellphys::ppe

@@ -118,7 +118,7 @@ struct Force_Globals {
   float contact_damping = 0.0f;  ///< fixed normal damping (N s/m) instead of the soft one; 0: soft
   float contact_push_speed = 3.0f;  ///< speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed
   float contact_hold_depth = 0.001f;  ///< deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
-  float slip_velocity = 0.01f;  ///< speed below which sliding Coulomb friction is regularised (m/s)
+  float slip_velocity = 0.0001f;  ///< speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
   float contact_slop = 0.005f;  ///< gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
   float contact_rest_speed = 0.05f;  ///< opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
   float gravity[3] = {0.0f, 0.0f, -9.81f};  ///< gravitational acceleration (m/s^2)
@@ -146,7 +146,7 @@ inline constexpr GlobalInfo kGlobalTable[] = {
     {{"contact_damping", ParamType::f32, 28, 1, true, 0.0f, "fixed normal damping (N s/m) instead of the soft one; 0: soft"}, {0.0f}, "contact.damping", offsetof(Force_Globals, contact_damping)},
     {{"contact_push_speed", ParamType::f32, 32, 1, true, 0.0f, "speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed"}, {3.0f}, "contact.push_speed", offsetof(Force_Globals, contact_push_speed)},
     {{"contact_hold_depth", ParamType::f32, 36, 1, true, 0.0f, "deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)", true}, {0.001f}, "contact.hold_depth", offsetof(Force_Globals, contact_hold_depth)},
-    {{"slip_velocity", ParamType::f32, 40, 1, true, 0.0f, "speed below which sliding Coulomb friction is regularised (m/s)", true}, {0.01f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
+    {{"slip_velocity", ParamType::f32, 40, 1, true, 0.0f, "speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks", true}, {0.0001f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
     {{"contact_slop", ParamType::f32, 44, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
     {{"contact_rest_speed", ParamType::f32, 48, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}, "contact.rest_speed", offsetof(Force_Globals, contact_rest_speed)},
     {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}, "gravity", offsetof(Force_Globals, gravity)},

@@ -1196,7 +1196,7 @@ struct alignas(16) Island_Params {
   float contact_damping;  ///< @28: f32. fixed normal damping (N s/m) instead of the soft one; 0: soft
   float contact_push_speed;  ///< @32: f32. speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed
   float contact_hold_depth;  ///< @36: f32. deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
-  float slip_velocity;  ///< @40: f32. speed below which sliding Coulomb friction is regularised (m/s)
+  float slip_velocity;  ///< @40: f32. speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
   float contact_slop;  ///< @44: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
   float contact_rest_speed;  ///< @48: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
   unsigned char pad_52[12];

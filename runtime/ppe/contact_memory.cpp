@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 
 #include "runtime/base/quat.h"
 #include "runtime/base/vec3.h"
@@ -31,10 +32,11 @@ Frame frame_of(const std::vector<WorldBody>& bodies, uint32_t id) {
   return f;
 }
 
-// 1 / (the velocity change along n at the point per unit impulse along n) of one body.
-double inverse_mass_along(const WorldBody& b, const Frame& f, const Vec3d& p, const Vec3d& n) {
-  const Vec3d rn = cross(p - f.x, n);
-  return 1.0 / b.mass + dot(rn, mul(rotate_sym(f.R, b.inverse_inertia), rn));
+// The velocity change along n at point p per unit impulse along n, of a body with inverse mass
+// w and world inverse inertia Iinv: 1/m + (r x n)^T I^-1 (r x n).
+double inverse_mass_along(double w, const Mat3d& Iinv, const Vec3d& x, const Vec3d& p, const Vec3d& n) {
+  const Vec3d rn = cross(p - x, n);
+  return w + dot(rn, mul(Iinv, rn));
 }
 
 Vec3d velocity_at(const std::vector<WorldBody>& bodies, uint32_t id, const Vec3d& p) {
@@ -53,18 +55,15 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
                      std::vector<WorldContact>& contacts) {
   // An anchor is the same one while this step's point is this close to where it stuck.
   const double match = std::max(2.0 * s.globals.contact_slop, 1e-3);
-  ContactMemory next;
-  for (const auto& [key, pair] : memory.pairs) {  // sleepers' contacts are not collided
-    const uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
-    if (a < bodies.size() && bodies[a].alive && asleep(bodies, a) && asleep(bodies, b)) next.pairs.emplace(key, pair);
-  }
   for (size_t first = 0, end; first < contacts.size(); first = end) {
     const uint32_t a = contacts[first].a, b = contacts[first].b;
     for (end = first; end < contacts.size() && contacts[end].a == a && contacts[end].b == b; ++end) {
     }
-    const auto old_it = memory.pairs.find(pair_key(a, b));
-    const ContactMemory::Pair* old = old_it == memory.pairs.end() ? nullptr : &old_it->second;
+    const auto found = memory.pairs.find(pair_key(a, b));
+    const ContactMemory::Pair* old = found == memory.pairs.end() ? nullptr : &found->second;
     const Frame fa = frame_of(bodies, a), fb = frame_of(bodies, b);
+    const Mat3d Ia = rotate_sym(fa.R, bodies[a].inverse_inertia);
+    const Mat3d Ib = b == kWorldBody ? Mat3d{} : rotate_sym(fb.R, bodies[b].inverse_inertia);
     ContactMemory::Pair now;
     bool used[spu::kMaxManifoldPoints] = {};
     int matched[spu::kMaxManifoldPoints];
@@ -75,8 +74,8 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     for (size_t i = 0; i < count; ++i) {
       WorldContact& c = contacts[first + i];
       const Vec3d p = Vec3d::load(c.point.point), n = Vec3d::load(c.point.normal);
-      double w = inverse_mass_along(bodies[a], fa, p, n);
-      if (b != kWorldBody) w += inverse_mass_along(bodies[b], fb, p, n);
+      double w = inverse_mass_along(1.0 / bodies[a].mass, Ia, fa.x, p, n);
+      if (b != kWorldBody) w += inverse_mass_along(1.0 / bodies[b].mass, Ib, fb.x, p, n);
       c.mass = float(1.0 / w);
       // the contact's spring and damper, as the descriptor tunes them
       const double m = std::max(c.mass, c.load), omega = 2 * kPi * s.globals.contact_hertz;
@@ -134,9 +133,22 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       c.sticking = sliding ? 0.0f : 1.0f;
       put3(c.anchor, strain[i]);
     }
-    next.pairs[pair_key(a, b)] = now;
+    now.seen = memory.step + 1;
+    memory.pairs[pair_key(a, b)] = now;
   }
-  memory = std::move(next);
+  // Pairs that touched last step and not this one are forgotten, but for sleepers' (they are
+  // not collided; a group that wakes brings its contacts back, and they are seen again).
+  ++memory.step;
+  for (uint64_t key : memory.touched) {
+    const auto it = memory.pairs.find(key);
+    if (it == memory.pairs.end() || it->second.seen == memory.step) continue;
+    const uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
+    if (!(a < bodies.size() && bodies[a].alive && asleep(bodies, a) && asleep(bodies, b))) memory.pairs.erase(it);
+  }
+  memory.touched.clear();
+  for (size_t first = 0; first < contacts.size(); ++first)
+    if (first == 0 || contacts[first].a != contacts[first - 1].a || contacts[first].b != contacts[first - 1].b)
+      memory.touched.push_back(pair_key(contacts[first].a, contacts[first].b));
 }
 
 void forget_body(ContactMemory& memory, uint32_t id) {

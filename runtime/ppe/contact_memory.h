@@ -20,12 +20,15 @@ struct ContactMemory {
   };
   /// A touching pair: whether it slid in the step, its fastest slip then (m/s), its anchors.
   struct Pair {
+    uint64_t seen = 0;  // the recall that last found it touching
     uint32_t sliding = 0;
     float slip = 0.0f;
     uint32_t count = 0;
     Anchor anchors[spu::kMaxManifoldPoints];
   };
   std::unordered_map<uint64_t, Pair> pairs;  // by pair_key(a, b)
+  uint64_t step = 0;                          // recalls so far
+  std::vector<uint64_t> touched;              // the pairs the last recall found touching
 };
 
 inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }

@@ -86,9 +86,9 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       // The anchor this point stuck to, if it is still near it, and how far it is strained.
       matched[i] = -1;
       double best_d = match;
-      for (uint32_t k = 0; old && k < old->count; ++k) {
-        const double d = norm(fa.to_world(old->anchors[k].on_a) - p);
-        if (!used[k] && d < best_d) matched[i] = int(k), best_d = d;
+      for (uint32_t j = 0; old && j < old->count; ++j) {
+        const double d = norm(fa.to_world(old->anchors[j].on_a) - p);
+        if (!used[j] && d < best_d) matched[i] = int(j), best_d = d;
       }
       strain[i] = {0, 0, 0};
       if (matched[i] >= 0) {
@@ -136,19 +136,15 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     now.seen = memory.step + 1;
     memory.pairs[pair_key(a, b)] = now;
   }
-  // Pairs that touched last step and not this one are forgotten, but for sleepers' (they are
-  // not collided; a group that wakes brings its contacts back, and they are seen again).
+  // Pairs not touching this step are forgotten, but for sleepers' (they are not collided).
+  // Decided from the world alone, so a world restored from a snapshot forgets the same ones.
   ++memory.step;
-  for (uint64_t key : memory.touched) {
-    const auto it = memory.pairs.find(key);
-    if (it == memory.pairs.end() || it->second.seen == memory.step) continue;
-    const uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
-    if (!(a < bodies.size() && bodies[a].alive && asleep(bodies, a) && asleep(bodies, b))) memory.pairs.erase(it);
+  for (auto it = memory.pairs.begin(); it != memory.pairs.end();) {
+    const uint32_t a = uint32_t(it->first >> 32), b = uint32_t(it->first);
+    const bool keep = it->second.seen == memory.step ||
+                      (a < bodies.size() && bodies[a].alive && asleep(bodies, a) && asleep(bodies, b));
+    it = keep ? std::next(it) : memory.pairs.erase(it);
   }
-  memory.touched.clear();
-  for (size_t first = 0; first < contacts.size(); ++first)
-    if (first == 0 || contacts[first].a != contacts[first - 1].a || contacts[first].b != contacts[first - 1].b)
-      memory.touched.push_back(pair_key(contacts[first].a, contacts[first].b));
 }
 
 void forget_body(ContactMemory& memory, uint32_t id) {

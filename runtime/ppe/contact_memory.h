@@ -28,7 +28,6 @@ struct ContactMemory {
   };
   std::unordered_map<uint64_t, Pair> pairs;  // by pair_key(a, b)
   uint64_t step = 0;                          // recalls so far
-  std::vector<uint64_t> touched;              // the pairs the last recall found touching
 };
 
 inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }

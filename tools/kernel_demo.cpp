@@ -91,7 +91,7 @@ int demo(Integrator integ, int steps) {
     times.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
   }
   std::sort(times.begin(), times.end());
-  std::printf("reference group (the reference design's: 65 boxes in two layers, 400 penalty contacts)\n");
+  std::printf("reference group (the reference design's: 65 boxes in two layers, 400 contacts)\n");
   std::printf("  non-zero blocks %u, local store %zu of %zu bytes (the reference design's figure: 126,020)\n",
               v.header->num_blocks + v.header->num_bodies, r.footprint.total, LocalStore::kDefaultCapacity);
   std::printf("  one %s step: %s, %u solver iterations, median %.1f us\n\n", integrator_name(integ),

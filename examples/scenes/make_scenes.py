@@ -330,7 +330,7 @@ def newton_cradle(n=5, r=0.1, L=1.0):
         forces.append({"type": "point_to_point", "a": "ball%d" % i, "b": "world", "point_a": [0, 0, L],
                        "point_b": vec([ax, 0, 2]), "stiffness": 1e5, "damping": 20})
     return {"description": "Newton's cradle: five touching 1 kg balls on 1 m pendulums, the first released "
-                           "from 30 degrees (penalty contacts, so the transfer is soft).",
+                           "from 30 degrees (fixed-stiffness contacts, 1e6 N/m, so the transfer is soft).",
             "settings": {"dt": num(1 / 240), "sleeping": False,
                          "contact": {"stiffness": 1e6, "damping": 10}},
             "shapes": [{"name": "ball", "type": "sphere", "radius": r}],

@@ -9,7 +9,7 @@
 namespace cellphys::gen {
 
 // ---- Contact_Force (codegen/descriptors/structs/contact_force.yaml) ----
-/// One contact point between two bodies (the reference design's Contact_Force); the penalty contact force's instance.
+/// One contact point between two bodies (the reference design's Contact_Force); the soft contact force's instance.
 struct alignas(16) Contact_Force {
   float point[4];  ///< @0: vec3 (padded). contact point, world frame (m)
   float normal[4];  ///< @16: vec3 (padded). unit normal, world frame, pointing from body a to body b

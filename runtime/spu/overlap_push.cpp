@@ -1,7 +1,6 @@
 #include "runtime/spu/overlap_push.h"
 
 #include <algorithm>
-#include <cstring>
 
 #include "runtime/base/vec3.h"
 

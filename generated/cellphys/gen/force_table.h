@@ -68,7 +68,7 @@ inline constexpr ParamInfo kContactParams[] = {
     {"penetration", ParamType::f32, 48, 1, false, 0.0f, "overlap along the normal at the start of the step (m); negative: a gap"},
     {"friction", ParamType::f32, 52, 1, true, 0.0f, "friction coefficient of the pair"},
     {"mass", ParamType::f32, 56, 1, true, 0.0f, "the contact's effective mass along its normal (kg): of the pair at the point"},
-    {"load", ParamType::f32, 60, 1, true, 0.0f, "the load the contact carries, as a mass (kg; the world finds it from how far the pair sank): the contact is tuned to the larger of mass and load"},
+    {"load", ParamType::f32, 60, 1, true, 0.0f, "the load the contact carries, as a mass (kg; the world finds it from the weight resting on the contact): the contact is tuned to the larger of mass and load"},
     {"sticking", ParamType::f32, 64, 1, true, 0.0f, "1: friction holds the contact to its anchor; 0: it slides (the world decides from the anchor's strain and the slip)"},
 };
 

@@ -766,6 +766,40 @@ TEST(ForceKernelForce, MatchesIndependentEigenEvaluation) {
   });
 }
 
+// A joint point's held arm is the point's offset from the centre of mass, and its share of the arm's
+// turn is s = q^2 / (1 + q^2), q = h^2 |f| |r| / (I_lo + m |r|^2) with I_lo = 4 det I / (tr I)^2:
+// the swing of the body about the point under the force, against the step (kinematics.turn_share).
+TEST(ForceKernelImplicit, JointArmsHoldTheOffsetAndTheSwingShare) {
+  int joints = 0;
+  g::visit_kernels([&](auto k) {
+    using K = decltype(k);
+    if (std::string(info_of(K::kType).name) != "point_to_point") return;
+    SCOPED_TRACE(kernel_name<K>());
+    Rng rng(8100 + static_cast<int>(K::kType));
+    for (int s = 0; s < kStates; ++s) {
+      const Case<K> c = random_case<K>(rng);
+      const double h = rng.uni(1e-3, 0.1);
+      std::vector<double> F(6 * K::kBodies), held(std::max(K::kHeld, 1));
+      K::template eval_f<double>(inputs<double>(c).data(), h, F.data(), nullptr, held.data());
+      for (int j = 0; j < K::kBodies; ++j) {
+        ASSERT_GE(K::kJointArm[j], 0) << "body " << j;
+        const BodyD B = body_of(c.body[j]);
+        const Vec3 r = attachment(c, j == 0 ? "point_a" : "point_b", j) - B.x;
+        const Vec3 f = vec3_at(&F[6 * j]);
+        const double* I = c.body[j] + kInertia;
+        Mat3 Ib;
+        Ib << I[0], I[3], I[4], I[3], I[1], I[5], I[4], I[5], I[2];
+        const double i_lo = 4 * Ib.determinant() / (Ib.trace() * Ib.trace());
+        const double q = h * h * f.norm() * r.norm() / (i_lo + B.m * r.squaredNorm());
+        EXPECT_LT((vec3_at(&held[K::kJointArm[j]]) - r).norm(), 1e-12 * (1 + r.norm())) << "state " << s;
+        EXPECT_NEAR(held[K::kJointArm[j] + 3], q * q / (1 + q * q), 1e-9) << "state " << s << " q " << q;
+        ++joints;
+      }
+    }
+  });
+  EXPECT_GT(joints, 0);
+}
+
 TEST(ForceKernelImplicit, GAndKMatchFAndBlocksOfEval) {
   g::visit_kernels([&](auto k) {
     using K = decltype(k);
@@ -787,6 +821,9 @@ TEST(ForceKernelImplicit, GAndKMatchFAndBlocksOfEval) {
       const Blocks J = kernel_blocks<K>(out);
       std::vector<double> io(K::kImplicitOutputs);
       K::template eval_implicit<double>(inputs<double>(c).data(), h, io.data());
+      // a joint point's arc, (1 - s) h^2/2 w x (w x r), from the arm and share eval_f holds
+      std::vector<double> f_only(6 * K::kBodies), held(std::max(K::kHeld, 1));
+      K::template eval_f<double>(inputs<double>(c).data(), h, f_only.data(), nullptr, held.data());
       for (int i = 0; i < K::kBodies; ++i) {
         Eigen::Matrix<double, 6, 1> g = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&out[6 * i]), Ju;
         double scale = g.norm();
@@ -794,6 +831,13 @@ TEST(ForceKernelImplicit, GAndKMatchFAndBlocksOfEval) {
           Eigen::Matrix<double, 6, 1> u;
           u << vec3_at(c.body[j] + kVel), vec3_at(c.body[j] + kAngVel);
           Ju = h * J.m[0][i][j] * u;
+          if (K::kJointArm[j] >= 0) {
+            const Vec3 w = vec3_at(c.body[j] + kAngVel), r = vec3_at(&held[K::kJointArm[j]]);
+            const double share = held[K::kJointArm[j] + 3];
+            EXPECT_GE(share, 0.0);
+            EXPECT_LE(share, 1.0);
+            Ju += J.m[0][i][j].leftCols(3) * ((1 - share) * h * h / 2 * w.cross(w.cross(r)));
+          }
           g += Ju;
           scale += Ju.norm();
         }

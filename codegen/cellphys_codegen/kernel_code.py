@@ -82,6 +82,10 @@ def _view(k):
                 num_held += 1
             f_lets.append(c)
         f_let_ops += n
+    slots = {c.name: c.slot for c in f_lets if c.held}
+    joint_arms = [slots[k.joint_arms[b][0].name] if b in k.joint_arms else -1 for b in range(k.num_bodies)]
+    for b, syms in k.joint_arms.items():  # the arm's lanes and its share are consecutive slots
+        assert [slots[x.name] for x in syms] == list(range(joint_arms[b], joint_arms[b] + 4)), syms
     shared = f"{k.apply_origin}, shared subexpressions"
     blocks = [e for b in k.blocks for e in b.exprs]
     outs, out_ops = st.outputs(k.forces + blocks, "out", _eval_groups(k), shared)
@@ -90,7 +94,7 @@ def _view(k):
     return dict(
         name=k.cxx_name, variant=k.variant, num_bodies=k.num_bodies, num_inputs=len(k.inputs), gather=_gather(k),
         blocks=[dict(kind=b.kind, row=b.row_body, col=b.col_body) for b in k.blocks],
-        num_outputs=len(k.forces) + len(blocks), num_held=num_held,
+        num_outputs=len(k.forces) + len(blocks), num_held=num_held, joint_arms=joint_arms,
         i_pairs=k.implicit["pairs"], i_outputs=len(k.implicit["outputs"]),
         uses_b=any(i.source == "body" and i.body == 1 for i in k.inputs),
         code=inputs + pre + lets + outs, ops=pre_ops + let_ops + out_ops,

@@ -62,6 +62,26 @@ class Context:
         self.origin = None  # what the descriptor is evaluating (set by the caller), noted per new symbol
         self.origins = {}
         self._cache = {}
+        self.bodies = []  # the kernel's bodies, registered as they are made
+        self.h = None  # the step's symbol, set by the caller
+        self.held = []  # [(symbols, expressions, origin)]: values primitives hold through the step
+        self.arms = {}  # body tag -> [(held arm, held turn share)], one per force_at_joint on it
+
+    def hold(self, name, expr):
+        """Symbols for expr's value at the evaluated state, held through the linearisation (as a
+        lagged() let): the caller appends them to the kernel's held lets."""
+        n = len(self.held)
+        if isinstance(expr, sp.MatrixBase):
+            syms = [sp.Symbol(f"T{n}_{name}__{i}", real=True) for i in range(expr.rows)]
+            self.held.append((syms, list(expr), self.origin))
+            return sp.Matrix(syms)
+        sym = sp.Symbol(f"T{n}_{name}", real=True)
+        self.held.append(([sym], [expr], self.origin))
+        return sym
+
+    def at_rest(self, expr):
+        """expr at zero pose perturbation of every body: its value at the evaluated state."""
+        return expr.xreplace({s: 0 for b in self.bodies for s in b.delta})
 
     def vector(self, key, name, expr):
         if key not in self._cache:
@@ -103,6 +123,7 @@ class Body:
 
     def __init__(self, tag, ctx):
         self.tag, self.ctx = tag, ctx
+        ctx.bodies.append(self)
         self.field_syms = {f: _syms(tag, n) for f, n in self.FIELDS.items()}
         self.dx = sp.Matrix(_syms(tag, ["dx", "dy", "dz"]))
         self.dth = sp.Matrix(_syms(tag, ["dtx", "dty", "dtz"]))
@@ -247,6 +268,26 @@ def force_at_offset(body, r, f):
     return Contribution(body, f, cross(r, f))
 
 
+def turn_share(body, arm, f):
+    """How much of a lever arm's turn the linearisation keeps: s = q^2 / (1 + q^2) with
+    q = h^2 |f| |r| / (I_lo + m |r|^2), the square of (h times) the frequency at which a force f
+    at arm r swings the body about the point it acts at (I_lo <= the least principal moment).
+
+    The turn of the arm under a force is geometric stiffness: the term that, implicit, holds a
+    light link in a chain under a heavy load (q >> 1 there: held, the link's swing about its joint
+    is explicit and diverges), and that, implicit, also damps every swing: a pendulum on a stiff
+    joint at 60 Hz keeps 6% of its energy after 5 s with it and 102% without it (q ~ 0.05).
+    With s the part left explicit, (1 - s) q = q / (1 + q^2) <= 1/2, stays inside the explicit
+    step's stability bound (4) whatever the step, the load and the masses."""
+    I = body.inertia_body
+    tr = I.trace()
+    i_lo = 4 * I.det() / sp.Max(tr * tr, sp.Float(1e-30))  # abc / ((a+b+c)/2)^2 <= a for a <= b <= c
+    r2 = dot(arm, arm)
+    h = body.ctx.h
+    q = h * h * sp.sqrt(dot(f, f) * r2) / sp.Max(i_lo + body.mass * r2, sp.Float(1e-30))
+    return 1 - 1 / (1 + q * q)
+
+
 def force_at_point(body, p, f):
     """A force f applied at world point p: generalised force (f, (p - com) x f)."""
     _need_body("force_at_point", body)
@@ -255,13 +296,30 @@ def force_at_point(body, p, f):
     return Contribution(body, f, cross(p - body.x, f))
 
 
+def force_at_joint(body, p, f):
+    """A joint's force f at world point p, a point of the body: (f, (p - com) x f) as with
+    force_at_point, but the lever arm's turn within the step enters the linearisation by
+    turn_share(): r = r0 + s (r - r0), with r0 and s held at the evaluated state (the value is
+    exact; the Jacobian keeps s of the arm's turn). The implicit form also moves the point along
+    its arc (forces._arc)."""
+    _need_body("force_at_joint", body)
+    if isinstance(body, World):
+        return Contribution(body, f, sp.zeros(3, 1))
+    ctx = body.ctx
+    arm = p - body.x
+    arm0 = ctx.hold("arm", ctx.at_rest(arm))
+    s = ctx.hold("turn", turn_share(body, arm0, ctx.at_rest(f)))
+    ctx.arms.setdefault(body.tag, []).append((arm0, s))
+    return Contribution(body, f, cross(arm0 + s * (arm - arm0), f))
+
+
 FUNCTIONS = {
     "vec": vec, "dot": dot, "cross": cross, "norm": norm, "sqrt": sp.sqrt, "abs": sp.Abs,
     "where": where, "positive_part": positive_part, "min": sp.Min, "max": sp.Max,
     "world_point": world_point, "point_velocity": point_velocity,
     "attached_point": attached_point, "attached_velocity": attached_velocity,
     "inertia_world": inertia_world, "force": force, "torque": torque,
-    "force_at_point": force_at_point, "force_at_offset": force_at_offset,
+    "force_at_point": force_at_point, "force_at_joint": force_at_joint, "force_at_offset": force_at_offset,
     "attached_offset": attached_offset, "velocity_at_offset": velocity_at_offset, "lagged": lagged,
 }
 

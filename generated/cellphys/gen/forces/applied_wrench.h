@@ -82,8 +82,11 @@ struct Applied_Wrench_Body_Kernel {
     out[5] = p_torque_world__2;
   }
 
-  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
   static constexpr int kHeld = 0;
+  /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
+  /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
+  static constexpr int kJointArm[1] = { -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
   /// of computing them from `in`; held_out: where to write the ones used. Total ops: 0

@@ -2174,8 +2174,11 @@ struct Contact_Pair_Kernel {
     out[155] = ((h*((L_rb__0*d_L_f__1__b_wz) - (L_rb__1*d_L_f__0__b_wz))) + (o86*o87));
   }
 
-  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
   static constexpr int kHeld = 10;
+  /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
+  /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
+  static constexpr int kJointArm[2] = { -1, -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
   /// of computing them from `in`; held_out: where to write the ones used. Total ops: 413
@@ -3498,8 +3501,11 @@ struct Contact_World_Kernel {
     out[41] = ((h*((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz))) + (o23*o24));
   }
 
-  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
   static constexpr int kHeld = 10;
+  /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
+  /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
+  static constexpr int kJointArm[1] = { -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
   /// of computing them from `in`; held_out: where to write the ones used. Total ops: 276

@@ -355,8 +355,11 @@ struct Damping_Body_Kernel {
     out[41] = ((-(a_Iw0_22*o28)) + (o25*o27));
   }
 
-  /// Values of the descriptor's lagged() lets, which the linearisation holds through the step.
+  /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
   static constexpr int kHeld = 0;
+  /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
+  /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
+  static constexpr int kJointArm[1] = { -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
   /// of computing them from `in`; held_out: where to write the ones used. Total ops: 137

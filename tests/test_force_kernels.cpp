@@ -767,8 +767,9 @@ TEST(ForceKernelForce, MatchesIndependentEigenEvaluation) {
 }
 
 // A joint point's held arm is the point's offset from the centre of mass, and its share of the arm's
-// turn is s = q^2 / (1 + q^2), q = h^2 |f| |r| / (I_lo + m |r|^2) with I_lo = 4 det I / (tr I)^2:
-// the swing of the body about the point under the force, against the step (kinematics.turn_share).
+// turn is s = q^2 / (1 + q^2), q = h^2 |f| |r| / (I_lo + mu |r|^2) with I_lo = 4 det I / (tr I)^2
+// and mu the pair's reduced mass (the body's mass against the world): the swing of the body about
+// the point under the force, against the step (kinematics.turn_share).
 TEST(ForceKernelImplicit, JointArmsHoldTheOffsetAndTheSwingShare) {
   int joints = 0;
   g::visit_kernels([&](auto k) {
@@ -790,7 +791,8 @@ TEST(ForceKernelImplicit, JointArmsHoldTheOffsetAndTheSwingShare) {
         Mat3 Ib;
         Ib << I[0], I[3], I[4], I[3], I[1], I[5], I[4], I[5], I[2];
         const double i_lo = 4 * Ib.determinant() / (Ib.trace() * Ib.trace());
-        const double q = h * h * f.norm() * r.norm() / (i_lo + B.m * r.squaredNorm());
+        const double mu = kPair<K> ? B.m * body_of(c.body[1 - j]).m / (B.m + body_of(c.body[1 - j]).m) : B.m;
+        const double q = h * h * f.norm() * r.norm() / (i_lo + mu * r.squaredNorm());
         EXPECT_LT((vec3_at(&held[K::kJointArm[j]]) - r).norm(), 1e-12 * (1 + r.norm())) << "state " << s;
         EXPECT_NEAR(held[K::kJointArm[j] + 3], q * q / (1 + q * q), 1e-9) << "state " << s << " q " << q;
         ++joints;

@@ -270,8 +270,11 @@ def force_at_offset(body, r, f):
 
 def turn_share(body, arm, f):
     """How much of a lever arm's turn the linearisation keeps: s = q^2 / (1 + q^2) with
-    q = h^2 |f| |r| / (I_lo + m |r|^2), the square of (h times) the frequency at which a force f
-    at arm r swings the body about the point it acts at (I_lo <= the least principal moment).
+    q = h^2 |f| |r| / (I_lo + mu |r|^2): (h times) the frequency, squared, at which a force f at
+    arm r swings the body about the point it acts at. I_lo <= the body's least principal moment;
+    mu is the pair's reduced mass m_a m_b / (m_a + m_b), the body's own mass against the world:
+    against a light partner the point is free and the body turns about its centre, against the
+    world or a heavy partner about the point.
 
     The turn of the arm under a force is geometric stiffness: the term that, implicit, holds a
     light link in a chain under a heavy load (q >> 1 there: held, the link's swing about its joint
@@ -282,9 +285,11 @@ def turn_share(body, arm, f):
     I = body.inertia_body
     tr = I.trace()
     i_lo = 4 * I.det() / sp.Max(tr * tr, sp.Float(1e-30))  # abc / ((a+b+c)/2)^2 <= a for a <= b <= c
+    others = [b for b in body.ctx.bodies if b is not body]
+    mu = body.mass if not others else body.mass * others[0].mass / sp.Max(body.mass + others[0].mass, sp.Float(1e-30))
     r2 = dot(arm, arm)
     h = body.ctx.h
-    q = h * h * sp.sqrt(dot(f, f) * r2) / sp.Max(i_lo + body.mass * r2, sp.Float(1e-30))
+    q = h * h * sp.sqrt(dot(f, f) * r2) / sp.Max(i_lo + mu * r2, sp.Float(1e-30))
     return 1 - 1 / (1 + q * q)
 
 

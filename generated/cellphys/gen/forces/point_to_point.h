@@ -10,7 +10,7 @@ namespace cellphys::gen {
 
 /// point_to_point (pair): F for 2 bodies and 8 Jacobian block(s).
 /// out = [F_a (6), F_b (6), dF_a/ddelta_a (36), dF_a/ddelta_b (36), dF_a/du_a (36), dF_a/du_b (36), dF_b/ddelta_a (36), dF_b/ddelta_b (36), dF_b/du_a (36), dF_b/du_b (36)]
-/// Total ops: 686
+/// Total ops: 694
 struct Point_To_Point_Pair_Kernel {
   using Instance = Point_To_Point_Constraint_Force;
   static constexpr ForceType kType = ForceType::point_to_point;
@@ -19,7 +19,7 @@ struct Point_To_Point_Pair_Kernel {
   static constexpr int kInputs = 48;
   static constexpr int kNumBlocks = 8;
   static constexpr int kOutputs = 300;
-  static constexpr int kOps = 686;
+  static constexpr int kOps = 694;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_ddelta, 0, 1},
@@ -242,13 +242,13 @@ struct Point_To_Point_Pair_Kernel {
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
     // apply[1] (point_to_point.yaml:18)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l6_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((b_m*l6_0_0) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((b_m*l6_0_0) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
+    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
     // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
@@ -588,7 +588,7 @@ struct Point_To_Point_Pair_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1112
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1120
   static constexpr int kNumImplicitBlocks = 4;
   static constexpr int kImplicitOutputs = 156;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -749,13 +749,13 @@ struct Point_To_Point_Pair_Kernel {
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
     // apply[1] (point_to_point.yaml:18)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l6_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((b_m*l6_0_0) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((b_m*l6_0_0) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
+    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
     // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
@@ -1084,7 +1084,7 @@ struct Point_To_Point_Pair_Kernel {
   static constexpr int kJointArm[2] = { 0, 4 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 284
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 292
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -1180,7 +1180,7 @@ struct Point_To_Point_Pair_Kernel {
     const S T0_arm__2 = held_in ? held_in[2] : S((L_pa__2 - a_pz));
     if (held_out) held_out[2] = T0_arm__2;
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    const S T1_turn = held_in ? held_in[3] : S((S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
+    const S T1_turn = held_in ? held_in[3] : S((S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[3] = T1_turn;
     // apply[1] (point_to_point.yaml:18)
     const S T2_arm__0 = held_in ? held_in[4] : S((L_pb__0 - b_px));
@@ -1190,7 +1190,7 @@ struct Point_To_Point_Pair_Kernel {
     const S T2_arm__2 = held_in ? held_in[6] : S((L_pb__2 - b_pz));
     if (held_out) held_out[6] = T2_arm__2;
     const S l6_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    const S T3_turn = held_in ? held_in[7] : S((S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((b_m*l6_0_0) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((b_m*l6_0_0) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
+    const S T3_turn = held_in ? held_in[7] : S((S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
     if (held_out) held_out[7] = T3_turn;
     // apply (point_to_point.yaml:16), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));

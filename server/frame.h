@@ -18,7 +18,7 @@ struct FrameBody {
   float scale = 1.0f;
   uint32_t flags = 0;  // protocol::kBodyAwake, kBodyStatic
   ppe::BodyState state;
-  uint64_t changed = 0;  // the seq of the frame in which its state or flags last changed
+  uint64_t changed = 0;  // the seq of the frame in which its state last changed (flags alone are not a move)
 };
 
 struct Frame {

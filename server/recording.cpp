@@ -19,12 +19,10 @@ struct RecordHeader {
 };
 static_assert(sizeof(RecordHeader) == 16);
 
-uint32_t record_checksum(RecordHeader h, const unsigned char* a, size_t na, const unsigned char* b, size_t nb) {
+uint32_t record_checksum(RecordHeader h, const unsigned char* payload, size_t n) {
   h.checksum = 0;
-  uint32_t c = spu::checksum(reinterpret_cast<const unsigned char*>(&h), sizeof h);
-  if (na) c = spu::checksum(a, na, c);
-  if (nb) c = spu::checksum(b, nb, c);
-  return c;
+  const uint32_t c = spu::checksum(reinterpret_cast<const unsigned char*>(&h), sizeof h);
+  return n ? spu::checksum(payload, n, c) : c;
 }
 
 template <class T>
@@ -49,10 +47,11 @@ RecordingWriter::~RecordingWriter() {
 
 void RecordingWriter::record(RecordType type, const unsigned char* a, size_t na, const unsigned char* b, size_t nb) {
   if (!f_) return;
-  RecordHeader h{static_cast<uint32_t>(type), static_cast<uint32_t>(na + nb), 0, 0};
-  h.checksum = record_checksum(h, a, na, b, nb);
-  if (std::fwrite(&h, sizeof h, 1, f_) != 1 || (na && std::fwrite(a, 1, na, f_) != na) ||
-      (nb && std::fwrite(b, 1, nb, f_) != nb))
+  std::vector<unsigned char> payload(a, a + na);  // one run of bytes, as the reader checks it
+  if (nb) payload.insert(payload.end(), b, b + nb);
+  RecordHeader h{static_cast<uint32_t>(type), static_cast<uint32_t>(payload.size()), 0, 0};
+  h.checksum = record_checksum(h, payload.data(), payload.size());
+  if (std::fwrite(&h, sizeof h, 1, f_) != 1 || (!payload.empty() && std::fwrite(payload.data(), 1, payload.size(), f_) != payload.size()))
     failed_ = true;
 }
 
@@ -110,7 +109,7 @@ Recording read_recording(const std::string& path) {
       break;
     }
     const unsigned char* p = bytes.data() + at + sizeof h;
-    if (record_checksum(h, p, h.bytes, nullptr, 0) != h.checksum) {
+    if (record_checksum(h, p, h.bytes) != h.checksum) {
       r.damage = where + " is damaged (checksum)";
       break;
     }

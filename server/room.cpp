@@ -253,7 +253,7 @@ void Room::publish() {
       while (k < prev->bodies.size() && prev->bodies[k].id < id) ++k;
       if (k < prev->bodies.size() && prev->bodies[k].id == id) {
         const FrameBody& p = prev->bodies[k];
-        if (p.flags == b.flags && std::memcmp(&p.state, &b.state, sizeof b.state) == 0) b.changed = p.changed;
+        if (std::memcmp(&p.state, &b.state, sizeof b.state) == 0) b.changed = p.changed;  // moved: its state's bits
       }
     }
     f->bodies.push_back(b);

@@ -39,6 +39,9 @@ struct Server::Impl {
         if (ec == net::error::operation_aborted) return;
       } else {
         socket.set_option(tcp::no_delay(true), ec);
+        // A fixed send buffer, not the system's autotuned one (megabytes): what a client that stops
+        // reading can hold is bounded, and its writes stall soon enough for the deadline to drop it.
+        socket.set_option(net::socket_base::send_buffer_size(ctx.options.client_send_buffer), ec);
         serve_http(std::move(socket), ctx);
       }
       accept();

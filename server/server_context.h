@@ -18,6 +18,7 @@ struct ServerOptions {
   double command_rate = 60;    // commands a second per connection, on average
   double command_burst = 120;  // and in a burst
   double client_deadline_s = 5;  // a client whose write has not completed for this long is dropped
+  int client_send_buffer = 256 * 1024;  // bytes the system may hold for one client (its queue's bound)
 };
 
 struct ServerContext {

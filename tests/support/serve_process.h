@@ -58,6 +58,7 @@ class ServeProcess {
   ServeProcess& operator=(const ServeProcess&) = delete;
 
   unsigned short port() const { return port_; }
+  pid_t pid() const { return pid_; }
   const std::string& token() const { return token_; }
 
   /// Sends `sig` and waits for the process; returns its exit code (128 + signal if killed).

@@ -107,7 +107,8 @@ TEST(Server, SleepingBodiesAreNotResent) {
   const uint32_t seq = c.command(p::Type::spawn, spawn_box(6, 0, 2));  // far from the bin
   ASSERT_TRUE(c.answer(seq));
   const uint32_t box = c.acks[seq].result;
-  ASSERT_TRUE(c.until([&] { return c.ticks.size() >= 100; }));
+  // Until the box has fallen to the ground (its moves carried it there) and 100 ticks came.
+  ASSERT_TRUE(c.until([&] { return c.ticks.size() >= 100 && c.bodies.count(box) && c.bodies[box].position[2] < 0.3f; }));
   size_t box_moves = 0, entered = 0;
   for (const auto& t : c.ticks) {
     for (const auto& [id, st] : t.moved) {
@@ -117,7 +118,7 @@ TEST(Server, SleepingBodiesAreNotResent) {
     for (const auto& b : t.entered) entered += b.id == box;
   }
   EXPECT_EQ(entered, 1u);
-  EXPECT_GT(box_moves, 10u);  // the new box falls
+  EXPECT_GT(box_moves, 0u);
   EXPECT_EQ(c.last_problem, "");
 }
 

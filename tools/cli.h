@@ -8,5 +8,7 @@ namespace cellphys::cli {
 int run_main(int argc, char** argv);          // cellphys run [SCENE] [options]
 int scenes_main(int argc, char** argv);       // cellphys scenes
 int kernel_demo_main(int argc, char** argv);  // cellphys kernel-demo
+int serve_main(int argc, char** argv);        // cellphys serve [SCENE...] [options]
+int replay_main(int argc, char** argv);       // cellphys replay FILE
 
 }  // namespace cellphys::cli

@@ -134,6 +134,9 @@ void World::apply_impulse(BodyId id, const float impulse[3], const float point[3
 
 bool World::is_awake(BodyId id) const { return impl_->live(id).awake; }
 bool World::is_static(BodyId id) const { return impl_->live(id).is_static; }
+bool World::has_body(BodyId id) const { return id < impl_->bodies.size() && impl_->bodies[id].alive; }
+uint32_t World::shape(BodyId id) const { return impl_->live(id).shape; }
+float World::scale(BodyId id) const { return impl_->live(id).scale; }
 float World::mass(BodyId id) const { return impl_->live(id).mass; }
 const float* World::inertia_body(BodyId id) const { return impl_->live(id).inertia; }
 

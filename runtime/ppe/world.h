@@ -106,6 +106,9 @@ class World {
   void apply_impulse(BodyId id, const float impulse[3], const float point[3]);  // world frame; wakes
   bool is_awake(BodyId id) const;
   bool is_static(BodyId id) const;
+  bool has_body(BodyId id) const;   // added and not removed
+  uint32_t shape(BodyId id) const;  // index in shapes()
+  float scale(BodyId id) const;
   float mass(BodyId id) const;
   const float* inertia_body(BodyId id) const;
   std::vector<BodyId> bodies() const;  // live ids, ascending

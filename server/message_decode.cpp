@@ -1,0 +1,148 @@
+#include "server/message_decode.h"
+
+#include <cstring>
+
+#include "runtime/spu/shape.h"
+#include "server/quantise.h"
+
+namespace cellphys::server {
+
+namespace {
+
+using namespace protocol;
+
+// Reads sequentially from a message, refusing to run past its end.
+class Reader {
+ public:
+  Reader(const unsigned char* p, size_t n) : p_(p), n_(n) {}
+  template <class T>
+  bool get(T& v) {
+    if (n_ - at_ < sizeof(T)) return false;
+    std::memcpy(&v, p_ + at_, sizeof(T));
+    at_ += sizeof(T);
+    return true;
+  }
+  bool bytes(size_t n, std::string& s) {
+    if (n_ - at_ < n) return false;
+    s.assign(reinterpret_cast<const char*>(p_ + at_), n);
+    at_ += n;
+    return true;
+  }
+  bool skip(size_t n) {
+    if (n_ - at_ < n) return false;
+    at_ += n;
+    return true;
+  }
+  bool done() const { return at_ == n_; }
+
+ private:
+  const unsigned char* p_;
+  size_t n_, at_ = 0;
+};
+
+std::string check_header(const unsigned char* data, size_t size, Type type) {
+  Header h;
+  if (size < sizeof h) return "shorter than a header";
+  std::memcpy(&h, data, sizeof h);
+  if (h.length != size) return "header.length " + std::to_string(h.length) + " is not the message's " + std::to_string(size);
+  if (h.version != kVersion) return "version " + std::to_string(h.version);
+  if (h.type != static_cast<uint16_t>(type))
+    return std::string("a ") + type_name(h.type) + " message, not a " + type_name(static_cast<uint16_t>(type));
+  return "";
+}
+
+size_t padded(size_t n) { return (n + 3) / 4 * 4; }
+
+}  // namespace
+
+uint16_t message_type(const unsigned char* data, size_t size) {
+  if (size < sizeof(Header)) return 0;
+  Header h;
+  std::memcpy(&h, data, sizeof h);
+  return h.type;
+}
+
+std::string decode_join(const unsigned char* data, size_t size, JoinMessage& out) {
+  if (auto e = check_header(data, size, Type::join); !e.empty()) return e;
+  Reader r(data, size);
+  out = JoinMessage{};
+  if (!r.get(out.head)) return "cut in its fixed part";
+  std::string name;
+  if (!r.bytes(out.head.name_bytes, name)) return "cut in the name";
+  out.world = name.substr(0, name.find('\0'));
+  for (uint32_t i = 0; i < out.head.num_shapes; ++i) {
+    ShapeRecord s;
+    if (!r.get(s)) return "cut in shape " + std::to_string(i);
+    std::vector<float> v(3 * size_t(s.num_vertices));
+    for (float& x : v)
+      if (!r.get(x)) return "cut in hull " + std::to_string(i);
+    const bool hull = s.type == static_cast<uint32_t>(spu::ShapeType::hull);
+    if (hull && !r.skip(4 * (size_t(s.num_faces) + 1 + s.num_face_vertices))) return "cut in hull " + std::to_string(i);
+    out.shapes.push_back(s);
+    out.hull_vertices.push_back(std::move(v));
+  }
+  out.bodies.resize(out.head.num_bodies);
+  for (BodyFull& b : out.bodies)
+    if (!r.get(b)) return "cut in the bodies";
+  if (!r.done()) return "bytes after the bodies";
+  return "";
+}
+
+std::string decode_tick(const unsigned char* data, size_t size, TickMessage& out) {
+  if (auto e = check_header(data, size, Type::tick); !e.empty()) return e;
+  Reader r(data, size);
+  out = TickMessage{};
+  if (!r.get(out.head)) return "cut in its fixed part";
+  out.entered.resize(out.head.num_entered);
+  for (BodyFull& b : out.entered)
+    if (!r.get(b)) return "cut in entered";
+  const bool quantised = (out.head.flags & kTickQuantised) != 0;
+  for (uint32_t i = 0; i < out.head.num_moved; ++i) {
+    ppe::BodyState s;
+    uint32_t id;
+    if (quantised) {
+      BodyMovedQ q;
+      if (!r.get(q)) return "cut in moved";
+      dequantise(q, out.head.quant, s);
+      id = q.id;
+    } else {
+      BodyMoved m;
+      if (!r.get(m)) return "cut in moved";
+      ppe::copy_state(m, s);
+      id = m.id;
+    }
+    out.moved.emplace_back(id, s);
+  }
+  out.gone.resize(out.head.num_gone);
+  for (uint32_t& id : out.gone)
+    if (!r.get(id)) return "cut in gone";
+  if (!r.done()) return "bytes after gone";
+  return "";
+}
+
+std::string decode_ack(const unsigned char* data, size_t size, Ack& out) {
+  if (auto e = check_header(data, size, Type::ack); !e.empty()) return e;
+  if (size != sizeof out) return "not " + std::to_string(sizeof out) + " bytes";
+  std::memcpy(&out, data, sizeof out);
+  return "";
+}
+
+std::string decode_error(const unsigned char* data, size_t size, ErrorMessage& out) {
+  if (auto e = check_header(data, size, Type::error); !e.empty()) return e;
+  Reader r(data, size);
+  if (!r.get(out.head)) return "cut in its fixed part";
+  if (!r.bytes(out.head.field_bytes, out.field) || !r.bytes(out.head.reason_bytes, out.reason)) return "cut in its text";
+  if (size != padded(sizeof out.head + out.head.field_bytes + out.head.reason_bytes)) return "bytes after its text";
+  return "";
+}
+
+std::string decode_status(const unsigned char* data, size_t size, StatusMessage& out) {
+  if (auto e = check_header(data, size, Type::status); !e.empty()) return e;
+  Reader r(data, size);
+  if (!r.get(out.head)) return "cut in its fixed part";
+  if (!r.bytes(out.head.text_bytes, out.text)) return "cut in its text";
+  if (size != padded(sizeof out.head + out.head.text_bytes)) return "bytes after its text";
+  return "";
+}
+
+}  // namespace cellphys::server

@@ -1,0 +1,49 @@
+// The client side of the protocol: the server's messages read back into plain structs, as a
+// C++ client would (the tests and the serving benchmark use it). Each decoder checks the
+// header and that the counts fit the length, and returns "" or what is wrong.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "runtime/ppe/body_state.h"
+#include "server/protocol.h"
+
+namespace cellphys::server {
+
+struct JoinMessage {
+  protocol::Join head{};
+  std::string world;
+  std::vector<protocol::ShapeRecord> shapes;
+  std::vector<std::vector<float>> hull_vertices;  // per shape (empty but for hulls)
+  std::vector<protocol::BodyFull> bodies;
+};
+
+struct TickMessage {
+  protocol::Tick head{};
+  std::vector<protocol::BodyFull> entered;
+  std::vector<std::pair<uint32_t, ppe::BodyState>> moved;  // dequantised when quantised
+  std::vector<uint32_t> gone;
+};
+
+struct ErrorMessage {
+  protocol::Error head{};
+  std::string field, reason;
+};
+
+struct StatusMessage {
+  protocol::Status head{};
+  std::string text;
+};
+
+/// The message's type (0 if it has no whole header).
+uint16_t message_type(const unsigned char* data, size_t size);
+
+std::string decode_join(const unsigned char* data, size_t size, JoinMessage& out);
+std::string decode_tick(const unsigned char* data, size_t size, TickMessage& out);
+std::string decode_ack(const unsigned char* data, size_t size, protocol::Ack& out);
+std::string decode_error(const unsigned char* data, size_t size, ErrorMessage& out);
+std::string decode_status(const unsigned char* data, size_t size, StatusMessage& out);
+
+}  // namespace cellphys::server

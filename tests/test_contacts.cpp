@@ -291,6 +291,32 @@ TEST(Contacts, SphereLaunchedSlidingRollsAtTheClosedFormTime) {
       }
 }
 
+// A box at rest, stuck to its place, kicked sideways between steps (a game's impulse): it slides
+// off at the kick's speed and slows at mu g, rather than being held by its anchor for a step.
+TEST(Contacts, RestingBoxKickedSidewaysSlidesAtMuG) {
+  for (float mass : {1.0f, 100.0f})
+    for (float half : {0.25f, 1.0f}) {
+      SCOPED_TRACE("mass " + std::to_string(mass) + ", half extent " + std::to_string(half));
+      const float mu = 0.5f, v0 = 3.0f;
+      World w;
+      ground_plane(w, mu);
+      const float h[3] = {half, half, half}, p[3] = {0, 0, half};
+      const Placed box = place_box(w, h, mass, p, mu);
+      for (int i = 0; i < kHz; ++i) w.step();  // settled: its contacts stick
+      const BodyState before = w.state(box.id);
+      const float impulse[3] = {mass * v0, 0, 0};
+      w.apply_impulse(box.id, impulse, before.position);
+      const int steps = kHz / 4;
+      for (int i = 0; i < steps; ++i) w.step();
+      const BodyState after = w.state(box.id);
+      const double t = double(steps) / kHz, v_expected = v0 - mu * kG * t;
+      const double x_expected = v0 * t - 0.5 * mu * kG * t * t;
+      if (mass == 1.0f && half == 0.25f) record("kicked_box_speed_after_quarter_s", after.velocity[0]);
+      EXPECT_NEAR(after.velocity[0], v_expected, 0.03 * v0);
+      EXPECT_NEAR(after.position[0] - before.position[0], x_expected, 0.03 * x_expected);
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // A failed island is never left to sleep in the state that failed
 

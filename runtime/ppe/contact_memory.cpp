@@ -99,15 +99,18 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       }
       const Vec3d vrel = velocity_at(bodies, b, p) - velocity_at(bodies, a, p);
       const double vn = dot(vrel, n);
-      fastest = std::max(fastest, norm(vrel - n * vn));
-      total_strain = total_strain + strain[i];
+      const Vec3d vt = vrel - n * vn;
+      fastest = std::max(fastest, norm(vt));
+      // the tangential force, in units of depth: the anchor spring's and its damper's
+      total_strain = total_strain + strain[i] + vt * (cd / k);
       // the normal force, in units of depth: the spring's, and the damper's while it closes
       total_depth += std::max(double(c.point.penetration) - cd / k * vn, 0.0);
     }
     // Sticking or sliding, for the pair as a whole (its points share the two bodies' motion, not
     // their loads: a box on a slope presses its downhill edge harder). A sticking pair slides
-    // once its strain leaves the friction cone (mu times the depth: the tangential spring's
-    // force against the normal one's). A sliding pair sticks again once its slip slows to what
+    // once its tangential force leaves the friction cone (its strain and slip against mu times
+    // the depth: the anchor's spring and damper against the normal ones), or once it slips
+    // faster than friction stops within a step (a kick). A sliding pair sticks again once its slip slows to what
     // friction stops within a step (h mu k/m depth) and within half the cone (the damper brings
     // a slip v to rest over v c/k of strain); a slip that grows, down a slope steeper than the
     // friction angle, goes on; a slip as slow as the regularisation's (a box creeping on a slope
@@ -117,7 +120,7 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     bool sliding;
     if (!old) sliding = !stoppable;
     else if (old->sliding) sliding = !(stoppable && (fastest <= old->slip || fastest <= s.globals.slip_velocity));
-    else sliding = norm(total_strain) > mu * total_depth;
+    else sliding = norm(total_strain) > mu * total_depth || !stoppable;
     now.sliding = sliding;
     now.slip = float(fastest);
     for (size_t i = 0; i < count; ++i) {

@@ -350,8 +350,8 @@ function updateStats() {
 
 function makePlot(el, title, defs) {
   return new uPlot({
-    title, width: 256, height: 130, legend: { show: true }, cursor: { show: false },
-    axes: [{ stroke: '#9fb0c0', grid: { stroke: '#333a42' } }, { stroke: '#9fb0c0', grid: { stroke: '#333a42' }, size: 40 }],
+    title, width: 256, height: 130, legend: { show: true, live: false }, cursor: { show: false }, scales: { x: { time: false } },
+    axes: [{ stroke: '#9fb0c0', grid: { stroke: '#333a42' } }, { stroke: '#9fb0c0', grid: { stroke: '#333a42' }, size: 50 }],
     series: [{}, ...defs.map(([label, stroke]) => ({ label, stroke, width: 1.5, points: { show: false } }))],
   }, [[], ...defs.map(() => [])], el);
 }

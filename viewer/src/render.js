@@ -68,8 +68,8 @@ export class Renderer {
     this.camera.up.set(0, 0, 1);
     this.controls = new OrbitControls(this.camera, canvas);
     this.controls.enableDamping = true;
-    this.scene.add(new THREE.HemisphereLight(0xdfe8f5, 0x3a3228, 1.1));
-    this.sun = new THREE.DirectionalLight(0xffffff, 2.2);
+    this.scene.add(new THREE.HemisphereLight(0xe6eefa, 0x5a5046, 2.2), new THREE.AmbientLight(0xffffff, 0.35));
+    this.sun = new THREE.DirectionalLight(0xffffff, 2.0);
     this.sun.castShadow = true;
     this.sun.shadow.mapSize.set(2048, 2048);
     this.scene.add(this.sun, this.sun.target);
@@ -120,7 +120,7 @@ export class Renderer {
       if (s.type === SHAPE.plane && !gridDone) {
         gridDone = true;
         const p = s.params, n = new THREE.Vector3(p[0], p[1], p[2]).normalize();
-        const cells = Math.min(200, Math.round(this.extent));
+        const cells = Math.min(100, Math.round(this.extent));
         const grid = new THREE.GridHelper(this.extent, cells, 0x5a6470, 0x3e4650);
         grid.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), n);
         grid.position.copy(n).multiplyScalar(p[3] + 0.002);
@@ -128,7 +128,7 @@ export class Renderer {
       }
     });
     if (!model.shapes.some((s) => s.type === SHAPE.plane)) {
-      const grid = new THREE.GridHelper(this.extent, Math.min(200, Math.round(this.extent)), 0x5a6470, 0x3e4650);
+      const grid = new THREE.GridHelper(this.extent, Math.min(100, Math.round(this.extent)), 0x5a6470, 0x3e4650);
       grid.rotateX(Math.PI / 2);
       grid.position.z = box.min.z;
       this.world.add(grid);
@@ -143,7 +143,7 @@ export class Renderer {
     this.sun.target.position.copy(centre);
     if (!keepCamera) {
       this.controls.target.copy(centre);
-      this.camera.position.copy(centre).add(new THREE.Vector3(1.2, -1.6, 0.9).normalize().multiplyScalar(radius * 2.4));
+      this.camera.position.copy(centre).add(new THREE.Vector3(1.2, -1.6, 1.3).normalize().multiplyScalar(radius * (radius > 20 ? 1.5 : 3)));
       this.camera.near = radius / 200;
       this.camera.far = radius * 50;
       this.camera.updateProjectionMatrix();

@@ -67,18 +67,20 @@ async function metrics(server, world) {
 }
 
 const userData = mkdtempSync(join(tmpdir(), 'cellphys-viewer-chromium-'));
-const browser = await chromium.launch({
+// A fresh profile (playwright passes it as --user-data-dir).
+const browser = await chromium.launchPersistentContext(userData, {
   executablePath: CHROMIUM,
   headless: true,
+  viewport: { width: 1280, height: 800 },
   args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
-    '--disable-component-update', '--disable-sync', `--user-data-dir=${userData}`,
+    '--disable-component-update', '--disable-sync',
     // WebGL without a GPU: Chromium's software rasteriser, which it no longer falls back to unasked.
     '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
 });
 const servers = [];
 const consoleErrors = [];
 async function openPage(url, name) {
-  const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+  const page = await browser.newPage();
   page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(`${name}: ${m.text()}`); });
   page.on('pageerror', (e) => consoleErrors.push(`${name}: ${e.message}`));
   page.on('request', (r) => { const u = new URL(r.url()); if (u.host !== new URL(url).host && u.protocol !== 'data:') consoleErrors.push(`${name}: request off the server: ${r.url()}`); });
@@ -113,7 +115,6 @@ try {
     return { colours: colours.size, w: c.width, h: c.height };
   });
   check(pixels.colours > 20, 'the frame of the pile is not blank', `${pixels.colours} distinct colours in a 64x40 reduction of ${pixels.w}x${pixels.h}`);
-  await until('the pile to settle a little', async () => (await page.evaluate(() => window.__viewer.step())) > 120);
   if (images) { mkdirSync(images, { recursive: true }); await page.screenshot({ path: join(images, 'viewer_pile65.png') }); }
 
   // ---- pause, then one step ----

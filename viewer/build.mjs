@@ -1,10 +1,13 @@
 // Bundles the page into dist/ (main.js, main.css, index.html): everything it loads is its own.
-import { build } from 'esbuild';
 import { copyFileSync, mkdirSync, rmSync, renameSync } from 'node:fs';
 import { dirname, join } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 const here = dirname(fileURLToPath(import.meta.url));
+const { build } = await import('esbuild').catch(() => {
+  console.error(`viewer: esbuild is not installed in ${join(here, 'node_modules')} (scripts/setup runs npm ci there)`);
+  process.exit(1);
+});
 const out = join(here, 'dist');
 const tmp = join(here, 'dist.tmp');
 rmSync(tmp, { recursive: true, force: true });

@@ -8,7 +8,7 @@ import { tmpdir } from 'node:os';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { createInterface } from 'node:readline';
-import { chromium } from 'playwright-core';
+const { chromium } = await import('playwright-core').catch(() => { console.error('viewer_test: playwright-core is not installed in viewer/node_modules (scripts/setup runs npm ci there)'); process.exit(1); });
 
 const CHROMIUM = '/usr/bin/chromium';
 const here = dirname(fileURLToPath(import.meta.url));

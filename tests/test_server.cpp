@@ -474,7 +474,9 @@ TEST(Server, ARecordingReplaysToTheLiveStateHash) {
 }
 
 TEST(Server, MetricsAreJsonWithEveryField) {
-  ServeProcess s = serve({"pile65", "b=stack10"});
+  // A viewer directory that does not exist: `/` is then the page listing the worlds (the built
+  // viewer, viewer/dist, is tested in the browser by viewer/test).
+  ServeProcess s = serve({"pile65", "b=stack10", "--viewer", "/nonexistent/cellphys-viewer"});
   ServerClient c(s.port(), "b");
   ASSERT_TRUE(c.until([&] { return c.ticks.size() > 30; }));
   const json m = metrics(s);

@@ -1,0 +1,447 @@
+// The viewer page: watches a world of the server it was loaded from (/ws?world=NAME), or a
+// trajectory file dropped on it; controls, picking, dragging, spawning, stats and the timeline.
+import * as THREE from 'three';
+import uPlot from 'uplot';
+import 'uplot/dist/uPlot.min.css';
+import './style.css';
+import * as P from './protocol.js';
+import { applyTick, modelFromJoin, F_STATIC } from './model.js';
+import { Renderer } from './render.js';
+import { parseTrajectory, trajectoryModel } from './trajectory.js';
+
+const $ = (id) => document.getElementById(id);
+const params = new URLSearchParams(location.search);
+const HISTORY = Number(params.get('history')) || 600; // ticks kept for the timeline (10 s at 60 Hz)
+
+const renderer = new Renderer($('view'));
+const ui = { status: $('status'), scrub: $('scrub'), tlabel: $('tlabel') };
+
+const state = {
+  model: null, ws: null, join: null, world: params.get('world') || '', token: params.get('token') || '',
+  live: true, shown: null, shownIndex: 0, paused: false, worldState: 'running', canCommand: false,
+  seq: 1, pending: new Map(), drag: null, selected: -1, errors: [], received: [], playing: false,
+  lastStats: null, steps: 0, connected: false,
+};
+$('token').value = state.token;
+
+function setStatus(text, isError = false) {
+  ui.status.textContent = text;
+  ui.status.className = isError ? 'err' : '';
+}
+
+// ---- connection ----
+
+async function listWorlds() {
+  try {
+    const r = await fetch('/metrics', { cache: 'no-store' });
+    if (!r.ok) return [];
+    const m = await r.json();
+    return m.worlds.map((w) => w.name);
+  } catch {
+    return [];
+  }
+}
+
+function connect(world) {
+  if (state.ws) { state.ws.onclose = null; state.ws.close(); }
+  state.world = world;
+  const q = new URLSearchParams({ world });
+  if (state.token) q.set('token', state.token);
+  const ws = new WebSocket(`${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws?${q}`);
+  ws.binaryType = 'arraybuffer';
+  state.ws = ws;
+  setStatus(`connecting to ${world}…`);
+  ws.onopen = () => { state.connected = true; };
+  ws.onmessage = (e) => onMessage(e.data);
+  ws.onclose = (e) => {
+    state.connected = false;
+    setStatus(`disconnected from ${world} (${e.code}${e.reason ? ': ' + e.reason : ''}); reload to reconnect`, true);
+  };
+}
+
+function onMessage(buffer) {
+  const now = performance.now();
+  state.received.push([now, buffer.byteLength]);
+  let m;
+  try {
+    m = P.decode(buffer);
+  } catch (e) {
+    setStatus(`bad message from the server: ${e.message}`, true);
+    return;
+  }
+  switch (m.type) {
+    case 'join': {
+      const sameWorld = state.join && state.join.name === m.name;
+      state.join = m;
+      state.canCommand = (m.flags & 1) !== 0;
+      state.model = modelFromJoin(m, HISTORY);
+      state.selected = -1;
+      renderer.selectedSlot = -1;
+      state.drag = null;
+      renderer.setModel(state.model, state.model.live, { keepCamera: sameWorld });
+      goLive();
+      setStatus(`${m.name}: ${m.bodies.length} bodies, ${m.shapes.length} shapes, step ${m.step}${state.canCommand ? '' : ' (watching: no token, commands off)'}`);
+      updateButtons();
+      break;
+    }
+    case 'tick': {
+      if (!state.model || m.epoch !== state.join.epoch) return;
+      const f = applyTick(state.model, m);
+      state.lastStats = m.stats;
+      state.paused = (m.flags & P.TICK_PAUSED) !== 0;
+      state.steps = m.step;
+      recordStats(m);
+      if (state.live) show(state.model.frameCount() - 1);
+      else ui.scrub.max = String(state.model.frameCount() - 1);
+      if (f.flags.length !== renderer.frame?.flags.length && state.live) renderer.draw(f);
+      updateButtons();
+      break;
+    }
+    case 'ack': {
+      const p = state.pending.get(m.seq);
+      state.pending.delete(m.seq);
+      if (p) p.resolve(m);
+      break;
+    }
+    case 'error': {
+      const p = state.pending.get(m.seq);
+      state.pending.delete(m.seq);
+      setStatus(`refused: ${m.code_name}${m.field ? ' ' + m.field : ''}: ${m.reason}`, true);
+      if (p) p.reject(m);
+      break;
+    }
+    case 'status':
+      state.worldState = m.state;
+      state.paused = m.state === 'paused';
+      if (m.state === 'failed') setStatus(`world failed at step ${m.step}: ${m.text} (reset brings it back)`, true);
+      updateButtons();
+      break;
+  }
+}
+
+/// Sends a command; resolves with its ack, rejects with its error.
+function command(make) {
+  if (!state.ws || state.ws.readyState !== 1) return Promise.reject(new Error('not connected'));
+  const seq = state.seq++;
+  state.ws.send(make(seq));
+  return new Promise((resolve, reject) => state.pending.set(seq, { resolve, reject }));
+}
+const quiet = (p) => p.catch(() => {}); // refusals are shown in the status line
+
+function updateButtons() {
+  const live = state.model?.source === 'live';
+  const can = live && state.canCommand;
+  $('play').textContent = state.paused ? 'Resume' : 'Pause';
+  for (const id of ['play', 'step', 'reset']) $(id).disabled = !can;
+  $('tplay').textContent = state.playing ? '❚❚' : '▶';
+}
+
+// ---- timeline ----
+
+function show(index) {
+  const m = state.model;
+  if (!m || !m.frameCount()) return;
+  index = Math.max(0, Math.min(m.frameCount() - 1, index));
+  state.shownIndex = index;
+  state.shown = m.frameAt(index);
+  renderer.draw(state.shown);
+  ui.scrub.max = String(m.frameCount() - 1);
+  ui.scrub.value = String(index);
+  const f = state.shown;
+  ui.tlabel.textContent = `step ${f.step}  t ${f.t.toFixed(3)} s  (${index + 1}/${m.frameCount()})${state.live && m.source === 'live' ? ' live' : ''}`;
+}
+
+function goLive() {
+  state.live = state.model?.source === 'live';
+  state.playing = false;
+  if (state.model) show(state.model.frameCount() - 1);
+  updateButtons();
+}
+
+ui.scrub.addEventListener('input', () => {
+  state.live = false;
+  state.playing = false;
+  show(Number(ui.scrub.value));
+  updateButtons();
+});
+$('live').onclick = goLive;
+$('tplay').onclick = () => {
+  if (!state.model) return;
+  state.playing = !state.playing;
+  state.live = false;
+  if (state.playing && state.shownIndex >= state.model.frameCount() - 1) show(0);
+  state.playClock = performance.now();
+  state.playTime = state.shown?.t ?? 0;
+  updateButtons();
+};
+
+function advancePlayback(now) {
+  if (!state.playing || !state.model) return;
+  const speed = Number($('speed').value);
+  state.playTime += ((now - state.playClock) / 1000) * speed;
+  state.playClock = now;
+  const m = state.model;
+  let i = state.shownIndex;
+  while (i + 1 < m.frameCount() && m.frameAt(i + 1).t <= state.playTime) ++i;
+  if (i !== state.shownIndex) show(i);
+  if (i >= m.frameCount() - 1) { state.playing = false; updateButtons(); }
+}
+
+// ---- controls ----
+
+$('play').onclick = () => quiet(command((s) => P.simple(state.paused ? P.T.resume : P.T.pause, s)));
+$('step').onclick = () => quiet(command((s) => P.simple(P.T.step_once, s)));
+$('reset').onclick = () => quiet(command((s) => P.simple(P.T.reset, s)));
+$('token').onchange = () => {
+  state.token = $('token').value.trim();
+  const u = new URL(location.href);
+  if (state.token) u.searchParams.set('token', state.token); else u.searchParams.delete('token');
+  history.replaceState(null, '', u);
+  if (state.world) connect(state.world);
+};
+$('world').onchange = () => {
+  const u = new URL(location.href);
+  u.searchParams.set('world', $('world').value);
+  history.replaceState(null, '', u);
+  state.join = null;
+  connect($('world').value);
+};
+window.addEventListener('keydown', (e) => {
+  if (e.target.tagName === 'INPUT') return;
+  if (e.code === 'Space') { e.preventDefault(); $('play').click(); }
+  if (e.key === 's') $('step').click();
+});
+
+// ---- picking, dragging, spawning ----
+
+const canvas = $('view');
+let down = null;
+
+function spawnAt(hit) {
+  const shapes = state.join.shapes;
+  let shape = shapes.findIndex((s) => s.type === P.SHAPE.box);
+  if (shape < 0) shape = shapes.findIndex((s) => s.type !== P.SHAPE.plane);
+  if (shape < 0) { setStatus('no shape in this world can be spawned', true); return; }
+  const s = shapes[shape];
+  const half = s.type === P.SHAPE.box ? Math.max(s.params[0], s.params[1], s.params[2]) : s.params[0] || 0.25;
+  const n = hit.normal && hit.normal.z > 0.3 ? hit.normal : new THREE.Vector3(0, 0, 1);
+  const p = hit.point.clone().addScaledVector(n, half * 1.8 + 0.02);
+  quiet(command((seq) => P.spawn(seq, { shape, position: p.toArray() })).then((a) => setStatus(`spawned body ${a.result} at step ${a.step}`)));
+}
+
+canvas.addEventListener('pointerdown', (e) => {
+  if (e.button !== 0 || !state.model) return;
+  const hit = renderer.pick(e.clientX, e.clientY, true);
+  const isPlane = hit.slot >= 0 && state.model.shapes[state.model.bodies[hit.slot].shape].type === P.SHAPE.plane;
+  const live = state.model.source === 'live' && state.live;
+  if ((e.shiftKey || $('spawnmode').checked) && live && state.canCommand && hit.slot >= 0) {
+    spawnAt(hit);
+    return;
+  }
+  if (hit.slot < 0 || isPlane) { down = { x: e.clientX, y: e.clientY, slot: -1 }; return; }
+  select(hit.slot);
+  down = { x: e.clientX, y: e.clientY, slot: hit.slot };
+  const b = state.model.bodies[hit.slot];
+  if (!live || !state.canCommand || b.static) return;
+  // Drag on a plane through the grabbed point facing the camera.
+  renderer.controls.enabled = false;
+  canvas.setPointerCapture(e.pointerId);
+  const normal = renderer.camera.getWorldDirection(new THREE.Vector3());
+  state.drag = { slot: hit.slot, plane: new THREE.Plane().setFromNormalAndCoplanarPoint(normal, hit.point), id: null, target: hit.point.toArray(), sent: 0, released: false };
+  const drag = state.drag;
+  command((seq) => P.dragStart(seq, b.id, hit.point.toArray(), hit.point.toArray())).then(
+    (a) => {
+      drag.id = a.result;
+      if (drag.released) quiet(command((seq) => P.dragRelease(seq, drag.id)));
+      else quiet(command((seq) => P.dragMove(seq, drag.id, drag.target)));
+    },
+    () => { if (state.drag === drag) state.drag = null; });
+});
+
+canvas.addEventListener('pointermove', (e) => {
+  const d = state.drag;
+  if (!d) return;
+  const hit = renderer.pick(e.clientX, e.clientY);
+  const p = hit.ray.intersectPlane(d.plane, new THREE.Vector3());
+  if (!p) return;
+  d.target = p.toArray();
+  const now = performance.now();
+  if (d.id !== null && now - d.sent > 40) { // 25 moves a second at most, inside the rate limit
+    d.sent = now;
+    quiet(command((seq) => P.dragMove(seq, d.id, d.target)));
+  }
+});
+
+function endDrag() {
+  const d = state.drag;
+  renderer.controls.enabled = true;
+  if (!d) return;
+  state.drag = null;
+  d.released = true;
+  if (d.id !== null) {
+    quiet(command((seq) => P.dragMove(seq, d.id, d.target)));
+    quiet(command((seq) => P.dragRelease(seq, d.id)));
+  }
+}
+canvas.addEventListener('pointerup', (e) => {
+  if (down && down.slot < 0 && Math.hypot(e.clientX - down.x, e.clientY - down.y) < 4) select(-1);
+  down = null;
+  endDrag();
+});
+canvas.addEventListener('pointercancel', endDrag);
+
+function select(slot) {
+  state.selected = slot;
+  renderer.selectedSlot = slot;
+  if (state.shown) renderer.draw(state.shown);
+}
+
+// ---- panels ----
+
+const fmt = (v, d = 3) => v.map((x) => x.toFixed(d).padStart(8)).join(' ');
+const SHAPE_NAMES = ['sphere', 'capsule', 'box', 'hull', 'plane'];
+
+function updateSelection() {
+  const el = $('selection');
+  if (state.selected < 0 || !state.model) { el.textContent = 'Click a body to inspect it; drag it to pull it\n(needs the token); shift-click to spawn a box.'; return; }
+  const s = state.model.bodyState(state.shown, state.selected);
+  if (!s) { el.textContent = `body ${state.model.bodies[state.selected].label}: not in this frame`; return; }
+  el.textContent = [
+    `body ${s.label}  ${SHAPE_NAMES[s.shape_type] ?? '?'} (shape ${s.shape}) ×${s.scale}`,
+    s.static ? 'static' : s.awake ? 'awake' : 'asleep',
+    `pos   ${fmt(s.position)}`, `quat  ${fmt(s.orientation, 4)}`, `vel   ${fmt(s.velocity)}`, `omega ${fmt(s.angular_velocity)}`,
+    '(mass and island: not sent by the protocol)',
+  ].join('\n');
+}
+
+const series = { t: [], ms: [], active: [], sleeping: [], contacts: [], iters: [], kbps: [] };
+const PLOT_POINTS = 600;
+function recordStats(tick) {
+  const s = tick.stats;
+  const push = (k, v) => { series[k].push(v); if (series[k].length > PLOT_POINTS) series[k].shift(); };
+  push('t', tick.step * (state.join?.dt || 1 / 60));
+  push('ms', s.step_ms);
+  push('active', s.active_bodies);
+  push('sleeping', s.sleeping_bodies);
+  push('contacts', s.contacts);
+  push('iters', s.solver_iterations);
+  push('kbps', bytesPerSecond() / 1000);
+}
+
+function bytesPerSecond() {
+  const now = performance.now();
+  while (state.received.length && state.received[0][0] < now - 1000) state.received.shift();
+  return state.received.reduce((n, r) => n + r[1], 0);
+}
+
+function updateStats() {
+  const s = state.lastStats;
+  const lines = [];
+  if (state.model?.source === 'file') lines.push(`file: ${state.model.bodies.length} bodies, ${state.model.frameCount()} frames`);
+  if (s) {
+    lines.push(`world ${state.join.name}  step ${state.steps}  ${state.worldState}${state.paused ? ' (paused)' : ''}`,
+      `ms per step     ${s.step_ms.toFixed(3)}`, `active bodies   ${s.active_bodies}`, `sleeping bodies ${s.sleeping_bodies}`,
+      `contacts        ${s.contacts}`, `islands         ${s.islands}`, `solver iters    ${s.solver_iterations}`,
+      `failed islands  ${s.failed_islands}`, `step halvings   ${s.step_halvings}`, `received        ${(bytesPerSecond() / 1000).toFixed(1)} kB/s`);
+  }
+  lines.push(`drawn instances ${renderer.instanceCount()}`, `frames drawn    ${fps.toFixed(0)}/s`);
+  $('stats').textContent = lines.join('\n');
+}
+
+function makePlot(el, title, defs) {
+  return new uPlot({
+    title, width: 256, height: 130, legend: { show: true, live: false }, cursor: { show: false }, scales: { x: { time: false } },
+    axes: [{ stroke: '#9fb0c0', grid: { stroke: '#333a42' } }, { stroke: '#9fb0c0', grid: { stroke: '#333a42' }, size: 50 }],
+    series: [{}, ...defs.map(([label, stroke]) => ({ label, stroke, width: 1.5, points: { show: false } }))],
+  }, [[], ...defs.map(() => [])], el);
+}
+const plotMs = makePlot($('chart-ms'), 'ms per step', [['ms', '#ffb454']]);
+const plotCounts = makePlot($('chart-counts'), 'bodies, contacts, iterations, kB/s', [['active', '#4f8fd8'], ['asleep', '#a0a0a0'], ['contacts', '#58b368'], ['iters', '#d86a4f'], ['kB/s', '#b36bc4']]);
+function updatePlots() {
+  if (series.t.length < 2) return;
+  plotMs.setData([series.t, series.ms]);
+  plotCounts.setData([series.t, series.active, series.sleeping, series.contacts, series.iters, series.kbps]);
+}
+
+// ---- offline files ----
+
+async function openFiles(files) {
+  const list = Array.from(files);
+  const csv = list.find((f) => f.name.endsWith('.csv'));
+  const json = list.find((f) => f.name.endsWith('.json'));
+  if (!csv) { setStatus('drop a trajectory .csv (cellphys run --out), optionally with its scene .json', true); return; }
+  try {
+    const rows = parseTrajectory(await csv.text(), csv.name);
+    let scene = null;
+    if (json) {
+      try { scene = JSON.parse(await json.text()); } catch (e) { throw new Error(`${json.name}: not JSON (${e.message})`); }
+    }
+    loadModel(trajectoryModel(rows, scene, json?.name));
+    setStatus(`${csv.name}${json ? ' + ' + json.name : ''}: ${state.model.bodies.length} bodies, ${state.model.frameCount()} frames${json ? '' : ' (drawn as boxes: drop the scene JSON too for shapes)'}`);
+  } catch (e) {
+    setStatus(e.message, true);
+  }
+}
+
+function loadModel(model) {
+  if (state.ws) { state.ws.onclose = null; state.ws.close(); state.ws = null; }
+  state.model = model;
+  state.join = null;
+  state.lastStats = null;
+  state.selected = -1;
+  renderer.selectedSlot = -1;
+  renderer.setModel(model, model.frameAt(0));
+  state.live = false;
+  show(0);
+  updateButtons();
+}
+
+$('open').onclick = () => $('file').click();
+$('file').onchange = () => openFiles($('file').files);
+window.addEventListener('dragover', (e) => { e.preventDefault(); $('drop').classList.add('on'); });
+window.addEventListener('dragleave', () => $('drop').classList.remove('on'));
+window.addEventListener('drop', (e) => { e.preventDefault(); $('drop').classList.remove('on'); openFiles(e.dataTransfer.files); });
+
+// ---- loop ----
+
+let fps = 0, fpsCount = 0, fpsClock = performance.now(), panelClock = 0;
+function frame(now) {
+  advancePlayback(now);
+  renderer.render();
+  if (++fpsCount && now - fpsClock >= 1000) { fps = (fpsCount * 1000) / (now - fpsClock); fpsCount = 0; fpsClock = now; }
+  if (now - panelClock > 250) { panelClock = now; updateSelection(); updateStats(); updatePlots(); }
+  requestAnimationFrame(frame);
+}
+requestAnimationFrame(frame);
+
+// ---- start ----
+
+(async () => {
+  const worlds = await listWorlds();
+  const sel = $('world');
+  for (const w of worlds) sel.add(new Option(w, w));
+  if (!worlds.length) { setStatus('no server: open or drop a trajectory CSV'); return; }
+  const world = worlds.includes(state.world) ? state.world : worlds[0];
+  sel.value = world;
+  connect(world);
+})();
+
+// A small hook for tests and the console: reads of what is shown, no control the page lacks.
+window.__viewer = {
+  ready: () => !!state.model && renderer.frames > 0,
+  source: () => state.model?.source ?? null,
+  join: () => state.join && { name: state.join.name, step: state.join.step, epoch: state.join.epoch, bodies: state.join.bodies.length, canCommand: state.canCommand },
+  bodies: () => state.model?.bodies.map((b) => ({ id: b.id, label: b.label, shape: b.shape, static: b.static })) ?? [],
+  step: () => state.shown?.step ?? null,
+  paused: () => state.paused,
+  frameCount: () => state.model?.frameCount() ?? 0,
+  frameIndex: () => state.shownIndex,
+  instanceCount: () => renderer.instanceCount(),
+  framesDrawn: () => renderer.frames,
+  bodyState: (id) => { const s = state.model?.slotOf.get(id); return s === undefined ? null : state.model.bodyState(state.shown, s); },
+  drawnPosition: (id) => { const s = state.model?.slotOf.get(id); return s === undefined ? null : renderer.instancePosition(s); },
+  screenOf: (id) => { const b = window.__viewer.bodyState(id); return b && renderer.toScreen(b.position); },
+  selected: () => (state.selected < 0 ? null : state.model.bodies[state.selected].id),
+  status: () => ui.status.textContent,
+  lastStats: () => state.lastStats,
+};

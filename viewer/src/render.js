@@ -1,0 +1,238 @@
+// Drawing a Model's frame with three.js: one InstancedMesh per shape of the dictionary (a body
+// is an instance: its pose and uniform scale in the instance matrix, its colour by state), an
+// orbit camera about z up, a sun with shadows, a sky light and a grid on the ground plane.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { ConvexGeometry } from 'three/examples/jsm/geometries/ConvexGeometry.js';
+import { FLOATS, F_AWAKE, F_PRESENT, F_STATIC } from './model.js';
+import { SHAPE } from './protocol.js';
+
+const COLOURS = { [SHAPE.sphere]: 0x4f8fd8, [SHAPE.capsule]: 0x58b368, [SHAPE.box]: 0xd8924f, [SHAPE.hull]: 0xb36bc4, [SHAPE.plane]: 0x9aa3ad };
+const STATIC_COLOUR = new THREE.Color(0x6d747c);
+const ASLEEP_COLOUR = new THREE.Color(0xa0a0a0);
+const SELECTED_COLOUR = new THREE.Color(0xffe04a);
+
+function hullGeometry(s) {
+  const pos = [];
+  const v = s.vertices;
+  for (let f = 0; f < s.face_start.length - 1; ++f) {
+    const a = s.face_start[f], b = s.face_start[f + 1];
+    for (let k = a + 1; k + 1 < b; ++k) {
+      for (const i of [s.face_vertices[a], s.face_vertices[k], s.face_vertices[k + 1]]) pos.push(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
+    }
+  }
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
+  g.computeVertexNormals(); // not indexed: one normal a face, flat shading
+  return g;
+}
+
+/// The geometry of a dictionary shape in its body frame (scale 1). `extent` sizes planes.
+export function shapeGeometry(s, extent) {
+  const p = s.params;
+  switch (s.type) {
+    case SHAPE.sphere: return new THREE.SphereGeometry(p[0], 24, 16);
+    case SHAPE.capsule: return new THREE.CapsuleGeometry(p[0], 2 * p[1], 6, 16).rotateX(Math.PI / 2); // three's axis is y, ours z
+    case SHAPE.box: return new THREE.BoxGeometry(2 * p[0], 2 * p[1], 2 * p[2]);
+    case SHAPE.hull: {
+      if (s.vertices) return hullGeometry(s);
+      // From a scene file's points: their hull, centred on the points' mean (the scene centres
+      // it on its centre of mass; for the point-symmetric clouds of the built-in scenes the same).
+      const g = new ConvexGeometry(s.points.map((x) => new THREE.Vector3(...x)));
+      const c = new THREE.Vector3();
+      s.points.forEach((x) => c.add(new THREE.Vector3(...x)));
+      c.divideScalar(s.points.length);
+      return g.translate(-c.x, -c.y, -c.z);
+    }
+    case SHAPE.plane: {
+      const n = new THREE.Vector3(p[0], p[1], p[2]).normalize();
+      const g = new THREE.PlaneGeometry(extent, extent);
+      g.applyQuaternion(new THREE.Quaternion().setFromUnitVectors(new THREE.Vector3(0, 0, 1), n));
+      g.translate(n.x * p[3], n.y * p[3], n.z * p[3]);
+      return g;
+    }
+    default: return new THREE.BoxGeometry(0.1, 0.1, 0.1);
+  }
+}
+
+export class Renderer {
+  constructor(canvas) {
+    this.canvas = canvas;
+    this.gl = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+    this.gl.setPixelRatio(Math.min(window.devicePixelRatio, 2));
+    this.gl.shadowMap.enabled = true;
+    this.gl.shadowMap.type = THREE.PCFShadowMap;
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0x1d2228);
+    this.camera = new THREE.PerspectiveCamera(45, 1, 0.05, 2000);
+    this.camera.up.set(0, 0, 1);
+    this.controls = new OrbitControls(this.camera, canvas);
+    this.controls.enableDamping = true;
+    this.scene.add(new THREE.HemisphereLight(0xe6eefa, 0x5a5046, 2.2), new THREE.AmbientLight(0xffffff, 0.35));
+    this.sun = new THREE.DirectionalLight(0xffffff, 2.0);
+    this.sun.castShadow = true;
+    this.sun.shadow.mapSize.set(2048, 2048);
+    this.scene.add(this.sun, this.sun.target);
+    this.world = new THREE.Group();
+    this.scene.add(this.world);
+    this.meshes = [];
+    this.selectedSlot = -1;
+    this.frames = 0;
+    this.resize();
+    window.addEventListener('resize', () => this.resize());
+  }
+
+  resize() {
+    const w = this.canvas.clientWidth || window.innerWidth, h = this.canvas.clientHeight || window.innerHeight;
+    this.gl.setSize(w, h, false);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+  }
+
+  /// A new model: meshes for its shapes, camera and sun framed on its first frame.
+  setModel(model, frame, { keepCamera = false } = {}) {
+    for (const m of this.meshes) { m.geometry.dispose(); m.material.dispose(); }
+    this.world.clear();
+    this.meshes = [];
+    this.model = model;
+    let gridDone = false;
+    const box = new THREE.Box3();
+    for (let s = 0; s < frame.flags.length; ++s) {
+      if (!(frame.flags[s] & F_PRESENT) || model.shapes[model.bodies[s].shape]?.type === SHAPE.plane) continue;
+      box.expandByPoint(new THREE.Vector3().fromArray(frame.data, s * FLOATS));
+    }
+    if (box.isEmpty()) box.set(new THREE.Vector3(-5, -5, 0), new THREE.Vector3(5, 5, 2));
+    const size = box.getSize(new THREE.Vector3()), centre = box.getCenter(new THREE.Vector3());
+    const radius = Math.max(2, 0.5 * size.length());
+    this.extent = Math.max(20, 4 * radius);
+    model.shapes.forEach((s, i) => {
+      const geometry = shapeGeometry(s, this.extent);
+      const material = new THREE.MeshStandardMaterial({ color: 0xffffff, roughness: 0.75, metalness: 0.05, flatShading: s.type === SHAPE.hull });
+      if (s.type === SHAPE.plane) { material.polygonOffset = true; material.polygonOffsetFactor = 1; material.polygonOffsetUnits = 1; }
+      const mesh = new THREE.InstancedMesh(geometry, material, 16);
+      mesh.userData = { shape: i, slots: [] };
+      mesh.castShadow = s.type !== SHAPE.plane;
+      mesh.receiveShadow = true;
+      mesh.frustumCulled = false;
+      mesh.count = 0;
+      this.meshes.push(mesh);
+      this.world.add(mesh);
+      if (s.type === SHAPE.plane && !gridDone) {
+        gridDone = true;
+        const p = s.params, n = new THREE.Vector3(p[0], p[1], p[2]).normalize();
+        const cells = Math.min(100, Math.round(this.extent));
+        const grid = new THREE.GridHelper(this.extent, cells, 0x5a6470, 0x3e4650);
+        grid.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), n);
+        grid.position.copy(n).multiplyScalar(p[3] + 0.002);
+        this.world.add(grid);
+      }
+    });
+    if (!model.shapes.some((s) => s.type === SHAPE.plane)) {
+      const grid = new THREE.GridHelper(this.extent, Math.min(100, Math.round(this.extent)), 0x5a6470, 0x3e4650);
+      grid.rotateX(Math.PI / 2);
+      grid.position.z = box.min.z;
+      this.world.add(grid);
+    }
+    const sc = this.sun.shadow.camera;
+    sc.left = sc.bottom = -radius * 1.5;
+    sc.right = sc.top = radius * 1.5;
+    sc.near = 0.1;
+    sc.far = radius * 8;
+    sc.updateProjectionMatrix();
+    this.sun.position.copy(centre).add(new THREE.Vector3(0.5, 0.3, 1).normalize().multiplyScalar(radius * 3));
+    this.sun.target.position.copy(centre);
+    if (!keepCamera) {
+      this.controls.target.copy(centre);
+      this.camera.position.copy(centre).add(new THREE.Vector3(1.2, -1.6, 1.3).normalize().multiplyScalar(radius * (radius > 20 ? 1.5 : 3)));
+      this.camera.near = radius / 200;
+      this.camera.far = radius * 50;
+      this.camera.updateProjectionMatrix();
+    }
+    this.draw(frame);
+  }
+
+  /// Puts every present body of `frame` into its shape's mesh.
+  draw(frame) {
+    const m = this.model;
+    if (!m) return;
+    this.frame = frame;
+    const counts = new Array(this.meshes.length).fill(0);
+    for (let s = 0; s < frame.flags.length; ++s) if (frame.flags[s] & F_PRESENT) counts[m.bodies[s].shape]++;
+    this.meshes.forEach((mesh, i) => {
+      if (counts[i] > mesh.instanceMatrix.count) {
+        const bigger = new THREE.InstancedMesh(mesh.geometry, mesh.material, Math.max(counts[i], 2 * mesh.instanceMatrix.count));
+        Object.assign(bigger, { userData: mesh.userData, castShadow: mesh.castShadow, receiveShadow: mesh.receiveShadow, frustumCulled: false });
+        this.world.remove(mesh);
+        this.world.add(bigger);
+        this.meshes[i] = bigger;
+      }
+      this.meshes[i].count = 0;
+      this.meshes[i].userData.slots.length = 0;
+    });
+    const mat = new THREE.Matrix4(), p = new THREE.Vector3(), q = new THREE.Quaternion(), sc = new THREE.Vector3(), c = new THREE.Color();
+    const d = frame.data;
+    for (let s = 0; s < frame.flags.length; ++s) {
+      const f = frame.flags[s];
+      if (!(f & F_PRESENT)) continue;
+      const b = m.bodies[s], mesh = this.meshes[b.shape];
+      const o = s * FLOATS;
+      p.set(d[o], d[o + 1], d[o + 2]);
+      q.set(d[o + 4], d[o + 5], d[o + 6], d[o + 3]); // ours w x y z, three's x y z w
+      sc.setScalar(b.scale);
+      mat.compose(p, q, sc);
+      const k = mesh.count++;
+      mesh.setMatrixAt(k, mat);
+      mesh.userData.slots[k] = s;
+      if (s === this.selectedSlot) c.copy(SELECTED_COLOUR);
+      else if (f & F_STATIC || b.static) c.copy(STATIC_COLOUR);
+      else if (f & F_AWAKE) c.setHex(COLOURS[m.shapes[b.shape].type] ?? 0xcccccc);
+      else c.copy(ASLEEP_COLOUR);
+      if (m.shapes[b.shape].type === SHAPE.plane) c.setHex(COLOURS[SHAPE.plane]);
+      mesh.setColorAt(k, c);
+    }
+    for (const mesh of this.meshes) {
+      mesh.instanceMatrix.needsUpdate = true;
+      if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
+      mesh.computeBoundingSphere();
+    }
+  }
+
+  render() {
+    this.controls.update();
+    this.gl.render(this.scene, this.camera);
+    this.frames++;
+  }
+
+  /// The body (slot) and point under a canvas pixel; planes count only with `withPlanes`.
+  pick(clientX, clientY, withPlanes = false) {
+    const r = this.canvas.getBoundingClientRect();
+    const ndc = new THREE.Vector2(((clientX - r.left) / r.width) * 2 - 1, -((clientY - r.top) / r.height) * 2 + 1);
+    const ray = new THREE.Raycaster();
+    ray.setFromCamera(ndc, this.camera);
+    const targets = this.meshes.filter((mesh) => withPlanes || this.model.shapes[mesh.userData.shape].type !== SHAPE.plane);
+    const hit = ray.intersectObjects(targets, false)[0];
+    if (!hit) return { ray: ray.ray, slot: -1 };
+    return { ray: ray.ray, slot: hit.object.userData.slots[hit.instanceId], point: hit.point, normal: hit.face ? hit.face.normal.clone().transformDirection(hit.object.matrixWorld) : null, distance: hit.distance };
+  }
+
+  /// A world point's canvas pixel (client coordinates).
+  toScreen(v) {
+    const r = this.canvas.getBoundingClientRect();
+    const p = new THREE.Vector3().fromArray(v).project(this.camera);
+    return { x: r.left + (p.x + 1) / 2 * r.width, y: r.top + (1 - p.y) / 2 * r.height };
+  }
+
+  /// Instances drawn, and the drawn position of one slot (read back from its instance matrix).
+  instanceCount() { return this.meshes.reduce((n, m) => n + m.count, 0); }
+  instancePosition(slot) {
+    for (const mesh of this.meshes) {
+      const k = mesh.userData.slots.indexOf(slot);
+      if (k >= 0 && k < mesh.count) {
+        const mat = new THREE.Matrix4();
+        mesh.getMatrixAt(k, mat);
+        return new THREE.Vector3().setFromMatrixPosition(mat).toArray();
+      }
+    }
+    return null;
+  }
+}

@@ -1,0 +1,100 @@
+// Offline: a `cellphys run --out` trajectory CSV (step,t,body,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz)
+// as a Model with one frame per step written. The CSV has no shapes: each body is drawn as the
+// shape its scene file gives it when that file is dropped with the CSV (the scene's static
+// bodies, a ground plane say, are drawn too), otherwise as a 0.5 m box.
+import { Model, F_AWAKE, F_PRESENT, F_STATIC } from './model.js';
+import { SHAPE } from './protocol.js';
+
+const HEADER = ['step', 't', 'body', 'px', 'py', 'pz', 'qw', 'qx', 'qy', 'qz', 'vx', 'vy', 'vz', 'wx', 'wy', 'wz'];
+
+export class FileError extends Error {}
+
+/// The CSV's body field: plain, or quoted with "" for a quote.
+function splitRow(line) {
+  if (!line.includes('"')) return line.split(',');
+  const out = [];
+  let cur = '', q = false;
+  for (let i = 0; i < line.length; ++i) {
+    const ch = line[i];
+    if (q) {
+      if (ch === '"' && line[i + 1] === '"') { cur += '"'; ++i; } else if (ch === '"') q = false; else cur += ch;
+    } else if (ch === '"') q = true;
+    else if (ch === ',') { out.push(cur); cur = ''; } else cur += ch;
+  }
+  out.push(cur);
+  return out;
+}
+
+export function parseTrajectory(text, name = 'trajectory.csv') {
+  const lines = text.split(/\r?\n/);
+  const head = lines[0].trim().split(',');
+  if (head.join(',') !== HEADER.join(',')) throw new FileError(`${name}: line 1 is not the trajectory header ${HEADER.join(',')}`);
+  const rows = [];
+  for (let i = 1; i < lines.length; ++i) {
+    if (!lines[i]) continue;
+    const f = splitRow(lines[i]);
+    if (f.length !== HEADER.length) throw new FileError(`${name}: line ${i + 1} has ${f.length} fields, not ${HEADER.length}`);
+    const v = f.map((x, k) => (k === 2 ? x : Number(x)));
+    for (let k = 0; k < HEADER.length; ++k) {
+      if (k !== 2 && !Number.isFinite(v[k])) throw new FileError(`${name}: line ${i + 1}, field ${HEADER[k]}: "${f[k]}" is not a number`);
+    }
+    rows.push(v);
+  }
+  if (!rows.length) throw new FileError(`${name}: no rows after the header`);
+  return rows;
+}
+
+function sceneShape(s, where) {
+  switch (s.type) {
+    case 'sphere': return { type: SHAPE.sphere, params: [s.radius] };
+    case 'capsule': return { type: SHAPE.capsule, params: [s.radius, s.half_height] };
+    case 'box': return { type: SHAPE.box, params: [...s.half_extents] };
+    case 'plane': return { type: SHAPE.plane, params: [...s.normal, s.offset ?? 0] };
+    case 'hull': return { type: SHAPE.hull, points: s.points };
+    default: throw new FileError(`${where}.type: "${s.type}" is not a shape type`);
+  }
+}
+
+/// A Model from trajectory rows and, optionally, the scene (parsed JSON) they were run from.
+export function trajectoryModel(rows, scene = null, sceneName = 'scene.json') {
+  const shapes = [{ type: SHAPE.box, params: [0.25, 0.25, 0.25] }];
+  const sceneBodies = new Map();
+  const shapeIndex = new Map();
+  if (scene) {
+    if (!Array.isArray(scene.shapes) || !Array.isArray(scene.bodies)) throw new FileError(`${sceneName}: not a scene file (no shapes or bodies array)`);
+    scene.shapes.forEach((s, i) => { shapeIndex.set(s.name, shapes.length); shapes.push(sceneShape(s, `${sceneName}: shapes[${i}]`)); });
+    scene.bodies.forEach((b, i) => {
+      if (!shapeIndex.has(b.shape)) throw new FileError(`${sceneName}: bodies[${i}].shape: "${b.shape}" is not a shape of the file`);
+      sceneBodies.set(String(b.id), b);
+    });
+  }
+  const dt = rows.length > 1 && rows[1][0] !== rows[0][0] ? (rows[1][1] - rows[0][1]) / (rows[1][0] - rows[0][0]) : 0;
+  const m = new Model({ shapes, name: 'file', dt, source: 'file', capacity: Infinity });
+  for (const r of rows) {
+    if (m.slotOf.has(r[2])) continue;
+    const sb = sceneBodies.get(r[2]);
+    m.addBody({ id: r[2], label: r[2], shape: sb ? shapeIndex.get(sb.shape) : 0, scale: sb?.scale ?? 1 });
+  }
+  // Static bodies of the scene (not in the CSV) stand where the scene puts them.
+  const statics = [];
+  for (const [id, b] of sceneBodies) {
+    if (m.slotOf.has(id) || !b.static) continue;
+    statics.push([m.addBody({ id, label: id, shape: shapeIndex.get(b.shape), scale: b.scale ?? 1, flags: F_STATIC }), b]);
+  }
+  let f = null;
+  for (const r of rows) {
+    if (!f || f.step !== r[0]) {
+      if (f) m.push(f);
+      f = m.newFrame(r[0]);
+      f.t = r[1];
+      for (const [slot, b] of statics) {
+        Model.setBody(f, slot, { position: b.position ?? [0, 0, 0], orientation: b.orientation ?? [1, 0, 0, 0], velocity: [0, 0, 0], angular_velocity: [0, 0, 0] }, F_PRESENT | F_STATIC);
+      }
+    }
+    const slot = m.slotOf.get(r[2]);
+    const moving = r.slice(10, 16).some((x) => x !== 0);
+    Model.setBody(f, slot, { position: r.slice(3, 6), orientation: r.slice(6, 10), velocity: r.slice(10, 13), angular_velocity: r.slice(13, 16) }, F_PRESENT | (moving ? F_AWAKE : 0));
+  }
+  m.push(f);
+  return m;
+}

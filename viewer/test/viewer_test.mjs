@@ -1,0 +1,219 @@
+// The viewer in a real browser: Debian's Chromium, headless, driven by playwright-core, against
+// `cellphys serve` started here on a free port. Usage:
+//   node viewer/test/viewer_test.mjs CELLPHYS_EXE [--images DIR]
+// Exit 0: every check passed; 1: a check failed; 77: skipped (no Chromium; scripts/setup installs it).
+import { spawn, execFileSync } from 'node:child_process';
+import { existsSync, mkdtempSync, readFileSync, rmSync, mkdirSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { dirname, join, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { createInterface } from 'node:readline';
+const { chromium } = await import('playwright-core').catch(() => { console.error('viewer_test: playwright-core is not installed in viewer/node_modules (scripts/setup runs npm ci there)'); process.exit(1); });
+
+const CHROMIUM = '/usr/bin/chromium';
+const here = dirname(fileURLToPath(import.meta.url));
+const exe = process.argv[2];
+const imagesAt = process.argv.indexOf('--images');
+const images = imagesAt > 0 ? resolve(process.argv[imagesAt + 1]) : null;
+const viewerDir = resolve(here, '..', 'dist');
+const scenesDir = resolve(here, '..', '..', 'examples', 'scenes');
+
+if (!exe || !existsSync(exe)) { console.error(`viewer_test: no cellphys executable at "${exe}"`); process.exit(1); }
+if (!existsSync(CHROMIUM)) {
+  console.log(`viewer_test: SKIPPED: no Chromium at ${CHROMIUM} (scripts/setup installs Debian's chromium)`);
+  process.exit(77);
+}
+if (!existsSync(join(viewerDir, 'index.html'))) { console.error(`viewer_test: no built viewer at ${viewerDir} (npm run build in viewer/)`); process.exit(1); }
+
+let failures = 0;
+function check(ok, what, detail = '') {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}${detail ? ': ' + detail : ''}`);
+  if (!ok) failures++;
+  return ok;
+}
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+async function until(what, fn, ms = 15000) {
+  const end = Date.now() + ms;
+  for (;;) {
+    const v = await fn();
+    if (v) return v;
+    if (Date.now() > end) throw new Error(`timed out after ${ms} ms waiting for ${what}`);
+    await sleep(50);
+  }
+}
+
+/// `cellphys serve ARGS --port 0`; resolves with its URL and token from the first two lines.
+function serve(args) {
+  return new Promise((resolveServe, reject) => {
+    const p = spawn(exe, ['serve', ...args, '--port', '0', '--viewer', viewerDir], { stdio: ['ignore', 'pipe', 'inherit'], env: { ...process.env, CELLPHYS_SCENES: scenesDir } });
+    const lines = [];
+    const rl = createInterface({ input: p.stdout });
+    rl.on('line', (l) => {
+      lines.push(l);
+      if (lines.length === 2) {
+        const url = /^listening on (http:\/\/\S+)$/.exec(lines[0])?.[1], token = /^token (\S+)$/.exec(lines[1])?.[1];
+        if (!url || !token) reject(new Error(`unexpected server output: ${lines.join(' | ')}`));
+        else resolveServe({ url, token, proc: p, stop: () => { p.kill('SIGTERM'); } });
+      }
+    });
+    p.on('exit', (code) => { if (lines.length < 2) reject(new Error(`cellphys serve exited with ${code} before printing its URL`)); });
+  });
+}
+
+async function metrics(server, world) {
+  const r = await fetch(new URL('/metrics', server.url));
+  const m = await r.json();
+  return m.worlds.find((w) => w.name === world);
+}
+
+const userData = mkdtempSync(join(tmpdir(), 'cellphys-viewer-chromium-'));
+// A fresh profile (playwright passes it as --user-data-dir).
+const browser = await chromium.launchPersistentContext(userData, {
+  executablePath: CHROMIUM,
+  headless: true,
+  viewport: { width: 1280, height: 800 },
+  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
+    '--disable-component-update', '--disable-sync',
+    // WebGL without a GPU: Chromium's software rasteriser, which it no longer falls back to unasked.
+    '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+});
+const servers = [];
+const consoleErrors = [];
+async function openPage(url, name) {
+  const page = await browser.newPage();
+  page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(`${name}: ${m.text()}`); });
+  page.on('pageerror', (e) => consoleErrors.push(`${name}: ${e.message}`));
+  page.on('request', (r) => { const u = new URL(r.url()); if (u.host !== new URL(url).host && u.protocol !== 'data:') consoleErrors.push(`${name}: request off the server: ${r.url()}`); });
+  await page.goto(url);
+  await page.waitForFunction(() => window.__viewer && window.__viewer.ready() && window.__viewer.frameCount() > 5, null, { timeout: 20000 });
+  return page;
+}
+
+try {
+  // ---- the pile, live ----
+  const pile = await serve(['pile65']);
+  servers.push(pile);
+  const page = await openPage(`${pile.url}?token=${pile.token}`, 'pile65');
+  const join1 = await page.evaluate(() => window.__viewer.join());
+  const m0 = await metrics(pile, 'pile65');
+  check(join1.name === 'pile65' && join1.canCommand, 'the page joined pile65 with commands', JSON.stringify(join1));
+  const instances = await page.evaluate(() => window.__viewer.instanceCount());
+  check(instances === join1.bodies, 'one instance a body', `${instances} instances, ${join1.bodies} bodies in the join`);
+  const dynamic = await page.evaluate(() => window.__viewer.bodies().filter((b) => !b.static).length);
+  check(dynamic === m0.bodies, 'dynamic bodies as the server counts them', `${dynamic} in the page, ${m0.bodies} in /metrics`);
+
+  // Not blank: the frame's pixels are not one colour, and the centre region (the pile) differs from the corner (background).
+  const pixels = await page.evaluate(() => {
+    const c = document.getElementById('view');
+    const g = document.createElement('canvas');
+    g.width = 64; g.height = 40;
+    const x = g.getContext('2d');
+    x.drawImage(c, 0, 0, 64, 40);
+    const d = x.getImageData(0, 0, 64, 40).data;
+    const colours = new Set();
+    for (let i = 0; i < d.length; i += 4) colours.add((d[i] >> 3) << 10 | (d[i + 1] >> 3) << 5 | (d[i + 2] >> 3));
+    return { colours: colours.size, w: c.width, h: c.height };
+  });
+  check(pixels.colours > 20, 'the frame of the pile is not blank', `${pixels.colours} distinct colours in a 64x40 reduction of ${pixels.w}x${pixels.h}`);
+  if (images) { mkdirSync(images, { recursive: true }); await page.screenshot({ path: join(images, 'viewer_pile65.png') }); }
+
+  // ---- pause, then one step ----
+  await page.click('#play');
+  await until('the world to pause', async () => (await metrics(pile, 'pile65')).state === 'paused');
+  const s0 = (await metrics(pile, 'pile65')).step;
+  await sleep(300);
+  const s0b = (await metrics(pile, 'pile65')).step;
+  check(s0b === s0, 'paused: the step counter holds', `${s0} then ${s0b} 300 ms later`);
+  check(await page.evaluate(() => window.__viewer.paused()), 'the page shows the world paused');
+  await page.click('#step');
+  await until('one step', async () => (await metrics(pile, 'pile65')).step !== s0);
+  await sleep(300);
+  const s1 = (await metrics(pile, 'pile65')).step;
+  check(s1 === s0 + 1, 'single step advances the server by one', `${s0} -> ${s1}`);
+  await until('the page to show that step', async () => (await page.evaluate(() => window.__viewer.step())) === s1);
+  await page.click('#play');
+  await until('the world to run', async () => (await metrics(pile, 'pile65')).state === 'running');
+
+  // ---- drag: pick the highest box and pull it up; a second page without the token sees it move ----
+  const watcher = await openPage(pile.url, 'pile65 watcher');
+  check(!(await watcher.evaluate(() => window.__viewer.join().canCommand)), 'a page without the token cannot command');
+  const target = await page.evaluate(() => {
+    const v = window.__viewer;
+    const bs = v.bodies().filter((b) => !b.static).map((b) => v.bodyState(b.id));
+    bs.sort((a, b) => b.position[2] - a.position[2]);
+    return { id: bs[0].id, z: bs[0].position[2], screen: v.screenOf(bs[0].id) };
+  });
+  const before = await watcher.evaluate((id) => window.__viewer.bodyState(id).position, target.id);
+  await page.mouse.move(target.screen.x, target.screen.y);
+  await page.mouse.down();
+  check((await page.evaluate(() => window.__viewer.selected())) === target.id, 'the click picked the box under it', `box ${target.id}`);
+  for (let k = 1; k <= 10; ++k) { await page.mouse.move(target.screen.x, target.screen.y - 25 * k); await sleep(60); }
+  await sleep(1200);
+  const held = await watcher.evaluate((id) => window.__viewer.bodyState(id).position, target.id);
+  await page.mouse.up();
+  check(held[2] > before[2] + 0.5, 'a drag moves the picked body on the server (seen by another client)', `z ${before[2].toFixed(3)} -> ${held[2].toFixed(3)}`);
+
+  // ---- spawn: shift-click on the ground adds a body ----
+  const nBefore = await page.evaluate(() => window.__viewer.instanceCount());
+  const ground = await page.evaluate(() => ({ x: innerWidth * 0.3, y: innerHeight * 0.85 }));
+  await page.keyboard.down('Shift');
+  await page.mouse.click(ground.x, ground.y);
+  await page.keyboard.up('Shift');
+  await until('the spawned box', async () => (await page.evaluate(() => window.__viewer.instanceCount())) === nBefore + 1, 5000).catch(() => null);
+  check((await page.evaluate(() => window.__viewer.instanceCount())) === nBefore + 1, 'shift-click spawns a box', await page.evaluate(() => window.__viewer.status()));
+
+  // ---- the timeline scrubs back over received ticks ----
+  const fc = await page.evaluate(() => window.__viewer.frameCount());
+  await page.evaluate(() => { const s = document.getElementById('scrub'); s.value = '0'; s.dispatchEvent(new Event('input')); });
+  const oldest = await page.evaluate(() => window.__viewer.step());
+  const live = (await metrics(pile, 'pile65')).step;
+  check(fc > 60 && oldest < live - 60, 'the timeline scrubs back over received ticks', `${fc} frames kept, showing step ${oldest} while the server is at ${live}`);
+  await page.click('#live');
+  await watcher.close();
+  await page.close();
+
+  // ---- world1000 ----
+  const world = await serve(['world1000']);
+  servers.push(world);
+  const wpage = await openPage(world.url, 'world1000');
+  const wj = await wpage.evaluate(() => window.__viewer.join());
+  check((await wpage.evaluate(() => window.__viewer.instanceCount())) === wj.bodies, 'world1000: one instance a body', `${wj.bodies} bodies`);
+  await sleep(1500);
+  const fps = await wpage.evaluate(async () => { const a = window.__viewer.framesDrawn(); await new Promise((r) => setTimeout(r, 2000)); return (window.__viewer.framesDrawn() - a) / 2; });
+  console.log(`info world1000: ${fps.toFixed(1)} frames a second drawn (headless, software WebGL: not a measure of a GPU)`);
+  if (images) await wpage.screenshot({ path: join(images, 'viewer_world1000.png') });
+  await wpage.close();
+
+  // ---- offline: a trajectory CSV scrubbed to a tick ----
+  const dir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-csv-'));
+  const csv = join(dir, 'pile.csv');
+  execFileSync(exe, ['run', 'pile65', '--duration', '1', '--out', csv, '--every', '6'], { env: { ...process.env, CELLPHYS_SCENES: scenesDir }, stdio: ['ignore', 'ignore', 'inherit'] });
+  const rows = readFileSync(csv, 'utf8').trim().split('\n').slice(1).map((l) => l.split(','));
+  const steps = [...new Set(rows.map((r) => Number(r[0])))];
+  const pick = steps[Math.floor(steps.length / 2)];
+  const row = rows.find((r) => Number(r[0]) === pick && r[2] === 'box07');
+  const opage = await openPage(pile.url, 'offline');
+  await opage.setInputFiles('#file', [csv, join(scenesDir, 'pile65.json')]);
+  await until('the file to load', () => opage.evaluate(() => window.__viewer.source() === 'file'));
+  check((await opage.evaluate(() => window.__viewer.frameCount())) === steps.length, 'one frame a step written', `${steps.length} steps in the CSV`);
+  const idx = steps.indexOf(pick);
+  await opage.evaluate((i) => { const s = document.getElementById('scrub'); s.value = String(i); s.dispatchEvent(new Event('input')); }, idx);
+  const shown = await opage.evaluate(() => ({ step: window.__viewer.step(), body: window.__viewer.bodyState('box07'), drawn: window.__viewer.drawnPosition('box07') }));
+  const want = row.slice(3, 6).map(Number);
+  const close = (a) => a && a.every((x, k) => Math.abs(x - want[k]) <= 1e-6 * Math.max(1, Math.abs(want[k])));
+  check(shown.step === pick, 'scrubbed to the tick', `step ${shown.step}, wanted ${pick}`);
+  check(close(shown.body.position) && close(shown.drawn), "the scrubbed frame shows that tick's position", `box07 at ${JSON.stringify(shown.drawn)}, CSV ${JSON.stringify(want)}`);
+  check((await opage.evaluate(() => window.__viewer.instanceCount())) === 70, 'the scene file adds its static bodies', 'pile65: 65 boxes, ground, 4 walls');
+  await opage.close();
+  rmSync(dir, { recursive: true, force: true });
+
+  check(consoleErrors.length === 0, 'no console error on any page', consoleErrors.join(' | '));
+} catch (e) {
+  check(false, 'viewer test ran to the end', e.stack || String(e));
+} finally {
+  await browser.close();
+  for (const s of servers) s.stop();
+  rmSync(userData, { recursive: true, force: true });
+}
+console.log(failures ? `viewer_test: ${failures} check(s) failed` : 'viewer_test: all checks passed');
+process.exit(failures ? 1 : 0);

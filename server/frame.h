@@ -34,6 +34,8 @@ struct Frame {
   // The join's shape dictionary section (ShapeRecords and hull data), the same for a whole epoch.
   std::shared_ptr<const std::vector<unsigned char>> shapes;
   uint32_t num_shapes = 0;
+  // The debug message (server/debug_encoder.h), when some client of the room asked for it.
+  std::shared_ptr<const std::vector<unsigned char>> debug;
 
   // Ticks encoded for clients that watch every body and are up to date to frame `from`: all such
   // clients get the same bytes, so they are encoded once (but for the `skipped` field).

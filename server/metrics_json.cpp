@@ -13,6 +13,8 @@ std::string metrics_json(const ServerContext& ctx) {
     const RoomMetrics m = room->metrics();
     json stages = json::object();
     for (const auto& [name, ms] : m.stage_ms_mean) stages[name] = ms;
+    json per_client = json::array();
+    for (const auto& [sent, rate] : m.client_bytes) per_client.push_back({{"bytes_sent", sent}, {"bytes_sent_per_s", rate}});
     char hash[19];
     std::snprintf(hash, sizeof hash, "0x%016llx", static_cast<unsigned long long>(m.state_hash));
     json w = {
@@ -31,6 +33,7 @@ std::string metrics_json(const ServerContext& ctx) {
         {"bodies_awake", m.bodies_awake},
         {"bodies_asleep", m.bodies_asleep},
         {"clients", m.clients},
+        {"per_client", per_client},
         {"bytes_sent", m.bytes_sent},
         {"bytes_sent_per_s", m.bytes_sent_per_s},
         {"commands_accepted", m.commands_accepted},

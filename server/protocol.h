@@ -17,6 +17,9 @@ namespace cellphys::server::protocol {
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the protocol's structs are its little-endian bytes");
 
 inline constexpr uint16_t kVersion = 1;
+// Additions that keep every revision-1 message's layout, announced in Join::revision: 2 adds the
+// subscribe flag kSubscribeDebug and the debug message.
+inline constexpr uint32_t kRevision = 2;
 
 enum class Type : uint16_t {
   // server -> client
@@ -25,6 +28,7 @@ enum class Type : uint16_t {
   ack = 3,     // a command applied
   error = 4,   // a command refused, or a message that could not be read
   status = 5,  // the world paused, resumed, failed or reset
+  debug = 6,   // revision 2: after a tick, to clients subscribed with kSubscribeDebug: islands and contacts
   // client -> server
   subscribe = 32,  // interest region and precision
   spawn = 33,
@@ -104,7 +108,7 @@ struct Join {
   uint32_t num_shapes;
   uint32_t num_bodies;
   uint32_t name_bytes;  // the world's name, UTF-8, padded with zeros to a multiple of 4
-  uint32_t reserved;
+  uint32_t revision;    // kRevision (0 from a revision-1 server)
   // then: name | num_shapes x [ShapeRecord | hull data] | num_bodies x BodyFull
 };
 static_assert(sizeof(Join) == 48);
@@ -154,6 +158,39 @@ struct Tick {
 static_assert(sizeof(Tick) == 96);
 static_assert(offsetof(Tick, stats) == 40 && offsetof(Tick, quant) == 72);
 
+// What the solver did in the tick's step, for overlays (revision 2). The whole world, whatever
+// the client's region.
+struct Debug {
+  Header header;
+  uint64_t step;
+  uint32_t epoch;
+  uint32_t num_bodies;    // every dynamic body
+  uint32_t num_contacts;  // contacts of awake bodies in the step and those kept by sleeping groups
+  uint32_t reserved;
+  // then: num_bodies x DebugBody | num_contacts x DebugContact
+};
+static_assert(sizeof(Debug) == 32);
+
+inline constexpr uint32_t kNoIsland = 0xFFFFFFFFu;
+inline constexpr uint32_t kIslandDecoupled = 1u;  // DebugBody::flags: its island was cut in parts
+
+struct DebugBody {
+  uint32_t id;
+  uint32_t island;  // index of its island in the step, kNoIsland when asleep
+  float mass;       // kg
+  uint32_t flags;   // kIslandDecoupled
+};
+static_assert(sizeof(DebugBody) == 16);
+
+struct DebugContact {
+  uint32_t a, b;      // body ids; b = 0xFFFFFFFF: static geometry
+  float point[3];     // world
+  float normal[3];    // from a to b
+  float depth;        // m
+  float force;        // N, the contact spring's force at that depth (ppe::DebugContact)
+};
+static_assert(sizeof(DebugContact) == 40);
+
 struct Ack {
   Header header;
   uint32_t seq;           // the command's
@@ -200,6 +237,7 @@ static_assert(sizeof(Status) == 24);
 // Subscribe flags.
 inline constexpr uint32_t kSubscribeQuantised = 1u;
 inline constexpr uint32_t kSubscribeRegion = 2u;  // only bodies whose centre is in [min, max]
+inline constexpr uint32_t kSubscribeDebug = 4u;   // revision 2: a debug message after every tick
 
 struct Subscribe {
   Header header;

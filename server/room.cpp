@@ -6,6 +6,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "server/debug_encoder.h"
 #include "server/replies.h"
 #include "server/state_encoder.h"
 
@@ -79,7 +80,7 @@ void Room::detach(const ClientSink* client) {
                  clients_.end());
 }
 
-std::vector<std::shared_ptr<ClientSink>> Room::clients() {
+std::vector<std::shared_ptr<ClientSink>> Room::clients() const {
   std::vector<std::shared_ptr<ClientSink>> out;
   std::lock_guard<std::mutex> lock(clients_mutex_);
   for (const auto& w : clients_)
@@ -123,6 +124,7 @@ void Room::run() {
       const uint64_t b = bytes_.load();
       std::lock_guard<std::mutex> lock(metrics_mutex_);
       bytes_rate_ = double(b - bytes_then) / (t - bytes_at);
+      for (const auto& c : clients()) c->sample_rate(t - bytes_at);
       bytes_then = b;
       bytes_at = t;
     }
@@ -235,6 +237,8 @@ void Room::publish() {
                                  st.islands, st.solver_iterations, st.failed_islands, st.step_halvings};
   f->shapes = shapes_;
   f->num_shapes = static_cast<uint32_t>(w.shapes().size());
+  if (debug_clients_.load(std::memory_order_relaxed) > 0)
+    f->debug = std::make_shared<const std::vector<unsigned char>>(encode_debug(w, epoch_));
   const std::shared_ptr<const Frame> prev = latest();
   const bool same_epoch = prev && prev->epoch == epoch_;
   const std::vector<ppe::BodyId> ids = w.bodies();
@@ -300,6 +304,7 @@ RoomMetrics Room::metrics() const {
     std::lock_guard<std::mutex> lock(clients_mutex_);
     for (const auto& c : clients_) m.clients += !c.expired();
   }
+  for (const auto& c : clients()) m.client_bytes.emplace_back(c->bytes_sent(), c->bytes_per_s());
   m.commands_refused = refused_.load();
   m.bytes_sent = bytes_.load();
   m.frames_skipped = skipped_.load();

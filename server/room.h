@@ -29,6 +29,22 @@ class ClientSink {
   virtual void on_frame(std::shared_ptr<const Frame> frame) = 0;
   /// An ack, error or status message.
   virtual void on_message(std::shared_ptr<const std::vector<unsigned char>> message) = 0;
+
+  /// Bytes written to this client (counted by its session, on the network's threads).
+  void count_sent(size_t n) { sent_.fetch_add(n, std::memory_order_relaxed); }
+  uint64_t bytes_sent() const { return sent_.load(std::memory_order_relaxed); }
+  /// Bytes a second over the room's last rate window (about 1 s), set by the room's thread.
+  double bytes_per_s() const { return rate_.load(std::memory_order_relaxed); }
+  void sample_rate(double dt_s) {
+    const uint64_t now = bytes_sent();
+    rate_.store(double(now - sampled_) / dt_s, std::memory_order_relaxed);
+    sampled_ = now;
+  }
+
+ private:
+  std::atomic<uint64_t> sent_{0};
+  std::atomic<double> rate_{0};
+  uint64_t sampled_ = 0;  // the room's thread's
 };
 
 struct RoomOptions {
@@ -50,6 +66,7 @@ struct RoomMetrics {
   std::vector<std::pair<const char*, double>> stage_ms_mean;
   uint32_t bodies = 0, bodies_awake = 0, bodies_asleep = 0;
   size_t clients = 0;
+  std::vector<std::pair<uint64_t, double>> client_bytes;  // per client: bytes sent, bytes a second
   double bytes_sent_per_s = 0;
   uint64_t bytes_sent = 0, commands_accepted = 0, commands_refused = 0, frames_skipped = 0, clients_dropped = 0,
            late_ticks = 0, failed_islands = 0;
@@ -82,6 +99,8 @@ class Room {
   void count_bytes(size_t n) { bytes_.fetch_add(n, std::memory_order_relaxed); }
   void count_skipped(uint32_t n) { skipped_.fetch_add(n, std::memory_order_relaxed); }
   void count_dropped() { dropped_.fetch_add(1, std::memory_order_relaxed); }
+  /// A client starts (+1) or stops (-1) wanting debug messages; frames carry one while any does.
+  void count_debug(int delta) { debug_clients_.fetch_add(delta, std::memory_order_relaxed); }
 
  private:
   struct Pending {
@@ -95,7 +114,7 @@ class Room {
   void publish();
   void broadcast(std::shared_ptr<const std::vector<unsigned char>> message);
   void broadcast_status();
-  std::vector<std::shared_ptr<ClientSink>> clients();
+  std::vector<std::shared_ptr<ClientSink>> clients() const;
 
   const std::string name_, source_;
   const RoomOptions options_;
@@ -129,6 +148,7 @@ class Room {
   std::string state_ = "running", reported_error_;
   uint64_t failed_islands_ = 0, late_ticks_ = 0, accepted_ = 0;
   double bytes_rate_ = 0;
+  std::atomic<int> debug_clients_{0};
   std::atomic<uint64_t> refused_{0}, bytes_{0}, skipped_{0}, dropped_{0};
 
   std::mutex stop_mutex_;

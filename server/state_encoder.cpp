@@ -104,6 +104,7 @@ void encode_join(const Frame& f, const Interest& in, bool can_command, std::vect
   j.dt = f.dt;
   j.tick_hz = f.tick_hz;
   j.num_shapes = f.num_shapes;
+  j.revision = kRevision;
   j.name_bytes = static_cast<uint32_t>((f.world.size() + 3) / 4 * 4);
   put(out, j);
   out.insert(out.end(), f.world.begin(), f.world.end());

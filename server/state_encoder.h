@@ -15,6 +15,7 @@ namespace cellphys::server {
 struct Interest {
   bool quantised = false;
   bool region = false;
+  bool debug = false;  // a debug message after every tick (protocol revision 2)
   float min[3] = {}, max[3] = {};
   bool contains(const FrameBody& b) const;
 };

@@ -28,7 +28,10 @@ WsSession::WsSession(net::ip::tcp::socket&& socket, std::shared_ptr<Room> room, 
     : ws_(std::move(socket)), deadline_timer_(ws_.get_executor()), room_(std::move(room)), ctx_(ctx),
       can_command_(can_command), limiter_(ctx.options.command_rate, ctx.options.command_burst) {}
 
-WsSession::~WsSession() { room_->detach(this); }
+WsSession::~WsSession() {
+  if (interest_.debug) room_->count_debug(-1);
+  room_->detach(this);
+}
 
 void WsSession::run(http::request<http::string_body> request) {
   net::dispatch(ws_.get_executor(), [self = shared_from_this(), req = std::move(request)]() mutable {
@@ -92,6 +95,7 @@ void WsSession::handle(const unsigned char* data, size_t size) {
     Interest next;
     next.quantised = (s.flags & protocol::kSubscribeQuantised) != 0;
     next.region = (s.flags & protocol::kSubscribeRegion) != 0;
+    next.debug = (s.flags & protocol::kSubscribeDebug) != 0;
     if (next.region) {
       for (int k = 0; k < 3; ++k) {
         const std::string axis = "[" + std::to_string(k) + "]";
@@ -104,6 +108,7 @@ void WsSession::handle(const unsigned char* data, size_t size) {
       }
     }
     if (next.region || interest_.region) synced_full_ = false;  // the held set is no longer a frame's
+    if (next.debug != interest_.debug) room_->count_debug(next.debug ? 1 : -1);
     interest_ = next;
     // The client sees the change at the next published state.
     return;
@@ -182,7 +187,10 @@ std::shared_ptr<const std::vector<unsigned char>> WsSession::encode(const Frame&
 
 void WsSession::maybe_write() {
   if (!open_ || closed_ || writing_) return;
-  if (!control_.empty()) {
+  if (debug_next_) {  // the debug message follows its tick
+    writing_ = std::move(debug_next_);
+    debug_next_.reset();
+  } else if (!control_.empty()) {
     writing_ = std::move(control_.front());
     control_.pop_front();
   } else if (pending_) {
@@ -190,6 +198,7 @@ void WsSession::maybe_write() {
     pending_.reset();
     if (joined_ && f->seq <= last_seq_ && f->epoch == epoch_) return;  // already sent
     writing_ = encode(*f);
+    if (interest_.debug && f->debug) debug_next_ = f->debug;
   } else {
     return;
   }
@@ -205,6 +214,7 @@ void WsSession::on_write(beast::error_code ec, size_t bytes) {
     return;
   }
   room_->count_bytes(bytes);
+  count_sent(bytes);
   maybe_write();
 }
 

@@ -64,6 +64,7 @@ class WsSession : public ClientSink, public std::enable_shared_from_this<WsSessi
   std::deque<std::shared_ptr<const std::vector<unsigned char>>> control_;
   std::shared_ptr<const Frame> pending_;
   std::shared_ptr<const std::vector<unsigned char>> writing_;
+  std::shared_ptr<const std::vector<unsigned char>> debug_next_;  // written right after the tick it follows
   std::chrono::steady_clock::time_point write_started_;
   bool open_ = false, closed_ = false;
 };

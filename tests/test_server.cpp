@@ -497,6 +497,15 @@ TEST(Server, MetricsAreJsonWithEveryField) {
   EXPECT_GT(b["bytes_sent"].get<double>(), 0);
   EXPECT_GT(b["step_ms_p99"].get<double>(), 0);
   EXPECT_GE(b["step_ms_p99"].get<double>(), b["step_ms_median"].get<double>());
+  // Per client: its bytes and their rate over the last second; a tick is at least 96 bytes, at 60 Hz.
+  ASSERT_TRUE(c.until([&] { return c.ticks.size() > 150; }));
+  const json later = metrics(s)["worlds"][1];
+  ASSERT_EQ(later["per_client"].size(), 1u);
+  const json& me = later["per_client"][0];
+  EXPECT_GT(me["bytes_sent"].get<double>(), 0);
+  EXPECT_LE(me["bytes_sent"].get<double>(), later["bytes_sent"].get<double>());
+  EXPECT_GE(me["bytes_sent_per_s"].get<double>(), 0.5 * 60 * 96);
+  EXPECT_TRUE(m["worlds"][0]["per_client"].empty());
   const auto [status, page] = cellphys::test::http_get(s.port(), "/");
   EXPECT_EQ(status, 200);
   EXPECT_NE(page.find("/ws?world=pile65"), std::string::npos);

@@ -180,6 +180,13 @@ const StepStats& World::step() {
     const std::vector<uint8_t> failed = integrate_islands(settings_, shapes_, islands, parts, w.forces,  // 5
                                                           w.contacts, w.bodies, w.compute(settings_), st);
     sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 6
+    // Which island each body was in, for last_island (display only).
+    w.island_of.assign(w.bodies.size(), kNoIsland);
+    w.island_decoupled.assign(islands.size(), 0);
+    for (size_t i = 0; i < islands.size(); ++i) {
+      for (uint32_t id : islands[i].bodies) w.island_of[id] = static_cast<uint32_t>(i);
+      w.island_decoupled[i] = i < parts.parts.size() && parts.parts[i].size() > 1;
+    }
   }
   stats_ = st;
   return stats_;

@@ -78,6 +78,17 @@ struct BodyDesc {
   bool is_static = false;
 };
 
+/// A contact point as the last step saw it, for display (World::debug_contacts()).
+struct DebugContact {
+  BodyId a, b;                // b is kWorldBody for static geometry
+  float point[3], normal[3];  // world; the normal from a to b
+  float depth;                // m, > 0 when overlapping
+  /// N: the contact spring's force at that depth (k·depth, k = m ω² for the point's mass or
+  /// contact.stiffness), an estimate of the normal force: the solver's implicit force is not kept.
+  float force;
+};
+inline constexpr uint32_t kNoIsland = 0xFFFFFFFFu;
+
 /// A force instance's parameters by name, as the force table declares them.
 using ForceParams = std::vector<std::pair<std::string, std::vector<float>>>;
 
@@ -123,6 +134,13 @@ class World {
   /// One step of settings().dt: the six stages listed at the top of this file.
   const StepStats& step();
   const StepStats& last_stats() const { return stats_; }
+  /// For display, read by nothing in the step (runtime/ppe/world_debug.cpp): the contacts of
+  /// awake bodies from the last step and those kept by sleeping groups, in no promised order;
+  /// a body's island in the last step (kNoIsland: asleep, static, or added since), and whether
+  /// that island was decoupled (cut in parts, runtime/ppe/step_decouple.h).
+  std::vector<DebugContact> debug_contacts() const;
+  uint32_t last_island(BodyId id) const;
+  bool island_decoupled(uint32_t island) const;
   /// Warnings from the last add/set call (e.g. a quaternion normalised).
   const std::vector<std::string>& warnings() const { return warnings_; }
   double kinetic_energy() const;

@@ -29,6 +29,8 @@ struct World::Impl {
   CollideScratch collide;               // the sweep's order, kept between steps; buffers
   ContactMemory contact_memory;         // friction anchors and contact masses, kept between steps
   std::vector<WorldContact> contacts;   // this step's, reused
+  std::vector<uint32_t> island_of;      // per body slot: its island in the last step (for display only)
+  std::vector<uint8_t> island_decoupled;  // per island of the last step: cut in parts
 
   WorkerPool& workers(const WorldSettings& s) {
     if (!pool || pool_workers != s.workers || pool_bytes != s.local_store_bytes) {

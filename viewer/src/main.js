@@ -7,6 +7,7 @@ import './style.css';
 import * as P from './protocol.js';
 import { applyTick, modelFromJoin, F_STATIC } from './model.js';
 import { Renderer } from './render.js';
+import { Overlay } from './overlay.js';
 import { parseTrajectory, trajectoryModel } from './trajectory.js';
 
 const $ = (id) => document.getElementById(id);
@@ -42,6 +43,28 @@ async function listWorlds() {
   }
 }
 
+// ---- solver overlays: the server's debug message (protocol revision 2) ----
+
+const overlay = new Overlay(renderer.scene);
+const ov = { contacts: $('ov-contacts'), normals: $('ov-normals'), islands: $('ov-islands'), boxes: $('ov-boxes') };
+const shown = () => ({ contacts: ov.contacts.checked, normals: ov.normals.checked });
+// Debug messages are asked for while an overlay that needs them is on or a body is picked (mass, island).
+const wantDebug = () => ov.contacts.checked || ov.normals.checked || ov.islands.checked || state.selected >= 0;
+function subscribeDebug() {
+  const want = wantDebug();
+  if (want === state.debugWanted || !state.ws || state.ws.readyState !== 1) return;
+  state.debugWanted = want;
+  state.ws.send(P.subscribe({ debug: want }));
+  if (!want) { state.debug = null; overlay.setContacts(null, shown()); renderer.islandOf = null; }
+}
+function applyDebug() {
+  const d = state.debug;
+  overlay.setContacts(d && d.contacts, shown());
+  renderer.islandOf = d && ov.islands.checked ? new Map(d.bodies.filter((b) => b.island !== null).map((b) => [b.id, b.island])) : null;
+  if (state.shown) renderer.draw(state.shown);
+}
+for (const box of Object.values(ov)) box.addEventListener('change', () => { subscribeDebug(); applyDebug(); overlay.setBoxes(state.model, state.shown, ov.boxes.checked); });
+
 function connect(world) {
   if (state.ws) { state.ws.onclose = null; state.ws.close(); }
   state.world = world;
@@ -51,7 +74,7 @@ function connect(world) {
   ws.binaryType = 'arraybuffer';
   state.ws = ws;
   setStatus(`connecting to ${world}…`);
-  ws.onopen = () => { state.connected = true; };
+  ws.onopen = () => { state.connected = true; state.debugWanted = false; subscribeDebug(); };
   ws.onmessage = (e) => onMessage(e.data);
   ws.onclose = (e) => {
     state.connected = false;
@@ -97,6 +120,12 @@ function onMessage(buffer) {
       updateButtons();
       break;
     }
+    case 'debug':
+      if (!state.join || m.epoch !== state.join.epoch) return;
+      state.debug = m;
+      state.debugBodies = new Map(m.bodies.map((b) => [b.id, b]));
+      if (state.live) applyDebug();
+      break;
     case 'ack': {
       const p = state.pending.get(m.seq);
       state.pending.delete(m.seq);
@@ -145,6 +174,7 @@ function show(index) {
   state.shownIndex = index;
   state.shown = m.frameAt(index);
   renderer.draw(state.shown);
+  overlay.setBoxes(m, state.shown, ov.boxes.checked);
   ui.scrub.max = String(m.frameCount() - 1);
   ui.scrub.value = String(index);
   const f = state.shown;
@@ -292,6 +322,7 @@ canvas.addEventListener('pointercancel', endDrag);
 
 function select(slot) {
   state.selected = slot;
+  subscribeDebug();
   renderer.selectedSlot = slot;
   if (state.shown) renderer.draw(state.shown);
 }
@@ -300,6 +331,13 @@ function select(slot) {
 
 const fmt = (v, d = 3) => v.map((x) => x.toFixed(d).padStart(8)).join(' ');
 const SHAPE_NAMES = ['sphere', 'capsule', 'box', 'hull', 'plane'];
+
+function debugLine(s) {
+  const b = state.debugBodies?.get(s.id);
+  if (s.static) return 'mass  static';
+  if (!b) return 'mass and island: waiting for the server';
+  return `mass  ${b.mass.toPrecision(4)} kg   island ${b.island === null ? '— (asleep)' : b.island + (b.decoupled ? ' (decoupled)' : '')}`;
+}
 
 function updateSelection() {
   const el = $('selection');
@@ -310,7 +348,7 @@ function updateSelection() {
     `body ${s.label}  ${SHAPE_NAMES[s.shape_type] ?? '?'} (shape ${s.shape}) ×${s.scale}`,
     s.static ? 'static' : s.awake ? 'awake' : 'asleep',
     `pos   ${fmt(s.position)}`, `quat  ${fmt(s.orientation, 4)}`, `vel   ${fmt(s.velocity)}`, `omega ${fmt(s.angular_velocity)}`,
-    '(mass and island: not sent by the protocol)',
+    debugLine(s),
   ].join('\n');
 }
 
@@ -444,4 +482,8 @@ window.__viewer = {
   selected: () => (state.selected < 0 ? null : state.model.bodies[state.selected].id),
   status: () => ui.status.textContent,
   lastStats: () => state.lastStats,
+  debug: () => state.debug && { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length },
+  contactMarkers: () => overlay.contactCount,
+  boxCount: () => overlay.boxCount,
+  selection: () => $('selection').textContent,
 };

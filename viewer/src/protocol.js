@@ -3,7 +3,7 @@
 
 export const VERSION = 1;
 export const T = {
-  join: 1, tick: 2, ack: 3, error: 4, status: 5, subscribe: 32,
+  join: 1, tick: 2, ack: 3, error: 4, status: 5, debug: 6, subscribe: 32,
   spawn: 33, remove: 34, impulse: 35, drag_start: 36, drag_move: 37, drag_release: 38,
   pause: 39, resume: 40, step_once: 41, reset: 42,
 };
@@ -105,7 +105,7 @@ export function decode(buffer) {
       need(dv, 48, 'join');
       const m = {
         type: 'join', epoch: dv.getUint32(8, true), flags: dv.getUint32(12, true), step: Number(dv.getBigUint64(16, true)),
-        dt: dv.getFloat32(24, true), tick_hz: dv.getFloat32(28, true),
+        dt: dv.getFloat32(24, true), tick_hz: dv.getFloat32(28, true), revision: dv.getUint32(44, true),
       };
       const numShapes = dv.getUint32(32, true), numBodies = dv.getUint32(36, true), nameBytes = dv.getUint32(40, true);
       need(dv, 48 + nameBytes, 'join.name');
@@ -160,6 +160,20 @@ export function decode(buffer) {
       need(dv, 24 + tb, 'status text');
       return { type: 'status', state: WORLD_STATE[state] || String(state), step: Number(dv.getBigUint64(16, true)), text: text(dv, 24, tb) };
     }
+    case T.debug: {  // revision 2
+      need(dv, 32, 'debug');
+      const nb = dv.getUint32(20, true), nc = dv.getUint32(24, true);
+      need(dv, 32 + 16 * nb + 40 * nc, 'debug records');
+      const m = { type: 'debug', step: Number(dv.getBigUint64(8, true)), epoch: dv.getUint32(16, true), bodies: [], contacts: [] };
+      let at = 32;
+      for (let i = 0; i < nb; ++i, at += 16) {
+        const island = dv.getUint32(at + 4, true);
+        m.bodies.push({ id: dv.getUint32(at, true), island: island === 0xFFFFFFFF ? null : island, mass: dv.getFloat32(at + 8, true), decoupled: (dv.getUint32(at + 12, true) & 1) !== 0 });
+      }
+      for (let i = 0; i < nc; ++i, at += 40)
+        m.contacts.push({ a: dv.getUint32(at, true), b: dv.getUint32(at + 4, true), point: f3(dv, at + 8), normal: f3(dv, at + 20), depth: dv.getFloat32(at + 32, true), force: dv.getFloat32(at + 36, true) });
+      return m;
+    }
     default:
       throw new ProtocolError(`header.type ${type} is not a server message`);
   }
@@ -176,9 +190,9 @@ function message(type, bytes) {
 }
 function putF(dv, at, values) { values.forEach((v, k) => dv.setFloat32(at + 4 * k, v, true)); }
 
-export function subscribe({ quantised = false, region = null } = {}) {
+export function subscribe({ quantised = false, region = null, debug = false } = {}) {
   const dv = message(T.subscribe, 40);
-  dv.setUint32(8, (quantised ? 1 : 0) | (region ? 2 : 0), true);
+  dv.setUint32(8, (quantised ? 1 : 0) | (region ? 2 : 0) | (debug ? 4 : 0), true);
   if (region) { putF(dv, 16, region.min); putF(dv, 28, region.max); }
   return dv.buffer;
 }

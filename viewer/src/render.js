@@ -55,6 +55,11 @@ export function shapeGeometry(s, extent) {
   }
 }
 
+/// A colour per island: hues a golden angle apart, so neighbouring indices differ.
+function islandColour(island, c) {
+  return c.setHSL((island * 0.618034) % 1, 0.65, 0.55);
+}
+
 export class Renderer {
   constructor(canvas) {
     this.canvas = canvas;
@@ -185,6 +190,7 @@ export class Renderer {
       mesh.userData.slots[k] = s;
       if (s === this.selectedSlot) c.copy(SELECTED_COLOUR);
       else if (f & F_STATIC || b.static) c.copy(STATIC_COLOUR);
+      else if (f & F_AWAKE && this.islandOf && this.islandOf.has(b.id)) islandColour(this.islandOf.get(b.id), c);
       else if (f & F_AWAKE) c.setHex(COLOURS[m.shapes[b.shape].type] ?? 0xcccccc);
       else c.copy(ASLEEP_COLOUR);
       if (m.shapes[b.shape].type === SHAPE.plane) c.setHex(COLOURS[SHAPE.plane]);

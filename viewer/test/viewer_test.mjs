@@ -134,6 +134,25 @@ try {
   await page.click('#play');
   await until('the world to run', async () => (await metrics(pile, 'pile65')).state === 'running');
 
+  // ---- overlays: contacts as the server's debug message reports them; bounding boxes ----
+  await page.click('#ov-contacts');
+  await until('a debug message', async () => (await page.evaluate(() => window.__viewer.debug())) !== null);
+  const shownContacts = await page.evaluate(() => ({ debug: window.__viewer.debug(), markers: window.__viewer.contactMarkers() }));
+  check(shownContacts.markers > 0 && shownContacts.markers === shownContacts.debug.contacts,
+        'with contacts on, the pile draws one marker per contact the debug message reported',
+        `${shownContacts.markers} markers, ${shownContacts.debug.contacts} contacts at step ${shownContacts.debug.step}`);
+  // Every box of the pile rests on something: at least one contact a dynamic body.
+  check(shownContacts.debug.contacts >= dynamic && shownContacts.debug.bodies === dynamic,
+        'the debug message covers the pile', `${shownContacts.debug.contacts} contacts, ${shownContacts.debug.bodies} bodies, ${dynamic} dynamic`);
+  await page.click('#ov-boxes');
+  const boxes = await page.evaluate(() => window.__viewer.boxCount());
+  check(boxes === instances - 1, 'bounding boxes on demand: one a body but the ground plane', `${boxes} boxes, ${instances} instances`);
+  await page.click('#ov-normals');
+  await page.click('#ov-islands');
+  await sleep(300);
+  if (images) await page.screenshot({ path: join(images, 'viewer_overlays.png') });
+  for (const id of ['#ov-contacts', '#ov-normals', '#ov-islands', '#ov-boxes']) await page.click(id);
+
   // ---- drag: pick the highest box and pull it up; a second page without the token sees it move ----
   const watcher = await openPage(pile.url, 'pile65 watcher');
   check(!(await watcher.evaluate(() => window.__viewer.join().canCommand)), 'a page without the token cannot command');
@@ -152,6 +171,14 @@ try {
   const held = await watcher.evaluate((id) => window.__viewer.bodyState(id).position, target.id);
   await page.mouse.up();
   check(held[2] > before[2] + 0.5, 'a drag moves the picked body on the server (seen by another client)', `z ${before[2].toFixed(3)} -> ${held[2].toFixed(3)}`);
+  // The pick panel shows the picked body's mass, as the scene file gives it.
+  const scene = JSON.parse(readFileSync(join(scenesDir, 'pile65.json'), 'utf8'));
+  const label = scene.bodies[target.id].id;  // the server numbers a scene's bodies in their order
+  const sceneMass = scene.bodies[target.id].mass;
+  await until('the pick panel to show a mass', async () => /mass\s+[0-9.]+ kg/.test(await page.evaluate(() => window.__viewer.selection())), 5000).catch(() => null);
+  const panel = await page.evaluate(() => window.__viewer.selection());
+  const panelMass = Number(/mass\s+([0-9.e+-]+) kg/.exec(panel)?.[1]);
+  check(panelMass === sceneMass && /island /.test(panel), 'the pick panel shows the body\'s mass and island', `${label}: panel "${panel.split('\n').find((l) => l.startsWith('mass')) ?? panel}", scene mass ${sceneMass}`);
 
   // ---- spawn: shift-click on the ground adds a body ----
   const nBefore = await page.evaluate(() => window.__viewer.instanceCount());

@@ -110,11 +110,11 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     // their loads: a box on a slope presses its downhill edge harder). A sticking pair slides
     // once its tangential force leaves the friction cone (its strain and slip against mu times
     // the depth: the anchor's spring and damper against the normal ones), or once it slips
-    // faster than friction stops within a step (a kick). A sliding pair sticks again once its slip slows to what
-    // friction stops within a step (h mu k/m depth) and within half the cone (the damper brings
-    // a slip v to rest over v c/k of strain); a slip that grows, down a slope steeper than the
-    // friction angle, goes on; a slip as slow as the regularisation's (a box creeping on a slope
-    // it should hold) sticks.
+    // faster than friction stops within a step (a kick). A sliding pair sticks again once its
+    // slip slows to what friction stops within a step (h mu k/m depth) and within half the
+    // cone (the damper brings a slip v to rest over v c/k of strain); a slip that grows, down a
+    // slope steeper than the friction angle, goes on; a slip as slow as the regularisation's (a
+    // box creeping on a slope it should hold) sticks.
     const double mu = contacts[first].friction, depth = total_depth / double(count);
     const bool stoppable = fastest <= s.dt * mu * k_per_mass * depth && fastest * damping_per_k <= 0.5 * mu * depth;
     bool sliding;

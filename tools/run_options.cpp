@@ -1,6 +1,5 @@
 #include "tools/run_options.h"
 
-#include <cerrno>
 #include <cstdio>
 #include <cmath>
 #include <cstdlib>
@@ -12,6 +11,7 @@
 #include "runtime/ppe/settings.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/krylov.h"
+#include "tools/option_values.h"
 #include "tools/usage_error.h"
 
 namespace cellphys::cli {
@@ -78,25 +78,6 @@ constexpr long long kMaxCount = 1000000000LL;
 fs::path resolved(const std::string& p, std::error_code& ec) {
   const fs::path abs = fs::absolute(p, ec);
   return ec ? fs::path() : fs::weakly_canonical(abs, ec);
-}
-
-double parse_positive(const std::string& opt, const std::string& text) {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || !(v > 0))
-    throw UsageError{opt + " needs a positive number, got '" + text + "'"};
-  return v;
-}
-
-long long parse_count(const std::string& opt, const std::string& text, long long lo, long long hi) {
-  char* end = nullptr;
-  errno = 0;
-  const long long v = std::strtoll(text.c_str(), &end, 10);
-  if (end == text.c_str() || *end != '\0' || errno == ERANGE || v < lo || v > hi)
-    throw UsageError{opt + " needs an integer from " + std::to_string(lo) + " to " + std::to_string(hi) + ", got '" +
-                     text + "'"};
-  return v;
 }
 
 // CLI11 splits the arguments into options, values and the scene; each value is checked here as it

@@ -1,12 +1,12 @@
 #include "tools/serve_options.h"
 
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 
 #include "runtime/ppe/settings.h"
 #include "tools/builtin_scenes.h"
+#include "tools/option_values.h"
 #include "tools/usage_error.h"
 
 namespace cellphys::cli {
@@ -40,26 +40,6 @@ const char kServeHelp[] =
     "\n"
     "Stops on SIGINT or SIGTERM (recordings are closed). Exit codes: 0 stopped, 1 failed, 2 a\n"
     "usage or scene error.\n";
-
-double number(const std::string& opt, const std::string& text, double lo, double hi) {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || v < lo || v > hi)
-    throw UsageError{opt + " needs a number from " + std::to_string(lo) + " to " + std::to_string(hi) + ", got '" +
-                     text + "'"};
-  return v;
-}
-
-long long integer(const std::string& opt, const std::string& text, long long lo, long long hi) {
-  char* end = nullptr;
-  errno = 0;
-  const long long v = std::strtoll(text.c_str(), &end, 10);
-  if (end == text.c_str() || *end != '\0' || errno == ERANGE || v < lo || v > hi)
-    throw UsageError{opt + " needs an integer from " + std::to_string(lo) + " to " + std::to_string(hi) + ", got '" +
-                     text + "'"};
-  return v;
-}
 
 // "NAME=REST" split at the first '=' (no name: "").
 std::pair<std::string, std::string> named(const std::string& s) {
@@ -101,13 +81,13 @@ bool parse_serve_options(int argc, char** argv, ServeOptions& o) {
       if (value.empty()) throw UsageError{"--host needs an address"};
       o.server.host = value;
     } else if (arg == "--port") {
-      o.server.port = static_cast<unsigned short>(integer(arg, value, 0, 65535));
+      o.server.port = static_cast<unsigned short>(parse_count(arg, value, 0, 65535));
     } else if (arg == "--tick") {
-      o.tick_hz = number(arg, value, 1, 10000);
+      o.tick_hz = parse_number(arg, value, 1, 10000);
     } else if (arg == "--fast") {
       o.fast = true;
     } else if (arg == "--workers") {
-      o.workers = static_cast<int>(integer(arg, value, 1, ppe::kMaxWorkers));
+      o.workers = static_cast<int>(parse_count(arg, value, 1, ppe::kMaxWorkers));
     } else if (arg == "--token") {
       if (value.size() < 8) throw UsageError{"--token needs at least 8 characters"};
       o.server.token = value;
@@ -118,13 +98,13 @@ bool parse_serve_options(int argc, char** argv, ServeOptions& o) {
       if (nv.second.empty()) throw UsageError{"--record needs a file"};
       records.push_back(nv);
     } else if (arg == "--rate") {
-      o.server.command_rate = number(arg, value, 0.001, 1e6);
+      o.server.command_rate = parse_number(arg, value, 0.001, 1e6);
     } else if (arg == "--burst") {
-      o.server.command_burst = number(arg, value, 1, 1e6);
+      o.server.command_burst = parse_number(arg, value, 1, 1e6);
     } else if (arg == "--client-deadline") {
-      o.server.client_deadline_s = number(arg, value, 0.01, 3600);
+      o.server.client_deadline_s = parse_number(arg, value, 0.01, 3600);
     } else if (arg == "--io-threads") {
-      o.server.io_threads = static_cast<int>(integer(arg, value, 1, 64));
+      o.server.io_threads = static_cast<int>(parse_count(arg, value, 1, 64));
     } else if (arg == "--fault") {
       faults.push_back(named(value));
     } else {
@@ -153,8 +133,8 @@ bool parse_serve_options(int argc, char** argv, ServeOptions& o) {
     const std::string kind = spec.substr(0, at);
     if (at == std::string::npos || (kind != "throw" && kind != "slow"))
       throw UsageError{"--fault takes WORLD=throw@STEP or WORLD=slow@MS, got '" + spec + "'"};
-    if (kind == "throw") w->fault_throw_at = integer("--fault", spec.substr(at + 1), 1, 1000000000LL);
-    else w->fault_slow_ms = number("--fault", spec.substr(at + 1), 0, 60000);
+    if (kind == "throw") w->fault_throw_at = parse_count("--fault", spec.substr(at + 1), 1, 1000000000LL);
+    else w->fault_slow_ms = parse_number("--fault", spec.substr(at + 1), 0, 60000);
   }
   return true;
 }

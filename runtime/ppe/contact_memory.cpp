@@ -13,7 +13,6 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-double squared(double x) { return x * x; }
 
 void put3(float* out, const Vec3d& v) { out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z); }
 

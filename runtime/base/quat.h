@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "runtime/base/mat3.h"
+#include "runtime/base/trig.h"
 #include "runtime/base/vec3.h"
 
 namespace cellphys {
@@ -43,9 +44,11 @@ Quat<T> quat_normalized(const Quat<T>& q) {
 template <class T>
 Quat<T> quat_exp(const Vec3<T>& r) {
   const T a = norm(r);
+  double sine, cosine;  // the project's own: the same bits on every machine (trig.h)
+  sin_cos(double(T(0.5) * a), &sine, &cosine);
   // sin(a/2)/a by its series near 0, where the quotient loses digits
-  const T s = a < T(1e-4) ? T(0.5) - a * a / T(48) : std::sin(T(0.5) * a) / a;
-  return {std::cos(T(0.5) * a), s * r.x, s * r.y, s * r.z};
+  const T s = a < T(1e-4) ? T(0.5) - a * a / T(48) : T(sine) / a;
+  return {T(cosine), s * r.x, s * r.y, s * r.z};
 }
 
 /// The rotation matrix of a unit quaternion (body to world).

@@ -1,19 +1,15 @@
 // cellphys SIMD layer: spu-style short vectors (vf4, vf8) and the W-lane
 // "SIMD scalar" Batch<W> used by generated kernels.
 //
-// Determinism:
-//  * Within one build every operation gives the same bits for the same
-//    inputs, run after run; nothing depends on data alignment, thread count
-//    or runtime CPU dispatch (the path is fixed at compile time).
-//  * FMA is explicit only: madd/nmsub (vf4, vf8) and fma (Batch, float,
-//    double). The build uses -ffp-contract=off, so a*b+c is never fused;
-//    dot3/cross3 (and scalar madd/nmsub) additionally hide their products
-//    from the optimizer, so they hold even in a TU built without the flag.
-//  * The scalar path compiles madd/nmsub as a*b+c / c-a*b (two roundings),
-//    so results may differ in the last bits between paths, never between
-//    runs. Batch fma is fused on every path (std::fma on the scalar path) so
-//    that generated code agrees bitwise for S = float and S = Batch<W>.
-//  * Reductions (dot3, hsum) use one fixed order, identical on all paths.
+// Determinism: every operation gives the same bits on every path (avx512, avx2, scalar)
+// and every run, whatever the alignment or thread count (the path is fixed at compile time).
+//  * FMA is explicit only, and then fused on every path: madd/nmsub (vf4, vf8) and fma
+//    (Batch, float, double) round once; the scalar path calls std::fma, which is correctly
+//    rounded by definition. The build uses -ffp-contract=off, so a*b+c is never fused;
+//    dot3/cross3 additionally hide their products from the optimizer, so they hold even in a
+//    translation unit built without the flag.
+//  * Reductions (dot3, hsum) use one fixed order, identical on all paths; a Batch<W> is W
+//    independent lanes whatever the register width.
 //  * min(a,b) = a<b ? a : b and max(a,b) = a>b ? a : b everywhere, matching
 //    x86 minps/maxps (on ties and NaN the second operand wins).
 #pragma once
@@ -225,11 +221,11 @@ template <> inline vf8 loadu<vf8>(const float* p) { return load<vf8>(p); }
   inline V sub(V a, V b) { for (int i = 0; i < N; ++i) a.v[i] -= b.v[i]; return a; } \
   inline V mul(V a, V b) { for (int i = 0; i < N; ++i) a.v[i] *= b.v[i]; return a; } \
   inline V madd(V a, V b, V c) {                                               \
-    for (int i = 0; i < N; ++i) c.v[i] = detail::opaque(a.v[i] * b.v[i]) + c.v[i];             \
+    for (int i = 0; i < N; ++i) c.v[i] = std::fma(a.v[i], b.v[i], c.v[i]);     \
     return c;                                                                  \
   }                                                                            \
   inline V nmsub(V a, V b, V c) {                                              \
-    for (int i = 0; i < N; ++i) c.v[i] = c.v[i] - detail::opaque(a.v[i] * b.v[i]);             \
+    for (int i = 0; i < N; ++i) c.v[i] = std::fma(-a.v[i], b.v[i], c.v[i]);    \
     return c;                                                                  \
   }
 CELLPHYS_SIMD_SCALAR_VEC_OPS(vf4, 4)

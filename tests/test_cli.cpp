@@ -139,8 +139,8 @@ TEST_F(Cli, StatsGiveEachStageOfTheStepItsTimeUnderItsName) {
   const Result r = run({"run", "pile65", "--steps", "20", "--stats", stats});
   ASSERT_EQ(r.code, 0) << r.err;
   const json stages = json::parse(slurp(stats))["stage_ms_mean"];
-  const std::vector<std::string> names = {"broad", "mid",       "narrow", "wake",  "islands", "decouple",
-                                          "pack",  "integrate", "unpack", "sleep", "total"};
+  const std::vector<std::string> names = {"broad", "mid",  "narrow",    "wake",   "push",  "islands",
+                                          "decouple", "pack", "integrate", "unpack", "sleep", "total"};
   ASSERT_EQ(stages.size(), names.size()) << stages.dump();
   double parts = 0;
   for (const std::string& n : names) {

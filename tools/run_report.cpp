@@ -82,6 +82,7 @@ std::string stats_json(const RunOptions& o, const RunWorld& w, const RunOutcome&
   j["failed_islands"] = t.failed_islands;
   j["local_store_peak_bytes"] = t.local_store_peak_bytes;
   j["decoupled_islands"] = t.decoupled_islands;
+  j["pushed_bodies"] = t.pushed_bodies;
   j["kinetic_energy_initial"] = r.kinetic_energy_initial;
   j["kinetic_energy_final"] = r.kinetic_energy_final;
   j["state_hash"] = d.hash;

@@ -28,6 +28,7 @@ const Rule kRules[] = {
     {&RunTotals::step_halvings, Over::sum, field<&StepStats::step_halvings>},
     {&RunTotals::failed_islands, Over::sum, field<&StepStats::failed_islands>},
     {&RunTotals::decoupled_islands, Over::sum, field<&StepStats::decoupled_islands>},
+    {&RunTotals::pushed_bodies, Over::sum, field<&StepStats::pushed_bodies>},
     {&RunTotals::bytes_to_nodes, Over::sum, field<&StepStats::bytes_to_nodes>},
     {&RunTotals::bytes_from_nodes, Over::sum, field<&StepStats::bytes_from_nodes>},
     {&RunTotals::messages, Over::sum, field<&StepStats::messages>},

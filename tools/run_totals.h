@@ -11,7 +11,8 @@ namespace cellphys::cli {
 
 struct RunTotals {
   // summed over the steps
-  uint64_t solver_iterations = 0, solves = 0, step_halvings = 0, failed_islands = 0, decoupled_islands = 0;
+  uint64_t solver_iterations = 0, solves = 0, step_halvings = 0, failed_islands = 0, decoupled_islands = 0,
+           pushed_bodies = 0;
   // transport and the reference design's wire tables (runtime/ppe/step_stats.h), summed over the steps
   uint64_t bytes_to_nodes = 0, bytes_from_nodes = 0, messages = 0, bad_messages = 0, recomputed_islands = 0,
            reassigned_islands = 0, dropped_nodes = 0, island_bodies = 0, island_bytes_shared = 0,

@@ -102,8 +102,10 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       fastest = std::max(fastest, norm(vt));
       // the tangential force, in units of depth: the anchor spring's and its damper's
       total_strain = total_strain + strain[i] + vt * (cd / k);
-      // the normal force, in units of depth: the spring's, and the damper's while it closes
-      total_depth += std::max(double(c.point.penetration) - cd / k * vn, 0.0);
+      // the normal force, in units of depth: the spring's (on at most the hold depth, as the
+      // contact's; deeper overlap is pushed out), and the damper's while it closes
+      const double held = std::min(double(c.point.penetration), double(s.globals.contact_hold_depth));
+      total_depth += std::max(held - cd / k * vn, 0.0);
     }
     // Sticking or sliding, for the pair as a whole (its points share the two bodies' motion, not
     // their loads: a box on a slope presses its downhill edge harder). A sticking pair slides
@@ -146,6 +148,20 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     const bool keep = it->second.seen == memory.step ||
                       (a < bodies.size() && bodies[a].alive && asleep(bodies, a) && asleep(bodies, b));
     it = keep ? std::next(it) : memory.pairs.erase(it);
+  }
+}
+
+void move_anchors(const std::vector<WorldBody>& bodies, ContactMemory& memory, uint32_t a, uint32_t b,
+                  const float da[3], const float db[3]) {
+  const auto found = memory.pairs.find(pair_key(a, b));
+  if (found == memory.pairs.end()) return;
+  const Vec3d mid = (Vec3d::load(da) + Vec3d::load(db)) * 0.5;
+  const Mat3d Ra = frame_of(bodies, a).R, Rb = frame_of(bodies, b).R;
+  const Vec3d on_a = mul_transpose(Ra, mid - Vec3d::load(da)), on_b = mul_transpose(Rb, mid - Vec3d::load(db));
+  ContactMemory::Pair& pair = found->second;
+  for (uint32_t j = 0; j < pair.count; ++j) {
+    put3(pair.anchors[j].on_a, Vec3d::load(pair.anchors[j].on_a) + on_a);
+    put3(pair.anchors[j].on_b, Vec3d::load(pair.anchors[j].on_b) + on_b);
   }
 }
 

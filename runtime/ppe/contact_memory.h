@@ -39,6 +39,11 @@ inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | 
 void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, ContactMemory& memory,
                      std::vector<WorldContact>& contacts);
 
+/// The push stage moved a by `da` and b by `db` (world frame): the pair's anchors follow the
+/// middle of the two, as its points do, so that moving bodies out of overlap strains no friction.
+void move_anchors(const std::vector<WorldBody>& bodies, ContactMemory& memory, uint32_t a, uint32_t b,
+                  const float da[3], const float db[3]);
+
 /// Forgets every pair with body `id` (removed: its id may be given to a new body).
 void forget_body(ContactMemory& memory, uint32_t id);
 

@@ -1,4 +1,4 @@
-// Stage 4 of the step: islands too big for a local store are cut in space into parts that fit.
+// Stage 5 of the step: islands too big for a local store are cut in space into parts that fit.
 // A coupling the cut crosses goes into both parts, each of which holds the body across the cut
 // as a ghost, so both sides stay implicit in the coupling; the parts of a split island are
 // integrated in order, one part per wave (runtime/ppe/step_integrate.h).

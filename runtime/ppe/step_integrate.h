@@ -1,4 +1,4 @@
-// Stage 5 of the step: every island integrated on the compute kernels. Per wave: pack the
+// Stage 6 of the step: every island integrated on the compute kernels. Per wave: pack the
 // islands' parts into images, run them on the island runner, check every result (an unsound
 // one is computed again here), unpack. Wave k holds part k of every island, so the parts of a
 // split island run in order, each from the start state against ghosts at the latest

@@ -1,4 +1,4 @@
-// Stage 3 of the step: awake bodies partitioned into islands, the groups that contacts and
+// Stage 4 of the step: awake bodies partitioned into islands, the groups that contacts and
 // binary forces join; static bodies and the world join nothing.
 #pragma once
 #include <vector>

@@ -1,5 +1,5 @@
 // Sleeping: stage 2 of the step wakes the sleeping groups that awake bodies or forces touch,
-// stage 6 puts islands that have been quiet for the sleep time to sleep as one group. A
+// stage 7 puts islands that have been quiet for the sleep time to sleep as one group. A
 // sleeping group keeps its contacts, unchanged while every member sleeps, and gives them back
 // when it wakes.
 #pragma once
@@ -29,7 +29,7 @@ void wake_body(std::vector<WorldBody>& bodies, SleepingGroups& sleeping, uint32_
 void wake_touched_groups(std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
                          std::vector<WorldContact>& contacts, SleepingGroups& sleeping, StepStats& st);
 
-/// Stage 6: advances every island body's sleep timer; an island whose bodies have all been
+/// Stage 7: advances every island body's sleep timer; an island whose bodies have all been
 /// slower than the sleep thresholds for the sleep time goes to sleep as one group, with its
 /// contacts and its velocities zeroed. An island whose step failed (`failed`, per island)
 /// restarts its timers: it is never left to sleep in the state that failed.

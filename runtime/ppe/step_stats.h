@@ -10,10 +10,11 @@ namespace cellphys::ppe {
 struct StageTimes {
   double broad_ms = 0, mid_ms = 0, narrow_ms = 0;  // 1. collide
   double wake_ms = 0;                              // 2. wake touched groups
-  double islands_ms = 0;                           // 3. build islands
-  double decouple_ms = 0;                          // 4. decouple
-  double pack_ms = 0, integrate_ms = 0, unpack_ms = 0;  // 5. integrate islands (run and check: integrate_ms)
-  double sleep_ms = 0;                             // 6. put quiet islands to sleep
+  double push_ms = 0;                              // 3. push deep overlap out
+  double islands_ms = 0;                           // 4. build islands
+  double decouple_ms = 0;                          // 5. decouple
+  double pack_ms = 0, integrate_ms = 0, unpack_ms = 0;  // 6. integrate islands (run and check: integrate_ms)
+  double sleep_ms = 0;                             // 7. put quiet islands to sleep
   double total_ms = 0;
 };
 
@@ -25,7 +26,7 @@ struct StageTimeField {
 inline constexpr StageTimeField kStageTimeFields[] = {
     {"broad", &StageTimes::broad_ms},       {"mid", &StageTimes::mid_ms},
     {"narrow", &StageTimes::narrow_ms},     {"wake", &StageTimes::wake_ms},
-    {"islands", &StageTimes::islands_ms},   {"decouple", &StageTimes::decouple_ms},
+    {"push", &StageTimes::push_ms},         {"islands", &StageTimes::islands_ms},   {"decouple", &StageTimes::decouple_ms},
     {"pack", &StageTimes::pack_ms},         {"integrate", &StageTimes::integrate_ms},
     {"unpack", &StageTimes::unpack_ms},     {"sleep", &StageTimes::sleep_ms},
     {"total", &StageTimes::total_ms},
@@ -56,6 +57,7 @@ struct StepStats {
   float decouple_change = 0;     // largest velocity change (m/s) in the last sweep
   uint32_t solver_iterations = 0, solves = 0, step_halvings = 0, failed_islands = 0, substeps = 0;
   uint32_t woken = 0, fell_asleep = 0;
+  uint32_t pushed_bodies = 0;  // moved out of deep overlap by the push stage
   size_t local_store_peak_bytes = 0;
   // Islands whose result came back unsound (size, checksum, header, or refused by a node
   // that was sent a sound image) and were recomputed on this process.

@@ -8,6 +8,7 @@
 #include "runtime/ppe/step_decouple.h"
 #include "runtime/ppe/step_integrate.h"
 #include "runtime/ppe/step_islands.h"
+#include "runtime/ppe/step_push.h"
 #include "runtime/ppe/step_sleep.h"
 #include "runtime/ppe/world_checks.h"
 #include "runtime/ppe/world_impl.h"
@@ -174,12 +175,13 @@ const StepStats& World::step() {
     StageTimer total(st.times.total_ms);
     collide(w.bodies, shapes_, settings_, w.collide, w.contact_memory, w.contacts, st);   // 1
     wake_touched_groups(w.bodies, w.forces, w.contacts, w.sleeping, st);                 // 2
-    const std::vector<IslandContent> islands = build_islands(w.bodies, w.forces, w.contacts, st);  // 3
-    const DecoupledIslands parts =                                                      // 4
+    push_out_overlaps(settings_, w.bodies, w.contacts, w.contact_memory, w.push, st);   // 3
+    const std::vector<IslandContent> islands = build_islands(w.bodies, w.forces, w.contacts, st);  // 4
+    const DecoupledIslands parts =                                                      // 5
         decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands, st);
-    const std::vector<uint8_t> failed = integrate_islands(settings_, shapes_, islands, parts, w.forces,  // 5
+    const std::vector<uint8_t> failed = integrate_islands(settings_, shapes_, islands, parts, w.forces,  // 6
                                                           w.contacts, w.bodies, w.compute(settings_), st);
-    sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 6
+    sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 7
     // Which island each body was in, for last_island (display only).
     w.island_of.assign(w.bodies.size(), kNoIsland);
     w.island_decoupled.assign(islands.size(), 0);

@@ -5,11 +5,12 @@
 // a file of its own and is timed under its name in StepStats::times):
 //   1. collide          runtime/ppe/step_collide.h    broad, mid (with planes) and narrow phase
 //   2. wake             runtime/ppe/step_sleep.h      sleeping groups touched by awake bodies
-//   3. build islands    runtime/ppe/step_islands.h    awake bodies joined by contacts and forces
-//   4. decouple         runtime/ppe/step_decouple.h   islands too big for a local store cut in parts
-//   5. integrate        runtime/ppe/step_integrate.h  pack, run on the kernels, check, unpack;
+//   3. push             runtime/ppe/step_push.h       deep overlap (spawns, teleports) moved out
+//   4. build islands    runtime/ppe/step_islands.h    awake bodies joined by contacts and forces
+//   5. decouple         runtime/ppe/step_decouple.h   islands too big for a local store cut in parts
+//   6. integrate        runtime/ppe/step_integrate.h  pack, run on the kernels, check, unpack;
 //                                                     a failed step halves inside the kernel
-//   6. sleep            runtime/ppe/step_sleep.h      quiet islands put to sleep
+//   7. sleep            runtime/ppe/step_sleep.h      quiet islands put to sleep
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -131,7 +132,7 @@ class World {
   void set_runner(std::shared_ptr<IslandRunner> runner);
   IslandRunner* runner() const;
 
-  /// One step of settings().dt: the six stages listed at the top of this file.
+  /// One step of settings().dt: the seven stages listed at the top of this file.
   const StepStats& step();
   const StepStats& last_stats() const { return stats_; }
   /// For display, read by nothing in the step (runtime/ppe/world_debug.cpp): the contacts of

@@ -9,6 +9,7 @@
 #include "runtime/ppe/body_records.h"
 #include "runtime/ppe/step_collide.h"
 #include "runtime/ppe/step_integrate.h"
+#include "runtime/ppe/step_push.h"
 #include "runtime/ppe/step_sleep.h"
 #include "runtime/ppe/world.h"
 #include "runtime/ppe/worker_pool.h"
@@ -29,6 +30,7 @@ struct World::Impl {
   CollideScratch collide;               // the sweep's order, kept between steps; buffers
   ContactMemory contact_memory;         // friction anchors and contact masses, kept between steps
   std::vector<WorldContact> contacts;   // this step's, reused
+  PushScratch push;                     // the push stage's buffers
   std::vector<uint32_t> island_of;      // per body slot: its island in the last step (for display only)
   std::vector<uint8_t> island_decoupled;  // per island of the last step: cut in parts
 

@@ -5,7 +5,6 @@
 #include <cstring>
 
 #include "runtime/spu/integrators.h"
-#include "runtime/spu/overlap_push.h"
 #include "runtime/spu/krylov.h"
 
 namespace cellphys::spu {
@@ -161,7 +160,6 @@ void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* 
     std::memcpy(steps[i].delta_velocity, c.island.bodies[i].velocity, 12);
     std::memcpy(steps[i].delta_angular_velocity, c.island.bodies[i].angular_velocity, 12);
   }
-  push_out_overlaps(c.island, h.step, ws.ref);  // before prepare() takes the poses the contacts are measured at
   if (!prepare(c)) {
     ls_.release(mark);
     return write_refusal(job, r, IslandStatus::malformed, "num_blocks does not match the pair forces");

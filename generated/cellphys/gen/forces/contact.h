@@ -285,7 +285,7 @@ struct Contact_Pair_Kernel {
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
     // let c (contact.yaml:47)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:50)
+    // let held (contact.yaml:51)
     const auto l10_0_0 = (L_depth > g_contact_hold_depth);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
     const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
@@ -301,9 +301,9 @@ struct Contact_Pair_Kernel {
     const S d_L_held__b_dtx = (d_L_depth__b_dtx*l10_0_1);
     const S d_L_held__b_dty = (d_L_depth__b_dty*l10_0_1);
     const S d_L_held__b_dtz = (d_L_depth__b_dtz*l10_0_1);
-    // let closing (contact.yaml:56)
+    // let closing (contact.yaml:57)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:57)
+    // let fn (contact.yaml:58)
     const S l12_0_0 = (L_c*L_vn);
     const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
     const auto l12_0_2 = (l12_0_1 < S(0));
@@ -336,7 +336,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fn__b_wx = (d_L_vn__b_wx*l12_0_6);
     const S d_L_fn__b_wy = (d_L_vn__b_wy*l12_0_6);
     const S d_L_fn__b_wz = (d_L_vn__b_wz*l12_0_6);
-    // let vt (contact.yaml:58)
+    // let vt (contact.yaml:59)
     const S l13_0_0 = (-(p_normal__0*p_normal__1));
     const S l13_0_1 = (-(p_normal__0*p_normal__2));
     const S l13_0_2 = (-(p_normal__1*p_normal__2));
@@ -379,7 +379,7 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__2__b_wx = (L_rb__1 - (d_L_vn__b_wx*p_normal__2));
     const S d_L_vt__2__b_wy = ((-(d_L_vn__b_wy*p_normal__2)) + d_L_vrel__2__b_wy);
     const S d_L_vt__2__b_wz = (-(d_L_vn__b_wz*p_normal__2));
-    // let strain (contact.yaml:63)
+    // let strain (contact.yaml:64)
     const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S l14_0_1 = ((p_normal__0*p_normal__0) - S(1));
     const S l14_0_2 = (p_normal__0*p_normal__1);
@@ -432,7 +432,7 @@ struct Contact_Pair_Kernel {
     const S d_L_strain__2__b_dtx = ((b_o1_1*l14_0_12) - (d_L_moved__1__b_dtx*l14_0_8));
     const S d_L_strain__2__b_dty = ((-(b_o1_2*l14_0_3)) + (d_L_moved__2__b_dty*l14_0_12));
     const S d_L_strain__2__b_dtz = ((-(b_o1_0*l14_0_8)) - (d_L_moved__0__b_dtz*l14_0_3));
-    // let fs (contact.yaml:64)
+    // let fs (contact.yaml:65)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -508,7 +508,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fs__2__b_wx = (-(L_c*d_L_vt__2__b_wx));
     const S d_L_fs__2__b_wy = (-(L_c*d_L_vt__2__b_wy));
     const S d_L_fs__2__b_wz = (-(L_c*d_L_vt__2__b_wz));
-    // let fmax (contact.yaml:65)
+    // let fmax (contact.yaml:66)
     const auto l16_0_0 = (L_fn > S(0));
     const S l16_0_1 = (p_friction*select(l16_0_0, S(1), S(0)));
     const S L_fmax = (p_friction*select(l16_0_0, L_fn, S(0)));
@@ -536,16 +536,16 @@ struct Contact_Pair_Kernel {
     const S d_L_fmax__b_wx = (d_L_fn__b_wx*l16_0_1);
     const S d_L_fmax__b_wy = (d_L_fn__b_wy*l16_0_1);
     const S d_L_fmax__b_wz = (d_L_fn__b_wz*l16_0_1);
-    // let slip (contact.yaml:71)
+    // let slip (contact.yaml:72)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:72)
+    // let dir (contact.yaml:73)
     const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
-    // let fast (contact.yaml:73)
+    // let fast (contact.yaml:74)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:74)
+    // let across (contact.yaml:75)
     const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
     const S l20_0_2 = (L_dir__0*L_dir__1);
@@ -592,7 +592,7 @@ struct Contact_Pair_Kernel {
     const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l20_0_3)) - (d_L_vt__1__b_wx*l20_0_5) + (d_L_vt__2__b_wx*l20_0_6));
     const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l20_0_3)) - (d_L_vt__1__b_wy*l20_0_5) + (d_L_vt__2__b_wy*l20_0_6));
     const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l20_0_3)) - (d_L_vt__1__b_wz*l20_0_5) + (d_L_vt__2__b_wz*l20_0_6));
-    // let sliding (contact.yaml:75)
+    // let sliding (contact.yaml:76)
     const S l21_0_0 = (S(1)/(L_slip));
     const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
     const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
@@ -678,9 +678,9 @@ struct Contact_Pair_Kernel {
     const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_9) - (d_L_vt__2__b_wx*l21_0_5));
     const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_9) - (d_L_vt__2__b_wy*l21_0_5));
     const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_9) - (d_L_vt__2__b_wz*l21_0_5));
-    // let holds (contact.yaml:78)
+    // let holds (contact.yaml:79)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:79)
+    // let ft (contact.yaml:80)
     const S l23_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
     const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
@@ -757,7 +757,7 @@ struct Contact_Pair_Kernel {
     const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l23_0_0));
     const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l23_0_0));
     const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l23_0_0));
-    // let f (contact.yaml:80)
+    // let f (contact.yaml:81)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -833,21 +833,21 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // F_a from apply[0] (contact.yaml:82)
+    // F_a from apply[0] (contact.yaml:83)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:83)
+    // F_b from apply[1] (contact.yaml:84)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:82)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:83)
     out[12] = (-d_L_f__0__a_dx);
     out[13] = (-d_L_f__1__a_dx);
     out[14] = (-d_L_f__2__a_dx);
@@ -884,7 +884,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[46] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[47] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/ddelta_b from apply[0] (contact.yaml:82)
+    // dF_a/ddelta_b from apply[0] (contact.yaml:83)
     out[48] = (-d_L_f__0__b_dx);
     out[49] = (-d_L_f__1__b_dx);
     out[50] = (-d_L_f__2__b_dx);
@@ -921,7 +921,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((-(L_ra__1*d_L_f__2__b_dtz)) + (L_ra__2*d_L_f__1__b_dtz));
     out[82] = ((L_ra__0*d_L_f__2__b_dtz) - (L_ra__2*d_L_f__0__b_dtz));
     out[83] = ((-(L_ra__0*d_L_f__1__b_dtz)) + (L_ra__1*d_L_f__0__b_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:82)
+    // dF_a/du_a from apply[0] (contact.yaml:83)
     out[84] = (-d_L_f__0__a_vx);
     out[85] = (-d_L_f__1__a_vx);
     out[86] = (-d_L_f__2__a_vx);
@@ -958,7 +958,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz));
     out[118] = ((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz));
     out[119] = ((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz));
-    // dF_a/du_b from apply[0] (contact.yaml:82)
+    // dF_a/du_b from apply[0] (contact.yaml:83)
     out[120] = (-d_L_f__0__b_vx);
     out[121] = (-d_L_f__1__b_vx);
     out[122] = (-d_L_f__2__b_vx);
@@ -995,7 +995,7 @@ struct Contact_Pair_Kernel {
     out[153] = ((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz));
     out[154] = ((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz));
     out[155] = ((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz));
-    // dF_b/ddelta_a from apply[1] (contact.yaml:83)
+    // dF_b/ddelta_a from apply[1] (contact.yaml:84)
     out[156] = d_L_f__0__a_dx;
     out[157] = d_L_f__1__a_dx;
     out[158] = d_L_f__2__a_dx;
@@ -1032,7 +1032,7 @@ struct Contact_Pair_Kernel {
     out[189] = ((L_rb__1*d_L_f__2__a_dtz) - (L_rb__2*d_L_f__1__a_dtz));
     out[190] = ((-(L_rb__0*d_L_f__2__a_dtz)) + (L_rb__2*d_L_f__0__a_dtz));
     out[191] = ((L_rb__0*d_L_f__1__a_dtz) - (L_rb__1*d_L_f__0__a_dtz));
-    // dF_b/ddelta_b from apply[1] (contact.yaml:83)
+    // dF_b/ddelta_b from apply[1] (contact.yaml:84)
     out[192] = d_L_f__0__b_dx;
     out[193] = d_L_f__1__b_dx;
     out[194] = d_L_f__2__b_dx;
@@ -1069,7 +1069,7 @@ struct Contact_Pair_Kernel {
     out[225] = ((L_rb__1*d_L_f__2__b_dtz) - (L_rb__2*d_L_f__1__b_dtz));
     out[226] = ((-(L_rb__0*d_L_f__2__b_dtz)) + (L_rb__2*d_L_f__0__b_dtz));
     out[227] = ((L_rb__0*d_L_f__1__b_dtz) - (L_rb__1*d_L_f__0__b_dtz));
-    // dF_b/du_a from apply[1] (contact.yaml:83)
+    // dF_b/du_a from apply[1] (contact.yaml:84)
     out[228] = d_L_f__0__a_vx;
     out[229] = d_L_f__1__a_vx;
     out[230] = d_L_f__2__a_vx;
@@ -1106,7 +1106,7 @@ struct Contact_Pair_Kernel {
     out[261] = ((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz));
     out[262] = ((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz));
     out[263] = ((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz));
-    // dF_b/du_b from apply[1] (contact.yaml:83)
+    // dF_b/du_b from apply[1] (contact.yaml:84)
     out[264] = d_L_f__0__b_vx;
     out[265] = d_L_f__1__b_vx;
     out[266] = d_L_f__2__b_vx;
@@ -1337,7 +1337,7 @@ struct Contact_Pair_Kernel {
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
     // let c (contact.yaml:47)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:50)
+    // let held (contact.yaml:51)
     const auto l10_0_0 = (L_depth > g_contact_hold_depth);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
     const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
@@ -1353,9 +1353,9 @@ struct Contact_Pair_Kernel {
     const S d_L_held__b_dtx = (d_L_depth__b_dtx*l10_0_1);
     const S d_L_held__b_dty = (d_L_depth__b_dty*l10_0_1);
     const S d_L_held__b_dtz = (d_L_depth__b_dtz*l10_0_1);
-    // let closing (contact.yaml:56)
+    // let closing (contact.yaml:57)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:57)
+    // let fn (contact.yaml:58)
     const S l12_0_0 = (L_c*L_vn);
     const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
     const auto l12_0_2 = (l12_0_1 < S(0));
@@ -1388,7 +1388,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fn__b_wx = (d_L_vn__b_wx*l12_0_6);
     const S d_L_fn__b_wy = (d_L_vn__b_wy*l12_0_6);
     const S d_L_fn__b_wz = (d_L_vn__b_wz*l12_0_6);
-    // let vt (contact.yaml:58)
+    // let vt (contact.yaml:59)
     const S l13_0_0 = (-(p_normal__0*p_normal__1));
     const S l13_0_1 = (-(p_normal__0*p_normal__2));
     const S l13_0_2 = (-(p_normal__1*p_normal__2));
@@ -1431,7 +1431,7 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__2__b_wx = (L_rb__1 - (d_L_vn__b_wx*p_normal__2));
     const S d_L_vt__2__b_wy = ((-(d_L_vn__b_wy*p_normal__2)) + d_L_vrel__2__b_wy);
     const S d_L_vt__2__b_wz = (-(d_L_vn__b_wz*p_normal__2));
-    // let strain (contact.yaml:63)
+    // let strain (contact.yaml:64)
     const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S l14_0_1 = ((p_normal__0*p_normal__0) - S(1));
     const S l14_0_2 = (p_normal__0*p_normal__1);
@@ -1484,7 +1484,7 @@ struct Contact_Pair_Kernel {
     const S d_L_strain__2__b_dtx = ((b_o1_1*l14_0_12) - (d_L_moved__1__b_dtx*l14_0_8));
     const S d_L_strain__2__b_dty = ((-(b_o1_2*l14_0_3)) + (d_L_moved__2__b_dty*l14_0_12));
     const S d_L_strain__2__b_dtz = ((-(b_o1_0*l14_0_8)) - (d_L_moved__0__b_dtz*l14_0_3));
-    // let fs (contact.yaml:64)
+    // let fs (contact.yaml:65)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -1560,7 +1560,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fs__2__b_wx = (-(L_c*d_L_vt__2__b_wx));
     const S d_L_fs__2__b_wy = (-(L_c*d_L_vt__2__b_wy));
     const S d_L_fs__2__b_wz = (-(L_c*d_L_vt__2__b_wz));
-    // let fmax (contact.yaml:65)
+    // let fmax (contact.yaml:66)
     const auto l16_0_0 = (L_fn > S(0));
     const S l16_0_1 = (p_friction*select(l16_0_0, S(1), S(0)));
     const S L_fmax = (p_friction*select(l16_0_0, L_fn, S(0)));
@@ -1588,16 +1588,16 @@ struct Contact_Pair_Kernel {
     const S d_L_fmax__b_wx = (d_L_fn__b_wx*l16_0_1);
     const S d_L_fmax__b_wy = (d_L_fn__b_wy*l16_0_1);
     const S d_L_fmax__b_wz = (d_L_fn__b_wz*l16_0_1);
-    // let slip (contact.yaml:71)
+    // let slip (contact.yaml:72)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:72)
+    // let dir (contact.yaml:73)
     const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
-    // let fast (contact.yaml:73)
+    // let fast (contact.yaml:74)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:74)
+    // let across (contact.yaml:75)
     const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
     const S l20_0_2 = (L_dir__0*L_dir__1);
@@ -1644,7 +1644,7 @@ struct Contact_Pair_Kernel {
     const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l20_0_3)) - (d_L_vt__1__b_wx*l20_0_5) + (d_L_vt__2__b_wx*l20_0_6));
     const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l20_0_3)) - (d_L_vt__1__b_wy*l20_0_5) + (d_L_vt__2__b_wy*l20_0_6));
     const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l20_0_3)) - (d_L_vt__1__b_wz*l20_0_5) + (d_L_vt__2__b_wz*l20_0_6));
-    // let sliding (contact.yaml:75)
+    // let sliding (contact.yaml:76)
     const S l21_0_0 = (S(1)/(L_slip));
     const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
     const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
@@ -1730,9 +1730,9 @@ struct Contact_Pair_Kernel {
     const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_9) - (d_L_vt__2__b_wx*l21_0_5));
     const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_9) - (d_L_vt__2__b_wy*l21_0_5));
     const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_9) - (d_L_vt__2__b_wz*l21_0_5));
-    // let holds (contact.yaml:78)
+    // let holds (contact.yaml:79)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:79)
+    // let ft (contact.yaml:80)
     const S l23_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
     const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
@@ -1809,7 +1809,7 @@ struct Contact_Pair_Kernel {
     const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l23_0_0));
     const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l23_0_0));
     const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l23_0_0));
-    // let f (contact.yaml:80)
+    // let f (contact.yaml:81)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -1885,7 +1885,7 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // apply (contact.yaml:81), shared subexpressions
+    // apply (contact.yaml:82), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -2010,21 +2010,21 @@ struct Contact_Pair_Kernel {
     const S o121 = ((d_L_f__0__b_dtz*o87) + (d_L_f__0__b_wz*h));
     const S o122 = ((d_L_f__1__b_dtz*o87) + (d_L_f__1__b_wz*h));
     const S o123 = ((d_L_f__2__b_dtz*o87) + (d_L_f__2__b_wz*h));
-    // g_a from apply[0] (contact.yaml:82)
+    // g_a from apply[0] (contact.yaml:83)
     out[0] = (-o12);
     out[1] = (-o13);
     out[2] = (-o14);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o15) + (o1*o16) + (o10*o25) + (o11*o26) + (o17*o2) + (o18*o3) + (o19*o4) + (o20*o5) + (o21*o6) + (o22*o7) + (o23*o8) + (o24*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o27) + (o1*o28) + (o10*o37) + (o11*o38) + (o2*o29) + (o3*o30) + (o31*o4) + (o32*o5) + (o33*o6) + (o34*o7) + (o35*o8) + (o36*o9));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o39) + (o1*o40) + (o10*o49) + (o11*o50) + (o2*o41) + (o3*o42) + (o4*o43) + (o44*o5) + (o45*o6) + (o46*o7) + (o47*o8) + (o48*o9));
-    // g_b from apply[1] (contact.yaml:83)
+    // g_b from apply[1] (contact.yaml:84)
     out[6] = o12;
     out[7] = o13;
     out[8] = o14;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1) + (o0*o51) + (o1*o52) + (o10*o61) + (o11*o62) + (o2*o53) + (o3*o54) + (o4*o55) + (o5*o56) + (o57*o6) + (o58*o7) + (o59*o8) + (o60*o9));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0) + (o0*o63) + (o1*o64) + (o10*o73) + (o11*o74) + (o2*o65) + (o3*o66) + (o4*o67) + (o5*o68) + (o6*o69) + (o7*o70) + (o71*o8) + (o72*o9));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0) + (o0*o75) + (o1*o76) + (o10*o85) + (o11*o86) + (o2*o77) + (o3*o78) + (o4*o79) + (o5*o80) + (o6*o81) + (o7*o82) + (o8*o83) + (o84*o9));
-    // K_aa from apply[0] (contact.yaml:82)
+    // K_aa from apply[0] (contact.yaml:83)
     out[12] = (-o88);
     out[13] = (-o89);
     out[14] = (-o90);
@@ -2061,7 +2061,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((h*((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz))) + (o20*o87));
     out[46] = ((h*((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz))) + (o32*o87));
     out[47] = ((h*((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz))) + (o44*o87));
-    // K_ab from apply[0] (contact.yaml:82)
+    // K_ab from apply[0] (contact.yaml:83)
     out[48] = (-o106);
     out[49] = (-o107);
     out[50] = (-o108);
@@ -2098,7 +2098,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((h*((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz))) + (o26*o87));
     out[82] = ((h*((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz))) + (o38*o87));
     out[83] = ((h*((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz))) + (o50*o87));
-    // K_ba from apply[1] (contact.yaml:83)
+    // K_ba from apply[1] (contact.yaml:84)
     out[84] = o88;
     out[85] = o89;
     out[86] = o90;
@@ -2135,7 +2135,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((h*((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz))) + (o56*o87));
     out[118] = ((h*((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz))) + (o68*o87));
     out[119] = ((h*((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz))) + (o80*o87));
-    // K_bb from apply[1] (contact.yaml:83)
+    // K_bb from apply[1] (contact.yaml:84)
     out[120] = o106;
     out[121] = o107;
     out[122] = o108;
@@ -2336,33 +2336,33 @@ struct Contact_Pair_Kernel {
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
     // let c (contact.yaml:47)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:50)
+    // let held (contact.yaml:51)
     const S L_held = select((L_depth > g_contact_hold_depth), g_contact_hold_depth, L_depth);
-    // let closing (contact.yaml:56)
+    // let closing (contact.yaml:57)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:57)
+    // let fn (contact.yaml:58)
     const S l12_0_0 = (L_c*L_vn);
     const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
     const S L_fn = select((L_depth > S(0)), select((l12_0_1 < S(0)), (-l12_0_1), S(0)), (L_closing*((L_depth*L_k) - l12_0_0)));
-    // let vt (contact.yaml:58)
+    // let vt (contact.yaml:59)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S L_vt__1 = ((-(L_vn*p_normal__1)) + L_vrel__1);
     const S L_vt__2 = ((-(L_vn*p_normal__2)) + L_vrel__2);
-    // let strain (contact.yaml:63)
+    // let strain (contact.yaml:64)
     const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S L_strain__0 = (L_moved__0 - (l14_0_0*p_normal__0) + p_anchor__0);
     const S L_strain__1 = (L_moved__1 - (l14_0_0*p_normal__1) + p_anchor__1);
     const S L_strain__2 = (L_moved__2 - (l14_0_0*p_normal__2) + p_anchor__2);
-    // let fs (contact.yaml:64)
+    // let fs (contact.yaml:65)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S L_fs__1 = ((-(L_c*L_vt__1)) - (L_k*L_strain__1));
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
-    // let fmax (contact.yaml:65)
+    // let fmax (contact.yaml:66)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:71)
+    // let slip (contact.yaml:72)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let dir (contact.yaml:72)
+    // let dir (contact.yaml:73)
     const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l18_0_0));
     if (held_out) held_out[7] = L_dir__0;
@@ -2370,38 +2370,38 @@ struct Contact_Pair_Kernel {
     if (held_out) held_out[8] = L_dir__1;
     const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l18_0_0));
     if (held_out) held_out[9] = L_dir__2;
-    // let fast (contact.yaml:73)
+    // let fast (contact.yaml:74)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:74)
+    // let across (contact.yaml:75)
     const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
     const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
     const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
-    // let sliding (contact.yaml:75)
+    // let sliding (contact.yaml:76)
     const S l21_0_0 = (S(1)/(L_slip));
     const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
     const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1))));
     const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1))));
     const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1))));
-    // let holds (contact.yaml:78)
+    // let holds (contact.yaml:79)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:79)
+    // let ft (contact.yaml:80)
     const S l23_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
     const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
     const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
-    // let f (contact.yaml:80)
+    // let f (contact.yaml:81)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:82)
+    // F_a from apply[0] (contact.yaml:83)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:83)
+    // F_b from apply[1] (contact.yaml:84)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
@@ -2595,7 +2595,7 @@ struct Contact_World_Kernel {
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
     // let c (contact.yaml:47)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:50)
+    // let held (contact.yaml:51)
     const auto l10_0_0 = (L_depth > g_contact_hold_depth);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
     const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
@@ -2605,9 +2605,9 @@ struct Contact_World_Kernel {
     const S d_L_held__a_dtx = (d_L_depth__a_dtx*l10_0_1);
     const S d_L_held__a_dty = (d_L_depth__a_dty*l10_0_1);
     const S d_L_held__a_dtz = (d_L_depth__a_dtz*l10_0_1);
-    // let closing (contact.yaml:56)
+    // let closing (contact.yaml:57)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:57)
+    // let fn (contact.yaml:58)
     const S l12_0_0 = (L_c*L_vn);
     const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
     const auto l12_0_2 = (l12_0_1 < S(0));
@@ -2628,7 +2628,7 @@ struct Contact_World_Kernel {
     const S d_L_fn__a_wx = (d_L_vn__a_wx*l12_0_6);
     const S d_L_fn__a_wy = (d_L_vn__a_wy*l12_0_6);
     const S d_L_fn__a_wz = (d_L_vn__a_wz*l12_0_6);
-    // let vt (contact.yaml:58)
+    // let vt (contact.yaml:59)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -2650,7 +2650,7 @@ struct Contact_World_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
-    // let strain (contact.yaml:63)
+    // let strain (contact.yaml:64)
     const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S l14_0_1 = ((p_normal__0*p_normal__0) - S(1));
     const S l14_0_2 = (p_normal__0*p_normal__1);
@@ -2682,7 +2682,7 @@ struct Contact_World_Kernel {
     const S d_L_strain__2__a_dtx = ((-(a_o0_2*l14_0_6)) + (d_L_moved__2__a_dtx*l14_0_9));
     const S d_L_strain__2__a_dty = ((a_o0_0*l14_0_9) - (d_L_moved__0__a_dty*l14_0_3));
     const S d_L_strain__2__a_dtz = ((-(a_o0_1*l14_0_3)) - (d_L_moved__1__a_dtz*l14_0_6));
-    // let fs (contact.yaml:64)
+    // let fs (contact.yaml:65)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -2722,7 +2722,7 @@ struct Contact_World_Kernel {
     const S d_L_fs__2__a_wx = (-(L_c*d_L_vt__2__a_wx));
     const S d_L_fs__2__a_wy = (-(L_c*d_L_vt__2__a_wy));
     const S d_L_fs__2__a_wz = (-(L_c*d_L_vt__2__a_wz));
-    // let fmax (contact.yaml:65)
+    // let fmax (contact.yaml:66)
     const auto l16_0_0 = (L_fn > S(0));
     const S l16_0_1 = (p_friction*select(l16_0_0, S(1), S(0)));
     const S L_fmax = (p_friction*select(l16_0_0, L_fn, S(0)));
@@ -2738,16 +2738,16 @@ struct Contact_World_Kernel {
     const S d_L_fmax__a_wx = (d_L_fn__a_wx*l16_0_1);
     const S d_L_fmax__a_wy = (d_L_fn__a_wy*l16_0_1);
     const S d_L_fmax__a_wz = (d_L_fn__a_wz*l16_0_1);
-    // let slip (contact.yaml:71)
+    // let slip (contact.yaml:72)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:72)
+    // let dir (contact.yaml:73)
     const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
-    // let fast (contact.yaml:73)
+    // let fast (contact.yaml:74)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:74)
+    // let across (contact.yaml:75)
     const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
     const S l20_0_2 = (L_dir__0*L_dir__1);
@@ -2776,7 +2776,7 @@ struct Contact_World_Kernel {
     const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
     const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
     const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
-    // let sliding (contact.yaml:75)
+    // let sliding (contact.yaml:76)
     const S l21_0_0 = (S(1)/(L_slip));
     const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
     const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
@@ -2826,9 +2826,9 @@ struct Contact_World_Kernel {
     const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
     const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
     const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
-    // let holds (contact.yaml:78)
+    // let holds (contact.yaml:79)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:79)
+    // let ft (contact.yaml:80)
     const S l23_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
     const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
@@ -2869,7 +2869,7 @@ struct Contact_World_Kernel {
     const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
     const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
     const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
-    // let f (contact.yaml:80)
+    // let f (contact.yaml:81)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -2909,14 +2909,14 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // F_a from apply[0] (contact.yaml:82)
+    // F_a from apply[0] (contact.yaml:83)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:82)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:83)
     out[6] = (-d_L_f__0__a_dx);
     out[7] = (-d_L_f__1__a_dx);
     out[8] = (-d_L_f__2__a_dx);
@@ -2953,7 +2953,7 @@ struct Contact_World_Kernel {
     out[39] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[40] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[41] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:82)
+    // dF_a/du_a from apply[0] (contact.yaml:83)
     out[42] = (-d_L_f__0__a_vx);
     out[43] = (-d_L_f__1__a_vx);
     out[44] = (-d_L_f__2__a_vx);
@@ -3115,7 +3115,7 @@ struct Contact_World_Kernel {
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
     // let c (contact.yaml:47)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:50)
+    // let held (contact.yaml:51)
     const auto l10_0_0 = (L_depth > g_contact_hold_depth);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
     const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
@@ -3125,9 +3125,9 @@ struct Contact_World_Kernel {
     const S d_L_held__a_dtx = (d_L_depth__a_dtx*l10_0_1);
     const S d_L_held__a_dty = (d_L_depth__a_dty*l10_0_1);
     const S d_L_held__a_dtz = (d_L_depth__a_dtz*l10_0_1);
-    // let closing (contact.yaml:56)
+    // let closing (contact.yaml:57)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:57)
+    // let fn (contact.yaml:58)
     const S l12_0_0 = (L_c*L_vn);
     const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
     const auto l12_0_2 = (l12_0_1 < S(0));
@@ -3148,7 +3148,7 @@ struct Contact_World_Kernel {
     const S d_L_fn__a_wx = (d_L_vn__a_wx*l12_0_6);
     const S d_L_fn__a_wy = (d_L_vn__a_wy*l12_0_6);
     const S d_L_fn__a_wz = (d_L_vn__a_wz*l12_0_6);
-    // let vt (contact.yaml:58)
+    // let vt (contact.yaml:59)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -3170,7 +3170,7 @@ struct Contact_World_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
-    // let strain (contact.yaml:63)
+    // let strain (contact.yaml:64)
     const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S l14_0_1 = ((p_normal__0*p_normal__0) - S(1));
     const S l14_0_2 = (p_normal__0*p_normal__1);
@@ -3202,7 +3202,7 @@ struct Contact_World_Kernel {
     const S d_L_strain__2__a_dtx = ((-(a_o0_2*l14_0_6)) + (d_L_moved__2__a_dtx*l14_0_9));
     const S d_L_strain__2__a_dty = ((a_o0_0*l14_0_9) - (d_L_moved__0__a_dty*l14_0_3));
     const S d_L_strain__2__a_dtz = ((-(a_o0_1*l14_0_3)) - (d_L_moved__1__a_dtz*l14_0_6));
-    // let fs (contact.yaml:64)
+    // let fs (contact.yaml:65)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -3242,7 +3242,7 @@ struct Contact_World_Kernel {
     const S d_L_fs__2__a_wx = (-(L_c*d_L_vt__2__a_wx));
     const S d_L_fs__2__a_wy = (-(L_c*d_L_vt__2__a_wy));
     const S d_L_fs__2__a_wz = (-(L_c*d_L_vt__2__a_wz));
-    // let fmax (contact.yaml:65)
+    // let fmax (contact.yaml:66)
     const auto l16_0_0 = (L_fn > S(0));
     const S l16_0_1 = (p_friction*select(l16_0_0, S(1), S(0)));
     const S L_fmax = (p_friction*select(l16_0_0, L_fn, S(0)));
@@ -3258,16 +3258,16 @@ struct Contact_World_Kernel {
     const S d_L_fmax__a_wx = (d_L_fn__a_wx*l16_0_1);
     const S d_L_fmax__a_wy = (d_L_fn__a_wy*l16_0_1);
     const S d_L_fmax__a_wz = (d_L_fn__a_wz*l16_0_1);
-    // let slip (contact.yaml:71)
+    // let slip (contact.yaml:72)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:72)
+    // let dir (contact.yaml:73)
     const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
-    // let fast (contact.yaml:73)
+    // let fast (contact.yaml:74)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:74)
+    // let across (contact.yaml:75)
     const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
     const S l20_0_2 = (L_dir__0*L_dir__1);
@@ -3296,7 +3296,7 @@ struct Contact_World_Kernel {
     const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
     const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
     const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
-    // let sliding (contact.yaml:75)
+    // let sliding (contact.yaml:76)
     const S l21_0_0 = (S(1)/(L_slip));
     const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
     const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
@@ -3346,9 +3346,9 @@ struct Contact_World_Kernel {
     const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
     const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
     const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
-    // let holds (contact.yaml:78)
+    // let holds (contact.yaml:79)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:79)
+    // let ft (contact.yaml:80)
     const S l23_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
     const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
@@ -3389,7 +3389,7 @@ struct Contact_World_Kernel {
     const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
     const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
     const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
-    // let f (contact.yaml:80)
+    // let f (contact.yaml:81)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -3429,7 +3429,7 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // apply (contact.yaml:81), shared subexpressions
+    // apply (contact.yaml:82), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -3455,14 +3455,14 @@ struct Contact_World_Kernel {
     const S o22 = ((-(L_ra__0*d_L_f__1__a_dty)) + (L_ra__1*d_L_f__0__a_dty));
     const S o23 = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
     const S o24 = (h*h);
-    // g_a from apply[0] (contact.yaml:82)
+    // g_a from apply[0] (contact.yaml:83)
     out[0] = ((-L_f__0) - (d_L_f__0__a_dtx*o3) - (d_L_f__0__a_dty*o4) - (d_L_f__0__a_dtz*o5) - (d_L_f__0__a_dx*o0) - (d_L_f__0__a_dy*o1) - (d_L_f__0__a_dz*o2));
     out[1] = ((-L_f__1) - (d_L_f__1__a_dtx*o3) - (d_L_f__1__a_dty*o4) - (d_L_f__1__a_dtz*o5) - (d_L_f__1__a_dx*o0) - (d_L_f__1__a_dy*o1) - (d_L_f__1__a_dz*o2));
     out[2] = ((-L_f__2) - (d_L_f__2__a_dtx*o3) - (d_L_f__2__a_dty*o4) - (d_L_f__2__a_dtz*o5) - (d_L_f__2__a_dx*o0) - (d_L_f__2__a_dy*o1) - (d_L_f__2__a_dz*o2));
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o6) + (o1*o7) + (o10*o4) + (o11*o5) + (o2*o8) + (o3*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o12) + (o1*o13) + (o14*o2) + (o15*o3) + (o16*o4) + (o17*o5));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o18) + (o1*o19) + (o2*o20) + (o21*o3) + (o22*o4) + (o23*o5));
-    // K_aa from apply[0] (contact.yaml:82)
+    // K_aa from apply[0] (contact.yaml:83)
     out[6] = ((-(d_L_f__0__a_dx*o24)) - (d_L_f__0__a_vx*h));
     out[7] = ((-(d_L_f__1__a_dx*o24)) - (d_L_f__1__a_vx*h));
     out[8] = ((-(d_L_f__2__a_dx*o24)) - (d_L_f__2__a_vx*h));
@@ -3615,33 +3615,33 @@ struct Contact_World_Kernel {
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
     // let c (contact.yaml:47)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:50)
+    // let held (contact.yaml:51)
     const S L_held = select((L_depth > g_contact_hold_depth), g_contact_hold_depth, L_depth);
-    // let closing (contact.yaml:56)
+    // let closing (contact.yaml:57)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:57)
+    // let fn (contact.yaml:58)
     const S l12_0_0 = (L_c*L_vn);
     const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
     const S L_fn = select((L_depth > S(0)), select((l12_0_1 < S(0)), (-l12_0_1), S(0)), (L_closing*((L_depth*L_k) - l12_0_0)));
-    // let vt (contact.yaml:58)
+    // let vt (contact.yaml:59)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S L_vt__1 = ((-(L_vn*p_normal__1)) + L_vrel__1);
     const S L_vt__2 = ((-(L_vn*p_normal__2)) + L_vrel__2);
-    // let strain (contact.yaml:63)
+    // let strain (contact.yaml:64)
     const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S L_strain__0 = (L_moved__0 - (l14_0_0*p_normal__0) + p_anchor__0);
     const S L_strain__1 = (L_moved__1 - (l14_0_0*p_normal__1) + p_anchor__1);
     const S L_strain__2 = (L_moved__2 - (l14_0_0*p_normal__2) + p_anchor__2);
-    // let fs (contact.yaml:64)
+    // let fs (contact.yaml:65)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S L_fs__1 = ((-(L_c*L_vt__1)) - (L_k*L_strain__1));
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
-    // let fmax (contact.yaml:65)
+    // let fmax (contact.yaml:66)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:71)
+    // let slip (contact.yaml:72)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let dir (contact.yaml:72)
+    // let dir (contact.yaml:73)
     const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l18_0_0));
     if (held_out) held_out[7] = L_dir__0;
@@ -3649,31 +3649,31 @@ struct Contact_World_Kernel {
     if (held_out) held_out[8] = L_dir__1;
     const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l18_0_0));
     if (held_out) held_out[9] = L_dir__2;
-    // let fast (contact.yaml:73)
+    // let fast (contact.yaml:74)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:74)
+    // let across (contact.yaml:75)
     const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
     const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
     const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
-    // let sliding (contact.yaml:75)
+    // let sliding (contact.yaml:76)
     const S l21_0_0 = (S(1)/(L_slip));
     const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
     const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1))));
     const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1))));
     const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1))));
-    // let holds (contact.yaml:78)
+    // let holds (contact.yaml:79)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:79)
+    // let ft (contact.yaml:80)
     const S l23_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
     const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
     const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
-    // let f (contact.yaml:80)
+    // let f (contact.yaml:81)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:82)
+    // F_a from apply[0] (contact.yaml:83)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);

@@ -1,0 +1,159 @@
+#include "runtime/ppe/step_push.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+
+#include "runtime/base/vec3.h"
+#include "runtime/ppe/contact_memory.h"
+#include "runtime/ppe/world.h"
+
+namespace cellphys::ppe {
+
+namespace {
+
+constexpr int kMaxSweeps = 32;
+constexpr int32_t kFixed = -1;       // the world, a static or a sleeping body
+constexpr int32_t kFree = INT_MAX;   // a body no chain of contacts joins to anything fixed
+// A contact within 60 degrees of vertical moves only the body above: a box is lifted off its
+// support, not pressed into it. Flatter ones share by inverse mass (a box squeezed between
+// two on the ground moves them apart).
+constexpr double kUpCosine = 0.5;
+
+}  // namespace
+
+void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, std::vector<WorldContact>& contacts,
+                       ContactMemory& memory, PushScratch& p, StepStats& st) {
+  StageTimer timer(st.times.push_ms);
+  const double hold = s.globals.contact_hold_depth, budget = double(s.globals.contact_push_speed) * s.dt;
+  if (budget <= 0) return;
+  if (std::none_of(contacts.begin(), contacts.end(), [&](const WorldContact& c) { return c.point.penetration > hold; }))
+    return;
+  const uint32_t n = static_cast<uint32_t>(bodies.size());
+  auto movable = [&](uint32_t b) { return b != kWorldBody && !bodies[b].is_static && bodies[b].awake; };
+
+  // Each movable body's contacts.
+  p.first.assign(n + 1, 0);
+  for (const WorldContact& c : contacts) {
+    if (movable(c.a)) ++p.first[c.a + 1];
+    if (movable(c.b)) ++p.first[c.b + 1];
+  }
+  for (uint32_t i = 0; i < n; ++i) p.first[i + 1] += p.first[i];
+  p.adjacent.resize(p.first[n]);
+  {
+    std::vector<uint32_t>& fill = p.queue;
+    fill.assign(p.first.begin(), p.first.end() - 1);
+    for (uint32_t k = 0; k < contacts.size(); ++k) {
+      if (movable(contacts[k].a)) p.adjacent[fill[contacts[k].a]++] = k;
+      if (movable(contacts[k].b)) p.adjacent[fill[contacts[k].b]++] = k;
+    }
+  }
+  auto other = [&](const WorldContact& c, uint32_t body) { return c.a == body ? c.b : c.a; };
+
+  // The piles that hold a deep contact: their bodies, then their levels counted from what
+  // cannot move (breadth first, so each contact and body is visited a bounded number of times).
+  p.level.assign(n, kFree);
+  std::vector<uint8_t> seen(n, 0);
+  p.members.clear();
+  for (const WorldContact& c : contacts) {
+    if (c.point.penetration <= hold) continue;
+    for (uint32_t root : {c.a, c.b}) {
+      if (!movable(root) || seen[root]) continue;
+      seen[root] = 1;
+      const size_t from = p.members.size();
+      p.members.push_back(root);
+      for (size_t q = from; q < p.members.size(); ++q)
+        for (uint32_t e = p.first[p.members[q]]; e < p.first[p.members[q] + 1]; ++e) {
+          const uint32_t o = other(contacts[p.adjacent[e]], p.members[q]);
+          if (movable(o) && !seen[o]) seen[o] = 1, p.members.push_back(o);
+        }
+    }
+  }
+  p.queue.clear();
+  for (uint32_t b : p.members)
+    for (uint32_t e = p.first[b]; e < p.first[b + 1]; ++e)
+      if (!movable(other(contacts[p.adjacent[e]], b))) {
+        p.level[b] = 0, p.queue.push_back(b);
+        break;
+      }
+  for (size_t q = 0; q < p.queue.size(); ++q) {
+    const uint32_t b = p.queue[q];
+    for (uint32_t e = p.first[b]; e < p.first[b + 1]; ++e) {
+      const uint32_t o = other(contacts[p.adjacent[e]], b);
+      if (movable(o) && p.level[o] == kFree) p.level[o] = p.level[b] + 1, p.queue.push_back(o);
+    }
+  }
+  auto level = [&](uint32_t b) { return movable(b) ? p.level[b] : kFixed; };
+
+  // Their contacts, lowest first: what lifts a body is met before what rests on it.
+  p.order.clear();
+  for (uint32_t b : p.members)
+    for (uint32_t e = p.first[b]; e < p.first[b + 1]; ++e) {
+      const uint32_t k = p.adjacent[e];
+      const WorldContact& c = contacts[k];
+      if (b == c.a || !movable(c.a)) p.order.push_back(k);  // once per contact
+    }
+  std::stable_sort(p.order.begin(), p.order.end(), [&](uint32_t x, uint32_t y) {
+    return std::min(level(contacts[x].a), level(contacts[x].b)) < std::min(level(contacts[y].a), level(contacts[y].b));
+  });
+
+  // Each contact asks to separate by its excess over the hold depth, at most the step's budget;
+  // a shallower one only that it gets no deeper than the hold depth.
+  p.target.resize(p.order.size());
+  for (size_t i = 0; i < p.order.size(); ++i)
+    p.target[i] = float(std::min(double(contacts[p.order[i]].point.penetration) - hold, budget));
+  p.moved.assign(3 * size_t(n), 0.0);
+  auto moved = [&](uint32_t b) { return movable(b) ? Vec3d::load(&p.moved[3 * size_t(b)]) : Vec3d{0, 0, 0}; };
+  auto add = [&](uint32_t b, const Vec3d& d) {
+    double* m = &p.moved[3 * size_t(b)];
+    m[0] += d.x, m[1] += d.y, m[2] += d.z;
+  };
+  const Vec3d g = Vec3d::load(s.globals.gravity);
+  const Vec3d up = norm(g) > 0 ? g * (-1.0 / norm(g)) : Vec3d{0, 0, 0};
+  const double tolerance = 1e-3 * hold;
+  for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
+    double worst = 0;
+    for (size_t i = 0; i < p.order.size(); ++i) {
+      const WorldContact& c = contacts[p.order[i]];
+      const Vec3d nrm = Vec3d::load(c.point.normal);
+      const double short_by = p.target[i] - dot(moved(c.b) - moved(c.a), nrm);
+      if (short_by <= tolerance) continue;
+      double wa = movable(c.a) ? 1.0 / bodies[c.a].mass : 0.0;
+      double wb = movable(c.b) ? 1.0 / bodies[c.b].mass : 0.0;
+      const double rise = dot(nrm, up);  // b moves along n, a against it
+      if (rise > kUpCosine && wb > 0) wa = 0;
+      if (rise < -kUpCosine && wa > 0) wb = 0;
+      if (wa + wb <= 0) continue;
+      worst = std::max(worst, short_by);
+      if (wa > 0) add(c.a, nrm * (-short_by * wa / (wa + wb)));
+      if (wb > 0) add(c.b, nrm * (short_by * wb / (wa + wb)));
+    }
+    if (worst <= tolerance) break;
+  }
+
+  for (uint32_t b : p.members) {
+    const Vec3d d = moved(b);
+    if (d.x == 0 && d.y == 0 && d.z == 0) continue;
+    ++st.pushed_bodies;
+    float* x = bodies[b].state.position;
+    x[0] = float(x[0] + d.x), x[1] = float(x[1] + d.y), x[2] = float(x[2] + d.z);
+  }
+  std::sort(p.order.begin(), p.order.end());  // each pair's contacts together, as collide wrote them
+  for (size_t i = 0; i < p.order.size(); ++i) {
+    WorldContact& c = contacts[p.order[i]];
+    const Vec3d da = moved(c.a), db = moved(c.b);
+    c.point.penetration = float(c.point.penetration - dot(db - da, Vec3d::load(c.point.normal)));
+    const Vec3d mid = (da + db) * 0.5;  // the point sits between the surfaces
+    float* x = c.point.point;
+    x[0] = float(x[0] + mid.x), x[1] = float(x[1] + mid.y), x[2] = float(x[2] + mid.z);
+    // What the push leaves as a gap, or as overlap it could not reach, carries no load (as in
+    // carry_loads): a load-stiffened spring there would pull the bodies together, or throw them.
+    if (c.point.penetration <= 0 || c.point.penetration > 2 * hold) c.load = 0;
+    const WorldContact* before = i > 0 ? &contacts[p.order[i - 1]] : nullptr;
+    if (before && before->a == c.a && before->b == c.b) continue;
+    const float fa[3] = {float(da.x), float(da.y), float(da.z)}, fb[3] = {float(db.x), float(db.y), float(db.z)};
+    move_anchors(bodies, memory, c.a, c.b, fa, fb);
+  }
+}
+
+}  // namespace cellphys::ppe

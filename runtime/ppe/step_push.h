@@ -1,0 +1,40 @@
+// Stage 3 of the step: overlap deeper than contact_hold_depth (bodies spawned or teleported
+// into each other) is moved out before the islands are built, by moving the awake bodies apart
+// along the contact normals; velocities are untouched, so a pile spawned into itself unfolds
+// without being thrown. (Box2D's soft step separates with a bias velocity its relax pass then
+// removes; Bullet's split impulse moves positions apart the same way.) The contact spring acts
+// on the hold depth only. Done here, on the whole connected pile, rather than per island in
+// the kernel: a decoupled part cannot move its ghosts, and a column must lift as one.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "runtime/ppe/body_records.h"
+#include "runtime/ppe/step_stats.h"
+
+namespace cellphys::ppe {
+
+struct WorldSettings;
+struct ContactMemory;
+
+/// Reusable buffers of the push stage.
+struct PushScratch {
+  std::vector<uint32_t> first, adjacent;  // per body: its contacts (CSR)
+  std::vector<int32_t> level;             // per body: contacts away from what cannot move
+  std::vector<uint32_t> queue, members, order;
+  std::vector<double> moved;              // per body: its displacement in this stage (xyz)
+  std::vector<float> target;              // per contact of `order`: the separation it asks for
+};
+
+/// Stage 3: each contact deeper than the hold depth asks to separate by its excess, at most
+/// contact_push_speed x dt in a step; the bodies of the piles holding such a contact are moved
+/// to meet every such request at once (projected Gauss-Seidel on positions). A contact moves
+/// its body further from what cannot move (the world, a static or sleeping body), so the ground
+/// lifts a column as one and a box is never pressed into its support; bodies at the same level
+/// share by inverse mass, except that a body is not pushed down when the other can go up. The
+/// contacts' depths and points follow the moved bodies, and their friction anchors (`memory`)
+/// too: a push is no strain. Counts the moved bodies.
+void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, std::vector<WorldContact>& contacts,
+                       ContactMemory& memory, PushScratch& scratch, StepStats& st);
+
+}  // namespace cellphys::ppe

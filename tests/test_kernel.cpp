@@ -199,7 +199,9 @@ TEST(Solvers, CgsAndBicgstabAgreeWithDirectOnRandomSpringIslands) {
         std::mt19937& r = solver == 0 ? r1 : r2;
         const Stepped s = step_image(random_spring_island(r, integ, solver, 1e-6f));
         ASSERT_EQ(s.report.status, IslandStatus::ok) << "island " << c << " solver " << solver;
-        EXPECT_EQ(s.report.halvings, 0u) << "island " << c << " solver " << solver;
+        // Halved only where the direct solve halves too: a step that would turn a body too far
+        // past its spin is refused whatever the solver (kMaxAddedTurn), never for not converging.
+        EXPECT_EQ(s.report.halvings, direct.report.halvings) << "island " << c << " solver " << solver;
         const double d = rel_diff(deltas(s.result, n), ref);
         EXPECT_LT(d, 1e-3) << "island " << c << " (" << n << " bodies) solver " << solver;
         worst[solver] = std::max(worst[solver], d);

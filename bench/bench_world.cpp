@@ -103,6 +103,40 @@ BENCHMARK(BM_Pile65Step)
     ->Args({625, 2})
     ->Unit(benchmark::kMicrosecond);
 
+// A 4 x 4 x 4 block of mixed boxes spawned at 0.6 of their spacing (testing/scenes.h), awake
+// throughout. arg 0: its first second, pushed apart and collapsing (each iteration spawns it
+// afresh, untimed, then times 60 steps: the counters are per step); arg 1: the same block
+// after 3 s, settled, one step an iteration. The two side by side are the spawn's cost.
+void BM_SpawnedBlockStep(benchmark::State& state) {
+  WorldSettings s;
+  s.sleeping = false;
+  const bool settled = state.range(0) == 1;
+  Sums sums;
+  if (settled) {
+    World w(s);
+    ground_plane(w);
+    spawned_block(w, 4, 0.6f);
+    for (int i = 0; i < 180; ++i) w.step();
+    for (auto _ : state) sums.add(w.step());
+    sums.report(state);
+    state.SetLabel("settled, after 3 s");
+    return;
+  }
+  constexpr int kSteps = 60;
+  for (auto _ : state) {
+    state.PauseTiming();
+    World w(s);
+    ground_plane(w);
+    spawned_block(w, 4, 0.6f);
+    state.ResumeTiming();
+    for (int i = 0; i < kSteps; ++i) sums.add(w.step());
+  }
+  sums.report(state);
+  for (auto& [name, counter] : state.counters) counter.value /= kSteps;  // per step, not per iteration
+  state.SetLabel("the first second after spawning overlapping: counters per step, time per 60 steps");
+}
+BENCHMARK(BM_SpawnedBlockStep)->ArgName("settled")->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
 // args: settle seconds before timing (0 = the first step, all awake), workers
 void BM_Sparse1000Step(benchmark::State& state) {
   const int settle = int(state.range(0));

@@ -108,6 +108,21 @@ float bin_half_width(int n, float half_extent) {
   return (1.2f * float(bin_columns(n) - 1) + 1.4f) * half_extent;
 }
 
+std::vector<BodyId> spawned_block(World& w, int k, float spacing) {
+  std::vector<BodyId> boxes;
+  const float step = 2 * 0.3f * spacing;
+  for (int i = 0; i < k; ++i)
+    for (int j = 0; j < k; ++j)
+      for (int l = 0; l < k; ++l) {
+        const int n = (i * k + j) * k + l;
+        const float half = 0.2f + 0.05f * float(n % 3), mass = 1.0f + 4.0f * float(n % 4);
+        const float h[3] = {half, half * 0.8f, half};
+        const float p[3] = {step * float(i) + 0.01f * float(n % 5), step * float(j), 0.3f + step * float(l)};
+        boxes.push_back(add_box(w, h, mass, p));
+      }
+  return boxes;
+}
+
 std::vector<BodyId> pile_in_bin(World& w, int n, float half_extent, uint32_t seed, float mass) {
   Rng r(seed);
   ground_plane(w, 0.5f);

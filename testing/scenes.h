@@ -51,6 +51,11 @@ float bin_half_width(int n, float half_extent);
 /// from 9 dictionary entries at unit size, scaled per body. Returns the dynamic bodies.
 std::vector<BodyId> sparse_world(World& w, int n, float area, uint32_t seed = 1);
 
+/// A k x k x k block of boxes of mixed sizes (half extents 0.2..0.3 m, flattened 0.8 in y) and
+/// masses (1..13 kg), on a grid of `spacing` times 0.6 m from 0.3 m up: below 1 they are spawned
+/// into each other (no ground: add one). Returns the boxes.
+std::vector<BodyId> spawned_block(World& w, int k, float spacing);
+
 /// A static plane through the origin tilted by `angle` (radians) about the y axis: it falls
 /// towards +x. Returns the plane and its frame.
 struct Incline {

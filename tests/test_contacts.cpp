@@ -217,16 +217,7 @@ TEST(Contacts, PileSpawnedOverlappingSeparatesWithinASecond) {
       World w(s);
       const uint32_t ground = add_ground(w);
       std::vector<Placed> boxes;
-      for (int i = 0; i < k; ++i)
-        for (int j = 0; j < k; ++j)
-          for (int l = 0; l < k; ++l) {
-            const int n = (i * k + j) * k + l;
-            const float half = 0.2f + 0.05f * float(n % 3), mass = 1.0f + 4.0f * float(n % 4);
-            const float h[3] = {half, half * 0.8f, half};
-            const float step = 2 * 0.3f * spacing;
-            const float p[3] = {step * float(i) + 0.01f * float(n % 5), step * float(j), 0.3f + step * float(l)};
-            boxes.push_back(place_box(w, h, mass, p));
-          }
+      for (BodyId id : spawned_block(w, k, spacing)) boxes.push_back({id, w.shape(id)});
       const SpawnRun r = run_spawn(w, boxes, ground, 2.0);
       if (k == 3 && spacing == 0.6f) record("pile27_overlapping_separated_after_s", r.separated_at);
       if (k == 3 && spacing == 0.8f) record("pile27_overlapping_max_speed_mps", r.max_speed);

@@ -174,31 +174,14 @@ void MpiRunner::receive(Node& n, const std::vector<unsigned char>& msg) {
   n.queue.pop_front();
   n.last_heard = now_ms();
   const std::string from = "from rank " + std::to_string(n.rank) + ": ";
-  wire::BatchHeader h;
-  std::string why = wire::decode_batch_header(msg.data(), msg.size(), wire::kResultsMagic, h);
-  if (why.empty() && h.sequence != sequence_) why = "answer to another wave";
-  if (why.empty()) {
-    size_t offset = sizeof h;
-    for (uint32_t r = 0; r < h.count; ++r) {
-      wire::ResultRecord rec;
-      const unsigned char* bodies = nullptr;
-      if (!wire::next_result(msg.data(), msg.size(), offset, rec, bodies)) break;  // the rest is lost
-      // a record whose job field was damaged names no island of this batch: skipped (its
-      // island is refused below)
-      if (rec.job >= owner_.size() || owner_[rec.job] != b.token || done_[rec.job]) continue;
-      const spu::IslandJob& j = (*jobs_)[rec.job];
-      const std::string bad =
-          wire::decode_result(rec, bodies, j.image, j.result, j.result_capacity, (*reports_)[rec.job]);
-      if (!bad.empty()) {
-        refuse(rec.job, from + bad);
-        continue;
-      }
-      done_[rec.job] = 1;
-      --pending_;
-      ++n.islands;
-    }
-    why = "no sound result in the node's answer";
-  }
+  const std::string why = wire::read_results(
+      msg.data(), msg.size(), sequence_, *jobs_, *reports_, [&](uint32_t k) { return owner_[k] == b.token && !done_[k]; },
+      [&](uint32_t k, const std::string& bad) {
+        if (!bad.empty()) return refuse(k, from + bad);
+        done_[k] = 1;
+        --pending_;
+        ++n.islands;
+      });
   for (uint32_t k : b.jobs)
     if (!done_[k] && owner_[k] == b.token) refuse(k, from + why);
 }

@@ -24,12 +24,23 @@ void seal_record(std::vector<unsigned char>& msg, size_t at, size_t len) {
   std::memcpy(msg.data() + at, &h, sizeof h);
 }
 
-// How many records the header promises; 0 when there is no header.
-uint32_t records(const std::vector<unsigned char>& msg) {
-  if (msg.size() < sizeof(BatchHeader)) return 0;
+// Seals each record the batch header promises, as far as they frame (`length` gives a
+// record's bytes, 0 when its sizes are out of range), then the header.
+template <class Record, class Length>
+void seal_batch_records(std::vector<unsigned char>& msg, Length length) {
+  if (msg.size() < sizeof(BatchHeader)) return;
   BatchHeader h;
   std::memcpy(&h, msg.data(), sizeof h);
-  return h.count;
+  size_t at = sizeof h;
+  for (uint32_t k = 0; k < h.count && msg.size() - at >= sizeof(Record); ++k) {
+    Record r;
+    std::memcpy(&r, msg.data() + at, sizeof r);
+    const size_t len = length(r);
+    if (len == 0 || len > msg.size() - at) break;
+    seal_record<Record>(msg, at, len);
+    at += len;
+  }
+  seal_batch(msg);
 }
 
 }  // namespace
@@ -43,35 +54,17 @@ void seal_snapshot(std::vector<unsigned char>& b) {
 }
 
 void seal_jobs(std::vector<unsigned char>& msg) {
-  const uint32_t count = records(msg);
-  size_t at = sizeof(BatchHeader);
-  for (uint32_t k = 0; k < count && msg.size() - at >= sizeof(JobRecord); ++k) {
-    JobRecord r;
-    std::memcpy(&r, msg.data() + at, sizeof r);
+  seal_batch_records<JobRecord>(msg, [](const JobRecord& r) -> size_t {
     if (r.num_bodies == 0 || r.num_bodies > (1u << 20) ||
         r.image_bytes < sizeof(gen::Island_Header) + size_t{r.num_bodies} * sizeof(gen::Rigid_Body))
-      break;
-    const size_t len = job_record_bytes(r.image_bytes, r.num_bodies);
-    if (len > msg.size() - at) break;
-    seal_record<JobRecord>(msg, at, len);
-    at += len;
-  }
-  if (msg.size() >= sizeof(BatchHeader)) seal_batch(msg);
+      return 0;
+    return job_record_bytes(r.image_bytes, r.num_bodies);
+  });
 }
 
 void seal_results(std::vector<unsigned char>& msg) {
-  const uint32_t count = records(msg);
-  size_t at = sizeof(BatchHeader);
-  for (uint32_t k = 0; k < count && msg.size() - at >= sizeof(ResultRecord); ++k) {
-    ResultRecord r;
-    std::memcpy(&r, msg.data() + at, sizeof r);
-    if (r.num_bodies > (1u << 20)) break;
-    const size_t len = result_record_bytes(r.num_bodies);
-    if (len > msg.size() - at) break;
-    seal_record<ResultRecord>(msg, at, len);
-    at += len;
-  }
-  if (msg.size() >= sizeof(BatchHeader)) seal_batch(msg);
+  seal_batch_records<ResultRecord>(
+      msg, [](const ResultRecord& r) -> size_t { return r.num_bodies > (1u << 20) ? 0 : result_record_bytes(r.num_bodies); });
 }
 
 }  // namespace cellphys::fuzz

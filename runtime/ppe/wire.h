@@ -87,8 +87,8 @@ void append_result(uint32_t job, uint32_t num_bodies, const unsigned char* resul
 /// On the dispatcher: frames the result record at msg[offset] (advancing offset past it).
 /// False when no further record can be framed.
 bool next_result(const unsigned char* msg, size_t n, size_t& offset, ResultRecord& rec, const unsigned char*& bodies);
-/// Checks a framed result record (its checksum; its bodies against the image that was sent)
-/// and rebuilds the kernel's result bytes into `result` (capacity result_bytes(num_bodies))
+/// Checks a framed result record (its checksum; its bodies against the image that was sent,
+/// each with a finite state and a unit quaternion) and rebuilds the kernel's result bytes into `result` (capacity result_bytes(num_bodies))
 /// and the report. "" or the reason.
 std::string decode_result(const ResultRecord& rec, const unsigned char* bodies, const unsigned char* image,
                           unsigned char* result, size_t result_capacity, spu::IslandReport& report);

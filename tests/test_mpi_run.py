@@ -1,6 +1,6 @@
 """`cellphys run --mpi` under mpirun on loopback: the same bits as the in-process run, the
-reference design's wire tables on the wire in one batch per node and wave, damaged replies recomputed and
-silent nodes dropped.
+reference design's wire tables on the wire in one batch per node and wave, damaged replies recomputed,
+silent nodes dropped, and a hung node ending the job one deadline after the run.
 
 usage: test_mpi_run.py CELLPHYS MPIRUN  (run by CTest)
 """
@@ -81,6 +81,23 @@ class MpiRun(unittest.TestCase):
         self.assertEqual(got["transport"]["dropped_nodes"], 1)
         self.assertGreater(got["transport"]["reassigned_islands"], 0)
 
+    def test_hung_node_at_exit_ends_the_job_after_the_deadline(self):
+        # A node that stops reading anything (a hung process) is dropped within the run; at the
+        # end it cannot say goodbye, and MPI_Finalize would wait for it forever: the dispatcher
+        # waits one deadline, names the rank and aborts the job with exit code 3, its outputs
+        # already written.
+        ref = self.local("world1000")
+        with tempfile.TemporaryDirectory() as d:
+            stats = os.path.join(d, "stats.json")
+            cmd = [*MPI, "-np", "3", EXE, "run", "world1000", "--duration", "1", "--mpi", "--mpi-fault", "hang:30",
+                   "--mpi-deadline", "2000", "--stats", stats]
+            p = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT)
+            self.assertEqual(p.returncode, 3, p.stdout + p.stderr)
+            self.assertIn("compute node rank 2 did not stop within 2000 ms", p.stderr)
+            with open(stats) as f:
+                got = json.load(f)
+        self.assertEqual(got["state_hash"], ref["state_hash"])
+        self.assertEqual(got["transport"]["dropped_nodes"], 1)
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)

@@ -4,7 +4,10 @@
 // island recomputed.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
+#include <functional>
+#include <limits>
 
 #include "runtime/ppe/island_runner.h"
 #include "runtime/ppe/wire.h"
@@ -20,6 +23,8 @@ using ppe::World;
 class LoopbackRunner : public ppe::IslandRunner {
  public:
   int corrupt_at = -1;  // damage island result number N
+  // edits the answer (its bytes, where each result record starts) before it is decoded
+  std::function<void(std::vector<unsigned char>&, const std::vector<size_t>&)> tamper;
   uint64_t replies = 0;
   uint32_t batches = 0;
   void set_local_store(size_t bytes) override { ls_ = bytes; }
@@ -46,6 +51,7 @@ class LoopbackRunner : public ppe::IslandRunner {
         const size_t end = i + 1 < at.size() ? at[i + 1] : back_.size();
         back_[(at[i] + end) / 2] ^= 0x01;
       }
+    if (tamper) tamper(back_, at);
     last_.bytes_from_nodes += back_.size();
     ++last_.messages_from_nodes;
     ppe::wire::BatchHeader h;
@@ -100,10 +106,12 @@ struct Totals {
   uint32_t recomputed = 0, bad = 0, islands = 0, batches = 0;
 };
 
-void same_as_pool(const char* name, int steps, int corrupt_at, Totals& t) {
+void same_as_pool(const char* name, int steps, int corrupt_at, Totals& t,
+                  std::function<void(std::vector<unsigned char>&, const std::vector<size_t>&)> tamper = {}) {
   auto a = scene(name), b = scene(name);
   auto loop = std::make_shared<LoopbackRunner>();
   loop->corrupt_at = corrupt_at;
+  loop->tamper = std::move(tamper);
   b->set_runner(loop);
   for (int s = 0; s < steps; ++s) {
     a->step();
@@ -154,19 +162,35 @@ TEST(MpiWire, DamagedReplyIsCaughtAndRecomputed) {
   EXPECT_EQ(t.recomputed, 1u);
 }
 
-// A batch of three one-body islands; the middle one's job record is damaged on the way.
-TEST(MpiWire, DamagedJobIsRefusedByTheNodeAndTheOthersAnswered) {
+// n packed islands of one falling body each.
+std::vector<std::vector<unsigned char>> one_body_islands(int n) {
   std::vector<std::vector<unsigned char>> images;
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < n; ++i) {
     spu::IslandBuilder ib;
     gen::Rigid_Body_Fields f;
     f.mass = 1.0f;
     f.inverse_mass = 1.0f;
     f.position[1] = 1.0f + float(i);
+    f.orientation[0] = 1.0f;
     for (int k = 0; k < 3; ++k) f.inertia_body[k] = 0.1f, f.inverse_inertia_body[k] = 10.0f;
     ib.add_body(f);
     images.push_back(ib.finish());
   }
+  return images;
+}
+
+// A jobs batch of the images, sealed, for a kernel of `local_store` bytes.
+std::vector<unsigned char> jobs_batch(const std::vector<std::vector<unsigned char>>& images, uint64_t local_store) {
+  std::vector<unsigned char> msg;
+  ppe::wire::begin_batch(ppe::wire::kJobsMagic, 1, local_store, msg);
+  for (uint32_t k = 0; k < images.size(); ++k) ppe::wire::append_job(images[k].data(), images[k].size(), k, msg);
+  ppe::wire::seal_batch(msg);
+  return msg;
+}
+
+// A batch of three one-body islands; the middle one's job record is damaged on the way.
+TEST(MpiWire, DamagedJobIsRefusedByTheNodeAndTheOthersAnswered) {
+  const std::vector<std::vector<unsigned char>> images = one_body_islands(3);
   std::vector<unsigned char> msg, back;
   ppe::wire::begin_batch(ppe::wire::kJobsMagic, 1, 256 * 1024, msg);
   std::vector<size_t> ends;
@@ -200,6 +224,82 @@ TEST(MpiWire, DamagedJobIsRefusedByTheNodeAndTheOthersAnswered) {
   node.serve(msg.data(), msg.size(), back);
   EXPECT_EQ(ppe::wire::decode_batch_header(back.data(), back.size(), ppe::wire::kResultsMagic, h), "");
   EXPECT_EQ(h.count, 0u);
+}
+
+// Found by fuzz_node: a sealed batch naming a local store no kernel can have (0, or over
+// LocalStore's 1 GiB) threw out of the node's LocalStore constructor and ended the node. It is
+// a damaged header now: no island is answered, so the dispatcher recomputes them all.
+TEST(MpiWire, LocalStoreOutOfRangeIsADamagedHeaderNotAnException) {
+  const std::vector<std::vector<unsigned char>> images = one_body_islands(2);
+  ppe::wire::NodeKernel node;
+  std::vector<unsigned char> back;
+  for (uint64_t bytes : {uint64_t{0}, uint64_t{spu::LocalStore::kMinCapacity - 1}, uint64_t{spu::LocalStore::kMaxCapacity + 1},
+                         uint64_t{1} << 62}) {
+    const std::vector<unsigned char> msg = jobs_batch(images, bytes);
+    ASSERT_NO_THROW(node.serve(msg.data(), msg.size(), back)) << bytes;
+    ppe::wire::BatchHeader h;
+    ASSERT_EQ(ppe::wire::decode_batch_header(back.data(), back.size(), ppe::wire::kResultsMagic, h), "");
+    EXPECT_EQ(h.count, 0u) << bytes;
+  }
+  EXPECT_EQ(node.islands(), 0u);
+  const std::vector<unsigned char> msg = jobs_batch(images, spu::LocalStore::kMinCapacity);
+  node.serve(msg.data(), msg.size(), back);
+  EXPECT_EQ(node.record_offsets().size(), 2u) << "the smallest local store is in range";
+}
+
+// Seals a result record again after an edit (the checksum wire.cpp computes: the record with
+// the field zero, then its bodies), so that only the edit is wrong.
+void seal_result(std::vector<unsigned char>& back, size_t at) {
+  ppe::wire::ResultRecord r;
+  std::memcpy(&r, back.data() + at, sizeof r);
+  r.checksum = 0;
+  r.checksum = spu::checksum(back.data() + at + sizeof r, size_t{r.num_bodies} * sizeof(gen::Wire_Node_To_Dispatcher),
+                             spu::checksum(reinterpret_cast<const unsigned char*>(&r), sizeof r));
+  std::memcpy(back.data() + at, &r, sizeof r);
+}
+
+// Found by fuzz_dispatcher: an answer whose checksum matched but whose bodies were not finite
+// (a node that computed garbage, or was built wrong) was taken, and NaN entered the world.
+// Each body's returned state must be finite with a unit quaternion; otherwise the island is
+// refused by body and field and recomputed.
+TEST(MpiWire, NonFiniteReturnedStateIsRefusedAndRecomputed) {
+  const std::vector<std::vector<unsigned char>> images = one_body_islands(1);
+  const std::vector<unsigned char> msg = jobs_batch(images, 256 * 1024);
+  ppe::wire::NodeKernel node;
+  std::vector<unsigned char> good;
+  node.serve(msg.data(), msg.size(), good);
+  const size_t body = sizeof(ppe::wire::BatchHeader) + sizeof(ppe::wire::ResultRecord);
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  struct Case {
+    size_t offset;  // in the body record: position 0, orientation 12, velocity 28, angular velocity 40
+    float value;
+    const char* why;
+  };
+  for (const Case& c : {Case{4, nan, "body 0: position[1] is not finite"}, Case{28, inf, "body 0: velocity[0] is not finite"},
+                        Case{48, -inf, "body 0: angular velocity[2] is not finite"},
+                        Case{12, 2.0f, "body 0: orientation is not a unit quaternion"}}) {
+    std::vector<unsigned char> back = good;
+    std::memcpy(back.data() + body + c.offset, &c.value, 4);
+    seal_result(back, sizeof(ppe::wire::BatchHeader));
+    std::vector<unsigned char> result(spu::result_bytes(1));
+    std::vector<spu::IslandJob> jobs = {{images[0].data(), images[0].size(), result.data(), result.size()}};
+    std::vector<spu::IslandReport> reports(1);
+    std::string got = "(not answered)";
+    const std::string rest = ppe::wire::read_results(
+        back.data(), back.size(), 1, jobs, reports, [](uint32_t) { return true; },
+        [&](uint32_t, const std::string& why) { got = why; });
+    EXPECT_EQ(got, c.why);
+    EXPECT_EQ(rest, "no sound result in the node's answer");
+  }
+  // through a world: every tenth island of world1000 comes back with a NaN velocity
+  Totals t;
+  same_as_pool("world1000", 3, -1, t, [&](std::vector<unsigned char>& back, const std::vector<size_t>& at) {
+    for (size_t i = 0; i < at.size(); i += 10) {
+      std::memcpy(back.data() + at[i] + sizeof(ppe::wire::ResultRecord) + 28, &nan, 4);
+      seal_result(back, at[i]);
+    }
+  });  // hashes compared every step inside
+  EXPECT_GT(t.recomputed, 10u);
 }
 
 }  // namespace

@@ -118,6 +118,7 @@ int run_main(int argc, char** argv) {
     mo.deadline_ms = o.mpi_deadline_ms;
     mo.corrupt_reply = o.mpi_corrupt;
     mo.silent_after = o.mpi_silent;
+    mo.hang_after = o.mpi_hang;
     try {
       session = std::make_unique<ppe::MpiSession>(nullptr, nullptr);
       if (session->rank() > 0) {

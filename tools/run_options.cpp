@@ -46,14 +46,16 @@ const char kRunHelpFormat[] =
     "                    from there; --dt, --integrator, ... change its saved settings)\n"
     "  --mpi             compute islands on MPI ranks (run under mpirun): rank 0 dispatches,\n"
     "                    the other ranks are stateless compute nodes (docs/distributed.md)\n"
-    "  --mpi-deadline MS drop a compute node silent this long with islands outstanding\n"
-    "                    (default 5000)\n"
-    "  --mpi-fault F     test hook: corrupt:N (node 1 damages its N-th reply) or silent:N\n"
-    "                    (the last node stops answering after N islands)\n"
+    "  --mpi-deadline MS drop a compute node silent this long with islands outstanding, and\n"
+    "                    wait no longer for the nodes to stop at the end (default 5000)\n"
+    "  --mpi-fault F     test hook: corrupt:N (node 1 damages its N-th reply), silent:N (the\n"
+    "                    last node stops answering after N islands) or hang:N (it stops\n"
+    "                    reading anything after N islands, as a hung process)\n"
     "  -h, --help        this text\n"
     "\n"
     "Exit codes: 0 done, 1 a failure while running or writing, 2 a usage, scene or snapshot\n"
-    "error.\n"
+    "error, 3 (--mpi) the run is done and written but a compute node did not stop, so the\n"
+    "job was aborted.\n"
     "Built-in scenes are looked up in $CELLPHYS_SCENES, then in the source tree's examples/scenes.\n";
 
 }  // namespace
@@ -111,10 +113,10 @@ class Parser {
     value("--mpi-fault", [&o](const std::string& f) {
       const size_t colon = f.find(':');
       const std::string kind = f.substr(0, colon);
-      if (colon == std::string::npos || (kind != "corrupt" && kind != "silent"))
-        throw UsageError{"--mpi-fault takes corrupt:N or silent:N, got '" + f + "'"};
+      if (colon == std::string::npos || (kind != "corrupt" && kind != "silent" && kind != "hang"))
+        throw UsageError{"--mpi-fault takes corrupt:N, silent:N or hang:N, got '" + f + "'"};
       const int n = static_cast<int>(parse_count("--mpi-fault", f.substr(colon + 1), 0, kMaxCount));
-      (kind == "corrupt" ? o.mpi_corrupt : o.mpi_silent) = n;
+      (kind == "corrupt" ? o.mpi_corrupt : kind == "silent" ? o.mpi_silent : o.mpi_hang) = n;
     });
     app_.add_option("scene", o.scene);
   }

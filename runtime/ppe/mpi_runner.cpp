@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -174,31 +175,14 @@ void MpiRunner::receive(Node& n, const std::vector<unsigned char>& msg) {
   n.queue.pop_front();
   n.last_heard = now_ms();
   const std::string from = "from rank " + std::to_string(n.rank) + ": ";
-  wire::BatchHeader h;
-  std::string why = wire::decode_batch_header(msg.data(), msg.size(), wire::kResultsMagic, h);
-  if (why.empty() && h.sequence != sequence_) why = "answer to another wave";
-  if (why.empty()) {
-    size_t offset = sizeof h;
-    for (uint32_t r = 0; r < h.count; ++r) {
-      wire::ResultRecord rec;
-      const unsigned char* bodies = nullptr;
-      if (!wire::next_result(msg.data(), msg.size(), offset, rec, bodies)) break;  // the rest is lost
-      // a record whose job field was damaged names no island of this batch: skipped (its
-      // island is refused below)
-      if (rec.job >= owner_.size() || owner_[rec.job] != b.token || done_[rec.job]) continue;
-      const spu::IslandJob& j = (*jobs_)[rec.job];
-      const std::string bad =
-          wire::decode_result(rec, bodies, j.image, j.result, j.result_capacity, (*reports_)[rec.job]);
-      if (!bad.empty()) {
-        refuse(rec.job, from + bad);
-        continue;
-      }
-      done_[rec.job] = 1;
-      --pending_;
-      ++n.islands;
-    }
-    why = "no sound result in the node's answer";
-  }
+  const std::string why = wire::read_results(
+      msg.data(), msg.size(), sequence_, *jobs_, *reports_, [&](uint32_t k) { return owner_[k] == b.token && !done_[k]; },
+      [&](uint32_t k, const std::string& bad) {
+        if (!bad.empty()) return refuse(k, from + bad);
+        done_[k] = 1;
+        --pending_;
+        ++n.islands;
+      });
   for (uint32_t k : b.jobs)
     if (!done_[k] && owner_[k] == b.token) refuse(k, from + why);
 }
@@ -284,11 +268,14 @@ void MpiRunner::stop() {
   if (stopped_) return;
   stopped_ = true;
   for (const Node& n : nodes_) MPI_Send(nullptr, 0, MPI_BYTE, n.rank, kTagStop, MPI_COMM_WORLD);
-  // Wait for each node's goodbye, discarding late answers of dropped nodes on the way.
+  // Wait for each node's goodbye, discarding late answers of dropped nodes on the way, while
+  // the nodes are silent no longer than the deadline.
+  std::vector<char> bye(nodes_.size(), 0);
   size_t byes = 0;
   std::vector<unsigned char> buf;
   Idle idle;
-  while (byes < nodes_.size()) {
+  double heard = now_ms();
+  while (byes < nodes_.size() && now_ms() - heard < options_.deadline_ms) {
     int flag = 0;
     MPI_Status st;
     MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
@@ -296,12 +283,27 @@ void MpiRunner::stop() {
       idle.wait();
       continue;
     }
+    idle.reset();
+    heard = now_ms();
     int count = 0;
     MPI_Get_count(&st, MPI_BYTE, &count);
     buf.resize(static_cast<size_t>(std::max(count, 1)));
     MPI_Recv(buf.data(), count, MPI_BYTE, st.MPI_SOURCE, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-    if (st.MPI_TAG == kTagBye) ++byes;
+    const size_t node = static_cast<size_t>(st.MPI_SOURCE - 1);
+    if (st.MPI_TAG == kTagBye && node < bye.size() && !bye[node]) bye[node] = 1, ++byes;
   }
+  if (byes < nodes_.size()) {
+    std::string ranks;
+    for (size_t k = 0; k < nodes_.size(); ++k)
+      if (!bye[k]) ranks += (ranks.empty() ? "" : ", ") + std::to_string(nodes_[k].rank);
+    std::fprintf(stderr,
+                 "cellphys: compute node rank %s did not stop within %g ms of being told to; aborting the MPI job "
+                 "(the run is complete and its outputs are written)\n",
+                 ranks.c_str(), options_.deadline_ms);
+    std::fflush(nullptr);
+    MPI_Abort(MPI_COMM_WORLD, kExitNodesDidNotStop);  // MPI_Finalize would wait for it forever
+  }
+  // every node read all it was sent before its goodbye: the sends are complete
   for (auto& s : sends_) MPI_Wait(&s->request, MPI_STATUS_IGNORE);
   sends_.clear();
 }
@@ -314,8 +316,11 @@ uint64_t run_compute_node(const MpiOptions& options) {
   std::vector<unsigned char> in, out;
   uint64_t received = 0, replies = 0;
   const bool silent_node = options.silent_after >= 0 && rank == size - 1;
+  const bool hung_node = options.hang_after >= 0 && rank == size - 1;
   Idle idle;
   for (;;) {
+    if (hung_node && received >= static_cast<uint64_t>(options.hang_after))
+      for (;;) std::this_thread::sleep_for(std::chrono::seconds(1));  // hook: reads nothing more, until killed
     int flag = 0;
     MPI_Status st;
     check(MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st), "MPI_Iprobe");
@@ -330,8 +335,8 @@ uint64_t run_compute_node(const MpiOptions& options) {
     check(MPI_Recv(in.data(), count, MPI_BYTE, 0, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE), "MPI_Recv");
     if (st.MPI_TAG == kTagStop) break;
     if (st.MPI_TAG != kTagJob) continue;
-    if (silent_node) {  // hook: hangs once it got silent_after islands
-      if (received >= static_cast<uint64_t>(options.silent_after)) continue;
+    if (silent_node || hung_node) {  // hooks: count the islands received
+      if (silent_node && received >= static_cast<uint64_t>(options.silent_after)) continue;  // answers no more
       wire::BatchHeader h;
       if (static_cast<size_t>(count) >= sizeof h) {
         std::memcpy(&h, in.data(), sizeof h);

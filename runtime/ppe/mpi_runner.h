@@ -12,7 +12,7 @@
 // on the dispatcher when none is left). A step returns only when every island has a sound
 // result, so the world is never half-stepped. (A node process that dies takes the MPI job
 // with it: Open MPI 4.1 without ULFM aborts every rank; the deadline covers a node that
-// hangs or falls behind.)
+// hangs or falls behind, in a step and at the end.)
 #pragma once
 #include <cstdint>
 #include <deque>
@@ -29,7 +29,12 @@ struct MpiOptions {
   // Test hooks (every rank parses the same command line):
   int corrupt_reply = -1;  // node 1 damages its island result number N (0-based) after sealing it
   int silent_after = -1;   // the last node stops answering once it got N islands (it keeps receiving)
+  int hang_after = -1;     // the last node stops reading anything once it got N islands (a hung process)
 };
+
+/// The exit status of a job whose dispatcher aborted it because a node did not stop: the run
+/// itself finished and its outputs were written.
+inline constexpr int kExitNodesDidNotStop = 3;
 
 /// The process's MPI session: MPI_Init on construction, MPI_Finalize on destruction.
 class MpiSession {
@@ -62,7 +67,10 @@ class MpiRunner final : public IslandRunner {
   /// Islands each node computed so far (index 0 is rank 1), and on the dispatcher itself.
   std::vector<uint64_t> islands_per_node() const;
   uint64_t islands_local() const { return local_islands_; }
-  /// Tells every node to finish and waits for each to say goodbye. Idempotent.
+  /// Tells every node to finish and waits for each to say goodbye, for as long as the nodes
+  /// keep silent no longer than deadline_ms. A node that does not answer in that time (hung,
+  /// or stuck in a kernel) would hang MPI_Finalize too: the job is then aborted with
+  /// MPI_Abort(kExitNodesDidNotStop), naming the ranks on stderr. Idempotent.
   void stop();
 
  private:

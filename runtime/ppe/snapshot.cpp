@@ -8,6 +8,11 @@
 //           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
 //           each as u32 length + bytes: matched by name, so a build with other forces refuses
 //           a setting it lacks, or lacks one it has, by name
+//   body (136 bytes): u8 alive, static, awake, 0 | u32 shape | f32 scale, mass | f32 inertia[6],
+//           inverse inertia[6] | position[3], orientation[4], velocity[3], angular velocity[3] |
+//           f32 friction, linear and angular damping, sleep timer | i32 sleeping group
+// Every record is checked before the world is returned (runtime/ppe/snapshot_checks.h); a
+// refusal throws, and the new world is dropped with it.
 // A restored world steps on bit for bit: everything a step reads across steps is here (the
 // broad phase's kept sort order only speeds it up; its pairs come out sorted).
 #include <algorithm>
@@ -16,6 +21,7 @@
 #include <type_traits>
 
 #include "runtime/ppe/settings.h"
+#include "runtime/ppe/snapshot_checks.h"
 #include "runtime/ppe/world_impl.h"
 
 namespace cellphys::ppe {
@@ -25,7 +31,15 @@ namespace {
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
 constexpr uint32_t kVersion = 4;
 constexpr size_t kHeaderBytes = 32;
-
+// The fewest bytes of each record, so that a count the rest of the file cannot hold is refused
+// before anything is allocated for it.
+constexpr size_t kBodyBytes = 4 + 4 + 4 + 4 + 4 * 6 + 4 * 6 + 4 * 13 + 4 * 4 + 4;
+constexpr size_t kContactBytes = 4 + 4 + 4 * 3 + 4 * 3 + 4 * 4 + 4 * 3 + 4;
+constexpr size_t kForceBytes = 1 + 4 + 4 + 4 + 4;   // with an empty name and instance
+constexpr size_t kGroupBytes = 4 + 4;               // no bodies, no contacts
+constexpr size_t kPairBytes = 8 + 4 + 4 + 4;        // no anchors
+constexpr size_t kShapeBytes = 4 + 4;               // a sphere
+constexpr size_t kSettingBytes = 4 + 4;             // an empty name and value
 
 class Writer {
  public:
@@ -66,7 +80,8 @@ class Reader {
   uint32_t count(const char* what, size_t min_bytes_each) {
     const uint32_t c = get<uint32_t>(what);
     if (min_bytes_each && c > (n_ - at_) / min_bytes_each)
-      throw WorldError(std::string("snapshot: ") + what + " count " + std::to_string(c) + " runs past the end");
+      throw WorldError(std::string("snapshot: ") + what + " count " + std::to_string(c) + " runs past the end (" +
+                       std::to_string(n_ - at_) + " bytes left, at least " + std::to_string(min_bytes_each) + " each)");
     return c;
   }
   std::vector<uint32_t> get_u32s(const char* what) {
@@ -79,6 +94,12 @@ class Reader {
     std::vector<unsigned char> v(p_ + at_, p_ + at_ + c);
     at_ += c;
     return v;
+  }
+  // A flag byte: 0 or 1, anything else is damage.
+  bool get_flag(const std::string& who, const char* what) {
+    const uint8_t v = get<uint8_t>(what);
+    if (v > 1) throw WorldError("snapshot: " + who + ": " + what + " flag is " + std::to_string(v) + ", not 0 or 1");
+    return v != 0;
   }
   bool done() const { return at_ == n_; }
 
@@ -117,7 +138,7 @@ WorldSettings get_settings(Reader& r) {
   WorldSettings s;
   const std::vector<Setting>& table = settings_table();
   std::vector<bool> seen(table.size());
-  const uint32_t n = r.count("settings", 8);
+  const uint32_t n = r.count("settings", kSettingBytes);
   for (uint32_t k = 0; k < n; ++k) {
     const std::vector<unsigned char> name = r.get_bytes("setting name");
     const std::string path(name.begin(), name.end());
@@ -202,7 +223,7 @@ void put_shapes(Writer& w, const ShapeDictionary& d) {
 }
 
 void get_shapes(Reader& r, ShapeDictionary& d) {
-  const uint32_t n = r.count("shapes", 8);
+  const uint32_t n = r.count("shapes", kShapeBytes);
   for (uint32_t i = 0; i < n; ++i) {
     const std::string who = "snapshot: shape " + std::to_string(i);
     const uint32_t type = r.get<uint32_t>("shape type");
@@ -402,14 +423,15 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
   W.stats_.step = r.get<uint64_t>("step counter");
   get_shapes(r, W.shapes_);
 
-  const uint32_t nb = r.count("bodies", 8);
+  const uint32_t nb = r.count("bodies", kBodyBytes);
   w.bodies.resize(nb);
   for (uint32_t i = 0; i < nb; ++i) {
     WorldBody& b = w.bodies[i];
-    b.alive = r.get<uint8_t>("body") != 0;
-    b.is_static = r.get<uint8_t>("body") != 0;
-    b.awake = r.get<uint8_t>("body") != 0;
-    r.get<uint8_t>("body");
+    const std::string who = body_name(i);
+    b.alive = r.get_flag(who, "alive");
+    b.is_static = r.get_flag(who, "static");
+    b.awake = r.get_flag(who, "awake");
+    if (r.get<uint8_t>("body") != 0) throw WorldError("snapshot: " + who + ": padding byte is not zero");
     b.shape = r.get<uint32_t>("body");
     b.scale = r.get<float>("body");
     b.mass = r.get<float>("body");
@@ -421,15 +443,14 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     b.angular_damping = r.get<float>("body");
     b.sleep_timer = r.get<float>("body");
     b.sleep_group = r.get<int32_t>("body");
-    if (b.shape >= W.shapes_.size()) throw WorldError("snapshot: " + body_name(i) + " refers to a missing shape");
+    check_snapshot_body(W.shapes_, b, i);
   }
-  auto body_ok = [&](uint32_t id, bool world_ok) { return (world_ok && id == kWorldBody) || id < nb; };
 
-  const uint32_t nf = r.count("forces", 16);
+  const uint32_t nf = r.count("forces", kForceBytes);
   w.forces.resize(nf);
   for (uint32_t i = 0; i < nf; ++i) {
     WorldForce& f = w.forces[i];
-    f.alive = r.get<uint8_t>("force") != 0;
+    f.alive = r.get_flag("force " + std::to_string(i), "alive");
     const std::vector<unsigned char> name = r.get_bytes("force type");
     const std::string type(name.begin(), name.end());
     int t = -1;
@@ -442,45 +463,35 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     f.instance = r.get_bytes("force instance");
     if (f.instance.size() != gen::kForceTable[t].instance_size)
       throw WorldError("snapshot: force " + std::to_string(i) + " (" + type + ") has a different layout in this build");
-    if (!body_ok(f.a, false) || !body_ok(f.b, true)) throw WorldError("snapshot: force " + std::to_string(i) + " refers to a missing body");
+    check_snapshot_force(w.bodies, f, i);
   }
 
-  const uint32_t ng = r.count("sleeping groups", 8);
+  const uint32_t ng = r.count("sleeping groups", kGroupBytes);
   w.sleeping.groups.resize(ng);
   for (uint32_t g = 0; g < ng; ++g) {
     w.sleeping.groups[g].bodies = r.get_u32s("sleeping group");
-    for (uint32_t id : w.sleeping.groups[g].bodies)
-      if (!body_ok(id, false)) throw WorldError("snapshot: sleeping group " + std::to_string(g) + " refers to a missing body");
-    const uint32_t nc = r.count("sleeping contacts", 56);
+    const uint32_t nc = r.count("sleeping contacts", kContactBytes);
     for (uint32_t c = 0; c < nc; ++c) {
       w.sleeping.groups[g].contacts.push_back(get_contact(r));
-      const WorldContact& wc = w.sleeping.groups[g].contacts.back();
-      if (!body_ok(wc.a, false) || !body_ok(wc.b, true))
-        throw WorldError("snapshot: sleeping group " + std::to_string(g) + " has a contact with a missing body");
+      check_snapshot_contact(w.bodies, w.sleeping.groups[g].contacts.back(), g, c);
     }
   }
   const uint32_t nfree = r.count("free groups", 4);
-  for (uint32_t k = 0; k < nfree; ++k) {
-    const int32_t g = r.get<int32_t>("free groups");
-    if (g < 0 || static_cast<uint32_t>(g) >= ng) throw WorldError("snapshot: free group out of range");
-    w.sleeping.free.push_back(g);
-  }
-  const uint32_t npairs = r.count("contact memory", 12);
+  for (uint32_t k = 0; k < nfree; ++k) w.sleeping.free.push_back(r.get<int32_t>("free groups"));
+  check_snapshot_sleeping(w.bodies, w.sleeping);
+  const uint32_t npairs = r.count("contact memory", kPairBytes);
   for (uint32_t k = 0; k < npairs; ++k) {
     const uint64_t key = r.get<uint64_t>("contact memory");
     ContactMemory::Pair pair;
     pair.sliding = r.get<uint32_t>("contact memory");
     pair.slip = r.get<float>("contact memory");
     pair.count = r.get<uint32_t>("contact memory");
-    if (pair.count > spu::kMaxManifoldPoints) throw WorldError("snapshot: a contact pair has more anchors than a manifold");
+    if (pair.count > spu::kMaxManifoldPoints) check_snapshot_pair(w.bodies, key, pair);  // refuses it by name
     for (uint32_t a = 0; a < pair.count; ++a) pair.anchors[a] = get_anchor(r);
-    if (!body_ok(uint32_t(key >> 32), false) || !body_ok(uint32_t(key), true))
-      throw WorldError("snapshot: the contact memory refers to a missing body");
-    w.contact_memory.pairs[key] = pair;
+    check_snapshot_pair(w.bodies, key, pair);
+    if (!w.contact_memory.pairs.emplace(key, pair).second)
+      throw WorldError("snapshot: the contact memory holds a pair twice (key " + std::to_string(key) + ")");
   }
-  for (uint32_t i = 0; i < nb; ++i)
-    if (w.bodies[i].sleep_group < -1 || w.bodies[i].sleep_group >= static_cast<int32_t>(ng))
-      throw WorldError("snapshot: " + body_name(i) + " is in a missing sleeping group");
   if (!r.done()) throw WorldError("snapshot: trailing bytes after the last record");
   return world;
 }

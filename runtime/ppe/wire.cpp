@@ -1,10 +1,13 @@
 #include "runtime/ppe/wire.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <utility>
 
 #include "runtime/ppe/body_records.h"
 #include "runtime/ppe/body_state.h"
+#include "runtime/spu/local_store.h"
 
 namespace cellphys::ppe::wire {
 
@@ -72,6 +75,22 @@ bool from_wire(const Wire_Body_To_Node_Compressed& w, Rigid_Body& out) {
   }
   pack(f, out);
   return true;
+}
+
+// What a node's body record must hold for the world to take it: a finite state with a unit
+// quaternion (the kernel normalises it every step). The checksum only proves the bytes came
+// as sent; a node that computed garbage, or was built wrong, is caught here.
+std::string returned_body_problem(const Wire_Node_To_Dispatcher& w) {
+  const std::pair<const char*, std::pair<const float*, int>> fields[] = {
+      {"position", {w.position, 3}}, {"orientation", {w.orientation, 4}}, {"velocity", {w.velocity, 3}},
+      {"angular velocity", {w.angular_velocity, 3}}};
+  for (const auto& [name, f] : fields)
+    for (int k = 0; k < f.second; ++k)
+      if (!std::isfinite(f.first[k])) return std::string(name) + "[" + std::to_string(k) + "] is not finite";
+  double n = 0;
+  for (int k = 0; k < 4; ++k) n += double(w.orientation[k]) * w.orientation[k];
+  if (!(std::fabs(std::sqrt(n) - 1.0) <= 1e-4)) return "orientation is not a unit quaternion";
+  return "";
 }
 
 }  // namespace
@@ -255,6 +274,12 @@ std::string decode_result(const ResultRecord& h, const unsigned char* msg_bodies
   }
   // The kernel's result: header, each body's change of velocity, the advanced bodies (the
   // image's bodies with the returned state; the kernel changes nothing else).
+  for (uint32_t i = 0; i < nb; ++i) {  // all checked before the result is written
+    Wire_Node_To_Dispatcher w;
+    std::memcpy(&w, msg_bodies + i * kBackBody, kBackBody);
+    const std::string why = returned_body_problem(w);
+    if (!why.empty()) return "body " + std::to_string(i) + ": " + why;
+  }
   const spu::IslandLayout l = spu::island_layout(nb, ih.num_sections);
   const size_t head = spu::align16(sizeof(Island_Result));
   auto* steps = result + head;
@@ -281,10 +306,35 @@ std::string decode_result(const ResultRecord& h, const unsigned char* msg_bodies
   return "";
 }
 
+std::string read_results(const unsigned char* msg, size_t n, uint32_t sequence, const std::vector<spu::IslandJob>& jobs,
+                         std::vector<spu::IslandReport>& reports, const std::function<bool(uint32_t)>& expects,
+                         const std::function<void(uint32_t, const std::string&)>& answered) {
+  BatchHeader h;
+  const std::string bad_header = decode_batch_header(msg, n, kResultsMagic, h);
+  if (!bad_header.empty()) return bad_header;
+  if (h.sequence != sequence) return "answer to another wave";
+  size_t offset = sizeof h;
+  for (uint32_t r = 0; r < h.count; ++r) {
+    ResultRecord rec;
+    const unsigned char* bodies = nullptr;
+    if (!next_result(msg, n, offset, rec, bodies)) break;  // the rest is lost
+    // a record whose job field was damaged names no island of this batch: skipped (its
+    // island is among those without a result)
+    if (rec.job >= jobs.size() || !expects(rec.job)) continue;
+    const spu::IslandJob& j = jobs[rec.job];
+    answered(rec.job, decode_result(rec, bodies, j.image, j.result, j.result_capacity, reports[rec.job]));
+  }
+  return "no sound result in the node's answer";
+}
+
 void NodeKernel::serve(const unsigned char* msg, size_t n, std::vector<unsigned char>& out) {
   offsets_.clear();
   BatchHeader bh;
-  const std::string bad_header = decode_batch_header(msg, n, kJobsMagic, bh);
+  std::string bad_header = decode_batch_header(msg, n, kJobsMagic, bh);
+  // a local store no kernel can have is a damaged header, not an exception in the node
+  if (bad_header.empty() &&
+      (bh.local_store_bytes < spu::LocalStore::kMinCapacity || bh.local_store_bytes > spu::LocalStore::kMaxCapacity))
+    bad_header = "local store of " + std::to_string(bh.local_store_bytes) + " bytes out of range";
   begin_batch(kResultsMagic, bad_header.empty() ? bh.sequence : 0, 0, out);
   if (bad_header.empty()) {
     size_t offset = sizeof bh;

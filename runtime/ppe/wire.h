@@ -24,6 +24,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -86,11 +87,20 @@ void append_result(uint32_t job, uint32_t num_bodies, const unsigned char* resul
 /// On the dispatcher: frames the result record at msg[offset] (advancing offset past it).
 /// False when no further record can be framed.
 bool next_result(const unsigned char* msg, size_t n, size_t& offset, ResultRecord& rec, const unsigned char*& bodies);
-/// Checks a framed result record (its checksum; its bodies against the image that was sent)
-/// and rebuilds the kernel's result bytes into `result` (capacity result_bytes(num_bodies))
+/// Checks a framed result record (its checksum; its bodies against the image that was sent,
+/// each with a finite state and a unit quaternion) and rebuilds the kernel's result bytes into `result` (capacity result_bytes(num_bodies))
 /// and the report. "" or the reason.
 std::string decode_result(const ResultRecord& rec, const unsigned char* bodies, const unsigned char* image,
                           unsigned char* result, size_t result_capacity, spu::IslandReport& report);
+
+/// On the dispatcher: reads a node's answer to a jobs batch of wave `sequence` over `jobs`. Each
+/// record that frames and names a job `expects` admits (one of this batch not yet answered) is
+/// decoded into that job's result and report, and `answered(job, why)` is told "" when it is
+/// sound, or why not. Returns why the batch's other jobs have no result: the header's problem,
+/// or that the answer held none for them.
+std::string read_results(const unsigned char* msg, size_t n, uint32_t sequence, const std::vector<spu::IslandJob>& jobs,
+                         std::vector<spu::IslandReport>& reports, const std::function<bool(uint32_t)>& expects,
+                         const std::function<void(uint32_t, const std::string&)>& answered);
 
 /// A compute node's kernel: holds no state between islands but its local store.
 class NodeKernel {

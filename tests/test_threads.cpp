@@ -1,0 +1,129 @@
+// Worlds and worker pools on several threads: what a server running one world per room, each
+// with its own pool, relies on. Built and run under ThreadSanitizer by scripts/test (the tsan
+// preset) as well as in the ordinary passes (label "threads").
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "runtime/ppe/island_runner.h"
+#include "runtime/ppe/worker_pool.h"
+#include "runtime/ppe/world.h"
+#include "runtime/scene/scene.h"
+#include "runtime/spu/kernel.h"
+
+namespace {
+
+using cellphys::ppe::World;
+
+std::unique_ptr<World> scene_world(const std::string& name, int workers) {
+  auto built = cellphys::scene::build_world(cellphys::scene::load_scene(std::string(CELLPHYS_SCENES_DIR) + "/" + name + ".json"));
+  auto s = built.world->settings();
+  s.workers = workers;
+  built.world->set_settings(s);
+  return std::move(built.world);
+}
+
+struct SceneRun {
+  const char* scene;
+  int steps;
+};
+
+uint64_t run_alone(const SceneRun& r, int workers) {
+  auto w = scene_world(r.scene, workers);
+  for (int s = 0; s < r.steps; ++s) w->step();
+  return w->state_hash();
+}
+
+// Four independent worlds, each with a pool of two workers, stepped at once on four threads:
+// each ends on the hash it ends on alone. Nothing in the runtime is shared between worlds
+// but what is read-only (the force table, the settings table, the shape types).
+TEST(Threads, FourWorldsOnFourThreadsEndAsAlone) {
+  const SceneRun runs[4] = {{"world1000", 20}, {"pile65", 45}, {"chain_ratio", 60}, {"newton_cradle", 60}};
+  uint64_t alone[4], together[4] = {};
+  for (int k = 0; k < 4; ++k) alone[k] = run_alone(runs[k], 2);
+  std::vector<std::thread> threads;
+  for (int k = 0; k < 4; ++k) threads.emplace_back([&, k] { together[k] = run_alone(runs[k], 2); });
+  for (std::thread& t : threads) t.join();
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(together[k], alone[k]) << runs[k].scene;
+  EXPECT_EQ(run_alone(runs[1], 1), alone[1]) << "two workers give one worker's bits";
+}
+
+// A runner that keeps a copy of every job of the first wave it sees, and computes them in turn.
+class Capture : public cellphys::ppe::IslandRunner {
+ public:
+  std::vector<std::vector<unsigned char>> images;
+  void set_local_store(size_t bytes) override { bytes_ = bytes; }
+  void run(const std::vector<cellphys::spu::IslandJob>& jobs, std::vector<cellphys::spu::IslandReport>& reports) override {
+    if (images.empty())
+      for (const auto& j : jobs) images.emplace_back(j.image, j.image + j.bytes);
+    cellphys::spu::ComputeWorker worker(bytes_);
+    reports.clear();
+    for (const auto& j : jobs) reports.push_back(worker.step(j.image, j.bytes, j.result, j.result_capacity));
+  }
+  const char* name() const override { return "capture"; }
+  size_t bytes_ = cellphys::spu::LocalStore::kDefaultCapacity;
+};
+
+// The number of bodies in a packed island.
+uint32_t bodies_of(const std::vector<unsigned char>& image) {
+  cellphys::gen::Island_Header h;
+  std::memcpy(&h, image.data(), sizeof h);
+  return h.num_bodies;
+}
+
+// The pool directly: world1000's first wave (hundreds of islands, largest first) run twenty
+// times by a pool of three (the calling thread and two of its own) gives, byte for byte, what
+// one compute worker gives, every time.
+TEST(Threads, WorkerPoolGivesOneWorkersResultsWaveAfterWave) {
+  auto w = scene_world("world1000", 1);
+  auto capture = std::make_shared<Capture>();
+  w->set_runner(capture);
+  w->step();
+  const auto& images = capture->images;
+  ASSERT_GT(images.size(), 100u);
+  const size_t ls = w->settings().local_store_bytes;
+  auto run = [&](cellphys::ppe::IslandRunner& runner, std::vector<std::vector<unsigned char>>& results,
+                 std::vector<cellphys::spu::IslandReport>& reports) {
+    results.clear();
+    std::vector<cellphys::spu::IslandJob> jobs;
+    for (const auto& img : images) results.emplace_back(cellphys::spu::result_bytes(bodies_of(img)));
+    for (size_t k = 0; k < images.size(); ++k)
+      jobs.push_back({images[k].data(), images[k].size(), results[k].data(), results[k].size()});
+    runner.run(jobs, reports);
+  };
+  Capture one;
+  one.set_local_store(ls);
+  std::vector<std::vector<unsigned char>> expected, got;
+  std::vector<cellphys::spu::IslandReport> expected_reports, reports;
+  run(one, expected, expected_reports);
+  cellphys::ppe::WorkerPool pool(3, ls);
+  ASSERT_EQ(pool.size(), 3);
+  for (int wave = 0; wave < 20; ++wave) {
+    run(pool, got, reports);
+    ASSERT_EQ(reports.size(), expected_reports.size());
+    for (size_t k = 0; k < images.size(); ++k) {
+      ASSERT_EQ(reports[k].status, expected_reports[k].status) << "wave " << wave << ", island " << k;
+      ASSERT_EQ(got[k], expected[k]) << "wave " << wave << ", island " << k;
+    }
+  }
+}
+
+// A world's pool follows its settings: grown, shrunk and back between steps, the world steps on
+// the bits of one worker.
+TEST(Threads, PoolResizedBetweenStepsKeepsTheBits) {
+  const SceneRun r{"pile65", 40};
+  auto w = scene_world(r.scene, 1);
+  for (int s = 0; s < r.steps; ++s) {
+    auto set = w->settings();
+    set.workers = 1 + s % 4;
+    w->set_settings(set);
+    w->step();
+  }
+  EXPECT_EQ(w->state_hash(), run_alone(r, 1));
+}
+
+}  // namespace

@@ -1,5 +1,6 @@
-// The viewer page: watches a world of the server it was loaded from (/ws?world=NAME), or a
-// trajectory file dropped on it; controls, picking, dragging, spawning, stats and the timeline.
+// The viewer page: watches a world of the server it was loaded from (/ws?world=NAME), or plays a
+// file dropped on it (a `cellphys serve --record` recording, or a trajectory CSV); controls,
+// picking, dragging, spawning, stats and the timeline.
 import * as THREE from 'three';
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
@@ -9,6 +10,7 @@ import { applyTick, modelFromJoin, F_STATIC } from './model.js';
 import { Renderer } from './render.js';
 import { Overlay } from './overlay.js';
 import { parseTrajectory, trajectoryModel } from './trajectory.js';
+import { isRecording, readRecording } from './recording.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
@@ -179,6 +181,7 @@ function show(index) {
   ui.scrub.value = String(index);
   const f = state.shown;
   ui.tlabel.textContent = `step ${f.step}  t ${f.t.toFixed(3)} s  (${index + 1}/${m.frameCount()})${state.live && m.source === 'live' ? ' live' : ''}`;
+  if (m.source === 'recording') chartRecording(m, index);
 }
 
 function goLive() {
@@ -212,7 +215,7 @@ function advancePlayback(now) {
   state.playClock = now;
   const m = state.model;
   let i = state.shownIndex;
-  while (i + 1 < m.frameCount() && m.frameAt(i + 1).t <= state.playTime) ++i;
+  while (i + 1 < m.frameCount() && m.timeAt(i + 1) <= state.playTime) ++i;
   if (i !== state.shownIndex) show(i);
   if (i >= m.frameCount() - 1) { state.playing = false; updateButtons(); }
 }
@@ -373,10 +376,19 @@ function bytesPerSecond() {
 }
 
 function updateStats() {
-  const s = state.lastStats;
+  const m = state.model;
+  const s = m?.source === 'recording' ? state.shown?.stats : state.lastStats;
   const lines = [];
-  if (state.model?.source === 'file') lines.push(`file: ${state.model.bodies.length} bodies, ${state.model.frameCount()} frames`);
-  if (s) {
+  if (m?.source === 'file') lines.push(`file: ${m.bodies.length} bodies, ${m.frameCount()} frames`);
+  if (m?.source === 'recording') {
+    lines.push(`recording of ${m.world}: ${m.frameCount()} frames, steps ${m.stepAt(0)}–${m.stepAt(m.frameCount() - 1)}, ${m.commands} commands`);
+    if (state.shown) lines.push(`step ${state.shown.step}${state.shown.paused ? ' (paused)' : ''}`);
+  }
+  if (s && m?.source === 'recording') {
+    lines.push(`ms per step     ${s.step_ms.toFixed(3)}`, `active bodies   ${s.active_bodies}`, `sleeping bodies ${s.sleeping_bodies}`,
+      `contacts        ${s.contacts}`, `islands         ${s.islands}`, `solver iters    ${s.solver_iterations}`,
+      `failed islands  ${s.failed_islands}`, `step halvings   ${s.step_halvings}`);
+  } else if (s) {
     lines.push(`world ${state.join.name}  step ${state.steps}  ${state.worldState}${state.paused ? ' (paused)' : ''}`,
       `ms per step     ${s.step_ms.toFixed(3)}`, `active bodies   ${s.active_bodies}`, `sleeping bodies ${s.sleeping_bodies}`,
       `contacts        ${s.contacts}`, `islands         ${s.islands}`, `solver iters    ${s.solver_iterations}`,
@@ -395,6 +407,22 @@ function makePlot(el, title, defs) {
 }
 const plotMs = makePlot($('chart-ms'), 'ms per step', [['ms', '#ffb454']]);
 const plotCounts = makePlot($('chart-counts'), 'bodies, contacts, iterations, kB/s', [['active', '#4f8fd8'], ['asleep', '#a0a0a0'], ['contacts', '#58b368'], ['iters', '#d86a4f'], ['kB/s', '#b36bc4']]);
+/// The charts of a recording: its recorded ticks' statistics up to the shown one.
+function chartRecording(m, index) {
+  for (const k of Object.keys(series)) series[k].length = 0;
+  for (let i = Math.max(0, index - PLOT_POINTS + 1); i <= index; ++i) {
+    const e = m.entries[i];
+    if (!e.stats) continue;
+    series.t.push(e.step * m.dt);
+    series.ms.push(e.stats.step_ms);
+    series.active.push(e.stats.active_bodies);
+    series.sleeping.push(e.stats.sleeping_bodies);
+    series.contacts.push(e.stats.contacts);
+    series.iters.push(e.stats.solver_iterations);
+    series.kbps.push(m.dt > 0 ? e.bytes.length / m.dt / 1000 : 0); // as sent at one tick a step
+  }
+}
+
 function updatePlots() {
   if (series.t.length < 2) return;
   plotMs.setData([series.t, series.ms]);
@@ -405,9 +433,22 @@ function updatePlots() {
 
 async function openFiles(files) {
   const list = Array.from(files);
+  try {
+    for (const f of list) {
+      const bytes = new Uint8Array(await f.arrayBuffer());
+      if (!isRecording(bytes) && !f.name.endsWith('.rec')) continue;
+      const m = readRecording(bytes, f.name);
+      loadModel(m);
+      setStatus(`${f.name}: recording of ${m.world}, ${m.frameCount()} frames, ${m.bodies.length} bodies${m.warning ? ` (warning: ${m.warning}; shown up to there)` : ''}`, !!m.warning);
+      return;
+    }
+  } catch (e) {
+    setStatus(e.message, true);
+    return;
+  }
   const csv = list.find((f) => f.name.endsWith('.csv'));
   const json = list.find((f) => f.name.endsWith('.json'));
-  if (!csv) { setStatus('drop a trajectory .csv (cellphys run --out), optionally with its scene .json', true); return; }
+  if (!csv) { setStatus('drop a recording (cellphys serve --record), or a trajectory .csv (cellphys run --out) optionally with its scene .json', true); return; }
   try {
     const rows = parseTrajectory(await csv.text(), csv.name);
     let scene = null;
@@ -464,6 +505,9 @@ requestAnimationFrame(frame);
   connect(world);
 })();
 
+// The slot of body `id` in the epoch of the frame shown.
+const slotOfShown = (id) => (state.shown?.slotOf ?? state.model?.slotOf)?.get(id);
+
 // A small hook for tests and the console: reads of what is shown, no control the page lacks.
 window.__viewer = {
   ready: () => !!state.model && renderer.frames > 0,
@@ -476,13 +520,13 @@ window.__viewer = {
   frameIndex: () => state.shownIndex,
   instanceCount: () => renderer.instanceCount(),
   framesDrawn: () => renderer.frames,
-  bodyState: (id) => { const s = state.model?.slotOf.get(id); return s === undefined ? null : state.model.bodyState(state.shown, s); },
-  drawnPosition: (id) => { const s = state.model?.slotOf.get(id); return s === undefined ? null : renderer.instancePosition(s); },
+  bodyState: (id) => { const s = slotOfShown(id); return s === undefined ? null : state.model.bodyState(state.shown, s); },
+  drawnPosition: (id) => { const s = slotOfShown(id); return s === undefined ? null : renderer.instancePosition(s); },
   screenOf: (id) => { const b = window.__viewer.bodyState(id); return b && renderer.toScreen(b.position); },
   selected: () => (state.selected < 0 ? null : state.model.bodies[state.selected].id),
   status: () => ui.status.textContent,
   lastStats: () => state.lastStats,
-  debug: () => state.debug && { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length },
+  debug: () => (state.debug ? { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length } : null),
   contactMarkers: () => overlay.contactCount,
   boxCount: () => overlay.boxCount,
   selection: () => $('selection').textContent,

@@ -15,7 +15,7 @@ export const ERROR_CODE = ['', 'malformed', 'invalid', 'unauthorized', 'rate_lim
 
 const BODY_FULL = 68, BODY_MOVED = 56, BODY_MOVED_Q = 28, SHAPE_RECORD = 48;
 
-class ProtocolError extends Error {}
+export class ProtocolError extends Error {}
 
 function text(dv, at, bytes) {
   return new TextDecoder().decode(new Uint8Array(dv.buffer, dv.byteOffset + at, bytes)).replace(/\0+$/, '');
@@ -93,9 +93,11 @@ function shapeDictionary(dv, at, count) {
   return { shapes, at };
 }
 
-/// One server message (an ArrayBuffer) as a plain object with its `type` name.
+/// One server message (an ArrayBuffer, or a view of one: a recording's frame) as a plain object
+/// with its `type` name.
 export function decode(buffer) {
-  const dv = new DataView(buffer);
+  const dv = buffer instanceof DataView ? buffer
+    : ArrayBuffer.isView(buffer) ? new DataView(buffer.buffer, buffer.byteOffset, buffer.byteLength) : new DataView(buffer);
   need(dv, 8, 'header');
   const length = dv.getUint32(0, true), type = dv.getUint16(4, true), version = dv.getUint16(6, true);
   if (length !== dv.byteLength) throw new ProtocolError(`header.length ${length} is not the message's ${dv.byteLength} bytes`);

@@ -234,6 +234,61 @@ try {
   await opage.close();
   rmSync(dir, { recursive: true, force: true });
 
+  // ---- a recording of a real `cellphys serve --record` run, opened and scrubbed ----
+  const recDir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-rec-'));
+  const rec = join(recDir, 'pile.rec');
+  const recording = await serve(['pile65', '--record', rec]);
+  const rpage = await openPage(`${recording.url}?token=${recording.token}`, 'recorded');
+  await rpage.keyboard.down('Shift');
+  await rpage.mouse.click(...(await rpage.evaluate(() => [innerWidth * 0.3, innerHeight * 0.85])));
+  await rpage.keyboard.up('Shift');
+  await until('the spawned box', async () => /spawned body/.test(await rpage.evaluate(() => window.__viewer.status())), 5000);
+  await sleep(1000);
+  await rpage.close();
+  await new Promise((r) => { recording.proc.on('exit', r); recording.stop(); });
+  const traj = join(recDir, 'replayed.csv');
+  const replayed = execFileSync(exe, ['replay', rec, '--out', traj], { encoding: 'utf8' });
+  const framesMatched = Number(/(\d+) frames matched/.exec(replayed)?.[1]);
+  check(framesMatched > 60 && / 1 commands/.test(replayed), 'cellphys replay re-made every recorded frame', replayed.split('\n')[0]);
+  const byStep = new Map(); // step -> body id -> [px, py, pz]
+  for (const l of readFileSync(traj, 'utf8').trim().split('\n').slice(1)) {
+    const f = l.split(',');
+    if (!byStep.has(f[0])) byStep.set(f[0], new Map());
+    byStep.get(f[0]).set(f[2], f.slice(3, 6).map(Number));
+  }
+  const vpage = await openPage(pile.url, 'recording');
+  await vpage.setInputFiles('#file', rec);
+  await until('the recording to load', () => vpage.evaluate(() => window.__viewer.source() === 'recording'));
+  const rcount = await vpage.evaluate(() => window.__viewer.frameCount());
+  check(rcount === framesMatched, 'the timeline holds every frame of the recording', `${rcount} frames in the page, ${framesMatched} replayed`);
+  const scrubTo = (i) => vpage.evaluate((k) => { const s = document.getElementById('scrub'); s.value = String(k); s.dispatchEvent(new Event('input')); return window.__viewer.step(); }, i);
+  const firstStep = await scrubTo(0), lastStep = await scrubTo(rcount - 1);
+  check(firstStep === 0 && byStep.has(String(lastStep)), 'it scrubs from the first frame to the last', `steps ${firstStep} to ${lastStep}`);
+  // A tick in the middle: every body where cellphys replay puts it at that step; the one that moved most, drawn there.
+  const mid = await scrubTo(Math.floor(rcount / 2));
+  const atMid = byStep.get(String(mid));
+  const got = await vpage.evaluate((ids) => ids.map((id) => window.__viewer.bodyState(Number(id))?.position ?? null), [...atMid.keys()]);
+  const ids = [...atMid.keys()];
+  const wrong = ids.filter((id, k) => !got[k] || got[k].some((x, c) => x !== Math.fround(atMid.get(id)[c])));
+  check(atMid.size > 60 && wrong.length === 0, "the scrubbed frame shows every body at replay's position for that step", `step ${mid}: ${atMid.size} bodies, ${wrong.length} differ${wrong.length ? ` (body ${wrong[0]})` : ''}`);
+  const start = byStep.get('0');
+  const mover = ids.filter((id) => start.has(id)).sort((a, b) => Math.abs(atMid.get(b)[2] - start.get(b)[2]) - Math.abs(atMid.get(a)[2] - start.get(a)[2]))[0];
+  const drawn = await vpage.evaluate((id) => window.__viewer.drawnPosition(Number(id)), mover);
+  check(drawn && drawn.every((x, c) => x === Math.fround(atMid.get(mover)[c])), 'and draws it there', `body ${mover} drawn at ${JSON.stringify(drawn)}, replayed ${JSON.stringify(atMid.get(mover))}`);
+  // Files that are not recordings this page can draw: a clear message in the page.
+  for (const [bytes, wanted, what] of [
+    [Buffer.from('CELLREC1\x09\0\0\0\x01\0\0\0', 'latin1'), /bad\.rec: recording version 9 is not one this viewer reads/, 'an unknown version'],
+    [Buffer.from('not a recording at all', 'latin1'), /bad\.rec: not a cellphys recording/, 'not a recording'],
+    [readFileSync(rec).subarray(0, 40), /bad\.rec: the recording has no sound world record \(record 0 \(byte 16\) is cut short/, 'cut in its first record'],
+  ]) {
+    await vpage.setInputFiles('#file', { name: 'bad.rec', mimeType: 'application/octet-stream', buffer: bytes });
+    await until(`the page to refuse ${what}`, async () => wanted.test(await vpage.evaluate(() => window.__viewer.status())), 5000).catch(() => null);
+    const st = await vpage.evaluate(() => ({ text: window.__viewer.status(), err: document.getElementById('status').className === 'err' }));
+    check(wanted.test(st.text) && st.err, `a recording that is ${what} is refused in the page`, st.text);
+  }
+  await vpage.close();
+  rmSync(recDir, { recursive: true, force: true });
+
   check(consoleErrors.length === 0, 'no console error on any page', consoleErrors.join(' | '));
 } catch (e) {
   check(false, 'viewer test ran to the end', e.stack || String(e));

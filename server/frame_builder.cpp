@@ -2,6 +2,8 @@
 
 #include <cstring>
 
+#include "server/stages_encoder.h"
+
 namespace cellphys::server {
 
 std::shared_ptr<Frame> build_frame(const ppe::World& w, const FrameContext& at, const Frame* prev) {
@@ -17,6 +19,7 @@ std::shared_ptr<Frame> build_frame(const ppe::World& w, const FrameContext& at, 
   const ppe::StepStats& st = w.last_stats();
   f->stats = protocol::TickStats{static_cast<float>(at.step_ms), st.active_bodies, st.sleeping_bodies, st.contacts,
                                  st.islands, st.solver_iterations, st.failed_islands, st.step_halvings};
+  f->stages = std::make_shared<const std::vector<unsigned char>>(encode_stages(f->step, at.epoch, st.times));
   f->shapes = at.shapes;
   f->num_shapes = static_cast<uint32_t>(w.shapes().size());
   const bool same_epoch = prev && prev->epoch == at.epoch;

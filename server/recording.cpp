@@ -146,8 +146,8 @@ Recording read_recording(const std::string& path) {
         protocol::Header mh{};
         if (h.bytes >= 8 + sizeof mh) std::memcpy(&mh, p + 8, sizeof mh);
         const auto mt = static_cast<protocol::Type>(mh.type);
-        if (h.bytes < 8 + sizeof mh || mh.length != h.bytes - 8 || (mt != protocol::Type::join && mt != protocol::Type::tick)) {
-          r.damage = where + " is not a frame: its message's header is not a join or tick of its length";
+        if (h.bytes < 8 + sizeof mh || mh.length != h.bytes - 8 || (mt != protocol::Type::join && mt != protocol::Type::tick && mt != protocol::Type::stages)) {
+          r.damage = where + " is not a frame: its message's header is not a join, tick or stages of its length";
           break;
         }
         e.message.assign(p + 8, p + h.bytes);

@@ -13,7 +13,8 @@
 //   command  u64 step | the command's protocol bytes (server/protocol.h)
 //   hash     u64 step | u64 World::state_hash() after that step
 //   end      u64 step | u64 state hash
-//   frame    u64 step | one server message's protocol bytes: a join or a tick (version 2)
+//   frame    u64 step | one server message's protocol bytes: a join or a tick, each followed by
+//            the stages message of the same frame (version 2)
 // A frame follows the command and hash records of its tick (docs/server.md, "Recording").
 #pragma once
 #include <cstdint>

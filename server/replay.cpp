@@ -4,7 +4,9 @@
 #include <memory>
 
 #include "server/frame_builder.h"
+#include "server/message_decode.h"
 #include "server/play_state.h"
+#include "server/stages_encoder.h"
 #include "server/state_encoder.h"
 #include "server/watcher_stream.h"
 #include "server/world_commands.h"
@@ -27,6 +29,7 @@ uint16_t type_of(const std::vector<unsigned char>& m) { return field_at<uint16_t
 std::string describe_difference(const std::vector<unsigned char>& recorded, const std::vector<unsigned char>& replayed) {
   const uint16_t type = type_of(recorded);
   std::string what = std::string(protocol::type_name(type)) + " of " + std::to_string(recorded.size()) + " bytes";
+  if (replayed.empty()) return what + " recorded, none made again (no frame before it)";
   if (type_of(replayed) != type) return what + " recorded, a " + protocol::type_name(type_of(replayed)) + " replayed";
   size_t at = 0;
   while (at < recorded.size() && at < replayed.size() && recorded[at] == replayed[at]) ++at;
@@ -56,6 +59,18 @@ std::string describe_difference(const std::vector<unsigned char>& recorded, cons
   if (recorded.size() != replayed.size())
     where += "; replayed " + std::to_string(replayed.size()) + " bytes";
   return what + ", " + where;
+}
+
+/// The stage times of a recorded stages message, by the names this build gives its stages
+/// (a stage it does not name stays 0: the message made again then differs, in its names).
+ppe::StageTimes recorded_times(const std::vector<unsigned char>& m) {
+  ppe::StageTimes t;
+  StagesMessage s;
+  if (!decode_stages(m.data(), m.size(), s).empty()) return t;
+  for (const auto& [name, ms] : s.stages)
+    for (const ppe::StageTimeField& f : ppe::kStageTimeFields)
+      if (name == f.name) t.*(f.ms) = ms;
+  return t;
 }
 
 }  // namespace
@@ -91,6 +106,19 @@ ReplayResult replay(const Recording& r, const std::function<void(const ppe::Worl
       }
       play.applied(e.command.type);
       ++out.commands;
+      continue;
+    }
+    if (e.type == RecordType::frame && type_of(e.message) == static_cast<uint16_t>(protocol::Type::stages)) {
+      // The stages of the frame just made again, at the times the live server measured.
+      ++out.stages_checked;
+      const std::vector<unsigned char> mine =
+          prev ? encode_stages(prev->step, prev->epoch, recorded_times(e.message)) : std::vector<unsigned char>{};
+      if (mine != e.message) {
+        out.matched = false;
+        out.mismatch_step = e.step;
+        out.frame_difference = describe_difference(e.message, mine);
+        break;
+      }
       continue;
     }
     if (e.type == RecordType::frame) {

@@ -1,9 +1,9 @@
 // Re-runs a recording (server/recording.h) offline: the starting snapshot, each command applied
 // at the step it was applied live (through the same WorldCommands), the world stepped between,
 // every recorded state hash compared with the replayed world's, and every recorded frame (the
-// state messages the server sent) compared byte for byte with the messages the replayed world
-// gives (server/watcher_stream.h), but for the wall times the server measured, which are taken
-// from the recording.
+// state messages the server sent: joins, ticks and their stages) compared byte for byte with the
+// messages the replayed world gives (server/watcher_stream.h), but for the wall times the server
+// measured (a tick's step_ms, the stages' ms), which are taken from the recording.
 #pragma once
 #include <cstdint>
 #include <functional>
@@ -15,7 +15,8 @@
 namespace cellphys::server {
 
 struct ReplayResult {
-  uint64_t steps = 0, commands = 0, hashes_checked = 0, frames_checked = 0;
+  uint64_t steps = 0, commands = 0, hashes_checked = 0;
+  uint64_t frames_checked = 0, stages_checked = 0;  // joins and ticks; the stages messages after them
   uint64_t final_step = 0, final_hash = 0;
   bool matched = true;            // every hash and frame equal
   uint64_t mismatch_step = 0;     // the first that is not

@@ -222,7 +222,10 @@ void Room::publish() {
   const std::shared_ptr<Frame> f = build_frame(w, at, latest().get());
   if (debug_clients_.load(std::memory_order_relaxed) > 0)
     f->debug = std::make_shared<const std::vector<unsigned char>>(encode_debug(w, play_.epoch));
-  if (recorder_ && recorder_->frames()) recorder_->frame(f->step, *recorded_.next(*f));
+  if (recorder_ && recorder_->frames()) {
+    recorder_->frame(f->step, *recorded_.next(*f));
+    recorder_->frame(f->step, *f->stages);
+  }
   {
     std::lock_guard<std::mutex> lock(frame_mutex_);
     latest_ = f;

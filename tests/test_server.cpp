@@ -102,6 +102,36 @@ TEST(Server, JoinCarriesTheShapeDictionaryThenTicksCarryOnlyWhatChanged) {
   EXPECT_EQ(c.last_problem, "");
 }
 
+// Revision 3: a client that asks gets a stages message after each state message, for its step,
+// with every stage the step times, by name; one that does not ask gets none.
+TEST(Server, StagesFollowEachTickWithEveryNamedStage) {
+  ServeProcess s = serve({"pile65"});
+  ServerClient c(s.port(), "pile65"), quiet(s.port(), "pile65");
+  ASSERT_TRUE(c.until([&] { return c.joins == 1; }));
+  EXPECT_EQ(c.join.head.revision, 3u);
+  p::Subscribe sub{};
+  sub.flags = p::kSubscribeStages;
+  c.subscribe(sub);
+  ASSERT_TRUE(c.until([&] { return c.stages.size() >= 30; }));
+  ASSERT_TRUE(quiet.until([&] { return quiet.ticks.size() >= 30; }));
+  EXPECT_TRUE(quiet.stages.empty());
+  for (size_t k = 0; k < c.stages.size(); ++k) {
+    const cellphys::server::StagesMessage& m = c.stages[k];
+    EXPECT_EQ(m.head.step, c.stages_after[k]);
+    ASSERT_EQ(m.stages.size(), std::size(cellphys::ppe::kStageTimeFields));
+    float total = -1;
+    for (size_t i = 0; i < m.stages.size(); ++i) {
+      EXPECT_EQ(m.stages[i].first, cellphys::ppe::kStageTimeFields[i].name);
+      EXPECT_TRUE(std::isfinite(m.stages[i].second) && m.stages[i].second >= 0) << m.stages[i].first;
+      if (m.stages[i].first == "total") total = m.stages[i].second;
+    }
+    for (const auto& [name, ms] : m.stages) EXPECT_LE(ms, total) << name << " at step " << m.head.step;
+  }
+  // A step's stages add up to time spent: the pile's first steps collide and integrate.
+  EXPECT_GT(c.stages.back().stages.back().second, 0.0f);
+  EXPECT_EQ(c.last_problem, "");
+}
+
 TEST(Server, SleepingBodiesAreNotResent) {
   ServeProcess s = serve({"pile65", "--fast"});
   ServerClient c(s.port(), "pile65", s.token());
@@ -500,8 +530,11 @@ TEST(Server, ARecordingReplaysToTheLiveStateHash) {
   EXPECT_NE(out.find(" 7 commands"), std::string::npos) << out;
   // Every frame the server recorded (two joins: the start and the reset) made again, byte for byte.
   const RecordFile file = RecordFile::read(rec);
-  EXPECT_NE(out.find(" " + std::to_string(file.count(5)) + " frames matched"), std::string::npos) << out;
-  EXPECT_GT(file.count(5), 30u);
+  const size_t frames = file.count_messages(p::Type::join) + file.count_messages(p::Type::tick);
+  EXPECT_NE(out.find(" " + std::to_string(frames) + " frames and " + std::to_string(frames) + " stages matched"),
+            std::string::npos) << out;
+  EXPECT_EQ(file.count_messages(p::Type::stages), frames);
+  EXPECT_GT(frames, 30u);
   EXPECT_EQ(file.count_messages(p::Type::join), 2u);
 
   // A server killed outright leaves a recording that still replays, up to its last whole record.
@@ -516,7 +549,7 @@ TEST(Server, ARecordingReplaysToTheLiveStateHash) {
   }
   out.clear();
   EXPECT_EQ(replay(killed, out), 0) << out;
-  EXPECT_NE(out.find("frames matched"), std::string::npos) << out;
+  EXPECT_NE(out.find("stages matched"), std::string::npos) << out;
   // (killed between records, or in the middle of one)
   EXPECT_TRUE(out.find("no end record") != std::string::npos || out.find("cut short") != std::string::npos) << out;
   EXPECT_NE(out.find("1 commands"), std::string::npos) << out;
@@ -562,7 +595,7 @@ TEST(Server, RecordingFormatsAndTheFrameCheck) {
 
   std::string out;
   EXPECT_EQ(replay(with, out), 0) << out;
-  EXPECT_NE(out.find(" " + std::to_string(f2.count(5)) + " frames matched"), std::string::npos) << out;
+  EXPECT_NE(out.find(" " + std::to_string(f2.count(5) / 2) + " frames and "), std::string::npos) << out;
   const std::string hash_line = out.substr(out.find("state hash "));
   out.clear();
   EXPECT_EQ(replay(without, out), 0) << out;
@@ -616,6 +649,18 @@ TEST(Server, RecordingFormatsAndTheFrameCheck) {
   EXPECT_EQ(replay(dir / "bad.rec", out), 1) << out;
   EXPECT_NE(out.find("the frame at step " + std::to_string(bad_step) + " differs from the recorded one"), std::string::npos) << out;
   EXPECT_NE(out.find("moved record 0, body " + std::to_string(moved.id) + ")"), std::string::npos) << out;
+  // A stages message naming a stage this build does not have (one letter of its first name changed).
+  RecordFile renamed = f2;
+  for (auto& r : renamed.records)
+    if (r.type == 5 && cellphys::server::message_type(r.payload.data() + 8, r.payload.size() - 8) == uint16_t(p::Type::stages)) {
+      const size_t names = 8 + sizeof(p::Stages) + 4 * std::size(cellphys::ppe::kStageTimeFields);
+      r.payload[names] ^= 0x20;  // "broad" -> "Broad"
+      break;
+    }
+  renamed.write(dir / "renamed.rec");
+  out.clear();
+  EXPECT_EQ(replay(dir / "renamed.rec", out), 1) << out;
+  EXPECT_NE(out.find("differs from the recorded one: stages of"), std::string::npos) << out;
   fs::remove_all(dir);
 }
 

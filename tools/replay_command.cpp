@@ -134,7 +134,8 @@ int replay_main(int argc, char** argv) {
   std::printf("world %s: %llu steps, %llu commands, %llu state hashes matched, %s\nstep %llu\nstate hash 0x%016llx\n",
               rec.world.c_str(), static_cast<unsigned long long>(r.steps), static_cast<unsigned long long>(r.commands),
               static_cast<unsigned long long>(r.hashes_checked),
-              rec.frames ? (std::to_string(r.frames_checked) + " frames matched").c_str()
+              rec.frames ? (std::to_string(r.frames_checked) + " frames and " + std::to_string(r.stages_checked) +
+                            " stages matched").c_str()
                          : (rec.version < 2 ? "no frames (a version-1 recording)" : "no frames (recorded with --record-frames off)"),
               static_cast<unsigned long long>(r.final_step), static_cast<unsigned long long>(r.final_hash));
   return 0;

@@ -50,13 +50,14 @@ async function listWorlds() {
 const overlay = new Overlay(renderer.scene);
 const ov = { contacts: $('ov-contacts'), normals: $('ov-normals'), islands: $('ov-islands'), boxes: $('ov-boxes') };
 const shown = () => ({ contacts: ov.contacts.checked, normals: ov.normals.checked });
-// Debug messages are asked for while an overlay that needs them is on or a body is picked (mass, island).
+// Debug messages are asked for while an overlay that needs them is on or a body is picked (mass,
+// island); stages messages (protocol revision 3) always, for the stage chart.
 const wantDebug = () => ov.contacts.checked || ov.normals.checked || ov.islands.checked || state.selected >= 0;
 function subscribeDebug() {
   const want = wantDebug();
   if (want === state.debugWanted || !state.ws || state.ws.readyState !== 1) return;
   state.debugWanted = want;
-  state.ws.send(P.subscribe({ debug: want }));
+  state.ws.send(P.subscribe({ debug: want, stages: true }));
   if (!want) { state.debug = null; overlay.setContacts(null, shown()); renderer.islandOf = null; }
 }
 function applyDebug() {
@@ -76,7 +77,7 @@ function connect(world) {
   ws.binaryType = 'arraybuffer';
   state.ws = ws;
   setStatus(`connecting to ${world}…`);
-  ws.onopen = () => { state.connected = true; state.debugWanted = false; subscribeDebug(); };
+  ws.onopen = () => { state.connected = true; state.debugWanted = null; subscribeDebug(); };
   ws.onmessage = (e) => onMessage(e.data);
   ws.onclose = (e) => {
     state.connected = false;
@@ -122,6 +123,10 @@ function onMessage(buffer) {
       updateButtons();
       break;
     }
+    case 'stages':
+      if (!state.join || m.epoch !== state.join.epoch) return;
+      recordStages(m.step * state.join.dt, m.stages);
+      break;
     case 'debug':
       if (!state.join || m.epoch !== state.join.epoch) return;
       state.debug = m;
@@ -407,11 +412,58 @@ function makePlot(el, title, defs) {
 }
 const plotMs = makePlot($('chart-ms'), 'ms per step', [['ms', '#ffb454']]);
 const plotCounts = makePlot($('chart-counts'), 'bodies, contacts, iterations, kB/s', [['active', '#4f8fd8'], ['asleep', '#a0a0a0'], ['contacts', '#58b368'], ['iters', '#d86a4f'], ['kB/s', '#b36bc4']]);
+// ms per stage, stacked: the stages are the server's (the stages message names them), so the
+// chart is made again whenever their names change; "total" is the whole step, a line over them.
+const stageChart = { key: null, plot: null, names: [], t: [], rows: [] };
+const stageColour = (k, alpha = 1) => `hsla(${(k * 137.5 + 30) % 360}, 60%, 58%, ${alpha})`;
+
+function recordStages(t, stages) {
+  const key = stages.map((s) => s.name).join(',');
+  if (key !== stageChart.key) makeStagePlot(stages.map((s) => s.name));
+  stageChart.t.push(t);
+  stageChart.rows.push(stages.map((s) => s.ms));
+  if (stageChart.t.length > PLOT_POINTS) { stageChart.t.shift(); stageChart.rows.shift(); }
+}
+
+function makeStagePlot(names) {
+  stageChart.key = names.join(',');
+  stageChart.names = names;
+  stageChart.t = [];
+  stageChart.rows = [];
+  if (stageChart.plot) stageChart.plot.destroy();
+  const parts = names.map((n, k) => [n, k]).filter(([n]) => n !== 'total');
+  // Series k is the sum of the parts up to k, filled down to zero, drawn from the top part down,
+  // so each part shows as the band it adds.
+  const defs = parts.map(([n], k) => ({ label: n, stroke: stageColour(k), fill: stageColour(k, 0.75), width: 1, points: { show: false } })).reverse();
+  if (names.includes('total')) defs.push({ label: 'total', stroke: '#e8eef4', width: 1, dash: [4, 3], points: { show: false } });
+  stageChart.parts = parts.map(([, k]) => k);
+  stageChart.total = names.indexOf('total');
+  stageChart.plot = new uPlot({
+    title: 'ms per stage (stacked)', width: 256, height: 170, legend: { show: true, live: false }, cursor: { show: false },
+    scales: { x: { time: false } },
+    axes: [{ stroke: '#9fb0c0', grid: { stroke: '#333a42' } }, { stroke: '#9fb0c0', grid: { stroke: '#333a42' }, size: 50 }],
+    series: [{ label: 't (s)' }, ...defs],
+  }, [[], ...defs.map(() => [])], $('chart-stages'));
+}
+
+function stageData() {
+  const c = stageChart, sums = c.parts.map(() => []);
+  for (const row of c.rows) {
+    let sum = 0;
+    c.parts.forEach((k, i) => { sum += row[k]; sums[i].push(sum); });
+  }
+  const data = [c.t, ...sums.reverse()];
+  if (c.total >= 0) data.push(c.rows.map((r) => r[c.total]));
+  return data;
+}
+
 /// The charts of a recording: its recorded ticks' statistics up to the shown one.
 function chartRecording(m, index) {
   for (const k of Object.keys(series)) series[k].length = 0;
+  if (stageChart.plot) { stageChart.t.length = 0; stageChart.rows.length = 0; }
   for (let i = Math.max(0, index - PLOT_POINTS + 1); i <= index; ++i) {
     const e = m.entries[i];
+    if (e.stages) recordStages(e.step * m.dt, e.stages);
     if (!e.stats) continue;
     series.t.push(e.step * m.dt);
     series.ms.push(e.stats.step_ms);
@@ -424,6 +476,7 @@ function chartRecording(m, index) {
 }
 
 function updatePlots() {
+  if (stageChart.plot && stageChart.t.length >= 2) stageChart.plot.setData(stageData());
   if (series.t.length < 2) return;
   plotMs.setData([series.t, series.ms]);
   plotCounts.setData([series.t, series.active, series.sleeping, series.contacts, series.iters, series.kbps]);
@@ -530,4 +583,5 @@ window.__viewer = {
   contactMarkers: () => overlay.contactCount,
   boxCount: () => overlay.boxCount,
   selection: () => $('selection').textContent,
+  stageChart: () => ({ names: stageChart.names, points: stageChart.t.length }),
 };

@@ -3,7 +3,7 @@
 
 export const VERSION = 1;
 export const T = {
-  join: 1, tick: 2, ack: 3, error: 4, status: 5, debug: 6, subscribe: 32,
+  join: 1, tick: 2, ack: 3, error: 4, status: 5, debug: 6, stages: 7, subscribe: 32,
   spawn: 33, remove: 34, impulse: 35, drag_start: 36, drag_move: 37, drag_release: 38,
   pause: 39, resume: 40, step_once: 41, reset: 42,
 };
@@ -176,6 +176,15 @@ export function decode(buffer) {
         m.contacts.push({ a: dv.getUint32(at, true), b: dv.getUint32(at + 4, true), point: f3(dv, at + 8), normal: f3(dv, at + 20), depth: dv.getFloat32(at + 32, true), force: dv.getFloat32(at + 36, true) });
       return m;
     }
+    case T.stages: { // revision 3
+      need(dv, 32, 'stages');
+      const n = dv.getUint32(20, true), nameBytes = dv.getUint32(24, true);
+      need(dv, 32 + 4 * n + nameBytes, 'stages records');
+      const names = text(dv, 32 + 4 * n, nameBytes).split('\0');
+      const m = { type: 'stages', step: Number(dv.getBigUint64(8, true)), epoch: dv.getUint32(16, true), stages: [] };
+      for (let k = 0; k < n; ++k) m.stages.push({ name: names[k] ?? `stage ${k}`, ms: dv.getFloat32(32 + 4 * k, true) });
+      return m;
+    }
     default:
       throw new ProtocolError(`header.type ${type} is not a server message`);
   }
@@ -192,9 +201,9 @@ function message(type, bytes) {
 }
 function putF(dv, at, values) { values.forEach((v, k) => dv.setFloat32(at + 4 * k, v, true)); }
 
-export function subscribe({ quantised = false, region = null, debug = false } = {}) {
+export function subscribe({ quantised = false, region = null, debug = false, stages = false } = {}) {
   const dv = message(T.subscribe, 40);
-  dv.setUint32(8, (quantised ? 1 : 0) | (region ? 2 : 0) | (debug ? 4 : 0), true);
+  dv.setUint32(8, (quantised ? 1 : 0) | (region ? 2 : 0) | (debug ? 4 : 0) | (stages ? 8 : 0), true);
   if (region) { putF(dv, 16, region.min); putF(dv, 28, region.max); }
   return dv.buffer;
 }

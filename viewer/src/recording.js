@@ -1,7 +1,8 @@
 // A `cellphys serve --record` file (server/recording.h) in the page: its records checked as
 // `cellphys replay` checks them (length and checksum; a damaged or cut tail ends the recording
-// there, with a warning), and its frames — the join and tick messages the server sent — decoded
-// by the live decoders (protocol.js) into a Model the timeline scrubs over. Keeping every frame
+// there, with a warning), and its frames — the join and tick messages the server sent, each with
+// its stages message — decoded by the live decoders (protocol.js) into a Model the timeline
+// scrubs over. Keeping every frame
 // of a long recording would take 52 bytes a body a tick, so one in KEY_EVERY is kept and the
 // others are rebuilt from the one before, as the live page built them.
 import * as P from './protocol.js';
@@ -132,6 +133,8 @@ export function readRecording(bytes, name) {
         if (!prev) throw new RecordingError(`${name}: ${where}: a tick before any join`);
         prev = nextFrame(m, prev, decoded);
         m.entries.push({ step, bytes: msg, key: m.entries.length % KEY_EVERY === 0 ? prev : null, stats: decoded.stats, epoch: decoded.epoch });
+      } else if (decoded.type === 'stages' && m) {
+        m.entries[m.entries.length - 1].stages = decoded.stages;
       }
     } else if (type === REC.command) {
       ++commands;

@@ -117,6 +117,14 @@ try {
   check(pixels.colours > 20, 'the frame of the pile is not blank', `${pixels.colours} distinct colours in a 64x40 reduction of ${pixels.w}x${pixels.h}`);
   if (images) { mkdirSync(images, { recursive: true }); await page.screenshot({ path: join(images, 'viewer_pile65.png') }); }
 
+  // ---- the stage chart: ms per stage, stacked, under the names the server times them by ----
+  const legendOf = (pg) => pg.evaluate(() => Array.from(document.querySelectorAll('#chart-stages .u-legend .u-series .u-label')).map((e) => e.textContent).filter((l) => l !== 't (s)'));
+  await until('stage samples in the chart', async () => (await page.evaluate(() => window.__viewer.stageChart().points)) > 10);
+  const serverStages = Object.keys(m0.stage_ms_mean).sort();
+  const legend = await legendOf(page);
+  check(JSON.stringify([...legend].sort()) === JSON.stringify(serverStages), 'the stage chart draws every stage the server times, by name',
+        `legend ${legend.join(' ')}; /metrics ${serverStages.join(' ')}`);
+
   // ---- pause, then one step ----
   await page.click('#play');
   await until('the world to pause', async () => (await metrics(pile, 'pile65')).state === 'paused');
@@ -248,7 +256,7 @@ try {
   await new Promise((r) => { recording.proc.on('exit', r); recording.stop(); });
   const traj = join(recDir, 'replayed.csv');
   const replayed = execFileSync(exe, ['replay', rec, '--out', traj], { encoding: 'utf8' });
-  const framesMatched = Number(/(\d+) frames matched/.exec(replayed)?.[1]);
+  const framesMatched = Number(/(\d+) frames and \d+ stages matched/.exec(replayed)?.[1]);
   check(framesMatched > 60 && / 1 commands/.test(replayed), 'cellphys replay re-made every recorded frame', replayed.split('\n')[0]);
   const byStep = new Map(); // step -> body id -> [px, py, pz]
   for (const l of readFileSync(traj, 'utf8').trim().split('\n').slice(1)) {
@@ -275,6 +283,10 @@ try {
   const mover = ids.filter((id) => start.has(id)).sort((a, b) => Math.abs(atMid.get(b)[2] - start.get(b)[2]) - Math.abs(atMid.get(a)[2] - start.get(a)[2]))[0];
   const drawn = await vpage.evaluate((id) => window.__viewer.drawnPosition(Number(id)), mover);
   check(drawn && drawn.every((x, c) => x === Math.fround(atMid.get(mover)[c])), 'and draws it there', `body ${mover} drawn at ${JSON.stringify(drawn)}, replayed ${JSON.stringify(atMid.get(mover))}`);
+  const recordedStages = await vpage.evaluate(() => window.__viewer.stageChart());
+  const recLegend = await legendOf(vpage);
+  check(recordedStages.points > 10 && JSON.stringify([...recLegend].sort()) === JSON.stringify(serverStages),
+        "the recording's stage timings in the stage chart", `${recordedStages.points} points, ${recLegend.join(' ')}`);
   // Files that are not recordings this page can draw: a clear message in the page.
   for (const [bytes, wanted, what] of [
     [Buffer.from('CELLREC1\x09\0\0\0\x01\0\0\0', 'latin1'), /bad\.rec: recording version 9 is not one this viewer reads/, 'an unknown version'],

@@ -145,6 +145,24 @@ std::string decode_status(const unsigned char* data, size_t size, StatusMessage&
   return "";
 }
 
+std::string decode_debug(const unsigned char* data, size_t size, DebugMessage& out) {
+  if (auto e = check_header(data, size, Type::debug); !e.empty()) return e;
+  Reader r(data, size);
+  out = DebugMessage{};
+  if (!r.get(out.head)) return "cut in its fixed part";
+  out.bodies.resize(out.head.num_bodies);
+  for (DebugBody& b : out.bodies)
+    if (!r.get(b)) return "cut in the bodies";
+  out.contacts.resize(out.head.num_contacts);
+  for (DebugContact& c : out.contacts)
+    if (!r.get(c)) return "cut in the contacts";
+  out.cuts.resize(out.head.num_cuts);
+  for (DebugCut& c : out.cuts)
+    if (!r.get(c)) return "cut in the cut couplings";
+  if (!r.done()) return "bytes after the cut couplings";
+  return "";
+}
+
 std::string decode_stages(const unsigned char* data, size_t size, StagesMessage& out) {
   if (auto e = check_header(data, size, Type::stages); !e.empty()) return e;
   Reader r(data, size);

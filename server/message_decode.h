@@ -37,6 +37,13 @@ struct StatusMessage {
   std::string text;
 };
 
+struct DebugMessage {
+  protocol::Debug head{};
+  std::vector<protocol::DebugBody> bodies;
+  std::vector<protocol::DebugContact> contacts;
+  std::vector<protocol::DebugCut> cuts;  // revision 3
+};
+
 struct StagesMessage {
   protocol::Stages head{};
   std::vector<std::pair<std::string, float>> stages;  // name, ms, in the server's order
@@ -51,5 +58,6 @@ std::string decode_ack(const unsigned char* data, size_t size, protocol::Ack& ou
 std::string decode_error(const unsigned char* data, size_t size, ErrorMessage& out);
 std::string decode_status(const unsigned char* data, size_t size, StatusMessage& out);
 std::string decode_stages(const unsigned char* data, size_t size, StagesMessage& out);
+std::string decode_debug(const unsigned char* data, size_t size, DebugMessage& out);
 
 }  // namespace cellphys::server

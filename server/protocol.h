@@ -19,7 +19,7 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the protocol's structs
 inline constexpr uint16_t kVersion = 1;
 // Additions that keep every revision-1 message's layout, announced in Join::revision: 2 adds the
 // subscribe flag kSubscribeDebug and the debug message; 3 the subscribe flag kSubscribeStages
-// and the stages message.
+// and the stages message, and the debug message's cut couplings (in what was its reserved field).
 inline constexpr uint32_t kRevision = 3;
 
 enum class Type : uint16_t {
@@ -168,8 +168,8 @@ struct Debug {
   uint32_t epoch;
   uint32_t num_bodies;    // every dynamic body
   uint32_t num_contacts;  // contacts of awake bodies in the step and those kept by sleeping groups
-  uint32_t reserved;
-  // then: num_bodies x DebugBody | num_contacts x DebugContact
+  uint32_t num_cuts;      // revision 3 (0 before): couplings the step's decoupling cut
+  // then: num_bodies x DebugBody | num_contacts x DebugContact | num_cuts x DebugCut
 };
 static_assert(sizeof(Debug) == 32);
 
@@ -192,6 +192,19 @@ struct DebugContact {
   float force;        // N, the contact spring's force at that depth (ppe::DebugContact)
 };
 static_assert(sizeof(DebugContact) == 40);
+
+inline constexpr uint32_t kNoForce = 0xFFFFFFFFu;
+
+// A coupling the decoupling stage cut (revision 3): a contact or force between bodies of one
+// island that its cut put in different parts, each part holding the other body as a ghost.
+struct DebugCut {
+  uint32_t a, b;     // body ids (both dynamic, of the same island)
+  uint32_t force;    // the force's id, or kNoForce for a contact
+  uint32_t island;   // as DebugBody::island numbers them
+  float point[3];    // a contact's point (world); zero for a force
+  uint32_t reserved;
+};
+static_assert(sizeof(DebugCut) == 32);
 
 // The wall time of each stage of the tick's step (revision 3), as ppe::StageTimes names them
 // (runtime/ppe/step_stats.h): the list is the server's, so a client draws whatever stages it

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <set>
 #include <string>
 #include <thread>
@@ -21,6 +22,7 @@
 
 #include "runtime/scene/scene.h"
 #include "runtime/spu/island_image.h"
+#include "server/debug_encoder.h"
 #include "server/message_decode.h"
 #include "server/quantise.h"
 #include "server/state_encoder.h"
@@ -701,6 +703,42 @@ TEST(Server, MetricsAreJsonWithEveryField) {
   EXPECT_EQ(status, 200);
   EXPECT_NE(page.find("/ws?world=pile65"), std::string::npos);
   EXPECT_EQ(cellphys::test::http_get(s.port(), "/nothing/here").first, 404);
+}
+
+// In process: the debug message of the reference pile in a 32 KiB local store (its island needs
+// 126 kB; kept awake, it settles into islands of which one or two are cut in parts every step),
+// carries every coupling the step cut, each between two bodies of the decoupled island it names,
+// at one of the step's contacts.
+TEST(DebugMessage, CarriesEveryCouplingDecouplingCut) {
+  cellphys::scene::SceneDesc desc = cellphys::scene::load_scene(kScenes + "/pile65.json");
+  desc.settings.local_store_bytes = 32 * 1024;
+  desc.settings.sleeping = false;
+  auto scene = cellphys::scene::build_world(desc);
+  cellphys::ppe::World& w = *scene.world;
+  uint32_t most = 0;
+  for (int i = 0; i < 60; ++i) {
+    const cellphys::ppe::StepStats& st = w.step();
+    const std::vector<unsigned char> bytes = cellphys::server::encode_debug(w, 0);
+    cellphys::server::DebugMessage d;
+    ASSERT_EQ(cellphys::server::decode_debug(bytes.data(), bytes.size(), d), "") << "step " << st.step;
+    ASSERT_EQ(d.cuts.size(), st.cut_couplings) << "step " << st.step;
+    ASSERT_EQ(w.cut_couplings().size(), st.cut_couplings);
+    most = std::max(most, st.cut_couplings);
+    std::map<uint32_t, p::DebugBody> bodies;
+    for (const p::DebugBody& b : d.bodies) bodies[b.id] = b;
+    for (const p::DebugCut& c : d.cuts) {
+      ASSERT_TRUE(bodies.count(c.a) && bodies.count(c.b)) << c.a << "-" << c.b;
+      EXPECT_EQ(bodies[c.a].island, c.island);
+      EXPECT_EQ(bodies[c.b].island, c.island);
+      EXPECT_TRUE(bodies[c.a].flags & p::kIslandDecoupled);
+      EXPECT_EQ(c.force, p::kNoForce);  // the pile has no forces between bodies: contacts only
+      const bool at_a_contact = std::any_of(d.contacts.begin(), d.contacts.end(), [&](const p::DebugContact& k) {
+        return ((k.a == c.a && k.b == c.b) || (k.a == c.b && k.b == c.a)) && std::memcmp(k.point, c.point, 12) == 0;
+      });
+      EXPECT_TRUE(at_a_contact) << "cut " << c.a << "-" << c.b << " at step " << st.step;
+    }
+  }
+  EXPECT_GT(most, 0u) << "the pile was never cut";
 }
 
 // In process: the quantised state of world1000's moving bodies against full precision.

@@ -73,6 +73,7 @@ class ServerClient {
   std::vector<server::StatusMessage> statuses;
   std::vector<server::StagesMessage> stages;  // every stages message since the last clear
   std::vector<uint64_t> stages_after;         // for each, the step of the state message it followed
+  std::vector<server::DebugMessage> debugs;   // every debug message since the last clear
   uint64_t step = 0;
   std::string last_problem;  // a message that did not decode, or a redundant resend
 
@@ -138,6 +139,12 @@ class ServerClient {
           stages_after.push_back(step);
           stages.push_back(std::move(s));
         }
+        break;
+      }
+      case p::Type::debug: {
+        server::DebugMessage d;
+        e = server::decode_debug(m.data(), m.size(), d);
+        if (e.empty()) debugs.push_back(std::move(d));
         break;
       }
       default: e = "unknown message type";

@@ -48,21 +48,22 @@ async function listWorlds() {
 // ---- solver overlays: the server's debug message (protocol revision 2) ----
 
 const overlay = new Overlay(renderer.scene);
-const ov = { contacts: $('ov-contacts'), normals: $('ov-normals'), islands: $('ov-islands'), boxes: $('ov-boxes') };
+const ov = { contacts: $('ov-contacts'), normals: $('ov-normals'), islands: $('ov-islands'), cuts: $('ov-cuts'), boxes: $('ov-boxes') };
 const shown = () => ({ contacts: ov.contacts.checked, normals: ov.normals.checked });
 // Debug messages are asked for while an overlay that needs them is on or a body is picked (mass,
 // island); stages messages (protocol revision 3) always, for the stage chart.
-const wantDebug = () => ov.contacts.checked || ov.normals.checked || ov.islands.checked || state.selected >= 0;
+const wantDebug = () => ov.contacts.checked || ov.normals.checked || ov.islands.checked || ov.cuts.checked || state.selected >= 0;
 function subscribeDebug() {
   const want = wantDebug();
   if (want === state.debugWanted || !state.ws || state.ws.readyState !== 1) return;
   state.debugWanted = want;
   state.ws.send(P.subscribe({ debug: want, stages: true }));
-  if (!want) { state.debug = null; overlay.setContacts(null, shown()); renderer.islandOf = null; }
+  if (!want) { state.debug = null; overlay.setContacts(null, shown()); overlay.setCuts(null); renderer.islandOf = null; }
 }
 function applyDebug() {
   const d = state.debug;
   overlay.setContacts(d && d.contacts, shown());
+  overlay.setCuts(d && d.cuts, state.model, state.shown, ov.cuts.checked);
   renderer.islandOf = d && ov.islands.checked ? new Map(d.bodies.filter((b) => b.island !== null).map((b) => [b.id, b.island])) : null;
   if (state.shown) renderer.draw(state.shown);
 }
@@ -182,6 +183,7 @@ function show(index) {
   state.shown = m.frameAt(index);
   renderer.draw(state.shown);
   overlay.setBoxes(m, state.shown, ov.boxes.checked);
+  overlay.setCuts(state.debug?.cuts, m, state.shown, ov.cuts.checked);
   ui.scrub.max = String(m.frameCount() - 1);
   ui.scrub.value = String(index);
   const f = state.shown;
@@ -399,6 +401,7 @@ function updateStats() {
       `contacts        ${s.contacts}`, `islands         ${s.islands}`, `solver iters    ${s.solver_iterations}`,
       `failed islands  ${s.failed_islands}`, `step halvings   ${s.step_halvings}`, `received        ${(bytesPerSecond() / 1000).toFixed(1)} kB/s`);
   }
+  if (state.debug && m?.source === 'live') lines.push(`cut couplings   ${state.debug.cuts.length}`);
   lines.push(`drawn instances ${renderer.instanceCount()}`, `frames drawn    ${fps.toFixed(0)}/s`);
   $('stats').textContent = lines.join('\n');
 }
@@ -579,7 +582,8 @@ window.__viewer = {
   selected: () => (state.selected < 0 ? null : state.model.bodies[state.selected].id),
   status: () => ui.status.textContent,
   lastStats: () => state.lastStats,
-  debug: () => (state.debug ? { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length } : null),
+  debug: () => (state.debug ? { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length, cuts: state.debug.cuts.length } : null),
+  cutLines: () => overlay.cutCount,
   contactMarkers: () => overlay.contactCount,
   boxCount: () => overlay.boxCount,
   selection: () => $('selection').textContent,

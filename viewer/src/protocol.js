@@ -164,9 +164,9 @@ export function decode(buffer) {
     }
     case T.debug: {  // revision 2
       need(dv, 32, 'debug');
-      const nb = dv.getUint32(20, true), nc = dv.getUint32(24, true);
-      need(dv, 32 + 16 * nb + 40 * nc, 'debug records');
-      const m = { type: 'debug', step: Number(dv.getBigUint64(8, true)), epoch: dv.getUint32(16, true), bodies: [], contacts: [] };
+      const nb = dv.getUint32(20, true), nc = dv.getUint32(24, true), ncut = dv.getUint32(28, true); // ncut: revision 3 (0 before)
+      need(dv, 32 + 16 * nb + 40 * nc + 32 * ncut, 'debug records');
+      const m = { type: 'debug', step: Number(dv.getBigUint64(8, true)), epoch: dv.getUint32(16, true), bodies: [], contacts: [], cuts: [] };
       let at = 32;
       for (let i = 0; i < nb; ++i, at += 16) {
         const island = dv.getUint32(at + 4, true);
@@ -174,6 +174,10 @@ export function decode(buffer) {
       }
       for (let i = 0; i < nc; ++i, at += 40)
         m.contacts.push({ a: dv.getUint32(at, true), b: dv.getUint32(at + 4, true), point: f3(dv, at + 8), normal: f3(dv, at + 20), depth: dv.getFloat32(at + 32, true), force: dv.getFloat32(at + 36, true) });
+      for (let i = 0; i < ncut; ++i, at += 32) {
+        const force = dv.getUint32(at + 8, true);
+        m.cuts.push({ a: dv.getUint32(at, true), b: dv.getUint32(at + 4, true), force: force === 0xFFFFFFFF ? null : force, island: dv.getUint32(at + 12, true), point: f3(dv, at + 16) });
+      }
       return m;
     }
     case T.stages: { // revision 3

@@ -626,6 +626,9 @@ TEST(Server, RecordingFormatsAndTheFrameCheck) {
   out.clear();
   EXPECT_EQ(replay(kScenes + "/pile65.json", out), 2) << out;
   EXPECT_NE(out.find("pile65.json: not a cellphys recording"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(replay(dir / "missing.rec", out), 2) << out;
+  EXPECT_NE(out.find("missing.rec: cannot open the recording"), std::string::npos) << out;
 
   // One float of one moved body changed in a recorded tick (its checksum made good): no state
   // hash notices, the frame check does, and names the body.

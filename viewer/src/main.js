@@ -584,6 +584,7 @@ window.__viewer = {
   lastStats: () => state.lastStats,
   debug: () => (state.debug ? { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length, cuts: state.debug.cuts.length } : null),
   cutLines: () => overlay.cutCount,
+  frameEpochs: () => state.model?.entries?.map((e) => e.epoch) ?? null,
   contactMarkers: () => overlay.contactCount,
   boxCount: () => overlay.boxCount,
   selection: () => $('selection').textContent,

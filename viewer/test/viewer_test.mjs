@@ -262,7 +262,7 @@ try {
   await opage.close();
   rmSync(dir, { recursive: true, force: true });
 
-  // ---- a recording of a real `cellphys serve --record` run, opened and scrubbed ----
+  // ---- a recording of a real `cellphys serve --record` run (a spawn, then a reset), opened and scrubbed ----
   const recDir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-rec-'));
   const rec = join(recDir, 'pile.rec');
   const recording = await serve(['pile65', '--record', rec]);
@@ -271,18 +271,26 @@ try {
   await rpage.mouse.click(...(await rpage.evaluate(() => [innerWidth * 0.3, innerHeight * 0.85])));
   await rpage.keyboard.up('Shift');
   await until('the spawned box', async () => /spawned body/.test(await rpage.evaluate(() => window.__viewer.status())), 5000);
-  await sleep(1000);
+  await sleep(700);
+  await rpage.click('#reset');
+  await until('the reset', async () => (await rpage.evaluate(() => window.__viewer.join().epoch)) === 1, 5000);
+  await sleep(700);
   await rpage.close();
   await new Promise((r) => { recording.proc.on('exit', r); recording.stop(); });
   const traj = join(recDir, 'replayed.csv');
   const replayed = execFileSync(exe, ['replay', rec, '--out', traj], { encoding: 'utf8' });
   const framesMatched = Number(/(\d+) frames and \d+ stages matched/.exec(replayed)?.[1]);
-  check(framesMatched > 60 && / 1 commands/.test(replayed), 'cellphys replay re-made every recorded frame', replayed.split('\n')[0]);
-  const byStep = new Map(); // step -> body id -> [px, py, pz]
+  check(framesMatched > 60 && / 2 commands/.test(replayed), 'cellphys replay re-made every recorded frame', replayed.split('\n')[0]);
+  // The replayed trajectory by epoch (a reset takes the step counter back), step and body id.
+  const replayedAt = [new Map()];
+  let lastRowStep = -1;
   for (const l of readFileSync(traj, 'utf8').trim().split('\n').slice(1)) {
     const f = l.split(',');
-    if (!byStep.has(f[0])) byStep.set(f[0], new Map());
-    byStep.get(f[0]).set(f[2], f.slice(3, 6).map(Number));
+    if (Number(f[0]) < lastRowStep) replayedAt.push(new Map());
+    lastRowStep = Number(f[0]);
+    const at = replayedAt[replayedAt.length - 1];
+    if (!at.has(f[0])) at.set(f[0], new Map());
+    at.get(f[0]).set(f[2], f.slice(3, 6).map(Number));
   }
   const vpage = await openPage(pile.url, 'recording');
   await vpage.setInputFiles('#file', rec);
@@ -290,23 +298,37 @@ try {
   const rcount = await vpage.evaluate(() => window.__viewer.frameCount());
   check(rcount === framesMatched, 'the timeline holds every frame of the recording', `${rcount} frames in the page, ${framesMatched} replayed`);
   const scrubTo = (i) => vpage.evaluate((k) => { const s = document.getElementById('scrub'); s.value = String(k); s.dispatchEvent(new Event('input')); return window.__viewer.step(); }, i);
+  const epochs = await vpage.evaluate(() => window.__viewer.frameEpochs());
   const firstStep = await scrubTo(0), lastStep = await scrubTo(rcount - 1);
-  check(firstStep === 0 && byStep.has(String(lastStep)), 'it scrubs from the first frame to the last', `steps ${firstStep} to ${lastStep}`);
-  // A tick in the middle: every body where cellphys replay puts it at that step; the one that moved most, drawn there.
-  const mid = await scrubTo(Math.floor(rcount / 2));
-  const atMid = byStep.get(String(mid));
-  const got = await vpage.evaluate((ids) => ids.map((id) => window.__viewer.bodyState(Number(id))?.position ?? null), [...atMid.keys()]);
-  const ids = [...atMid.keys()];
-  const wrong = ids.filter((id, k) => !got[k] || got[k].some((x, c) => x !== Math.fround(atMid.get(id)[c])));
-  check(atMid.size > 60 && wrong.length === 0, "the scrubbed frame shows every body at replay's position for that step", `step ${mid}: ${atMid.size} bodies, ${wrong.length} differ${wrong.length ? ` (body ${wrong[0]})` : ''}`);
-  const start = byStep.get('0');
-  const mover = ids.filter((id) => start.has(id)).sort((a, b) => Math.abs(atMid.get(b)[2] - start.get(b)[2]) - Math.abs(atMid.get(a)[2] - start.get(a)[2]))[0];
-  const drawn = await vpage.evaluate((id) => window.__viewer.drawnPosition(Number(id)), mover);
-  check(drawn && drawn.every((x, c) => x === Math.fround(atMid.get(mover)[c])), 'and draws it there', `body ${mover} drawn at ${JSON.stringify(drawn)}, replayed ${JSON.stringify(atMid.get(mover))}`);
+  check(firstStep === 0 && replayedAt.length === 2 && epochs[0] === 0 && epochs[rcount - 1] === 1 && replayedAt[1].has(String(lastStep)),
+        'it scrubs from the first frame to the last, across the reset', `steps ${firstStep} to ${lastStep}, epochs ${epochs[0]} to ${epochs[rcount - 1]}`);
+  // The last tick before the reset (the spawned box in it) and one in the middle of the epoch after:
+  // every body where cellphys replay puts it at that step, and drawn once, there.
+  const beforeReset = epochs.lastIndexOf(0), afterReset = Math.floor((epochs.indexOf(1) + rcount) / 2);
+  for (const [index, epoch] of [[beforeReset, 0], [afterReset, 1]]) {
+    const step = await scrubTo(index);
+    const want = replayedAt[epoch].get(String(step));
+    const ids = [...want.keys()];
+    const shown = await vpage.evaluate((list) => ({
+      states: list.map((id) => window.__viewer.bodyState(Number(id))?.position ?? null),
+      drawn: list.map((id) => window.__viewer.drawnPosition(Number(id))), instances: window.__viewer.instanceCount(),
+    }), ids);
+    const same = (p, id) => p && p.every((x, c) => x === Math.fround(want.get(id)[c]));
+    const wrong = ids.filter((id, k) => !same(shown.states[k], id) || !same(shown.drawn[k], id));
+    check(want.size >= 70 && shown.instances === want.size && wrong.length === 0,
+          `epoch ${epoch}: the scrubbed frame draws every body at replay's position for that step`,
+          `step ${step}: ${want.size} bodies replayed, ${shown.instances} drawn, ${wrong.length} differ${wrong.length ? ` (body ${wrong[0]}: ${JSON.stringify(shown.drawn[ids.indexOf(wrong[0])])} vs ${JSON.stringify(want.get(wrong[0]))})` : ''}`);
+  }
   const recordedStages = await vpage.evaluate(() => window.__viewer.stageChart());
   const recLegend = await legendOf(vpage);
   check(recordedStages.points > 10 && JSON.stringify([...recLegend].sort()) === JSON.stringify(serverStages),
         "the recording's stage timings in the stage chart", `${recordedStages.points} points, ${recLegend.join(' ')}`);
+  // A recording cut short (a server killed mid-write) shows up to its last whole record, and says so.
+  await vpage.setInputFiles('#file', { name: 'cut.rec', mimeType: 'application/octet-stream', buffer: readFileSync(rec).subarray(0, Math.floor(readFileSync(rec).length / 2)) });
+  await until('the cut recording', async () => /^cut\.rec:/.test(await vpage.evaluate(() => window.__viewer.status())), 5000).catch(() => null);
+  const cutShort = await vpage.evaluate(() => ({ text: window.__viewer.status(), frames: window.__viewer.frameCount() }));
+  check(/warning: record \d+ \(byte \d+\) is cut short/.test(cutShort.text) && cutShort.frames > 10 && cutShort.frames < rcount,
+        'a recording cut short plays up to its last whole record, with a warning', `${cutShort.frames} frames: ${cutShort.text}`);
   // Files that are not recordings this page can draw: a clear message in the page.
   for (const [bytes, wanted, what] of [
     [Buffer.from('CELLREC1\x09\0\0\0\x01\0\0\0', 'latin1'), /bad\.rec: recording version 9 is not one this viewer reads/, 'an unknown version'],

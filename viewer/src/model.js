@@ -82,9 +82,17 @@ export class Model {
 }
 
 /// The frame of a join: its bodies, in an id map of its own when the model already holds bodies
-/// (a recording's reset starts a new epoch whose ids may name other bodies).
+/// (a recording's reset starts a new epoch whose ids may name other bodies). A body of the same
+/// id, shape, scale and kind as before keeps its slot: a reset brings the same bodies back.
 export function joinFrame(m, join) {
-  if (m.bodies.length) m.slotOf = new Map();
+  if (m.bodies.length) {
+    const before = m.slotOf;
+    m.slotOf = new Map();
+    for (const b of join.bodies) {
+      const s = before.get(b.id), o = s === undefined ? null : m.bodies[s];
+      if (o && o.shape === b.shape && o.scale === b.scale && o.static === ((b.flags & F_STATIC) !== 0)) m.slotOf.set(b.id, s);
+    }
+  }
   for (const b of join.bodies) m.addBody(b);
   const f = m.newFrame(join.step);
   for (const b of join.bodies) Model.setBody(f, m.slotOf.get(b.id), b, F_PRESENT | (b.flags & (F_AWAKE | F_STATIC)));

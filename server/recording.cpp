@@ -97,8 +97,9 @@ Recording read_recording(const std::string& path) {
     throw RecordingError(path + ": not a cellphys recording (no CELLREC1 header)");
   const uint32_t version = get<uint32_t>(bytes.data() + 8);
   if (version < 1 || version > kRecordingVersion)
-    throw RecordingError(path + ": recording version " + std::to_string(version) + " is not one this cellphys reads (1 to " +
-                         std::to_string(kRecordingVersion) + ")" + (version > kRecordingVersion ? ": written by a newer cellphys?" : ""));
+    throw RecordingError(path + ": recording version " + std::to_string(version) +
+                         " is not one this cellphys reads (1 to " + std::to_string(kRecordingVersion) + ")" +
+                         (version > kRecordingVersion ? ": written by a newer cellphys?" : ""));
   Recording r;
   r.version = version;
   r.frames = version >= 2 && (get<uint32_t>(bytes.data() + 12) & kRecordingFrames) != 0;
@@ -146,7 +147,8 @@ Recording read_recording(const std::string& path) {
         protocol::Header mh{};
         if (h.bytes >= 8 + sizeof mh) std::memcpy(&mh, p + 8, sizeof mh);
         const auto mt = static_cast<protocol::Type>(mh.type);
-        if (h.bytes < 8 + sizeof mh || mh.length != h.bytes - 8 || (mt != protocol::Type::join && mt != protocol::Type::tick && mt != protocol::Type::stages)) {
+        const bool state = mt == protocol::Type::join || mt == protocol::Type::tick || mt == protocol::Type::stages;
+        if (h.bytes < 8 + sizeof mh || mh.length != h.bytes - 8 || !state) {
           r.damage = where + " is not a frame: its message's header is not a join, tick or stages of its length";
           break;
         }

@@ -15,7 +15,8 @@ std::vector<unsigned char> encode_stages(uint64_t step, uint32_t epoch, const pp
   names.resize((names.size() + 3) / 4 * 4, '\0');
   constexpr size_t n = std::size(ppe::kStageTimeFields);
   Stages m{};
-  m.header = Header{static_cast<uint32_t>(sizeof m + 4 * n + names.size()), static_cast<uint16_t>(Type::stages), kVersion};
+  m.header = Header{static_cast<uint32_t>(sizeof m + 4 * n + names.size()), static_cast<uint16_t>(Type::stages),
+                    kVersion};
   m.step = step;
   m.epoch = epoch;
   m.num_stages = static_cast<uint32_t>(n);

@@ -131,12 +131,13 @@ int replay_main(int argc, char** argv) {
     std::fprintf(stderr, "cellphys replay: %s\n", e.what());
     return 2;
   }
+  const std::string frames =
+      rec.frames ? std::to_string(r.frames_checked) + " frames and " + std::to_string(r.stages_checked) + " stages matched"
+      : rec.version < 2 ? "no frames (a version-1 recording)"
+                        : "no frames (recorded with --record-frames off)";
   std::printf("world %s: %llu steps, %llu commands, %llu state hashes matched, %s\nstep %llu\nstate hash 0x%016llx\n",
               rec.world.c_str(), static_cast<unsigned long long>(r.steps), static_cast<unsigned long long>(r.commands),
-              static_cast<unsigned long long>(r.hashes_checked),
-              rec.frames ? (std::to_string(r.frames_checked) + " frames and " + std::to_string(r.stages_checked) +
-                            " stages matched").c_str()
-                         : (rec.version < 2 ? "no frames (a version-1 recording)" : "no frames (recorded with --record-frames off)"),
+              static_cast<unsigned long long>(r.hashes_checked), frames.c_str(),
               static_cast<unsigned long long>(r.final_step), static_cast<unsigned long long>(r.final_hash));
   return 0;
 }

@@ -345,6 +345,7 @@ const SHAPE_NAMES = ['sphere', 'capsule', 'box', 'hull', 'plane'];
 function debugLine(s) {
   const b = state.debugBodies?.get(s.id);
   if (s.static) return 'mass  static';
+  if (state.model?.source !== 'live') return 'mass and island: not in the file (a recording keeps no debug messages)';
   if (!b) return 'mass and island: waiting for the server';
   return `mass  ${b.mass.toPrecision(4)} kg   island ${b.island === null ? '— (asleep)' : b.island + (b.decoupled ? ' (decoupled)' : '')}`;
 }
@@ -524,6 +525,12 @@ function loadModel(model) {
   state.join = null;
   state.lastStats = null;
   state.selected = -1;
+  // The live world's debug message says nothing of a file's bodies.
+  state.debug = null;
+  state.debugBodies = null;
+  overlay.setContacts(null, shown());
+  overlay.setCuts(null);
+  renderer.islandOf = null;
   renderer.selectedSlot = -1;
   renderer.setModel(model, model.frameAt(0));
   state.live = false;

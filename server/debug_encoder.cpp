@@ -22,13 +22,16 @@ std::vector<unsigned char> encode_debug(const ppe::World& w, uint32_t epoch) {
   using namespace protocol;
   const std::vector<ppe::BodyId> ids = w.bodies();
   const std::vector<ppe::DebugContact> contacts = w.debug_contacts();
+  const std::vector<ppe::CutCoupling>& cuts = w.cut_couplings();
   Debug d{};
   d.header = Header{0, static_cast<uint16_t>(Type::debug), kVersion};
   d.step = w.last_stats().step;
   d.epoch = epoch;
   d.num_contacts = static_cast<uint32_t>(contacts.size());
+  d.num_cuts = static_cast<uint32_t>(cuts.size());
   std::vector<unsigned char> out;
-  out.reserve(sizeof d + ids.size() * sizeof(DebugBody) + contacts.size() * sizeof(protocol::DebugContact));
+  out.reserve(sizeof d + ids.size() * sizeof(DebugBody) + contacts.size() * sizeof(protocol::DebugContact) +
+              cuts.size() * sizeof(DebugCut));
   put(out, d);
   uint32_t n = 0;
   for (ppe::BodyId id : ids) {
@@ -49,6 +52,15 @@ std::vector<unsigned char> encode_debug(const ppe::World& w, uint32_t epoch) {
     std::copy(c.normal, c.normal + 3, r.normal);
     r.depth = c.depth;
     r.force = c.force;
+    put(out, r);
+  }
+  for (const ppe::CutCoupling& c : cuts) {
+    DebugCut r{};
+    r.a = c.a;
+    r.b = c.b;
+    r.force = c.force;
+    r.island = c.island;
+    std::copy(c.point, c.point + 3, r.point);
     put(out, r);
   }
   const uint32_t length = static_cast<uint32_t>(out.size());

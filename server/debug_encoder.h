@@ -1,5 +1,6 @@
 // The debug message (protocol::Debug): what the solver did in the last step, for a viewer's
-// overlays — every dynamic body's island and mass, and the contacts with their normal force.
+// overlays — every dynamic body's island and mass, the contacts with their normal force, and the
+// couplings decoupling cut.
 #pragma once
 #include <cstdint>
 #include <vector>

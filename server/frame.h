@@ -34,6 +34,8 @@ struct Frame {
   // The join's shape dictionary section (ShapeRecords and hull data), the same for a whole epoch.
   std::shared_ptr<const std::vector<unsigned char>> shapes;
   uint32_t num_shapes = 0;
+  // The stages message of the step (server/stages_encoder.h), for the clients that ask for it.
+  std::shared_ptr<const std::vector<unsigned char>> stages;
   // The debug message (server/debug_encoder.h), when some client of the room asked for it.
   std::shared_ptr<const std::vector<unsigned char>> debug;
 

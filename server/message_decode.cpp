@@ -145,4 +145,43 @@ std::string decode_status(const unsigned char* data, size_t size, StatusMessage&
   return "";
 }
 
+std::string decode_debug(const unsigned char* data, size_t size, DebugMessage& out) {
+  if (auto e = check_header(data, size, Type::debug); !e.empty()) return e;
+  Reader r(data, size);
+  out = DebugMessage{};
+  if (!r.get(out.head)) return "cut in its fixed part";
+  out.bodies.resize(out.head.num_bodies);
+  for (DebugBody& b : out.bodies)
+    if (!r.get(b)) return "cut in the bodies";
+  out.contacts.resize(out.head.num_contacts);
+  for (DebugContact& c : out.contacts)
+    if (!r.get(c)) return "cut in the contacts";
+  out.cuts.resize(out.head.num_cuts);
+  for (DebugCut& c : out.cuts)
+    if (!r.get(c)) return "cut in the cut couplings";
+  if (!r.done()) return "bytes after the cut couplings";
+  return "";
+}
+
+std::string decode_stages(const unsigned char* data, size_t size, StagesMessage& out) {
+  if (auto e = check_header(data, size, Type::stages); !e.empty()) return e;
+  Reader r(data, size);
+  out = StagesMessage{};
+  if (!r.get(out.head)) return "cut in its fixed part";
+  std::vector<float> ms(out.head.num_stages);
+  for (float& v : ms)
+    if (!r.get(v)) return "cut in the times";
+  std::string names;
+  if (out.head.names_bytes % 4 || !r.bytes(out.head.names_bytes, names)) return "cut in the names";
+  if (!r.done()) return "bytes after the names";
+  size_t at = 0;
+  for (uint32_t k = 0; k < out.head.num_stages; ++k) {
+    const size_t end = names.find('\0', at);
+    if (end == std::string::npos) return "stage " + std::to_string(k) + " has no name";
+    out.stages.emplace_back(names.substr(at, end - at), ms[k]);
+    at = end + 1;
+  }
+  return "";
+}
+
 }  // namespace cellphys::server

@@ -37,6 +37,18 @@ struct StatusMessage {
   std::string text;
 };
 
+struct DebugMessage {
+  protocol::Debug head{};
+  std::vector<protocol::DebugBody> bodies;
+  std::vector<protocol::DebugContact> contacts;
+  std::vector<protocol::DebugCut> cuts;  // revision 3
+};
+
+struct StagesMessage {
+  protocol::Stages head{};
+  std::vector<std::pair<std::string, float>> stages;  // name, ms, in the server's order
+};
+
 /// The message's type (0 if it has no whole header).
 uint16_t message_type(const unsigned char* data, size_t size);
 
@@ -45,5 +57,7 @@ std::string decode_tick(const unsigned char* data, size_t size, TickMessage& out
 std::string decode_ack(const unsigned char* data, size_t size, protocol::Ack& out);
 std::string decode_error(const unsigned char* data, size_t size, ErrorMessage& out);
 std::string decode_status(const unsigned char* data, size_t size, StatusMessage& out);
+std::string decode_stages(const unsigned char* data, size_t size, StagesMessage& out);
+std::string decode_debug(const unsigned char* data, size_t size, DebugMessage& out);
 
 }  // namespace cellphys::server

@@ -18,8 +18,9 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the protocol's structs
 
 inline constexpr uint16_t kVersion = 1;
 // Additions that keep every revision-1 message's layout, announced in Join::revision: 2 adds the
-// subscribe flag kSubscribeDebug and the debug message.
-inline constexpr uint32_t kRevision = 2;
+// subscribe flag kSubscribeDebug and the debug message; 3 the subscribe flag kSubscribeStages
+// and the stages message, and the debug message's cut couplings (in what was its reserved field).
+inline constexpr uint32_t kRevision = 3;
 
 enum class Type : uint16_t {
   // server -> client
@@ -29,6 +30,7 @@ enum class Type : uint16_t {
   error = 4,   // a command refused, or a message that could not be read
   status = 5,  // the world paused, resumed, failed or reset
   debug = 6,   // revision 2: after a tick, to clients subscribed with kSubscribeDebug: islands and contacts
+  stages = 7,  // revision 3: after a tick, to clients subscribed with kSubscribeStages: ms per stage of the step
   // client -> server
   subscribe = 32,  // interest region and precision
   spawn = 33,
@@ -166,8 +168,8 @@ struct Debug {
   uint32_t epoch;
   uint32_t num_bodies;    // every dynamic body
   uint32_t num_contacts;  // contacts of awake bodies in the step and those kept by sleeping groups
-  uint32_t reserved;
-  // then: num_bodies x DebugBody | num_contacts x DebugContact
+  uint32_t num_cuts;      // revision 3 (0 before): couplings the step's decoupling cut
+  // then: num_bodies x DebugBody | num_contacts x DebugContact | num_cuts x DebugCut
 };
 static_assert(sizeof(Debug) == 32);
 
@@ -190,6 +192,34 @@ struct DebugContact {
   float force;        // N, the contact spring's force at that depth (ppe::DebugContact)
 };
 static_assert(sizeof(DebugContact) == 40);
+
+inline constexpr uint32_t kNoForce = 0xFFFFFFFFu;
+
+// A coupling the decoupling stage cut (revision 3): a contact or force between bodies of one
+// island that its cut put in different parts, each part holding the other body as a ghost.
+struct DebugCut {
+  uint32_t a, b;     // body ids (both dynamic, of the same island)
+  uint32_t force;    // the force's id, or kNoForce for a contact
+  uint32_t island;   // as DebugBody::island numbers them
+  float point[3];    // a contact's point (world); zero for a force
+  uint32_t reserved;
+};
+static_assert(sizeof(DebugCut) == 32);
+
+// The wall time of each stage of the tick's step (revision 3), as ppe::StageTimes names them
+// (runtime/ppe/step_stats.h): the list is the server's, so a client draws whatever stages it
+// names. The one named "total" is the whole step; the others are its parts.
+struct Stages {
+  Header header;
+  uint64_t step;
+  uint32_t epoch;
+  uint32_t num_stages;
+  uint32_t names_bytes;  // the names section, padded
+  uint32_t reserved;
+  // then: num_stages x f32 ms | names: num_stages UTF-8 names, each ended by a zero byte, the
+  // whole padded with zeros to names_bytes (a multiple of 4)
+};
+static_assert(sizeof(Stages) == 32);
 
 struct Ack {
   Header header;
@@ -238,6 +268,7 @@ static_assert(sizeof(Status) == 24);
 inline constexpr uint32_t kSubscribeQuantised = 1u;
 inline constexpr uint32_t kSubscribeRegion = 2u;  // only bodies whose centre is in [min, max]
 inline constexpr uint32_t kSubscribeDebug = 4u;   // revision 2: a debug message after every tick
+inline constexpr uint32_t kSubscribeStages = 8u;  // revision 3: a stages message after every tick
 
 struct Subscribe {
   Header header;

@@ -10,6 +10,7 @@ const char* type_name(uint16_t type) {
     case Type::error: return "error";
     case Type::status: return "status";
     case Type::debug: return "debug";
+    case Type::stages: return "stages";
     case Type::subscribe: return "subscribe";
     case Type::spawn: return "spawn";
     case Type::remove: return "remove";

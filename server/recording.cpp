@@ -6,13 +6,13 @@
 #include <iterator>
 
 #include "runtime/spu/island_image.h"
+#include "server/protocol.h"
 
 namespace cellphys::server {
 
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'R', 'E', 'C', '1'};
-constexpr uint32_t kRecordingVersion = 1;
 
 struct RecordHeader {
   uint32_t type, bytes, checksum, reserved;
@@ -34,10 +34,10 @@ T get(const unsigned char* p) {
 
 }  // namespace
 
-RecordingWriter::RecordingWriter(const std::string& path) : path_(path) {
+RecordingWriter::RecordingWriter(const std::string& path, bool frames) : path_(path), frames_(frames) {
   f_ = std::fopen(path.c_str(), "wb");
   if (!f_) throw RecordingError(path + ": cannot create the recording: " + std::strerror(errno));
-  uint32_t head[2] = {kRecordingVersion, 0};
+  uint32_t head[2] = {kRecordingVersion, frames ? kRecordingFrames : 0u};
   if (std::fwrite(kMagic, 1, 8, f_) != 8 || std::fwrite(head, 4, 2, f_) != 2) failed_ = true;
 }
 
@@ -72,6 +72,10 @@ void RecordingWriter::hash(uint64_t step, uint64_t state_hash) {
   record(RecordType::hash, reinterpret_cast<const unsigned char*>(v), sizeof v);
 }
 
+void RecordingWriter::frame(uint64_t step, const std::vector<unsigned char>& message) {
+  record(RecordType::frame, reinterpret_cast<const unsigned char*>(&step), 8, message.data(), message.size());
+}
+
 void RecordingWriter::flush() {
   if (f_ && std::fflush(f_) != 0) failed_ = true;
 }
@@ -91,10 +95,14 @@ Recording read_recording(const std::string& path) {
   const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (bytes.size() < 16 || std::memcmp(bytes.data(), kMagic, 8) != 0)
     throw RecordingError(path + ": not a cellphys recording (no CELLREC1 header)");
-  if (get<uint32_t>(bytes.data() + 8) != kRecordingVersion)
-    throw RecordingError(path + ": recording version " + std::to_string(get<uint32_t>(bytes.data() + 8)) +
-                         " is not this cellphys's (" + std::to_string(kRecordingVersion) + ")");
+  const uint32_t version = get<uint32_t>(bytes.data() + 8);
+  if (version < 1 || version > kRecordingVersion)
+    throw RecordingError(path + ": recording version " + std::to_string(version) +
+                         " is not one this cellphys reads (1 to " + std::to_string(kRecordingVersion) + ")" +
+                         (version > kRecordingVersion ? ": written by a newer cellphys?" : ""));
   Recording r;
+  r.version = version;
+  r.frames = version >= 2 && (get<uint32_t>(bytes.data() + 12) & kRecordingFrames) != 0;
   size_t at = 16, count = 0;
   bool have_world = false;
   while (at < bytes.size()) {
@@ -135,6 +143,16 @@ Recording read_recording(const std::string& path) {
           break;
         }
         e.hash = get<uint64_t>(p + 8);
+      } else if (type == RecordType::frame && version >= 2) {
+        protocol::Header mh{};
+        if (h.bytes >= 8 + sizeof mh) std::memcpy(&mh, p + 8, sizeof mh);
+        const auto mt = static_cast<protocol::Type>(mh.type);
+        const bool state = mt == protocol::Type::join || mt == protocol::Type::tick || mt == protocol::Type::stages;
+        if (h.bytes < 8 + sizeof mh || mh.length != h.bytes - 8 || !state) {
+          r.damage = where + " is not a frame: its message's header is not a join, tick or stages of its length";
+          break;
+        }
+        e.message.assign(p + 8, p + h.bytes);
       } else if (type == RecordType::command) {
         CommandError err;
         if (!decode_client_message(p + 8, h.bytes - 8, e.command, err)) {

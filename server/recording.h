@@ -1,16 +1,21 @@
-// Recordings of a served world (`cellphys serve --record`, `cellphys replay`): the world's
-// starting snapshot, then every applied command with the step it was applied at, and the state
-// hash after every step. Records are appended with a length and checksum each and flushed every
-// tick, so the file of a server that was killed reads up to its last whole record; a clean stop
-// appends an end record.
+// Recordings of a served world (`cellphys serve --record`, `cellphys replay`, the viewer): the
+// world's starting snapshot, then every applied command with the step it was applied at, the
+// state hash after every step and (version 2, unless `--record-frames off`) the state messages
+// the server sent: the bytes a client watching every body at full precision got
+// (server/watcher_stream.h), so a recording can be drawn without simulating it. Records are
+// appended with a length and checksum each and flushed every tick, so the file of a server that
+// was killed reads up to its last whole record; a clean stop appends an end record.
 //
-// File: "CELLREC1" | u32 version | u32 0 | records. Record: u32 type | u32 payload bytes |
-// u32 checksum (spu::checksum of the record with this field zero, then of the payload) | u32 0 |
-// payload:
+// File: "CELLREC1" | u32 version (1 or 2) | u32 flags (version 2: 1 = frames recorded; 0 in
+// version 1) | records. Record: u32 type | u32 payload bytes | u32 checksum (spu::checksum of the
+// record with this field zero, then of the payload) | u32 0 | payload:
 //   world    u32 name bytes | name | World::snapshot() bytes
 //   command  u64 step | the command's protocol bytes (server/protocol.h)
 //   hash     u64 step | u64 World::state_hash() after that step
 //   end      u64 step | u64 state hash
+//   frame    u64 step | one server message's protocol bytes: a join or a tick, each followed by
+//            the stages message of the same frame (version 2)
+// A frame follows the command and hash records of its tick (docs/server.md, "Recording").
 #pragma once
 #include <cstdint>
 #include <cstdio>
@@ -27,12 +32,16 @@ class RecordingError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class RecordType : uint32_t { world = 1, command = 2, hash = 3, end = 4 };
+enum class RecordType : uint32_t { world = 1, command = 2, hash = 3, end = 4, frame = 5 };
+
+inline constexpr uint32_t kRecordingVersion = 2;   // what this cellphys writes; it reads 1 and 2
+inline constexpr uint32_t kRecordingFrames = 1u;   // header flag: frame records follow each published state
 
 class RecordingWriter {
  public:
-  /// Creates (or truncates) the file; throws RecordingError naming it.
-  explicit RecordingWriter(const std::string& path);
+  /// Creates (or truncates) the file; throws RecordingError naming it. `frames`: the state
+  /// messages will be recorded (the header says so).
+  explicit RecordingWriter(const std::string& path, bool frames = true);
   ~RecordingWriter();
   RecordingWriter(const RecordingWriter&) = delete;
   RecordingWriter& operator=(const RecordingWriter&) = delete;
@@ -40,6 +49,9 @@ class RecordingWriter {
   void world(const std::string& name, const std::vector<unsigned char>& snapshot);
   void command(uint64_t step, const Command& c);
   void hash(uint64_t step, uint64_t state_hash);
+  /// A state message as sent, for the frame at `step`.
+  void frame(uint64_t step, const std::vector<unsigned char>& message);
+  bool frames() const { return frames_; }
   /// Pushes what was written to the file (every tick).
   void flush();
   /// Appends the end record and closes; throws RecordingError if a write failed at any point.
@@ -51,6 +63,7 @@ class RecordingWriter {
   std::string path_;
   FILE* f_ = nullptr;
   bool failed_ = false;
+  bool frames_ = true;
 };
 
 struct RecordEntry {
@@ -58,9 +71,12 @@ struct RecordEntry {
   uint64_t step = 0;
   uint64_t hash = 0;  // hash, end
   Command command;    // command
+  std::vector<unsigned char> message;  // frame: the server message's bytes
 };
 
 struct Recording {
+  uint32_t version = kRecordingVersion;
+  bool frames = false;  // the state messages were recorded (version 2 and its header's flag)
   std::string world;
   std::vector<unsigned char> snapshot;
   std::vector<RecordEntry> entries;  // after the world record, in file order (the end record last, if any)
@@ -71,7 +87,7 @@ struct Recording {
 };
 
 /// Reads a recording; throws RecordingError naming the file when it is missing, not a
-/// recording, or has no sound world record.
+/// recording, of a version this cellphys does not read, or has no sound world record.
 Recording read_recording(const std::string& path);
 
 }  // namespace cellphys::server

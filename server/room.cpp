@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <stdexcept>
 
 #include "server/debug_encoder.h"
+#include "server/frame_builder.h"
 #include "server/replies.h"
 #include "server/state_encoder.h"
 
@@ -34,11 +34,11 @@ Room::Room(std::string name, std::string source, std::unique_ptr<ppe::World> wor
   world.reset();
   shapes_ = std::make_shared<const std::vector<unsigned char>>(encode_shapes(commands_.world().shapes()));
   if (!options_.record.empty()) {
-    recorder_ = std::make_unique<RecordingWriter>(options_.record);
+    recorder_ = std::make_unique<RecordingWriter>(options_.record, options_.record_frames);
     recorder_->world(name_, commands_.initial_snapshot());
-    recorder_->flush();
   }
   publish();
+  if (recorder_) recorder_->flush();
 }
 
 Room::~Room() { stop(); }
@@ -139,17 +139,13 @@ void Room::tick() {
   }
   bool changed = false;
   for (const Pending& p : batch) apply(p, changed);
-  const bool stepping = !failed_ && (!paused_ || step_once_);
-  if (stepping) {
+  if (!failed_ && play_.steps()) {
     step_world();
-    if (step_once_) {
-      step_once_ = false;
-      paused_ = true;
-    }
+    play_.stepped();
     changed = true;
   }
-  if (recorder_) recorder_->flush();
   if (changed) publish();
+  if (recorder_) recorder_->flush();
 }
 
 void Room::apply(const Pending& p, bool& changed) {
@@ -178,18 +174,10 @@ void Room::apply(const Pending& p, bool& changed) {
     std::lock_guard<std::mutex> lock(metrics_mutex_);
     ++accepted_;
   }
-  bool status = false;
-  switch (type) {
-    case Type::pause: status = !paused_; paused_ = true; break;
-    case Type::resume: status = paused_; paused_ = false; step_once_ = false; break;
-    case Type::step_once: step_once_ = true; break;
-    case Type::reset:
-      ++epoch_;
-      failed_ = false;
-      error_.clear();
-      status = true;
-      break;
-    default: break;
+  const bool status = play_.applied(c.type);
+  if (type == Type::reset) {
+    failed_ = false;
+    error_.clear();
   }
   changed = true;
   reply(encode_ack(c, step, a.result));
@@ -223,44 +211,20 @@ void Room::step_world() {
 
 void Room::publish() {
   const ppe::World& w = commands_.world();
-  auto f = std::make_shared<Frame>();
-  f->world = name_;
-  f->seq = ++seq_;
-  f->step = w.last_stats().step;
-  f->epoch = epoch_;
-  f->paused = paused_;
-  f->dt = w.settings().dt;
-  f->tick_hz = options_.fast ? 0.0f : static_cast<float>(options_.tick_hz);
-  f->state_hash = w.state_hash();
-  const ppe::StepStats& st = w.last_stats();
-  f->stats = protocol::TickStats{static_cast<float>(last_step_ms_), st.active_bodies, st.sleeping_bodies, st.contacts,
-                                 st.islands, st.solver_iterations, st.failed_islands, st.step_halvings};
-  f->shapes = shapes_;
-  f->num_shapes = static_cast<uint32_t>(w.shapes().size());
+  FrameContext at;
+  at.world = name_;
+  at.seq = ++seq_;
+  at.epoch = play_.epoch;
+  at.paused = play_.paused;
+  at.tick_hz = options_.fast ? 0.0f : static_cast<float>(options_.tick_hz);
+  at.step_ms = last_step_ms_;
+  at.shapes = shapes_;
+  const std::shared_ptr<Frame> f = build_frame(w, at, latest().get());
   if (debug_clients_.load(std::memory_order_relaxed) > 0)
-    f->debug = std::make_shared<const std::vector<unsigned char>>(encode_debug(w, epoch_));
-  const std::shared_ptr<const Frame> prev = latest();
-  const bool same_epoch = prev && prev->epoch == epoch_;
-  const std::vector<ppe::BodyId> ids = w.bodies();
-  f->bodies.reserve(ids.size());
-  size_t k = 0;
-  for (ppe::BodyId id : ids) {
-    FrameBody b;
-    b.id = id;
-    b.shape = w.shape(id);
-    b.scale = w.scale(id);
-    b.state = w.state(id);
-    b.flags = (w.is_awake(id) ? protocol::kBodyAwake : 0u) | (w.is_static(id) ? protocol::kBodyStatic : 0u) |
-              (w.shapes().is_static_infinite(b.shape) ? protocol::kBodyUnbounded : 0u);
-    b.changed = f->seq;
-    if (same_epoch) {
-      while (k < prev->bodies.size() && prev->bodies[k].id < id) ++k;
-      if (k < prev->bodies.size() && prev->bodies[k].id == id) {
-        const FrameBody& p = prev->bodies[k];
-        if (std::memcmp(&p.state, &b.state, sizeof b.state) == 0) b.changed = p.changed;  // moved: its state's bits
-      }
-    }
-    f->bodies.push_back(b);
+    f->debug = std::make_shared<const std::vector<unsigned char>>(encode_debug(w, play_.epoch));
+  if (recorder_ && recorder_->frames()) {
+    recorder_->frame(f->step, *recorded_.next(*f));
+    recorder_->frame(f->step, *f->stages);
   }
   {
     std::lock_guard<std::mutex> lock(frame_mutex_);
@@ -276,10 +240,10 @@ void Room::broadcast(Message message) {
 void Room::broadcast_status() {
   const uint64_t step = commands_.world().last_stats().step;
   using protocol::WorldState;
-  const WorldState s = failed_ ? WorldState::failed : paused_ ? WorldState::paused : WorldState::running;
+  const WorldState s = failed_ ? WorldState::failed : play_.paused ? WorldState::paused : WorldState::running;
   {
     std::lock_guard<std::mutex> lock(metrics_mutex_);
-    state_ = failed_ ? "failed" : paused_ ? "paused" : "running";
+    state_ = failed_ ? "failed" : play_.paused ? "paused" : "running";
     reported_error_ = error_;
   }
   broadcast(encode_status(s, step, error_));

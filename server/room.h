@@ -17,7 +17,9 @@
 
 #include "server/command.h"
 #include "server/frame.h"
+#include "server/play_state.h"
 #include "server/recording.h"
+#include "server/watcher_stream.h"
 #include "server/world_commands.h"
 
 namespace cellphys::server {
@@ -51,6 +53,7 @@ struct RoomOptions {
   double tick_hz = 60;  // steps per real second
   bool fast = false;    // step as fast as possible
   std::string record;   // recording file, or none
+  bool record_frames = true;  // the recording keeps the state messages sent (server/recording.h)
   CommandLimits limits;
   // Test hooks (`cellphys serve --fault`): the step that would reach fault_throw_at throws (once);
   // every tick sleeps fault_slow_ms inside the step (a world under load).
@@ -120,11 +123,12 @@ class Room {
   const RoomOptions options_;
   WorldCommands commands_;
   std::unique_ptr<RecordingWriter> recorder_;
+  WatcherStream recorded_;  // the state messages the recording keeps
 
   // The room thread's own state.
-  bool paused_ = false, step_once_ = false, failed_ = false, fault_fired_ = false;
+  PlayState play_;
+  bool failed_ = false, fault_fired_ = false;
   std::string error_;
-  uint32_t epoch_ = 0;
   uint64_t seq_ = 0;
   double last_step_ms_ = 0;
   std::shared_ptr<const std::vector<unsigned char>> shapes_;

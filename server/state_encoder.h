@@ -16,6 +16,7 @@ struct Interest {
   bool quantised = false;
   bool region = false;
   bool debug = false;  // a debug message after every tick (protocol revision 2)
+  bool stages = false; // a stages message after every tick (protocol revision 3)
   float min[3] = {}, max[3] = {};
   bool contains(const FrameBody& b) const;
 };

@@ -96,6 +96,7 @@ void WsSession::handle(const unsigned char* data, size_t size) {
     next.quantised = (s.flags & protocol::kSubscribeQuantised) != 0;
     next.region = (s.flags & protocol::kSubscribeRegion) != 0;
     next.debug = (s.flags & protocol::kSubscribeDebug) != 0;
+    next.stages = (s.flags & protocol::kSubscribeStages) != 0;
     if (next.region) {
       for (int k = 0; k < 3; ++k) {
         const std::string axis = "[" + std::to_string(k) + "]";
@@ -187,9 +188,9 @@ std::shared_ptr<const std::vector<unsigned char>> WsSession::encode(const Frame&
 
 void WsSession::maybe_write() {
   if (!open_ || closed_ || writing_) return;
-  if (debug_next_) {  // the debug message follows its tick
-    writing_ = std::move(debug_next_);
-    debug_next_.reset();
+  if (!follow_.empty()) {  // the stages and debug messages follow their tick
+    writing_ = std::move(follow_.front());
+    follow_.pop_front();
   } else if (!control_.empty()) {
     writing_ = std::move(control_.front());
     control_.pop_front();
@@ -198,7 +199,8 @@ void WsSession::maybe_write() {
     pending_.reset();
     if (joined_ && f->seq <= last_seq_ && f->epoch == epoch_) return;  // already sent
     writing_ = encode(*f);
-    if (interest_.debug && f->debug) debug_next_ = f->debug;
+    if (interest_.stages && f->stages) follow_.push_back(f->stages);
+    if (interest_.debug && f->debug) follow_.push_back(f->debug);
   } else {
     return;
   }

@@ -64,7 +64,8 @@ class WsSession : public ClientSink, public std::enable_shared_from_this<WsSessi
   std::deque<std::shared_ptr<const std::vector<unsigned char>>> control_;
   std::shared_ptr<const Frame> pending_;
   std::shared_ptr<const std::vector<unsigned char>> writing_;
-  std::shared_ptr<const std::vector<unsigned char>> debug_next_;  // written right after the tick it follows
+  // The stages and debug messages of the frame just written, written right after it, in order.
+  std::deque<std::shared_ptr<const std::vector<unsigned char>>> follow_;
   std::chrono::steady_clock::time_point write_started_;
   bool open_ = false, closed_ = false;
 };

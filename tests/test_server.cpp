@@ -6,10 +6,14 @@
 // stops reading, record and replay, and /metrics. Plus, in process, the quantisation error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
 #include <set>
 #include <string>
 #include <thread>
@@ -17,6 +21,8 @@
 #include <nlohmann/json.hpp>
 
 #include "runtime/scene/scene.h"
+#include "runtime/spu/island_image.h"
+#include "server/debug_encoder.h"
 #include "server/message_decode.h"
 #include "server/quantise.h"
 #include "server/state_encoder.h"
@@ -95,6 +101,36 @@ TEST(Server, JoinCarriesTheShapeDictionaryThenTicksCarryOnlyWhatChanged) {
   size_t moved = 0;
   for (const auto& t : c.ticks) moved += t.moved.size();
   EXPECT_GT(moved, 0u);  // the pile is falling into its bin
+  EXPECT_EQ(c.last_problem, "");
+}
+
+// Revision 3: a client that asks gets a stages message after each state message, for its step,
+// with every stage the step times, by name; one that does not ask gets none.
+TEST(Server, StagesFollowEachTickWithEveryNamedStage) {
+  ServeProcess s = serve({"pile65"});
+  ServerClient c(s.port(), "pile65"), quiet(s.port(), "pile65");
+  ASSERT_TRUE(c.until([&] { return c.joins == 1; }));
+  EXPECT_EQ(c.join.head.revision, 3u);
+  p::Subscribe sub{};
+  sub.flags = p::kSubscribeStages;
+  c.subscribe(sub);
+  ASSERT_TRUE(c.until([&] { return c.stages.size() >= 30; }));
+  ASSERT_TRUE(quiet.until([&] { return quiet.ticks.size() >= 30; }));
+  EXPECT_TRUE(quiet.stages.empty());
+  for (size_t k = 0; k < c.stages.size(); ++k) {
+    const cellphys::server::StagesMessage& m = c.stages[k];
+    EXPECT_EQ(m.head.step, c.stages_after[k]);
+    ASSERT_EQ(m.stages.size(), std::size(cellphys::ppe::kStageTimeFields));
+    float total = -1;
+    for (size_t i = 0; i < m.stages.size(); ++i) {
+      EXPECT_EQ(m.stages[i].first, cellphys::ppe::kStageTimeFields[i].name);
+      EXPECT_TRUE(std::isfinite(m.stages[i].second) && m.stages[i].second >= 0) << m.stages[i].first;
+      if (m.stages[i].first == "total") total = m.stages[i].second;
+    }
+    for (const auto& [name, ms] : m.stages) EXPECT_LE(ms, total) << name << " at step " << m.head.step;
+  }
+  // A step's stages add up to time spent: the pile's first steps collide and integrate.
+  EXPECT_GT(c.stages.back().stages.back().second, 0.0f);
   EXPECT_EQ(c.last_problem, "");
 }
 
@@ -386,6 +422,67 @@ TEST(Server, AClientThatStopsReadingIsDroppedAndTheTickHolds) {
 #endif
 }
 
+// `cellphys replay FILE [args]`: its exit code, and its standard output and error in `out`.
+int replay(const fs::path& file, std::string& out, const std::string& args = "") {
+  const std::string cmd = "'" + kExe + "' replay '" + file.string() + "' " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
+  const int st = pclose(pipe);
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+// A recording's records (server/recording.h), to read and rewrite files as other versions or
+// damaged ones would be.
+struct RecordFile {
+  struct Record {
+    uint32_t type;
+    std::vector<unsigned char> payload;
+  };
+  uint32_t version = 0, flags = 0;
+  std::vector<Record> records;
+
+  static RecordFile read(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<unsigned char> b((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    RecordFile f;
+    std::memcpy(&f.version, b.data() + 8, 4);
+    std::memcpy(&f.flags, b.data() + 12, 4);
+    for (size_t at = 16; at + 16 <= b.size();) {
+      uint32_t h[4];
+      std::memcpy(h, b.data() + at, 16);
+      if (at + 16 + h[1] > b.size()) break;
+      f.records.push_back({h[0], std::vector<unsigned char>(b.begin() + at + 16, b.begin() + at + 16 + h[1])});
+      at += 16 + h[1];
+    }
+    return f;
+  }
+  void write(const fs::path& path) const {
+    std::ofstream o(path, std::ios::binary);
+    o.write("CELLREC1", 8);
+    o.write(reinterpret_cast<const char*>(&version), 4);
+    o.write(reinterpret_cast<const char*>(&flags), 4);
+    for (const Record& r : records) {
+      uint32_t h[4] = {r.type, static_cast<uint32_t>(r.payload.size()), 0, 0};
+      // The record's checksum, as the writer makes it: its header with this field zero, then the payload.
+      h[2] = cellphys::spu::checksum(r.payload.data(), r.payload.size(),
+                                     cellphys::spu::checksum(reinterpret_cast<const unsigned char*>(h), 16));
+      o.write(reinterpret_cast<const char*>(h), 16);
+      o.write(reinterpret_cast<const char*>(r.payload.data()), static_cast<std::streamsize>(r.payload.size()));
+    }
+  }
+  size_t count(uint32_t type) const {
+    return static_cast<size_t>(std::count_if(records.begin(), records.end(), [&](const Record& r) { return r.type == type; }));
+  }
+  // Frame records holding a message of this type.
+  size_t count_messages(p::Type type) const {
+    size_t n = 0;
+    for (const Record& r : records)
+      n += r.type == 5 && cellphys::server::message_type(r.payload.data() + 8, r.payload.size() - 8) == uint16_t(type);
+    return n;
+  }
+};
+
 TEST(Server, ARecordingReplaysToTheLiveStateHash) {
   const fs::path dir = fs::temp_directory_path() / ("cellphys_server_" + std::to_string(getpid()));
   fs::create_directories(dir);
@@ -428,19 +525,19 @@ TEST(Server, ARecordingReplaysToTheLiveStateHash) {
     live_step = m["step"];
     EXPECT_EQ(s.stop(SIGTERM), 0);
   }
-  auto replay = [&](const fs::path& file, std::string& out) {
-    const std::string cmd = "'" + kExe + "' replay '" + file.string() + "' 2>&1";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    char buf[4096];
-    while (size_t n = fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
-    const int st = pclose(pipe);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  };
   std::string out;
   EXPECT_EQ(replay(rec, out), 0) << out;
   EXPECT_NE(out.find("state hash " + live_hash), std::string::npos) << out << " live " << live_hash;
   EXPECT_NE(out.find("step " + std::to_string(live_step) + "\n"), std::string::npos) << out;
   EXPECT_NE(out.find(" 7 commands"), std::string::npos) << out;
+  // Every frame the server recorded (two joins: the start and the reset) made again, byte for byte.
+  const RecordFile file = RecordFile::read(rec);
+  const size_t frames = file.count_messages(p::Type::join) + file.count_messages(p::Type::tick);
+  EXPECT_NE(out.find(" " + std::to_string(frames) + " frames and " + std::to_string(frames) + " stages matched"),
+            std::string::npos) << out;
+  EXPECT_EQ(file.count_messages(p::Type::stages), frames);
+  EXPECT_GT(frames, 30u);
+  EXPECT_EQ(file.count_messages(p::Type::join), 2u);
 
   // A server killed outright leaves a recording that still replays, up to its last whole record.
   const fs::path killed = dir / "killed.rec";
@@ -454,6 +551,7 @@ TEST(Server, ARecordingReplaysToTheLiveStateHash) {
   }
   out.clear();
   EXPECT_EQ(replay(killed, out), 0) << out;
+  EXPECT_NE(out.find("stages matched"), std::string::npos) << out;
   // (killed between records, or in the middle of one)
   EXPECT_TRUE(out.find("no end record") != std::string::npos || out.find("cut short") != std::string::npos) << out;
   EXPECT_NE(out.find("1 commands"), std::string::npos) << out;
@@ -468,6 +566,106 @@ TEST(Server, ARecordingReplaysToTheLiveStateHash) {
   out.clear();
   EXPECT_EQ(replay(killed, out), 0) << out;
   EXPECT_NE(out.find("damaged"), std::string::npos) << out;
+  fs::remove_all(dir);
+}
+
+// Recording format 2 (frames), --record-frames off, version 1 files, unknown versions, files that
+// are no recording, and replay's frame check catching a frame that differs where no hash does.
+TEST(Server, RecordingFormatsAndTheFrameCheck) {
+  const fs::path dir = fs::temp_directory_path() / ("cellphys_recfmt_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const fs::path with = dir / "frames.rec", without = dir / "noframes.rec";
+  for (const fs::path& rec : {with, without}) {
+    std::vector<std::string> args = {"pile65", "--record", rec.string()};
+    if (rec == without) args.insert(args.end(), {"--record-frames", "off"});
+    ServeProcess s = serve(args);
+    ServerClient c(s.port(), "pile65", s.token());
+    ASSERT_TRUE(c.until([&] { return c.ticks.size() > 5; }));
+    ASSERT_TRUE(c.answer(c.command(p::Type::spawn, spawn_box(6, 0, 1))));
+    ASSERT_TRUE(c.until([&] { return c.ticks.size() > 40; }));
+    EXPECT_EQ(s.stop(SIGTERM), 0);
+  }
+  const RecordFile f2 = RecordFile::read(with), off = RecordFile::read(without);
+  EXPECT_EQ(f2.version, 2u);
+  EXPECT_EQ(f2.flags, 1u);
+  EXPECT_EQ(f2.count_messages(p::Type::join), 1u);
+  EXPECT_GT(f2.count_messages(p::Type::tick), 40u);
+  EXPECT_EQ(off.flags, 0u);
+  EXPECT_EQ(off.count(5), 0u);
+  EXPECT_EQ(off.count(2), 1u);
+  EXPECT_LT(fs::file_size(without), fs::file_size(with));
+
+  std::string out;
+  EXPECT_EQ(replay(with, out), 0) << out;
+  EXPECT_NE(out.find(" " + std::to_string(f2.count(5) / 2) + " frames and "), std::string::npos) << out;
+  const std::string hash_line = out.substr(out.find("state hash "));
+  out.clear();
+  EXPECT_EQ(replay(without, out), 0) << out;
+  EXPECT_NE(out.find("no frames (recorded with --record-frames off)"), std::string::npos) << out;
+
+  // Version 1, as the previous format wrote it: the same records without frames, flags 0.
+  RecordFile v1 = f2;
+  v1.version = 1;
+  v1.flags = 0;
+  v1.records.erase(std::remove_if(v1.records.begin(), v1.records.end(), [](const RecordFile::Record& r) { return r.type == 5; }),
+                   v1.records.end());
+  v1.write(dir / "v1.rec");
+  out.clear();
+  EXPECT_EQ(replay(dir / "v1.rec", out), 0) << out;
+  EXPECT_NE(out.find("no frames (a version-1 recording)"), std::string::npos) << out;
+  EXPECT_NE(out.find(hash_line), std::string::npos) << out << " wanted " << hash_line;
+
+  // A version this cellphys does not know, and a file that is no recording: refused, naming the file.
+  RecordFile v3 = f2;
+  v3.version = 3;
+  v3.write(dir / "v3.rec");
+  out.clear();
+  EXPECT_EQ(replay(dir / "v3.rec", out), 2) << out;
+  EXPECT_NE(out.find((dir / "v3.rec").string() + ": recording version 3 is not one this cellphys reads (1 to 2)"),
+            std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(replay(kScenes + "/pile65.json", out), 2) << out;
+  EXPECT_NE(out.find("pile65.json: not a cellphys recording"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(replay(dir / "missing.rec", out), 2) << out;
+  EXPECT_NE(out.find("missing.rec: cannot open the recording"), std::string::npos) << out;
+
+  // One float of one moved body changed in a recorded tick (its checksum made good): no state
+  // hash notices, the frame check does, and names the body.
+  RecordFile bad = f2;
+  size_t k = 0;
+  int ticks_seen = 0;
+  for (; k < bad.records.size(); ++k) {
+    const auto& r = bad.records[k];
+    if (r.type != 5 || cellphys::server::message_type(r.payload.data() + 8, r.payload.size() - 8) != uint16_t(p::Type::tick)) continue;
+    p::Tick t;
+    std::memcpy(&t, r.payload.data() + 8, sizeof t);
+    if (t.num_moved > 0 && t.num_entered == 0 && ++ticks_seen == 10) break;
+  }
+  ASSERT_LT(k, bad.records.size());
+  uint64_t bad_step;
+  std::memcpy(&bad_step, bad.records[k].payload.data(), 8);
+  p::BodyMoved moved;
+  std::memcpy(&moved, bad.records[k].payload.data() + 8 + sizeof(p::Tick), sizeof moved);
+  moved.position[2] += 0.25f;
+  std::memcpy(bad.records[k].payload.data() + 8 + sizeof(p::Tick), &moved, sizeof moved);
+  bad.write(dir / "bad.rec");
+  out.clear();
+  EXPECT_EQ(replay(dir / "bad.rec", out), 1) << out;
+  EXPECT_NE(out.find("the frame at step " + std::to_string(bad_step) + " differs from the recorded one"), std::string::npos) << out;
+  EXPECT_NE(out.find("moved record 0, body " + std::to_string(moved.id) + ")"), std::string::npos) << out;
+  // A stages message naming a stage this build does not have (one letter of its first name changed).
+  RecordFile renamed = f2;
+  for (auto& r : renamed.records)
+    if (r.type == 5 && cellphys::server::message_type(r.payload.data() + 8, r.payload.size() - 8) == uint16_t(p::Type::stages)) {
+      const size_t names = 8 + sizeof(p::Stages) + 4 * std::size(cellphys::ppe::kStageTimeFields);
+      r.payload[names] ^= 0x20;  // "broad" -> "Broad"
+      break;
+    }
+  renamed.write(dir / "renamed.rec");
+  out.clear();
+  EXPECT_EQ(replay(dir / "renamed.rec", out), 1) << out;
+  EXPECT_NE(out.find("differs from the recorded one: stages of"), std::string::npos) << out;
   fs::remove_all(dir);
 }
 
@@ -508,6 +706,42 @@ TEST(Server, MetricsAreJsonWithEveryField) {
   EXPECT_EQ(status, 200);
   EXPECT_NE(page.find("/ws?world=pile65"), std::string::npos);
   EXPECT_EQ(cellphys::test::http_get(s.port(), "/nothing/here").first, 404);
+}
+
+// In process: the debug message of the reference pile in a 32 KiB local store (its island needs
+// 126 kB; kept awake, it settles into islands of which one or two are cut in parts every step),
+// carries every coupling the step cut, each between two bodies of the decoupled island it names,
+// at one of the step's contacts.
+TEST(DebugMessage, CarriesEveryCouplingDecouplingCut) {
+  cellphys::scene::SceneDesc desc = cellphys::scene::load_scene(kScenes + "/pile65.json");
+  desc.settings.local_store_bytes = 32 * 1024;
+  desc.settings.sleeping = false;
+  auto scene = cellphys::scene::build_world(desc);
+  cellphys::ppe::World& w = *scene.world;
+  uint32_t most = 0;
+  for (int i = 0; i < 60; ++i) {
+    const cellphys::ppe::StepStats& st = w.step();
+    const std::vector<unsigned char> bytes = cellphys::server::encode_debug(w, 0);
+    cellphys::server::DebugMessage d;
+    ASSERT_EQ(cellphys::server::decode_debug(bytes.data(), bytes.size(), d), "") << "step " << st.step;
+    ASSERT_EQ(d.cuts.size(), st.cut_couplings) << "step " << st.step;
+    ASSERT_EQ(w.cut_couplings().size(), st.cut_couplings);
+    most = std::max(most, st.cut_couplings);
+    std::map<uint32_t, p::DebugBody> bodies;
+    for (const p::DebugBody& b : d.bodies) bodies[b.id] = b;
+    for (const p::DebugCut& c : d.cuts) {
+      ASSERT_TRUE(bodies.count(c.a) && bodies.count(c.b)) << c.a << "-" << c.b;
+      EXPECT_EQ(bodies[c.a].island, c.island);
+      EXPECT_EQ(bodies[c.b].island, c.island);
+      EXPECT_TRUE(bodies[c.a].flags & p::kIslandDecoupled);
+      EXPECT_EQ(c.force, p::kNoForce);  // the pile has no forces between bodies: contacts only
+      const bool at_a_contact = std::any_of(d.contacts.begin(), d.contacts.end(), [&](const p::DebugContact& k) {
+        return ((k.a == c.a && k.b == c.b) || (k.a == c.b && k.b == c.a)) && std::memcmp(k.point, c.point, 12) == 0;
+      });
+      EXPECT_TRUE(at_a_contact) << "cut " << c.a << "-" << c.b << " at step " << st.step;
+    }
+  }
+  EXPECT_GT(most, 0u) << "the pile was never cut";
 }
 
 // In process: the quantised state of world1000's moving bodies against full precision.

@@ -29,7 +29,10 @@ const char kServeHelp[] =
     "  --workers K       compute workers (threads) per world (default: the scene's)\n"
     "  --token TOKEN     the token commands need (default: a random one)\n"
     "  --viewer DIR      files served at / (default: the source tree's viewer/dist)\n"
-    "  --record [WORLD=]FILE  record a world (default: the first) for `cellphys replay`\n"
+    "  --record [WORLD=]FILE  record a world (default: the first) for `cellphys replay` and\n"
+    "                    the viewer\n"
+    "  --record-frames on|off  keep the state messages sent in recordings, for the viewer and\n"
+    "                    replay's frame check (default on; off: commands and hashes only)\n"
     "  --rate N          commands a second a connection may send on average (default 60)\n"
     "  --burst N         and in a burst (default 120); beyond, refused with an error\n"
     "  --client-deadline S  drop a client whose write has not completed in S seconds (default 5)\n"
@@ -97,6 +100,9 @@ bool parse_serve_options(int argc, char** argv, ServeOptions& o) {
       const auto nv = named(value);
       if (nv.second.empty()) throw UsageError{"--record needs a file"};
       records.push_back(nv);
+    } else if (arg == "--record-frames") {
+      if (value != "on" && value != "off") throw UsageError{"--record-frames takes on or off, got '" + value + "'"};
+      o.record_frames = value == "on";
     } else if (arg == "--rate") {
       o.server.command_rate = parse_number(arg, value, 0.001, 1e6);
     } else if (arg == "--burst") {

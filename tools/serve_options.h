@@ -19,6 +19,7 @@ struct ServeOptions {
   server::ServerOptions server;
   double tick_hz = 60;
   bool fast = false;
+  bool record_frames = true;  // recordings keep the state messages sent (server/recording.h)
   int workers = 0;  // 0: the scene's
 };
 

@@ -189,6 +189,7 @@ const StepStats& World::step() {
       for (uint32_t id : islands[i].bodies) w.island_of[id] = static_cast<uint32_t>(i);
       w.island_decoupled[i] = i < parts.parts.size() && parts.parts[i].size() > 1;
     }
+    w.cut = cut_couplings_of(parts, w.contacts, w.forces);
   }
   stats_ = st;
   return stats_;

@@ -90,6 +90,17 @@ struct DebugContact {
 };
 inline constexpr uint32_t kNoIsland = 0xFFFFFFFFu;
 
+/// A coupling the last step's decoupling stage cut (runtime/ppe/step_decouple.h): a contact or a
+/// force between two bodies of one island that landed in different parts, so each part held the
+/// other body as a kinematic ghost. For display (World::cut_couplings()).
+struct CutCoupling {
+  BodyId a, b;
+  ForceId force;    // the force's id, or kNoForce for a contact
+  float point[3];   // a contact's point (world); zero for a force
+  uint32_t island;  // the island it was cut in (as last_island numbers them)
+};
+inline constexpr ForceId kNoForce = 0xFFFFFFFFu;
+
 /// A force instance's parameters by name, as the force table declares them.
 using ForceParams = std::vector<std::pair<std::string, std::vector<float>>>;
 
@@ -138,10 +149,12 @@ class World {
   /// For display, read by nothing in the step (runtime/ppe/world_debug.cpp): the contacts of
   /// awake bodies from the last step and those kept by sleeping groups, in no promised order;
   /// a body's island in the last step (kNoIsland: asleep, static, or added since), and whether
-  /// that island was decoupled (cut in parts, runtime/ppe/step_decouple.h).
+  /// that island was decoupled (cut in parts, runtime/ppe/step_decouple.h), and the couplings
+  /// its cuts crossed (as many as last_stats().cut_couplings counts).
   std::vector<DebugContact> debug_contacts() const;
   uint32_t last_island(BodyId id) const;
   bool island_decoupled(uint32_t island) const;
+  const std::vector<CutCoupling>& cut_couplings() const;
   /// Warnings from the last add/set call (e.g. a quaternion normalised).
   const std::vector<std::string>& warnings() const { return warnings_; }
   double kinetic_energy() const;

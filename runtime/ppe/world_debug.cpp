@@ -1,7 +1,9 @@
 // What the last step saw, for display (debug overlays): its contacts with an estimate of their
-// normal force, and each body's island. Read-only: nothing here feeds the step.
+// normal force, each body's island, and the couplings decoupling cut. Read-only: nothing here
+// feeds the step.
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "runtime/ppe/world_impl.h"
 
@@ -49,6 +51,32 @@ uint32_t World::last_island(BodyId id) const {
 
 bool World::island_decoupled(uint32_t island) const {
   return island < impl_->island_decoupled.size() && impl_->island_decoupled[island] != 0;
+}
+
+const std::vector<CutCoupling>& World::cut_couplings() const { return impl_->cut; }
+
+std::vector<CutCoupling> cut_couplings_of(const DecoupledIslands& d, const std::vector<WorldContact>& contacts,
+                                          const std::vector<WorldForce>& forces) {
+  std::vector<CutCoupling> out;
+  for (size_t i = 0; i < d.parts.size(); ++i) {
+    if (d.parts[i].size() < 2) continue;
+    // A cut coupling goes into the part on each side of the cut; an uncut one into one part.
+    std::map<uint32_t, int> contact_parts, force_parts;
+    for (const IslandContent& p : d.parts[i]) {
+      for (uint32_t c : p.contacts) ++contact_parts[c];
+      for (uint32_t f : p.forces) ++force_parts[f];
+    }
+    const auto island = static_cast<uint32_t>(i);
+    for (const auto& [c, n] : contact_parts)
+      if (n > 1) {
+        CutCoupling cut{contacts[c].a, contacts[c].b, kNoForce, {}, island};
+        std::copy(contacts[c].point.point, contacts[c].point.point + 3, cut.point);
+        out.push_back(cut);
+      }
+    for (const auto& [f, n] : force_parts)
+      if (n > 1) out.push_back(CutCoupling{forces[f].a, forces[f].b, f, {}, island});
+  }
+  return out;
 }
 
 }  // namespace cellphys::ppe

@@ -18,6 +18,11 @@ namespace cellphys::ppe {
 
 inline std::string body_name(BodyId id) { return "body " + std::to_string(id); }
 
+/// The couplings the decoupling stage cut: those in more than one part of an island
+/// (runtime/ppe/world_debug.cpp; for display).
+std::vector<CutCoupling> cut_couplings_of(const DecoupledIslands& d, const std::vector<WorldContact>& contacts,
+                                          const std::vector<WorldForce>& forces);
+
 struct World::Impl {
   std::vector<WorldBody> bodies;
   std::vector<WorldForce> forces;
@@ -33,6 +38,7 @@ struct World::Impl {
   PushScratch push;                     // the push stage's buffers
   std::vector<uint32_t> island_of;      // per body slot: its island in the last step (for display only)
   std::vector<uint8_t> island_decoupled;  // per island of the last step: cut in parts
+  std::vector<CutCoupling> cut;           // the last step's cut couplings (for display only)
 
   WorkerPool& workers(const WorldSettings& s) {
     if (!pool || pool_workers != s.workers || pool_bytes != s.local_store_bytes) {

@@ -71,6 +71,9 @@ class ServerClient {
   std::map<uint32_t, server::protocol::Ack> acks;
   std::map<uint32_t, server::ErrorMessage> errors;       // by seq (seq 0: messages that were not read)
   std::vector<server::StatusMessage> statuses;
+  std::vector<server::StagesMessage> stages;  // every stages message since the last clear
+  std::vector<uint64_t> stages_after;         // for each, the step of the state message it followed
+  std::vector<server::DebugMessage> debugs;   // every debug message since the last clear
   uint64_t step = 0;
   std::string last_problem;  // a message that did not decode, or a redundant resend
 
@@ -127,6 +130,21 @@ class ServerClient {
         server::StatusMessage s;
         e = server::decode_status(m.data(), m.size(), s);
         if (e.empty()) statuses.push_back(s);
+        break;
+      }
+      case p::Type::stages: {
+        server::StagesMessage s;
+        e = server::decode_stages(m.data(), m.size(), s);
+        if (e.empty()) {
+          stages_after.push_back(step);
+          stages.push_back(std::move(s));
+        }
+        break;
+      }
+      case p::Type::debug: {
+        server::DebugMessage d;
+        e = server::decode_debug(m.data(), m.size(), d);
+        if (e.empty()) debugs.push_back(std::move(d));
         break;
       }
       default: e = "unknown message type";

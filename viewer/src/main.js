@@ -1,5 +1,6 @@
-// The viewer page: watches a world of the server it was loaded from (/ws?world=NAME), or a
-// trajectory file dropped on it; controls, picking, dragging, spawning, stats and the timeline.
+// The viewer page: watches a world of the server it was loaded from (/ws?world=NAME), or plays a
+// file dropped on it (a `cellphys serve --record` recording, or a trajectory CSV); controls,
+// picking, dragging, spawning, stats and the timeline.
 import * as THREE from 'three';
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
@@ -9,6 +10,7 @@ import { applyTick, modelFromJoin, F_STATIC } from './model.js';
 import { Renderer } from './render.js';
 import { Overlay } from './overlay.js';
 import { parseTrajectory, trajectoryModel } from './trajectory.js';
+import { isRecording, readRecording } from './recording.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
@@ -46,20 +48,22 @@ async function listWorlds() {
 // ---- solver overlays: the server's debug message (protocol revision 2) ----
 
 const overlay = new Overlay(renderer.scene);
-const ov = { contacts: $('ov-contacts'), normals: $('ov-normals'), islands: $('ov-islands'), boxes: $('ov-boxes') };
+const ov = { contacts: $('ov-contacts'), normals: $('ov-normals'), islands: $('ov-islands'), cuts: $('ov-cuts'), boxes: $('ov-boxes') };
 const shown = () => ({ contacts: ov.contacts.checked, normals: ov.normals.checked });
-// Debug messages are asked for while an overlay that needs them is on or a body is picked (mass, island).
-const wantDebug = () => ov.contacts.checked || ov.normals.checked || ov.islands.checked || state.selected >= 0;
+// Debug messages are asked for while an overlay that needs them is on or a body is picked (mass,
+// island); stages messages (protocol revision 3) always, for the stage chart.
+const wantDebug = () => ov.contacts.checked || ov.normals.checked || ov.islands.checked || ov.cuts.checked || state.selected >= 0;
 function subscribeDebug() {
   const want = wantDebug();
   if (want === state.debugWanted || !state.ws || state.ws.readyState !== 1) return;
   state.debugWanted = want;
-  state.ws.send(P.subscribe({ debug: want }));
-  if (!want) { state.debug = null; overlay.setContacts(null, shown()); renderer.islandOf = null; }
+  state.ws.send(P.subscribe({ debug: want, stages: true }));
+  if (!want) { state.debug = null; overlay.setContacts(null, shown()); overlay.setCuts(null); renderer.islandOf = null; }
 }
 function applyDebug() {
   const d = state.debug;
   overlay.setContacts(d && d.contacts, shown());
+  overlay.setCuts(d && d.cuts, state.model, state.shown, ov.cuts.checked);
   renderer.islandOf = d && ov.islands.checked ? new Map(d.bodies.filter((b) => b.island !== null).map((b) => [b.id, b.island])) : null;
   if (state.shown) renderer.draw(state.shown);
 }
@@ -74,7 +78,7 @@ function connect(world) {
   ws.binaryType = 'arraybuffer';
   state.ws = ws;
   setStatus(`connecting to ${world}…`);
-  ws.onopen = () => { state.connected = true; state.debugWanted = false; subscribeDebug(); };
+  ws.onopen = () => { state.connected = true; state.debugWanted = null; subscribeDebug(); };
   ws.onmessage = (e) => onMessage(e.data);
   ws.onclose = (e) => {
     state.connected = false;
@@ -120,6 +124,10 @@ function onMessage(buffer) {
       updateButtons();
       break;
     }
+    case 'stages':
+      if (!state.join || m.epoch !== state.join.epoch) return;
+      recordStages(m.step * state.join.dt, m.stages);
+      break;
     case 'debug':
       if (!state.join || m.epoch !== state.join.epoch) return;
       state.debug = m;
@@ -175,10 +183,12 @@ function show(index) {
   state.shown = m.frameAt(index);
   renderer.draw(state.shown);
   overlay.setBoxes(m, state.shown, ov.boxes.checked);
+  overlay.setCuts(state.debug?.cuts, m, state.shown, ov.cuts.checked);
   ui.scrub.max = String(m.frameCount() - 1);
   ui.scrub.value = String(index);
   const f = state.shown;
   ui.tlabel.textContent = `step ${f.step}  t ${f.t.toFixed(3)} s  (${index + 1}/${m.frameCount()})${state.live && m.source === 'live' ? ' live' : ''}`;
+  if (m.source === 'recording') chartRecording(m, index);
 }
 
 function goLive() {
@@ -212,7 +222,7 @@ function advancePlayback(now) {
   state.playClock = now;
   const m = state.model;
   let i = state.shownIndex;
-  while (i + 1 < m.frameCount() && m.frameAt(i + 1).t <= state.playTime) ++i;
+  while (i + 1 < m.frameCount() && m.timeAt(i + 1) <= state.playTime) ++i;
   if (i !== state.shownIndex) show(i);
   if (i >= m.frameCount() - 1) { state.playing = false; updateButtons(); }
 }
@@ -335,6 +345,7 @@ const SHAPE_NAMES = ['sphere', 'capsule', 'box', 'hull', 'plane'];
 function debugLine(s) {
   const b = state.debugBodies?.get(s.id);
   if (s.static) return 'mass  static';
+  if (state.model?.source !== 'live') return 'mass and island: not in the file (a recording keeps no debug messages)';
   if (!b) return 'mass and island: waiting for the server';
   return `mass  ${b.mass.toPrecision(4)} kg   island ${b.island === null ? '— (asleep)' : b.island + (b.decoupled ? ' (decoupled)' : '')}`;
 }
@@ -373,15 +384,25 @@ function bytesPerSecond() {
 }
 
 function updateStats() {
-  const s = state.lastStats;
+  const m = state.model;
+  const s = m?.source === 'recording' ? state.shown?.stats : state.lastStats;
   const lines = [];
-  if (state.model?.source === 'file') lines.push(`file: ${state.model.bodies.length} bodies, ${state.model.frameCount()} frames`);
-  if (s) {
+  if (m?.source === 'file') lines.push(`file: ${m.bodies.length} bodies, ${m.frameCount()} frames`);
+  if (m?.source === 'recording') {
+    lines.push(`recording of ${m.world}: ${m.frameCount()} frames, steps ${m.stepAt(0)}–${m.stepAt(m.frameCount() - 1)}, ${m.commands} commands`);
+    if (state.shown) lines.push(`step ${state.shown.step}${state.shown.paused ? ' (paused)' : ''}`);
+  }
+  if (s && m?.source === 'recording') {
+    lines.push(`ms per step     ${s.step_ms.toFixed(3)}`, `active bodies   ${s.active_bodies}`, `sleeping bodies ${s.sleeping_bodies}`,
+      `contacts        ${s.contacts}`, `islands         ${s.islands}`, `solver iters    ${s.solver_iterations}`,
+      `failed islands  ${s.failed_islands}`, `step halvings   ${s.step_halvings}`);
+  } else if (s) {
     lines.push(`world ${state.join.name}  step ${state.steps}  ${state.worldState}${state.paused ? ' (paused)' : ''}`,
       `ms per step     ${s.step_ms.toFixed(3)}`, `active bodies   ${s.active_bodies}`, `sleeping bodies ${s.sleeping_bodies}`,
       `contacts        ${s.contacts}`, `islands         ${s.islands}`, `solver iters    ${s.solver_iterations}`,
       `failed islands  ${s.failed_islands}`, `step halvings   ${s.step_halvings}`, `received        ${(bytesPerSecond() / 1000).toFixed(1)} kB/s`);
   }
+  if (state.debug && m?.source === 'live') lines.push(`cut couplings   ${state.debug.cuts.length}`);
   lines.push(`drawn instances ${renderer.instanceCount()}`, `frames drawn    ${fps.toFixed(0)}/s`);
   $('stats').textContent = lines.join('\n');
 }
@@ -395,7 +416,71 @@ function makePlot(el, title, defs) {
 }
 const plotMs = makePlot($('chart-ms'), 'ms per step', [['ms', '#ffb454']]);
 const plotCounts = makePlot($('chart-counts'), 'bodies, contacts, iterations, kB/s', [['active', '#4f8fd8'], ['asleep', '#a0a0a0'], ['contacts', '#58b368'], ['iters', '#d86a4f'], ['kB/s', '#b36bc4']]);
+// ms per stage, stacked: the stages are the server's (the stages message names them), so the
+// chart is made again whenever their names change; "total" is the whole step, a line over them.
+const stageChart = { key: null, plot: null, names: [], t: [], rows: [] };
+const stageColour = (k, alpha = 1) => `hsla(${(k * 137.5 + 30) % 360}, 60%, 58%, ${alpha})`;
+
+function recordStages(t, stages) {
+  const key = stages.map((s) => s.name).join(',');
+  if (key !== stageChart.key) makeStagePlot(stages.map((s) => s.name));
+  stageChart.t.push(t);
+  stageChart.rows.push(stages.map((s) => s.ms));
+  if (stageChart.t.length > PLOT_POINTS) { stageChart.t.shift(); stageChart.rows.shift(); }
+}
+
+function makeStagePlot(names) {
+  stageChart.key = names.join(',');
+  stageChart.names = names;
+  stageChart.t = [];
+  stageChart.rows = [];
+  if (stageChart.plot) stageChart.plot.destroy();
+  const parts = names.map((n, k) => [n, k]).filter(([n]) => n !== 'total');
+  // Series k is the sum of the parts up to k, filled down to zero, drawn from the top part down,
+  // so each part shows as the band it adds.
+  const defs = parts.map(([n], k) => ({ label: n, stroke: stageColour(k), fill: stageColour(k, 0.75), width: 1, points: { show: false } })).reverse();
+  if (names.includes('total')) defs.push({ label: 'total', stroke: '#e8eef4', width: 1, dash: [4, 3], points: { show: false } });
+  stageChart.parts = parts.map(([, k]) => k);
+  stageChart.total = names.indexOf('total');
+  stageChart.plot = new uPlot({
+    title: 'ms per stage (stacked)', width: 256, height: 170, legend: { show: true, live: false }, cursor: { show: false },
+    scales: { x: { time: false } },
+    axes: [{ stroke: '#9fb0c0', grid: { stroke: '#333a42' } }, { stroke: '#9fb0c0', grid: { stroke: '#333a42' }, size: 50 }],
+    series: [{ label: 't (s)' }, ...defs],
+  }, [[], ...defs.map(() => [])], $('chart-stages'));
+}
+
+function stageData() {
+  const c = stageChart, sums = c.parts.map(() => []);
+  for (const row of c.rows) {
+    let sum = 0;
+    c.parts.forEach((k, i) => { sum += row[k]; sums[i].push(sum); });
+  }
+  const data = [c.t, ...sums.reverse()];
+  if (c.total >= 0) data.push(c.rows.map((r) => r[c.total]));
+  return data;
+}
+
+/// The charts of a recording: its recorded ticks' statistics up to the shown one.
+function chartRecording(m, index) {
+  for (const k of Object.keys(series)) series[k].length = 0;
+  if (stageChart.plot) { stageChart.t.length = 0; stageChart.rows.length = 0; }
+  for (let i = Math.max(0, index - PLOT_POINTS + 1); i <= index; ++i) {
+    const e = m.entries[i];
+    if (e.stages) recordStages(e.step * m.dt, e.stages);
+    if (!e.stats) continue;
+    series.t.push(e.step * m.dt);
+    series.ms.push(e.stats.step_ms);
+    series.active.push(e.stats.active_bodies);
+    series.sleeping.push(e.stats.sleeping_bodies);
+    series.contacts.push(e.stats.contacts);
+    series.iters.push(e.stats.solver_iterations);
+    series.kbps.push(m.dt > 0 ? e.bytes.length / m.dt / 1000 : 0); // as sent at one tick a step
+  }
+}
+
 function updatePlots() {
+  if (stageChart.plot && stageChart.t.length >= 2) stageChart.plot.setData(stageData());
   if (series.t.length < 2) return;
   plotMs.setData([series.t, series.ms]);
   plotCounts.setData([series.t, series.active, series.sleeping, series.contacts, series.iters, series.kbps]);
@@ -405,9 +490,22 @@ function updatePlots() {
 
 async function openFiles(files) {
   const list = Array.from(files);
+  try {
+    for (const f of list) {
+      const bytes = new Uint8Array(await f.arrayBuffer());
+      if (!isRecording(bytes) && !f.name.endsWith('.rec')) continue;
+      const m = readRecording(bytes, f.name);
+      loadModel(m);
+      setStatus(`${f.name}: recording of ${m.world}, ${m.frameCount()} frames, ${m.bodies.length} bodies${m.warning ? ` (warning: ${m.warning}; shown up to there)` : ''}`, !!m.warning);
+      return;
+    }
+  } catch (e) {
+    setStatus(e.message, true);
+    return;
+  }
   const csv = list.find((f) => f.name.endsWith('.csv'));
   const json = list.find((f) => f.name.endsWith('.json'));
-  if (!csv) { setStatus('drop a trajectory .csv (cellphys run --out), optionally with its scene .json', true); return; }
+  if (!csv) { setStatus('drop a recording (cellphys serve --record), or a trajectory .csv (cellphys run --out) optionally with its scene .json', true); return; }
   try {
     const rows = parseTrajectory(await csv.text(), csv.name);
     let scene = null;
@@ -427,6 +525,12 @@ function loadModel(model) {
   state.join = null;
   state.lastStats = null;
   state.selected = -1;
+  // The live world's debug message says nothing of a file's bodies.
+  state.debug = null;
+  state.debugBodies = null;
+  overlay.setContacts(null, shown());
+  overlay.setCuts(null);
+  renderer.islandOf = null;
   renderer.selectedSlot = -1;
   renderer.setModel(model, model.frameAt(0));
   state.live = false;
@@ -464,6 +568,9 @@ requestAnimationFrame(frame);
   connect(world);
 })();
 
+// The slot of body `id` in the epoch of the frame shown.
+const slotOfShown = (id) => (state.shown?.slotOf ?? state.model?.slotOf)?.get(id);
+
 // A small hook for tests and the console: reads of what is shown, no control the page lacks.
 window.__viewer = {
   ready: () => !!state.model && renderer.frames > 0,
@@ -476,14 +583,17 @@ window.__viewer = {
   frameIndex: () => state.shownIndex,
   instanceCount: () => renderer.instanceCount(),
   framesDrawn: () => renderer.frames,
-  bodyState: (id) => { const s = state.model?.slotOf.get(id); return s === undefined ? null : state.model.bodyState(state.shown, s); },
-  drawnPosition: (id) => { const s = state.model?.slotOf.get(id); return s === undefined ? null : renderer.instancePosition(s); },
+  bodyState: (id) => { const s = slotOfShown(id); return s === undefined ? null : state.model.bodyState(state.shown, s); },
+  drawnPosition: (id) => { const s = slotOfShown(id); return s === undefined ? null : renderer.instancePosition(s); },
   screenOf: (id) => { const b = window.__viewer.bodyState(id); return b && renderer.toScreen(b.position); },
   selected: () => (state.selected < 0 ? null : state.model.bodies[state.selected].id),
   status: () => ui.status.textContent,
   lastStats: () => state.lastStats,
-  debug: () => state.debug && { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length },
+  debug: () => (state.debug ? { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length, cuts: state.debug.cuts.length } : null),
+  cutLines: () => overlay.cutCount,
+  frameEpochs: () => state.model?.entries?.map((e) => e.epoch) ?? null,
   contactMarkers: () => overlay.contactCount,
   boxCount: () => overlay.boxCount,
   selection: () => $('selection').textContent,
+  stageChart: () => ({ names: stageChart.names, points: stageChart.t.length }),
 };

@@ -1,4 +1,5 @@
 // Solver overlays drawn over the bodies: contact points, their normals (length by normal force),
+// the couplings decoupling cut (from each body's centre through the contact point to the other's),
 // and axis-aligned bounding boxes computed here from each body's shape, scale and pose.
 import * as THREE from 'three';
 import { FLOATS, F_PRESENT } from './model.js';
@@ -52,9 +53,34 @@ export class Overlay {
     this.points.frustumCulled = false;
     this.normals = lines(0xffd23b);
     this.boxes = lines(0x7fe0ff);
-    this.group.add(this.points, this.normals, this.boxes);
+    this.cuts = lines(0xff4fd8);
+    this.group.add(this.points, this.normals, this.boxes, this.cuts);
     this.contactCount = 0;
     this.boxCount = 0;
+    this.cutCount = 0;
+  }
+
+  /// The cut couplings of a debug message (null: none) between the bodies where `frame` has
+  /// them; a contact's line bends at its point, a force's is straight.
+  setCuts(cuts, model, frame, show) {
+    const seg = [];
+    let n = 0;
+    if (show && cuts && model && frame) {
+      const at = (id) => {
+        const s = frame.slotOf.get(id);
+        if (s === undefined || !(frame.flags[s] & F_PRESENT)) return null;
+        return Array.from(frame.data.subarray(s * FLOATS, s * FLOATS + 3));
+      };
+      for (const c of cuts) {
+        const a = at(c.a), b = at(c.b);
+        if (!a || !b) continue;
+        if (c.force === null) seg.push(...a, ...c.point, ...c.point, ...b);
+        else seg.push(...a, ...b);
+        ++n;
+      }
+    }
+    this.cuts.geometry.setAttribute('position', new THREE.Float32BufferAttribute(seg, 3));
+    this.cutCount = n;
   }
 
   /// Contacts of a debug message (null: none); `show` picks points and normals.

@@ -3,7 +3,7 @@
 
 export const VERSION = 1;
 export const T = {
-  join: 1, tick: 2, ack: 3, error: 4, status: 5, debug: 6, subscribe: 32,
+  join: 1, tick: 2, ack: 3, error: 4, status: 5, debug: 6, stages: 7, subscribe: 32,
   spawn: 33, remove: 34, impulse: 35, drag_start: 36, drag_move: 37, drag_release: 38,
   pause: 39, resume: 40, step_once: 41, reset: 42,
 };
@@ -15,7 +15,7 @@ export const ERROR_CODE = ['', 'malformed', 'invalid', 'unauthorized', 'rate_lim
 
 const BODY_FULL = 68, BODY_MOVED = 56, BODY_MOVED_Q = 28, SHAPE_RECORD = 48;
 
-class ProtocolError extends Error {}
+export class ProtocolError extends Error {}
 
 function text(dv, at, bytes) {
   return new TextDecoder().decode(new Uint8Array(dv.buffer, dv.byteOffset + at, bytes)).replace(/\0+$/, '');
@@ -93,9 +93,11 @@ function shapeDictionary(dv, at, count) {
   return { shapes, at };
 }
 
-/// One server message (an ArrayBuffer) as a plain object with its `type` name.
+/// One server message (an ArrayBuffer, or a view of one: a recording's frame) as a plain object
+/// with its `type` name.
 export function decode(buffer) {
-  const dv = new DataView(buffer);
+  const dv = buffer instanceof DataView ? buffer
+    : ArrayBuffer.isView(buffer) ? new DataView(buffer.buffer, buffer.byteOffset, buffer.byteLength) : new DataView(buffer);
   need(dv, 8, 'header');
   const length = dv.getUint32(0, true), type = dv.getUint16(4, true), version = dv.getUint16(6, true);
   if (length !== dv.byteLength) throw new ProtocolError(`header.length ${length} is not the message's ${dv.byteLength} bytes`);
@@ -162,9 +164,9 @@ export function decode(buffer) {
     }
     case T.debug: {  // revision 2
       need(dv, 32, 'debug');
-      const nb = dv.getUint32(20, true), nc = dv.getUint32(24, true);
-      need(dv, 32 + 16 * nb + 40 * nc, 'debug records');
-      const m = { type: 'debug', step: Number(dv.getBigUint64(8, true)), epoch: dv.getUint32(16, true), bodies: [], contacts: [] };
+      const nb = dv.getUint32(20, true), nc = dv.getUint32(24, true), ncut = dv.getUint32(28, true); // ncut: revision 3 (0 before)
+      need(dv, 32 + 16 * nb + 40 * nc + 32 * ncut, 'debug records');
+      const m = { type: 'debug', step: Number(dv.getBigUint64(8, true)), epoch: dv.getUint32(16, true), bodies: [], contacts: [], cuts: [] };
       let at = 32;
       for (let i = 0; i < nb; ++i, at += 16) {
         const island = dv.getUint32(at + 4, true);
@@ -172,6 +174,19 @@ export function decode(buffer) {
       }
       for (let i = 0; i < nc; ++i, at += 40)
         m.contacts.push({ a: dv.getUint32(at, true), b: dv.getUint32(at + 4, true), point: f3(dv, at + 8), normal: f3(dv, at + 20), depth: dv.getFloat32(at + 32, true), force: dv.getFloat32(at + 36, true) });
+      for (let i = 0; i < ncut; ++i, at += 32) {
+        const force = dv.getUint32(at + 8, true);
+        m.cuts.push({ a: dv.getUint32(at, true), b: dv.getUint32(at + 4, true), force: force === 0xFFFFFFFF ? null : force, island: dv.getUint32(at + 12, true), point: f3(dv, at + 16) });
+      }
+      return m;
+    }
+    case T.stages: { // revision 3
+      need(dv, 32, 'stages');
+      const n = dv.getUint32(20, true), nameBytes = dv.getUint32(24, true);
+      need(dv, 32 + 4 * n + nameBytes, 'stages records');
+      const names = text(dv, 32 + 4 * n, nameBytes).split('\0');
+      const m = { type: 'stages', step: Number(dv.getBigUint64(8, true)), epoch: dv.getUint32(16, true), stages: [] };
+      for (let k = 0; k < n; ++k) m.stages.push({ name: names[k] ?? `stage ${k}`, ms: dv.getFloat32(32 + 4 * k, true) });
       return m;
     }
     default:
@@ -190,9 +205,9 @@ function message(type, bytes) {
 }
 function putF(dv, at, values) { values.forEach((v, k) => dv.setFloat32(at + 4 * k, v, true)); }
 
-export function subscribe({ quantised = false, region = null, debug = false } = {}) {
+export function subscribe({ quantised = false, region = null, debug = false, stages = false } = {}) {
   const dv = message(T.subscribe, 40);
-  dv.setUint32(8, (quantised ? 1 : 0) | (region ? 2 : 0) | (debug ? 4 : 0), true);
+  dv.setUint32(8, (quantised ? 1 : 0) | (region ? 2 : 0) | (debug ? 4 : 0) | (stages ? 8 : 0), true);
   if (region) { putF(dv, 16, region.min); putF(dv, 28, region.max); }
   return dv.buffer;
 }

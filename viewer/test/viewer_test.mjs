@@ -3,7 +3,7 @@
 //   node viewer/test/viewer_test.mjs CELLPHYS_EXE [--images DIR]
 // Exit 0: every check passed; 1: a check failed; 77: skipped (no Chromium; scripts/setup installs it).
 import { spawn, execFileSync } from 'node:child_process';
-import { existsSync, mkdtempSync, readFileSync, rmSync, mkdirSync } from 'node:fs';
+import { existsSync, mkdtempSync, readFileSync, rmSync, mkdirSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -117,6 +117,14 @@ try {
   check(pixels.colours > 20, 'the frame of the pile is not blank', `${pixels.colours} distinct colours in a 64x40 reduction of ${pixels.w}x${pixels.h}`);
   if (images) { mkdirSync(images, { recursive: true }); await page.screenshot({ path: join(images, 'viewer_pile65.png') }); }
 
+  // ---- the stage chart: ms per stage, stacked, under the names the server times them by ----
+  const legendOf = (pg) => pg.evaluate(() => Array.from(document.querySelectorAll('#chart-stages .u-legend .u-series .u-label')).map((e) => e.textContent).filter((l) => l !== 't (s)'));
+  await until('stage samples in the chart', async () => (await page.evaluate(() => window.__viewer.stageChart().points)) > 10);
+  const serverStages = Object.keys(m0.stage_ms_mean).sort();
+  const legend = await legendOf(page);
+  check(JSON.stringify([...legend].sort()) === JSON.stringify(serverStages), 'the stage chart draws every stage the server times, by name',
+        `legend ${legend.join(' ')}; /metrics ${serverStages.join(' ')}`);
+
   // ---- pause, then one step ----
   await page.click('#play');
   await until('the world to pause', async () => (await metrics(pile, 'pile65')).state === 'paused');
@@ -199,6 +207,26 @@ try {
   await watcher.close();
   await page.close();
 
+  // ---- cut couplings: the reference pile in a 32 KiB local store (its island needs 126 kB), kept
+  // awake: it settles into islands of which one or two are cut in parts every step ----
+  const cutDir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-cut-'));
+  const cutScene = JSON.parse(readFileSync(join(scenesDir, 'pile65.json'), 'utf8'));
+  Object.assign(cutScene.settings, { local_store_bytes: 32768, sleeping: false });
+  writeFileSync(join(cutDir, 'pile65_cut.json'), JSON.stringify(cutScene));
+  const cut = await serve([join(cutDir, 'pile65_cut.json')]);
+  servers.push(cut);
+  const cpage = await openPage(cut.url, 'pile65_cut');
+  await cpage.click('#ov-cuts');
+  const cuts = await until('a debug message with cut couplings', () => cpage.evaluate(() => {
+    const d = window.__viewer.debug();
+    return d && d.cuts > 0 ? { cuts: d.cuts, lines: window.__viewer.cutLines(), step: d.step } : null;
+  }));
+  check(cuts.lines === cuts.cuts, 'cut couplings: one line a coupling the debug message says decoupling cut', `${cuts.lines} lines, ${cuts.cuts} cut at step ${cuts.step}`);
+  if (images) { await cpage.click('#ov-islands'); await sleep(300); await cpage.screenshot({ path: join(images, 'viewer_cuts.png') }); }
+  await cpage.close();
+  cut.stop();
+  rmSync(cutDir, { recursive: true, force: true });
+
   // ---- world1000 ----
   const world = await serve(['world1000']);
   servers.push(world);
@@ -233,6 +261,87 @@ try {
   check((await opage.evaluate(() => window.__viewer.instanceCount())) === 70, 'the scene file adds its static bodies', 'pile65: 65 boxes, ground, 4 walls');
   await opage.close();
   rmSync(dir, { recursive: true, force: true });
+
+  // ---- a recording of a real `cellphys serve --record` run (a spawn, then a reset), opened and scrubbed ----
+  const recDir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-rec-'));
+  const rec = join(recDir, 'pile.rec');
+  const recording = await serve(['pile65', '--record', rec]);
+  const rpage = await openPage(`${recording.url}?token=${recording.token}`, 'recorded');
+  await rpage.keyboard.down('Shift');
+  await rpage.mouse.click(...(await rpage.evaluate(() => [innerWidth * 0.3, innerHeight * 0.85])));
+  await rpage.keyboard.up('Shift');
+  await until('the spawned box', async () => /spawned body/.test(await rpage.evaluate(() => window.__viewer.status())), 5000);
+  await sleep(700);
+  await rpage.click('#reset');
+  await until('the reset', async () => (await rpage.evaluate(() => window.__viewer.join().epoch)) === 1, 5000);
+  await sleep(700);
+  await rpage.close();
+  await new Promise((r) => { recording.proc.on('exit', r); recording.stop(); });
+  const traj = join(recDir, 'replayed.csv');
+  const replayed = execFileSync(exe, ['replay', rec, '--out', traj], { encoding: 'utf8' });
+  const framesMatched = Number(/(\d+) frames and \d+ stages matched/.exec(replayed)?.[1]);
+  check(framesMatched > 60 && / 2 commands/.test(replayed), 'cellphys replay re-made every recorded frame', replayed.split('\n')[0]);
+  // The replayed trajectory by epoch (a reset takes the step counter back), step and body id.
+  const replayedAt = [new Map()];
+  let lastRowStep = -1;
+  for (const l of readFileSync(traj, 'utf8').trim().split('\n').slice(1)) {
+    const f = l.split(',');
+    if (Number(f[0]) < lastRowStep) replayedAt.push(new Map());
+    lastRowStep = Number(f[0]);
+    const at = replayedAt[replayedAt.length - 1];
+    if (!at.has(f[0])) at.set(f[0], new Map());
+    at.get(f[0]).set(f[2], f.slice(3, 6).map(Number));
+  }
+  const vpage = await openPage(pile.url, 'recording');
+  await vpage.setInputFiles('#file', rec);
+  await until('the recording to load', () => vpage.evaluate(() => window.__viewer.source() === 'recording'));
+  const rcount = await vpage.evaluate(() => window.__viewer.frameCount());
+  check(rcount === framesMatched, 'the timeline holds every frame of the recording', `${rcount} frames in the page, ${framesMatched} replayed`);
+  const scrubTo = (i) => vpage.evaluate((k) => { const s = document.getElementById('scrub'); s.value = String(k); s.dispatchEvent(new Event('input')); return window.__viewer.step(); }, i);
+  const epochs = await vpage.evaluate(() => window.__viewer.frameEpochs());
+  const firstStep = await scrubTo(0), lastStep = await scrubTo(rcount - 1);
+  check(firstStep === 0 && replayedAt.length === 2 && epochs[0] === 0 && epochs[rcount - 1] === 1 && replayedAt[1].has(String(lastStep)),
+        'it scrubs from the first frame to the last, across the reset', `steps ${firstStep} to ${lastStep}, epochs ${epochs[0]} to ${epochs[rcount - 1]}`);
+  // The last tick before the reset (the spawned box in it) and one in the middle of the epoch after:
+  // every body where cellphys replay puts it at that step, and drawn once, there.
+  const beforeReset = epochs.lastIndexOf(0), afterReset = Math.floor((epochs.indexOf(1) + rcount) / 2);
+  for (const [index, epoch] of [[beforeReset, 0], [afterReset, 1]]) {
+    const step = await scrubTo(index);
+    const want = replayedAt[epoch].get(String(step));
+    const ids = [...want.keys()];
+    const shown = await vpage.evaluate((list) => ({
+      states: list.map((id) => window.__viewer.bodyState(Number(id))?.position ?? null),
+      drawn: list.map((id) => window.__viewer.drawnPosition(Number(id))), instances: window.__viewer.instanceCount(),
+    }), ids);
+    const same = (p, id) => p && p.every((x, c) => x === Math.fround(want.get(id)[c]));
+    const wrong = ids.filter((id, k) => !same(shown.states[k], id) || !same(shown.drawn[k], id));
+    check(want.size >= 70 && shown.instances === want.size && wrong.length === 0,
+          `epoch ${epoch}: the scrubbed frame draws every body at replay's position for that step`,
+          `step ${step}: ${want.size} bodies replayed, ${shown.instances} drawn, ${wrong.length} differ${wrong.length ? ` (body ${wrong[0]}: ${JSON.stringify(shown.drawn[ids.indexOf(wrong[0])])} vs ${JSON.stringify(want.get(wrong[0]))})` : ''}`);
+  }
+  const recordedStages = await vpage.evaluate(() => window.__viewer.stageChart());
+  const recLegend = await legendOf(vpage);
+  check(recordedStages.points > 10 && JSON.stringify([...recLegend].sort()) === JSON.stringify(serverStages),
+        "the recording's stage timings in the stage chart", `${recordedStages.points} points, ${recLegend.join(' ')}`);
+  // A recording cut short (a server killed mid-write) shows up to its last whole record, and says so.
+  await vpage.setInputFiles('#file', { name: 'cut.rec', mimeType: 'application/octet-stream', buffer: readFileSync(rec).subarray(0, Math.floor(readFileSync(rec).length / 2)) });
+  await until('the cut recording', async () => /^cut\.rec:/.test(await vpage.evaluate(() => window.__viewer.status())), 5000).catch(() => null);
+  const cutShort = await vpage.evaluate(() => ({ text: window.__viewer.status(), frames: window.__viewer.frameCount() }));
+  check(/warning: record \d+ \(byte \d+\) is cut short/.test(cutShort.text) && cutShort.frames > 10 && cutShort.frames < rcount,
+        'a recording cut short plays up to its last whole record, with a warning', `${cutShort.frames} frames: ${cutShort.text}`);
+  // Files that are not recordings this page can draw: a clear message in the page.
+  for (const [bytes, wanted, what] of [
+    [Buffer.from('CELLREC1\x09\0\0\0\x01\0\0\0', 'latin1'), /bad\.rec: recording version 9 is not one this viewer reads/, 'an unknown version'],
+    [Buffer.from('not a recording at all', 'latin1'), /bad\.rec: not a cellphys recording/, 'not a recording'],
+    [readFileSync(rec).subarray(0, 40), /bad\.rec: the recording has no sound world record \(record 0 \(byte 16\) is cut short/, 'cut in its first record'],
+  ]) {
+    await vpage.setInputFiles('#file', { name: 'bad.rec', mimeType: 'application/octet-stream', buffer: bytes });
+    await until(`the page to refuse ${what}`, async () => wanted.test(await vpage.evaluate(() => window.__viewer.status())), 5000).catch(() => null);
+    const st = await vpage.evaluate(() => ({ text: window.__viewer.status(), err: document.getElementById('status').className === 'err' }));
+    check(wanted.test(st.text) && st.err, `a recording that is ${what} is refused in the page`, st.text);
+  }
+  await vpage.close();
+  rmSync(recDir, { recursive: true, force: true });
 
   check(consoleErrors.length === 0, 'no console error on any page', consoleErrors.join(' | '));
 } catch (e) {

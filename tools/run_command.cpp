@@ -58,6 +58,7 @@ int run(const RunOptions& o, std::shared_ptr<ppe::IslandRunner> runner) {
     write_trajectory_rows(out.get(), world, w.bodies, 0, 0.0, w.ids);
   }
   if (!o.stats.empty()) stats_file.open(o.stats);
+  if (!o.save_snapshot.empty()) AtomicFile().open(o.save_snapshot);  // an unwritable place fails now, not at the end
 
   r.kinetic_energy_initial = world.kinetic_energy();
   ProgressBar progress(r.steps);
@@ -119,6 +120,7 @@ int run_main(int argc, char** argv) {
     mo.corrupt_reply = o.mpi_corrupt;
     mo.silent_after = o.mpi_silent;
     mo.hang_after = o.mpi_hang;
+    mo.kill_after = o.mpi_kill;
     try {
       session = std::make_unique<ppe::MpiSession>(nullptr, nullptr);
       if (session->rank() > 0) {

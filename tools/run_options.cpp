@@ -40,8 +40,8 @@ const char kRunHelpFormat[] =
     "  --stats FILE      run statistics as JSON\n"
     "  --save-snapshot FILE  the world at the end as a snapshot (docs/distributed.md), for\n"
     "                    --resume; a resumed run steps on bit for bit\n"
-    "  --snapshot-every N    with --save-snapshot: also every N-th step (the file is replaced\n"
-    "                    whole each time)\n"
+    "  --snapshot-every N    with --save-snapshot: also every N-th step, a checkpoint (the file\n"
+    "                    is replaced whole each time; scripts/mpi-survive restarts from it)\n"
     "  --resume FILE     start from a snapshot instead of a scene (--duration and --steps count\n"
     "                    from there; --dt, --integrator, ... change its saved settings)\n"
     "  --mpi             compute islands on MPI ranks (run under mpirun): rank 0 dispatches,\n"
@@ -49,8 +49,9 @@ const char kRunHelpFormat[] =
     "  --mpi-deadline MS drop a compute node silent this long with islands outstanding, and\n"
     "                    wait no longer for the nodes to stop at the end (default 5000)\n"
     "  --mpi-fault F     test hook: corrupt:N (node 1 damages its N-th reply), silent:N (the\n"
-    "                    last node stops answering after N islands) or hang:N (it stops\n"
-    "                    reading anything after N islands, as a hung process)\n"
+    "                    last node stops answering after N islands), hang:N (it stops\n"
+    "                    reading anything after N islands, as a hung process) or kill:N (it\n"
+    "                    SIGKILLs itself after N islands, as a process that dies)\n"
     "  -h, --help        this text\n"
     "\n"
     "Exit codes: 0 done, 1 a failure while running or writing, 2 a usage, scene or snapshot\n"
@@ -113,10 +114,14 @@ class Parser {
     value("--mpi-fault", [&o](const std::string& f) {
       const size_t colon = f.find(':');
       const std::string kind = f.substr(0, colon);
-      if (colon == std::string::npos || (kind != "corrupt" && kind != "silent" && kind != "hang"))
-        throw UsageError{"--mpi-fault takes corrupt:N, silent:N or hang:N, got '" + f + "'"};
-      const int n = static_cast<int>(parse_count("--mpi-fault", f.substr(colon + 1), 0, kMaxCount));
-      (kind == "corrupt" ? o.mpi_corrupt : kind == "silent" ? o.mpi_silent : o.mpi_hang) = n;
+      int* hook = kind == "corrupt" ? &o.mpi_corrupt
+                  : kind == "silent"  ? &o.mpi_silent
+                  : kind == "hang"    ? &o.mpi_hang
+                  : kind == "kill"    ? &o.mpi_kill
+                                      : nullptr;
+      if (colon == std::string::npos || !hook)
+        throw UsageError{"--mpi-fault takes corrupt:N, silent:N, hang:N or kill:N, got '" + f + "'"};
+      *hook = static_cast<int>(parse_count("--mpi-fault", f.substr(colon + 1), 0, kMaxCount));
     });
     app_.add_option("scene", o.scene);
   }

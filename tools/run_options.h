@@ -18,7 +18,7 @@ struct RunOptions {
   long long snapshot_every = 0;
   bool mpi = false;
   double mpi_deadline_ms = 5000;
-  int mpi_corrupt = -1, mpi_silent = -1, mpi_hang = -1;
+  int mpi_corrupt = -1, mpi_silent = -1, mpi_hang = -1, mpi_kill = -1;
 };
 
 /// The help text of `cellphys run`.

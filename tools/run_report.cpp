@@ -57,6 +57,7 @@ std::string stats_json(const RunOptions& o, const RunWorld& w, const RunOutcome&
   j["workers"] = settings.workers;
   j["simd_path"] = simd::kPathName;
   j["steps"] = r.steps;
+  j["step_counter"] = w.world->last_stats().step;  // the world's, at the end: a resumed run counts on from its snapshot's
   j["sim_time_s"] = double(r.steps) * dt;
   j["wall_s"] = r.wall_s;
   j["ms_per_step_median"] = d.median_ms;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
@@ -317,6 +318,7 @@ uint64_t run_compute_node(const MpiOptions& options) {
   uint64_t received = 0, replies = 0;
   const bool silent_node = options.silent_after >= 0 && rank == size - 1;
   const bool hung_node = options.hang_after >= 0 && rank == size - 1;
+  const bool dying_node = options.kill_after >= 0 && rank == size - 1;
   Idle idle;
   for (;;) {
     if (hung_node && received >= static_cast<uint64_t>(options.hang_after))
@@ -335,13 +337,15 @@ uint64_t run_compute_node(const MpiOptions& options) {
     check(MPI_Recv(in.data(), count, MPI_BYTE, 0, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE), "MPI_Recv");
     if (st.MPI_TAG == kTagStop) break;
     if (st.MPI_TAG != kTagJob) continue;
-    if (silent_node || hung_node) {  // hooks: count the islands received
+    if (silent_node || hung_node || dying_node) {  // hooks: count the islands received
       if (silent_node && received >= static_cast<uint64_t>(options.silent_after)) continue;  // answers no more
       wire::BatchHeader h;
       if (static_cast<size_t>(count) >= sizeof h) {
         std::memcpy(&h, in.data(), sizeof h);
         received += h.count;
       }
+      // hook: the process dies unannounced, as one the kernel's OOM killer picks (Open MPI then ends the job)
+      if (dying_node && received >= static_cast<uint64_t>(options.kill_after)) ::raise(SIGKILL);
     }
     kernel.serve(in.data(), static_cast<size_t>(count), out);
     const std::vector<size_t>& at = kernel.record_offsets();

@@ -30,6 +30,7 @@ struct MpiOptions {
   int corrupt_reply = -1;  // node 1 damages its island result number N (0-based) after sealing it
   int silent_after = -1;   // the last node stops answering once it got N islands (it keeps receiving)
   int hang_after = -1;     // the last node stops reading anything once it got N islands (a hung process)
+  int kill_after = -1;     // the last node SIGKILLs itself once it got N islands (a process that dies)
 };
 
 /// The exit status of a job whose dispatcher aborted it because a node did not stop: the run

@@ -27,13 +27,13 @@ struct PushScratch {
 };
 
 /// Stage 3: each contact deeper than the hold depth asks to separate by its excess, at most
-/// contact_push_speed x dt in a step; the bodies of the piles holding such a contact are moved
-/// to meet every such request at once (projected Gauss-Seidel on positions). A contact moves
-/// its body further from what cannot move (the world, a static or sleeping body), so the ground
-/// lifts a column as one and a box is never pressed into its support; bodies at the same level
-/// share by inverse mass, except that a body is not pushed down when the other can go up. The
-/// contacts' depths and points follow the moved bodies, and their friction anchors (`memory`)
-/// too: a push is no strain. Counts the moved bodies.
+/// contact_push_speed x dt in a step, relative to its two bodies (so what rests on a body is
+/// carried with it); the bodies of the piles holding such a contact are moved to meet every
+/// request at once (projected Gauss-Seidel on positions, lowest contacts first). A contact within
+/// 60 degrees of vertical moves only its upper body, so a box is lifted off its support and never
+/// pressed into it; flatter ones share by inverse mass; the world and static and sleeping bodies
+/// do not move. The contacts' depths and points follow the moved bodies, and their friction
+/// anchors (`memory`) too: a push is no strain. Counts the moved bodies.
 void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, std::vector<WorldContact>& contacts,
                        ContactMemory& memory, PushScratch& scratch, StepStats& st);
 

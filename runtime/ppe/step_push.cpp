@@ -146,8 +146,9 @@ void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, s
     const Vec3d mid = (da + db) * 0.5;  // the point sits between the surfaces
     float* x = c.point.point;
     x[0] = float(x[0] + mid.x), x[1] = float(x[1] + mid.y), x[2] = float(x[2] + mid.z);
-    // What the push leaves as a gap, or as overlap it could not reach, carries no load (as in
-    // carry_loads): a load-stiffened spring there would pull the bodies together, or throw them.
+    // A contact of a pushed pile that is a gap after the push, or overlap it could not reach,
+    // carries no load this step: a load-stiffened spring there would pull the bodies together,
+    // or throw them.
     if (c.point.penetration <= 0 || c.point.penetration > 2 * hold) c.load = 0;
     const WorldContact* before = i > 0 ? &contacts[p.order[i - 1]] : nullptr;
     if (before && before->a == c.a && before->b == c.b) continue;

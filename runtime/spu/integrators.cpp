@@ -16,8 +16,8 @@ namespace {
 constexpr uint32_t kGyroscopicBit = 1u << static_cast<uint32_t>(ForceType::gyroscopic);
 // The forces are linearised at the step's start pose. A step that turns a body by more than
 // this much more than its spin already did (rad) has left the region where that holds: a light
-// body squeezed under heavy, load-stiffened contacts was spun to 250 rad/s and thrown at
-// 76 m/s in one 60 Hz step. Such a step is refused and halved, as a failed solve is.
+// body squeezed under heavy, load-stiffened contacts was spun up and thrown in one 60 Hz step
+// (the mixed-pile contact test). Such a step is refused and halved, as a failed solve is.
 constexpr double kMaxAddedTurn = 0.5;
 
 Vec3d lin(const float* v8) { return Vec3d::load(v8); }

@@ -48,6 +48,7 @@ enum Region { kBodyA = 0, kBodyB = 1, kInstance = 2, kGlobals = 3, kRef = 4, kNu
 constexpr int kRefWords = 8;  // gather's `ref`: per body the reference pose x y z _ w x y z
 // The step the kernels are evaluated for (a descriptor's `h`: a contact closing within it acts).
 constexpr double kEvalH = 1.0 / 60.0;
+constexpr double kPi = 3.14159265358979323846;
 
 // One double per 4-byte word of the packed bodies, instance, Island_Params and reference poses:
 // FD perturbs this in double, and float kernels see it rounded exactly as pack() + gather() would.
@@ -539,6 +540,103 @@ void put(std::vector<double>& F, int body, const Vec3& f, const Vec3& tau) {
   for (int i = 0; i < 3; ++i) { F[6 * body + i] = f[i]; F[6 * body + 3 + i] = tau[i]; }
 }
 
+// The joints straight from their descriptors' doc strings: soft at omega = 2 pi hertz on the
+// heavier body's mass (and its largest principal moment bound, half its inertia's trace), limits
+// as the contact's one-sided spring-damper, motors by their held fast/slow branch.
+template <class K>
+void joint_reference(const Case<K>& c, const std::string& name, std::vector<double>& F) {
+  const BodyD A = body_of(c.body[0]), B = body_of(c.body[1]);
+  auto p = [&](const char* n) { return *param(c, n); };
+  auto dir = [&](int body, const char* n) -> Vec3 {
+    const Vec3 d = vec3_at(param(c, n));
+    if (body == 1 && !kPair<K>) return d;
+    return (body ? B : A).R * d;
+  };
+  auto vel_at = [&](int body, const Vec3& q) -> Vec3 {
+    if (body == 1 && !kPair<K>) return Vec3::Zero();
+    const BodyD& X = body ? B : A;
+    return X.v + X.w.cross(q - X.x);
+  };
+  auto add = [&](int body, const Vec3& f, const Vec3& tau) {
+    if (body == 1 && !kPair<K>) return;
+    for (int i = 0; i < 3; ++i) { F[6 * body + i] += f[i]; F[6 * body + 3 + i] += tau[i]; }
+  };
+  // a one-sided stop past a bound: `over` > 0 violated, `rate` its growth
+  auto stop = [&](double over, double rate, double k, double cc) {
+    if (over > 0) return std::max(k * over + cc * rate, 0.0);
+    return over + kEvalH * rate > 0 ? k * over + cc * rate : 0.0;
+  };
+  const double omega = 2 * kPi * (p("hertz") > 0 ? p("hertz") : global(c, "joint_hertz"));
+  const double zeta = p("damping_ratio") > 0 ? p("damping_ratio") : global(c, "joint_damping_ratio");
+  const double ma = A.m, mb = kPair<K> ? B.m : 0.0, m = std::max(ma, mb);
+  const double im = std::max(A.Iw.trace() / 2, kPair<K> ? B.Iw.trace() / 2 : 0.0);
+  const double k = m * omega * omega, cc = 2 * zeta * m * omega;
+  const double kr = im * omega * omega, cr = 2 * zeta * im * omega;
+  const Vec3 pa = attachment(c, "point_a", 0), pb = attachment(c, "point_b", 1);
+  const Vec3 wrel = (kPair<K> ? B.w : Vec3::Zero()) - A.w;
+  const Vec3 vrel = vel_at(1, pb) - vel_at(0, pa);
+  auto put_pair = [&](const Vec3& f_on_a) {
+    add(0, f_on_a, (pa - A.x).cross(f_on_a));
+    add(1, -f_on_a, (pb - B.x).cross(-f_on_a));
+  };
+  auto put_torque = [&](const Vec3& tau_on_b) { add(0, Vec3::Zero(), -tau_on_b); add(1, Vec3::Zero(), tau_on_b); };
+  if (name == "distance") {
+    const Vec3 d = pb - pa;
+    const double len = std::sqrt(d.squaredNorm() + 1e-12);
+    const Vec3 n = d / len;
+    const double rate = vrel.dot(n);
+    const double pull = p("max_length") > 0 ? stop(len - p("max_length"), rate, k, cc) : 0.0;
+    const double push = p("min_length") > 0 ? stop(p("min_length") - len, -rate, k, cc) : 0.0;
+    const double spring = p("spring_stiffness") * (len - p("rest_length")) + p("spring_damping") * rate;
+    put_pair((pull - push + spring) * n);
+    return;
+  }
+  const Vec3 na = dir(0, "axis_a"), nb = dir(1, "axis_b"), ua = dir(0, "ref_a"), ub = dir(1, "ref_b");
+  // the frame's third axis, axis x ref in the body's frame, turned to the world
+  auto third = [&](int body, const char* axis, const char* ref) -> Vec3 {
+    const Vec3 t = vec3_at(param(c, axis)).cross(vec3_at(param(c, ref)));
+    return body == 1 && !kPair<K> ? t : Vec3((body ? B : A).R * t);
+  };
+  const Vec3 ta = third(0, "axis_a", "ref_a"), tb = third(1, "axis_b", "ref_b");
+  const Vec3 lock = -kr / 2 * (na.cross(nb) + ua.cross(ub) + ta.cross(tb)) - cr * wrel;
+  if (name == "fixed") {
+    put_pair(k * (pb - pa) + cc * vrel);
+    put_torque(lock);
+    return;
+  }
+  // motor: the largest force or torque while the target is more than a step of it away
+  auto motor = [&](double target, double rate, double inertia, double most) {
+    if (most <= 0) return 0.0;
+    const double err = target - rate;
+    if (std::fabs(err) * inertia > kEvalH * most) return (err > 0 ? 1.0 : -1.0) * most;
+    return inertia * omega * err;
+  };
+  const bool limited = p("lower") < p("upper");
+  if (name == "slider") {
+    const Vec3 d = pb - pa;
+    const double travel = d.dot(na), rate = vrel.dot(na);
+    const Vec3 across = -k * (d - travel * na) - cc * (vrel - rate * na);
+    const double mz = mb > 0 ? ma * mb / (ma + mb) : ma;
+    const double lim = limited ? stop(p("lower") - travel, -rate, k, cc) - stop(travel - p("upper"), rate, k, cc) : 0.0;
+    const double spring = -(p("spring_stiffness") * (travel - p("spring_travel")) + p("spring_damping") * rate);
+    const Vec3 fb = across + (lim + motor(p("motor_speed"), rate, mz, p("motor_force")) + spring) * na;
+    add(0, -fb, (pb - A.x).cross(-fb));
+    add(1, fb, (pb - B.x).cross(fb));
+    put_torque(lock);
+    return;
+  }
+  // hinge
+  put_pair(k * (pb - pa) + cc * vrel);
+  const double rate = wrel.dot(na);
+  const double angle = std::atan2(ua.cross(ub).dot(na), ua.dot(ub));
+  const double ia = na.dot(A.Iw * na), ib = kPair<K> ? na.dot(B.Iw * na) : 0.0;
+  const double iz = ib > 0 ? ia * ib / (ia + ib) : ia;
+  const double lim = limited ? stop(p("lower") - angle, -rate, kr, cr) - stop(angle - p("upper"), rate, kr, cr) : 0.0;
+  const double spring = -(p("spring_stiffness") * (angle - p("spring_angle")) + p("spring_damping") * rate);
+  const Vec3 align = -kr * na.cross(nb) - cr * (wrel - rate * na);
+  put_torque(align + (lim + motor(p("motor_speed"), rate, iz, p("motor_torque")) + spring) * na);
+}
+
 template <class K>
 bool reference_force(const Case<K>& c, std::vector<double>& F) {
   F.assign(6 * K::kBodies, 0.0);
@@ -577,6 +675,8 @@ bool reference_force(const Case<K>& c, std::vector<double>& F) {
   } else if (name == "contact") {
     const ContactRef r = contact_ref(c);
     apply_pair(r.pa, r.pb, -r.f);
+  } else if (name == "hinge" || name == "fixed" || name == "slider" || name == "distance") {
+    joint_reference(c, name, F);
   } else {
     return false;
   }

@@ -91,6 +91,8 @@ def cxx(e):
         return f"select({x} > S(0), S(1), select({x} < S(0), S(-1), S(0)))"
     if isinstance(e, sp.Heaviside):
         return f"select({cxx(e.args[0])} > S(0), S(1), S(0))"
+    if isinstance(e, sp.atan2):
+        return f"angle_of({cxx(e.args[0])}, {cxx(e.args[1])})"
     if isinstance(e, (sp.Max, sp.Min)):
         fn = "max" if isinstance(e, sp.Max) else "min"
         args = [cxx(a) for a in e.args]

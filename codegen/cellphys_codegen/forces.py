@@ -17,7 +17,7 @@ KINDS = ("global", "unary", "binary")
 PARAM_TYPES = ("f32", "vec3")
 TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "instance", "params", "globals", "let", "apply"}
 PARAM_KEYS = {"type", "min", "greater_than", "doc"}
-GLOBAL_KEYS = {"type", "min", "greater_than", "doc", "default"}
+GLOBAL_KEYS = {"type", "min", "greater_than", "doc", "default", "setting"}
 
 
 @dataclass
@@ -136,6 +136,14 @@ def _params(path, raw, where, keys):
                                         for x in d):
                 raise DescriptorError(path, f"{loc}.default", f"must be {p.lanes} number(s), got {spec.get('default')!r} (YAML reads 1e5 as text: write 1.0e+5 or 100000.0)")
             p.default = [float(x) for x in d]
+        if "setting" in spec:
+            # a place of its own under a scene's settings, for a global several forces share
+            # (joint.hertz): every part a lower_case identifier
+            st = spec["setting"]
+            parts = st.split(".") if isinstance(st, str) else []
+            if not parts or any(naming.problem(x, "setting") or x != x.lower() for x in parts):
+                raise DescriptorError(path, f"{loc}.setting", f"must be dotted lower_case identifiers, got {st!r}")
+            p.setting = st
         out.append(p)
     return out
 
@@ -448,18 +456,19 @@ def island_globals(forces):
         for g in f.globals:
             if g.name in origin:
                 prev = origin[g.name]
-                if (prev[1].type, prev[1].default, prev[1].min, prev[1].min_exclusive) != \
-                        (g.type, g.default, g.min, g.min_exclusive):
+                if (prev[1].type, prev[1].default, prev[1].min, prev[1].min_exclusive, prev[2]) != \
+                        (g.type, g.default, g.min, g.min_exclusive, g.setting):
                     raise DescriptorError(f.source, f"globals.{g.name}",
                                           f"also declared differently by {prev[0]}")
                 g.setting = prev[1].setting
                 continue
-            g.setting = scene_setting(f.name, g.name)
+            declared = g.setting
+            g.setting = declared or scene_setting(f.name, g.name)
             for other, who in settings.items():
                 if other == g.setting or other.startswith(g.setting + ".") or g.setting.startswith(other + "."):
                     raise DescriptorError(f.source, f"globals.{g.name}", f"its scene setting settings.{g.setting} "
                                           f"collides with settings.{other} of global {who}")
             settings[g.setting] = g.name
-            origin[g.name] = (f.source, g)
+            origin[g.name] = (f.source, g, declared)
             out.append(g)
     return out

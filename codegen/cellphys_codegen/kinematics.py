@@ -318,6 +318,44 @@ def force_at_joint(body, p, f):
     return Contribution(body, f, cross(arm0 + s * (arm - arm0), f))
 
 
+def world_axis(body, d):
+    """A direction fixed in the body, given in body coordinates (world coordinates for the
+    world): R d, turning with the body's perturbation. Not normalised."""
+    _need_body("world_axis", body)
+    if isinstance(body, World):
+        return d
+    return body.rotate_perturbed(body.body_to_world(d))
+
+
+def mass_of(body):
+    """The body's mass; 0 for the world (so max(mass_of(a), mass_of(b)) is the heavier body)."""
+    _need_body("mass_of", body)
+    return sp.Integer(0) if isinstance(body, World) else body.mass
+
+
+def moment_of(body):
+    """Half the trace of the body's inertia: no principal moment is larger (each is at most the
+    sum of the other two). 0 for the world. A rotation-invariant scale for angular stiffness."""
+    _need_body("moment_of", body)
+    if isinstance(body, World):
+        return sp.Integer(0)
+    return body.inertia_body.trace() / 2
+
+
+def inertia_about(body, n):
+    """n . I n: the body's moment of inertia about world direction n (unit); 0 for the world."""
+    _need_body("inertia_about", body)
+    if isinstance(body, World):
+        return sp.Integer(0)
+    return dot(n, inertia_world(body) * n)
+
+
+def angular_velocity(body):
+    """The body's angular velocity (world frame); zero for the world."""
+    _need_body("angular_velocity", body)
+    return sp.zeros(3, 1) if isinstance(body, World) else body.w
+
+
 FUNCTIONS = {
     "vec": vec, "dot": dot, "cross": cross, "norm": norm, "sqrt": sp.sqrt, "abs": sp.Abs,
     "where": where, "positive_part": positive_part, "min": sp.Min, "max": sp.Max,
@@ -326,6 +364,9 @@ FUNCTIONS = {
     "inertia_world": inertia_world, "force": force, "torque": torque,
     "force_at_point": force_at_point, "force_at_joint": force_at_joint, "force_at_offset": force_at_offset,
     "attached_offset": attached_offset, "velocity_at_offset": velocity_at_offset, "lagged": lagged,
+    "world_axis": world_axis, "mass_of": mass_of, "moment_of": moment_of, "inertia_about": inertia_about,
+    "angular_velocity": angular_velocity,
+    "atan2": sp.atan2,
 }
 
 # attributes a descriptor may read from a body

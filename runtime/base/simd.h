@@ -508,5 +508,42 @@ template <int W> struct alignas(4 * W) Batch {
   }
 };
 
+// ---------------------------------------------------------------------------
+// angle_of(y, x): atan2 in [-pi, pi] for S = float, double or Batch<W>, from IEEE add,
+// multiply, divide, compare and select only, so it gives the same bits on every path
+// (the C library's atan2 need not). The generated kernels call it for joint angles.
+// Reduction to t = min/max in [0, 1], then to |u| <= tan(pi/8) by atan t = pi/4 +
+// atan((t-1)/(t+1)), then the odd Taylor series to u^23 (truncation < 1e-11 there).
+// atan2(0, 0) is 0; -0 is treated as +0.
+template <class S> struct LaneType { using T = S; };
+template <int W> struct LaneType<Batch<W>> { using T = float; };
+
+template <class S> S angle_of(S y, S x) {
+  using T = typename LaneType<S>::T;
+  const S zero = S(T(0)), one = S(T(1));
+  const S ax = abs(x), ay = abs(y);
+  const S hi = max(ax, ay), lo = min(ax, ay);
+  const S t = select(hi > zero, lo / select(hi > zero, hi, one), zero);
+  const auto big = t > S(T(0.41421356237309503));  // tan(pi/8)
+  const S u = select(big, (t - one) / (t + one), t);
+  const S z = u * u;
+  S p = S(T(-1.0 / 23));
+  p = p * z + S(T(1.0 / 21));
+  p = p * z + S(T(-1.0 / 19));
+  p = p * z + S(T(1.0 / 17));
+  p = p * z + S(T(-1.0 / 15));
+  p = p * z + S(T(1.0 / 13));
+  p = p * z + S(T(-1.0 / 11));
+  p = p * z + S(T(1.0 / 9));
+  p = p * z + S(T(-1.0 / 7));
+  p = p * z + S(T(1.0 / 5));
+  p = p * z + S(T(-1.0 / 3));
+  S r = u + u * (z * p);
+  r = select(big, S(T(0.78539816339744831)) + r, r);
+  r = select(ay > ax, S(T(1.5707963267948966)) - r, r);
+  r = select(x < zero, S(T(3.1415926535897932)) - r, r);
+  return select(y < zero, -r, r);
+}
+
 }  // namespace simd
 }  // namespace cellphys

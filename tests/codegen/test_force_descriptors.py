@@ -105,6 +105,17 @@ class GoodForceTests(unittest.TestCase):
         self.assertIn('"probe_force.spread", offsetof(Force_Globals, spread)}', table)
         self.assertIn('"pull.accel", offsetof(Force_Globals, pull_accel)}', table)
 
+    def test_a_global_shared_by_two_forces_at_a_place_of_its_own(self):
+        # two forces declare the same global with the same setting: one field, one place
+        sb = Sandbox(temp_dir(self))
+        for name in ("probe_one", "probe_two"):
+            sb.force(f"{name}.yaml", f"name: {name}\nkind: unary\n"
+                                     "globals:\n  probe_gain: {type: f32, default: 3.0, min: 0, setting: probe.gain}\n"
+                                     "apply: ['force(a, probe_gain * a.x)']\n")
+        table = sb.render()["cellphys/gen/force_table.h"]
+        self.assertEqual(table.count("  float probe_gain = 3.0f;"), 1)
+        self.assertIn('"probe.gain", offsetof(Force_Globals, probe_gain)}', table)
+
 
 class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
     def setUp(self):
@@ -218,6 +229,19 @@ class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
         # reported at the later file (forces load in file-name order: pull.yaml, then zz_probe.yaml)
         self.check("name: probe_force\nkind: global\nglobals:\n  pull_accel: {type: vec3, default: [0.0, 0.0, 1.0]}\n"
                    "apply: ['force(a, pull_accel)']\n", "globals.pull_accel", r"also declared differently by .*pull\.yaml",
+                   name="zz_probe.yaml")
+
+    def test_global_setting_not_dotted_identifiers(self):
+        for bad in ("Probe.gain", "probe..gain", "probe.", "1probe", "[probe]"):
+            with self.subTest(setting=bad):
+                self.check(UNARY + f"globals:\n  g: {{type: f32, default: 1.0, setting: '{bad}'}}\n"
+                           "apply: ['force(a, g * a.x)']\n", "globals.g.setting", r"dotted lower_case identifiers")
+
+    def test_global_shared_at_two_different_settings(self):
+        self.sb.force("probe_a.yaml", "name: probe_a\nkind: unary\nglobals:\n"
+                      "  probe_gain: {type: f32, default: 1.0, setting: probe.gain}\napply: ['force(a, probe_gain * a.x)']\n")
+        self.check("name: probe_force\nkind: unary\nglobals:\n  probe_gain: {type: f32, default: 1.0, setting: probe.other}\n"
+                   "apply: ['force(a, probe_gain * a.x)']\n", "globals.probe_gain", r"also declared differently by .*probe_a\.yaml",
                    name="zz_probe.yaml")
 
     # ---- instance structs ----

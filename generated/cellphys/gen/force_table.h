@@ -6,9 +6,13 @@
 #include "cellphys/gen/forces/applied_wrench.h"
 #include "cellphys/gen/forces/contact.h"
 #include "cellphys/gen/forces/damping.h"
+#include "cellphys/gen/forces/distance.h"
+#include "cellphys/gen/forces/fixed.h"
 #include "cellphys/gen/forces/gravity.h"
 #include "cellphys/gen/forces/gyroscopic.h"
+#include "cellphys/gen/forces/hinge.h"
 #include "cellphys/gen/forces/point_to_point.h"
+#include "cellphys/gen/forces/slider.h"
 #include "cellphys/gen/forces/spring.h"
 
 namespace cellphys::gen {
@@ -77,6 +81,29 @@ inline constexpr ParamInfo kDampingParams[] = {
     {"angular", ParamType::f32, 4, 1, true, 0.0f, "angular damping coefficient (1/s)"},
 };
 
+inline constexpr ParamInfo kDistanceParams[] = {
+    {"point_a", ParamType::vec3, 0, 3, false, 0.0f, "point on body a, body frame (m)"},
+    {"point_b", ParamType::vec3, 16, 3, false, 0.0f, "point on body b, body frame; world frame when b is the world (m)"},
+    {"min_length", ParamType::f32, 32, 1, true, 0.0f, "least distance (m); 0: none"},
+    {"max_length", ParamType::f32, 36, 1, true, 0.0f, "greatest distance (m); 0: none"},
+    {"spring_stiffness", ParamType::f32, 40, 1, true, 0.0f, "spring toward rest_length (N/m)"},
+    {"spring_damping", ParamType::f32, 44, 1, true, 0.0f, "damper along the line (N s/m)"},
+    {"rest_length", ParamType::f32, 48, 1, true, 0.0f, "the spring's rest length (m)"},
+    {"hertz", ParamType::f32, 52, 1, true, 0.0f, "the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz"},
+    {"damping_ratio", ParamType::f32, 56, 1, true, 0.0f, "the joint's own damping ratio; 0: settings.joint.damping_ratio"},
+};
+
+inline constexpr ParamInfo kFixedParams[] = {
+    {"point_a", ParamType::vec3, 0, 3, false, 0.0f, "joint point on body a, body frame (m)"},
+    {"point_b", ParamType::vec3, 16, 3, false, 0.0f, "joint point on body b, body frame; world frame when b is the world (m)"},
+    {"axis_a", ParamType::vec3, 32, 3, false, 0.0f, "an axis of the weld's frame, body a frame (unit)"},
+    {"axis_b", ParamType::vec3, 48, 3, false, 0.0f, "the same axis, body b frame; world frame when b is the world (unit)"},
+    {"ref_a", ParamType::vec3, 64, 3, false, 0.0f, "a second axis of the frame, across axis_a, body a frame (unit)"},
+    {"ref_b", ParamType::vec3, 80, 3, false, 0.0f, "the same second axis, body b frame (world frame when b is the world)"},
+    {"hertz", ParamType::f32, 96, 1, true, 0.0f, "the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz"},
+    {"damping_ratio", ParamType::f32, 100, 1, true, 0.0f, "the joint's own damping ratio; 0: settings.joint.damping_ratio"},
+};
+
 inline constexpr ParamInfo kGravityParams[] = {
     {"", ParamType::f32, 0, 0, false, 0.0f, ""},
 };
@@ -85,11 +112,47 @@ inline constexpr ParamInfo kGyroscopicParams[] = {
     {"", ParamType::f32, 0, 0, false, 0.0f, ""},
 };
 
+inline constexpr ParamInfo kHingeParams[] = {
+    {"point_a", ParamType::vec3, 0, 3, false, 0.0f, "joint point on body a, body frame (m)"},
+    {"point_b", ParamType::vec3, 16, 3, false, 0.0f, "joint point on body b, body frame; world frame when b is the world (m)"},
+    {"axis_a", ParamType::vec3, 32, 3, false, 0.0f, "hinge axis, body a frame (unit)"},
+    {"axis_b", ParamType::vec3, 48, 3, false, 0.0f, "hinge axis, body b frame; world frame when b is the world (unit)"},
+    {"ref_a", ParamType::vec3, 64, 3, false, 0.0f, "a direction across the axis, body a frame: the angle is that from ref_a to ref_b about the axis"},
+    {"ref_b", ParamType::vec3, 80, 3, false, 0.0f, "a direction across the axis, body b frame (world frame when b is the world): angle 0 where it meets ref_a"},
+    {"lower", ParamType::f32, 96, 1, false, 0.0f, "lowest angle (rad, in (-pi, pi)); limits act only when lower < upper"},
+    {"upper", ParamType::f32, 100, 1, false, 0.0f, "highest angle (rad, in (-pi, pi))"},
+    {"motor_speed", ParamType::f32, 104, 1, false, 0.0f, "target speed of b relative to a about the axis (rad/s)"},
+    {"motor_torque", ParamType::f32, 108, 1, true, 0.0f, "largest torque the motor gives (N m); 0: no motor"},
+    {"spring_stiffness", ParamType::f32, 112, 1, true, 0.0f, "torsion spring toward spring_angle (N m/rad)"},
+    {"spring_damping", ParamType::f32, 116, 1, true, 0.0f, "torsion damper on the angle's rate (N m s/rad)"},
+    {"spring_angle", ParamType::f32, 120, 1, false, 0.0f, "the spring's rest angle (rad)"},
+    {"hertz", ParamType::f32, 124, 1, true, 0.0f, "the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz"},
+    {"damping_ratio", ParamType::f32, 128, 1, true, 0.0f, "the joint's own damping ratio; 0: settings.joint.damping_ratio"},
+};
+
 inline constexpr ParamInfo kPoint_To_PointParams[] = {
     {"point_a", ParamType::vec3, 0, 3, false, 0.0f, "point on body a, body frame (m)"},
     {"point_b", ParamType::vec3, 16, 3, false, 0.0f, "point on body b, body frame; world frame when b is the world (m)"},
     {"stiffness", ParamType::f32, 32, 1, true, 0.0f, "N/m"},
     {"damping", ParamType::f32, 36, 1, true, 0.0f, "N s/m"},
+};
+
+inline constexpr ParamInfo kSliderParams[] = {
+    {"point_a", ParamType::vec3, 0, 3, false, 0.0f, "a point of the line, body a frame (m)"},
+    {"point_b", ParamType::vec3, 16, 3, false, 0.0f, "the point of body b held on the line, body b frame; world frame when b is the world (m)"},
+    {"axis_a", ParamType::vec3, 32, 3, false, 0.0f, "the sliding axis, body a frame (unit): travel is b's point from a's along it"},
+    {"axis_b", ParamType::vec3, 48, 3, false, 0.0f, "the same axis, body b frame; world frame when b is the world (unit)"},
+    {"ref_a", ParamType::vec3, 64, 3, false, 0.0f, "a direction across the axis, body a frame (unit): with axis_a, the frame held"},
+    {"ref_b", ParamType::vec3, 80, 3, false, 0.0f, "the same direction, body b frame (world frame when b is the world)"},
+    {"lower", ParamType::f32, 96, 1, false, 0.0f, "least travel (m); limits act only when lower < upper"},
+    {"upper", ParamType::f32, 100, 1, false, 0.0f, "greatest travel (m)"},
+    {"motor_speed", ParamType::f32, 104, 1, false, 0.0f, "target speed of b's point along the axis relative to a (m/s)"},
+    {"motor_force", ParamType::f32, 108, 1, true, 0.0f, "largest force the motor gives (N); 0: no motor"},
+    {"spring_stiffness", ParamType::f32, 112, 1, true, 0.0f, "spring toward spring_travel (N/m)"},
+    {"spring_damping", ParamType::f32, 116, 1, true, 0.0f, "damper on the travel's rate (N s/m)"},
+    {"spring_travel", ParamType::f32, 120, 1, false, 0.0f, "the spring's rest travel (m)"},
+    {"hertz", ParamType::f32, 124, 1, true, 0.0f, "the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz"},
+    {"damping_ratio", ParamType::f32, 128, 1, true, 0.0f, "the joint's own damping ratio; 0: settings.joint.damping_ratio"},
 };
 
 inline constexpr ParamInfo kSpringParams[] = {
@@ -104,9 +167,13 @@ inline constexpr ForceInfo kForceTable[] = {
     {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
     {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 8, "Soft contact: a normal spring-damper that only pushes, tuned per contact mass to a frequency and damping ratio (Box2D's soft step), acting from the start of a step in which the contact closes; friction that sticks to an anchor inside the Coulomb cone and slides as regularised Coulomb friction outside it."},
     {"damping", ForceType::damping, ForceKind::unary, false, false, "Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), offsetof(Damping_Force, body_a), -1, kDampingParams, 2, "Linear and angular damping: f = -linear m v, tau = -angular I omega (coefficients in 1/s)."},
+    {"distance", ForceType::distance, ForceKind::binary, true, false, "Distance_Force", sizeof(Distance_Force), alignof(Distance_Force), offsetof(Distance_Force, body_a), offsetof(Distance_Force, body_b), kDistanceParams, 9, "Distance joint between two body points: a rope (holds them no farther apart than max_length), a rod (min_length = max_length) or a spacer (no nearer than min_length), one-sided like the contact and soft like the hinge (joint.hertz, joint.damping_ratio); an optional spring toward rest_length between the bounds."},
+    {"fixed", ForceType::fixed, ForceKind::binary, true, false, "Fixed_Force", sizeof(Fixed_Force), alignof(Fixed_Force), offsetof(Fixed_Force, body_a), offsetof(Fixed_Force, body_b), kFixedParams, 8, "Weld: body points held together and the two bodies' frames held turned as one (a frame by an axis and a direction across it on each body). Soft like the hinge: joint.hertz, joint.damping_ratio."},
     {"gravity", ForceType::gravity, ForceKind::global, false, true, "Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), offsetof(Gravity_Force, body_a), -1, kGravityParams, 0, "Uniform gravity on every body of the island."},
     {"gyroscopic", ForceType::gyroscopic, ForceKind::unary, false, false, "Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), offsetof(Gyroscopic_Force, body_a), -1, kGyroscopicParams, 0, "Gyroscopic torque -omega x (I omega) of a body whose inertia is not isotropic."},
+    {"hinge", ForceType::hinge, ForceKind::binary, true, false, "Hinge_Force", sizeof(Hinge_Force), alignof(Hinge_Force), offsetof(Hinge_Force, body_a), offsetof(Hinge_Force, body_b), kHingeParams, 15, "Revolute joint: body points held together and body axes held aligned, turning freely about the axis; optional angle limits (acting only when reached), a motor (a target speed with a largest torque) and a spring toward a target angle. Soft like the contact: stiffness and damping follow the bodies (joint.hertz, joint.damping_ratio), so one setting holds a pebble and a crate."},
     {"point_to_point", ForceType::point_to_point, ForceKind::binary, true, false, "Point_To_Point_Constraint_Force", sizeof(Point_To_Point_Constraint_Force), alignof(Point_To_Point_Constraint_Force), offsetof(Point_To_Point_Constraint_Force, body_a), offsetof(Point_To_Point_Constraint_Force, body_b), kPoint_To_PointParams, 4, "Point-to-point constraint as a stiff zero-length spring-damper between two body points."},
+    {"slider", ForceType::slider, ForceKind::binary, true, false, "Slider_Force", sizeof(Slider_Force), alignof(Slider_Force), offsetof(Slider_Force, body_a), offsetof(Slider_Force, body_b), kSliderParams, 15, "Prismatic joint: the bodies' frames held turned as one and body b's point held on the line through body a's point along the axis, sliding freely along it; optional limits on the travel (acting only when reached), a motor (a target speed with a largest force) and a spring toward a target travel. Soft like the hinge: joint.hertz, joint.damping_ratio."},
     {"spring", ForceType::spring, ForceKind::binary, true, false, "Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), offsetof(Spring_Force, body_a), offsetof(Spring_Force, body_b), kSpringParams, 5, "A damped spring between two body points (or a body point and a fixed world point)."},
 };
 
@@ -121,6 +188,8 @@ struct Force_Globals {
   float slip_velocity = 0.0001f;  ///< speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
   float contact_slop = 0.005f;  ///< gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
   float contact_rest_speed = 0.05f;  ///< opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
+  float joint_hertz = 60.0f;  ///< joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)
+  float joint_damping_ratio = 1.0f;  ///< joint damping ratio: damping 2 ratio m (2 pi hertz)
   float gravity[3] = {0.0f, 0.0f, -9.81f};  ///< gravitational acceleration (m/s^2)
 };
 
@@ -136,6 +205,8 @@ inline void pack(const Force_Globals& in, Island_Params& out) {
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
+  out.joint_hertz = in.joint_hertz;
+  out.joint_damping_ratio = in.joint_damping_ratio;
   std::memcpy(out.gravity, in.gravity, sizeof in.gravity);
 }
 
@@ -149,9 +220,11 @@ inline constexpr GlobalInfo kGlobalTable[] = {
     {{"slip_velocity", ParamType::f32, 40, 1, true, 0.0f, "speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks", true}, {0.0001f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
     {{"contact_slop", ParamType::f32, 44, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
     {{"contact_rest_speed", ParamType::f32, 48, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}, "contact.rest_speed", offsetof(Force_Globals, contact_rest_speed)},
+    {{"joint_hertz", ParamType::f32, 52, 1, true, 0.0f, "joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)", true}, {60.0f}, "joint.hertz", offsetof(Force_Globals, joint_hertz)},
+    {{"joint_damping_ratio", ParamType::f32, 56, 1, true, 0.0f, "joint damping ratio: damping 2 ratio m (2 pi hertz)"}, {1.0f}, "joint.damping_ratio", offsetof(Force_Globals, joint_damping_ratio)},
     {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}, "gravity", offsetof(Force_Globals, gravity)},
 };
-inline constexpr int kNumGlobals = 10;
+inline constexpr int kNumGlobals = 12;
 
 /// Island_Params with every global at its descriptor default.
 inline Island_Params default_island_params() {
@@ -167,10 +240,18 @@ inline void visit_kernels(Visitor&& v) {
   v(Contact_Pair_Kernel{});
   v(Contact_World_Kernel{});
   v(Damping_Body_Kernel{});
+  v(Distance_Pair_Kernel{});
+  v(Distance_World_Kernel{});
+  v(Fixed_Pair_Kernel{});
+  v(Fixed_World_Kernel{});
   v(Gravity_Body_Kernel{});
   v(Gyroscopic_Body_Kernel{});
+  v(Hinge_Pair_Kernel{});
+  v(Hinge_World_Kernel{});
   v(Point_To_Point_Pair_Kernel{});
   v(Point_To_Point_World_Kernel{});
+  v(Slider_Pair_Kernel{});
+  v(Slider_World_Kernel{});
   v(Spring_Pair_Kernel{});
   v(Spring_World_Kernel{});
 }

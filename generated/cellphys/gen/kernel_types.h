@@ -10,12 +10,16 @@ enum class ForceType : uint32_t {
   applied_wrench = 0,
   contact = 1,
   damping = 2,
-  gravity = 3,
-  gyroscopic = 4,
-  point_to_point = 5,
-  spring = 6,
+  distance = 3,
+  fixed = 4,
+  gravity = 5,
+  gyroscopic = 6,
+  hinge = 7,
+  point_to_point = 8,
+  slider = 9,
+  spring = 10,
 };
-inline constexpr int kNumForceTypes = 7;
+inline constexpr int kNumForceTypes = 11;
 
 /// global: every body of an island; unary: one body; binary: two bodies or a body and the world.
 enum class ForceKind : uint32_t { global, unary, binary };

@@ -1039,6 +1039,206 @@ inline void unpack(const unsigned char* bytes, Damping_Force_Fields& out) {
   unpack(tmp, out);
 }
 
+// ---- Distance_Force (codegen/descriptors/forces/distance.yaml) ----
+/// Instance of the distance force.
+struct alignas(16) Distance_Force {
+  float point_a[4];  ///< @0: vec3 (padded). point on body a, body frame (m)
+  float point_b[4];  ///< @16: vec3 (padded). point on body b, body frame; world frame when b is the world (m)
+  float min_length;  ///< @32: f32. least distance (m); 0: none
+  float max_length;  ///< @36: f32. greatest distance (m); 0: none
+  float spring_stiffness;  ///< @40: f32. spring toward rest_length (N/m)
+  float spring_damping;  ///< @44: f32. damper along the line (N s/m)
+  float rest_length;  ///< @48: f32. the spring's rest length (m)
+  float hertz;  ///< @52: f32. the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz
+  float damping_ratio;  ///< @56: f32. the joint's own damping ratio; 0: settings.joint.damping_ratio
+  int32_t body_a;  ///< @60: i32
+  int32_t body_b;  ///< @64: i32
+  unsigned char pad_68[12];
+};
+static_assert(sizeof(Distance_Force) == 80, "Distance_Force: size differs from the descriptor");
+static_assert(alignof(Distance_Force) == 16, "Distance_Force: alignment differs from the descriptor");
+static_assert(offsetof(Distance_Force, point_a) == 0, "Distance_Force.point_a: offset differs");
+static_assert(offsetof(Distance_Force, point_b) == 16, "Distance_Force.point_b: offset differs");
+static_assert(offsetof(Distance_Force, min_length) == 32, "Distance_Force.min_length: offset differs");
+static_assert(offsetof(Distance_Force, max_length) == 36, "Distance_Force.max_length: offset differs");
+static_assert(offsetof(Distance_Force, spring_stiffness) == 40, "Distance_Force.spring_stiffness: offset differs");
+static_assert(offsetof(Distance_Force, spring_damping) == 44, "Distance_Force.spring_damping: offset differs");
+static_assert(offsetof(Distance_Force, rest_length) == 48, "Distance_Force.rest_length: offset differs");
+static_assert(offsetof(Distance_Force, hertz) == 52, "Distance_Force.hertz: offset differs");
+static_assert(offsetof(Distance_Force, damping_ratio) == 56, "Distance_Force.damping_ratio: offset differs");
+static_assert(offsetof(Distance_Force, body_a) == 60, "Distance_Force.body_a: offset differs");
+static_assert(offsetof(Distance_Force, body_b) == 64, "Distance_Force.body_b: offset differs");
+
+/// The fields of Distance_Force without padding: what pack() takes and unpack() gives.
+struct Distance_Force_Fields {
+  float point_a[3]{};
+  float point_b[3]{};
+  float min_length = 0;
+  float max_length = 0;
+  float spring_stiffness = 0;
+  float spring_damping = 0;
+  float rest_length = 0;
+  float hertz = 0;
+  float damping_ratio = 0;
+  int32_t body_a = 0;
+  int32_t body_b = 0;
+};
+
+inline void pack(const Distance_Force_Fields& in, Distance_Force& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.min_length = in.min_length;
+  out.max_length = in.max_length;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.rest_length = in.rest_length;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+inline void unpack(const Distance_Force& in, Distance_Force_Fields& out) {
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.min_length = in.min_length;
+  out.max_length = in.max_length;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.rest_length = in.rest_length;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (80 B).
+inline void pack(const Distance_Force_Fields& in, unsigned char* bytes) {
+  Distance_Force tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Distance_Force_Fields& out) {
+  Distance_Force tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
+// ---- Fixed_Force (codegen/descriptors/forces/fixed.yaml) ----
+/// Instance of the fixed force.
+struct alignas(16) Fixed_Force {
+  float point_a[4];  ///< @0: vec3 (padded). joint point on body a, body frame (m)
+  float point_b[4];  ///< @16: vec3 (padded). joint point on body b, body frame; world frame when b is the world (m)
+  float axis_a[4];  ///< @32: vec3 (padded). an axis of the weld's frame, body a frame (unit)
+  float axis_b[4];  ///< @48: vec3 (padded). the same axis, body b frame; world frame when b is the world (unit)
+  float ref_a[4];  ///< @64: vec3 (padded). a second axis of the frame, across axis_a, body a frame (unit)
+  float ref_b[4];  ///< @80: vec3 (padded). the same second axis, body b frame (world frame when b is the world)
+  float hertz;  ///< @96: f32. the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz
+  float damping_ratio;  ///< @100: f32. the joint's own damping ratio; 0: settings.joint.damping_ratio
+  int32_t body_a;  ///< @104: i32
+  int32_t body_b;  ///< @108: i32
+};
+static_assert(sizeof(Fixed_Force) == 112, "Fixed_Force: size differs from the descriptor");
+static_assert(alignof(Fixed_Force) == 16, "Fixed_Force: alignment differs from the descriptor");
+static_assert(offsetof(Fixed_Force, point_a) == 0, "Fixed_Force.point_a: offset differs");
+static_assert(offsetof(Fixed_Force, point_b) == 16, "Fixed_Force.point_b: offset differs");
+static_assert(offsetof(Fixed_Force, axis_a) == 32, "Fixed_Force.axis_a: offset differs");
+static_assert(offsetof(Fixed_Force, axis_b) == 48, "Fixed_Force.axis_b: offset differs");
+static_assert(offsetof(Fixed_Force, ref_a) == 64, "Fixed_Force.ref_a: offset differs");
+static_assert(offsetof(Fixed_Force, ref_b) == 80, "Fixed_Force.ref_b: offset differs");
+static_assert(offsetof(Fixed_Force, hertz) == 96, "Fixed_Force.hertz: offset differs");
+static_assert(offsetof(Fixed_Force, damping_ratio) == 100, "Fixed_Force.damping_ratio: offset differs");
+static_assert(offsetof(Fixed_Force, body_a) == 104, "Fixed_Force.body_a: offset differs");
+static_assert(offsetof(Fixed_Force, body_b) == 108, "Fixed_Force.body_b: offset differs");
+
+/// The fields of Fixed_Force without padding: what pack() takes and unpack() gives.
+struct Fixed_Force_Fields {
+  float point_a[3]{};
+  float point_b[3]{};
+  float axis_a[3]{};
+  float axis_b[3]{};
+  float ref_a[3]{};
+  float ref_b[3]{};
+  float hertz = 0;
+  float damping_ratio = 0;
+  int32_t body_a = 0;
+  int32_t body_b = 0;
+};
+
+inline void pack(const Fixed_Force_Fields& in, Fixed_Force& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.ref_a[0] = in.ref_a[0];
+  out.ref_a[1] = in.ref_a[1];
+  out.ref_a[2] = in.ref_a[2];
+  out.ref_b[0] = in.ref_b[0];
+  out.ref_b[1] = in.ref_b[1];
+  out.ref_b[2] = in.ref_b[2];
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+inline void unpack(const Fixed_Force& in, Fixed_Force_Fields& out) {
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.ref_a[0] = in.ref_a[0];
+  out.ref_a[1] = in.ref_a[1];
+  out.ref_a[2] = in.ref_a[2];
+  out.ref_b[0] = in.ref_b[0];
+  out.ref_b[1] = in.ref_b[1];
+  out.ref_b[2] = in.ref_b[2];
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (112 B).
+inline void pack(const Fixed_Force_Fields& in, unsigned char* bytes) {
+  Fixed_Force tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Fixed_Force_Fields& out) {
+  Fixed_Force tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
 // ---- Gravity_Force (codegen/descriptors/forces/gravity.yaml) ----
 /// Instance of the gravity force.
 struct alignas(4) Gravity_Force {
@@ -1107,6 +1307,288 @@ inline void pack(const Gyroscopic_Force_Fields& in, unsigned char* bytes) {
 
 inline void unpack(const unsigned char* bytes, Gyroscopic_Force_Fields& out) {
   Gyroscopic_Force tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
+// ---- Hinge_Force (codegen/descriptors/forces/hinge.yaml) ----
+/// Instance of the hinge force.
+struct alignas(16) Hinge_Force {
+  float point_a[4];  ///< @0: vec3 (padded). joint point on body a, body frame (m)
+  float point_b[4];  ///< @16: vec3 (padded). joint point on body b, body frame; world frame when b is the world (m)
+  float axis_a[4];  ///< @32: vec3 (padded). hinge axis, body a frame (unit)
+  float axis_b[4];  ///< @48: vec3 (padded). hinge axis, body b frame; world frame when b is the world (unit)
+  float ref_a[4];  ///< @64: vec3 (padded). a direction across the axis, body a frame: the angle is that from ref_a to ref_b about the axis
+  float ref_b[4];  ///< @80: vec3 (padded). a direction across the axis, body b frame (world frame when b is the world): angle 0 where it meets ref_a
+  float lower;  ///< @96: f32. lowest angle (rad, in (-pi, pi)); limits act only when lower < upper
+  float upper;  ///< @100: f32. highest angle (rad, in (-pi, pi))
+  float motor_speed;  ///< @104: f32. target speed of b relative to a about the axis (rad/s)
+  float motor_torque;  ///< @108: f32. largest torque the motor gives (N m); 0: no motor
+  float spring_stiffness;  ///< @112: f32. torsion spring toward spring_angle (N m/rad)
+  float spring_damping;  ///< @116: f32. torsion damper on the angle's rate (N m s/rad)
+  float spring_angle;  ///< @120: f32. the spring's rest angle (rad)
+  float hertz;  ///< @124: f32. the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz
+  float damping_ratio;  ///< @128: f32. the joint's own damping ratio; 0: settings.joint.damping_ratio
+  int32_t body_a;  ///< @132: i32
+  int32_t body_b;  ///< @136: i32
+  unsigned char pad_140[4];
+};
+static_assert(sizeof(Hinge_Force) == 144, "Hinge_Force: size differs from the descriptor");
+static_assert(alignof(Hinge_Force) == 16, "Hinge_Force: alignment differs from the descriptor");
+static_assert(offsetof(Hinge_Force, point_a) == 0, "Hinge_Force.point_a: offset differs");
+static_assert(offsetof(Hinge_Force, point_b) == 16, "Hinge_Force.point_b: offset differs");
+static_assert(offsetof(Hinge_Force, axis_a) == 32, "Hinge_Force.axis_a: offset differs");
+static_assert(offsetof(Hinge_Force, axis_b) == 48, "Hinge_Force.axis_b: offset differs");
+static_assert(offsetof(Hinge_Force, ref_a) == 64, "Hinge_Force.ref_a: offset differs");
+static_assert(offsetof(Hinge_Force, ref_b) == 80, "Hinge_Force.ref_b: offset differs");
+static_assert(offsetof(Hinge_Force, lower) == 96, "Hinge_Force.lower: offset differs");
+static_assert(offsetof(Hinge_Force, upper) == 100, "Hinge_Force.upper: offset differs");
+static_assert(offsetof(Hinge_Force, motor_speed) == 104, "Hinge_Force.motor_speed: offset differs");
+static_assert(offsetof(Hinge_Force, motor_torque) == 108, "Hinge_Force.motor_torque: offset differs");
+static_assert(offsetof(Hinge_Force, spring_stiffness) == 112, "Hinge_Force.spring_stiffness: offset differs");
+static_assert(offsetof(Hinge_Force, spring_damping) == 116, "Hinge_Force.spring_damping: offset differs");
+static_assert(offsetof(Hinge_Force, spring_angle) == 120, "Hinge_Force.spring_angle: offset differs");
+static_assert(offsetof(Hinge_Force, hertz) == 124, "Hinge_Force.hertz: offset differs");
+static_assert(offsetof(Hinge_Force, damping_ratio) == 128, "Hinge_Force.damping_ratio: offset differs");
+static_assert(offsetof(Hinge_Force, body_a) == 132, "Hinge_Force.body_a: offset differs");
+static_assert(offsetof(Hinge_Force, body_b) == 136, "Hinge_Force.body_b: offset differs");
+
+/// The fields of Hinge_Force without padding: what pack() takes and unpack() gives.
+struct Hinge_Force_Fields {
+  float point_a[3]{};
+  float point_b[3]{};
+  float axis_a[3]{};
+  float axis_b[3]{};
+  float ref_a[3]{};
+  float ref_b[3]{};
+  float lower = 0;
+  float upper = 0;
+  float motor_speed = 0;
+  float motor_torque = 0;
+  float spring_stiffness = 0;
+  float spring_damping = 0;
+  float spring_angle = 0;
+  float hertz = 0;
+  float damping_ratio = 0;
+  int32_t body_a = 0;
+  int32_t body_b = 0;
+};
+
+inline void pack(const Hinge_Force_Fields& in, Hinge_Force& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.ref_a[0] = in.ref_a[0];
+  out.ref_a[1] = in.ref_a[1];
+  out.ref_a[2] = in.ref_a[2];
+  out.ref_b[0] = in.ref_b[0];
+  out.ref_b[1] = in.ref_b[1];
+  out.ref_b[2] = in.ref_b[2];
+  out.lower = in.lower;
+  out.upper = in.upper;
+  out.motor_speed = in.motor_speed;
+  out.motor_torque = in.motor_torque;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.spring_angle = in.spring_angle;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+inline void unpack(const Hinge_Force& in, Hinge_Force_Fields& out) {
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.ref_a[0] = in.ref_a[0];
+  out.ref_a[1] = in.ref_a[1];
+  out.ref_a[2] = in.ref_a[2];
+  out.ref_b[0] = in.ref_b[0];
+  out.ref_b[1] = in.ref_b[1];
+  out.ref_b[2] = in.ref_b[2];
+  out.lower = in.lower;
+  out.upper = in.upper;
+  out.motor_speed = in.motor_speed;
+  out.motor_torque = in.motor_torque;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.spring_angle = in.spring_angle;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (144 B).
+inline void pack(const Hinge_Force_Fields& in, unsigned char* bytes) {
+  Hinge_Force tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Hinge_Force_Fields& out) {
+  Hinge_Force tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
+// ---- Slider_Force (codegen/descriptors/forces/slider.yaml) ----
+/// Instance of the slider force.
+struct alignas(16) Slider_Force {
+  float point_a[4];  ///< @0: vec3 (padded). a point of the line, body a frame (m)
+  float point_b[4];  ///< @16: vec3 (padded). the point of body b held on the line, body b frame; world frame when b is the world (m)
+  float axis_a[4];  ///< @32: vec3 (padded). the sliding axis, body a frame (unit): travel is b's point from a's along it
+  float axis_b[4];  ///< @48: vec3 (padded). the same axis, body b frame; world frame when b is the world (unit)
+  float ref_a[4];  ///< @64: vec3 (padded). a direction across the axis, body a frame (unit): with axis_a, the frame held
+  float ref_b[4];  ///< @80: vec3 (padded). the same direction, body b frame (world frame when b is the world)
+  float lower;  ///< @96: f32. least travel (m); limits act only when lower < upper
+  float upper;  ///< @100: f32. greatest travel (m)
+  float motor_speed;  ///< @104: f32. target speed of b's point along the axis relative to a (m/s)
+  float motor_force;  ///< @108: f32. largest force the motor gives (N); 0: no motor
+  float spring_stiffness;  ///< @112: f32. spring toward spring_travel (N/m)
+  float spring_damping;  ///< @116: f32. damper on the travel's rate (N s/m)
+  float spring_travel;  ///< @120: f32. the spring's rest travel (m)
+  float hertz;  ///< @124: f32. the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz
+  float damping_ratio;  ///< @128: f32. the joint's own damping ratio; 0: settings.joint.damping_ratio
+  int32_t body_a;  ///< @132: i32
+  int32_t body_b;  ///< @136: i32
+  unsigned char pad_140[4];
+};
+static_assert(sizeof(Slider_Force) == 144, "Slider_Force: size differs from the descriptor");
+static_assert(alignof(Slider_Force) == 16, "Slider_Force: alignment differs from the descriptor");
+static_assert(offsetof(Slider_Force, point_a) == 0, "Slider_Force.point_a: offset differs");
+static_assert(offsetof(Slider_Force, point_b) == 16, "Slider_Force.point_b: offset differs");
+static_assert(offsetof(Slider_Force, axis_a) == 32, "Slider_Force.axis_a: offset differs");
+static_assert(offsetof(Slider_Force, axis_b) == 48, "Slider_Force.axis_b: offset differs");
+static_assert(offsetof(Slider_Force, ref_a) == 64, "Slider_Force.ref_a: offset differs");
+static_assert(offsetof(Slider_Force, ref_b) == 80, "Slider_Force.ref_b: offset differs");
+static_assert(offsetof(Slider_Force, lower) == 96, "Slider_Force.lower: offset differs");
+static_assert(offsetof(Slider_Force, upper) == 100, "Slider_Force.upper: offset differs");
+static_assert(offsetof(Slider_Force, motor_speed) == 104, "Slider_Force.motor_speed: offset differs");
+static_assert(offsetof(Slider_Force, motor_force) == 108, "Slider_Force.motor_force: offset differs");
+static_assert(offsetof(Slider_Force, spring_stiffness) == 112, "Slider_Force.spring_stiffness: offset differs");
+static_assert(offsetof(Slider_Force, spring_damping) == 116, "Slider_Force.spring_damping: offset differs");
+static_assert(offsetof(Slider_Force, spring_travel) == 120, "Slider_Force.spring_travel: offset differs");
+static_assert(offsetof(Slider_Force, hertz) == 124, "Slider_Force.hertz: offset differs");
+static_assert(offsetof(Slider_Force, damping_ratio) == 128, "Slider_Force.damping_ratio: offset differs");
+static_assert(offsetof(Slider_Force, body_a) == 132, "Slider_Force.body_a: offset differs");
+static_assert(offsetof(Slider_Force, body_b) == 136, "Slider_Force.body_b: offset differs");
+
+/// The fields of Slider_Force without padding: what pack() takes and unpack() gives.
+struct Slider_Force_Fields {
+  float point_a[3]{};
+  float point_b[3]{};
+  float axis_a[3]{};
+  float axis_b[3]{};
+  float ref_a[3]{};
+  float ref_b[3]{};
+  float lower = 0;
+  float upper = 0;
+  float motor_speed = 0;
+  float motor_force = 0;
+  float spring_stiffness = 0;
+  float spring_damping = 0;
+  float spring_travel = 0;
+  float hertz = 0;
+  float damping_ratio = 0;
+  int32_t body_a = 0;
+  int32_t body_b = 0;
+};
+
+inline void pack(const Slider_Force_Fields& in, Slider_Force& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.ref_a[0] = in.ref_a[0];
+  out.ref_a[1] = in.ref_a[1];
+  out.ref_a[2] = in.ref_a[2];
+  out.ref_b[0] = in.ref_b[0];
+  out.ref_b[1] = in.ref_b[1];
+  out.ref_b[2] = in.ref_b[2];
+  out.lower = in.lower;
+  out.upper = in.upper;
+  out.motor_speed = in.motor_speed;
+  out.motor_force = in.motor_force;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.spring_travel = in.spring_travel;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+inline void unpack(const Slider_Force& in, Slider_Force_Fields& out) {
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.ref_a[0] = in.ref_a[0];
+  out.ref_a[1] = in.ref_a[1];
+  out.ref_a[2] = in.ref_a[2];
+  out.ref_b[0] = in.ref_b[0];
+  out.ref_b[1] = in.ref_b[1];
+  out.ref_b[2] = in.ref_b[2];
+  out.lower = in.lower;
+  out.upper = in.upper;
+  out.motor_speed = in.motor_speed;
+  out.motor_force = in.motor_force;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.spring_travel = in.spring_travel;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (144 B).
+inline void pack(const Slider_Force_Fields& in, unsigned char* bytes) {
+  Slider_Force tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Slider_Force_Fields& out) {
+  Slider_Force tmp;
   std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
   unpack(tmp, out);
 }
@@ -1199,7 +1681,9 @@ struct alignas(16) Island_Params {
   float slip_velocity;  ///< @40: f32. speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
   float contact_slop;  ///< @44: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
   float contact_rest_speed;  ///< @48: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
-  unsigned char pad_52[12];
+  float joint_hertz;  ///< @52: f32. joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)
+  float joint_damping_ratio;  ///< @56: f32. joint damping ratio: damping 2 ratio m (2 pi hertz)
+  unsigned char pad_60[4];
 };
 static_assert(sizeof(Island_Params) == 64, "Island_Params: size differs from the descriptor");
 static_assert(alignof(Island_Params) == 16, "Island_Params: alignment differs from the descriptor");
@@ -1213,6 +1697,8 @@ static_assert(offsetof(Island_Params, contact_hold_depth) == 36, "Island_Params.
 static_assert(offsetof(Island_Params, slip_velocity) == 40, "Island_Params.slip_velocity: offset differs");
 static_assert(offsetof(Island_Params, contact_slop) == 44, "Island_Params.contact_slop: offset differs");
 static_assert(offsetof(Island_Params, contact_rest_speed) == 48, "Island_Params.contact_rest_speed: offset differs");
+static_assert(offsetof(Island_Params, joint_hertz) == 52, "Island_Params.joint_hertz: offset differs");
+static_assert(offsetof(Island_Params, joint_damping_ratio) == 56, "Island_Params.joint_damping_ratio: offset differs");
 
 /// The fields of Island_Params without padding: what pack() takes and unpack() gives.
 struct Island_Params_Fields {
@@ -1226,6 +1712,8 @@ struct Island_Params_Fields {
   float slip_velocity = 0;
   float contact_slop = 0;
   float contact_rest_speed = 0;
+  float joint_hertz = 0;
+  float joint_damping_ratio = 0;
 };
 
 inline void pack(const Island_Params_Fields& in, Island_Params& out) {
@@ -1242,6 +1730,8 @@ inline void pack(const Island_Params_Fields& in, Island_Params& out) {
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
+  out.joint_hertz = in.joint_hertz;
+  out.joint_damping_ratio = in.joint_damping_ratio;
 }
 
 inline void unpack(const Island_Params& in, Island_Params_Fields& out) {
@@ -1257,6 +1747,8 @@ inline void unpack(const Island_Params& in, Island_Params_Fields& out) {
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
+  out.joint_hertz = in.joint_hertz;
+  out.joint_damping_ratio = in.joint_damping_ratio;
 }
 
 /// Bytes as they cross a DMA transfer or the wire (64 B).
@@ -1294,10 +1786,14 @@ inline constexpr StructInfo kStructTable[] = {
     {"Wire_Node_To_Dispatcher", sizeof(Wire_Node_To_Dispatcher), alignof(Wire_Node_To_Dispatcher), 52},
     {"Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), 28},
     {"Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), 12},
+    {"Distance_Force", sizeof(Distance_Force), alignof(Distance_Force), 60},
+    {"Fixed_Force", sizeof(Fixed_Force), alignof(Fixed_Force), 88},
     {"Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), 4},
     {"Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), 4},
+    {"Hinge_Force", sizeof(Hinge_Force), alignof(Hinge_Force), 116},
+    {"Slider_Force", sizeof(Slider_Force), alignof(Slider_Force), 116},
     {"Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), 44},
-    {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 48},
+    {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 56},
 };
 
 }  // namespace cellphys::gen

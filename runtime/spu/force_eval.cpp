@@ -28,10 +28,13 @@ Mode mode_of(const ForceTargets& t) {
   return Mode::forces;
 }
 
-MaxSizes max_sizes() {
+static_assert(kNumForceTypes <= 32, "a force type is a bit of IslandCounts::force_types");
+
+MaxSizes max_sizes(uint32_t types) {
   MaxSizes m;
   visit_kernels([&](auto k) {
     using K = decltype(k);
+    if (!(types & (1u << static_cast<uint32_t>(K::kType)))) return;
     if (K::kInputs > m.inputs) m.inputs = K::kInputs;
     if (K::kOutputs > m.outputs) m.outputs = K::kOutputs;
   });
@@ -167,8 +170,8 @@ int BlockStructure::find(int row, int column) const {
   return -1;
 }
 
-size_t force_scratch_bytes() {
-  static const MaxSizes m = max_sizes();
+size_t force_scratch_bytes(uint32_t types) {
+  const MaxSizes m = max_sizes(types);
   return sizeof(float) * kLanes * static_cast<size_t>(m.inputs + m.outputs);
 }
 

@@ -36,8 +36,10 @@ struct ForceTargets {
   const float* ref = nullptr;  // n * 8: reference poses (x y z _ w x y z) of contact geometry
 };
 
-/// Bytes of scratch evaluate_forces needs (one batch of inputs and outputs).
-size_t force_scratch_bytes();
+/// Bytes of scratch evaluate_forces needs (one batch of inputs and outputs) for an island
+/// holding the force types whose bits `types` sets: a joint type an island does not hold
+/// costs it no local store.
+size_t force_scratch_bytes(uint32_t types);
 
 /// Accumulates into the targets (the caller zeroes them). Jacobians are evaluated only when
 /// a target needs them; otherwise the kernels' F-only entry points run.

@@ -113,6 +113,7 @@ bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
   c.image_bytes = h.total_bytes;
   c.integrator = static_cast<Integrator>(h.integrator);
   c.solver = static_cast<Solver>(h.solver);
+  c.force_types = 0;
   for (uint32_t k = 0; k < h.num_sections; ++k) {
     Island_Section s;
     std::memcpy(&s, job.image + layout.sections + k * sizeof s, sizeof s);
@@ -121,6 +122,7 @@ bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
       return false;
     }
     if (kForceTable[s.force_type].offset_body_b >= 0) c.pair_instances += s.count - s.world_count;
+    c.force_types |= 1u << s.force_type;
   }
   r.footprint = footprint(c);
   if (r.footprint.total > ls_.capacity()) {

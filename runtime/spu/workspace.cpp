@@ -45,6 +45,8 @@ IslandCounts counts_of(const IslandView& v) {
   c.image_bytes = v.header->total_bytes;
   c.integrator = static_cast<Integrator>(v.header->integrator);
   c.solver = static_cast<Solver>(v.header->solver);
+  c.force_types = 0;
+  for (int s = 0; s < v.num_sections(); ++s) c.force_types |= 1u << v.sections[s].force_type;
   return c;
 }
 
@@ -61,7 +63,7 @@ Footprint footprint(const IslandCounts& c) {
   size_t vec = 0;
   for (int floats : {v.forces, v.ref, v.x, v.u0, v.saved, v.k1, v.jv, v.acc}) vec += floats ? up(n * floats * 4) : 0;
   b[int(Region::vectors)] = vec;
-  size_t scratch = up(force_scratch_bytes());
+  size_t scratch = up(force_scratch_bytes(c.force_types));
   if (implicit(c.integrator)) {
     b[int(Region::block_index)] = up((n + 1) * 4) + up(size_t{c.num_blocks} * 4);
     b[int(Region::blocks)] = up(size_t{c.num_blocks} * kBlockFloats * 4) + (v.p ? up(n * v.p * 4) : 0);

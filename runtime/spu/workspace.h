@@ -19,6 +19,7 @@ struct IslandCounts {
   uint32_t image_bytes = 0;     // the packed island
   Integrator integrator = Integrator::implicit_split;
   Solver solver = Solver::cgs;
+  uint32_t force_types = ~0u;   // a bit per force type the island holds (scratch fits their kernels)
 };
 IslandCounts counts_of(const IslandView& v);
 

@@ -268,7 +268,14 @@ void MpiRunner::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::Is
 void MpiRunner::stop() {
   if (stopped_) return;
   stopped_ = true;
-  for (const Node& n : nodes_) MPI_Send(nullptr, 0, MPI_BYTE, n.rank, kTagStop, MPI_COMM_WORLD);
+  // Not MPI_Send: a hung node's full receive queue would block a blocking send for ever, before
+  // the deadline below could name it.
+  for (const Node& n : nodes_) {
+    auto s = std::make_unique<Send>();
+    s->node = n.rank;
+    MPI_Isend(nullptr, 0, MPI_BYTE, n.rank, kTagStop, MPI_COMM_WORLD, &s->request);
+    sends_.push_back(std::move(s));
+  }
   // Wait for each node's goodbye, discarding late answers of dropped nodes on the way, while
   // the nodes are silent no longer than the deadline.
   std::vector<char> bye(nodes_.size(), 0);

@@ -376,6 +376,9 @@ Case<K> random_case(Rng& rng) {
       else if (pi.lanes == 3) set3(p, rng.vec(-1, 1));  // off-centre attachments, wind, ...
       else p[0] = pi.has_min ? pi.min + rng.uni(0.5, 5) : rng.uni(-2, 2);
     }
+    if (fi.name == std::string("cone_twist")) {  // its swing and twist are defined on unit axes
+      for (const char* n : {"axis_a", "axis_b"}) set3(param(c, n), vec3_at(param(c, n)).normalized());
+    }
     if (double* rest = param(c, "rest_length")) {  // stretched, with a well-defined direction
       const double L = (attachment(c, "point_b", 1) - attachment(c, "point_a", 0)).norm();
       if (L < 0.3) continue;
@@ -611,6 +614,22 @@ void joint_reference(const Case<K>& c, const std::string& name, std::vector<doub
     if (std::fabs(err) * inertia > kEvalH * most) return (err > 0 ? 1.0 : -1.0) * most;
     return inertia * omega * err;
   };
+  if (name == "cone_twist") {
+    put_pair(k * (pb - pa) + cc * vrel);
+    // the swing: the angle between the twist axes, opened by b turning about na x nb
+    const double sn = std::sqrt(nb.cross(na).squaredNorm() + 1e-12), swing = std::atan2(sn, na.dot(nb));
+    const Vec3 e = na.cross(nb) / sn;
+    const double cone = p("cone_angle") > 0 ? stop(swing - p("cone_angle"), wrel.dot(e), kr, cr) : 0.0;
+    // the twist: ref_b turned back by the shortest rotation taking nb onto na (Eigen's), from ref_a
+    const Vec3 ubs = Eigen::Quaterniond::FromTwoVectors(nb, na) * ub;
+    const double twist = std::atan2(ua.cross(ubs).dot(na), ua.dot(ubs)), rate = wrel.dot(na);
+    const double lim = p("twist_lower") < p("twist_upper")
+                           ? stop(p("twist_lower") - twist, -rate, kr, cr) - stop(twist - p("twist_upper"), rate, kr, cr)
+                           : 0.0;
+    const Vec3 spring = -p("spring_stiffness") * (swing * e + twist * na) - p("spring_damping") * wrel;
+    put_torque(-cone * e + lim * na + spring);
+    return;
+  }
   const bool limited = p("lower") < p("upper");
   if (name == "slider") {
     const Vec3 d = pb - pa;
@@ -675,7 +694,7 @@ bool reference_force(const Case<K>& c, std::vector<double>& F) {
   } else if (name == "contact") {
     const ContactRef r = contact_ref(c);
     apply_pair(r.pa, r.pb, -r.f);
-  } else if (name == "hinge" || name == "fixed" || name == "slider" || name == "distance") {
+  } else if (name == "hinge" || name == "fixed" || name == "slider" || name == "distance" || name == "cone_twist") {
     joint_reference(c, name, F);
   } else {
     return false;

@@ -65,7 +65,7 @@ def render(structs_dir, force_dirs, src_root):
     for i, f in enumerate(forces):
         inst = f.instance
         force_views.append(dict(
-            name=f.name, index=i, kind=f.kind, doc=f.doc, symmetric=f.symmetric, world_anchor=f.world_anchor,
+            name=f.name, index=i, kind=f.kind, doc=f.doc, symmetric=f.symmetric, world_anchor=f.world_anchor, joint=f.joint,
             origin=rel(f.source), instance=inst.name, camel=camel(f.name),
             params=[dict(name=p.name, type=p.type, lanes=p.lanes, offset=inst.field(p.name).offset,
                          min=p.min, min_exclusive=p.min_exclusive, doc=p.doc) for p in f.params],

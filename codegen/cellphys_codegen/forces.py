@@ -15,7 +15,7 @@ from .structs import layout, unknown_keys
 
 KINDS = ("global", "unary", "binary")
 PARAM_TYPES = ("f32", "vec3")
-TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "instance", "params", "globals", "let", "apply"}
+TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "joint", "instance", "params", "globals", "let", "apply"}
 PARAM_KEYS = {"type", "min", "greater_than", "doc"}
 GLOBAL_KEYS = {"type", "min", "greater_than", "doc", "default", "setting"}
 
@@ -89,6 +89,7 @@ class Force:
     doc: str
     symmetric: bool
     world_anchor: bool
+    joint: bool  # the bodies it joins do not collide with each other
     params: list
     globals: list
     instance: object  # structs.Struct
@@ -191,11 +192,13 @@ def load_force(path, structs):
     kind = d["kind"]
     if kind not in KINDS:
         raise DescriptorError(path, "kind", f"unknown kind {kind!r} (known: {', '.join(KINDS)})")
-    for key in ("symmetric", "world_anchor"):
+    for key in ("symmetric", "world_anchor", "joint"):
         if key in d and not isinstance(d[key], bool):
             raise DescriptorError(path, key, f"must be true or false, got {d[key]!r}")
     if d.get("world_anchor") and kind != "binary":
         raise DescriptorError(path, "world_anchor", "only a binary force can be anchored to the world")
+    if d.get("joint") and kind != "binary":
+        raise DescriptorError(path, "joint", "only a binary force joins two bodies")
     params = _params(path, d.get("params"), "params", PARAM_KEYS)
     globals_ = _params(path, d.get("globals"), "globals", GLOBAL_KEYS)
     if kind == "global" and params:
@@ -206,7 +209,7 @@ def load_force(path, structs):
         raise DescriptorError(path, "params", f"name(s) {sorted(dup)} declared twice")
     instance = _instance_struct(path, d, name, kind, params, structs)
     force = Force(name, kind, d.get("doc", ""), d.get("symmetric", False), d.get("world_anchor", False),
-                  params, globals_, instance, str(path))
+                  d.get("joint", False), params, globals_, instance, str(path))
     variants = {"global": ["body"], "unary": ["body"], "binary": ["pair"] + (["world"] if force.world_anchor else [])}
     force.kernels = [_build_kernel(force, v, d, lines, path) for v in variants[kind]]
     return force

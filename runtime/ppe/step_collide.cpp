@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cellphys/gen/force_table.h"
 #include "runtime/base/vec3.h"
 #include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/world.h"
@@ -68,6 +69,22 @@ void plane_pairs(const std::vector<WorldBody>& bodies, const ShapeDictionary& sh
   }
 }
 
+uint64_t pair_key(uint32_t i, uint32_t j) { return uint64_t(std::min(i, j)) << 32 | std::max(i, j); }
+
+// The body pairs the joints join, sorted, and the sweep's pairs without them.
+void drop_joined_pairs(const std::vector<WorldForce>& forces, CollideScratch& c) {
+  c.joined.clear();
+  for (const WorldForce& f : forces)
+    if (f.alive && f.b != kWorldBody && gen::kForceTable[static_cast<int>(f.type)].joint) c.joined.push_back(pair_key(f.a, f.b));
+  if (c.joined.empty()) return;
+  std::sort(c.joined.begin(), c.joined.end());
+  c.pairs.erase(std::remove_if(c.pairs.begin(), c.pairs.end(),
+                               [&](const std::pair<uint32_t, uint32_t>& p) {
+                                 return std::binary_search(c.joined.begin(), c.joined.end(), pair_key(p.first, p.second));
+                               }),
+                c.pairs.end());
+}
+
 void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
                   const CollideScratch& c, std::vector<WorldContact>& contacts, StepStats& st) {
   contacts.clear();
@@ -86,8 +103,9 @@ void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& s
 
 }  // namespace
 
-void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& settings,
-             CollideScratch& scratch, ContactMemory& memory, std::vector<WorldContact>& contacts, StepStats& st) {
+void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const ShapeDictionary& shapes,
+             const WorldSettings& settings, CollideScratch& scratch, ContactMemory& memory,
+             std::vector<WorldContact>& contacts, StepStats& st) {
   {
     StageTimer t(st.times.broad_ms);
     broad_phase(bodies, shapes, settings, scratch, st);
@@ -97,6 +115,7 @@ void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes
     scratch.sap.find_pairs(scratch.boxes, scratch.kinds, scratch.pairs);
     plane_pairs(bodies, shapes, settings, scratch);
     std::sort(scratch.pairs.begin(), scratch.pairs.end());
+    drop_joined_pairs(forces, scratch);
     st.mid_phase_pairs = static_cast<uint32_t>(scratch.pairs.size());
   }
   StageTimer t(st.times.narrow_ms);

@@ -23,12 +23,16 @@ struct CollideScratch {
   std::vector<BoxKind> kinds;
   std::vector<uint32_t> planes;
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  std::vector<uint64_t> joined;  // body pairs a joint joins (low id << 32 | high id), sorted
 };
 
 /// The step's contact points in `contacts` (replaced): the dynamic body first, normals from a
 /// to b, b = kWorldBody for static geometry, each with its mass and friction strain from the
-/// pair's memory (then updated). Times broad, mid and narrow phase (with the recall).
-void collide(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& settings,
-             CollideScratch& scratch, ContactMemory& memory, std::vector<WorldContact>& contacts, StepStats& st);
+/// pair's memory (then updated). Two bodies a joint joins (a force whose descriptor says
+/// `joint: true`) do not collide: a ragdoll's limbs overlap at their joints by design. Times
+/// broad, mid and narrow phase (with the recall).
+void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const ShapeDictionary& shapes,
+             const WorldSettings& settings, CollideScratch& scratch, ContactMemory& memory,
+             std::vector<WorldContact>& contacts, StepStats& st);
 
 }  // namespace cellphys::ppe

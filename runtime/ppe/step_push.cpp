@@ -4,6 +4,7 @@
 #include <climits>
 #include <cmath>
 
+#include "cellphys/gen/force_table.h"
 #include "runtime/base/vec3.h"
 #include "runtime/ppe/contact_memory.h"
 #include "runtime/ppe/world.h"
@@ -22,8 +23,8 @@ constexpr double kUpCosine = 0.5;
 
 }  // namespace
 
-void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, std::vector<WorldContact>& contacts,
-                       ContactMemory& memory, PushScratch& p, StepStats& st) {
+void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& forces, std::vector<WorldBody>& bodies,
+                       std::vector<WorldContact>& contacts, ContactMemory& memory, PushScratch& p, StepStats& st) {
   StageTimer timer(st.times.push_ms);
   const double hold = s.globals.contact_hold_depth, budget = double(s.globals.contact_push_speed) * s.dt;
   if (budget <= 0) return;
@@ -50,6 +51,26 @@ void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, s
   }
   auto other = [&](const WorldContact& c, uint32_t body) { return c.a == body ? c.b : c.a; };
 
+  // Each body's joint partners; one jointed to what cannot move is pinned.
+  p.link_first.assign(n + 1, 0);
+  std::vector<uint8_t> pinned(n, 0);
+  auto joint = [&](const WorldForce& f) { return f.alive && gen::kForceTable[static_cast<int>(f.type)].joint; };
+  for (const WorldForce& f : forces) {
+    if (!joint(f)) continue;
+    const bool ma = movable(f.a), mb = movable(f.b);
+    if (ma && mb) ++p.link_first[f.a + 1], ++p.link_first[f.b + 1];
+    else if (ma) pinned[f.a] = 1;
+    else if (mb) pinned[f.b] = 1;
+  }
+  for (uint32_t i = 0; i < n; ++i) p.link_first[i + 1] += p.link_first[i];
+  p.linked.resize(p.link_first[n]);
+  {
+    std::vector<uint32_t>& fill = p.queue;
+    fill.assign(p.link_first.begin(), p.link_first.end() - 1);
+    for (const WorldForce& f : forces)
+      if (joint(f) && movable(f.a) && movable(f.b)) p.linked[fill[f.a]++] = f.b, p.linked[fill[f.b]++] = f.a;
+  }
+
   // The piles that hold a deep contact: their bodies, then their levels counted from what
   // cannot move (breadth first, so each contact and body is visited a bounded number of times).
   p.level.assign(n, kFree);
@@ -62,11 +83,15 @@ void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, s
       seen[root] = 1;
       const size_t from = p.members.size();
       p.members.push_back(root);
-      for (size_t q = from; q < p.members.size(); ++q)
-        for (uint32_t e = p.first[p.members[q]]; e < p.first[p.members[q] + 1]; ++e) {
-          const uint32_t o = other(contacts[p.adjacent[e]], p.members[q]);
+      for (size_t q = from; q < p.members.size(); ++q) {
+        const uint32_t m = p.members[q];
+        for (uint32_t e = p.first[m]; e < p.first[m + 1]; ++e) {
+          const uint32_t o = other(contacts[p.adjacent[e]], m);
           if (movable(o) && !seen[o]) seen[o] = 1, p.members.push_back(o);
         }
+        for (uint32_t e = p.link_first[m]; e < p.link_first[m + 1]; ++e)
+          if (!seen[p.linked[e]]) seen[p.linked[e]] = 1, p.members.push_back(p.linked[e]);
+      }
     }
   }
   p.queue.clear();
@@ -104,6 +129,8 @@ void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, s
     p.target[i] = float(std::min(double(contacts[p.order[i]].point.penetration) - hold, budget));
   p.moved.assign(3 * size_t(n), 0.0);
   auto moved = [&](uint32_t b) { return movable(b) ? Vec3d::load(&p.moved[3 * size_t(b)]) : Vec3d{0, 0, 0}; };
+  // what a push may move: not what cannot move, nor a body a joint pins to it
+  auto pushable = [&](uint32_t b) { return movable(b) && !pinned[b]; };
   auto add = [&](uint32_t b, const Vec3d& d) {
     double* m = &p.moved[3 * size_t(b)];
     m[0] += d.x, m[1] += d.y, m[2] += d.z;
@@ -118,8 +145,8 @@ void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, s
       const Vec3d nrm = Vec3d::load(c.point.normal);
       const double short_by = p.target[i] - dot(moved(c.b) - moved(c.a), nrm);
       if (short_by <= tolerance) continue;
-      double wa = movable(c.a) ? 1.0 / bodies[c.a].mass : 0.0;
-      double wb = movable(c.b) ? 1.0 / bodies[c.b].mass : 0.0;
+      double wa = pushable(c.a) ? 1.0 / bodies[c.a].mass : 0.0;
+      double wb = pushable(c.b) ? 1.0 / bodies[c.b].mass : 0.0;
       const double rise = dot(nrm, up);  // b moves along n, a against it
       if (rise > kUpCosine && wb > 0) wa = 0;
       if (rise < -kUpCosine && wa > 0) wb = 0;
@@ -128,6 +155,21 @@ void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, s
       if (wa > 0) add(c.a, nrm * (-short_by * wa / (wa + wb)));
       if (wb > 0) add(c.b, nrm * (short_by * wb / (wa + wb)));
     }
+    // Joined bodies move alike (a pinned one not at all): each joint shares its parts' difference
+    // by inverse mass.
+    for (uint32_t a : p.members)
+      for (uint32_t e = p.link_first[a]; e < p.link_first[a + 1]; ++e) {
+        const uint32_t b = p.linked[e];
+        if (b < a) continue;  // once per joint
+        const Vec3d apart = moved(b) - moved(a);
+        const double gap = norm(apart);
+        if (gap <= tolerance) continue;
+        const double wa = pinned[a] ? 0.0 : 1.0 / bodies[a].mass, wb = pinned[b] ? 0.0 : 1.0 / bodies[b].mass;
+        if (wa + wb <= 0) continue;
+        worst = std::max(worst, gap);
+        add(a, apart * (wa / (wa + wb)));
+        add(b, apart * (-wb / (wa + wb)));
+      }
     if (worst <= tolerance) break;
   }
 

@@ -20,6 +20,7 @@ struct ContactMemory;
 /// Reusable buffers of the push stage.
 struct PushScratch {
   std::vector<uint32_t> first, adjacent;  // per body: its contacts (CSR)
+  std::vector<uint32_t> link_first, linked;  // per body: the bodies joints join it to (CSR)
   std::vector<int32_t> level;             // per body: contacts away from what cannot move
   std::vector<uint32_t> queue, members, order;
   std::vector<double> moved;              // per body: its displacement in this stage (xyz)
@@ -32,9 +33,11 @@ struct PushScratch {
 /// request at once (projected Gauss-Seidel on positions, lowest contacts first). A contact within
 /// 60 degrees of vertical moves only its upper body, so a box is lifted off its support and never
 /// pressed into it; flatter ones share by inverse mass; the world and static and sleeping bodies
-/// do not move. The contacts' depths and points follow the moved bodies, and their friction
+/// do not move. Bodies a joint joins (a `joint: true` force) move as one: the push is a
+/// translation, so a joint's points keep their gap; a body jointed to the world or to what cannot
+/// move is not pushed. The contacts' depths and points follow the moved bodies, and their friction
 /// anchors (`memory`) too: a push is no strain. Counts the moved bodies.
-void push_out_overlaps(const WorldSettings& s, std::vector<WorldBody>& bodies, std::vector<WorldContact>& contacts,
-                       ContactMemory& memory, PushScratch& scratch, StepStats& st);
+void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& forces, std::vector<WorldBody>& bodies,
+                       std::vector<WorldContact>& contacts, ContactMemory& memory, PushScratch& scratch, StepStats& st);
 
 }  // namespace cellphys::ppe

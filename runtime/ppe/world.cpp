@@ -173,9 +173,9 @@ const StepStats& World::step() {
   st.step = stats_.step + 1;
   {
     StageTimer total(st.times.total_ms);
-    collide(w.bodies, shapes_, settings_, w.collide, w.contact_memory, w.contacts, st);   // 1
+    collide(w.bodies, w.forces, shapes_, settings_, w.collide, w.contact_memory, w.contacts, st);  // 1
     wake_touched_groups(w.bodies, w.forces, w.contacts, w.sleeping, st);                 // 2
-    push_out_overlaps(settings_, w.bodies, w.contacts, w.contact_memory, w.push, st);   // 3
+    push_out_overlaps(settings_, w.forces, w.bodies, w.contacts, w.contact_memory, w.push, st);  // 3
     const std::vector<IslandContent> islands = build_islands(w.bodies, w.forces, w.contacts, st);  // 4
     const DecoupledIslands parts =                                                      // 5
         decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands, st);

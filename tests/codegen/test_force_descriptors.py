@@ -105,6 +105,15 @@ class GoodForceTests(unittest.TestCase):
         self.assertIn('"probe_force.spread", offsetof(Force_Globals, spread)}', table)
         self.assertIn('"pull.accel", offsetof(Force_Globals, pull_accel)}', table)
 
+    def test_a_joint_is_marked_in_the_force_table(self):
+        # joint: true reaches ForceInfo::joint (the world's collision drops the pairs it joins)
+        sb = Sandbox(temp_dir(self))
+        for name, joint in (("probe_joint", "joint: true\n"), ("probe_link", "")):
+            sb.force(f"{name}.yaml", f"name: {name}\nkind: binary\n{joint}apply: ['force(a, b.x - a.x)', 'force(b, a.x - b.x)']\n")
+        table = sb.render()["cellphys/gen/force_table.h"]
+        self.assertRegex(table, r'\{"probe_joint", ForceType::probe_joint, ForceKind::binary, false, false, true, ')
+        self.assertRegex(table, r'\{"probe_link", ForceType::probe_link, ForceKind::binary, false, false, false, ')
+
     def test_a_global_shared_by_two_forces_at_a_place_of_its_own(self):
         # two forces declare the same global with the same setting: one field, one place
         sb = Sandbox(temp_dir(self))
@@ -157,6 +166,13 @@ class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
 
     def test_world_anchor_on_a_unary_force(self):
         self.check(unary("force(a, a.x)") + "world_anchor: true\n", "world_anchor", r"only a binary force")
+
+    def test_joint_on_a_unary_force(self):
+        self.check(unary("force(a, a.x)") + "joint: true\n", "joint", r"only a binary force joins two bodies")
+
+    def test_joint_not_a_bool(self):
+        self.check("name: probe_force\nkind: binary\njoint: 1\napply: ['force(a, b.x - a.x)']\n", "joint",
+                   r"true or false")
 
     def test_world_anchor_on_a_global_force(self):
         self.check("name: probe_force\nkind: global\nworld_anchor: true\napply: ['force(a, a.x)']\n",

@@ -70,7 +70,7 @@ class NewForceTests(unittest.TestCase):
     def test_force_table_entry(self):
         table = self.text("force_table.h")
         self.assertIn('#include "cellphys/gen/forces/anchor_spring.h"', table)
-        self.assertRegex(table, r'(?m)^    \{"anchor_spring", ForceType::anchor_spring, ForceKind::unary, false, false, '
+        self.assertRegex(table, r'(?m)^    \{"anchor_spring", ForceType::anchor_spring, ForceKind::unary, false, false, false, '
                                 r'"Anchor_Spring_Force", sizeof\(Anchor_Spring_Force\), alignof\(Anchor_Spring_Force\), '
                                 r'offsetof\(Anchor_Spring_Force, body_a\), -1, kAnchor_SpringParams, 1, ')
         self.assertRegex(table, r'inline constexpr ParamInfo kAnchor_SpringParams\[\] = \{\n'

@@ -4,6 +4,7 @@
 #include "cellphys/gen/kernel_types.h"
 #include "cellphys/gen/layouts.h"
 #include "cellphys/gen/forces/applied_wrench.h"
+#include "cellphys/gen/forces/cone_twist.h"
 #include "cellphys/gen/forces/contact.h"
 #include "cellphys/gen/forces/damping.h"
 #include "cellphys/gen/forces/distance.h"
@@ -50,6 +51,7 @@ struct ForceInfo {
   ForceKind kind;
   bool world_anchor;  ///< b may be the world (a fixed point)
   bool symmetric;     ///< the Jacobians are symmetric (CG on the M-scaled system applies)
+  bool joint;         ///< a joint: the two bodies it joins do not collide with each other
   const char* instance;  ///< name of the instance struct
   uint32_t instance_size;
   uint32_t instance_align;
@@ -63,6 +65,22 @@ struct ForceInfo {
 inline constexpr ParamInfo kApplied_WrenchParams[] = {
     {"force_world", ParamType::vec3, 0, 3, false, 0.0f, "force through the centre of mass, world frame (N)"},
     {"torque_world", ParamType::vec3, 16, 3, false, 0.0f, "torque, world frame (N m)"},
+};
+
+inline constexpr ParamInfo kCone_TwistParams[] = {
+    {"point_a", ParamType::vec3, 0, 3, false, 0.0f, "joint point on body a, body frame (m)"},
+    {"point_b", ParamType::vec3, 16, 3, false, 0.0f, "joint point on body b, body frame; world frame when b is the world (m)"},
+    {"axis_a", ParamType::vec3, 32, 3, false, 0.0f, "the twist axis, body a frame (unit): the cone's centre line"},
+    {"axis_b", ParamType::vec3, 48, 3, false, 0.0f, "the twist axis, body b frame; world frame when b is the world (unit)"},
+    {"ref_a", ParamType::vec3, 64, 3, false, 0.0f, "a direction across the axis, body a frame: the twist is that from ref_a to ref_b about the axis"},
+    {"ref_b", ParamType::vec3, 80, 3, false, 0.0f, "a direction across the axis, body b frame (world frame when b is the world): twist 0 where it meets ref_a"},
+    {"cone_angle", ParamType::f32, 96, 1, true, 0.0f, "the largest angle between the two twist axes (rad, under pi); 0: no cone limit"},
+    {"twist_lower", ParamType::f32, 100, 1, false, 0.0f, "lowest twist (rad, in (-pi, pi)); the twist limits act only when twist_lower < twist_upper"},
+    {"twist_upper", ParamType::f32, 104, 1, false, 0.0f, "highest twist (rad, in (-pi, pi))"},
+    {"spring_stiffness", ParamType::f32, 108, 1, true, 0.0f, "spring toward the aligned pose, on the swing and the twist angles (N m/rad)"},
+    {"spring_damping", ParamType::f32, 112, 1, true, 0.0f, "damper on the relative turn (N m s/rad)"},
+    {"hertz", ParamType::f32, 116, 1, true, 0.0f, "the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz"},
+    {"damping_ratio", ParamType::f32, 120, 1, true, 0.0f, "the joint's own damping ratio; 0: settings.joint.damping_ratio"},
 };
 
 inline constexpr ParamInfo kContactParams[] = {
@@ -164,21 +182,24 @@ inline constexpr ParamInfo kSpringParams[] = {
 };
 
 inline constexpr ForceInfo kForceTable[] = {
-    {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
-    {"contact", ForceType::contact, ForceKind::binary, true, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 8, "Soft contact: a normal spring-damper that only pushes, tuned per contact mass to a frequency and damping ratio (Box2D's soft step), acting from the start of a step in which the contact closes; friction that sticks to an anchor inside the Coulomb cone and slides as regularised Coulomb friction outside it."},
-    {"damping", ForceType::damping, ForceKind::unary, false, false, "Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), offsetof(Damping_Force, body_a), -1, kDampingParams, 2, "Linear and angular damping: f = -linear m v, tau = -angular I omega (coefficients in 1/s)."},
-    {"distance", ForceType::distance, ForceKind::binary, true, false, "Distance_Force", sizeof(Distance_Force), alignof(Distance_Force), offsetof(Distance_Force, body_a), offsetof(Distance_Force, body_b), kDistanceParams, 9, "Distance joint between two body points: a rope (holds them no farther apart than max_length), a rod (min_length = max_length) or a spacer (no nearer than min_length), one-sided like the contact and soft like the hinge (joint.hertz, joint.damping_ratio); an optional spring toward rest_length between the bounds."},
-    {"fixed", ForceType::fixed, ForceKind::binary, true, false, "Fixed_Force", sizeof(Fixed_Force), alignof(Fixed_Force), offsetof(Fixed_Force, body_a), offsetof(Fixed_Force, body_b), kFixedParams, 8, "Weld: body points held together and the two bodies' frames held turned as one (a frame by an axis and a direction across it on each body). Soft like the hinge: joint.hertz, joint.damping_ratio."},
-    {"gravity", ForceType::gravity, ForceKind::global, false, true, "Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), offsetof(Gravity_Force, body_a), -1, kGravityParams, 0, "Uniform gravity on every body of the island."},
-    {"gyroscopic", ForceType::gyroscopic, ForceKind::unary, false, false, "Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), offsetof(Gyroscopic_Force, body_a), -1, kGyroscopicParams, 0, "Gyroscopic torque -omega x (I omega) of a body whose inertia is not isotropic."},
-    {"hinge", ForceType::hinge, ForceKind::binary, true, false, "Hinge_Force", sizeof(Hinge_Force), alignof(Hinge_Force), offsetof(Hinge_Force, body_a), offsetof(Hinge_Force, body_b), kHingeParams, 15, "Revolute joint: body points held together and body axes held aligned, turning freely about the axis; optional angle limits (acting only when reached), a motor (a target speed with a largest torque) and a spring toward a target angle. Soft like the contact: stiffness and damping follow the bodies (joint.hertz, joint.damping_ratio), so one setting holds a pebble and a crate."},
-    {"point_to_point", ForceType::point_to_point, ForceKind::binary, true, false, "Point_To_Point_Constraint_Force", sizeof(Point_To_Point_Constraint_Force), alignof(Point_To_Point_Constraint_Force), offsetof(Point_To_Point_Constraint_Force, body_a), offsetof(Point_To_Point_Constraint_Force, body_b), kPoint_To_PointParams, 4, "Point-to-point constraint as a stiff zero-length spring-damper between two body points."},
-    {"slider", ForceType::slider, ForceKind::binary, true, false, "Slider_Force", sizeof(Slider_Force), alignof(Slider_Force), offsetof(Slider_Force, body_a), offsetof(Slider_Force, body_b), kSliderParams, 15, "Prismatic joint: the bodies' frames held turned as one and body b's point held on the line through body a's point along the axis, sliding freely along it; optional limits on the travel (acting only when reached), a motor (a target speed with a largest force) and a spring toward a target travel. Soft like the hinge: joint.hertz, joint.damping_ratio."},
-    {"spring", ForceType::spring, ForceKind::binary, true, false, "Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), offsetof(Spring_Force, body_a), offsetof(Spring_Force, body_b), kSpringParams, 5, "A damped spring between two body points (or a body point and a fixed world point)."},
+    {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, false, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
+    {"cone_twist", ForceType::cone_twist, ForceKind::binary, true, false, true, "Cone_Twist_Force", sizeof(Cone_Twist_Force), alignof(Cone_Twist_Force), offsetof(Cone_Twist_Force, body_a), offsetof(Cone_Twist_Force, body_b), kCone_TwistParams, 13, "Ball-and-socket joint with a cone and a twist limit (a shoulder, a hip, a neck): body points held together, turning free inside a cone about the twist axis and between two twist angles about it; the limits act only when reached. An optional spring toward the aligned pose and a damper on the relative turn (a ragdoll's muscle tone and joint friction). Soft like the hinge: joint.hertz, joint.damping_ratio."},
+    {"contact", ForceType::contact, ForceKind::binary, true, false, false, "Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), offsetof(Contact_Force, body_a), offsetof(Contact_Force, body_b), kContactParams, 8, "Soft contact: a normal spring-damper that only pushes, tuned per contact mass to a frequency and damping ratio (Box2D's soft step), acting from the start of a step in which the contact closes; friction that sticks to an anchor inside the Coulomb cone and slides as regularised Coulomb friction outside it."},
+    {"damping", ForceType::damping, ForceKind::unary, false, false, false, "Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), offsetof(Damping_Force, body_a), -1, kDampingParams, 2, "Linear and angular damping: f = -linear m v, tau = -angular I omega (coefficients in 1/s)."},
+    {"distance", ForceType::distance, ForceKind::binary, true, false, true, "Distance_Force", sizeof(Distance_Force), alignof(Distance_Force), offsetof(Distance_Force, body_a), offsetof(Distance_Force, body_b), kDistanceParams, 9, "Distance joint between two body points: a rope (holds them no farther apart than max_length), a rod (min_length = max_length) or a spacer (no nearer than min_length), one-sided like the contact and soft like the hinge (joint.hertz, joint.damping_ratio); an optional spring toward rest_length between the bounds."},
+    {"fixed", ForceType::fixed, ForceKind::binary, true, false, true, "Fixed_Force", sizeof(Fixed_Force), alignof(Fixed_Force), offsetof(Fixed_Force, body_a), offsetof(Fixed_Force, body_b), kFixedParams, 8, "Weld: body points held together and the two bodies' frames held turned as one (a frame by an axis and a direction across it on each body). Soft like the hinge: joint.hertz, joint.damping_ratio."},
+    {"gravity", ForceType::gravity, ForceKind::global, false, true, false, "Gravity_Force", sizeof(Gravity_Force), alignof(Gravity_Force), offsetof(Gravity_Force, body_a), -1, kGravityParams, 0, "Uniform gravity on every body of the island."},
+    {"gyroscopic", ForceType::gyroscopic, ForceKind::unary, false, false, false, "Gyroscopic_Force", sizeof(Gyroscopic_Force), alignof(Gyroscopic_Force), offsetof(Gyroscopic_Force, body_a), -1, kGyroscopicParams, 0, "Gyroscopic torque -omega x (I omega) of a body whose inertia is not isotropic."},
+    {"hinge", ForceType::hinge, ForceKind::binary, true, false, true, "Hinge_Force", sizeof(Hinge_Force), alignof(Hinge_Force), offsetof(Hinge_Force, body_a), offsetof(Hinge_Force, body_b), kHingeParams, 15, "Revolute joint: body points held together and body axes held aligned, turning freely about the axis; optional angle limits (acting only when reached), a motor (a target speed with a largest torque) and a spring toward a target angle. Soft like the contact: stiffness and damping follow the bodies (joint.hertz, joint.damping_ratio), so one setting holds a pebble and a crate."},
+    {"point_to_point", ForceType::point_to_point, ForceKind::binary, true, false, true, "Point_To_Point_Constraint_Force", sizeof(Point_To_Point_Constraint_Force), alignof(Point_To_Point_Constraint_Force), offsetof(Point_To_Point_Constraint_Force, body_a), offsetof(Point_To_Point_Constraint_Force, body_b), kPoint_To_PointParams, 4, "Point-to-point constraint as a stiff zero-length spring-damper between two body points."},
+    {"slider", ForceType::slider, ForceKind::binary, true, false, true, "Slider_Force", sizeof(Slider_Force), alignof(Slider_Force), offsetof(Slider_Force, body_a), offsetof(Slider_Force, body_b), kSliderParams, 15, "Prismatic joint: the bodies' frames held turned as one and body b's point held on the line through body a's point along the axis, sliding freely along it; optional limits on the travel (acting only when reached), a motor (a target speed with a largest force) and a spring toward a target travel. Soft like the hinge: joint.hertz, joint.damping_ratio."},
+    {"spring", ForceType::spring, ForceKind::binary, true, false, false, "Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), offsetof(Spring_Force, body_a), offsetof(Spring_Force, body_b), kSpringParams, 5, "A damped spring between two body points (or a body point and a fixed world point)."},
 };
 
 /// Every global of the forces, at its descriptor default: what a world's settings hold.
 struct Force_Globals {
+  float joint_hertz = 60.0f;  ///< joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)
+  float joint_damping_ratio = 1.0f;  ///< joint damping ratio: damping 2 ratio m (2 pi hertz)
   float contact_hertz = 30.0f;  ///< soft contact frequency (Hz): stiffness mass (2 pi hertz)^2
   float contact_damping_ratio = 2.0f;  ///< soft contact damping ratio: damping 2 ratio mass (2 pi hertz)
   float contact_stiffness = 0.0f;  ///< fixed normal stiffness (N/m) instead of the soft one; 0: soft
@@ -188,14 +209,14 @@ struct Force_Globals {
   float slip_velocity = 0.0001f;  ///< speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
   float contact_slop = 0.005f;  ///< gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
   float contact_rest_speed = 0.05f;  ///< opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
-  float joint_hertz = 60.0f;  ///< joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)
-  float joint_damping_ratio = 1.0f;  ///< joint damping ratio: damping 2 ratio m (2 pi hertz)
   float gravity[3] = {0.0f, 0.0f, -9.81f};  ///< gravitational acceleration (m/s^2)
 };
 
 /// The globals as a packed island carries them.
 inline void pack(const Force_Globals& in, Island_Params& out) {
   std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.joint_hertz = in.joint_hertz;
+  out.joint_damping_ratio = in.joint_damping_ratio;
   out.contact_hertz = in.contact_hertz;
   out.contact_damping_ratio = in.contact_damping_ratio;
   out.contact_stiffness = in.contact_stiffness;
@@ -205,23 +226,21 @@ inline void pack(const Force_Globals& in, Island_Params& out) {
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
-  out.joint_hertz = in.joint_hertz;
-  out.joint_damping_ratio = in.joint_damping_ratio;
   std::memcpy(out.gravity, in.gravity, sizeof in.gravity);
 }
 
 inline constexpr GlobalInfo kGlobalTable[] = {
-    {{"contact_hertz", ParamType::f32, 16, 1, true, 0.0f, "soft contact frequency (Hz): stiffness mass (2 pi hertz)^2", true}, {30.0f}, "contact.hertz", offsetof(Force_Globals, contact_hertz)},
-    {{"contact_damping_ratio", ParamType::f32, 20, 1, true, 0.0f, "soft contact damping ratio: damping 2 ratio mass (2 pi hertz)"}, {2.0f}, "contact.damping_ratio", offsetof(Force_Globals, contact_damping_ratio)},
-    {{"contact_stiffness", ParamType::f32, 24, 1, true, 0.0f, "fixed normal stiffness (N/m) instead of the soft one; 0: soft"}, {0.0f}, "contact.stiffness", offsetof(Force_Globals, contact_stiffness)},
-    {{"contact_damping", ParamType::f32, 28, 1, true, 0.0f, "fixed normal damping (N s/m) instead of the soft one; 0: soft"}, {0.0f}, "contact.damping", offsetof(Force_Globals, contact_damping)},
-    {{"contact_push_speed", ParamType::f32, 32, 1, true, 0.0f, "speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed"}, {3.0f}, "contact.push_speed", offsetof(Force_Globals, contact_push_speed)},
-    {{"contact_hold_depth", ParamType::f32, 36, 1, true, 0.0f, "deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)", true}, {0.001f}, "contact.hold_depth", offsetof(Force_Globals, contact_hold_depth)},
-    {{"slip_velocity", ParamType::f32, 40, 1, true, 0.0f, "speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks", true}, {0.0001f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
-    {{"contact_slop", ParamType::f32, 44, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
-    {{"contact_rest_speed", ParamType::f32, 48, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}, "contact.rest_speed", offsetof(Force_Globals, contact_rest_speed)},
-    {{"joint_hertz", ParamType::f32, 52, 1, true, 0.0f, "joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)", true}, {60.0f}, "joint.hertz", offsetof(Force_Globals, joint_hertz)},
-    {{"joint_damping_ratio", ParamType::f32, 56, 1, true, 0.0f, "joint damping ratio: damping 2 ratio m (2 pi hertz)"}, {1.0f}, "joint.damping_ratio", offsetof(Force_Globals, joint_damping_ratio)},
+    {{"joint_hertz", ParamType::f32, 16, 1, true, 0.0f, "joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)", true}, {60.0f}, "joint.hertz", offsetof(Force_Globals, joint_hertz)},
+    {{"joint_damping_ratio", ParamType::f32, 20, 1, true, 0.0f, "joint damping ratio: damping 2 ratio m (2 pi hertz)"}, {1.0f}, "joint.damping_ratio", offsetof(Force_Globals, joint_damping_ratio)},
+    {{"contact_hertz", ParamType::f32, 24, 1, true, 0.0f, "soft contact frequency (Hz): stiffness mass (2 pi hertz)^2", true}, {30.0f}, "contact.hertz", offsetof(Force_Globals, contact_hertz)},
+    {{"contact_damping_ratio", ParamType::f32, 28, 1, true, 0.0f, "soft contact damping ratio: damping 2 ratio mass (2 pi hertz)"}, {2.0f}, "contact.damping_ratio", offsetof(Force_Globals, contact_damping_ratio)},
+    {{"contact_stiffness", ParamType::f32, 32, 1, true, 0.0f, "fixed normal stiffness (N/m) instead of the soft one; 0: soft"}, {0.0f}, "contact.stiffness", offsetof(Force_Globals, contact_stiffness)},
+    {{"contact_damping", ParamType::f32, 36, 1, true, 0.0f, "fixed normal damping (N s/m) instead of the soft one; 0: soft"}, {0.0f}, "contact.damping", offsetof(Force_Globals, contact_damping)},
+    {{"contact_push_speed", ParamType::f32, 40, 1, true, 0.0f, "speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed"}, {3.0f}, "contact.push_speed", offsetof(Force_Globals, contact_push_speed)},
+    {{"contact_hold_depth", ParamType::f32, 44, 1, true, 0.0f, "deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)", true}, {0.001f}, "contact.hold_depth", offsetof(Force_Globals, contact_hold_depth)},
+    {{"slip_velocity", ParamType::f32, 48, 1, true, 0.0f, "speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks", true}, {0.0001f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
+    {{"contact_slop", ParamType::f32, 52, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
+    {{"contact_rest_speed", ParamType::f32, 56, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}, "contact.rest_speed", offsetof(Force_Globals, contact_rest_speed)},
     {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}, "gravity", offsetof(Force_Globals, gravity)},
 };
 inline constexpr int kNumGlobals = 12;
@@ -237,6 +256,8 @@ inline Island_Params default_island_params() {
 template <class Visitor>
 inline void visit_kernels(Visitor&& v) {
   v(Applied_Wrench_Body_Kernel{});
+  v(Cone_Twist_Pair_Kernel{});
+  v(Cone_Twist_World_Kernel{});
   v(Contact_Pair_Kernel{});
   v(Contact_World_Kernel{});
   v(Damping_Body_Kernel{});

@@ -8,18 +8,19 @@ namespace cellphys::gen {
 /// Every force type, in descriptor order.
 enum class ForceType : uint32_t {
   applied_wrench = 0,
-  contact = 1,
-  damping = 2,
-  distance = 3,
-  fixed = 4,
-  gravity = 5,
-  gyroscopic = 6,
-  hinge = 7,
-  point_to_point = 8,
-  slider = 9,
-  spring = 10,
+  cone_twist = 1,
+  contact = 2,
+  damping = 3,
+  distance = 4,
+  fixed = 5,
+  gravity = 6,
+  gyroscopic = 7,
+  hinge = 8,
+  point_to_point = 9,
+  slider = 10,
+  spring = 11,
 };
-inline constexpr int kNumForceTypes = 11;
+inline constexpr int kNumForceTypes = 12;
 
 /// global: every body of an island; unary: one body; binary: two bodies or a body and the world.
 enum class ForceKind : uint32_t { global, unary, binary };

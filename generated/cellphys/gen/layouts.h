@@ -993,6 +993,137 @@ inline void unpack(const unsigned char* bytes, Applied_Wrench_Force_Fields& out)
   unpack(tmp, out);
 }
 
+// ---- Cone_Twist_Force (codegen/descriptors/forces/cone_twist.yaml) ----
+/// Instance of the cone_twist force.
+struct alignas(16) Cone_Twist_Force {
+  float point_a[4];  ///< @0: vec3 (padded). joint point on body a, body frame (m)
+  float point_b[4];  ///< @16: vec3 (padded). joint point on body b, body frame; world frame when b is the world (m)
+  float axis_a[4];  ///< @32: vec3 (padded). the twist axis, body a frame (unit): the cone's centre line
+  float axis_b[4];  ///< @48: vec3 (padded). the twist axis, body b frame; world frame when b is the world (unit)
+  float ref_a[4];  ///< @64: vec3 (padded). a direction across the axis, body a frame: the twist is that from ref_a to ref_b about the axis
+  float ref_b[4];  ///< @80: vec3 (padded). a direction across the axis, body b frame (world frame when b is the world): twist 0 where it meets ref_a
+  float cone_angle;  ///< @96: f32. the largest angle between the two twist axes (rad, under pi); 0: no cone limit
+  float twist_lower;  ///< @100: f32. lowest twist (rad, in (-pi, pi)); the twist limits act only when twist_lower < twist_upper
+  float twist_upper;  ///< @104: f32. highest twist (rad, in (-pi, pi))
+  float spring_stiffness;  ///< @108: f32. spring toward the aligned pose, on the swing and the twist angles (N m/rad)
+  float spring_damping;  ///< @112: f32. damper on the relative turn (N m s/rad)
+  float hertz;  ///< @116: f32. the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz
+  float damping_ratio;  ///< @120: f32. the joint's own damping ratio; 0: settings.joint.damping_ratio
+  int32_t body_a;  ///< @124: i32
+  int32_t body_b;  ///< @128: i32
+  unsigned char pad_132[12];
+};
+static_assert(sizeof(Cone_Twist_Force) == 144, "Cone_Twist_Force: size differs from the descriptor");
+static_assert(alignof(Cone_Twist_Force) == 16, "Cone_Twist_Force: alignment differs from the descriptor");
+static_assert(offsetof(Cone_Twist_Force, point_a) == 0, "Cone_Twist_Force.point_a: offset differs");
+static_assert(offsetof(Cone_Twist_Force, point_b) == 16, "Cone_Twist_Force.point_b: offset differs");
+static_assert(offsetof(Cone_Twist_Force, axis_a) == 32, "Cone_Twist_Force.axis_a: offset differs");
+static_assert(offsetof(Cone_Twist_Force, axis_b) == 48, "Cone_Twist_Force.axis_b: offset differs");
+static_assert(offsetof(Cone_Twist_Force, ref_a) == 64, "Cone_Twist_Force.ref_a: offset differs");
+static_assert(offsetof(Cone_Twist_Force, ref_b) == 80, "Cone_Twist_Force.ref_b: offset differs");
+static_assert(offsetof(Cone_Twist_Force, cone_angle) == 96, "Cone_Twist_Force.cone_angle: offset differs");
+static_assert(offsetof(Cone_Twist_Force, twist_lower) == 100, "Cone_Twist_Force.twist_lower: offset differs");
+static_assert(offsetof(Cone_Twist_Force, twist_upper) == 104, "Cone_Twist_Force.twist_upper: offset differs");
+static_assert(offsetof(Cone_Twist_Force, spring_stiffness) == 108, "Cone_Twist_Force.spring_stiffness: offset differs");
+static_assert(offsetof(Cone_Twist_Force, spring_damping) == 112, "Cone_Twist_Force.spring_damping: offset differs");
+static_assert(offsetof(Cone_Twist_Force, hertz) == 116, "Cone_Twist_Force.hertz: offset differs");
+static_assert(offsetof(Cone_Twist_Force, damping_ratio) == 120, "Cone_Twist_Force.damping_ratio: offset differs");
+static_assert(offsetof(Cone_Twist_Force, body_a) == 124, "Cone_Twist_Force.body_a: offset differs");
+static_assert(offsetof(Cone_Twist_Force, body_b) == 128, "Cone_Twist_Force.body_b: offset differs");
+
+/// The fields of Cone_Twist_Force without padding: what pack() takes and unpack() gives.
+struct Cone_Twist_Force_Fields {
+  float point_a[3]{};
+  float point_b[3]{};
+  float axis_a[3]{};
+  float axis_b[3]{};
+  float ref_a[3]{};
+  float ref_b[3]{};
+  float cone_angle = 0;
+  float twist_lower = 0;
+  float twist_upper = 0;
+  float spring_stiffness = 0;
+  float spring_damping = 0;
+  float hertz = 0;
+  float damping_ratio = 0;
+  int32_t body_a = 0;
+  int32_t body_b = 0;
+};
+
+inline void pack(const Cone_Twist_Force_Fields& in, Cone_Twist_Force& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.ref_a[0] = in.ref_a[0];
+  out.ref_a[1] = in.ref_a[1];
+  out.ref_a[2] = in.ref_a[2];
+  out.ref_b[0] = in.ref_b[0];
+  out.ref_b[1] = in.ref_b[1];
+  out.ref_b[2] = in.ref_b[2];
+  out.cone_angle = in.cone_angle;
+  out.twist_lower = in.twist_lower;
+  out.twist_upper = in.twist_upper;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+inline void unpack(const Cone_Twist_Force& in, Cone_Twist_Force_Fields& out) {
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.ref_a[0] = in.ref_a[0];
+  out.ref_a[1] = in.ref_a[1];
+  out.ref_a[2] = in.ref_a[2];
+  out.ref_b[0] = in.ref_b[0];
+  out.ref_b[1] = in.ref_b[1];
+  out.ref_b[2] = in.ref_b[2];
+  out.cone_angle = in.cone_angle;
+  out.twist_lower = in.twist_lower;
+  out.twist_upper = in.twist_upper;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (144 B).
+inline void pack(const Cone_Twist_Force_Fields& in, unsigned char* bytes) {
+  Cone_Twist_Force tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Cone_Twist_Force_Fields& out) {
+  Cone_Twist_Force tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
 // ---- Damping_Force (codegen/descriptors/forces/damping.yaml) ----
 /// Instance of the damping force.
 struct alignas(4) Damping_Force {
@@ -1672,37 +1803,39 @@ inline void unpack(const unsigned char* bytes, Spring_Force_Fields& out) {
 /// Island-wide parameters of the forces (their globals).
 struct alignas(16) Island_Params {
   float gravity[4];  ///< @0: vec3 (padded). gravitational acceleration (m/s^2)
-  float contact_hertz;  ///< @16: f32. soft contact frequency (Hz): stiffness mass (2 pi hertz)^2
-  float contact_damping_ratio;  ///< @20: f32. soft contact damping ratio: damping 2 ratio mass (2 pi hertz)
-  float contact_stiffness;  ///< @24: f32. fixed normal stiffness (N/m) instead of the soft one; 0: soft
-  float contact_damping;  ///< @28: f32. fixed normal damping (N s/m) instead of the soft one; 0: soft
-  float contact_push_speed;  ///< @32: f32. speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed
-  float contact_hold_depth;  ///< @36: f32. deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
-  float slip_velocity;  ///< @40: f32. speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
-  float contact_slop;  ///< @44: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
-  float contact_rest_speed;  ///< @48: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
-  float joint_hertz;  ///< @52: f32. joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)
-  float joint_damping_ratio;  ///< @56: f32. joint damping ratio: damping 2 ratio m (2 pi hertz)
+  float joint_hertz;  ///< @16: f32. joint stiffness as a frequency (Hz): stiffness m (2 pi hertz)^2 with m the heavier body's mass (its largest moment for turning)
+  float joint_damping_ratio;  ///< @20: f32. joint damping ratio: damping 2 ratio m (2 pi hertz)
+  float contact_hertz;  ///< @24: f32. soft contact frequency (Hz): stiffness mass (2 pi hertz)^2
+  float contact_damping_ratio;  ///< @28: f32. soft contact damping ratio: damping 2 ratio mass (2 pi hertz)
+  float contact_stiffness;  ///< @32: f32. fixed normal stiffness (N/m) instead of the soft one; 0: soft
+  float contact_damping;  ///< @36: f32. fixed normal damping (N s/m) instead of the soft one; 0: soft
+  float contact_push_speed;  ///< @40: f32. speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed
+  float contact_hold_depth;  ///< @44: f32. deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
+  float slip_velocity;  ///< @48: f32. speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
+  float contact_slop;  ///< @52: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
+  float contact_rest_speed;  ///< @56: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
   unsigned char pad_60[4];
 };
 static_assert(sizeof(Island_Params) == 64, "Island_Params: size differs from the descriptor");
 static_assert(alignof(Island_Params) == 16, "Island_Params: alignment differs from the descriptor");
 static_assert(offsetof(Island_Params, gravity) == 0, "Island_Params.gravity: offset differs");
-static_assert(offsetof(Island_Params, contact_hertz) == 16, "Island_Params.contact_hertz: offset differs");
-static_assert(offsetof(Island_Params, contact_damping_ratio) == 20, "Island_Params.contact_damping_ratio: offset differs");
-static_assert(offsetof(Island_Params, contact_stiffness) == 24, "Island_Params.contact_stiffness: offset differs");
-static_assert(offsetof(Island_Params, contact_damping) == 28, "Island_Params.contact_damping: offset differs");
-static_assert(offsetof(Island_Params, contact_push_speed) == 32, "Island_Params.contact_push_speed: offset differs");
-static_assert(offsetof(Island_Params, contact_hold_depth) == 36, "Island_Params.contact_hold_depth: offset differs");
-static_assert(offsetof(Island_Params, slip_velocity) == 40, "Island_Params.slip_velocity: offset differs");
-static_assert(offsetof(Island_Params, contact_slop) == 44, "Island_Params.contact_slop: offset differs");
-static_assert(offsetof(Island_Params, contact_rest_speed) == 48, "Island_Params.contact_rest_speed: offset differs");
-static_assert(offsetof(Island_Params, joint_hertz) == 52, "Island_Params.joint_hertz: offset differs");
-static_assert(offsetof(Island_Params, joint_damping_ratio) == 56, "Island_Params.joint_damping_ratio: offset differs");
+static_assert(offsetof(Island_Params, joint_hertz) == 16, "Island_Params.joint_hertz: offset differs");
+static_assert(offsetof(Island_Params, joint_damping_ratio) == 20, "Island_Params.joint_damping_ratio: offset differs");
+static_assert(offsetof(Island_Params, contact_hertz) == 24, "Island_Params.contact_hertz: offset differs");
+static_assert(offsetof(Island_Params, contact_damping_ratio) == 28, "Island_Params.contact_damping_ratio: offset differs");
+static_assert(offsetof(Island_Params, contact_stiffness) == 32, "Island_Params.contact_stiffness: offset differs");
+static_assert(offsetof(Island_Params, contact_damping) == 36, "Island_Params.contact_damping: offset differs");
+static_assert(offsetof(Island_Params, contact_push_speed) == 40, "Island_Params.contact_push_speed: offset differs");
+static_assert(offsetof(Island_Params, contact_hold_depth) == 44, "Island_Params.contact_hold_depth: offset differs");
+static_assert(offsetof(Island_Params, slip_velocity) == 48, "Island_Params.slip_velocity: offset differs");
+static_assert(offsetof(Island_Params, contact_slop) == 52, "Island_Params.contact_slop: offset differs");
+static_assert(offsetof(Island_Params, contact_rest_speed) == 56, "Island_Params.contact_rest_speed: offset differs");
 
 /// The fields of Island_Params without padding: what pack() takes and unpack() gives.
 struct Island_Params_Fields {
   float gravity[3]{};
+  float joint_hertz = 0;
+  float joint_damping_ratio = 0;
   float contact_hertz = 0;
   float contact_damping_ratio = 0;
   float contact_stiffness = 0;
@@ -1712,8 +1845,6 @@ struct Island_Params_Fields {
   float slip_velocity = 0;
   float contact_slop = 0;
   float contact_rest_speed = 0;
-  float joint_hertz = 0;
-  float joint_damping_ratio = 0;
 };
 
 inline void pack(const Island_Params_Fields& in, Island_Params& out) {
@@ -1721,6 +1852,8 @@ inline void pack(const Island_Params_Fields& in, Island_Params& out) {
   out.gravity[0] = in.gravity[0];
   out.gravity[1] = in.gravity[1];
   out.gravity[2] = in.gravity[2];
+  out.joint_hertz = in.joint_hertz;
+  out.joint_damping_ratio = in.joint_damping_ratio;
   out.contact_hertz = in.contact_hertz;
   out.contact_damping_ratio = in.contact_damping_ratio;
   out.contact_stiffness = in.contact_stiffness;
@@ -1730,14 +1863,14 @@ inline void pack(const Island_Params_Fields& in, Island_Params& out) {
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
-  out.joint_hertz = in.joint_hertz;
-  out.joint_damping_ratio = in.joint_damping_ratio;
 }
 
 inline void unpack(const Island_Params& in, Island_Params_Fields& out) {
   out.gravity[0] = in.gravity[0];
   out.gravity[1] = in.gravity[1];
   out.gravity[2] = in.gravity[2];
+  out.joint_hertz = in.joint_hertz;
+  out.joint_damping_ratio = in.joint_damping_ratio;
   out.contact_hertz = in.contact_hertz;
   out.contact_damping_ratio = in.contact_damping_ratio;
   out.contact_stiffness = in.contact_stiffness;
@@ -1747,8 +1880,6 @@ inline void unpack(const Island_Params& in, Island_Params_Fields& out) {
   out.slip_velocity = in.slip_velocity;
   out.contact_slop = in.contact_slop;
   out.contact_rest_speed = in.contact_rest_speed;
-  out.joint_hertz = in.joint_hertz;
-  out.joint_damping_ratio = in.joint_damping_ratio;
 }
 
 /// Bytes as they cross a DMA transfer or the wire (64 B).
@@ -1785,6 +1916,7 @@ inline constexpr StructInfo kStructTable[] = {
     {"Wire_Body_To_Node_Compressed", sizeof(Wire_Body_To_Node_Compressed), alignof(Wire_Body_To_Node_Compressed), 100},
     {"Wire_Node_To_Dispatcher", sizeof(Wire_Node_To_Dispatcher), alignof(Wire_Node_To_Dispatcher), 52},
     {"Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), 28},
+    {"Cone_Twist_Force", sizeof(Cone_Twist_Force), alignof(Cone_Twist_Force), 108},
     {"Damping_Force", sizeof(Damping_Force), alignof(Damping_Force), 12},
     {"Distance_Force", sizeof(Distance_Force), alignof(Distance_Force), 60},
     {"Fixed_Force", sizeof(Fixed_Force), alignof(Fixed_Force), 88},

@@ -156,7 +156,7 @@ struct Distance_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[52];
     [[maybe_unused]] const S g_joint_hertz = in[53];
     [[maybe_unused]] const S g_joint_damping_ratio = in[54];
-    // body-frame quantities rotated to world, first used by let pa (distance.yaml:25), let pb (distance.yaml:26)
+    // body-frame quantities rotated to world, first used by let pa (distance.yaml:26), let pb (distance.yaml:27)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -179,31 +179,31 @@ struct Distance_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
-    // let omega (distance.yaml:20)
+    // let omega (distance.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (distance.yaml:21)
+    // let zeta (distance.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (distance.yaml:22)
+    // let m (distance.yaml:23)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let k (distance.yaml:23)
+    // let k (distance.yaml:24)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (distance.yaml:24)
+    // let c (distance.yaml:25)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (distance.yaml:25)
+    // let pa (distance.yaml:26)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (distance.yaml:26)
+    // let pb (distance.yaml:27)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let d (distance.yaml:27)
+    // let d (distance.yaml:28)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -213,7 +213,7 @@ struct Distance_Pair_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let length (distance.yaml:28)
+    // let length (distance.yaml:29)
     const S l8_0_0 = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2) + S(1e-12)));
     const S l8_0_1 = (S(1)/(l8_0_0));
     const S l8_0_2 = (L_d__0*l8_0_1);
@@ -232,7 +232,7 @@ struct Distance_Pair_Kernel {
     const S d_L_length__b_dtx = ((b_r1_1*l8_0_4) + (d_L_pb__1__b_dtx*l8_0_3));
     const S d_L_length__b_dty = ((b_r1_2*l8_0_2) + (d_L_pb__2__b_dty*l8_0_4));
     const S d_L_length__b_dtz = ((b_r1_0*l8_0_3) + (d_L_pb__0__b_dtz*l8_0_2));
-    // let n (distance.yaml:29)
+    // let n (distance.yaml:30)
     const S l9_0_0 = (S(1)/(L_length));
     const S l9_0_1 = (S(1)/(L_length*L_length));
     const S l9_0_2 = (L_d__0*l9_0_1);
@@ -278,7 +278,7 @@ struct Distance_Pair_Kernel {
     const S d_L_n__2__b_dtx = ((b_r1_1*l9_0_0) - (d_L_length__b_dtx*l9_0_5));
     const S d_L_n__2__b_dty = ((-(d_L_length__b_dty*l9_0_5)) + (d_L_pb__2__b_dty*l9_0_0));
     const S d_L_n__2__b_dtz = (-(d_L_length__b_dtz*l9_0_5));
-    // let rate (distance.yaml:30)
+    // let rate (distance.yaml:31)
     const S l10_0_0 = (a_r0_1*a_wz);
     const S l10_0_1 = (b_r1_2*b_wy);
     const S l10_0_2 = (a_r0_2*a_wy);
@@ -320,9 +320,9 @@ struct Distance_Pair_Kernel {
     const S d_L_rate__b_wx = ((-(L_n__1*b_r1_2)) + (L_n__2*b_r1_1));
     const S d_L_rate__b_wy = ((L_n__0*b_r1_2) - (L_n__2*b_r1_0));
     const S d_L_rate__b_wz = ((-(L_n__0*b_r1_1)) + (L_n__1*b_r1_0));
-    // let over (distance.yaml:33)
+    // let over (distance.yaml:34)
     const S L_over = (L_length - p_max_length);
-    // let under (distance.yaml:34)
+    // let under (distance.yaml:35)
     const S L_under = ((-L_length) + p_min_length);
     const S d_L_under__a_dx = (-d_L_length__a_dx);
     const S d_L_under__a_dy = (-d_L_length__a_dy);
@@ -336,7 +336,7 @@ struct Distance_Pair_Kernel {
     const S d_L_under__b_dtx = (-d_L_length__b_dtx);
     const S d_L_under__b_dty = (-d_L_length__b_dty);
     const S d_L_under__b_dtz = (-d_L_length__b_dtz);
-    // let pull (distance.yaml:35)
+    // let pull (distance.yaml:36)
     const S l13_0_0 = ((L_c*L_rate) + (L_k*L_over));
     const auto l13_0_1 = (l13_0_0 > S(0));
     const auto l13_0_2 = (L_over > S(0));
@@ -369,7 +369,7 @@ struct Distance_Pair_Kernel {
     const S d_L_pull__b_wx = (d_L_rate__b_wx*l13_0_6);
     const S d_L_pull__b_wy = (d_L_rate__b_wy*l13_0_6);
     const S d_L_pull__b_wz = (d_L_rate__b_wz*l13_0_6);
-    // let push (distance.yaml:36)
+    // let push (distance.yaml:37)
     const S l14_0_0 = ((L_c*L_rate) - (L_k*L_under));
     const S l14_0_1 = (-l14_0_0);
     const auto l14_0_2 = (l14_0_0 < S(0));
@@ -404,7 +404,7 @@ struct Distance_Pair_Kernel {
     const S d_L_push__b_wx = (d_L_rate__b_wx*l14_0_7);
     const S d_L_push__b_wy = (d_L_rate__b_wy*l14_0_7);
     const S d_L_push__b_wz = (d_L_rate__b_wz*l14_0_7);
-    // let spring (distance.yaml:37)
+    // let spring (distance.yaml:38)
     const S L_spring = ((L_rate*p_spring_damping) + (p_spring_stiffness*(L_length - p_rest_length)));
     const S d_L_spring__a_dx = ((d_L_length__a_dx*p_spring_stiffness) + (d_L_rate__a_dx*p_spring_damping));
     const S d_L_spring__a_dy = ((d_L_length__a_dy*p_spring_stiffness) + (d_L_rate__a_dy*p_spring_damping));
@@ -430,7 +430,7 @@ struct Distance_Pair_Kernel {
     const S d_L_spring__b_wx = (d_L_rate__b_wx*p_spring_damping);
     const S d_L_spring__b_wy = (d_L_rate__b_wy*p_spring_damping);
     const S d_L_spring__b_wz = (d_L_rate__b_wz*p_spring_damping);
-    // let f (distance.yaml:38)
+    // let f (distance.yaml:39)
     const S l16_0_0 = (L_pull - L_push + L_spring);
     const S L_f__0 = (L_n__0*l16_0_0);
     const S d_L_f__0__a_dx = ((L_n__0*d_L_pull__a_dx) - (L_n__0*d_L_push__a_dx) + (L_n__0*d_L_spring__a_dx) + (d_L_n__0__a_dx*l16_0_0));
@@ -507,19 +507,19 @@ struct Distance_Pair_Kernel {
     const S d_L_f__2__b_wx = ((L_n__2*d_L_pull__b_wx) - (L_n__2*d_L_push__b_wx) + (L_n__2*d_L_spring__b_wx));
     const S d_L_f__2__b_wy = ((L_n__2*d_L_pull__b_wy) - (L_n__2*d_L_push__b_wy) + (L_n__2*d_L_spring__b_wy));
     const S d_L_f__2__b_wz = ((L_n__2*d_L_pull__b_wz) - (L_n__2*d_L_push__b_wz) + (L_n__2*d_L_spring__b_wz));
-    // apply[0] (distance.yaml:40)
+    // apply[0] (distance.yaml:41)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l18_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (distance.yaml:41)
+    // apply[1] (distance.yaml:42)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l20_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l20_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l20_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l20_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (distance.yaml:39), shared subexpressions
+    // apply (distance.yaml:40), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -542,21 +542,21 @@ struct Distance_Pair_Kernel {
     const S o19 = (T3_turn*d_L_pb__2__b_dty);
     const S o20 = (T3_turn*b_r1_2);
     const S o21 = (L_f__2*T3_turn);
-    // F_a from apply[0] (distance.yaml:40)
+    // F_a from apply[0] (distance.yaml:41)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
-    // F_b from apply[1] (distance.yaml:41)
+    // F_b from apply[1] (distance.yaml:42)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4));
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5));
     out[11] = ((L_f__0*o4) - (L_f__1*o5));
-    // dF_a/ddelta_a from apply[0] (distance.yaml:40)
+    // dF_a/ddelta_a from apply[0] (distance.yaml:41)
     out[12] = d_L_f__0__a_dx;
     out[13] = d_L_f__1__a_dx;
     out[14] = d_L_f__2__a_dx;
@@ -593,7 +593,7 @@ struct Distance_Pair_Kernel {
     out[45] = ((a_r0_0*o13) + (d_L_f__1__a_dtz*o6) + (d_L_f__2__a_dtz*o1));
     out[46] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o7) - (d_L_pa__0__a_dtz*o13));
     out[47] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o8) + (d_L_f__1__a_dtz*o2));
-    // dF_a/ddelta_b from apply[0] (distance.yaml:40)
+    // dF_a/ddelta_b from apply[0] (distance.yaml:41)
     out[48] = d_L_f__0__b_dx;
     out[49] = d_L_f__1__b_dx;
     out[50] = d_L_f__2__b_dx;
@@ -630,7 +630,7 @@ struct Distance_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o6) + (d_L_f__2__b_dtz*o1));
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o7));
     out[83] = ((d_L_f__0__b_dtz*o8) + (d_L_f__1__b_dtz*o2));
-    // dF_a/du_a from apply[0] (distance.yaml:40)
+    // dF_a/du_a from apply[0] (distance.yaml:41)
     out[84] = d_L_f__0__a_vx;
     out[85] = d_L_f__1__a_vx;
     out[86] = d_L_f__2__a_vx;
@@ -667,7 +667,7 @@ struct Distance_Pair_Kernel {
     out[117] = ((d_L_f__1__a_wz*o6) + (d_L_f__2__a_wz*o1));
     out[118] = ((d_L_f__0__a_wz*o0) + (d_L_f__2__a_wz*o7));
     out[119] = ((d_L_f__0__a_wz*o8) + (d_L_f__1__a_wz*o2));
-    // dF_a/du_b from apply[0] (distance.yaml:40)
+    // dF_a/du_b from apply[0] (distance.yaml:41)
     out[120] = d_L_f__0__b_vx;
     out[121] = d_L_f__1__b_vx;
     out[122] = d_L_f__2__b_vx;
@@ -704,7 +704,7 @@ struct Distance_Pair_Kernel {
     out[153] = ((d_L_f__1__b_wz*o6) + (d_L_f__2__b_wz*o1));
     out[154] = ((d_L_f__0__b_wz*o0) + (d_L_f__2__b_wz*o7));
     out[155] = ((d_L_f__0__b_wz*o8) + (d_L_f__1__b_wz*o2));
-    // dF_b/ddelta_a from apply[1] (distance.yaml:41)
+    // dF_b/ddelta_a from apply[1] (distance.yaml:42)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = (-d_L_f__1__a_dx);
     out[158] = (-d_L_f__2__a_dx);
@@ -741,7 +741,7 @@ struct Distance_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o14));
     out[190] = ((d_L_f__0__a_dtz*o15) + (d_L_f__2__a_dtz*o5));
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o16));
-    // dF_b/ddelta_b from apply[1] (distance.yaml:41)
+    // dF_b/ddelta_b from apply[1] (distance.yaml:42)
     out[192] = (-d_L_f__0__b_dx);
     out[193] = (-d_L_f__1__b_dx);
     out[194] = (-d_L_f__2__b_dx);
@@ -778,7 +778,7 @@ struct Distance_Pair_Kernel {
     out[225] = ((-(b_r1_0*o21)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o14));
     out[226] = ((d_L_f__0__b_dtz*o15) + (d_L_f__2__b_dtz*o5) + (d_L_pb__0__b_dtz*o21));
     out[227] = ((L_f__0*T3_turn*b_r1_0) - (L_f__1*T3_turn*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o16));
-    // dF_b/du_a from apply[1] (distance.yaml:41)
+    // dF_b/du_a from apply[1] (distance.yaml:42)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = (-d_L_f__1__a_vx);
     out[230] = (-d_L_f__2__a_vx);
@@ -815,7 +815,7 @@ struct Distance_Pair_Kernel {
     out[261] = ((d_L_f__1__a_wz*o3) + (d_L_f__2__a_wz*o14));
     out[262] = ((d_L_f__0__a_wz*o15) + (d_L_f__2__a_wz*o5));
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o16));
-    // dF_b/du_b from apply[1] (distance.yaml:41)
+    // dF_b/du_b from apply[1] (distance.yaml:42)
     out[264] = (-d_L_f__0__b_vx);
     out[265] = (-d_L_f__1__b_vx);
     out[266] = (-d_L_f__2__b_vx);
@@ -924,7 +924,7 @@ struct Distance_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[52];
     [[maybe_unused]] const S g_joint_hertz = in[53];
     [[maybe_unused]] const S g_joint_damping_ratio = in[54];
-    // body-frame quantities rotated to world, first used by let pa (distance.yaml:25), let pb (distance.yaml:26)
+    // body-frame quantities rotated to world, first used by let pa (distance.yaml:26), let pb (distance.yaml:27)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -947,31 +947,31 @@ struct Distance_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
-    // let omega (distance.yaml:20)
+    // let omega (distance.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (distance.yaml:21)
+    // let zeta (distance.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (distance.yaml:22)
+    // let m (distance.yaml:23)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let k (distance.yaml:23)
+    // let k (distance.yaml:24)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (distance.yaml:24)
+    // let c (distance.yaml:25)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (distance.yaml:25)
+    // let pa (distance.yaml:26)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (distance.yaml:26)
+    // let pb (distance.yaml:27)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let d (distance.yaml:27)
+    // let d (distance.yaml:28)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -981,7 +981,7 @@ struct Distance_Pair_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let length (distance.yaml:28)
+    // let length (distance.yaml:29)
     const S l8_0_0 = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2) + S(1e-12)));
     const S l8_0_1 = (S(1)/(l8_0_0));
     const S l8_0_2 = (L_d__0*l8_0_1);
@@ -1000,7 +1000,7 @@ struct Distance_Pair_Kernel {
     const S d_L_length__b_dtx = ((b_r1_1*l8_0_4) + (d_L_pb__1__b_dtx*l8_0_3));
     const S d_L_length__b_dty = ((b_r1_2*l8_0_2) + (d_L_pb__2__b_dty*l8_0_4));
     const S d_L_length__b_dtz = ((b_r1_0*l8_0_3) + (d_L_pb__0__b_dtz*l8_0_2));
-    // let n (distance.yaml:29)
+    // let n (distance.yaml:30)
     const S l9_0_0 = (S(1)/(L_length));
     const S l9_0_1 = (S(1)/(L_length*L_length));
     const S l9_0_2 = (L_d__0*l9_0_1);
@@ -1046,7 +1046,7 @@ struct Distance_Pair_Kernel {
     const S d_L_n__2__b_dtx = ((b_r1_1*l9_0_0) - (d_L_length__b_dtx*l9_0_5));
     const S d_L_n__2__b_dty = ((-(d_L_length__b_dty*l9_0_5)) + (d_L_pb__2__b_dty*l9_0_0));
     const S d_L_n__2__b_dtz = (-(d_L_length__b_dtz*l9_0_5));
-    // let rate (distance.yaml:30)
+    // let rate (distance.yaml:31)
     const S l10_0_0 = (a_r0_1*a_wz);
     const S l10_0_1 = (b_r1_2*b_wy);
     const S l10_0_2 = (a_r0_2*a_wy);
@@ -1088,9 +1088,9 @@ struct Distance_Pair_Kernel {
     const S d_L_rate__b_wx = ((-(L_n__1*b_r1_2)) + (L_n__2*b_r1_1));
     const S d_L_rate__b_wy = ((L_n__0*b_r1_2) - (L_n__2*b_r1_0));
     const S d_L_rate__b_wz = ((-(L_n__0*b_r1_1)) + (L_n__1*b_r1_0));
-    // let over (distance.yaml:33)
+    // let over (distance.yaml:34)
     const S L_over = (L_length - p_max_length);
-    // let under (distance.yaml:34)
+    // let under (distance.yaml:35)
     const S L_under = ((-L_length) + p_min_length);
     const S d_L_under__a_dx = (-d_L_length__a_dx);
     const S d_L_under__a_dy = (-d_L_length__a_dy);
@@ -1104,7 +1104,7 @@ struct Distance_Pair_Kernel {
     const S d_L_under__b_dtx = (-d_L_length__b_dtx);
     const S d_L_under__b_dty = (-d_L_length__b_dty);
     const S d_L_under__b_dtz = (-d_L_length__b_dtz);
-    // let pull (distance.yaml:35)
+    // let pull (distance.yaml:36)
     const S l13_0_0 = ((L_c*L_rate) + (L_k*L_over));
     const auto l13_0_1 = (l13_0_0 > S(0));
     const auto l13_0_2 = (L_over > S(0));
@@ -1137,7 +1137,7 @@ struct Distance_Pair_Kernel {
     const S d_L_pull__b_wx = (d_L_rate__b_wx*l13_0_6);
     const S d_L_pull__b_wy = (d_L_rate__b_wy*l13_0_6);
     const S d_L_pull__b_wz = (d_L_rate__b_wz*l13_0_6);
-    // let push (distance.yaml:36)
+    // let push (distance.yaml:37)
     const S l14_0_0 = ((L_c*L_rate) - (L_k*L_under));
     const S l14_0_1 = (-l14_0_0);
     const auto l14_0_2 = (l14_0_0 < S(0));
@@ -1172,7 +1172,7 @@ struct Distance_Pair_Kernel {
     const S d_L_push__b_wx = (d_L_rate__b_wx*l14_0_7);
     const S d_L_push__b_wy = (d_L_rate__b_wy*l14_0_7);
     const S d_L_push__b_wz = (d_L_rate__b_wz*l14_0_7);
-    // let spring (distance.yaml:37)
+    // let spring (distance.yaml:38)
     const S L_spring = ((L_rate*p_spring_damping) + (p_spring_stiffness*(L_length - p_rest_length)));
     const S d_L_spring__a_dx = ((d_L_length__a_dx*p_spring_stiffness) + (d_L_rate__a_dx*p_spring_damping));
     const S d_L_spring__a_dy = ((d_L_length__a_dy*p_spring_stiffness) + (d_L_rate__a_dy*p_spring_damping));
@@ -1198,7 +1198,7 @@ struct Distance_Pair_Kernel {
     const S d_L_spring__b_wx = (d_L_rate__b_wx*p_spring_damping);
     const S d_L_spring__b_wy = (d_L_rate__b_wy*p_spring_damping);
     const S d_L_spring__b_wz = (d_L_rate__b_wz*p_spring_damping);
-    // let f (distance.yaml:38)
+    // let f (distance.yaml:39)
     const S l16_0_0 = (L_pull - L_push + L_spring);
     const S L_f__0 = (L_n__0*l16_0_0);
     const S d_L_f__0__a_dx = ((L_n__0*d_L_pull__a_dx) - (L_n__0*d_L_push__a_dx) + (L_n__0*d_L_spring__a_dx) + (d_L_n__0__a_dx*l16_0_0));
@@ -1275,19 +1275,19 @@ struct Distance_Pair_Kernel {
     const S d_L_f__2__b_wx = ((L_n__2*d_L_pull__b_wx) - (L_n__2*d_L_push__b_wx) + (L_n__2*d_L_spring__b_wx));
     const S d_L_f__2__b_wy = ((L_n__2*d_L_pull__b_wy) - (L_n__2*d_L_push__b_wy) + (L_n__2*d_L_spring__b_wy));
     const S d_L_f__2__b_wz = ((L_n__2*d_L_pull__b_wz) - (L_n__2*d_L_push__b_wz) + (L_n__2*d_L_spring__b_wz));
-    // apply[0] (distance.yaml:40)
+    // apply[0] (distance.yaml:41)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l18_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (distance.yaml:41)
+    // apply[1] (distance.yaml:42)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l20_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l20_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l20_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l20_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (distance.yaml:39), shared subexpressions
+    // apply (distance.yaml:40), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -1498,21 +1498,21 @@ struct Distance_Pair_Kernel {
     const S o207 = ((d_L_f__0__b_dtz*o12) + (d_L_f__0__b_wz*h));
     const S o208 = ((d_L_f__1__b_dtz*o12) + (d_L_f__1__b_wz*h));
     const S o209 = ((d_L_f__2__b_dtz*o12) + (d_L_f__2__b_wz*h));
-    // g_a from apply[0] (distance.yaml:40)
+    // g_a from apply[0] (distance.yaml:41)
     out[0] = o33;
     out[1] = o40;
     out[2] = o47;
     out[3] = ((-(L_f__1*o49)) + (L_f__2*o48) + (o0*o51) + (o1*o52) + (o10*o63) + (o11*o64) + (o17*o66) + (o2*o53) + (o20*o67) + (o22*o65) + (o27*o69) + (o3*o56) + (o30*o70) + (o32*o68) + (o4*o57) + (o5*o58) + (o59*o6) + (o60*o7) + (o61*o8) + (o62*o9));
     out[4] = ((L_f__0*o49) - (L_f__2*o71) + (o0*o73) + (o1*o74) + (o10*o84) + (o11*o85) + (o17*o87) + (o2*o75) + (o20*o88) + (o22*o86) + (o27*o90) + (o3*o77) + (o30*o91) + (o32*o89) + (o4*o78) + (o5*o79) + (o6*o80) + (o7*o81) + (o8*o82) + (o83*o9));
     out[5] = ((-(L_f__0*o48)) + (L_f__1*o71) + (o0*o93) + (o1*o94) + (o10*o103) + (o100*o7) + (o101*o8) + (o102*o9) + (o104*o11) + (o105*o22) + (o106*o17) + (o107*o20) + (o108*o32) + (o109*o27) + (o110*o30) + (o2*o95) + (o3*o96) + (o4*o97) + (o5*o98) + (o6*o99));
-    // g_b from apply[1] (distance.yaml:41)
+    // g_b from apply[1] (distance.yaml:42)
     out[6] = (-o33);
     out[7] = (-o40);
     out[8] = (-o47);
     out[9] = ((L_f__1*o111) - (L_f__2*o112) + (o0*o114) + (o1*o115) + (o10*o126) + (o11*o127) + (o116*o2) + (o117*o3) + (o118*o4) + (o119*o5) + (o120*o6) + (o121*o7) + (o122*o8) + (o125*o9) + (o128*o22) + (o129*o17) + (o130*o20) + (o131*o32) + (o132*o27) + (o133*o30));
     out[10] = ((-(L_f__0*o111)) + (L_f__2*o134) + (o0*o136) + (o1*o137) + (o10*o147) + (o11*o148) + (o138*o2) + (o139*o3) + (o140*o4) + (o141*o5) + (o142*o6) + (o143*o7) + (o144*o8) + (o146*o9) + (o149*o22) + (o150*o17) + (o151*o20) + (o152*o32) + (o153*o27) + (o154*o30));
     out[11] = ((L_f__0*o112) - (L_f__1*o134) + (o0*o156) + (o1*o157) + (o10*o166) + (o11*o167) + (o158*o2) + (o159*o3) + (o160*o4) + (o161*o5) + (o162*o6) + (o163*o7) + (o164*o8) + (o165*o9) + (o168*o22) + (o169*o17) + (o170*o20) + (o171*o32) + (o172*o27) + (o173*o30));
-    // K_aa from apply[0] (distance.yaml:40)
+    // K_aa from apply[0] (distance.yaml:41)
     out[12] = o174;
     out[13] = o175;
     out[14] = o176;
@@ -1549,7 +1549,7 @@ struct Distance_Pair_Kernel {
     out[45] = ((h*((d_L_f__1__a_wz*o50) + (d_L_f__2__a_wz*o48))) + (o12*o58));
     out[46] = ((h*((d_L_f__0__a_wz*o49) + (d_L_f__2__a_wz*o72))) + (o12*o79));
     out[47] = ((h*((d_L_f__0__a_wz*o92) + (d_L_f__1__a_wz*o71))) + (o12*o98));
-    // K_ab from apply[0] (distance.yaml:40)
+    // K_ab from apply[0] (distance.yaml:41)
     out[48] = o192;
     out[49] = o193;
     out[50] = o194;
@@ -1586,7 +1586,7 @@ struct Distance_Pair_Kernel {
     out[81] = ((h*((d_L_f__1__b_wz*o50) + (d_L_f__2__b_wz*o48))) + (o12*o64));
     out[82] = ((h*((d_L_f__0__b_wz*o49) + (d_L_f__2__b_wz*o72))) + (o12*o85));
     out[83] = ((h*((d_L_f__0__b_wz*o92) + (d_L_f__1__b_wz*o71))) + (o104*o12));
-    // K_ba from apply[1] (distance.yaml:41)
+    // K_ba from apply[1] (distance.yaml:42)
     out[84] = (-o174);
     out[85] = (-o175);
     out[86] = (-o176);
@@ -1623,7 +1623,7 @@ struct Distance_Pair_Kernel {
     out[117] = ((h*((d_L_f__1__a_wz*o111) + (d_L_f__2__a_wz*o113))) + (o119*o12));
     out[118] = ((h*((d_L_f__0__a_wz*o135) + (d_L_f__2__a_wz*o134))) + (o12*o141));
     out[119] = ((h*((d_L_f__0__a_wz*o112) + (d_L_f__1__a_wz*o155))) + (o12*o161));
-    // K_bb from apply[1] (distance.yaml:41)
+    // K_bb from apply[1] (distance.yaml:42)
     out[120] = (-o192);
     out[121] = (-o193);
     out[122] = (-o194);
@@ -1729,7 +1729,7 @@ struct Distance_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[52];
     [[maybe_unused]] const S g_joint_hertz = in[53];
     [[maybe_unused]] const S g_joint_damping_ratio = in[54];
-    // body-frame quantities rotated to world, first used by let pa (distance.yaml:25), let pb (distance.yaml:26)
+    // body-frame quantities rotated to world, first used by let pa (distance.yaml:26), let pb (distance.yaml:27)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1752,57 +1752,57 @@ struct Distance_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
-    // let omega (distance.yaml:20)
+    // let omega (distance.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (distance.yaml:21)
+    // let zeta (distance.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (distance.yaml:22)
+    // let m (distance.yaml:23)
     const S L_m = held_in ? held_in[0] : S(max(a_m, b_m));
     if (held_out) held_out[0] = L_m;
-    // let k (distance.yaml:23)
+    // let k (distance.yaml:24)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (distance.yaml:24)
+    // let c (distance.yaml:25)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (distance.yaml:25)
+    // let pa (distance.yaml:26)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (distance.yaml:26)
+    // let pb (distance.yaml:27)
     const S L_pb__0 = (b_px + b_r1_0);
     const S L_pb__1 = (b_py + b_r1_1);
     const S L_pb__2 = (b_pz + b_r1_2);
-    // let d (distance.yaml:27)
+    // let d (distance.yaml:28)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    // let length (distance.yaml:28)
+    // let length (distance.yaml:29)
     const S L_length = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2) + S(1e-12)));
-    // let n (distance.yaml:29)
+    // let n (distance.yaml:30)
     const S l9_0_0 = (S(1)/(L_length));
     const S L_n__0 = (L_d__0*l9_0_0);
     const S L_n__1 = (L_d__1*l9_0_0);
     const S L_n__2 = (L_d__2*l9_0_0);
-    // let rate (distance.yaml:30)
+    // let rate (distance.yaml:31)
     const S L_rate = ((L_n__0*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)) + (L_n__1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)) + (L_n__2*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)));
-    // let over (distance.yaml:33)
+    // let over (distance.yaml:34)
     const S L_over = (L_length - p_max_length);
-    // let under (distance.yaml:34)
+    // let under (distance.yaml:35)
     const S L_under = ((-L_length) + p_min_length);
-    // let pull (distance.yaml:35)
+    // let pull (distance.yaml:36)
     const S l13_0_0 = ((L_c*L_rate) + (L_k*L_over));
     const S L_pull = select((p_max_length > S(0)), select((L_over > S(0)), select((l13_0_0 > S(0)), l13_0_0, S(0)), select(((L_over + (L_rate*h)) > S(0)), l13_0_0, S(0))), S(0));
-    // let push (distance.yaml:36)
+    // let push (distance.yaml:37)
     const S l14_0_0 = ((L_c*L_rate) - (L_k*L_under));
     const S l14_0_1 = (-l14_0_0);
     const S L_push = select((p_min_length > S(0)), select((L_under > S(0)), select((l14_0_0 < S(0)), l14_0_1, S(0)), select((((L_rate*h) - L_under) < S(0)), l14_0_1, S(0))), S(0));
-    // let spring (distance.yaml:37)
+    // let spring (distance.yaml:38)
     const S L_spring = ((L_rate*p_spring_damping) + (p_spring_stiffness*(L_length - p_rest_length)));
-    // let f (distance.yaml:38)
+    // let f (distance.yaml:39)
     const S l16_0_0 = (L_pull - L_push + L_spring);
     const S L_f__0 = (L_n__0*l16_0_0);
     const S L_f__1 = (L_n__1*l16_0_0);
     const S L_f__2 = (L_n__2*l16_0_0);
-    // apply[0] (distance.yaml:40)
+    // apply[0] (distance.yaml:41)
     const S T0_arm__0 = held_in ? held_in[1] : S((L_pa__0 - a_px));
     if (held_out) held_out[1] = T0_arm__0;
     const S T0_arm__1 = held_in ? held_in[2] : S((L_pa__1 - a_py));
@@ -1812,7 +1812,7 @@ struct Distance_Pair_Kernel {
     const S l18_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     const S T1_turn = held_in ? held_in[4] : S((S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[4] = T1_turn;
-    // apply[1] (distance.yaml:41)
+    // apply[1] (distance.yaml:42)
     const S T2_arm__0 = held_in ? held_in[5] : S((L_pb__0 - b_px));
     if (held_out) held_out[5] = T2_arm__0;
     const S T2_arm__1 = held_in ? held_in[6] : S((L_pb__1 - b_py));
@@ -1822,21 +1822,21 @@ struct Distance_Pair_Kernel {
     const S l20_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     const S T3_turn = held_in ? held_in[8] : S((S(1) - (S(1)/((((h*h*h*h)*l20_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l20_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l20_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
     if (held_out) held_out[8] = T3_turn;
-    // apply (distance.yaml:39), shared subexpressions
+    // apply (distance.yaml:40), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
     const S o3 = (T2_arm__2 + (T3_turn*(L_pb__2 - T2_arm__2 - b_pz)));
     const S o4 = (T2_arm__1 + (T3_turn*(L_pb__1 - T2_arm__1 - b_py)));
     const S o5 = (T2_arm__0 + (T3_turn*(L_pb__0 - T2_arm__0 - b_px)));
-    // F_a from apply[0] (distance.yaml:40)
+    // F_a from apply[0] (distance.yaml:41)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
-    // F_b from apply[1] (distance.yaml:41)
+    // F_b from apply[1] (distance.yaml:42)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -1947,7 +1947,7 @@ struct Distance_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[32];
     [[maybe_unused]] const S g_joint_hertz = in[33];
     [[maybe_unused]] const S g_joint_damping_ratio = in[34];
-    // body-frame quantities rotated to world, first used by let pa (distance.yaml:25)
+    // body-frame quantities rotated to world, first used by let pa (distance.yaml:26)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1959,28 +1959,28 @@ struct Distance_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
-    // let omega (distance.yaml:20)
+    // let omega (distance.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (distance.yaml:21)
+    // let zeta (distance.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (distance.yaml:22)
+    // let m (distance.yaml:23)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let k (distance.yaml:23)
+    // let k (distance.yaml:24)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (distance.yaml:24)
+    // let c (distance.yaml:25)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (distance.yaml:25)
+    // let pa (distance.yaml:26)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (distance.yaml:26)
+    // let pb (distance.yaml:27)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let d (distance.yaml:27)
+    // let d (distance.yaml:28)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -1990,7 +1990,7 @@ struct Distance_World_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let length (distance.yaml:28)
+    // let length (distance.yaml:29)
     const S l8_0_0 = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2) + S(1e-12)));
     const S l8_0_1 = (S(1)/(l8_0_0));
     const S l8_0_2 = (L_d__0*l8_0_1);
@@ -2003,7 +2003,7 @@ struct Distance_World_Kernel {
     const S d_L_length__a_dtx = ((d_L_d__1__a_dtx*l8_0_3) + (d_L_d__2__a_dtx*l8_0_4));
     const S d_L_length__a_dty = ((d_L_d__0__a_dty*l8_0_2) + (d_L_d__2__a_dty*l8_0_4));
     const S d_L_length__a_dtz = ((d_L_d__0__a_dtz*l8_0_2) + (d_L_d__1__a_dtz*l8_0_3));
-    // let n (distance.yaml:29)
+    // let n (distance.yaml:30)
     const S l9_0_0 = (S(1)/(L_length));
     const S l9_0_1 = (S(1)/(L_length*L_length));
     const S l9_0_2 = (L_d__0*l9_0_1);
@@ -2030,7 +2030,7 @@ struct Distance_World_Kernel {
     const S d_L_n__2__a_dtx = ((d_L_d__2__a_dtx*l9_0_0) - (d_L_length__a_dtx*l9_0_4));
     const S d_L_n__2__a_dty = ((d_L_d__2__a_dty*l9_0_0) - (d_L_length__a_dty*l9_0_4));
     const S d_L_n__2__a_dtz = (-(d_L_length__a_dtz*l9_0_4));
-    // let rate (distance.yaml:30)
+    // let rate (distance.yaml:31)
     const S l10_0_0 = (a_r0_2*a_wy);
     const S l10_0_1 = ((a_r0_1*a_wz) - a_vx - l10_0_0);
     const S l10_0_2 = (a_r0_0*a_wz);
@@ -2053,9 +2053,9 @@ struct Distance_World_Kernel {
     const S d_L_rate__a_wx = ((L_n__1*a_r0_2) - (L_n__2*a_r0_1));
     const S d_L_rate__a_wy = ((-(L_n__0*a_r0_2)) + (L_n__2*a_r0_0));
     const S d_L_rate__a_wz = ((L_n__0*a_r0_1) - (L_n__1*a_r0_0));
-    // let over (distance.yaml:33)
+    // let over (distance.yaml:34)
     const S L_over = (L_length - p_max_length);
-    // let under (distance.yaml:34)
+    // let under (distance.yaml:35)
     const S L_under = ((-L_length) + p_min_length);
     const S d_L_under__a_dx = (-d_L_length__a_dx);
     const S d_L_under__a_dy = (-d_L_length__a_dy);
@@ -2063,7 +2063,7 @@ struct Distance_World_Kernel {
     const S d_L_under__a_dtx = (-d_L_length__a_dtx);
     const S d_L_under__a_dty = (-d_L_length__a_dty);
     const S d_L_under__a_dtz = (-d_L_length__a_dtz);
-    // let pull (distance.yaml:35)
+    // let pull (distance.yaml:36)
     const S l13_0_0 = ((L_c*L_rate) + (L_k*L_over));
     const auto l13_0_1 = (l13_0_0 > S(0));
     const auto l13_0_2 = (L_over > S(0));
@@ -2084,7 +2084,7 @@ struct Distance_World_Kernel {
     const S d_L_pull__a_wx = (d_L_rate__a_wx*l13_0_6);
     const S d_L_pull__a_wy = (d_L_rate__a_wy*l13_0_6);
     const S d_L_pull__a_wz = (d_L_rate__a_wz*l13_0_6);
-    // let push (distance.yaml:36)
+    // let push (distance.yaml:37)
     const S l14_0_0 = ((L_c*L_rate) - (L_k*L_under));
     const S l14_0_1 = (-l14_0_0);
     const auto l14_0_2 = (l14_0_0 < S(0));
@@ -2107,7 +2107,7 @@ struct Distance_World_Kernel {
     const S d_L_push__a_wx = (d_L_rate__a_wx*l14_0_7);
     const S d_L_push__a_wy = (d_L_rate__a_wy*l14_0_7);
     const S d_L_push__a_wz = (d_L_rate__a_wz*l14_0_7);
-    // let spring (distance.yaml:37)
+    // let spring (distance.yaml:38)
     const S L_spring = ((L_rate*p_spring_damping) + (p_spring_stiffness*(L_length - p_rest_length)));
     const S d_L_spring__a_dx = ((d_L_length__a_dx*p_spring_stiffness) + (d_L_rate__a_dx*p_spring_damping));
     const S d_L_spring__a_dy = ((d_L_length__a_dy*p_spring_stiffness) + (d_L_rate__a_dy*p_spring_damping));
@@ -2121,7 +2121,7 @@ struct Distance_World_Kernel {
     const S d_L_spring__a_wx = (d_L_rate__a_wx*p_spring_damping);
     const S d_L_spring__a_wy = (d_L_rate__a_wy*p_spring_damping);
     const S d_L_spring__a_wz = (d_L_rate__a_wz*p_spring_damping);
-    // let f (distance.yaml:38)
+    // let f (distance.yaml:39)
     const S l16_0_0 = (L_pull - L_push + L_spring);
     const S L_f__0 = (L_n__0*l16_0_0);
     const S d_L_f__0__a_dx = ((L_n__0*d_L_pull__a_dx) - (L_n__0*d_L_push__a_dx) + (L_n__0*d_L_spring__a_dx) + (d_L_n__0__a_dx*l16_0_0));
@@ -2162,13 +2162,13 @@ struct Distance_World_Kernel {
     const S d_L_f__2__a_wx = ((L_n__2*d_L_pull__a_wx) - (L_n__2*d_L_push__a_wx) + (L_n__2*d_L_spring__a_wx));
     const S d_L_f__2__a_wy = ((L_n__2*d_L_pull__a_wy) - (L_n__2*d_L_push__a_wy) + (L_n__2*d_L_spring__a_wy));
     const S d_L_f__2__a_wz = ((L_n__2*d_L_pull__a_wz) - (L_n__2*d_L_push__a_wz) + (L_n__2*d_L_spring__a_wz));
-    // apply[0] (distance.yaml:40)
+    // apply[0] (distance.yaml:41)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l18_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l18_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l18_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (distance.yaml:39), shared subexpressions
+    // apply (distance.yaml:40), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -2180,14 +2180,14 @@ struct Distance_World_Kernel {
     const S o8 = (T1_turn*d_L_pa__2__a_dty);
     const S o9 = (T1_turn*a_r0_2);
     const S o10 = (L_f__2*T1_turn);
-    // F_a from apply[0] (distance.yaml:40)
+    // F_a from apply[0] (distance.yaml:41)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
-    // dF_a/ddelta_a from apply[0] (distance.yaml:40)
+    // dF_a/ddelta_a from apply[0] (distance.yaml:41)
     out[6] = d_L_f__0__a_dx;
     out[7] = d_L_f__1__a_dx;
     out[8] = d_L_f__2__a_dx;
@@ -2224,7 +2224,7 @@ struct Distance_World_Kernel {
     out[39] = ((a_r0_0*o10) + (d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o1));
     out[40] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o4) - (d_L_pa__0__a_dtz*o10));
     out[41] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o5) + (d_L_f__1__a_dtz*o2));
-    // dF_a/du_a from apply[0] (distance.yaml:40)
+    // dF_a/du_a from apply[0] (distance.yaml:41)
     out[42] = d_L_f__0__a_vx;
     out[43] = d_L_f__1__a_vx;
     out[44] = d_L_f__2__a_vx;
@@ -2310,7 +2310,7 @@ struct Distance_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[32];
     [[maybe_unused]] const S g_joint_hertz = in[33];
     [[maybe_unused]] const S g_joint_damping_ratio = in[34];
-    // body-frame quantities rotated to world, first used by let pa (distance.yaml:25)
+    // body-frame quantities rotated to world, first used by let pa (distance.yaml:26)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -2322,28 +2322,28 @@ struct Distance_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
-    // let omega (distance.yaml:20)
+    // let omega (distance.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (distance.yaml:21)
+    // let zeta (distance.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (distance.yaml:22)
+    // let m (distance.yaml:23)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let k (distance.yaml:23)
+    // let k (distance.yaml:24)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (distance.yaml:24)
+    // let c (distance.yaml:25)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (distance.yaml:25)
+    // let pa (distance.yaml:26)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (distance.yaml:26)
+    // let pb (distance.yaml:27)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let d (distance.yaml:27)
+    // let d (distance.yaml:28)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -2353,7 +2353,7 @@ struct Distance_World_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let length (distance.yaml:28)
+    // let length (distance.yaml:29)
     const S l8_0_0 = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2) + S(1e-12)));
     const S l8_0_1 = (S(1)/(l8_0_0));
     const S l8_0_2 = (L_d__0*l8_0_1);
@@ -2366,7 +2366,7 @@ struct Distance_World_Kernel {
     const S d_L_length__a_dtx = ((d_L_d__1__a_dtx*l8_0_3) + (d_L_d__2__a_dtx*l8_0_4));
     const S d_L_length__a_dty = ((d_L_d__0__a_dty*l8_0_2) + (d_L_d__2__a_dty*l8_0_4));
     const S d_L_length__a_dtz = ((d_L_d__0__a_dtz*l8_0_2) + (d_L_d__1__a_dtz*l8_0_3));
-    // let n (distance.yaml:29)
+    // let n (distance.yaml:30)
     const S l9_0_0 = (S(1)/(L_length));
     const S l9_0_1 = (S(1)/(L_length*L_length));
     const S l9_0_2 = (L_d__0*l9_0_1);
@@ -2393,7 +2393,7 @@ struct Distance_World_Kernel {
     const S d_L_n__2__a_dtx = ((d_L_d__2__a_dtx*l9_0_0) - (d_L_length__a_dtx*l9_0_4));
     const S d_L_n__2__a_dty = ((d_L_d__2__a_dty*l9_0_0) - (d_L_length__a_dty*l9_0_4));
     const S d_L_n__2__a_dtz = (-(d_L_length__a_dtz*l9_0_4));
-    // let rate (distance.yaml:30)
+    // let rate (distance.yaml:31)
     const S l10_0_0 = (a_r0_2*a_wy);
     const S l10_0_1 = ((a_r0_1*a_wz) - a_vx - l10_0_0);
     const S l10_0_2 = (a_r0_0*a_wz);
@@ -2416,9 +2416,9 @@ struct Distance_World_Kernel {
     const S d_L_rate__a_wx = ((L_n__1*a_r0_2) - (L_n__2*a_r0_1));
     const S d_L_rate__a_wy = ((-(L_n__0*a_r0_2)) + (L_n__2*a_r0_0));
     const S d_L_rate__a_wz = ((L_n__0*a_r0_1) - (L_n__1*a_r0_0));
-    // let over (distance.yaml:33)
+    // let over (distance.yaml:34)
     const S L_over = (L_length - p_max_length);
-    // let under (distance.yaml:34)
+    // let under (distance.yaml:35)
     const S L_under = ((-L_length) + p_min_length);
     const S d_L_under__a_dx = (-d_L_length__a_dx);
     const S d_L_under__a_dy = (-d_L_length__a_dy);
@@ -2426,7 +2426,7 @@ struct Distance_World_Kernel {
     const S d_L_under__a_dtx = (-d_L_length__a_dtx);
     const S d_L_under__a_dty = (-d_L_length__a_dty);
     const S d_L_under__a_dtz = (-d_L_length__a_dtz);
-    // let pull (distance.yaml:35)
+    // let pull (distance.yaml:36)
     const S l13_0_0 = ((L_c*L_rate) + (L_k*L_over));
     const auto l13_0_1 = (l13_0_0 > S(0));
     const auto l13_0_2 = (L_over > S(0));
@@ -2447,7 +2447,7 @@ struct Distance_World_Kernel {
     const S d_L_pull__a_wx = (d_L_rate__a_wx*l13_0_6);
     const S d_L_pull__a_wy = (d_L_rate__a_wy*l13_0_6);
     const S d_L_pull__a_wz = (d_L_rate__a_wz*l13_0_6);
-    // let push (distance.yaml:36)
+    // let push (distance.yaml:37)
     const S l14_0_0 = ((L_c*L_rate) - (L_k*L_under));
     const S l14_0_1 = (-l14_0_0);
     const auto l14_0_2 = (l14_0_0 < S(0));
@@ -2470,7 +2470,7 @@ struct Distance_World_Kernel {
     const S d_L_push__a_wx = (d_L_rate__a_wx*l14_0_7);
     const S d_L_push__a_wy = (d_L_rate__a_wy*l14_0_7);
     const S d_L_push__a_wz = (d_L_rate__a_wz*l14_0_7);
-    // let spring (distance.yaml:37)
+    // let spring (distance.yaml:38)
     const S L_spring = ((L_rate*p_spring_damping) + (p_spring_stiffness*(L_length - p_rest_length)));
     const S d_L_spring__a_dx = ((d_L_length__a_dx*p_spring_stiffness) + (d_L_rate__a_dx*p_spring_damping));
     const S d_L_spring__a_dy = ((d_L_length__a_dy*p_spring_stiffness) + (d_L_rate__a_dy*p_spring_damping));
@@ -2484,7 +2484,7 @@ struct Distance_World_Kernel {
     const S d_L_spring__a_wx = (d_L_rate__a_wx*p_spring_damping);
     const S d_L_spring__a_wy = (d_L_rate__a_wy*p_spring_damping);
     const S d_L_spring__a_wz = (d_L_rate__a_wz*p_spring_damping);
-    // let f (distance.yaml:38)
+    // let f (distance.yaml:39)
     const S l16_0_0 = (L_pull - L_push + L_spring);
     const S L_f__0 = (L_n__0*l16_0_0);
     const S d_L_f__0__a_dx = ((L_n__0*d_L_pull__a_dx) - (L_n__0*d_L_push__a_dx) + (L_n__0*d_L_spring__a_dx) + (d_L_n__0__a_dx*l16_0_0));
@@ -2525,13 +2525,13 @@ struct Distance_World_Kernel {
     const S d_L_f__2__a_wx = ((L_n__2*d_L_pull__a_wx) - (L_n__2*d_L_push__a_wx) + (L_n__2*d_L_spring__a_wx));
     const S d_L_f__2__a_wy = ((L_n__2*d_L_pull__a_wy) - (L_n__2*d_L_push__a_wy) + (L_n__2*d_L_spring__a_wy));
     const S d_L_f__2__a_wz = ((L_n__2*d_L_pull__a_wz) - (L_n__2*d_L_push__a_wz) + (L_n__2*d_L_spring__a_wz));
-    // apply[0] (distance.yaml:40)
+    // apply[0] (distance.yaml:41)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l18_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l18_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l18_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (distance.yaml:39), shared subexpressions
+    // apply (distance.yaml:40), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -2591,14 +2591,14 @@ struct Distance_World_Kernel {
     const S o56 = (o52*o6);
     const S o57 = (o50*o6);
     const S o58 = (o51*o6);
-    // g_a from apply[0] (distance.yaml:40)
+    // g_a from apply[0] (distance.yaml:41)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o3) + (d_L_f__0__a_dty*o4) + (d_L_f__0__a_dtz*o5) + (d_L_f__0__a_dx*o0) + (d_L_f__0__a_dy*o1) + (d_L_f__0__a_dz*o2) + (o11*o7) + (o12*o14) + (o15*o16));
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o3) + (d_L_f__1__a_dty*o4) + (d_L_f__1__a_dtz*o5) + (d_L_f__1__a_dx*o0) + (d_L_f__1__a_dy*o1) + (d_L_f__1__a_dz*o2) + (o11*o17) + (o14*o18) + (o16*o19));
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o3) + (d_L_f__2__a_dty*o4) + (d_L_f__2__a_dtz*o5) + (d_L_f__2__a_dx*o0) + (d_L_f__2__a_dy*o1) + (d_L_f__2__a_dz*o2) + (o11*o20) + (o14*o21) + (o16*o22));
     out[3] = ((-(L_f__1*o24)) + (L_f__2*o23) + (o0*o26) + (o1*o27) + (o11*o35) + (o14*o36) + (o16*o34) + (o2*o28) + (o3*o31) + (o32*o4) + (o33*o5));
     out[4] = ((L_f__0*o24) - (L_f__2*o37) + (o0*o39) + (o1*o40) + (o11*o47) + (o14*o48) + (o16*o46) + (o2*o41) + (o3*o43) + (o4*o44) + (o45*o5));
     out[5] = ((-(L_f__0*o23)) + (L_f__1*o37) + (o0*o50) + (o1*o51) + (o11*o57) + (o14*o58) + (o16*o56) + (o2*o52) + (o3*o53) + (o4*o54) + (o5*o55));
-    // K_aa from apply[0] (distance.yaml:40)
+    // K_aa from apply[0] (distance.yaml:41)
     out[6] = ((d_L_f__0__a_vx*h) + o7);
     out[7] = ((d_L_f__1__a_vx*h) + o17);
     out[8] = ((d_L_f__2__a_vx*h) + o20);
@@ -2684,7 +2684,7 @@ struct Distance_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[32];
     [[maybe_unused]] const S g_joint_hertz = in[33];
     [[maybe_unused]] const S g_joint_damping_ratio = in[34];
-    // body-frame quantities rotated to world, first used by let pa (distance.yaml:25)
+    // body-frame quantities rotated to world, first used by let pa (distance.yaml:26)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -2696,57 +2696,57 @@ struct Distance_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
-    // let omega (distance.yaml:20)
+    // let omega (distance.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (distance.yaml:21)
+    // let zeta (distance.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (distance.yaml:22)
+    // let m (distance.yaml:23)
     const S L_m = held_in ? held_in[0] : S(max(S(0), a_m));
     if (held_out) held_out[0] = L_m;
-    // let k (distance.yaml:23)
+    // let k (distance.yaml:24)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (distance.yaml:24)
+    // let c (distance.yaml:25)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (distance.yaml:25)
+    // let pa (distance.yaml:26)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (distance.yaml:26)
+    // let pb (distance.yaml:27)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let d (distance.yaml:27)
+    // let d (distance.yaml:28)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    // let length (distance.yaml:28)
+    // let length (distance.yaml:29)
     const S L_length = sqrt(((L_d__0*L_d__0) + (L_d__1*L_d__1) + (L_d__2*L_d__2) + S(1e-12)));
-    // let n (distance.yaml:29)
+    // let n (distance.yaml:30)
     const S l9_0_0 = (S(1)/(L_length));
     const S L_n__0 = (L_d__0*l9_0_0);
     const S L_n__1 = (L_d__1*l9_0_0);
     const S L_n__2 = (L_d__2*l9_0_0);
-    // let rate (distance.yaml:30)
+    // let rate (distance.yaml:31)
     const S L_rate = ((L_n__0*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)) + (L_n__1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)) + (L_n__2*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
-    // let over (distance.yaml:33)
+    // let over (distance.yaml:34)
     const S L_over = (L_length - p_max_length);
-    // let under (distance.yaml:34)
+    // let under (distance.yaml:35)
     const S L_under = ((-L_length) + p_min_length);
-    // let pull (distance.yaml:35)
+    // let pull (distance.yaml:36)
     const S l13_0_0 = ((L_c*L_rate) + (L_k*L_over));
     const S L_pull = select((p_max_length > S(0)), select((L_over > S(0)), select((l13_0_0 > S(0)), l13_0_0, S(0)), select(((L_over + (L_rate*h)) > S(0)), l13_0_0, S(0))), S(0));
-    // let push (distance.yaml:36)
+    // let push (distance.yaml:37)
     const S l14_0_0 = ((L_c*L_rate) - (L_k*L_under));
     const S l14_0_1 = (-l14_0_0);
     const S L_push = select((p_min_length > S(0)), select((L_under > S(0)), select((l14_0_0 < S(0)), l14_0_1, S(0)), select((((L_rate*h) - L_under) < S(0)), l14_0_1, S(0))), S(0));
-    // let spring (distance.yaml:37)
+    // let spring (distance.yaml:38)
     const S L_spring = ((L_rate*p_spring_damping) + (p_spring_stiffness*(L_length - p_rest_length)));
-    // let f (distance.yaml:38)
+    // let f (distance.yaml:39)
     const S l16_0_0 = (L_pull - L_push + L_spring);
     const S L_f__0 = (L_n__0*l16_0_0);
     const S L_f__1 = (L_n__1*l16_0_0);
     const S L_f__2 = (L_n__2*l16_0_0);
-    // apply[0] (distance.yaml:40)
+    // apply[0] (distance.yaml:41)
     const S T0_arm__0 = held_in ? held_in[1] : S((L_pa__0 - a_px));
     if (held_out) held_out[1] = T0_arm__0;
     const S T0_arm__1 = held_in ? held_in[2] : S((L_pa__1 - a_py));
@@ -2756,11 +2756,11 @@ struct Distance_World_Kernel {
     const S l18_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     const S T1_turn = held_in ? held_in[4] : S((S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l18_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l18_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[4] = T1_turn;
-    // apply (distance.yaml:39), shared subexpressions
+    // apply (distance.yaml:40), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
-    // F_a from apply[0] (distance.yaml:40)
+    // F_a from apply[0] (distance.yaml:41)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

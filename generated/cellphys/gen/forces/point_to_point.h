@@ -142,7 +142,7 @@ struct Point_To_Point_Pair_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[45];
     [[maybe_unused]] const S p_stiffness = in[46];
     [[maybe_unused]] const S p_damping = in[47];
-    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13), let pb (point_to_point.yaml:14)
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:14), let pb (point_to_point.yaml:15)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -165,21 +165,21 @@ struct Point_To_Point_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
-    // let pa (point_to_point.yaml:13)
+    // let pa (point_to_point.yaml:14)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (point_to_point.yaml:14)
+    // let pb (point_to_point.yaml:15)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let f (point_to_point.yaml:15)
+    // let f (point_to_point.yaml:16)
     const S l2_0_0 = (b_r1_2*b_wy);
     const S l2_0_1 = (a_r0_2*a_wy);
     const S l2_0_2 = (b_r1_1*b_wz);
@@ -237,19 +237,19 @@ struct Point_To_Point_Pair_Kernel {
     const S d_L_f__2__a_wy = l2_0_6;
     const S d_L_f__2__b_wx = l2_0_15;
     const S d_L_f__2__b_wy = (-l2_0_10);
-    // apply[0] (point_to_point.yaml:17)
+    // apply[0] (point_to_point.yaml:18)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (point_to_point.yaml:18)
+    // apply[1] (point_to_point.yaml:19)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l6_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (point_to_point.yaml:16), shared subexpressions
+    // apply (point_to_point.yaml:17), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -274,21 +274,21 @@ struct Point_To_Point_Pair_Kernel {
     const S o21 = (T3_turn*b_r1_2);
     const S o22 = (L_f__2*T3_turn);
     const S o23 = (-p_damping);
-    // F_a from apply[0] (point_to_point.yaml:17)
+    // F_a from apply[0] (point_to_point.yaml:18)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
-    // F_b from apply[1] (point_to_point.yaml:18)
+    // F_b from apply[1] (point_to_point.yaml:19)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4));
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5));
     out[11] = ((L_f__0*o4) - (L_f__1*o5));
-    // dF_a/ddelta_a from apply[0] (point_to_point.yaml:17)
+    // dF_a/ddelta_a from apply[0] (point_to_point.yaml:18)
     out[12] = d_L_f__0__a_dx;
     out[13] = S(0);
     out[14] = S(0);
@@ -325,7 +325,7 @@ struct Point_To_Point_Pair_Kernel {
     out[45] = ((a_r0_0*o13) + (d_L_f__1__a_dtz*o7) + (d_L_f__2__a_dtz*o1));
     out[46] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o8) - (d_L_pa__0__a_dtz*o13));
     out[47] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o6) + (d_L_f__1__a_dtz*o2));
-    // dF_a/ddelta_b from apply[0] (point_to_point.yaml:17)
+    // dF_a/ddelta_b from apply[0] (point_to_point.yaml:18)
     out[48] = p_stiffness;
     out[49] = S(0);
     out[50] = S(0);
@@ -362,7 +362,7 @@ struct Point_To_Point_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o7) + (d_L_f__2__b_dtz*o1));
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o8));
     out[83] = ((d_L_f__0__b_dtz*o6) + (d_L_f__1__b_dtz*o2));
-    // dF_a/du_a from apply[0] (point_to_point.yaml:17)
+    // dF_a/du_a from apply[0] (point_to_point.yaml:18)
     out[84] = d_L_f__0__a_vx;
     out[85] = S(0);
     out[86] = S(0);
@@ -399,7 +399,7 @@ struct Point_To_Point_Pair_Kernel {
     out[117] = (d_L_f__1__a_wz*o7);
     out[118] = (d_L_f__0__a_wz*o0);
     out[119] = ((d_L_f__0__a_wz*o6) + (d_L_f__1__a_wz*o2));
-    // dF_a/du_b from apply[0] (point_to_point.yaml:17)
+    // dF_a/du_b from apply[0] (point_to_point.yaml:18)
     out[120] = p_damping;
     out[121] = S(0);
     out[122] = S(0);
@@ -436,7 +436,7 @@ struct Point_To_Point_Pair_Kernel {
     out[153] = (d_L_f__1__b_wz*o7);
     out[154] = (d_L_f__0__b_wz*o0);
     out[155] = ((d_L_f__0__b_wz*o6) + (d_L_f__1__b_wz*o2));
-    // dF_b/ddelta_a from apply[1] (point_to_point.yaml:18)
+    // dF_b/ddelta_a from apply[1] (point_to_point.yaml:19)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = S(0);
     out[158] = S(0);
@@ -473,7 +473,7 @@ struct Point_To_Point_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o16));
     out[190] = ((d_L_f__0__a_dtz*o14) + (d_L_f__2__a_dtz*o5));
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o15));
-    // dF_b/ddelta_b from apply[1] (point_to_point.yaml:18)
+    // dF_b/ddelta_b from apply[1] (point_to_point.yaml:19)
     out[192] = o17;
     out[193] = S(0);
     out[194] = S(0);
@@ -510,7 +510,7 @@ struct Point_To_Point_Pair_Kernel {
     out[225] = ((-(b_r1_0*o22)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o16));
     out[226] = ((d_L_f__0__b_dtz*o14) + (d_L_f__2__b_dtz*o5) + (d_L_pb__0__b_dtz*o22));
     out[227] = ((L_f__0*T3_turn*b_r1_0) - (L_f__1*T3_turn*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o15));
-    // dF_b/du_a from apply[1] (point_to_point.yaml:18)
+    // dF_b/du_a from apply[1] (point_to_point.yaml:19)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = S(0);
     out[230] = S(0);
@@ -547,7 +547,7 @@ struct Point_To_Point_Pair_Kernel {
     out[261] = (d_L_f__1__a_wz*o3);
     out[262] = (d_L_f__0__a_wz*o14);
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o15));
-    // dF_b/du_b from apply[1] (point_to_point.yaml:18)
+    // dF_b/du_b from apply[1] (point_to_point.yaml:19)
     out[264] = o23;
     out[265] = S(0);
     out[266] = S(0);
@@ -649,7 +649,7 @@ struct Point_To_Point_Pair_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[45];
     [[maybe_unused]] const S p_stiffness = in[46];
     [[maybe_unused]] const S p_damping = in[47];
-    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13), let pb (point_to_point.yaml:14)
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:14), let pb (point_to_point.yaml:15)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -672,21 +672,21 @@ struct Point_To_Point_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
-    // let pa (point_to_point.yaml:13)
+    // let pa (point_to_point.yaml:14)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (point_to_point.yaml:14)
+    // let pb (point_to_point.yaml:15)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let f (point_to_point.yaml:15)
+    // let f (point_to_point.yaml:16)
     const S l2_0_0 = (b_r1_2*b_wy);
     const S l2_0_1 = (a_r0_2*a_wy);
     const S l2_0_2 = (b_r1_1*b_wz);
@@ -744,19 +744,19 @@ struct Point_To_Point_Pair_Kernel {
     const S d_L_f__2__a_wy = l2_0_6;
     const S d_L_f__2__b_wx = l2_0_15;
     const S d_L_f__2__b_wy = (-l2_0_10);
-    // apply[0] (point_to_point.yaml:17)
+    // apply[0] (point_to_point.yaml:18)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (point_to_point.yaml:18)
+    // apply[1] (point_to_point.yaml:19)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l6_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (point_to_point.yaml:16), shared subexpressions
+    // apply (point_to_point.yaml:17), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -913,21 +913,21 @@ struct Point_To_Point_Pair_Kernel {
     const S o153 = ((d_L_f__1__b_dtz*o9) + o152);
     const S o154 = (d_L_f__2__b_dtz*o9);
     const S o155 = (-o139);
-    // g_a from apply[0] (point_to_point.yaml:17)
+    // g_a from apply[0] (point_to_point.yaml:18)
     out[0] = o21;
     out[1] = o29;
     out[2] = o35;
     out[3] = ((-(L_f__1*o37)) + (L_f__2*o36) + (o1*o41) + (o2*o42) + (o22*o38) + (o23*o38) + (o26*o47) + (o3*o43) + (o30*o36) + (o31*o36) + (o33*o48) + (o44*o6) + (o45*o7) + (o46*o8) + (o49*o50) + (o51*o52));
     out[4] = ((L_f__0*o37) - (L_f__2*o53) + (o0*o37) + (o1*o56) + (o14*o62) + (o2*o57) + (o3*o58) + (o30*o54) + (o31*o54) + (o33*o63) + (o37*o5) + (o50*o66) + (o59*o6) + (o60*o7) + (o61*o8) + (o64*o65));
     out[5] = ((-(L_f__0*o36)) + (L_f__1*o53) + (o0*o67) + (o1*o68) + (o14*o74) + (o2*o69) + (o22*o53) + (o23*o53) + (o26*o75) + (o3*o70) + (o5*o67) + (o52*o76) + (o6*o71) + (o65*o77) + (o7*o72) + (o73*o8));
-    // g_b from apply[1] (point_to_point.yaml:18)
+    // g_b from apply[1] (point_to_point.yaml:19)
     out[6] = (-o21);
     out[7] = (-o29);
     out[8] = (-o35);
     out[9] = ((L_f__1*o78) - (L_f__2*o79) + (o1*o81) + (o2*o82) + (o22*o78) + (o23*o78) + (o26*o89) + (o3*o83) + (o30*o80) + (o31*o80) + (o33*o90) + (o50*o92) + (o52*o91) + (o6*o86) + (o7*o87) + (o8*o88));
     out[10] = ((-(L_f__0*o78)) + (L_f__2*o93) + (o0*o94) + (o1*o95) + (o100*o7) + (o101*o8) + (o102*o14) + (o103*o33) + (o104*o50) + (o105*o65) + (o2*o96) + (o3*o97) + (o30*o93) + (o31*o93) + (o5*o94) + (o6*o99));
     out[11] = ((L_f__0*o79) - (L_f__1*o93) + (o0*o79) + (o1*o107) + (o106*o22) + (o106*o23) + (o108*o2) + (o109*o3) + (o110*o6) + (o111*o7) + (o112*o8) + (o113*o14) + (o114*o26) + (o115*o65) + (o116*o52) + (o5*o79));
-    // K_aa from apply[0] (point_to_point.yaml:17)
+    // K_aa from apply[0] (point_to_point.yaml:18)
     out[12] = o118;
     out[13] = S(0);
     out[14] = S(0);
@@ -964,7 +964,7 @@ struct Point_To_Point_Pair_Kernel {
     out[45] = ((o135*o38) + (o43*o9));
     out[46] = ((o133*o37) + (o58*o9));
     out[47] = ((h*((d_L_f__0__a_wz*o67) + (d_L_f__1__a_wz*o53))) + (o70*o9));
-    // K_ab from apply[0] (point_to_point.yaml:17)
+    // K_ab from apply[0] (point_to_point.yaml:18)
     out[48] = o139;
     out[49] = S(0);
     out[50] = S(0);
@@ -1001,7 +1001,7 @@ struct Point_To_Point_Pair_Kernel {
     out[81] = ((o152*o38) + (o46*o9));
     out[82] = ((o150*o37) + (o61*o9));
     out[83] = ((h*((d_L_f__0__b_wz*o67) + (d_L_f__1__b_wz*o53))) + (o73*o9));
-    // K_ba from apply[1] (point_to_point.yaml:18)
+    // K_ba from apply[1] (point_to_point.yaml:19)
     out[84] = (-o118);
     out[85] = S(0);
     out[86] = S(0);
@@ -1038,7 +1038,7 @@ struct Point_To_Point_Pair_Kernel {
     out[117] = ((o135*o78) + (o83*o9));
     out[118] = ((o133*o94) + (o9*o97));
     out[119] = ((h*((d_L_f__0__a_wz*o79) + (d_L_f__1__a_wz*o106))) + (o109*o9));
-    // K_bb from apply[1] (point_to_point.yaml:18)
+    // K_bb from apply[1] (point_to_point.yaml:19)
     out[120] = o155;
     out[121] = S(0);
     out[122] = S(0);
@@ -1137,7 +1137,7 @@ struct Point_To_Point_Pair_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[45];
     [[maybe_unused]] const S p_stiffness = in[46];
     [[maybe_unused]] const S p_damping = in[47];
-    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13), let pb (point_to_point.yaml:14)
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:14), let pb (point_to_point.yaml:15)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1160,19 +1160,19 @@ struct Point_To_Point_Pair_Kernel {
     const S b_r1_0 = ((p_point_b__0*((-p0_8) - p0_9)) + (p_point_b__1*((S(2)*b_qx*b_qy) - p0_11)) + (p_point_b__2*((b_qz*p0_13) + p0_12)));
     const S b_r1_1 = ((p_point_b__0*((b_qy*p0_13) + p0_11)) + (p_point_b__1*((-p0_14) - p0_9)) + (p_point_b__2*((S(2)*b_qy*b_qz) - p0_15)));
     const S b_r1_2 = ((p_point_b__0*((S(2)*b_qx*b_qz) - p0_12)) + (p_point_b__1*((S(2)*b_qy*b_qz) + p0_15)) + (p_point_b__2*((-p0_14) - p0_8 + S(1))));
-    // let pa (point_to_point.yaml:13)
+    // let pa (point_to_point.yaml:14)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (point_to_point.yaml:14)
+    // let pb (point_to_point.yaml:15)
     const S L_pb__0 = (b_px + b_r1_0);
     const S L_pb__1 = (b_py + b_r1_1);
     const S L_pb__2 = (b_pz + b_r1_2);
-    // let f (point_to_point.yaml:15)
+    // let f (point_to_point.yaml:16)
     const S L_f__0 = ((p_damping*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)) + (p_stiffness*((-L_pa__0) + L_pb__0)));
     const S L_f__1 = ((p_damping*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)) + (p_stiffness*((-L_pa__1) + L_pb__1)));
     const S L_f__2 = ((p_damping*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)) + (p_stiffness*((-L_pa__2) + L_pb__2)));
-    // apply[0] (point_to_point.yaml:17)
+    // apply[0] (point_to_point.yaml:18)
     const S T0_arm__0 = held_in ? held_in[0] : S((L_pa__0 - a_px));
     if (held_out) held_out[0] = T0_arm__0;
     const S T0_arm__1 = held_in ? held_in[1] : S((L_pa__1 - a_py));
@@ -1182,7 +1182,7 @@ struct Point_To_Point_Pair_Kernel {
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     const S T1_turn = held_in ? held_in[3] : S((S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l4_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[3] = T1_turn;
-    // apply[1] (point_to_point.yaml:18)
+    // apply[1] (point_to_point.yaml:19)
     const S T2_arm__0 = held_in ? held_in[4] : S((L_pb__0 - b_px));
     if (held_out) held_out[4] = T2_arm__0;
     const S T2_arm__1 = held_in ? held_in[5] : S((L_pb__1 - b_py));
@@ -1192,21 +1192,21 @@ struct Point_To_Point_Pair_Kernel {
     const S l6_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     const S T3_turn = held_in ? held_in[7] : S((S(1) - (S(1)/((((h*h*h*h)*l6_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l6_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
     if (held_out) held_out[7] = T3_turn;
-    // apply (point_to_point.yaml:16), shared subexpressions
+    // apply (point_to_point.yaml:17), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
     const S o3 = (T2_arm__2 + (T3_turn*(L_pb__2 - T2_arm__2 - b_pz)));
     const S o4 = (T2_arm__1 + (T3_turn*(L_pb__1 - T2_arm__1 - b_py)));
     const S o5 = (T2_arm__0 + (T3_turn*(L_pb__0 - T2_arm__0 - b_px)));
-    // F_a from apply[0] (point_to_point.yaml:17)
+    // F_a from apply[0] (point_to_point.yaml:18)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
-    // F_b from apply[1] (point_to_point.yaml:18)
+    // F_b from apply[1] (point_to_point.yaml:19)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -1303,7 +1303,7 @@ struct Point_To_Point_World_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[25];
     [[maybe_unused]] const S p_stiffness = in[26];
     [[maybe_unused]] const S p_damping = in[27];
-    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13)
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1315,18 +1315,18 @@ struct Point_To_Point_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
-    // let pa (point_to_point.yaml:13)
+    // let pa (point_to_point.yaml:14)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (point_to_point.yaml:14)
+    // let pb (point_to_point.yaml:15)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (point_to_point.yaml:15)
+    // let f (point_to_point.yaml:16)
     const S l2_0_0 = (a_r0_2*a_wy);
     const S l2_0_1 = (-p_stiffness);
     const S l2_0_2 = (a_r0_1*a_wy);
@@ -1361,13 +1361,13 @@ struct Point_To_Point_World_Kernel {
     const S d_L_f__2__a_vz = l2_0_6;
     const S d_L_f__2__a_wx = (-l2_0_8);
     const S d_L_f__2__a_wy = l2_0_4;
-    // apply[0] (point_to_point.yaml:17)
+    // apply[0] (point_to_point.yaml:18)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (point_to_point.yaml:16), shared subexpressions
+    // apply (point_to_point.yaml:17), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -1379,14 +1379,14 @@ struct Point_To_Point_World_Kernel {
     const S o8 = (T1_turn*d_L_pa__2__a_dty);
     const S o9 = (T1_turn*a_r0_2);
     const S o10 = (L_f__2*T1_turn);
-    // F_a from apply[0] (point_to_point.yaml:17)
+    // F_a from apply[0] (point_to_point.yaml:18)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1));
     out[4] = ((L_f__0*o0) - (L_f__2*o2));
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2));
-    // dF_a/ddelta_a from apply[0] (point_to_point.yaml:17)
+    // dF_a/ddelta_a from apply[0] (point_to_point.yaml:18)
     out[6] = d_L_f__0__a_dx;
     out[7] = S(0);
     out[8] = S(0);
@@ -1423,7 +1423,7 @@ struct Point_To_Point_World_Kernel {
     out[39] = ((a_r0_0*o10) + (d_L_f__1__a_dtz*o4) + (d_L_f__2__a_dtz*o1));
     out[40] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o5) - (d_L_pa__0__a_dtz*o10));
     out[41] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o3) + (d_L_f__1__a_dtz*o2));
-    // dF_a/du_a from apply[0] (point_to_point.yaml:17)
+    // dF_a/du_a from apply[0] (point_to_point.yaml:18)
     out[42] = d_L_f__0__a_vx;
     out[43] = S(0);
     out[44] = S(0);
@@ -1502,7 +1502,7 @@ struct Point_To_Point_World_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[25];
     [[maybe_unused]] const S p_stiffness = in[26];
     [[maybe_unused]] const S p_damping = in[27];
-    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13)
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1514,18 +1514,18 @@ struct Point_To_Point_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
-    // let pa (point_to_point.yaml:13)
+    // let pa (point_to_point.yaml:14)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (point_to_point.yaml:14)
+    // let pb (point_to_point.yaml:15)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (point_to_point.yaml:15)
+    // let f (point_to_point.yaml:16)
     const S l2_0_0 = (a_r0_2*a_wy);
     const S l2_0_1 = (-p_stiffness);
     const S l2_0_2 = (a_r0_1*a_wy);
@@ -1560,13 +1560,13 @@ struct Point_To_Point_World_Kernel {
     const S d_L_f__2__a_vz = l2_0_6;
     const S d_L_f__2__a_wx = (-l2_0_8);
     const S d_L_f__2__a_wy = l2_0_4;
-    // apply[0] (point_to_point.yaml:17)
+    // apply[0] (point_to_point.yaml:18)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (point_to_point.yaml:16), shared subexpressions
+    // apply (point_to_point.yaml:17), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -1617,14 +1617,14 @@ struct Point_To_Point_World_Kernel {
     const S o47 = (d_L_f__2__a_wy*h);
     const S o48 = (d_L_f__0__a_wz*h);
     const S o49 = (d_L_f__1__a_wz*h);
-    // g_a from apply[0] (point_to_point.yaml:17)
+    // g_a from apply[0] (point_to_point.yaml:18)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o1) + (d_L_f__0__a_dty*o2) + (d_L_f__0__a_dtz*o3) + o0 + (o5*o9));
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o1) + (d_L_f__1__a_dty*o2) + (d_L_f__1__a_dtz*o3) + o10 + (o11*o13));
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o1) + (d_L_f__2__a_dty*o2) + (d_L_f__2__a_dtz*o3) + o14 + (o15*o16));
     out[3] = ((-(L_f__1*o18)) + (L_f__2*o17) + (o1*o22) + (o10*o19) + (o13*o25) + (o14*o17) + (o16*o26) + (o2*o23) + (o24*o3));
     out[4] = ((L_f__0*o18) - (L_f__2*o27) + (o0*o18) + (o1*o30) + (o14*o28) + (o16*o34) + (o2*o31) + (o3*o32) + (o33*o9));
     out[5] = ((-(L_f__0*o17)) + (L_f__1*o27) + (o0*o35) + (o1*o36) + (o10*o27) + (o13*o40) + (o2*o37) + (o3*o38) + (o39*o9));
-    // K_aa from apply[0] (point_to_point.yaml:17)
+    // K_aa from apply[0] (point_to_point.yaml:18)
     out[6] = (o41 + o5);
     out[7] = S(0);
     out[8] = S(0);
@@ -1703,7 +1703,7 @@ struct Point_To_Point_World_Kernel {
     [[maybe_unused]] const S p_point_b__2 = in[25];
     [[maybe_unused]] const S p_stiffness = in[26];
     [[maybe_unused]] const S p_damping = in[27];
-    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:13)
+    // body-frame quantities rotated to world, first used by let pa (point_to_point.yaml:14)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = (S(2)*a_qw);
@@ -1715,19 +1715,19 @@ struct Point_To_Point_World_Kernel {
     const S a_r0_0 = ((p_point_a__0*((-p0_0) - p0_1)) + (p_point_a__1*((S(2)*a_qx*a_qy) - p0_3)) + (p_point_a__2*((a_qz*p0_5) + p0_4)));
     const S a_r0_1 = ((p_point_a__0*((a_qy*p0_5) + p0_3)) + (p_point_a__1*((-p0_1) - p0_6)) + (p_point_a__2*((S(2)*a_qy*a_qz) - p0_7)));
     const S a_r0_2 = ((p_point_a__0*((S(2)*a_qx*a_qz) - p0_4)) + (p_point_a__1*((S(2)*a_qy*a_qz) + p0_7)) + (p_point_a__2*((-p0_0) - p0_6 + S(1))));
-    // let pa (point_to_point.yaml:13)
+    // let pa (point_to_point.yaml:14)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (point_to_point.yaml:14)
+    // let pb (point_to_point.yaml:15)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (point_to_point.yaml:15)
+    // let f (point_to_point.yaml:16)
     const S L_f__0 = ((p_damping*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)) + (p_stiffness*((-L_pa__0) + L_pb__0)));
     const S L_f__1 = ((p_damping*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)) + (p_stiffness*((-L_pa__1) + L_pb__1)));
     const S L_f__2 = ((p_damping*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)) + (p_stiffness*((-L_pa__2) + L_pb__2)));
-    // apply[0] (point_to_point.yaml:17)
+    // apply[0] (point_to_point.yaml:18)
     const S T0_arm__0 = held_in ? held_in[0] : S((L_pa__0 - a_px));
     if (held_out) held_out[0] = T0_arm__0;
     const S T0_arm__1 = held_in ? held_in[1] : S((L_pa__1 - a_py));
@@ -1737,11 +1737,11 @@ struct Point_To_Point_World_Kernel {
     const S l4_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     const S T1_turn = held_in ? held_in[3] : S((S(1) - (S(1)/((((h*h*h*h)*l4_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l4_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[3] = T1_turn;
-    // apply (point_to_point.yaml:16), shared subexpressions
+    // apply (point_to_point.yaml:17), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
-    // F_a from apply[0] (point_to_point.yaml:17)
+    // F_a from apply[0] (point_to_point.yaml:18)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

@@ -172,7 +172,7 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let pb (slider.yaml:33), let na (slider.yaml:34), let nb (slider.yaml:35), let ua (slider.yaml:36), let ub (slider.yaml:37), let ta (slider.yaml:38), let tb (slider.yaml:39)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let pb (slider.yaml:34), let na (slider.yaml:35), let nb (slider.yaml:36), let ua (slider.yaml:37), let ub (slider.yaml:38), let ta (slider.yaml:39), let tb (slider.yaml:40)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -237,79 +237,79 @@ struct Slider_Pair_Kernel {
     const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
     const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
     const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
-    // let omega (slider.yaml:26)
+    // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (slider.yaml:27)
+    // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (slider.yaml:28)
+    // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (slider.yaml:29)
+    // let im (slider.yaml:30)
     [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let k (slider.yaml:30)
+    // let k (slider.yaml:31)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:31)
+    // let c (slider.yaml:32)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:32)
+    // let pa (slider.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:33)
+    // let pb (slider.yaml:34)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let na (slider.yaml:34)
+    // let na (slider.yaml:35)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (slider.yaml:35)
+    // let nb (slider.yaml:36)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let ua (slider.yaml:36)
+    // let ua (slider.yaml:37)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (slider.yaml:37)
+    // let ub (slider.yaml:38)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let ta (slider.yaml:38)
+    // let ta (slider.yaml:39)
     const S L_ta__0 = a_r6_0;
     const S d_L_ta__0__a_dtz = (-a_r6_1);
     const S L_ta__1 = a_r6_1;
     const S d_L_ta__1__a_dtx = (-a_r6_2);
     const S L_ta__2 = a_r6_2;
     const S d_L_ta__2__a_dty = (-a_r6_0);
-    // let tb (slider.yaml:39)
+    // let tb (slider.yaml:40)
     const S L_tb__0 = b_r7_0;
     const S d_L_tb__0__b_dtz = (-b_r7_1);
     const S L_tb__1 = b_r7_1;
     const S d_L_tb__1__b_dtx = (-b_r7_2);
     const S L_tb__2 = b_r7_2;
     const S d_L_tb__2__b_dty = (-b_r7_0);
-    // let wrel (slider.yaml:40)
+    // let wrel (slider.yaml:41)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (slider.yaml:41)
+    // let tau (slider.yaml:42)
     const S l15_0_0 = (L_omega*L_omega);
     const S l15_0_1 = (S(0.5)*L_im*l15_0_0);
     const S l15_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -359,7 +359,7 @@ struct Slider_Pair_Kernel {
     const S d_L_tau__2__b_dtz = ((S(0.5)*L_im*L_na__1*d_L_nb__0__b_dtz*l15_0_0) + (S(0.5)*L_im*L_ta__1*d_L_tb__0__b_dtz*l15_0_0) + (S(0.5)*L_im*L_ua__1*d_L_ub__0__b_dtz*l15_0_0) - (b_r3_0*l15_0_19) - (b_r5_0*l15_0_21) - (b_r7_0*l15_0_20));
     const S d_L_tau__2__a_wz = l15_0_2;
     const S d_L_tau__2__b_wz = l15_0_15;
-    // let d (slider.yaml:42)
+    // let d (slider.yaml:43)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -369,7 +369,7 @@ struct Slider_Pair_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let travel (slider.yaml:43)
+    // let travel (slider.yaml:44)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     const S d_L_travel__a_dx = (-L_na__0);
     const S d_L_travel__a_dy = (-L_na__1);
@@ -380,7 +380,7 @@ struct Slider_Pair_Kernel {
     const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r1_1));
     const S d_L_travel__b_dty = ((L_na__0*b_r1_2) + (L_na__2*d_L_pb__2__b_dty));
     const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r1_0));
-    // let vrel (slider.yaml:44)
+    // let vrel (slider.yaml:45)
     const S l18_0_0 = (a_r0_1*a_wz);
     const S l18_0_1 = (b_r1_2*b_wy);
     const S l18_0_2 = (a_r0_2*a_wy);
@@ -425,7 +425,7 @@ struct Slider_Pair_Kernel {
     const S d_L_vrel__2__b_dtz = (l18_0_16 + l18_0_8);
     const S d_L_vrel__2__a_wx = (-a_r0_1);
     const S d_L_vrel__2__b_wy = (-b_r1_0);
-    // let rate (slider.yaml:45)
+    // let rate (slider.yaml:46)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r2_1));
     const S d_L_rate__a_dty = ((L_na__0*d_L_vrel__0__a_dty) + (L_na__1*d_L_vrel__1__a_dty) + (L_na__2*d_L_vrel__2__a_dty) + (L_vrel__0*a_r2_2) + (L_vrel__2*d_L_na__2__a_dty));
@@ -442,7 +442,7 @@ struct Slider_Pair_Kernel {
     const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r1_1));
     const S d_L_rate__b_wy = ((L_na__0*b_r1_2) + (L_na__2*d_L_vrel__2__b_wy));
     const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r1_0));
-    // let across (slider.yaml:47)
+    // let across (slider.yaml:48)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
     const S l20_0_2 = ((L_c*L_rate) + (L_k*L_travel));
@@ -536,11 +536,11 @@ struct Slider_Pair_Kernel {
     const S d_L_across__2__b_wx = ((-(L_c*b_r1_1)) + (d_L_rate__b_wx*l20_0_16));
     const S d_L_across__2__b_wy = ((-(L_c*d_L_vrel__2__b_wy)) + (d_L_rate__b_wy*l20_0_16));
     const S d_L_across__2__b_wz = (d_L_rate__b_wz*l20_0_16);
-    // let limited (slider.yaml:48)
+    // let limited (slider.yaml:49)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:49)
+    // let over_hi (slider.yaml:50)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:50)
+    // let over_lo (slider.yaml:51)
     const S L_over_lo = ((-L_travel) + p_lower);
     const S d_L_over_lo__a_dx = (-d_L_travel__a_dx);
     const S d_L_over_lo__a_dy = (-d_L_travel__a_dy);
@@ -554,7 +554,7 @@ struct Slider_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_travel__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_travel__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_travel__b_dtz);
-    // let stop_hi (slider.yaml:51)
+    // let stop_hi (slider.yaml:52)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const auto l24_0_1 = (l24_0_0 > S(0));
     const auto l24_0_2 = (L_over_hi > S(0));
@@ -586,7 +586,7 @@ struct Slider_Pair_Kernel {
     const S d_L_stop_hi__b_wx = (d_L_rate__b_wx*l24_0_5);
     const S d_L_stop_hi__b_wy = (d_L_rate__b_wy*l24_0_5);
     const S d_L_stop_hi__b_wz = (d_L_rate__b_wz*l24_0_5);
-    // let stop_lo (slider.yaml:52)
+    // let stop_lo (slider.yaml:53)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const auto l25_0_2 = (l25_0_0 < S(0));
@@ -620,9 +620,9 @@ struct Slider_Pair_Kernel {
     const S d_L_stop_lo__b_wx = (d_L_rate__b_wx*l25_0_7);
     const S d_L_stop_lo__b_wy = (d_L_rate__b_wy*l25_0_7);
     const S d_L_stop_lo__b_wz = (d_L_rate__b_wz*l25_0_7);
-    // let mz (slider.yaml:54)
+    // let mz (slider.yaml:55)
     [[maybe_unused]] const S L_mz = select((b_m > S(0)), (a_m*b_m/(max(S(1e-30), (a_m + b_m)))), a_m);
-    // let err (slider.yaml:55)
+    // let err (slider.yaml:56)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -642,11 +642,11 @@ struct Slider_Pair_Kernel {
     const S d_L_err__b_wx = (-d_L_rate__b_wx);
     const S d_L_err__b_wy = (-d_L_rate__b_wy);
     const S d_L_err__b_wz = (-d_L_rate__b_wz);
-    // let fast (slider.yaml:56)
+    // let fast (slider.yaml:57)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0));
-    // let sgn (slider.yaml:57)
+    // let sgn (slider.yaml:58)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (slider.yaml:58)
+    // let motor (slider.yaml:59)
     const S l30_0_0 = (L_mz*L_omega*(S(1) - L_fast));
     const auto l30_0_1 = (p_motor_force > S(0));
     const S l30_0_2 = select(l30_0_1, l30_0_0, S(0));
@@ -669,7 +669,7 @@ struct Slider_Pair_Kernel {
     const S d_L_motor__b_wx = (d_L_err__b_wx*l30_0_2);
     const S d_L_motor__b_wy = (d_L_err__b_wy*l30_0_2);
     const S d_L_motor__b_wz = (d_L_err__b_wz*l30_0_2);
-    // let spring (slider.yaml:59)
+    // let spring (slider.yaml:60)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
     const S d_L_spring__a_dx = (-(d_L_travel__a_dx*p_spring_stiffness));
     const S d_L_spring__a_dy = (-(d_L_travel__a_dy*p_spring_stiffness));
@@ -695,7 +695,7 @@ struct Slider_Pair_Kernel {
     const S d_L_spring__b_wx = (-(d_L_rate__b_wx*p_spring_damping));
     const S d_L_spring__b_wy = (-(d_L_rate__b_wy*p_spring_damping));
     const S d_L_spring__b_wz = (-(d_L_rate__b_wz*p_spring_damping));
-    // let fb (slider.yaml:60)
+    // let fb (slider.yaml:61)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l32_0_1 = (L_limited*L_na__0);
     const S l32_0_2 = (L_limited*L_na__1);
@@ -775,7 +775,7 @@ struct Slider_Pair_Kernel {
     const S d_L_fb__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_across__2__b_wx - (d_L_stop_hi__b_wx*l32_0_3) + (d_L_stop_lo__b_wx*l32_0_3));
     const S d_L_fb__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_across__2__b_wy - (d_L_stop_hi__b_wy*l32_0_3) + (d_L_stop_lo__b_wy*l32_0_3));
     const S d_L_fb__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_across__2__b_wz - (d_L_stop_hi__b_wz*l32_0_3) + (d_L_stop_lo__b_wz*l32_0_3));
-    // apply (slider.yaml:61), shared subexpressions
+    // apply (slider.yaml:62), shared subexpressions
     const S o0 = (-L_fb__0);
     const S o1 = (-L_fb__1);
     const S o2 = (-L_fb__2);
@@ -803,21 +803,21 @@ struct Slider_Pair_Kernel {
     const S o24 = (-o7);
     const S o25 = (-o8);
     const S o26 = (-o6);
-    // F_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // F_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[0] = o0;
     out[1] = o1;
     out[2] = o2;
     out[3] = ((L_fb__1*o4) - (L_fb__2*o3) - L_tau__0);
     out[4] = ((-(L_fb__0*o4)) + (L_fb__2*o5) - L_tau__1);
     out[5] = ((L_fb__0*o3) - (L_fb__1*o5) - L_tau__2);
-    // F_b from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // F_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[6] = L_fb__0;
     out[7] = L_fb__1;
     out[8] = L_fb__2;
     out[9] = ((-(L_fb__1*o7)) + (L_fb__2*o6) + L_tau__0);
     out[10] = ((L_fb__0*o7) - (L_fb__2*o8) + L_tau__1);
     out[11] = ((-(L_fb__0*o6)) + (L_fb__1*o8) + L_tau__2);
-    // dF_a/ddelta_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // dF_a/ddelta_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[12] = (-d_L_fb__0__a_dx);
     out[13] = (-d_L_fb__1__a_dx);
     out[14] = (-d_L_fb__2__a_dx);
@@ -854,7 +854,7 @@ struct Slider_Pair_Kernel {
     out[45] = ((d_L_fb__1__a_dtz*o4) + (d_L_fb__2__a_dtz*o9) - d_L_tau__0__a_dtz);
     out[46] = ((d_L_fb__0__a_dtz*o10) + (d_L_fb__2__a_dtz*o5) - d_L_tau__1__a_dtz);
     out[47] = ((d_L_fb__0__a_dtz*o3) + (d_L_fb__1__a_dtz*o11) - d_L_tau__2__a_dtz);
-    // dF_a/ddelta_b from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // dF_a/ddelta_b from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[48] = (-d_L_fb__0__b_dx);
     out[49] = (-d_L_fb__1__b_dx);
     out[50] = (-d_L_fb__2__b_dx);
@@ -891,7 +891,7 @@ struct Slider_Pair_Kernel {
     out[81] = ((d_L_fb__1__b_dtz*o4) + (d_L_fb__2__b_dtz*o9) - o20);
     out[82] = ((d_L_fb__0__b_dtz*o10) + (d_L_fb__2__b_dtz*o5) - d_L_tau__1__b_dtz + o21);
     out[83] = ((d_L_fb__0__b_dtz*o3) + (d_L_fb__1__b_dtz*o11) - d_L_tau__2__b_dtz + o22 - o23);
-    // dF_a/du_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // dF_a/du_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[84] = (-d_L_fb__0__a_vx);
     out[85] = (-d_L_fb__1__a_vx);
     out[86] = (-d_L_fb__2__a_vx);
@@ -928,7 +928,7 @@ struct Slider_Pair_Kernel {
     out[117] = ((d_L_fb__1__a_wz*o4) + (d_L_fb__2__a_wz*o9));
     out[118] = ((d_L_fb__0__a_wz*o10) + (d_L_fb__2__a_wz*o5));
     out[119] = ((d_L_fb__0__a_wz*o3) + (d_L_fb__1__a_wz*o11) - d_L_tau__2__a_wz);
-    // dF_a/du_b from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // dF_a/du_b from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[120] = (-d_L_fb__0__b_vx);
     out[121] = (-d_L_fb__1__b_vx);
     out[122] = (-d_L_fb__2__b_vx);
@@ -965,7 +965,7 @@ struct Slider_Pair_Kernel {
     out[153] = ((d_L_fb__1__b_wz*o4) + (d_L_fb__2__b_wz*o9));
     out[154] = ((d_L_fb__0__b_wz*o10) + (d_L_fb__2__b_wz*o5));
     out[155] = ((d_L_fb__0__b_wz*o3) + (d_L_fb__1__b_wz*o11) - d_L_tau__2__b_wz);
-    // dF_b/ddelta_a from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // dF_b/ddelta_a from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[156] = d_L_fb__0__a_dx;
     out[157] = d_L_fb__1__a_dx;
     out[158] = d_L_fb__2__a_dx;
@@ -1002,7 +1002,7 @@ struct Slider_Pair_Kernel {
     out[189] = ((d_L_fb__1__a_dtz*o24) + (d_L_fb__2__a_dtz*o6) + d_L_tau__0__a_dtz);
     out[190] = ((d_L_fb__0__a_dtz*o7) + (d_L_fb__2__a_dtz*o25) + d_L_tau__1__a_dtz);
     out[191] = ((d_L_fb__0__a_dtz*o26) + (d_L_fb__1__a_dtz*o8) + d_L_tau__2__a_dtz);
-    // dF_b/ddelta_b from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // dF_b/ddelta_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[192] = d_L_fb__0__b_dx;
     out[193] = d_L_fb__1__b_dx;
     out[194] = d_L_fb__2__b_dx;
@@ -1039,7 +1039,7 @@ struct Slider_Pair_Kernel {
     out[225] = ((d_L_fb__1__b_dtz*o24) + (d_L_fb__2__b_dtz*o6) + o20);
     out[226] = ((d_L_fb__0__b_dtz*o7) + (d_L_fb__2__b_dtz*o25) + d_L_tau__1__b_dtz - o21);
     out[227] = ((d_L_fb__0__b_dtz*o26) + (d_L_fb__1__b_dtz*o8) + d_L_tau__2__b_dtz - o22 + o23);
-    // dF_b/du_a from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // dF_b/du_a from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[228] = d_L_fb__0__a_vx;
     out[229] = d_L_fb__1__a_vx;
     out[230] = d_L_fb__2__a_vx;
@@ -1076,7 +1076,7 @@ struct Slider_Pair_Kernel {
     out[261] = ((d_L_fb__1__a_wz*o24) + (d_L_fb__2__a_wz*o6));
     out[262] = ((d_L_fb__0__a_wz*o7) + (d_L_fb__2__a_wz*o25));
     out[263] = ((d_L_fb__0__a_wz*o26) + (d_L_fb__1__a_wz*o8) + d_L_tau__2__a_wz);
-    // dF_b/du_b from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // dF_b/du_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[264] = d_L_fb__0__b_vx;
     out[265] = d_L_fb__1__b_vx;
     out[266] = d_L_fb__2__b_vx;
@@ -1193,7 +1193,7 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let pb (slider.yaml:33), let na (slider.yaml:34), let nb (slider.yaml:35), let ua (slider.yaml:36), let ub (slider.yaml:37), let ta (slider.yaml:38), let tb (slider.yaml:39)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let pb (slider.yaml:34), let na (slider.yaml:35), let nb (slider.yaml:36), let ua (slider.yaml:37), let ub (slider.yaml:38), let ta (slider.yaml:39), let tb (slider.yaml:40)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -1258,79 +1258,79 @@ struct Slider_Pair_Kernel {
     const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
     const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
     const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
-    // let omega (slider.yaml:26)
+    // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (slider.yaml:27)
+    // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (slider.yaml:28)
+    // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (slider.yaml:29)
+    // let im (slider.yaml:30)
     [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let k (slider.yaml:30)
+    // let k (slider.yaml:31)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:31)
+    // let c (slider.yaml:32)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:32)
+    // let pa (slider.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:33)
+    // let pb (slider.yaml:34)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let na (slider.yaml:34)
+    // let na (slider.yaml:35)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (slider.yaml:35)
+    // let nb (slider.yaml:36)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let ua (slider.yaml:36)
+    // let ua (slider.yaml:37)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (slider.yaml:37)
+    // let ub (slider.yaml:38)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let ta (slider.yaml:38)
+    // let ta (slider.yaml:39)
     const S L_ta__0 = a_r6_0;
     const S d_L_ta__0__a_dtz = (-a_r6_1);
     const S L_ta__1 = a_r6_1;
     const S d_L_ta__1__a_dtx = (-a_r6_2);
     const S L_ta__2 = a_r6_2;
     const S d_L_ta__2__a_dty = (-a_r6_0);
-    // let tb (slider.yaml:39)
+    // let tb (slider.yaml:40)
     const S L_tb__0 = b_r7_0;
     const S d_L_tb__0__b_dtz = (-b_r7_1);
     const S L_tb__1 = b_r7_1;
     const S d_L_tb__1__b_dtx = (-b_r7_2);
     const S L_tb__2 = b_r7_2;
     const S d_L_tb__2__b_dty = (-b_r7_0);
-    // let wrel (slider.yaml:40)
+    // let wrel (slider.yaml:41)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (slider.yaml:41)
+    // let tau (slider.yaml:42)
     const S l15_0_0 = (L_omega*L_omega);
     const S l15_0_1 = (S(0.5)*L_im*l15_0_0);
     const S l15_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -1380,7 +1380,7 @@ struct Slider_Pair_Kernel {
     const S d_L_tau__2__b_dtz = ((S(0.5)*L_im*L_na__1*d_L_nb__0__b_dtz*l15_0_0) + (S(0.5)*L_im*L_ta__1*d_L_tb__0__b_dtz*l15_0_0) + (S(0.5)*L_im*L_ua__1*d_L_ub__0__b_dtz*l15_0_0) - (b_r3_0*l15_0_19) - (b_r5_0*l15_0_21) - (b_r7_0*l15_0_20));
     const S d_L_tau__2__a_wz = l15_0_2;
     const S d_L_tau__2__b_wz = l15_0_15;
-    // let d (slider.yaml:42)
+    // let d (slider.yaml:43)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -1390,7 +1390,7 @@ struct Slider_Pair_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let travel (slider.yaml:43)
+    // let travel (slider.yaml:44)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     const S d_L_travel__a_dx = (-L_na__0);
     const S d_L_travel__a_dy = (-L_na__1);
@@ -1401,7 +1401,7 @@ struct Slider_Pair_Kernel {
     const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r1_1));
     const S d_L_travel__b_dty = ((L_na__0*b_r1_2) + (L_na__2*d_L_pb__2__b_dty));
     const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r1_0));
-    // let vrel (slider.yaml:44)
+    // let vrel (slider.yaml:45)
     const S l18_0_0 = (a_r0_1*a_wz);
     const S l18_0_1 = (b_r1_2*b_wy);
     const S l18_0_2 = (a_r0_2*a_wy);
@@ -1446,7 +1446,7 @@ struct Slider_Pair_Kernel {
     const S d_L_vrel__2__b_dtz = (l18_0_16 + l18_0_8);
     const S d_L_vrel__2__a_wx = (-a_r0_1);
     const S d_L_vrel__2__b_wy = (-b_r1_0);
-    // let rate (slider.yaml:45)
+    // let rate (slider.yaml:46)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r2_1));
     const S d_L_rate__a_dty = ((L_na__0*d_L_vrel__0__a_dty) + (L_na__1*d_L_vrel__1__a_dty) + (L_na__2*d_L_vrel__2__a_dty) + (L_vrel__0*a_r2_2) + (L_vrel__2*d_L_na__2__a_dty));
@@ -1463,7 +1463,7 @@ struct Slider_Pair_Kernel {
     const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r1_1));
     const S d_L_rate__b_wy = ((L_na__0*b_r1_2) + (L_na__2*d_L_vrel__2__b_wy));
     const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r1_0));
-    // let across (slider.yaml:47)
+    // let across (slider.yaml:48)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
     const S l20_0_2 = ((L_c*L_rate) + (L_k*L_travel));
@@ -1557,11 +1557,11 @@ struct Slider_Pair_Kernel {
     const S d_L_across__2__b_wx = ((-(L_c*b_r1_1)) + (d_L_rate__b_wx*l20_0_16));
     const S d_L_across__2__b_wy = ((-(L_c*d_L_vrel__2__b_wy)) + (d_L_rate__b_wy*l20_0_16));
     const S d_L_across__2__b_wz = (d_L_rate__b_wz*l20_0_16);
-    // let limited (slider.yaml:48)
+    // let limited (slider.yaml:49)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:49)
+    // let over_hi (slider.yaml:50)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:50)
+    // let over_lo (slider.yaml:51)
     const S L_over_lo = ((-L_travel) + p_lower);
     const S d_L_over_lo__a_dx = (-d_L_travel__a_dx);
     const S d_L_over_lo__a_dy = (-d_L_travel__a_dy);
@@ -1575,7 +1575,7 @@ struct Slider_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_travel__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_travel__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_travel__b_dtz);
-    // let stop_hi (slider.yaml:51)
+    // let stop_hi (slider.yaml:52)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const auto l24_0_1 = (l24_0_0 > S(0));
     const auto l24_0_2 = (L_over_hi > S(0));
@@ -1607,7 +1607,7 @@ struct Slider_Pair_Kernel {
     const S d_L_stop_hi__b_wx = (d_L_rate__b_wx*l24_0_5);
     const S d_L_stop_hi__b_wy = (d_L_rate__b_wy*l24_0_5);
     const S d_L_stop_hi__b_wz = (d_L_rate__b_wz*l24_0_5);
-    // let stop_lo (slider.yaml:52)
+    // let stop_lo (slider.yaml:53)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const auto l25_0_2 = (l25_0_0 < S(0));
@@ -1641,9 +1641,9 @@ struct Slider_Pair_Kernel {
     const S d_L_stop_lo__b_wx = (d_L_rate__b_wx*l25_0_7);
     const S d_L_stop_lo__b_wy = (d_L_rate__b_wy*l25_0_7);
     const S d_L_stop_lo__b_wz = (d_L_rate__b_wz*l25_0_7);
-    // let mz (slider.yaml:54)
+    // let mz (slider.yaml:55)
     [[maybe_unused]] const S L_mz = select((b_m > S(0)), (a_m*b_m/(max(S(1e-30), (a_m + b_m)))), a_m);
-    // let err (slider.yaml:55)
+    // let err (slider.yaml:56)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -1663,11 +1663,11 @@ struct Slider_Pair_Kernel {
     const S d_L_err__b_wx = (-d_L_rate__b_wx);
     const S d_L_err__b_wy = (-d_L_rate__b_wy);
     const S d_L_err__b_wz = (-d_L_rate__b_wz);
-    // let fast (slider.yaml:56)
+    // let fast (slider.yaml:57)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0));
-    // let sgn (slider.yaml:57)
+    // let sgn (slider.yaml:58)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (slider.yaml:58)
+    // let motor (slider.yaml:59)
     const S l30_0_0 = (L_mz*L_omega*(S(1) - L_fast));
     const auto l30_0_1 = (p_motor_force > S(0));
     const S l30_0_2 = select(l30_0_1, l30_0_0, S(0));
@@ -1690,7 +1690,7 @@ struct Slider_Pair_Kernel {
     const S d_L_motor__b_wx = (d_L_err__b_wx*l30_0_2);
     const S d_L_motor__b_wy = (d_L_err__b_wy*l30_0_2);
     const S d_L_motor__b_wz = (d_L_err__b_wz*l30_0_2);
-    // let spring (slider.yaml:59)
+    // let spring (slider.yaml:60)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
     const S d_L_spring__a_dx = (-(d_L_travel__a_dx*p_spring_stiffness));
     const S d_L_spring__a_dy = (-(d_L_travel__a_dy*p_spring_stiffness));
@@ -1716,7 +1716,7 @@ struct Slider_Pair_Kernel {
     const S d_L_spring__b_wx = (-(d_L_rate__b_wx*p_spring_damping));
     const S d_L_spring__b_wy = (-(d_L_rate__b_wy*p_spring_damping));
     const S d_L_spring__b_wz = (-(d_L_rate__b_wz*p_spring_damping));
-    // let fb (slider.yaml:60)
+    // let fb (slider.yaml:61)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l32_0_1 = (L_limited*L_na__0);
     const S l32_0_2 = (L_limited*L_na__1);
@@ -1796,7 +1796,7 @@ struct Slider_Pair_Kernel {
     const S d_L_fb__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_across__2__b_wx - (d_L_stop_hi__b_wx*l32_0_3) + (d_L_stop_lo__b_wx*l32_0_3));
     const S d_L_fb__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_across__2__b_wy - (d_L_stop_hi__b_wy*l32_0_3) + (d_L_stop_lo__b_wy*l32_0_3));
     const S d_L_fb__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_across__2__b_wz - (d_L_stop_hi__b_wz*l32_0_3) + (d_L_stop_lo__b_wz*l32_0_3));
-    // apply (slider.yaml:61), shared subexpressions
+    // apply (slider.yaml:62), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -1948,21 +1948,21 @@ struct Slider_Pair_Kernel {
     const S o148 = ((d_L_fb__0__b_dtz*o114) + (d_L_fb__0__b_wz*h));
     const S o149 = ((d_L_fb__1__b_dtz*o114) + (d_L_fb__1__b_wz*h));
     const S o150 = ((d_L_fb__2__b_dtz*o114) + (d_L_fb__2__b_wz*h));
-    // g_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // g_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[0] = (-o12);
     out[1] = (-o13);
     out[2] = (-o14);
     out[3] = ((L_fb__1*o15) - (L_fb__2*o16) - L_tau__0 + (o0*o18) + (o1*o19) + (o10*o33) + (o11*o35) + (o2*o21) + (o22*o3) + (o23*o4) + (o24*o5) + (o25*o6) + (o27*o7) + (o28*o8) + (o31*o9));
     out[4] = ((-(L_fb__0*o15)) + (L_fb__2*o36) - L_tau__1 + (o0*o38) + (o1*o39) + (o10*o52) + (o11*o54) + (o2*o40) + (o3*o41) + (o4*o42) + (o43*o5) + (o44*o6) + (o45*o7) + (o47*o8) + (o49*o9));
     out[5] = ((L_fb__0*o16) - (L_fb__1*o36) - L_tau__2 + (o0*o56) + (o1*o57) + (o10*o68) + (o11*o71) + (o2*o58) + (o3*o59) + (o4*o60) + (o5*o61) + (o6*o62) + (o63*o7) + (o64*o8) + (o66*o9));
-    // g_b from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // g_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[6] = o12;
     out[7] = o13;
     out[8] = o14;
     out[9] = ((-(L_fb__1*o73)) + (L_fb__2*o72) + L_tau__0 + (o0*o75) + (o1*o76) + (o10*o85) + (o11*o86) + (o2*o77) + (o3*o78) + (o4*o79) + (o5*o80) + (o6*o81) + (o7*o82) + (o8*o83) + (o84*o9));
     out[10] = ((L_fb__0*o73) - (L_fb__2*o87) + L_tau__1 + (o0*o89) + (o1*o90) + (o10*o99) + (o100*o11) + (o2*o91) + (o3*o92) + (o4*o93) + (o5*o94) + (o6*o95) + (o7*o96) + (o8*o97) + (o9*o98));
     out[11] = ((-(L_fb__0*o72)) + (L_fb__1*o87) + L_tau__2 + (o0*o102) + (o1*o103) + (o10*o112) + (o104*o2) + (o105*o3) + (o106*o4) + (o107*o5) + (o108*o6) + (o109*o7) + (o11*o113) + (o110*o8) + (o111*o9));
-    // K_aa from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // K_aa from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[12] = (-o115);
     out[13] = (-o116);
     out[14] = (-o117);
@@ -1999,7 +1999,7 @@ struct Slider_Pair_Kernel {
     out[45] = ((h*((d_L_fb__1__a_wz*o15) + (d_L_fb__2__a_wz*o17))) + (o114*o24));
     out[46] = ((h*((d_L_fb__0__a_wz*o37) + (d_L_fb__2__a_wz*o36))) + (o114*o43));
     out[47] = ((h*((d_L_fb__0__a_wz*o16) + (d_L_fb__1__a_wz*o55) - d_L_tau__2__a_wz)) + (o114*o61));
-    // K_ab from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // K_ab from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[48] = (-o133);
     out[49] = (-o134);
     out[50] = (-o135);
@@ -2036,7 +2036,7 @@ struct Slider_Pair_Kernel {
     out[81] = ((h*((d_L_fb__1__b_wz*o15) + (d_L_fb__2__b_wz*o17))) + (o114*o35));
     out[82] = ((h*((d_L_fb__0__b_wz*o37) + (d_L_fb__2__b_wz*o36))) + (o114*o54));
     out[83] = ((h*((d_L_fb__0__b_wz*o16) + (d_L_fb__1__b_wz*o55) - d_L_tau__2__b_wz)) + (o114*o71));
-    // K_ba from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // K_ba from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[84] = o115;
     out[85] = o116;
     out[86] = o117;
@@ -2073,7 +2073,7 @@ struct Slider_Pair_Kernel {
     out[117] = ((h*((d_L_fb__1__a_wz*o74) + (d_L_fb__2__a_wz*o72))) + (o114*o80));
     out[118] = ((h*((d_L_fb__0__a_wz*o73) + (d_L_fb__2__a_wz*o88))) + (o114*o94));
     out[119] = ((h*((d_L_fb__0__a_wz*o101) + (d_L_fb__1__a_wz*o87) + d_L_tau__2__a_wz)) + (o107*o114));
-    // K_bb from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // K_bb from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[120] = o133;
     out[121] = o134;
     out[122] = o135;
@@ -2187,7 +2187,7 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let pb (slider.yaml:33), let na (slider.yaml:34), let nb (slider.yaml:35), let ua (slider.yaml:36), let ub (slider.yaml:37), let ta (slider.yaml:38), let tb (slider.yaml:39)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let pb (slider.yaml:34), let na (slider.yaml:35), let nb (slider.yaml:36), let ua (slider.yaml:37), let ub (slider.yaml:38), let ta (slider.yaml:39), let tb (slider.yaml:40)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2252,126 +2252,126 @@ struct Slider_Pair_Kernel {
     const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
     const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
     const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
-    // let omega (slider.yaml:26)
+    // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (slider.yaml:27)
+    // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (slider.yaml:28)
+    // let m (slider.yaml:29)
     const S L_m = held_in ? held_in[0] : S(max(a_m, b_m));
     if (held_out) held_out[0] = L_m;
-    // let im (slider.yaml:29)
+    // let im (slider.yaml:30)
     const S L_im = held_in ? held_in[1] : S(max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz))));
     if (held_out) held_out[1] = L_im;
-    // let k (slider.yaml:30)
+    // let k (slider.yaml:31)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:31)
+    // let c (slider.yaml:32)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:32)
+    // let pa (slider.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (slider.yaml:33)
+    // let pb (slider.yaml:34)
     const S L_pb__0 = (b_px + b_r1_0);
     const S L_pb__1 = (b_py + b_r1_1);
     const S L_pb__2 = (b_pz + b_r1_2);
-    // let na (slider.yaml:34)
+    // let na (slider.yaml:35)
     const S L_na__0 = a_r2_0;
     const S L_na__1 = a_r2_1;
     const S L_na__2 = a_r2_2;
-    // let nb (slider.yaml:35)
+    // let nb (slider.yaml:36)
     const S L_nb__0 = b_r3_0;
     const S L_nb__1 = b_r3_1;
     const S L_nb__2 = b_r3_2;
-    // let ua (slider.yaml:36)
+    // let ua (slider.yaml:37)
     const S L_ua__0 = a_r4_0;
     const S L_ua__1 = a_r4_1;
     const S L_ua__2 = a_r4_2;
-    // let ub (slider.yaml:37)
+    // let ub (slider.yaml:38)
     const S L_ub__0 = b_r5_0;
     const S L_ub__1 = b_r5_1;
     const S L_ub__2 = b_r5_2;
-    // let ta (slider.yaml:38)
+    // let ta (slider.yaml:39)
     const S L_ta__0 = a_r6_0;
     const S L_ta__1 = a_r6_1;
     const S L_ta__2 = a_r6_2;
-    // let tb (slider.yaml:39)
+    // let tb (slider.yaml:40)
     const S L_tb__0 = b_r7_0;
     const S L_tb__1 = b_r7_1;
     const S L_tb__2 = b_r7_2;
-    // let wrel (slider.yaml:40)
+    // let wrel (slider.yaml:41)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (slider.yaml:41)
+    // let tau (slider.yaml:42)
     const S l15_0_0 = (S(0.5)*L_im*(L_omega*L_omega));
     const S l15_0_1 = (S(2)*L_im*L_omega*L_zeta);
     const S L_tau__0 = ((-(L_wrel__0*l15_0_1)) - (l15_0_0*((L_na__1*L_nb__2) - (L_na__2*L_nb__1) + (L_ta__1*L_tb__2) - (L_ta__2*L_tb__1) + (L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))));
     const S L_tau__1 = ((-(L_wrel__1*l15_0_1)) - (l15_0_0*((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0) - (L_ta__0*L_tb__2) + (L_ta__2*L_tb__0) - (L_ua__0*L_ub__2) + (L_ua__2*L_ub__0))));
     const S L_tau__2 = ((-(L_wrel__2*l15_0_1)) - (l15_0_0*((L_na__0*L_nb__1) - (L_na__1*L_nb__0) + (L_ta__0*L_tb__1) - (L_ta__1*L_tb__0) + (L_ua__0*L_ub__1) - (L_ua__1*L_ub__0))));
-    // let d (slider.yaml:42)
+    // let d (slider.yaml:43)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    // let travel (slider.yaml:43)
+    // let travel (slider.yaml:44)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
-    // let vrel (slider.yaml:44)
+    // let vrel (slider.yaml:45)
     const S L_vrel__0 = ((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx);
     const S L_vrel__1 = ((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy);
     const S L_vrel__2 = ((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz);
-    // let rate (slider.yaml:45)
+    // let rate (slider.yaml:46)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
-    // let across (slider.yaml:47)
+    // let across (slider.yaml:48)
     const S L_across__0 = ((-(L_c*((-(L_na__0*L_rate)) + L_vrel__0))) - (L_k*(L_d__0 - (L_na__0*L_travel))));
     const S L_across__1 = ((-(L_c*((-(L_na__1*L_rate)) + L_vrel__1))) - (L_k*(L_d__1 - (L_na__1*L_travel))));
     const S L_across__2 = ((-(L_c*((-(L_na__2*L_rate)) + L_vrel__2))) - (L_k*(L_d__2 - (L_na__2*L_travel))));
-    // let limited (slider.yaml:48)
+    // let limited (slider.yaml:49)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:49)
+    // let over_hi (slider.yaml:50)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:50)
+    // let over_lo (slider.yaml:51)
     const S L_over_lo = ((-L_travel) + p_lower);
-    // let stop_hi (slider.yaml:51)
+    // let stop_hi (slider.yaml:52)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const S L_stop_hi = select((L_over_hi > S(0)), select((l24_0_0 > S(0)), l24_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l24_0_0, S(0)));
-    // let stop_lo (slider.yaml:52)
+    // let stop_lo (slider.yaml:53)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const S L_stop_lo = select((L_over_lo > S(0)), select((l25_0_0 < S(0)), l25_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l25_0_1, S(0)));
-    // let mz (slider.yaml:54)
+    // let mz (slider.yaml:55)
     const S L_mz = held_in ? held_in[2] : S(select((b_m > S(0)), (a_m*b_m/(max(S(1e-30), (a_m + b_m)))), a_m));
     if (held_out) held_out[2] = L_mz;
-    // let err (slider.yaml:55)
+    // let err (slider.yaml:56)
     const S L_err = ((-L_rate) + p_motor_speed);
-    // let fast (slider.yaml:56)
+    // let fast (slider.yaml:57)
     const S L_fast = held_in ? held_in[3] : S(select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0)));
     if (held_out) held_out[3] = L_fast;
-    // let sgn (slider.yaml:57)
+    // let sgn (slider.yaml:58)
     const S L_sgn = held_in ? held_in[4] : S(select((L_err > S(0)), S(1), S(-1)));
     if (held_out) held_out[4] = L_sgn;
-    // let motor (slider.yaml:58)
+    // let motor (slider.yaml:59)
     const S L_motor = select((p_motor_force > S(0)), ((L_err*L_mz*L_omega*(S(1) - L_fast)) + (L_fast*L_sgn*p_motor_force)), S(0));
-    // let spring (slider.yaml:59)
+    // let spring (slider.yaml:60)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
-    // let fb (slider.yaml:60)
+    // let fb (slider.yaml:61)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S L_fb__0 = (L_across__0 + (L_na__0*l32_0_0));
     const S L_fb__1 = (L_across__1 + (L_na__1*l32_0_0));
     const S L_fb__2 = (L_across__2 + (L_na__2*l32_0_0));
-    // apply (slider.yaml:61), shared subexpressions
+    // apply (slider.yaml:62), shared subexpressions
     const S o0 = (L_pb__1 - a_py);
     const S o1 = (L_pb__2 - a_pz);
     const S o2 = (L_pb__0 - a_px);
     const S o3 = (L_pb__1 - b_py);
     const S o4 = (L_pb__2 - b_pz);
     const S o5 = (L_pb__0 - b_px);
-    // F_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // F_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[0] = (-L_fb__0);
     out[1] = (-L_fb__1);
     out[2] = (-L_fb__2);
     out[3] = ((L_fb__1*o1) - (L_fb__2*o0) - L_tau__0);
     out[4] = ((-(L_fb__0*o1)) + (L_fb__2*o2) - L_tau__1);
     out[5] = ((L_fb__0*o0) - (L_fb__1*o2) - L_tau__2);
-    // F_b from apply[1] (slider.yaml:63), apply[3] (slider.yaml:65)
+    // F_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
     out[6] = L_fb__0;
     out[7] = L_fb__1;
     out[8] = L_fb__2;
@@ -2504,7 +2504,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let na (slider.yaml:34), let ua (slider.yaml:36), let ta (slider.yaml:38)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let na (slider.yaml:35), let ua (slider.yaml:37), let ta (slider.yaml:39)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2537,67 +2537,67 @@ struct Slider_World_Kernel {
     const S a_r3_0 = ((p0_17*p0_8) + (p0_18*p0_2) + (p0_19*p0_5));
     const S a_r3_1 = ((p0_11*p0_19) + (p0_13*p0_17) + (p0_18*p0_9));
     const S a_r3_2 = ((p0_14*p0_18) + (p0_15*p0_19) + (p0_16*p0_17));
-    // let omega (slider.yaml:26)
+    // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (slider.yaml:27)
+    // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (slider.yaml:28)
+    // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (slider.yaml:29)
+    // let im (slider.yaml:30)
     [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let k (slider.yaml:30)
+    // let k (slider.yaml:31)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:31)
+    // let c (slider.yaml:32)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:32)
+    // let pa (slider.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:33)
+    // let pb (slider.yaml:34)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let na (slider.yaml:34)
+    // let na (slider.yaml:35)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (slider.yaml:35)
+    // let nb (slider.yaml:36)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (slider.yaml:36)
+    // let ua (slider.yaml:37)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (slider.yaml:37)
+    // let ub (slider.yaml:38)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (slider.yaml:38)
+    // let ta (slider.yaml:39)
     const S L_ta__0 = a_r3_0;
     const S d_L_ta__0__a_dtz = (-a_r3_1);
     const S L_ta__1 = a_r3_1;
     const S d_L_ta__1__a_dtx = (-a_r3_2);
     const S L_ta__2 = a_r3_2;
     const S d_L_ta__2__a_dty = (-a_r3_0);
-    // let tb (slider.yaml:39)
+    // let tb (slider.yaml:40)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (slider.yaml:40)
+    // let wrel (slider.yaml:41)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (slider.yaml:41)
+    // let tau (slider.yaml:42)
     const S l15_0_0 = (L_omega*L_omega);
     const S l15_0_1 = (S(0.5)*L_im*l15_0_0);
     const S l15_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -2625,7 +2625,7 @@ struct Slider_World_Kernel {
     const S d_L_tau__2__a_dty = ((-(a_r1_2*l15_0_3)) - (a_r2_2*l15_0_5) - (a_r3_2*l15_0_4));
     const S d_L_tau__2__a_dtz = ((a_r1_0*l15_0_9) + (a_r2_0*l15_0_11) + (a_r3_0*l15_0_10) - (d_L_na__0__a_dtz*l15_0_3) - (d_L_ta__0__a_dtz*l15_0_4) - (d_L_ua__0__a_dtz*l15_0_5));
     const S d_L_tau__2__a_wz = l15_0_2;
-    // let d (slider.yaml:42)
+    // let d (slider.yaml:43)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -2635,7 +2635,7 @@ struct Slider_World_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let travel (slider.yaml:43)
+    // let travel (slider.yaml:44)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     const S d_L_travel__a_dx = (-L_na__0);
     const S d_L_travel__a_dy = (-L_na__1);
@@ -2643,7 +2643,7 @@ struct Slider_World_Kernel {
     const S d_L_travel__a_dtx = ((L_d__1*d_L_na__1__a_dtx) + (L_d__2*a_r1_1) + (L_na__1*d_L_d__1__a_dtx) + (L_na__2*d_L_d__2__a_dtx));
     const S d_L_travel__a_dty = ((L_d__0*a_r1_2) + (L_d__2*d_L_na__2__a_dty) + (L_na__0*d_L_d__0__a_dty) + (L_na__2*d_L_d__2__a_dty));
     const S d_L_travel__a_dtz = ((L_d__0*d_L_na__0__a_dtz) + (L_d__1*a_r1_0) + (L_na__0*d_L_d__0__a_dtz) + (L_na__1*d_L_d__1__a_dtz));
-    // let vrel (slider.yaml:44)
+    // let vrel (slider.yaml:45)
     const S l18_0_0 = (a_r0_2*a_wy);
     const S l18_0_1 = (a_r0_1*a_wy);
     const S l18_0_2 = (a_r0_2*a_wz);
@@ -2665,7 +2665,7 @@ struct Slider_World_Kernel {
     const S d_L_vrel__2__a_dty = l18_0_0;
     const S d_L_vrel__2__a_dtz = ((-l18_0_1) - l18_0_5);
     const S d_L_vrel__2__a_wx = (-a_r0_1);
-    // let rate (slider.yaml:45)
+    // let rate (slider.yaml:46)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r1_1));
     const S d_L_rate__a_dty = ((L_na__0*d_L_vrel__0__a_dty) + (L_na__1*d_L_vrel__1__a_dty) + (L_na__2*d_L_vrel__2__a_dty) + (L_vrel__0*a_r1_2) + (L_vrel__2*d_L_na__2__a_dty));
@@ -2676,7 +2676,7 @@ struct Slider_World_Kernel {
     const S d_L_rate__a_wx = ((L_na__1*a_r0_2) + (L_na__2*d_L_vrel__2__a_wx));
     const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r0_0));
     const S d_L_rate__a_wz = ((L_na__0*a_r0_1) + (L_na__1*d_L_vrel__1__a_wz));
-    // let across (slider.yaml:47)
+    // let across (slider.yaml:48)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
     const S l20_0_2 = ((L_c*L_rate) + (L_k*L_travel));
@@ -2723,11 +2723,11 @@ struct Slider_World_Kernel {
     const S d_L_across__2__a_wx = ((-(L_c*d_L_vrel__2__a_wx)) + (d_L_rate__a_wx*l20_0_6));
     const S d_L_across__2__a_wy = ((-(L_c*a_r0_0)) + (d_L_rate__a_wy*l20_0_6));
     const S d_L_across__2__a_wz = (d_L_rate__a_wz*l20_0_6);
-    // let limited (slider.yaml:48)
+    // let limited (slider.yaml:49)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:49)
+    // let over_hi (slider.yaml:50)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:50)
+    // let over_lo (slider.yaml:51)
     const S L_over_lo = ((-L_travel) + p_lower);
     const S d_L_over_lo__a_dx = (-d_L_travel__a_dx);
     const S d_L_over_lo__a_dy = (-d_L_travel__a_dy);
@@ -2735,7 +2735,7 @@ struct Slider_World_Kernel {
     const S d_L_over_lo__a_dtx = (-d_L_travel__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_travel__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_travel__a_dtz);
-    // let stop_hi (slider.yaml:51)
+    // let stop_hi (slider.yaml:52)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const auto l24_0_1 = (l24_0_0 > S(0));
     const auto l24_0_2 = (L_over_hi > S(0));
@@ -2755,7 +2755,7 @@ struct Slider_World_Kernel {
     const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l24_0_5);
     const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l24_0_5);
     const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l24_0_5);
-    // let stop_lo (slider.yaml:52)
+    // let stop_lo (slider.yaml:53)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const auto l25_0_2 = (l25_0_0 < S(0));
@@ -2777,9 +2777,9 @@ struct Slider_World_Kernel {
     const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l25_0_7);
     const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l25_0_7);
     const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l25_0_7);
-    // let mz (slider.yaml:54)
+    // let mz (slider.yaml:55)
     [[maybe_unused]] const S L_mz = a_m;
-    // let err (slider.yaml:55)
+    // let err (slider.yaml:56)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -2790,11 +2790,11 @@ struct Slider_World_Kernel {
     const S d_L_err__a_wx = (-d_L_rate__a_wx);
     const S d_L_err__a_wy = (-d_L_rate__a_wy);
     const S d_L_err__a_wz = (-d_L_rate__a_wz);
-    // let fast (slider.yaml:56)
+    // let fast (slider.yaml:57)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0));
-    // let sgn (slider.yaml:57)
+    // let sgn (slider.yaml:58)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (slider.yaml:58)
+    // let motor (slider.yaml:59)
     const S l30_0_0 = (L_mz*L_omega*(S(1) - L_fast));
     const auto l30_0_1 = (p_motor_force > S(0));
     const S l30_0_2 = select(l30_0_1, l30_0_0, S(0));
@@ -2808,7 +2808,7 @@ struct Slider_World_Kernel {
     const S d_L_motor__a_wx = (d_L_err__a_wx*l30_0_2);
     const S d_L_motor__a_wy = (d_L_err__a_wy*l30_0_2);
     const S d_L_motor__a_wz = (d_L_err__a_wz*l30_0_2);
-    // let spring (slider.yaml:59)
+    // let spring (slider.yaml:60)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
     const S d_L_spring__a_dx = (-(d_L_travel__a_dx*p_spring_stiffness));
     const S d_L_spring__a_dy = (-(d_L_travel__a_dy*p_spring_stiffness));
@@ -2822,7 +2822,7 @@ struct Slider_World_Kernel {
     const S d_L_spring__a_wx = (-(d_L_rate__a_wx*p_spring_damping));
     const S d_L_spring__a_wy = (-(d_L_rate__a_wy*p_spring_damping));
     const S d_L_spring__a_wz = (-(d_L_rate__a_wz*p_spring_damping));
-    // let fb (slider.yaml:60)
+    // let fb (slider.yaml:61)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l32_0_1 = (L_limited*L_na__0);
     const S l32_0_2 = (L_limited*L_na__1);
@@ -2866,7 +2866,7 @@ struct Slider_World_Kernel {
     const S d_L_fb__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_across__2__a_wx - (d_L_stop_hi__a_wx*l32_0_3) + (d_L_stop_lo__a_wx*l32_0_3));
     const S d_L_fb__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_across__2__a_wy - (d_L_stop_hi__a_wy*l32_0_3) + (d_L_stop_lo__a_wy*l32_0_3));
     const S d_L_fb__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_across__2__a_wz - (d_L_stop_hi__a_wz*l32_0_3) + (d_L_stop_lo__a_wz*l32_0_3));
-    // apply (slider.yaml:61), shared subexpressions
+    // apply (slider.yaml:62), shared subexpressions
     const S o0 = (-L_fb__0);
     const S o1 = (-L_fb__1);
     const S o2 = (-L_fb__2);
@@ -2876,14 +2876,14 @@ struct Slider_World_Kernel {
     const S o6 = (-o3);
     const S o7 = (-o4);
     const S o8 = (-o5);
-    // F_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // F_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[0] = o0;
     out[1] = o1;
     out[2] = o2;
     out[3] = ((L_fb__1*o4) - (L_fb__2*o3) - L_tau__0);
     out[4] = ((-(L_fb__0*o4)) + (L_fb__2*o5) - L_tau__1);
     out[5] = ((L_fb__0*o3) - (L_fb__1*o5) - L_tau__2);
-    // dF_a/ddelta_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // dF_a/ddelta_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[6] = (-d_L_fb__0__a_dx);
     out[7] = (-d_L_fb__1__a_dx);
     out[8] = (-d_L_fb__2__a_dx);
@@ -2920,7 +2920,7 @@ struct Slider_World_Kernel {
     out[39] = ((d_L_fb__1__a_dtz*o4) + (d_L_fb__2__a_dtz*o6) - d_L_tau__0__a_dtz);
     out[40] = ((d_L_fb__0__a_dtz*o7) + (d_L_fb__2__a_dtz*o5) - d_L_tau__1__a_dtz);
     out[41] = ((d_L_fb__0__a_dtz*o3) + (d_L_fb__1__a_dtz*o8) - d_L_tau__2__a_dtz);
-    // dF_a/du_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // dF_a/du_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[42] = (-d_L_fb__0__a_vx);
     out[43] = (-d_L_fb__1__a_vx);
     out[44] = (-d_L_fb__2__a_vx);
@@ -3017,7 +3017,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let na (slider.yaml:34), let ua (slider.yaml:36), let ta (slider.yaml:38)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let na (slider.yaml:35), let ua (slider.yaml:37), let ta (slider.yaml:39)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3050,67 +3050,67 @@ struct Slider_World_Kernel {
     const S a_r3_0 = ((p0_17*p0_8) + (p0_18*p0_2) + (p0_19*p0_5));
     const S a_r3_1 = ((p0_11*p0_19) + (p0_13*p0_17) + (p0_18*p0_9));
     const S a_r3_2 = ((p0_14*p0_18) + (p0_15*p0_19) + (p0_16*p0_17));
-    // let omega (slider.yaml:26)
+    // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (slider.yaml:27)
+    // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (slider.yaml:28)
+    // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (slider.yaml:29)
+    // let im (slider.yaml:30)
     [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let k (slider.yaml:30)
+    // let k (slider.yaml:31)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:31)
+    // let c (slider.yaml:32)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:32)
+    // let pa (slider.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:33)
+    // let pb (slider.yaml:34)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let na (slider.yaml:34)
+    // let na (slider.yaml:35)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (slider.yaml:35)
+    // let nb (slider.yaml:36)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (slider.yaml:36)
+    // let ua (slider.yaml:37)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (slider.yaml:37)
+    // let ub (slider.yaml:38)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (slider.yaml:38)
+    // let ta (slider.yaml:39)
     const S L_ta__0 = a_r3_0;
     const S d_L_ta__0__a_dtz = (-a_r3_1);
     const S L_ta__1 = a_r3_1;
     const S d_L_ta__1__a_dtx = (-a_r3_2);
     const S L_ta__2 = a_r3_2;
     const S d_L_ta__2__a_dty = (-a_r3_0);
-    // let tb (slider.yaml:39)
+    // let tb (slider.yaml:40)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (slider.yaml:40)
+    // let wrel (slider.yaml:41)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (slider.yaml:41)
+    // let tau (slider.yaml:42)
     const S l15_0_0 = (L_omega*L_omega);
     const S l15_0_1 = (S(0.5)*L_im*l15_0_0);
     const S l15_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -3138,7 +3138,7 @@ struct Slider_World_Kernel {
     const S d_L_tau__2__a_dty = ((-(a_r1_2*l15_0_3)) - (a_r2_2*l15_0_5) - (a_r3_2*l15_0_4));
     const S d_L_tau__2__a_dtz = ((a_r1_0*l15_0_9) + (a_r2_0*l15_0_11) + (a_r3_0*l15_0_10) - (d_L_na__0__a_dtz*l15_0_3) - (d_L_ta__0__a_dtz*l15_0_4) - (d_L_ua__0__a_dtz*l15_0_5));
     const S d_L_tau__2__a_wz = l15_0_2;
-    // let d (slider.yaml:42)
+    // let d (slider.yaml:43)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -3148,7 +3148,7 @@ struct Slider_World_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let travel (slider.yaml:43)
+    // let travel (slider.yaml:44)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     const S d_L_travel__a_dx = (-L_na__0);
     const S d_L_travel__a_dy = (-L_na__1);
@@ -3156,7 +3156,7 @@ struct Slider_World_Kernel {
     const S d_L_travel__a_dtx = ((L_d__1*d_L_na__1__a_dtx) + (L_d__2*a_r1_1) + (L_na__1*d_L_d__1__a_dtx) + (L_na__2*d_L_d__2__a_dtx));
     const S d_L_travel__a_dty = ((L_d__0*a_r1_2) + (L_d__2*d_L_na__2__a_dty) + (L_na__0*d_L_d__0__a_dty) + (L_na__2*d_L_d__2__a_dty));
     const S d_L_travel__a_dtz = ((L_d__0*d_L_na__0__a_dtz) + (L_d__1*a_r1_0) + (L_na__0*d_L_d__0__a_dtz) + (L_na__1*d_L_d__1__a_dtz));
-    // let vrel (slider.yaml:44)
+    // let vrel (slider.yaml:45)
     const S l18_0_0 = (a_r0_2*a_wy);
     const S l18_0_1 = (a_r0_1*a_wy);
     const S l18_0_2 = (a_r0_2*a_wz);
@@ -3178,7 +3178,7 @@ struct Slider_World_Kernel {
     const S d_L_vrel__2__a_dty = l18_0_0;
     const S d_L_vrel__2__a_dtz = ((-l18_0_1) - l18_0_5);
     const S d_L_vrel__2__a_wx = (-a_r0_1);
-    // let rate (slider.yaml:45)
+    // let rate (slider.yaml:46)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r1_1));
     const S d_L_rate__a_dty = ((L_na__0*d_L_vrel__0__a_dty) + (L_na__1*d_L_vrel__1__a_dty) + (L_na__2*d_L_vrel__2__a_dty) + (L_vrel__0*a_r1_2) + (L_vrel__2*d_L_na__2__a_dty));
@@ -3189,7 +3189,7 @@ struct Slider_World_Kernel {
     const S d_L_rate__a_wx = ((L_na__1*a_r0_2) + (L_na__2*d_L_vrel__2__a_wx));
     const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r0_0));
     const S d_L_rate__a_wz = ((L_na__0*a_r0_1) + (L_na__1*d_L_vrel__1__a_wz));
-    // let across (slider.yaml:47)
+    // let across (slider.yaml:48)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
     const S l20_0_2 = ((L_c*L_rate) + (L_k*L_travel));
@@ -3236,11 +3236,11 @@ struct Slider_World_Kernel {
     const S d_L_across__2__a_wx = ((-(L_c*d_L_vrel__2__a_wx)) + (d_L_rate__a_wx*l20_0_6));
     const S d_L_across__2__a_wy = ((-(L_c*a_r0_0)) + (d_L_rate__a_wy*l20_0_6));
     const S d_L_across__2__a_wz = (d_L_rate__a_wz*l20_0_6);
-    // let limited (slider.yaml:48)
+    // let limited (slider.yaml:49)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:49)
+    // let over_hi (slider.yaml:50)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:50)
+    // let over_lo (slider.yaml:51)
     const S L_over_lo = ((-L_travel) + p_lower);
     const S d_L_over_lo__a_dx = (-d_L_travel__a_dx);
     const S d_L_over_lo__a_dy = (-d_L_travel__a_dy);
@@ -3248,7 +3248,7 @@ struct Slider_World_Kernel {
     const S d_L_over_lo__a_dtx = (-d_L_travel__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_travel__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_travel__a_dtz);
-    // let stop_hi (slider.yaml:51)
+    // let stop_hi (slider.yaml:52)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const auto l24_0_1 = (l24_0_0 > S(0));
     const auto l24_0_2 = (L_over_hi > S(0));
@@ -3268,7 +3268,7 @@ struct Slider_World_Kernel {
     const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l24_0_5);
     const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l24_0_5);
     const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l24_0_5);
-    // let stop_lo (slider.yaml:52)
+    // let stop_lo (slider.yaml:53)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const auto l25_0_2 = (l25_0_0 < S(0));
@@ -3290,9 +3290,9 @@ struct Slider_World_Kernel {
     const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l25_0_7);
     const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l25_0_7);
     const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l25_0_7);
-    // let mz (slider.yaml:54)
+    // let mz (slider.yaml:55)
     [[maybe_unused]] const S L_mz = a_m;
-    // let err (slider.yaml:55)
+    // let err (slider.yaml:56)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -3303,11 +3303,11 @@ struct Slider_World_Kernel {
     const S d_L_err__a_wx = (-d_L_rate__a_wx);
     const S d_L_err__a_wy = (-d_L_rate__a_wy);
     const S d_L_err__a_wz = (-d_L_rate__a_wz);
-    // let fast (slider.yaml:56)
+    // let fast (slider.yaml:57)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0));
-    // let sgn (slider.yaml:57)
+    // let sgn (slider.yaml:58)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (slider.yaml:58)
+    // let motor (slider.yaml:59)
     const S l30_0_0 = (L_mz*L_omega*(S(1) - L_fast));
     const auto l30_0_1 = (p_motor_force > S(0));
     const S l30_0_2 = select(l30_0_1, l30_0_0, S(0));
@@ -3321,7 +3321,7 @@ struct Slider_World_Kernel {
     const S d_L_motor__a_wx = (d_L_err__a_wx*l30_0_2);
     const S d_L_motor__a_wy = (d_L_err__a_wy*l30_0_2);
     const S d_L_motor__a_wz = (d_L_err__a_wz*l30_0_2);
-    // let spring (slider.yaml:59)
+    // let spring (slider.yaml:60)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
     const S d_L_spring__a_dx = (-(d_L_travel__a_dx*p_spring_stiffness));
     const S d_L_spring__a_dy = (-(d_L_travel__a_dy*p_spring_stiffness));
@@ -3335,7 +3335,7 @@ struct Slider_World_Kernel {
     const S d_L_spring__a_wx = (-(d_L_rate__a_wx*p_spring_damping));
     const S d_L_spring__a_wy = (-(d_L_rate__a_wy*p_spring_damping));
     const S d_L_spring__a_wz = (-(d_L_rate__a_wz*p_spring_damping));
-    // let fb (slider.yaml:60)
+    // let fb (slider.yaml:61)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l32_0_1 = (L_limited*L_na__0);
     const S l32_0_2 = (L_limited*L_na__1);
@@ -3379,7 +3379,7 @@ struct Slider_World_Kernel {
     const S d_L_fb__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_across__2__a_wx - (d_L_stop_hi__a_wx*l32_0_3) + (d_L_stop_lo__a_wx*l32_0_3));
     const S d_L_fb__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_across__2__a_wy - (d_L_stop_hi__a_wy*l32_0_3) + (d_L_stop_lo__a_wy*l32_0_3));
     const S d_L_fb__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_across__2__a_wz - (d_L_stop_hi__a_wz*l32_0_3) + (d_L_stop_lo__a_wz*l32_0_3));
-    // apply (slider.yaml:61), shared subexpressions
+    // apply (slider.yaml:62), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -3411,14 +3411,14 @@ struct Slider_World_Kernel {
     const S o28 = ((d_L_fb__0__a_dty*o7) + (d_L_fb__1__a_dty*o23) - d_L_tau__2__a_dty);
     const S o29 = ((d_L_fb__0__a_dtz*o7) + (d_L_fb__1__a_dtz*o23) - d_L_tau__2__a_dtz);
     const S o30 = (h*h);
-    // g_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // g_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[0] = ((-L_fb__0) - (d_L_fb__0__a_dtx*o3) - (d_L_fb__0__a_dty*o4) - (d_L_fb__0__a_dtz*o5) - (d_L_fb__0__a_dx*o0) - (d_L_fb__0__a_dy*o1) - (d_L_fb__0__a_dz*o2));
     out[1] = ((-L_fb__1) - (d_L_fb__1__a_dtx*o3) - (d_L_fb__1__a_dty*o4) - (d_L_fb__1__a_dtz*o5) - (d_L_fb__1__a_dx*o0) - (d_L_fb__1__a_dy*o1) - (d_L_fb__1__a_dz*o2));
     out[2] = ((-L_fb__2) - (d_L_fb__2__a_dtx*o3) - (d_L_fb__2__a_dty*o4) - (d_L_fb__2__a_dtz*o5) - (d_L_fb__2__a_dx*o0) - (d_L_fb__2__a_dy*o1) - (d_L_fb__2__a_dz*o2));
     out[3] = ((L_fb__1*o6) - (L_fb__2*o7) - L_tau__0 + (o0*o9) + (o1*o10) + (o11*o2) + (o12*o3) + (o13*o4) + (o14*o5));
     out[4] = ((-(L_fb__0*o6)) + (L_fb__2*o15) - L_tau__1 + (o0*o17) + (o1*o18) + (o19*o2) + (o20*o3) + (o21*o4) + (o22*o5));
     out[5] = ((L_fb__0*o7) - (L_fb__1*o15) - L_tau__2 + (o0*o24) + (o1*o25) + (o2*o26) + (o27*o3) + (o28*o4) + (o29*o5));
-    // K_aa from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // K_aa from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[6] = ((-(d_L_fb__0__a_dx*o30)) - (d_L_fb__0__a_vx*h));
     out[7] = ((-(d_L_fb__1__a_dx*o30)) - (d_L_fb__1__a_vx*h));
     out[8] = ((-(d_L_fb__2__a_dx*o30)) - (d_L_fb__2__a_vx*h));
@@ -3515,7 +3515,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let na (slider.yaml:34), let ua (slider.yaml:36), let ta (slider.yaml:38)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let na (slider.yaml:35), let ua (slider.yaml:37), let ta (slider.yaml:39)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3548,116 +3548,116 @@ struct Slider_World_Kernel {
     const S a_r3_0 = ((p0_17*p0_8) + (p0_18*p0_2) + (p0_19*p0_5));
     const S a_r3_1 = ((p0_11*p0_19) + (p0_13*p0_17) + (p0_18*p0_9));
     const S a_r3_2 = ((p0_14*p0_18) + (p0_15*p0_19) + (p0_16*p0_17));
-    // let omega (slider.yaml:26)
+    // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (slider.yaml:27)
+    // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (slider.yaml:28)
+    // let m (slider.yaml:29)
     const S L_m = held_in ? held_in[0] : S(max(S(0), a_m));
     if (held_out) held_out[0] = L_m;
-    // let im (slider.yaml:29)
+    // let im (slider.yaml:30)
     const S L_im = held_in ? held_in[1] : S(max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz))));
     if (held_out) held_out[1] = L_im;
-    // let k (slider.yaml:30)
+    // let k (slider.yaml:31)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:31)
+    // let c (slider.yaml:32)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:32)
+    // let pa (slider.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (slider.yaml:33)
+    // let pb (slider.yaml:34)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let na (slider.yaml:34)
+    // let na (slider.yaml:35)
     const S L_na__0 = a_r1_0;
     const S L_na__1 = a_r1_1;
     const S L_na__2 = a_r1_2;
-    // let nb (slider.yaml:35)
+    // let nb (slider.yaml:36)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (slider.yaml:36)
+    // let ua (slider.yaml:37)
     const S L_ua__0 = a_r2_0;
     const S L_ua__1 = a_r2_1;
     const S L_ua__2 = a_r2_2;
-    // let ub (slider.yaml:37)
+    // let ub (slider.yaml:38)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (slider.yaml:38)
+    // let ta (slider.yaml:39)
     const S L_ta__0 = a_r3_0;
     const S L_ta__1 = a_r3_1;
     const S L_ta__2 = a_r3_2;
-    // let tb (slider.yaml:39)
+    // let tb (slider.yaml:40)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (slider.yaml:40)
+    // let wrel (slider.yaml:41)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (slider.yaml:41)
+    // let tau (slider.yaml:42)
     const S l15_0_0 = (S(0.5)*L_im*(L_omega*L_omega));
     const S l15_0_1 = (S(2)*L_im*L_omega*L_zeta);
     const S L_tau__0 = ((-(L_wrel__0*l15_0_1)) - (l15_0_0*((L_na__1*L_nb__2) - (L_na__2*L_nb__1) + (L_ta__1*L_tb__2) - (L_ta__2*L_tb__1) + (L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))));
     const S L_tau__1 = ((-(L_wrel__1*l15_0_1)) - (l15_0_0*((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0) - (L_ta__0*L_tb__2) + (L_ta__2*L_tb__0) - (L_ua__0*L_ub__2) + (L_ua__2*L_ub__0))));
     const S L_tau__2 = ((-(L_wrel__2*l15_0_1)) - (l15_0_0*((L_na__0*L_nb__1) - (L_na__1*L_nb__0) + (L_ta__0*L_tb__1) - (L_ta__1*L_tb__0) + (L_ua__0*L_ub__1) - (L_ua__1*L_ub__0))));
-    // let d (slider.yaml:42)
+    // let d (slider.yaml:43)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    // let travel (slider.yaml:43)
+    // let travel (slider.yaml:44)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
-    // let vrel (slider.yaml:44)
+    // let vrel (slider.yaml:45)
     const S L_vrel__0 = ((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx);
     const S L_vrel__1 = ((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy);
     const S L_vrel__2 = ((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz);
-    // let rate (slider.yaml:45)
+    // let rate (slider.yaml:46)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
-    // let across (slider.yaml:47)
+    // let across (slider.yaml:48)
     const S L_across__0 = ((-(L_c*((-(L_na__0*L_rate)) + L_vrel__0))) - (L_k*(L_d__0 - (L_na__0*L_travel))));
     const S L_across__1 = ((-(L_c*((-(L_na__1*L_rate)) + L_vrel__1))) - (L_k*(L_d__1 - (L_na__1*L_travel))));
     const S L_across__2 = ((-(L_c*((-(L_na__2*L_rate)) + L_vrel__2))) - (L_k*(L_d__2 - (L_na__2*L_travel))));
-    // let limited (slider.yaml:48)
+    // let limited (slider.yaml:49)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:49)
+    // let over_hi (slider.yaml:50)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:50)
+    // let over_lo (slider.yaml:51)
     const S L_over_lo = ((-L_travel) + p_lower);
-    // let stop_hi (slider.yaml:51)
+    // let stop_hi (slider.yaml:52)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const S L_stop_hi = select((L_over_hi > S(0)), select((l24_0_0 > S(0)), l24_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l24_0_0, S(0)));
-    // let stop_lo (slider.yaml:52)
+    // let stop_lo (slider.yaml:53)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const S L_stop_lo = select((L_over_lo > S(0)), select((l25_0_0 < S(0)), l25_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l25_0_1, S(0)));
-    // let mz (slider.yaml:54)
+    // let mz (slider.yaml:55)
     const S L_mz = held_in ? held_in[2] : S(a_m);
     if (held_out) held_out[2] = L_mz;
-    // let err (slider.yaml:55)
+    // let err (slider.yaml:56)
     const S L_err = ((-L_rate) + p_motor_speed);
-    // let fast (slider.yaml:56)
+    // let fast (slider.yaml:57)
     const S L_fast = held_in ? held_in[3] : S(select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0)));
     if (held_out) held_out[3] = L_fast;
-    // let sgn (slider.yaml:57)
+    // let sgn (slider.yaml:58)
     const S L_sgn = held_in ? held_in[4] : S(select((L_err > S(0)), S(1), S(-1)));
     if (held_out) held_out[4] = L_sgn;
-    // let motor (slider.yaml:58)
+    // let motor (slider.yaml:59)
     const S L_motor = select((p_motor_force > S(0)), ((L_err*L_mz*L_omega*(S(1) - L_fast)) + (L_fast*L_sgn*p_motor_force)), S(0));
-    // let spring (slider.yaml:59)
+    // let spring (slider.yaml:60)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
-    // let fb (slider.yaml:60)
+    // let fb (slider.yaml:61)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S L_fb__0 = (L_across__0 + (L_na__0*l32_0_0));
     const S L_fb__1 = (L_across__1 + (L_na__1*l32_0_0));
     const S L_fb__2 = (L_across__2 + (L_na__2*l32_0_0));
-    // apply (slider.yaml:61), shared subexpressions
+    // apply (slider.yaml:62), shared subexpressions
     const S o0 = (L_pb__1 - a_py);
     const S o1 = (L_pb__2 - a_pz);
     const S o2 = (L_pb__0 - a_px);
-    // F_a from apply[0] (slider.yaml:62), apply[2] (slider.yaml:64)
+    // F_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
     out[0] = (-L_fb__0);
     out[1] = (-L_fb__1);
     out[2] = (-L_fb__2);

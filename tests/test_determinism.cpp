@@ -53,7 +53,7 @@ const Pinned kPinned[] = {
     {"world1000", 60, "defaults", nullptr, 0x925eb26ed909831bull},
     {"pile65", 45, "defaults", nullptr, 0xc3ab4d2ff7e251cbull},
     {"stack10", 60, "defaults", nullptr, 0x931503ba140b55c6ull},
-    {"chain_ratio", 60, "defaults", nullptr, 0xcdf68ef11631adc0ull},
+    {"chain_ratio", 60, "defaults", nullptr, 0xc1842c74daadf229ull},
     {"incline", 60, "defaults", nullptr, 0x350a9c36d8a00f3aull},
     {"newton_cradle", 60, "defaults", nullptr, 0xf7577a249dfd1002ull},
     {"pendulum", 60, "defaults", nullptr, 0xc51bbcf744cd70faull},

@@ -76,6 +76,15 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
   for (uint32_t f : isl.forces) reach(pc.forces[f].a), reach(pc.forces[f].b);
   std::sort(ghosts.begin(), ghosts.end());
   ghosts.erase(std::unique(ghosts.begin(), ghosts.end()), ghosts.end());
+  // the bodies a joint holds (kBodyTurnsByKick)
+  std::vector<uint32_t> jointed;
+  for (uint32_t fi : isl.forces) {
+    const WorldForce& f = pc.forces[fi];
+    if (!kForceTable[static_cast<int>(f.type)].joint) continue;
+    jointed.push_back(f.a);
+    if (f.b != kWorldBody) jointed.push_back(f.b);
+  }
+  std::sort(jointed.begin(), jointed.end());
   p.bodies.resize(isl.bodies.size() + ghosts.size());
   std::merge(isl.bodies.begin(), isl.bodies.end(), ghosts.begin(), ghosts.end(), p.bodies.begin());
   for (uint32_t id : p.bodies) {
@@ -83,6 +92,9 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
     const bool ghost = std::binary_search(ghosts.begin(), ghosts.end(), id);
     p.ghost.push_back(ghost);
     Rigid_Body_Fields f = fields_of(b);
+    if (s.integrator == spu::Integrator::implicit_split && !isotropic(b.inertia) &&
+        std::binary_search(jointed.begin(), jointed.end(), id))
+      f.flags |= spu::kBodyTurnsByKick;
     if (ghost) {  // kinematic, from where the step started at its latest velocity
       const WorldBody& latest = pc.bodies[id];
       std::copy(latest.state.velocity, latest.state.velocity + 3, f.velocity);

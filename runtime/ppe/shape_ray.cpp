@@ -75,7 +75,7 @@ bool ray_capsule(const spu::ShapeView& v, const spu::Pose& p, const Vec3d& o, co
     double t;
     if (ray_ball(o, d, c, r, t) && t < best) best = t, normal = (o + d * t - c) * (1.0 / r);
   }
-  if (!(best <= max_dist)) return false;
+  if (best == kInf || !(best <= max_dist)) return false;
   hit.distance = best;
   hit.point = o + d * best;
   const double l = norm(normal);
@@ -144,7 +144,7 @@ bool ray_polytope(bool is_box, const spu::ShapeView& v, const spu::Pose& p, cons
   if (!(hit.distance <= max_dist)) return false;
   hit.point = o + d * hit.distance;
   plane(face, nk, ck);
-  hit.normal = f.rotate(nk);
+  hit.normal = f.rotate(nk * (1.0 / norm(nk)));  // a hull's stored normals are unit to float precision
   return true;
 }
 

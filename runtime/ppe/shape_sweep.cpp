@@ -1,6 +1,7 @@
 #include "runtime/ppe/shape_sweep.h"
 
 #include "runtime/ppe/shape_distance.h"
+#include "runtime/spu/narrow_phase.h"
 
 namespace cellphys::ppe {
 
@@ -32,6 +33,25 @@ bool sweep_plane(const ConvexCore& a, const spu::Pose& start, const Vec3d& dir, 
   return true;
 }
 
+// Shapes that touch at the start (GJK sees no gap): the narrow phase's deepest contact says
+// whether they overlap by more than the tolerance (then the sweep starts inside) or only touch,
+// when its normal decides: moving into the surface hits at 0, moving off or along it misses.
+bool starts_in_contact(const spu::ShapeView& moving, const spu::Pose& start, const Vec3d& dir,
+                       const spu::ShapeView& target, const spu::Pose& pose, double tolerance, SweepHit& hit) {
+  spu::ContactPoint cp[spu::kMaxManifoldPoints];
+  const int n = spu::collide(moving, start, target, pose, float(tolerance), cp);
+  int deepest = -1;
+  for (int i = 0; i < n; ++i)
+    if (deepest < 0 || cp[i].penetration > cp[deepest].penetration) deepest = i;
+  if (deepest < 0 || cp[deepest].penetration > tolerance) return at_start(start, dir, hit);
+  const Vec3d normal = Vec3d::load(cp[deepest].normal);  // from the moving shape to the target
+  if (!(dot(dir, normal) > 0.0)) return false;
+  hit.distance = 0.0;
+  hit.point = Vec3d::load(cp[deepest].point);
+  hit.normal = -normal;
+  return true;
+}
+
 }  // namespace
 
 bool sweep_shape(const spu::ShapeView& moving, const spu::Pose& start, const Vec3d& dir, double max_dist,
@@ -40,12 +60,17 @@ bool sweep_shape(const spu::ShapeView& moving, const spu::Pose& start, const Vec
   if (target.type == spu::ShapeType::plane) return sweep_plane(a, start, dir, max_dist, target, pose, hit);
   const ConvexCore b = core_of(target, pose);
   double t = 0.0;
+  Separation last;
   for (int step = 0; step < kMaxSweepSteps; ++step) {
     a.shift = dir * t;
     const Separation s = separation(a, b);
     if (s.overlap) {
-      if (t == 0.0) return at_start(start, dir, hit);
-      break;  // rounding at the contact: t is still short of it
+      if (t == 0.0) return starts_in_contact(moving, start, dir, target, pose, tolerance, hit);
+      // Rounding at the contact (t is still short of it): the last separated step's surface.
+      hit.distance = t;
+      hit.point = last.point_b;
+      hit.normal = -last.normal;
+      return true;
     }
     // A separating plane the motion does not close on separates them along the whole line,
     // however near they are (a shape resting on another and moving off it misses).
@@ -57,15 +82,15 @@ bool sweep_shape(const spu::ShapeView& moving, const spu::Pose& start, const Vec
       hit.normal = -s.normal;
       return true;
     }
-    t += s.lower / closing;
+    // Half the tolerance short of the plane: the next step finds them apart, within it.
+    t += (s.lower - 0.5 * tolerance) / closing;
     if (!(t <= max_dist)) return false;
+    last = s;
   }
-  // Not converged (or overlapping by rounding): report the point reached, short of the contact.
-  a.shift = dir * t;
-  const Separation s = separation(a, b);
+  // Not converged: report the point reached, short of the contact.
   hit.distance = t;
-  hit.point = s.overlap ? a.centre() : s.point_b;
-  hit.normal = s.overlap ? -dir : -s.normal;
+  hit.point = last.point_b;
+  hit.normal = -last.normal;
   return true;
 }
 

@@ -231,8 +231,10 @@ std::optional<QueryHit> World::shape_cast(const QueryShape& shape, const float p
   unit_orientation("shape_cast", orientation, pose.orientation);
   const Impl& w = *impl_;
   w.queries.update(w.bodies, shapes_, w.revision);
-  // The tree is walked by the shape's centre with every box grown by the shape's half extents.
-  const Vec3d grow = world_half(q, quat_to_matrix(Quatd::load(pose.orientation)));
+  // The tree is walked by the shape's centre with every box grown by the shape's half extents
+  // and the sweep's tolerance (a sweep hits where the shapes come that near).
+  const Vec3d grow = world_half(q, quat_to_matrix(Quatd::load(pose.orientation))) +
+                     Vec3d{1, 1, 1} * (2.0 * kSweepTolerance);
   bool found = false;
   BodyId best = 0;
   SweepHit hit, h;

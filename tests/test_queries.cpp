@@ -485,7 +485,7 @@ struct RandomWorld {
     for (int i = 0; i < 40; ++i) w->step();  // all asleep after 0.5 s at rest
     for (size_t i = 0; i < dynamic.size(); i += 3) {  // a third woken, drifting slowly
       BodyState st = w->state(dynamic[i]);
-      st.velocity[0] = float(r.uniform(-0.5, 0.5));
+      st.velocity[0] = float(r.uniform(-3, 3));
       st.angular_velocity[2] = float(r.uniform(-1, 1));
       w->set_state(dynamic[i], st);
     }
@@ -636,13 +636,15 @@ TEST_P(WorldQueries, MatchBruteForce) {
   // After steps (the tree refitted, or rebuilt when it grew loose).
   for (int i = 0; i < 20; ++i) w.step();
   check_against_brute_force(w, rw.size, seed * 17 + 2, rays / 2, c);
-  // Teleported, removed and added bodies (the tree rebuilt).
+  // A tenth of the bodies moved 1..3 m (the same bodies: the tree refitted).
   Rng r(seed);
-  for (int i = 0; i < 5; ++i) {
+  for (size_t i = 0; i < rw.dynamic.size(); i += 10) {
     BodyState s = w.state(rw.dynamic[i]);
-    s.position[0] += float(r.uniform(-8, 8));
+    for (int k = 0; k < 3; ++k) s.position[k] += float(r.uniform(1, 3) * (r.uniform(0, 1) < 0.5 ? -1 : 1));
     w.set_state(rw.dynamic[i], s);
   }
+  check_against_brute_force(w, rw.size, seed * 17 + 4, rays / 2, c);
+  // Removed and added bodies (the tree rebuilt).
   w.remove_body(rw.dynamic[5]);
   w.remove_body(rw.dynamic[6]);
   BodyDesc b;

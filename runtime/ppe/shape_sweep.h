@@ -1,10 +1,10 @@
 // A shape swept along a straight line to its first contact with another (translation only).
 //
-// Conservative advancement on GJK's separating plane (runtime/ppe/shape_distance.h): at each
-// step the moving shape advances by gap / (dir . n), where gap is the lower bound of the
-// distance from the plane GJK found and n its normal; no point of the moving shape can cross
-// that plane sooner, so the sweep never passes the true first contact. It stops when the gap
-// is at most `tolerance`: the reported distance is then at most the true first-contact
+// Conservative advancement on GJK's separating plane (runtime/ppe/shape_distance.h): each
+// step moves the shape by (gap - tolerance / 2) / (dir . n), where gap is the lower bound on
+// the distance from the plane GJK found and n its normal; no point of the moving shape can
+// cross that plane sooner, so the sweep never passes the true first contact. It stops when the
+// gap is at most `tolerance`: the reported distance is then at most the true first-contact
 // distance, and the shapes there are at most `tolerance` apart (a shape grazing a surface
 // closer than the tolerance counts as touching it). Against a plane the sweep is a closed form.
 #pragma once
@@ -24,7 +24,8 @@ struct SweepHit {
 
 /// The first contact of `moving` (any shape but a plane) starting at `start` and moving along
 /// the unit `dir` up to max_dist, with `target` at `pose` (a plane too). A moving shape that
-/// starts overlapping hits at 0, at its start position, with normal -dir; one starting within
+/// starts overlapping (by more than the tolerance, as the narrow phase measures a start with no
+/// gap) hits at 0, at its start position, with normal -dir; one starting touching or within
 /// the tolerance hits at 0 with that surface's normal, unless it moves away from the surface
 /// or along it (a box resting on the ground and lifted misses the ground). False for a miss
 /// within max_dist. After kMaxSweepSteps steps without meeting the tolerance it reports where

@@ -119,15 +119,11 @@ void QueryIndex::update(const std::vector<WorldBody>& bodies, const ShapeDiction
   }
   same_bodies = same_bodies && ids == ids_;
   planes_ = std::move(planes);
-  if (same_bodies) {
-    tree_.refit(boxes_);
-    ++refits_;
-  }
+  if (same_bodies) tree_.refit(boxes_);
   if (!same_bodies || tree_.area() > kRebuildGrowth * built_area_) {
     ids_ = std::move(ids);
     tree_.build(boxes_, ids_);
     built_area_ = tree_.area();
-    ++rebuilds_;
   }
   built_.store(revision, std::memory_order_release);
 }

@@ -64,8 +64,6 @@ class QueryIndex {
   void update(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, uint64_t revision);
   const QueryTree& tree() const { return tree_; }
   const std::vector<uint32_t>& planes() const { return planes_; }
-  uint64_t rebuilds() const { return rebuilds_; }
-  uint64_t refits() const { return refits_; }
 
  private:
   struct Key {  // what a body's box is made of
@@ -80,7 +78,6 @@ class QueryIndex {
   std::vector<Key> keys_;    // per body slot
   std::vector<uint32_t> ids_, planes_;
   double built_area_ = 0.0;
-  uint64_t rebuilds_ = 0, refits_ = 0;
 };
 
 // ---- traversal ---------------------------------------------------------------------------------

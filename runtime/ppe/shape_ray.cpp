@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "runtime/ppe/shape_distance.h"
 #include "runtime/ppe/shape_frame.h"
 
 namespace cellphys::ppe {
@@ -150,11 +151,9 @@ bool ray_polytope(bool is_box, const spu::ShapeView& v, const spu::Pose& p, cons
 
 bool ray_plane(const spu::ShapeView& v, const spu::Pose& p, const Vec3d& o, const Vec3d& d, double max_dist,
                ShapeRayHit& hit) {
-  Vec3d n = Vec3d::load(v.normal);
-  const double l = norm(n);
-  if (!(l > 0.0)) return false;
-  n = n * (1.0 / l);
-  const double c = double(v.offset) / l * double(p.scale);
+  Vec3d n;
+  double c;
+  if (!world_plane(v, p, n, c)) return false;
   const double gap = c - dot(n, o);
   if (gap >= 0.0) return inside(o, d, hit);
   const double denom = dot(n, d);

@@ -60,6 +60,7 @@ BodyId World::add_body(const BodyDesc& d) {
   take_state(d.state, who, warnings_, b);
   if (!b.is_static) set_mass_properties(shapes_, d, who, b);
   impl_->bodies.push_back(b);
+  ++impl_->revision;
   return static_cast<BodyId>(impl_->bodies.size() - 1);
 }
 
@@ -74,6 +75,7 @@ void World::remove_body(BodyId id) {
     }
   forget_body(impl_->contact_memory, id);
   b.alive = false;
+  ++impl_->revision;
 }
 
 ForceId World::add_force(const std::string& type, BodyId a, BodyId b, const ForceParams& params) {
@@ -123,6 +125,7 @@ void World::set_state(BodyId id, const BodyState& s) {
   check_body_state(s, body_name(id));
   take_state(s, body_name(id), warnings_, b);
   impl_->wake(id);
+  ++impl_->revision;
 }
 
 void World::apply_impulse(BodyId id, const float impulse[3], const float point[3]) {
@@ -191,6 +194,7 @@ const StepStats& World::step() {
     }
     w.cut = cut_couplings_of(parts, w.contacts, w.forces);
   }
+  ++w.revision;
   stats_ = st;
   return stats_;
 }

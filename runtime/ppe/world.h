@@ -14,6 +14,7 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -23,6 +24,7 @@
 #include "runtime/ppe/body_state.h"
 #include "runtime/ppe/shapes.h"
 #include "runtime/ppe/step_stats.h"
+#include "runtime/ppe/world_queries.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/krylov.h"
 #include "runtime/spu/local_store.h"
@@ -160,6 +162,30 @@ class World {
   double kinetic_energy() const;
   /// Bitwise hash of every live body's state, for determinism checks.
   uint64_t state_hash() const;
+
+  /// Queries between steps (runtime/ppe/world_queries.cpp, docs/queries.md), on every live
+  /// body the filter lets through, asleep and static ones too, against its exact shape. They
+  /// change nothing a step or state_hash() reads; queries may run on several threads at once
+  /// (not during a step or another call that changes bodies). A direction need not be unit;
+  /// distances are along its unit vector. Bad input (a non-finite origin, a zero direction, a
+  /// negative or NaN distance, a bad shape) throws WorldError naming the argument.
+  /// The first body the ray origin + t dir meets for 0 <= t <= max_dist (infinite allowed);
+  /// a ray starting inside a body hits it at 0 with normal -dir.
+  std::optional<QueryHit> ray_cast(const float origin[3], const float dir[3], float max_dist,
+                                   const QueryFilter& filter = {}) const;
+  /// Every body the ray meets within max_dist, nearest first (ties by body id), once each.
+  std::vector<QueryHit> ray_cast_all(const float origin[3], const float dir[3], float max_dist,
+                                     const QueryFilter& filter = {}) const;
+  /// The bodies whose shapes overlap a sphere, or a box (half extents, orientation w x y z);
+  /// ids ascending.
+  std::vector<BodyId> overlap_sphere(const float centre[3], float radius, const QueryFilter& filter = {}) const;
+  std::vector<BodyId> overlap_box(const float centre[3], const float half_extents[3], const float orientation[4],
+                                  const QueryFilter& filter = {}) const;
+  /// The first body `shape` at (position, orientation) meets moving along dir up to max_dist
+  /// (runtime/ppe/shape_sweep.h: within 1e-5 m, never past the contact; a shape starting in
+  /// a body hits it at 0).
+  std::optional<QueryHit> shape_cast(const QueryShape& shape, const float position[3], const float orientation[4],
+                                     const float dir[3], float max_dist, const QueryFilter& filter = {}) const;
 
   /// The whole world as versioned, checksummed bytes (runtime/ppe/snapshot.cpp): settings,
   /// shape dictionary, bodies (removed ones too, so ids stay), forces, sleeping groups and

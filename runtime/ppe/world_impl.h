@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
+#include "runtime/ppe/query_tree.h"
 #include "runtime/ppe/step_collide.h"
 #include "runtime/ppe/step_integrate.h"
 #include "runtime/ppe/step_push.h"
@@ -39,6 +40,8 @@ struct World::Impl {
   std::vector<uint32_t> island_of;      // per body slot: its island in the last step (for display only)
   std::vector<uint8_t> island_decoupled;  // per island of the last step: cut in parts
   std::vector<CutCoupling> cut;           // the last step's cut couplings (for display only)
+  uint64_t revision = 0;                  // counts changes to the bodies' set or poses
+  mutable QueryIndex queries;             // the queries' tree, brought up to date by the first query after a change
 
   WorkerPool& workers(const WorldSettings& s) {
     if (!pool || pool_workers != s.workers || pool_bytes != s.local_store_bytes) {

@@ -106,8 +106,8 @@ class MpiRun(unittest.TestCase):
                 output, errors = out.read(), err.read()
             if not launcher_stuck:
                 self.assertIn(p.returncode, (3, -signal.SIGSEGV, -signal.SIGABRT), output + errors)
-            if p.returncode == 3:  # the abort's report, which a launcher that crashed may not pass on
-                self.assertIn("with errorcode 3", errors)
+            # (Open MPI's own report of the abort is not checked: its launcher sometimes fails to
+            # print it, "ORTE_ERROR_LOG: Out of resource in show_help.c".)
             self.assertIn("compute node rank 2 did not stop within 2000 ms", errors, output + errors)
             with open(stats) as f:
                 got = json.load(f)

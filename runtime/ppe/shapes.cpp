@@ -135,19 +135,21 @@ uint32_t ShapeDictionary::add_plane(const float normal[3], float offset) {
   return push(std::move(e));
 }
 
-uint32_t ShapeDictionary::add_hull(const float* points, int count, HullInfo* info) {
+uint32_t ShapeDictionary::add_hull(const float* points, int count, HullInfo* info, bool recentre) {
   ConvexHull h = compute_convex_hull(points, count, limits_);
   const MassProperties m = polyhedron_mass_properties(h.view());
   if (!(m.volume > 0.0) || !std::isfinite(m.volume)) throw ShapeError("hull: the hull has no positive, finite volume");
-  const double shift[3] = {-m.center_of_mass[0], -m.center_of_mass[1], -m.center_of_mass[2]};
-  translate_hull(h, shift);
+  if (recentre) {
+    const double shift[3] = {-m.center_of_mass[0], -m.center_of_mass[1], -m.center_of_mass[2]};
+    translate_hull(h, shift);
+  }
 
   auto e = std::make_unique<Entry>();
   e->hull = std::move(h);
   e->view.type = spu::ShapeType::hull;
   e->view.hull = e->hull.view();
   HullInfo& hi = e->info;
-  for (int k = 0; k < 3; ++k) hi.shift[k] = static_cast<float>(m.center_of_mass[k]);
+  for (int k = 0; k < 3; ++k) hi.shift[k] = recentre ? static_cast<float>(m.center_of_mass[k]) : 0.0f;
   hi.num_input_points = count;
   hi.num_vertices = e->hull.num_vertices();
   hi.num_faces = e->hull.num_faces();

@@ -49,8 +49,11 @@ class ShapeDictionary {
   /// Core segment from -half_height to +half_height on body z.
   uint32_t add_capsule(float radius, float half_height);
   uint32_t add_box(const float half_extents[3]);
-  /// Convex hull of a point cloud (3 floats a point), re-centred on its centre of mass.
-  uint32_t add_hull(const float* points, int count, HullInfo* info = nullptr);
+  /// Convex hull of a point cloud (3 floats a point), re-centred on its centre of mass. With
+  /// `recentre` false the points are taken where they are: a hull this dictionary made (a
+  /// snapshot's) is on its centre of mass already, to rounding, and moving it again by that
+  /// rounding would change its bits.
+  uint32_t add_hull(const float* points, int count, HullInfo* info = nullptr, bool recentre = true);
   /// Static half-space n.x <= offset in world coordinates; the normal is normalised.
   uint32_t add_plane(const float normal[3], float offset);
 

@@ -264,7 +264,7 @@ void get_shapes(Reader& r, ShapeDictionary& d) {
           for (int32_t& x : fs) x = r.get<int32_t>("hull faces");
           for (int32_t& x : fvs) x = r.get<int32_t>("hull faces");
           for (int32_t& x : edges) x = r.get<int32_t>("hull edges");
-          const spu::HullView& h = d.view(d.add_hull(verts.data(), nv)).hull;
+          const spu::HullView& h = d.view(d.add_hull(verts.data(), nv, nullptr, /*recentre=*/false)).hull;
           if (h.num_vertices != nv || h.num_faces != nf || h.num_edges != ne || h.face_start[nf] != nfv ||
               !same_floats(h.vertices, verts.data(), verts.size()) || !same_floats(h.planes, planes.data(), planes.size()) ||
               !same_ints(h.face_start, fs.data(), fs.size()) || !same_ints(h.face_vertices, fvs.data(), fvs.size()) ||

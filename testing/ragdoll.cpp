@@ -2,6 +2,10 @@
 
 #include <cmath>
 
+#include "runtime/base/mat3.h"
+#include "runtime/base/quat.h"
+#include "runtime/base/vec3.h"
+
 namespace cellphys::testing {
 
 const char* const Ragdoll::kPartNames[kParts] = {"pelvis",      "chest",     "head",    "upper_arm_l",
@@ -55,15 +59,6 @@ constexpr JointSpec kJoint[] = {
     {"hinge", 9, 10, {0.09f, 0, 0.46f}, {1, 0, 0}, {0, 0, -1}, 0, -2.4f, 0.0f},          // right knee
 };
 
-// q v q* for a unit quaternion (w x y z).
-void rotate(const float q[4], const float v[3], float out[3]) {
-  const float w = q[0], x = q[1], y = q[2], z = q[3];
-  const float tx = 2 * (y * v[2] - z * v[1]), ty = 2 * (z * v[0] - x * v[2]), tz = 2 * (x * v[1] - y * v[0]);
-  out[0] = v[0] + w * tx + (y * tz - z * ty);
-  out[1] = v[1] + w * ty + (z * tx - x * tz);
-  out[2] = v[2] + w * tz + (x * ty - y * tx);
-}
-
 }  // namespace
 
 Ragdoll add_ragdoll(ppe::World& w, float height, float mass, const float pelvis[3], const float orientation[4],
@@ -71,6 +66,7 @@ Ragdoll add_ragdoll(ppe::World& w, float height, float mass, const float pelvis[
   const float s = height / 1.8f;
   Ragdoll r;
   const float* hip = kPart[0].centre;
+  const Mat3d turn = quat_to_matrix(Quatd::load(orientation));
   for (int i = 0; i < Ragdoll::kParts; ++i) {
     const Part& p = kPart[i];
     ppe::BodyDesc d;
@@ -85,9 +81,8 @@ Ragdoll add_ragdoll(ppe::World& w, float height, float mass, const float pelvis[
     d.mass = p.share * mass;
     d.friction = friction;
     const float rel[3] = {(p.centre[0] - hip[0]) * s, (p.centre[1] - hip[1]) * s, (p.centre[2] - hip[2]) * s};
-    float turned[3];
-    rotate(orientation, rel, turned);
-    for (int k = 0; k < 3; ++k) d.state.position[k] = pelvis[k] + turned[k];
+    const Vec3d turned = mul(turn, Vec3d::load(rel));
+    for (int k = 0; k < 3; ++k) d.state.position[k] = float(pelvis[k] + turned[k]);
     for (int k = 0; k < 4; ++k) d.state.orientation[k] = orientation[k];
     r.parts[i] = w.add_body(d);
   }

@@ -140,7 +140,7 @@ TEST_F(Cli, StatsGiveEachStageOfTheStepItsTimeUnderItsName) {
   ASSERT_EQ(r.code, 0) << r.err;
   const json stages = json::parse(slurp(stats))["stage_ms_mean"];
   const std::vector<std::string> names = {"broad", "mid",  "narrow",    "wake",   "push",  "islands",
-                                          "decouple", "pack", "integrate", "unpack", "sleep", "total"};
+                                          "decouple", "pack", "integrate", "unpack", "sleep", "events", "total"};
   ASSERT_EQ(stages.size(), names.size()) << stages.dump();
   double parts = 0;
   for (const std::string& n : names) {

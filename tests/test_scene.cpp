@@ -166,10 +166,13 @@ TEST(Scene, BodiesTakeStringOrIntegerIdsAndEveryField) {
                 "position": [1, 2, 3], "orientation": [0, 2, 0, 0], "velocity": [4, 5, 6],
                 "angular_velocity": [0.1, 0.2, 0.3], "friction": 0.9, "damping": {"linear": 0.1, "angular": 0.2}},
                {"id": "floor", "shape": "floor"},
-               {"id": "light", "shape": "b", "density": 500, "damping": 0.5}],
+               {"id": "light", "shape": "b", "density": 500, "damping": 0.5},
+               {"id": "trigger", "shape": "b", "static": true, "sensor": true}],
     "forces": [{"type": "spring", "a": 7, "b": "light", "stiffness": 10, "rest_length": 1}]})",
                                          "ids.json");
-  ASSERT_EQ(d.bodies.size(), 3u);
+  ASSERT_EQ(d.bodies.size(), 4u);
+  EXPECT_TRUE(d.bodies[3].sensor);
+  EXPECT_FALSE(d.bodies[2].sensor);
   EXPECT_EQ(d.bodies[0].id, "7");
   EXPECT_TRUE(d.bodies[0].id_is_integer);
   EXPECT_EQ(d.bodies[0].inertia[5], 0.1f);
@@ -182,6 +185,8 @@ TEST(Scene, BodiesTakeStringOrIntegerIdsAndEveryField) {
   const scene::BuiltScene b = scene::build_world(d);
   EXPECT_EQ(b.world->mass(b.bodies[0]), 3.0f);
   EXPECT_TRUE(b.world->is_static(b.bodies[1]));
+  EXPECT_TRUE(b.world->is_sensor(b.bodies[3]));
+  EXPECT_FALSE(b.world->is_sensor(b.bodies[0]));
   EXPECT_EQ(b.world->inertia_body(b.bodies[0])[1], 2.0f);
   ASSERT_EQ(b.warnings.size(), 1u) << "the orientation [0, 2, 0, 0] is normalised";
   EXPECT_NE(b.warnings[0].find("ids.json: bodies[0]: "), std::string::npos) << b.warnings[0];
@@ -291,6 +296,8 @@ std::vector<BadCase> bad_cases() {
        "bodies[1].colour", "unknown field 'colour'"},
       {"unknown shape field", R"({"shapes": [{"name": "s", "type": "sphere", "radius": 1, "half_extents": [1, 1, 1]}]})",
        "shapes[0].half_extents", "unknown field"},
+      {"sensor not a boolean", with_bodies(std::string(kB0) + R"(, {"id": "b", "shape": "s", "mass": 1, "sensor": 1})"),
+       "bodies[1].sensor", "expected"},
       {"wrong type (string for a number)", with_bodies(std::string(kB0) + R"(, {"id": "b", "shape": "s", "mass": "1"})"),
        "bodies[1].mass", "expected a number, got a string"},
       {"wrong type inside a vector",

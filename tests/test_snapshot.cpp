@@ -11,6 +11,7 @@
 
 #include "runtime/ppe/world.h"
 #include "runtime/scene/scene.h"
+#include "runtime/spu/island_image.h"
 #include "testing/scenes.h"
 
 namespace {
@@ -120,6 +121,54 @@ TEST(Snapshot, DamageIsRefusedWithTheReason) {
   refused(b, "format version 1");
   b[8] = 99;
   refused(b, "format version 99");
+}
+
+// Sensors and the events' memory survive: the restored world reports the same events and holds
+// the same bodies in its sensor. A version-4 snapshot (no event memory, no sensors) still
+// restores: the same world, its touches reported as begun by its first step.
+TEST(Snapshot, SensorsAndTheEventMemorySurviveAndVersion4StillReads) {
+  World w;
+  cellphys::testing::ground_plane(w);
+  const auto boxes = cellphys::testing::stack(w, 3, 0.25f);
+  cellphys::ppe::BodyDesc trigger;
+  const float half[3] = {1, 1, 1};
+  trigger.shape = w.shapes().add_box(half);
+  trigger.is_static = true;
+  trigger.sensor = true;
+  const cellphys::ppe::BodyId sensor = w.add_body(trigger);
+  for (int s = 0; s < 5; ++s) w.step();
+  ASSERT_FALSE(w.sensor_contents(sensor).empty());
+  check_resume(w, 0, 10);
+  std::vector<unsigned char> b = w.snapshot();
+  auto r = World::restore(b.data(), b.size());
+  EXPECT_TRUE(r->is_sensor(sensor));
+  EXPECT_EQ(w.sensor_contents(sensor), r->sensor_contents(sensor));
+  w.step();
+  r->step();
+  EXPECT_TRUE(r->contact_events().empty() && w.contact_events().empty()) << "nothing begins or ends at rest";
+
+  World v4;
+  cellphys::testing::ground_plane(v4);
+  cellphys::testing::stack(v4, 3, 0.25f);
+  for (int s = 0; s < 5; ++s) v4.step();
+  b = v4.snapshot();
+  // Version 4 is version 5 without the event memory at the end: the touching pairs (the stack's
+  // three) and no sensor overlaps, each a u32 count and u64 keys.
+  const size_t tail = 4 + 3 * 8 + 4;
+  std::vector<unsigned char> old(b.begin(), b.end() - tail);
+  old[8] = 4;
+  const uint64_t payload = old.size() - 32;
+  std::memcpy(&old[16], &payload, 8);
+  const uint32_t sum = cellphys::spu::checksum(old.data() + 32, payload);
+  std::memcpy(&old[24], &sum, 4);
+  auto o = World::restore(old.data(), old.size());
+  EXPECT_EQ(v4.state_hash(), o->state_hash());
+  v4.step();
+  o->step();
+  EXPECT_EQ(v4.state_hash(), o->state_hash());
+  EXPECT_TRUE(v4.contact_events().empty());
+  EXPECT_EQ(3u, o->contact_events().size()) << "without a memory, the first step begins every touch";
+  (void)boxes;
 }
 
 // Settings are stored by name: one this build lacks (from a build with other forces, say) is

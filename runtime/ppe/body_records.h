@@ -12,6 +12,7 @@ namespace cellphys::ppe {
 
 struct WorldBody {
   bool alive = false, is_static = false, awake = true;
+  bool sensor = false;  // overlaps reported, no contacts (BodyDesc::sensor)
   uint32_t shape = 0;
   float scale = 1.0f;
   float mass = 0.0f;

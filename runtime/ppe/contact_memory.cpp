@@ -6,6 +6,7 @@
 
 #include "runtime/base/quat.h"
 #include "runtime/base/vec3.h"
+#include "runtime/ppe/body_maths.h"
 #include "runtime/ppe/world.h"
 
 namespace cellphys::ppe {
@@ -29,19 +30,6 @@ Frame frame_of(const std::vector<WorldBody>& bodies, uint32_t id) {
   f.x = Vec3d::load(bodies[id].state.position);
   f.R = quat_to_matrix(Quatd::load(bodies[id].state.orientation));
   return f;
-}
-
-// The velocity change along n at point p per unit impulse along n, of a body with inverse mass
-// w and world inverse inertia Iinv: 1/m + (r x n)^T I^-1 (r x n).
-double inverse_mass_along(double w, const Mat3d& Iinv, const Vec3d& x, const Vec3d& p, const Vec3d& n) {
-  const Vec3d rn = cross(p - x, n);
-  return w + dot(rn, mul(Iinv, rn));
-}
-
-Vec3d velocity_at(const std::vector<WorldBody>& bodies, uint32_t id, const Vec3d& p) {
-  if (id == kWorldBody) return {0, 0, 0};
-  const BodyState& s = bodies[id].state;
-  return Vec3d::load(s.velocity) + cross(Vec3d::load(s.angular_velocity), p - Vec3d::load(s.position));
 }
 
 bool asleep(const std::vector<WorldBody>& bodies, uint32_t id) {

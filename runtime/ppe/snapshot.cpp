@@ -3,12 +3,15 @@
 //   header  "CELLSNAP" | u32 version | u32 header bytes (32) | u64 payload bytes |
 //           u32 checksum of the payload (spu::checksum) | u32 zero
 //   payload settings | step counter | shapes | bodies | forces | sleeping groups | free groups |
-//           contact memory (pairs in key order: key, sliding, slip, anchors)
+//           contact memory (pairs in key order: key, sliding, slip, anchors) |
+//           event memory (touching pairs, sensor overlaps: u32 count + sorted u64 keys each;
+//           version 5 on: a version-4 snapshot restores with none, so its first step reports
+//           the touches it has as begun)
 //   settings: u32 count, then per setting (runtime/ppe/settings.h) its scene path and its value
 //           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
 //           each as u32 length + bytes: matched by name, so a build with other forces refuses
 //           a setting it lacks, or lacks one it has, by name
-//   body (136 bytes): u8 alive, static, awake, 0 | u32 shape | f32 scale, mass | f32 inertia[6],
+//   body (136 bytes): u8 alive, static, awake, flags (1: sensor; version 4: 0) | u32 shape | f32 scale, mass | f32 inertia[6],
 //           inverse inertia[6] | position[3], orientation[4], velocity[3], angular velocity[3] |
 //           f32 friction, linear and angular damping, sleep timer | i32 sleeping group
 // Every record is checked before the world is returned (runtime/ppe/snapshot_checks.h); a
@@ -29,7 +32,8 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 4;
+constexpr uint32_t kVersion = 5;
+constexpr uint32_t kOldestVersion = 4;  // without the event memory
 constexpr size_t kHeaderBytes = 32;
 // The fewest bytes of each record, so that a count the rest of the file cannot hold is refused
 // before anything is allocated for it.
@@ -347,7 +351,7 @@ std::vector<unsigned char> World::snapshot() const {
     p.put(static_cast<uint8_t>(b.alive));
     p.put(static_cast<uint8_t>(b.is_static));
     p.put(static_cast<uint8_t>(b.awake));
-    p.put(uint8_t{0});
+    p.put(static_cast<uint8_t>(b.sensor ? 1 : 0));
     p.put(b.shape);
     p.put(b.scale);
     p.put(b.mass);
@@ -389,6 +393,10 @@ std::vector<unsigned char> World::snapshot() const {
     p.put(pair.count);
     for (uint32_t k = 0; k < pair.count; ++k) put_anchor(p, pair.anchors[k]);
   }
+  for (const std::vector<uint64_t>* keys : {&w.event_memory.touching, &w.event_memory.sensing}) {
+    p.put(static_cast<uint32_t>(keys->size()));
+    for (uint64_t k : *keys) p.put(k);
+  }
 
   Writer out;
   out.bytes.insert(out.bytes.end(), kMagic, kMagic + 8);
@@ -406,8 +414,9 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
   if (std::memcmp(bytes, kMagic, 8) != 0) throw WorldError("snapshot: bad magic (not a cellphys world snapshot)");
   Reader h(bytes + 8, kHeaderBytes - 8);
   const uint32_t version = h.get<uint32_t>("header");
-  if (version != kVersion)
-    throw WorldError("snapshot: format version " + std::to_string(version) + ", this build reads " + std::to_string(kVersion));
+  if (version < kOldestVersion || version > kVersion)
+    throw WorldError("snapshot: format version " + std::to_string(version) + ", this build reads " +
+                     std::to_string(kOldestVersion) + " to " + std::to_string(kVersion));
   if (h.get<uint32_t>("header") != kHeaderBytes) throw WorldError("snapshot: unexpected header size");
   const uint64_t payload = h.get<uint64_t>("header");
   const uint32_t sum = h.get<uint32_t>("header");
@@ -431,7 +440,9 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     b.alive = r.get_flag(who, "alive");
     b.is_static = r.get_flag(who, "static");
     b.awake = r.get_flag(who, "awake");
-    if (r.get<uint8_t>("body") != 0) throw WorldError("snapshot: " + who + ": padding byte is not zero");
+    const uint8_t flags = r.get<uint8_t>("body");
+    if (flags > (version >= 5 ? 1 : 0)) throw WorldError("snapshot: " + who + ": unknown body flags " + std::to_string(flags));
+    b.sensor = flags & 1;
     b.shape = r.get<uint32_t>("body");
     b.scale = r.get<float>("body");
     b.mass = r.get<float>("body");
@@ -491,6 +502,15 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     check_snapshot_pair(w.bodies, key, pair);
     if (!w.contact_memory.pairs.emplace(key, pair).second)
       throw WorldError("snapshot: the contact memory holds a pair twice (key " + std::to_string(key) + ")");
+  }
+  if (version >= 5) {
+    std::vector<uint64_t>* memories[2] = {&w.event_memory.touching, &w.event_memory.sensing};
+    const char* what[2] = {"touching pairs", "sensor overlaps"};
+    for (int m = 0; m < 2; ++m) {
+      const uint32_t n = r.count(what[m], 8);
+      for (uint32_t k = 0; k < n; ++k) memories[m]->push_back(r.get<uint64_t>(what[m]));
+      check_snapshot_event_pairs(w.bodies, *memories[m], m == 1, what[m]);
+    }
   }
   if (!r.done()) throw WorldError("snapshot: trailing bytes after the last record");
   return world;

@@ -156,6 +156,21 @@ void check_snapshot_pair(const std::vector<WorldBody>& bodies, uint64_t key, con
   }
 }
 
+void check_snapshot_event_pairs(const std::vector<WorldBody>& bodies, const std::vector<uint64_t>& keys, bool sensors,
+                                const char* what) {
+  for (size_t k = 0; k < keys.size(); ++k) {
+    const uint32_t a = uint32_t(keys[k] >> 32), b = uint32_t(keys[k]);
+    const std::string who = std::string(what) + " " + std::to_string(k) + " (bodies " + std::to_string(a) + " and " +
+                            std::to_string(b) + ")";
+    refers(bodies, who, "the first body", a, false);
+    refers(bodies, who, "the second body", b, false);
+    if (!bodies[a].alive || !bodies[b].alive) refuse(who, "names a removed body");
+    if (k > 0 && keys[k] <= keys[k - 1]) refuse(who, "out of order or listed twice");
+    if (sensors ? !bodies[a].sensor || bodies[b].sensor : a >= b || bodies[a].sensor || bodies[b].sensor)
+      refuse(who, sensors ? "is not a sensor and a body that is not one" : "is not two bodies that are not sensors, the lower id first");
+  }
+}
+
 void check_snapshot_sleeping(const std::vector<WorldBody>& bodies, const SleepingGroups& s) {
   const size_t ng = s.groups.size();
   std::vector<uint32_t> members(ng, 0);  // bodies naming each group

@@ -35,4 +35,9 @@ void check_snapshot_pair(const std::vector<WorldBody>& bodies, uint64_t key, con
 /// listed once.
 void check_snapshot_sleeping(const std::vector<WorldBody>& bodies, const SleepingGroups& s);
 
+/// The event memory's touching pairs (low id, high id) or sensor overlaps (a sensor, a body
+/// that is not one): sorted, each once, between live bodies.
+void check_snapshot_event_pairs(const std::vector<WorldBody>& bodies, const std::vector<uint64_t>& keys, bool sensors,
+                                const char* what);
+
 }  // namespace cellphys::ppe

@@ -86,16 +86,25 @@ void drop_joined_pairs(const std::vector<WorldForce>& forces, CollideScratch& c)
 }
 
 void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
-                  const CollideScratch& c, std::vector<WorldContact>& contacts, StepStats& st) {
+                  CollideScratch& c, std::vector<WorldContact>& contacts, StepStats& st) {
   contacts.clear();
+  c.touched.clear();
+  c.sensed.clear();
   for (const auto& [i, j] : c.pairs) {
     uint32_t a = i, b = j;
-    if (bodies[a].is_static) std::swap(a, b);
+    const bool sensing = bodies[a].sensor || bodies[b].sensor;
+    if (sensing && bodies[a].sensor == bodies[b].sensor) continue;  // sensors do not sense sensors
+    if (sensing ? bodies[a].sensor : bodies[a].is_static) std::swap(a, b);
     spu::ContactPoint cp[spu::kMaxManifoldPoints];
-    const float margin = s.globals.contact_slop + c.reach[a] + c.reach[b];
+    const float margin = sensing ? 0.0f : s.globals.contact_slop + c.reach[a] + c.reach[b];
     const int k = spu::collide(shapes.view(bodies[a].shape), pose_of(bodies[a]), shapes.view(bodies[b].shape),
                                pose_of(bodies[b]), margin, cp);
+    if (sensing) {  // a is the visitor, b the sensor: inside while a point overlaps
+      if (std::any_of(cp, cp + k, [](const spu::ContactPoint& p) { return p.penetration > 0.0f; })) c.sensed.emplace_back(b, a);
+      continue;
+    }
     if (k > 0) ++st.narrow_phase_pairs;
+    if (k > 0) c.touched.push_back({a, b, uint32_t(contacts.size()), uint32_t(k)});
     const float mu = std::sqrt(bodies[a].friction * bodies[b].friction);
     for (int p = 0; p < k; ++p) contacts.push_back({a, bodies[b].is_static ? kWorldBody : b, cp[p], mu, 0.0f, 0.0f, {}, 1.0f});
   }

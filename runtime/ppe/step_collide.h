@@ -9,6 +9,7 @@
 #include "runtime/ppe/body_records.h"
 #include "runtime/ppe/broad_phase.h"
 #include "runtime/ppe/contact_memory.h"
+#include "runtime/ppe/step_events.h"
 #include "runtime/ppe/step_stats.h"
 
 namespace cellphys::ppe {
@@ -24,12 +25,15 @@ struct CollideScratch {
   std::vector<uint32_t> planes;
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
   std::vector<uint64_t> joined;  // body pairs a joint joins (low id << 32 | high id), sorted
+  std::vector<TouchedPair> touched;                   // the pairs with contacts, for the events
+  std::vector<std::pair<uint32_t, uint32_t>> sensed;  // (sensor, visitor) overlapping
 };
 
 /// The step's contact points in `contacts` (replaced): the dynamic body first, normals from a
 /// to b, b = kWorldBody for static geometry, each with its mass and friction strain from the
 /// pair's memory (then updated). Two bodies a joint joins (a force whose descriptor says
-/// `joint: true`) do not collide: a ragdoll's limbs overlap at their joints by design. Times
+/// `joint: true`) do not collide: a ragdoll's limbs overlap at their joints by design. A pair with
+/// a sensor gives no contacts: it is in scratch.sensed while the two overlap. Times
 /// broad, mid and narrow phase (with the recall).
 void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const ShapeDictionary& shapes,
              const WorldSettings& settings, CollideScratch& scratch, ContactMemory& memory,

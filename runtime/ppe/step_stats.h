@@ -15,6 +15,7 @@ struct StageTimes {
   double decouple_ms = 0;                          // 5. decouple
   double pack_ms = 0, integrate_ms = 0, unpack_ms = 0;  // 6. integrate islands (run and check: integrate_ms)
   double sleep_ms = 0;                             // 7. put quiet islands to sleep
+  double events_ms = 0;                            // 8. contact and sensor events
   double total_ms = 0;
 };
 
@@ -29,6 +30,7 @@ inline constexpr StageTimeField kStageTimeFields[] = {
     {"push", &StageTimes::push_ms},         {"islands", &StageTimes::islands_ms},   {"decouple", &StageTimes::decouple_ms},
     {"pack", &StageTimes::pack_ms},         {"integrate", &StageTimes::integrate_ms},
     {"unpack", &StageTimes::unpack_ms},     {"sleep", &StageTimes::sleep_ms},
+    {"events", &StageTimes::events_ms},
     {"total", &StageTimes::total_ms},
 };
 

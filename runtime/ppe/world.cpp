@@ -6,6 +6,7 @@
 #include "runtime/ppe/settings.h"
 #include "runtime/ppe/step_collide.h"
 #include "runtime/ppe/step_decouple.h"
+#include "runtime/ppe/step_events.h"
 #include "runtime/ppe/step_integrate.h"
 #include "runtime/ppe/step_islands.h"
 #include "runtime/ppe/step_push.h"
@@ -57,6 +58,7 @@ BodyId World::add_body(const BodyDesc& d) {
   b.linear_damping = d.linear_damping;
   b.angular_damping = d.angular_damping;
   b.is_static = is_static;
+  b.sensor = d.sensor;
   take_state(d.state, who, warnings_, b);
   if (!b.is_static) set_mass_properties(shapes_, d, who, b);
   impl_->bodies.push_back(b);
@@ -74,6 +76,7 @@ void World::remove_body(BodyId id) {
       f.alive = false;
     }
   forget_body(impl_->contact_memory, id);
+  end_events_of(impl_->event_memory, id);
   b.alive = false;
   ++impl_->revision;
 }
@@ -138,6 +141,17 @@ void World::apply_impulse(BodyId id, const float impulse[3], const float point[3
 
 bool World::is_awake(BodyId id) const { return impl_->live(id).awake; }
 bool World::is_static(BodyId id) const { return impl_->live(id).is_static; }
+bool World::is_sensor(BodyId id) const { return impl_->live(id).sensor; }
+const std::vector<ContactEvent>& World::contact_events() const { return impl_->contact_events; }
+const std::vector<SensorEvent>& World::sensor_events() const { return impl_->sensor_events; }
+
+std::vector<BodyId> World::sensor_contents(BodyId sensor) const {
+  if (!impl_->live(sensor).sensor) throw WorldError(body_name(sensor) + " is not a sensor");
+  std::vector<BodyId> inside;
+  for (uint64_t k : impl_->event_memory.sensing)
+    if (uint32_t(k >> 32) == sensor) inside.push_back(uint32_t(k));
+  return inside;
+}
 bool World::has_body(BodyId id) const { return id < impl_->bodies.size() && impl_->bodies[id].alive; }
 uint32_t World::shape(BodyId id) const { return impl_->live(id).shape; }
 float World::scale(BodyId id) const { return impl_->live(id).scale; }
@@ -177,6 +191,12 @@ const StepStats& World::step() {
   {
     StageTimer total(st.times.total_ms);
     collide(w.bodies, w.forces, shapes_, settings_, w.collide, w.contact_memory, w.contacts, st);  // 1
+    PendingEvents events;  // 8, begun: what a touch's begin measures before the step moves anything
+    {
+      StageTimer t(st.times.events_ms);
+      events = begin_events(w.bodies, settings_, w.contacts, w.collide.touched, w.collide.sensed, w.event_memory,
+                            w.sensor_events);
+    }
     wake_touched_groups(w.bodies, w.forces, w.contacts, w.sleeping, st);                 // 2
     push_out_overlaps(settings_, w.forces, w.bodies, w.contacts, w.contact_memory, w.push, st);  // 3
     const std::vector<IslandContent> islands = build_islands(w.bodies, w.forces, w.contacts, st);  // 4
@@ -185,6 +205,10 @@ const StepStats& World::step() {
     const std::vector<uint8_t> failed = integrate_islands(settings_, shapes_, islands, parts, w.forces,  // 6
                                                           w.contacts, w.bodies, w.compute(settings_), st);
     sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 7
+    {
+      StageTimer t(st.times.events_ms);  // 8, finished: the begin touches' impulses
+      finish_events(w.bodies, events, w.event_memory, w.contact_events);
+    }
     // Which island each body was in, for last_island (display only).
     w.island_of.assign(w.bodies.size(), kNoIsland);
     w.island_decoupled.assign(islands.size(), 0);

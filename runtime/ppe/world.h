@@ -11,6 +11,7 @@
 //   6. integrate        runtime/ppe/step_integrate.h  pack, run on the kernels, check, unpack;
 //                                                     a failed step halves inside the kernel
 //   7. sleep            runtime/ppe/step_sleep.h      quiet islands put to sleep
+//   8. events           runtime/ppe/step_events.h     touches begun and ended, sensors entered and left
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -79,6 +80,9 @@ struct BodyDesc {
   float linear_damping = 0.0f;   // 1/s
   float angular_damping = 0.0f;  // 1/s
   bool is_static = false;
+  /// A sensor reports the bodies that overlap it (World::sensor_events) and exerts no force:
+  /// nothing collides with it, and it does not wake what it holds.
+  bool sensor = false;
 };
 
 /// A contact point as the last step saw it, for display (World::debug_contacts()).
@@ -102,6 +106,28 @@ struct CutCoupling {
   uint32_t island;  // the island it was cut in (as last_island numbers them)
 };
 inline constexpr ForceId kNoForce = 0xFFFFFFFFu;
+
+/// Two bodies began or ended touching in the last step (World::contact_events()): for sounds,
+/// damage and game logic. a < b; a static body is named by its own id.
+struct ContactEvent {
+  enum class Kind : uint8_t { begin, end };
+  Kind kind;
+  BodyId a, b;
+  /// A begin's: the middle of the pair's contact points and their normal, from a to b (world).
+  float point[3], normal[3];
+  /// A begin's: the fastest closing speed among its points before the step (m/s).
+  float approach_speed;
+  /// A begin's: the normal impulse of the pair's first step of touching (N s), from the change of
+  /// their separating speed at the point beyond gravity's, times the pair's effective mass there.
+  float impulse;
+};
+
+/// A body entered (begin) or left (end) a sensor in the last step (World::sensor_events()).
+struct SensorEvent {
+  enum class Kind : uint8_t { begin, end };
+  Kind kind;
+  BodyId sensor, visitor;
+};
 
 /// A force instance's parameters by name, as the force table declares them.
 using ForceParams = std::vector<std::pair<std::string, std::vector<float>>>;
@@ -131,6 +157,7 @@ class World {
   void apply_impulse(BodyId id, const float impulse[3], const float point[3]);  // world frame; wakes
   bool is_awake(BodyId id) const;
   bool is_static(BodyId id) const;
+  bool is_sensor(BodyId id) const;
   bool has_body(BodyId id) const;   // added and not removed
   uint32_t shape(BodyId id) const;  // index in shapes()
   float scale(BodyId id) const;
@@ -157,6 +184,16 @@ class World {
   uint32_t last_island(BodyId id) const;
   bool island_decoupled(uint32_t island) const;
   const std::vector<CutCoupling>& cut_couplings() const;
+
+  /// The last step's begin and end touches, in pair order; a removed body's touches end in the
+  /// step after its removal. Pairs a joint joins do not collide, so never touch.
+  const std::vector<ContactEvent>& contact_events() const;
+  /// The last step's sensor entries and exits, in (sensor, visitor) order. Sensors do not sense
+  /// each other; a body asleep inside a sensor stays inside.
+  const std::vector<SensorEvent>& sensor_events() const;
+  /// The bodies inside `sensor` as the last step's collision found them (at the poses the step
+  /// started from; a sleeper stays inside), ascending.
+  std::vector<BodyId> sensor_contents(BodyId sensor) const;
   /// Warnings from the last add/set call (e.g. a quaternion normalised).
   const std::vector<std::string>& warnings() const { return warnings_; }
   double kinetic_energy() const;

@@ -9,6 +9,7 @@
 #include "runtime/ppe/body_records.h"
 #include "runtime/ppe/query_tree.h"
 #include "runtime/ppe/step_collide.h"
+#include "runtime/ppe/step_events.h"
 #include "runtime/ppe/step_integrate.h"
 #include "runtime/ppe/step_push.h"
 #include "runtime/ppe/step_sleep.h"
@@ -40,6 +41,9 @@ struct World::Impl {
   std::vector<uint32_t> island_of;      // per body slot: its island in the last step (for display only)
   std::vector<uint8_t> island_decoupled;  // per island of the last step: cut in parts
   std::vector<CutCoupling> cut;           // the last step's cut couplings (for display only)
+  EventMemory event_memory;               // touching pairs and sensor overlaps, kept between steps
+  std::vector<ContactEvent> contact_events;  // the last step's
+  std::vector<SensorEvent> sensor_events;    // the last step's
   uint64_t revision = 0;                  // counts changes to the bodies' set or poses
   mutable QueryIndex queries;             // the queries' tree, brought up to date by the first query after a change
 

@@ -52,6 +52,7 @@ struct BodySpec {
   float linear_damping = 0.0f;   // 1/s
   float angular_damping = 0.0f;  // 1/s
   bool is_static = false;
+  bool sensor = false;  // reports overlaps, exerts no force (ppe::BodyDesc::sensor)
 };
 
 /// The world side of a force ("b": "world").

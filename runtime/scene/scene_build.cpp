@@ -62,6 +62,7 @@ BuiltScene build_world(const SceneDesc& scene) {
     d.linear_damping = b.linear_damping;
     d.angular_damping = b.angular_damping;
     d.is_static = b.is_static;
+    d.sensor = b.sensor;
     try {
       const ppe::BodyId id = w.add_body(d);
       ids[b.id] = id;

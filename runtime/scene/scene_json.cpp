@@ -299,7 +299,7 @@ BodySpec read_body(const Reader& r, const json& j, const std::string& p, const s
   r.object(j, p);
   r.known_fields(j, p,
                  {"id", "shape", "scale", "mass", "density", "inertia", "position", "orientation", "velocity",
-                  "angular_velocity", "friction", "damping", "static"},
+                  "angular_velocity", "friction", "damping", "static", "sensor"},
                  "a body");
   BodySpec b;
   b.id = r.body_ref(r.need(j, p, "id", "a body"), p + ".id", &b.id_is_integer);
@@ -307,6 +307,7 @@ BodySpec read_body(const Reader& r, const json& j, const std::string& p, const s
   b.shape = r.name(r.need(j, p, "shape", "a body"), p + ".shape");
   if (!shapes.count(b.shape)) r.fail(p + ".shape", "unknown shape " + shown(b.shape));
   if (const json* v = r.find(j, "static")) b.is_static = r.boolean(*v, p + ".static");
+  if (const json* v = r.find(j, "sensor")) b.sensor = r.boolean(*v, p + ".sensor");
   if (const json* v = r.find(j, "scale")) b.scale = r.positive(*v, p + ".scale");
   const json* mass = r.find(j, "mass");
   const json* density = r.find(j, "density");
@@ -620,6 +621,7 @@ std::string write_scene(const SceneDesc& scene) {
     }
     o["shape"] = b.shape;
     if (b.is_static) o["static"] = true;
+    if (b.sensor) o["sensor"] = true;
     if (b.scale != 1.0f) o["scale"] = tidy(b.scale);
     if (b.mass != 0.0f) o["mass"] = tidy(b.mass);
     if (b.density != 0.0f) o["density"] = tidy(b.density);
@@ -717,7 +719,8 @@ bool operator==(const BodySpec& a, const BodySpec& b) {
   return a.id == b.id && a.id_is_integer == b.id_is_integer && a.shape == b.shape && a.scale == b.scale &&
          a.mass == b.mass && a.density == b.density && a.has_inertia == b.has_inertia &&
          (!a.has_inertia || same(a.inertia, b.inertia)) && same(a.state, b.state) && a.friction == b.friction &&
-         a.linear_damping == b.linear_damping && a.angular_damping == b.angular_damping && a.is_static == b.is_static;
+         a.linear_damping == b.linear_damping && a.angular_damping == b.angular_damping && a.is_static == b.is_static &&
+         a.sensor == b.sensor;
 }
 
 bool operator==(const ForceSpec& a, const ForceSpec& b) {

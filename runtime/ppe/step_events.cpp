@@ -1,0 +1,192 @@
+#include "runtime/ppe/step_events.h"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+#include "runtime/base/quat.h"
+#include "runtime/ppe/body_maths.h"
+
+namespace cellphys::ppe {
+
+namespace {
+
+uint64_t key_of(uint32_t a, uint32_t b) { return uint64_t(a) << 32 | b; }
+uint32_t high(uint64_t k) { return uint32_t(k >> 32); }
+uint32_t low(uint64_t k) { return uint32_t(k); }
+
+bool still(const std::vector<WorldBody>& bodies, uint32_t id) {
+  return id < bodies.size() && bodies[id].alive && (bodies[id].is_static || !bodies[id].awake);
+}
+// A pair the step did not collide stays as it was while nothing of it moves.
+bool kept(const std::vector<WorldBody>& bodies, uint64_t k) { return still(bodies, high(k)) && still(bodies, low(k)); }
+
+Mat3d inverse_inertia_world(const WorldBody& b) {
+  return rotate_sym(quat_to_matrix(Quatd::load(b.state.orientation)), b.inverse_inertia);
+}
+
+// 1 / (velocity change along n at p per unit impulse along n) of the pair; a static body adds nothing.
+double effective_mass(const std::vector<WorldBody>& bodies, uint32_t a, uint32_t b, const Vec3d& p, const Vec3d& n) {
+  double w = 0;
+  for (uint32_t id : {a, b}) {
+    const WorldBody& x = bodies[id];
+    if (x.is_static) continue;
+    w += inverse_mass_along(1.0 / x.mass, inverse_inertia_world(x), Vec3d::load(x.state.position), p, n);
+  }
+  return w > 0 ? 1.0 / w : 0.0;
+}
+
+Vec3d body_velocity_at(const std::vector<WorldBody>& bodies, uint32_t id, const Vec3d& p) {
+  return bodies[id].is_static ? Vec3d{0, 0, 0} : velocity_at(bodies, id, p);
+}
+
+// Separating speed of b from a along n at p (> 0 apart).
+double separating(const std::vector<WorldBody>& bodies, uint32_t a, uint32_t b, const Vec3d& p, const Vec3d& n) {
+  return dot(body_velocity_at(bodies, b, p) - body_velocity_at(bodies, a, p), n);
+}
+
+void put3(float* out, const Vec3d& v) { out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z); }
+
+// A candidate's begin at the middle of the pair's points: the fastest closing speed among them,
+// and the effective mass and the gravity-only separating speed at the middle, for the impulse.
+PendingEvents::Candidate candidate(const std::vector<WorldBody>& bodies, const WorldSettings& s,
+                                   const std::vector<WorldContact>& contacts, const TouchedPair& t) {
+  PendingEvents::Candidate c{};
+  Vec3d mid{0, 0, 0}, n{0, 0, 0};
+  double fastest = 0;
+  for (uint32_t i = t.first; i < t.first + t.count; ++i) {
+    const spu::ContactPoint& cp = contacts[i].point;
+    const Vec3d p = Vec3d::load(cp.point), ni = Vec3d::load(cp.normal);
+    mid = mid + p;
+    n = n + ni;
+    const double closing = -separating(bodies, t.a, t.b, p, ni);
+    fastest = std::max(fastest, closing);
+    c.acts = c.acts || cp.penetration + s.dt * std::max(closing, 0.0) >= 0.0;
+  }
+  mid = mid * (1.0 / t.count);
+  const double len = norm(n);
+  n = len > 0 ? n * (1.0 / len) : Vec3d::load(contacts[t.first].point.normal);
+  // Gravity alone would change the separating speed by h g.n for each dynamic body (a's from
+  // the other side).
+  const Vec3d g = Vec3d::load(s.globals.gravity);
+  double free = separating(bodies, t.a, t.b, mid, n);
+  if (!bodies[t.b].is_static) free += s.dt * dot(g, n);
+  if (!bodies[t.a].is_static) free -= s.dt * dot(g, n);
+  ContactEvent& e = c.begin;
+  e.kind = ContactEvent::Kind::begin;
+  e.a = t.a, e.b = t.b;
+  if (e.a > e.b) std::swap(e.a, e.b), n = n * -1.0;  // the lower id first, as every event has it
+  put3(e.point, mid);
+  put3(e.normal, n);
+  e.approach_speed = float(fastest);
+  c.mass = float(effective_mass(bodies, t.a, t.b, mid, n));
+  c.free_speed = float(free);
+  return c;
+}
+
+// Keeps in `memory` (sorted) the keys found this step (`found`, sorted) and those kept asleep;
+// the rest end.
+template <class End>
+void keep_or_end(const std::vector<WorldBody>& bodies, const std::vector<uint64_t>& found, std::vector<uint64_t>& memory,
+                 End end) {
+  auto f = found.begin();
+  size_t out = 0;
+  for (uint64_t k : memory) {
+    while (f != found.end() && *f < k) ++f;
+    if ((f != found.end() && *f == k) || kept(bodies, k)) memory[out++] = k;
+    else end(k);
+  }
+  memory.resize(out);
+}
+
+bool by_pair(const ContactEvent& x, const ContactEvent& y) {
+  return std::make_tuple(x.a, x.b, x.kind) < std::make_tuple(y.a, y.b, y.kind);
+}
+
+}  // namespace
+
+PendingEvents begin_events(const std::vector<WorldBody>& bodies, const WorldSettings& s,
+                           const std::vector<WorldContact>& contacts, const std::vector<TouchedPair>& touched,
+                           const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
+                           std::vector<SensorEvent>& sensor_events) {
+  PendingEvents out;
+  out.events = std::move(memory.removed_touches);
+  memory.removed_touches.clear();
+  sensor_events = std::move(memory.removed_overlaps);
+  memory.removed_overlaps.clear();
+
+  // Touches: what touched and still collides, what sleeps as it was; what collides anew may begin.
+  // One pass over the memory against this step's pairs, sorted: a step costs what is awake.
+  std::vector<uint64_t> found;
+  found.reserve(touched.size());
+  for (const TouchedPair& t : touched) {
+    const uint64_t k = key_of(std::min(t.a, t.b), std::max(t.a, t.b));
+    found.push_back(k);
+    if (!std::binary_search(memory.touching.begin(), memory.touching.end(), k))
+      out.candidates.push_back(candidate(bodies, s, contacts, t));
+  }
+  std::sort(found.begin(), found.end());
+  keep_or_end(bodies, found, memory.touching, [&](uint64_t k) {
+    ContactEvent e{};
+    e.kind = ContactEvent::Kind::end;
+    e.a = high(k), e.b = low(k);
+    out.events.push_back(e);
+  });
+
+  // Sensor overlaps, the same way; an overlap begins as soon as it is found (no force acts).
+  found.clear();
+  for (const auto& [sensor, visitor] : sensed) found.push_back(key_of(sensor, visitor));
+  std::sort(found.begin(), found.end());
+  keep_or_end(bodies, found, memory.sensing, [&](uint64_t k) { sensor_events.push_back({SensorEvent::Kind::end, high(k), low(k)}); });
+  const size_t kept_overlaps = memory.sensing.size();
+  for (uint64_t k : found)
+    if (!std::binary_search(memory.sensing.begin(), memory.sensing.begin() + kept_overlaps, k)) {
+      memory.sensing.push_back(k);
+      sensor_events.push_back({SensorEvent::Kind::begin, high(k), low(k)});
+    }
+  std::inplace_merge(memory.sensing.begin(), memory.sensing.begin() + kept_overlaps, memory.sensing.end());
+  std::sort(sensor_events.begin(), sensor_events.end(), [](const SensorEvent& x, const SensorEvent& y) {
+    return std::make_tuple(x.sensor, x.visitor, x.kind) < std::make_tuple(y.sensor, y.visitor, y.kind);
+  });
+  return out;
+}
+
+void finish_events(const std::vector<WorldBody>& bodies, PendingEvents& pending,
+                   EventMemory& memory, std::vector<ContactEvent>& events) {
+  events = std::move(pending.events);
+  const size_t kept = memory.touching.size();
+  for (PendingEvents::Candidate& c : pending.candidates) {
+    if (!c.acts) continue;
+    ContactEvent& e = c.begin;
+    // The contact's impulse along the normal: what the step changed the separating speed by
+    // beyond gravity's change, times the pair's effective mass there.
+    const double after = separating(bodies, e.a, e.b, Vec3d::load(e.point), Vec3d::load(e.normal));
+    e.impulse = float(std::max(0.0, double(c.mass) * (after - c.free_speed)));
+    events.push_back(e);
+    memory.touching.push_back(key_of(e.a, e.b));
+  }
+  std::sort(memory.touching.begin() + kept, memory.touching.end());
+  std::inplace_merge(memory.touching.begin(), memory.touching.begin() + kept, memory.touching.end());
+  std::sort(events.begin(), events.end(), by_pair);
+}
+
+void end_events_of(EventMemory& memory, uint32_t id) {
+  auto split = [&](std::vector<uint64_t>& keys, auto emit) {
+    keys.erase(std::remove_if(keys.begin(), keys.end(),
+                              [&](uint64_t k) {
+                                if (high(k) != id && low(k) != id) return false;
+                                emit(k);
+                                return true;
+                              }),
+               keys.end());
+  };
+  split(memory.touching, [&](uint64_t k) {
+    ContactEvent e{};
+    e.kind = ContactEvent::Kind::end;
+    e.a = high(k), e.b = low(k);
+    memory.removed_touches.push_back(e);
+  });
+  split(memory.sensing, [&](uint64_t k) { memory.removed_overlaps.push_back({SensorEvent::Kind::end, high(k), low(k)}); });
+}
+
+}  // namespace cellphys::ppe

@@ -178,6 +178,42 @@ TEST_F(Cli, DurationEveryAndTheTrajectoryCsv) {
   EXPECT_EQ(files(), (std::vector<std::string>{"stats.json", "traj.csv"})) << "no temporaries left";
 }
 
+// --events: a ball dropped through a trigger onto the ground: the trigger's entry and exit, then
+// the landing's touch with the closed form's speed and an impulse; rows parse, names are the
+// scene's.
+TEST_F(Cli, TheEventsCsvHasTheLandingAndTheTrigger) {
+  const std::string scene = path("drop.json"), csv = path("events.csv");
+  spit(scene, R"({"shapes": [{"name": "floor", "type": "plane", "normal": [0, 0, 1]},
+                          {"name": "ball", "type": "sphere", "radius": 0.2},
+                          {"name": "zone", "type": "box", "half_extents": [1, 1, 0.25]}],
+               "bodies": [{"id": "ground", "shape": "floor"},
+                          {"id": "trigger", "shape": "zone", "static": true, "sensor": true, "position": [0, 0, 1]},
+                          {"id": "ball", "shape": "ball", "mass": 2, "position": [0, 0, 2.2]}]})");
+  const Result r = run({"run", scene, "--duration", "1.5", "--events", csv});
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::istringstream in(slurp(csv));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "step,t,event,a,b,px,py,pz,nx,ny,nz,approach_speed,impulse");
+  std::vector<std::string> kinds;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ls(line + ",");  // a trailing empty cell is a cell
+    for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
+    ASSERT_EQ(cells.size(), 13u) << line;
+    kinds.push_back(cells[2] + " " + cells[3] + " " + cells[4]);
+    if (cells[2] == "touch_begin") {
+      EXPECT_NEAR(std::stod(cells[11]), std::sqrt(2 * 9.81 * 2.0), 9.81 / 60 + 0.1) << line;  // fell 2 m
+      EXPECT_GT(std::stod(cells[12]), 0.0) << line;
+      EXPECT_NEAR(std::stod(cells[10]), 1.0, 1e-5) << line;  // from the ground up to the ball
+    }
+  }
+  const std::vector<std::string> want = {"sensor_begin trigger ball", "sensor_end trigger ball", "touch_begin ground ball"};
+  ASSERT_GE(kinds.size(), 3u);
+  EXPECT_EQ(want, std::vector<std::string>(kinds.begin(), kinds.begin() + 3));
+  EXPECT_EQ(run({"run", scene, "--events", csv, "--out", csv}).code, 2) << "one file for two outputs is refused";
+}
+
 TEST_F(Cli, OverridesReachTheWorld) {
   const std::string stats = path("s.json");
   const Result r = run({"run", "spin", "--steps", "3", "--dt", "0.01", "--integrator", "rk4", "--solver", "direct",

@@ -1,5 +1,5 @@
 // `cellphys run`: load the world (tools/run_world.h), step it, and report (tools/run_report.h): a
-// summary on stdout, optionally a trajectory CSV, a statistics JSON and a snapshot of the world,
+// summary on stdout, optionally a trajectory CSV, an events CSV, a statistics JSON and a snapshot of the world,
 // each written atomically (tools/atomic_file.h) so a failed or interrupted run leaves no partial
 // file.
 #include <chrono>
@@ -12,6 +12,7 @@
 #include "runtime/scene/scene.h"
 #include "tools/atomic_file.h"
 #include "tools/cli.h"
+#include "tools/events_csv.h"
 #include "tools/interrupt.h"
 #include "tools/progress_bar.h"
 #include "tools/run_options.h"
@@ -51,11 +52,16 @@ int run(const RunOptions& o, std::shared_ptr<ppe::IslandRunner> runner) {
   r.runner = runner ? runner->name() : nullptr;
   r.totals = RunTotals(r.steps);
 
-  AtomicFile out, stats_file;
+  AtomicFile out, stats_file, events_file;
   if (!o.out.empty()) {
     out.open(o.out);
     write_trajectory_header(out.get());
     write_trajectory_rows(out.get(), world, w.bodies, 0, 0.0, w.ids);
+  }
+  const EventsCsv events(w.bodies, w.ids);
+  if (!o.events.empty()) {
+    events_file.open(o.events);
+    events.write_header(events_file.get());
   }
   if (!o.stats.empty()) stats_file.open(o.stats);
   if (!o.save_snapshot.empty()) AtomicFile().open(o.save_snapshot);  // an unwritable place fails now, not at the end
@@ -73,6 +79,7 @@ int run(const RunOptions& o, std::shared_ptr<ppe::IslandRunner> runner) {
     const auto a = Clock::now();
     const ppe::StepStats& st = world.step();
     r.totals.add(st, std::chrono::duration<double, std::milli>(Clock::now() - a).count());
+    if (events_file.is_open()) events.write_step(events_file.get(), world, static_cast<uint64_t>(s), double(s) * dt);
     if (out.is_open() && s % o.every == 0)
       write_trajectory_rows(out.get(), world, w.bodies, static_cast<uint64_t>(s), double(s) * dt, w.ids);
     if (o.snapshot_every > 0 && s % o.snapshot_every == 0 && s < r.steps) save_snapshot(world, o.save_snapshot);
@@ -86,9 +93,10 @@ int run(const RunOptions& o, std::shared_ptr<ppe::IslandRunner> runner) {
     const std::string text = stats_json(o, w, r);
     std::fwrite(text.data(), 1, text.size(), stats_file.get());
   }
-  // Both files are complete; move them into place (a failure removes what is left), then the
+  // The files are complete; move them into place (a failure removes what is left), then the
   // snapshot, so a failed commit leaves no new snapshot either.
   if (out.is_open()) out.commit();
+  if (events_file.is_open()) events_file.commit();
   if (stats_file.is_open()) stats_file.commit();
   if (!o.save_snapshot.empty()) save_snapshot(world, o.save_snapshot);
   print_summary(o, w, r);

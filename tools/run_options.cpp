@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <iterator>
 #include <utility>
 
 #include <CLI/CLI.hpp>
@@ -38,6 +39,9 @@ const char kRunHelpFormat[] =
     "                    (every body; step 0 and every N-th step)\n"
     "  --every N         with --out: write every N-th step (default 1)\n"
     "  --stats FILE      run statistics as JSON\n"
+    "  --events FILE     contact and sensor events CSV (docs/events.md): step,t,event,a,b,\n"
+    "                    px,py,pz,nx,ny,nz,approach_speed,impulse; event is touch_begin,\n"
+    "                    touch_end, sensor_begin or sensor_end\n"
     "  --save-snapshot FILE  the world at the end as a snapshot (docs/distributed.md), for\n"
     "                    --resume; a resumed run steps on bit for bit\n"
     "  --snapshot-every N    with --save-snapshot: also every N-th step, a checkpoint (the file\n"
@@ -103,6 +107,7 @@ class Parser {
     text("--out", o.out);
     count("--every", o.every, 1, kMaxCount);
     text("--stats", o.stats);
+    text("--events", o.events);
     text("--save-snapshot", o.save_snapshot);
     count("--snapshot-every", o.snapshot_every, 1, kMaxCount);
     value("--resume", [&o](const std::string& f) {
@@ -178,9 +183,10 @@ bool parse_run_options(int argc, char** argv, RunOptions& o) {
     throw UsageError{"give a scene or --resume SNAPSHOT, not both ('" + o.scene + "' and '" + o.resume + "')"};
   if (o.snapshot_every > 0 && o.save_snapshot.empty()) throw UsageError{"--snapshot-every needs --save-snapshot FILE"};
   const std::pair<const char*, const std::string*> outputs[] = {
-      {"--out", &o.out}, {"--stats", &o.stats}, {"--save-snapshot", &o.save_snapshot}};
-  for (size_t i = 0; i < 3; ++i)
-    for (size_t k = i + 1; k < 3; ++k) {
+      {"--out", &o.out}, {"--stats", &o.stats}, {"--save-snapshot", &o.save_snapshot}, {"--events", &o.events}};
+  constexpr size_t n = std::size(outputs);
+  for (size_t i = 0; i < n; ++i)
+    for (size_t k = i + 1; k < n; ++k) {
       const std::string& x = *outputs[i].second;
       const std::string& y = *outputs[k].second;
       if (x.empty() || y.empty()) continue;

@@ -12,7 +12,7 @@ struct RunOptions {
   std::string integrator, solver;
   double tolerance = -1;
   int workers = 0;
-  std::string out, stats;
+  std::string out, stats, events;
   long long every = 1;
   std::string save_snapshot, resume;
   long long snapshot_every = 0;

@@ -4,15 +4,11 @@
 
 namespace cellphys::cli {
 
-namespace {
-
 void put_float(std::string& line, float v) {
   char buf[32];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
   line.append(buf, r.ptr);
 }
-
-}  // namespace
 
 std::string csv_field(const std::string& s) {
   if (s.find_first_of(",\"\r\n") == std::string::npos) return s;

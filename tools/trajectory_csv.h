@@ -13,6 +13,9 @@ namespace cellphys::cli {
 // A body id as a CSV field (quoted when it holds a comma, a quote or a line break).
 std::string csv_field(const std::string& s);
 
+// A float in its shortest exact form, appended to a CSV line.
+void put_float(std::string& line, float v);
+
 void write_trajectory_header(FILE* f);
 
 // One row per body of `bodies` (in that order, `ids` its body column) at `step`, time `t`.

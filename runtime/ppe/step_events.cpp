@@ -6,6 +6,7 @@
 
 #include "runtime/base/quat.h"
 #include "runtime/ppe/body_maths.h"
+#include "runtime/spu/narrow_phase.h"
 
 namespace cellphys::ppe {
 
@@ -84,16 +85,31 @@ PendingEvents::Candidate candidate(const std::vector<WorldBody>& bodies, const W
   return c;
 }
 
-// Keeps in `memory` (sorted) the keys found this step (`found`, sorted) and those kept asleep;
-// the rest end.
-template <class End>
-void keep_or_end(const std::vector<WorldBody>& bodies, const std::vector<uint64_t>& found, std::vector<uint64_t>& memory,
-                 End end) {
+// Whether a touching pair collision did not find is still coming at itself: within twice the
+// margin collision used, a point closes.
+bool still_closing(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                   const std::vector<float>& reach, uint64_t k) {
+  uint32_t a = high(k), b = low(k);
+  if (a >= bodies.size() || b >= bodies.size() || !bodies[a].alive || !bodies[b].alive) return false;
+  if (bodies[a].is_static) std::swap(a, b);  // as collision orders a pair
+  const float margin = 2 * (s.globals.contact_slop + reach[a] + reach[b]);
+  spu::ContactPoint cp[spu::kMaxManifoldPoints];
+  const int n = spu::collide(shapes.view(bodies[a].shape), pose_of(bodies[a]), shapes.view(bodies[b].shape),
+                             pose_of(bodies[b]), margin, cp);
+  for (int i = 0; i < n; ++i)
+    if (separating(bodies, a, b, Vec3d::load(cp[i].point), Vec3d::load(cp[i].normal)) < 0) return true;
+  return false;
+}
+
+// Keeps in `memory` (sorted) the keys found this step (`found`, sorted) and those `keep` says
+// stay; the rest end.
+template <class Keep, class End>
+void keep_or_end(const std::vector<uint64_t>& found, std::vector<uint64_t>& memory, Keep keep, End end) {
   auto f = found.begin();
   size_t out = 0;
   for (uint64_t k : memory) {
     while (f != found.end() && *f < k) ++f;
-    if ((f != found.end() && *f == k) || kept(bodies, k)) memory[out++] = k;
+    if ((f != found.end() && *f == k) || keep(k)) memory[out++] = k;
     else end(k);
   }
   memory.resize(out);
@@ -105,8 +121,9 @@ bool by_pair(const ContactEvent& x, const ContactEvent& y) {
 
 }  // namespace
 
-PendingEvents begin_events(const std::vector<WorldBody>& bodies, const WorldSettings& s,
-                           const std::vector<WorldContact>& contacts, const std::vector<TouchedPair>& touched,
+PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                           const std::vector<float>& reach, const std::vector<WorldContact>& contacts,
+                           const std::vector<TouchedPair>& touched,
                            const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
                            std::vector<SensorEvent>& sensor_events) {
   PendingEvents out;
@@ -126,7 +143,8 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const WorldSett
       out.candidates.push_back(candidate(bodies, s, contacts, t));
   }
   std::sort(found.begin(), found.end());
-  keep_or_end(bodies, found, memory.touching, [&](uint64_t k) {
+  const auto stays = [&](uint64_t k) { return kept(bodies, k) || still_closing(bodies, shapes, s, reach, k); };
+  keep_or_end(found, memory.touching, stays, [&](uint64_t k) {
     ContactEvent e{};
     e.kind = ContactEvent::Kind::end;
     e.a = high(k), e.b = low(k);
@@ -137,7 +155,7 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const WorldSett
   found.clear();
   for (const auto& [sensor, visitor] : sensed) found.push_back(key_of(sensor, visitor));
   std::sort(found.begin(), found.end());
-  keep_or_end(bodies, found, memory.sensing, [&](uint64_t k) { sensor_events.push_back({SensorEvent::Kind::end, high(k), low(k)}); });
+  keep_or_end(found, memory.sensing, [&](uint64_t k) { return kept(bodies, k); }, [&](uint64_t k) { sensor_events.push_back({SensorEvent::Kind::end, high(k), low(k)}); });
   const size_t kept_overlaps = memory.sensing.size();
   for (uint64_t k : found)
     if (!std::binary_search(memory.sensing.begin(), memory.sensing.begin() + kept_overlaps, k)) {

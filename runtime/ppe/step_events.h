@@ -42,10 +42,13 @@ struct PendingEvents {
 
 /// Compares this step's pairs (`touched`, with their contacts, and the sensor overlaps
 /// `sensed`, sensor first) with the memory: the ends and the sensor events are final, the
-/// begins are candidates. Pairs the step did not collide are kept while both bodies sleep or are
-/// static.
-PendingEvents begin_events(const std::vector<WorldBody>& bodies, const WorldSettings& s,
-                           const std::vector<WorldContact>& contacts, const std::vector<TouchedPair>& touched,
+/// begins are candidates. A touching pair the step did not collide stays touching while both
+/// bodies sleep or are static, or while it still closes: within twice the margin collision used
+/// (`reach`: each body's in the step), a point of it closing, as a fast body braked short of what
+/// it falls on is.
+PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                           const std::vector<float>& reach, const std::vector<WorldContact>& contacts,
+                           const std::vector<TouchedPair>& touched,
                            const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
                            std::vector<SensorEvent>& sensor_events);
 

@@ -194,8 +194,8 @@ const StepStats& World::step() {
     PendingEvents events;  // 8, begun: what a touch's begin measures before the step moves anything
     {
       StageTimer t(st.times.events_ms);
-      events = begin_events(w.bodies, settings_, w.contacts, w.collide.touched, w.collide.sensed, w.event_memory,
-                            w.sensor_events);
+      events = begin_events(w.bodies, shapes_, settings_, w.collide.reach, w.contacts, w.collide.touched,
+                            w.collide.sensed, w.event_memory, w.sensor_events);
     }
     wake_touched_groups(w.bodies, w.forces, w.contacts, w.sleeping, st);                 // 2
     push_out_overlaps(settings_, w.forces, w.bodies, w.contacts, w.contact_memory, w.push, st);  // 3

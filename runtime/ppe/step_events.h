@@ -28,7 +28,7 @@ struct TouchedPair {
 };
 
 /// The pairs that may begin touching this step (collided, not touching before), measured before
-/// the step moves anything; whether they meet, and with what impulse, waits for the step.
+/// the step moves anything; their impulse waits for the step.
 struct PendingEvents {
   struct Candidate {
     ContactEvent begin;        // a, b, the middle of the points, their normal, the approach speed

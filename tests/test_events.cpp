@@ -177,6 +177,27 @@ TEST(SensorEvents, ABodyFallingThroughIsSeenInThenOutAndNotTouched) {
   }
 }
 
+// A ray passes through a sensor to what is behind it, unless the query asks for sensors.
+TEST(SensorEvents, QueriesPassThroughSensorsUnlessAsked) {
+  World w;
+  const BodyId ground = add_ground(w);
+  const float half[3] = {1.0f, 1.0f, 1.0f}, at[3] = {0, 0, 2.0f};
+  const BodyId sensor = add_static_box(w, half, at, true);
+  const float from[3] = {0, 0, 10}, down[3] = {0, 0, -1};
+  const auto past = w.ray_cast(from, down, 20.0f);
+  ASSERT_TRUE(past.has_value());
+  EXPECT_EQ(ground, past->body);
+  QueryFilter with_sensors;
+  with_sensors.sensors = true;
+  const auto hit = w.ray_cast(from, down, 20.0f, with_sensors);
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_EQ(sensor, hit->body);
+  EXPECT_NEAR(hit->distance, 7.0f, 1e-4f);
+  const float centre[3] = {0, 0, 2.0f};
+  EXPECT_TRUE(w.overlap_sphere(centre, 0.5f).empty());
+  EXPECT_EQ(std::vector<BodyId>{sensor}, w.overlap_sphere(centre, 0.5f, with_sensors));
+}
+
 // A body asleep inside a sensor stays inside and asleep; removing it ends its overlap and its
 // touch with the ground in the next step; two sensors do not see each other.
 TEST(SensorEvents, SleepersStayInsideAndRemovalEndsEverything) {

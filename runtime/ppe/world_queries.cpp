@@ -67,6 +67,7 @@ void unit_orientation(const char* query, const float* q, float out[4]) {
 
 bool passes(const WorldBody& b, BodyId id, const QueryFilter& f) {
   if (b.is_static ? !f.static_bodies : (b.awake ? !f.awake_bodies : !f.sleeping_bodies)) return false;
+  if (b.sensor && !f.sensors) return false;
   return !f.accept || f.accept(id);
 }
 

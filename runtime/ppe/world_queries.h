@@ -16,6 +16,7 @@ struct QueryFilter {
   bool static_bodies = true;
   bool awake_bodies = true;
   bool sleeping_bodies = true;
+  bool sensors = false;  // sensors (BodyDesc::sensor) are left out unless asked for: a shot passes a trigger
   std::function<bool(BodyId)> accept;
 };
 

@@ -846,6 +846,18 @@ TEST(ForceKernelTable, EveryForceHasKernelsWithWellFormedBlocks) {
   });
   for (const auto& f : g::kForceTable)
     if (force_tested(f.name)) EXPECT_GE(seen[static_cast<int>(f.type)], 1) << f.name << " has no kernel";
+#ifdef CELLPHYS_TESTED_FORCES
+  // Every name the build lists is a force of this set, so a misspelt one cannot pass unchecked.
+  for (const char* p = CELLPHYS_TESTED_FORCES; *p;) {
+    const char* e = std::strchr(p, ',');
+    const std::string name = e ? std::string(p, e) : std::string(p);
+    EXPECT_TRUE(std::any_of(std::begin(g::kForceTable), std::end(g::kForceTable),
+                            [&](const g::ForceInfo& f) { return name == f.name; }))
+        << "CELLPHYS_TESTED_FORCES names '" << name << "', which this force set lacks";
+    p = e ? e + 1 : p + name.size();
+  }
+#endif
+  EXPECT_GT(kernels, 0);
   RecordProperty("kernels", kernels);
 }
 

@@ -63,6 +63,8 @@ std::vector<ContactEvent> of_pair(const std::vector<ContactEvent>& events, BodyI
 struct Landing {
   int begins = 0, ends = 0, late = 0;  // late: events once it should rest (after 2 s)
   double speed_before = 0;             // the body's speed at the start of its first touch's step
+  double speed_after = 0;              // and at its end
+  double height_before = 0;            // its centre's height at that start, above where it rests
   ContactEvent first{};
 };
 
@@ -71,7 +73,7 @@ Landing watch(World& w, BodyId body, BodyId ground, double seconds) {
   Landing l;
   const int steps = int(std::lround(seconds / w.settings().dt));
   for (int s = 0; s < steps; ++s) {
-    const double speed = std::fabs(w.state(body).velocity[2]);
+    const double speed = std::fabs(w.state(body).velocity[2]), z = w.state(body).position[2];
     w.step();
     for (const ContactEvent& e : of_pair(w.contact_events(), body, ground)) {
       l.late += s * w.settings().dt > 2.0;
@@ -79,9 +81,10 @@ Landing watch(World& w, BodyId body, BodyId ground, double seconds) {
         ++l.ends;
         continue;
       }
-      if (++l.begins == 1) l.first = e, l.speed_before = speed;
+      if (++l.begins == 1) l.first = e, l.speed_before = speed, l.height_before = z, l.speed_after = std::fabs(w.state(body).velocity[2]);
     }
   }
+  l.height_before -= w.state(body).position[2];
   return l;
 }
 
@@ -118,6 +121,9 @@ TEST_P(Drops, BeginWithTheFallsSpeedAndImpulseThenNoFlicker) {
   EXPECT_NEAR(l.first.point[2], 0.0, l.speed_before / 60 + 0.02);
   ::testing::Test::RecordProperty("first_impulse_over_mv", std::to_string(l.first.impulse / mv));
   ::testing::Test::RecordProperty("begins", l.begins);
+  // How far short of the ground the contact's first step brakes the fall (docs/events.md).
+  ::testing::Test::RecordProperty("height_above_rest_at_begin_m", std::to_string(l.height_before));
+  ::testing::Test::RecordProperty("speed_after_begin_step", std::to_string(l.speed_after));
 }
 
 INSTANTIATE_TEST_SUITE_P(ShapesMassesHeights, Drops,

@@ -64,6 +64,7 @@ PendingEvents::Candidate candidate(const std::vector<WorldBody>& bodies, const W
     fastest = std::max(fastest, closing);
     c.acts = c.acts || cp.penetration + s.dt * std::max(closing, 0.0) >= 0.0;
   }
+  if (!c.acts) return c;  // a speculative pair that does not close this step: nothing more to measure
   mid = mid * (1.0 / t.count);
   const double len = norm(n);
   n = len > 0 ? n * (1.0 / len) : Vec3d::load(contacts[t.first].point.normal);

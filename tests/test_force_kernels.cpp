@@ -342,7 +342,7 @@ template <class K> Vec3 attachment(const Case<K>& c, const char* name, int body)
   return B.x + B.R * r;
 }
 
-struct ContactRef { Vec3 pa, pb, f; double depth, held, vn, k, c, slop, hold, rest; };
+struct ContactRef { Vec3 pa, pb, f; double depth, held, vn, fall, k, c, slop, hold, rest; };
 // The contact straight from the descriptor: pa, pb are the material points of a and b that were
 // at `point` at the reference pose (the world's is `point` itself); depth = penetration - (pb - pa).n.
 template <class K> ContactRef contact_ref(const Case<K>& c) {
@@ -373,9 +373,16 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
   r.held = std::min(r.depth, r.hold);  // deeper overlap is pushed out, not sprung
   const Vec3 vrel = vel[1] - vel[0];
   r.vn = n.dot(vrel);
-  // overlapping: pushes only; closing within the step (or to within the slop): linear through 0
-  const bool closing = r.vn <= r.rest && r.depth - kEvalH * r.vn > -r.slop;
-  const double fn = r.depth > 0 ? std::max(0.0, r.k * r.held - r.c * r.vn) : closing ? r.k * r.depth - r.c * r.vn : 0.0;
+  r.fall = *param(c, "fall");
+  // overlapping: pushes only; a gap that closes within the step with gravity's fall: a damper
+  // c + h k toward the closing speed that meets the surface at the step's end
+  // (an overlap opening faster than its spring pushes is let go unless it stays by the end)
+  const bool closing = r.vn <= r.rest && r.depth - kEvalH * (r.vn + r.fall) >= 0;
+  const bool stays = r.depth - kEvalH * (r.vn + r.fall) > 0;
+  const double pushed = r.k * r.held - r.c * r.vn;
+  const double fn = r.depth > 0 ? (stays ? pushed : std::max(0.0, pushed))
+                    : closing   ? (r.c + kEvalH * r.k) * (*param(c, "penetration") / kEvalH - r.vn)
+                                : 0.0;
   const Vec3 vt = vrel - r.vn * n;
   // sticking: the normal spring-damper, tangentially, towards the anchor; sliding: Coulomb
   const Vec3 strain = vec3_at(param(c, "anchor")) + moved - n.dot(moved) * n;
@@ -435,6 +442,8 @@ Case<K> random_case(Rng& rng) {
       // the weight resting on it, as a mass: none, or up to a crate on a pebble
       *param(c, "load") = rng.uni(0, 1) < 0.5 ? 0 : rng.uni(0.1, 100);
       *param(c, "sticking") = rng.uni(0, 1) < 0.5 ? 0 : 1;
+      // gravity's fall onto the contact in a step: none (a wall) to 0.3 m/s
+      *param(c, "fall") = rng.uni(0, 1) < 0.25 ? 0 : -rng.uni(0, 0.3);
       if (rng.uni(0, 1) < 0.25) *global_at(c, "contact_stiffness") = 1e5 * rng.uni(0.5, 2);
       if (rng.uni(0, 1) < 0.25) *global_at(c, "contact_damping") = 1e3 * rng.uni(0.5, 2);
       if (rng.uni(0, 1) < 0.75) {
@@ -447,14 +456,15 @@ Case<K> random_case(Rng& rng) {
         const ContactRef r = contact_ref(c);
         if (r.k * r.held - r.c * r.vn < 0.5 * r.k * r.held) continue;
       } else {
-        // A gap, closing within the step: depth in (-slop + h vn, 0), 1e-4 m clear of both ends.
+        // A gap, closing within the step with gravity's fall: depth in (h (vn + fall), 0), 1e-4 m
+        // clear of both ends.
         const ContactRef r0 = contact_ref(c);
         if (r0.vn > -0.05) continue;
-        const double lo = -r0.slop + kEvalH * r0.vn + 1e-4, hi = -1e-4;
+        const double lo = kEvalH * (r0.vn + r0.fall) + 1e-4, hi = -1e-4;
         if (lo >= hi) continue;
         *param(c, "penetration") += rng.uni(lo, hi) - r0.depth;
         const ContactRef r = contact_ref(c);
-        if (!(r.depth < 0 && r.vn <= r.rest && r.depth - kEvalH * r.vn > -r.slop)) continue;
+        if (!(r.depth < 0 && r.vn <= r.rest && r.depth - kEvalH * (r.vn + r.fall) > 0)) continue;
       }
     }
     return c;
@@ -1053,14 +1063,14 @@ TEST(ContactKernel, NoForceAndNoBlocksWhenSeparated) {
     Rng rng(6000);
     for (int s = 0; s < kStates; ++s) {
       Case<K> c = random_case<K>(rng);
-      // A gap the step does not close to within the slop (or one that opens). depth exactly 0
+      // A gap the step does not close, with gravity's fall (or one that opens). depth exactly 0
       // is left out: it is computed, so its sign there is rounding noise.
       const ContactRef r0 = contact_ref(c);
-      const double beyond = r0.vn < 0 ? -r0.slop + kEvalH * r0.vn : -r0.slop;
+      const double beyond = std::min(kEvalH * (r0.vn + r0.fall), 0.0);
       *param(c, "penetration") += beyond - rng.uni(1e-6, 0.05) - r0.depth;
       const ContactRef r = contact_ref(c);
       ASSERT_LT(r.depth, 0);
-      ASSERT_TRUE(r.vn > r.rest || r.depth - kEvalH * r.vn < -r.slop);
+      ASSERT_TRUE(r.vn > r.rest || r.depth - kEvalH * (r.vn + r.fall) < 0);
       // No normal force, so no friction either: sliding (a Coulomb force of zero) or sticking
       // (a friction cone of zero radius), whatever the strain of the anchor.
       for (int sticking : {0, 1}) {
@@ -1072,10 +1082,12 @@ TEST(ContactKernel, NoForceAndNoBlocksWhenSeparated) {
 }
 
 // Touching at rest (zero depth, zero relative velocity, at the anchor): no force yet, but the
-// normal stiffness is there, so the implicit step meets the surface instead of sinking for a
-// step; a sticking contact's anchor holds it tangentially with the same stiffness. The
-// stiffness is the soft one, mass (2 pi hertz)^2, unless a fixed one is set.
-TEST(ContactKernel, TouchingAtRestHasNoForceButTheNormalStiffness) {
+// step's normal block is there, h c + h^2 k, so the implicit step meets the surface instead of
+// sinking for a step: as the spring-damper's if the computed depth rounds to an overlap, as the
+// damper c + h k toward the surface if it rounds to a gap. A sticking contact's anchor holds it
+// tangentially with the same block. The stiffness is the soft one, mass (2 pi hertz)^2, unless
+// a fixed one is set.
+TEST(ContactKernel, TouchingAtRestHasNoForceButTheNormalBlock) {
   for_contact_kernels([](auto k) {
     using K = decltype(k);
     SCOPED_TRACE(kernel_name<K>());
@@ -1089,29 +1101,28 @@ TEST(ContactKernel, TouchingAtRestHasNoForceButTheNormalStiffness) {
         for (int l = 0; l < 4; ++l) c.ref[kRefWords * b + 4 + l] = c.body[b][kQuat + l];
       }
       *param(c, "penetration") = 0;
+      *param(c, "fall") = -kEvalH * 9.81;  // resting under gravity: the step would close it
       set3(param(c, "anchor"), Vec3::Zero());
       const bool sticking = s % 2, fixed = s >= 2;
       *param(c, "sticking") = sticking;
       *global_at(c, "contact_stiffness") = fixed ? 2e5 : 0;
-      const double omega = 2 * M_PI * global(c, "contact_hertz");
       *param(c, "load") = 0;  // nothing rests on it yet
-      const double stiffness = fixed ? 2e5 : *param(c, "mass") * omega * omega;
-      SCOPED_TRACE(std::string(sticking ? "sticking" : "sliding") + (fixed ? ", fixed stiffness" : ", soft"));
       const ContactRef r = contact_ref(c);
+      SCOPED_TRACE(std::string(sticking ? "sticking" : "sliding") + (fixed ? ", fixed stiffness" : ", soft"));
       ASSERT_NEAR(r.depth, 0, 1e-12);  // computed: rounding either way
+      const double h = kEvalH, step_block = h * r.c + h * h * r.k;
       const std::vector<double> out = eval_case<double>(c);
-      EXPECT_LT(f_norm(out, K::kBodies), 1e-9 * stiffness);
+      EXPECT_LT(f_norm(out, K::kBodies), 1e-9 * r.k);
       const Vec3 n = vec3_at(param(c, "normal"));
       const Blocks J = kernel_blocks<K>(out);
-      // dF_a/ddelta_a, linear part: moving a by n deepens the contact by 1, so F_a = -k n (n . dx).
-      // Sliding, with no normal force yet there is no friction: no tangential stiffness. Marked
-      // sticking, the zero depth rounds to a load of either sign: no tangential stiffness, or the
-      // anchor's -k (I - n n^T) on top, nothing else.
-      const Eigen::Matrix3d normal = -stiffness * n * n.transpose();
-      const Eigen::Matrix3d block = J.m[0][0][0].topLeftCorner<3, 3>();
-      const double off = (block - normal).norm(), anchored = (block + stiffness * Eigen::Matrix3d::Identity()).norm();
-      EXPECT_LT(sticking ? std::min(off, anchored) : off, 1e-9 * stiffness)
-          << "kernel:\n" << block << "\nwant:\n" << normal;
+      // a's own linear block of the step, h dF/du + h^2 dF/ddelta: moving a by n deepens the
+      // contact by 1, so -(h c + h^2 k) n n^T. Sliding, with no normal force yet there is no
+      // friction: nothing tangential. Marked sticking, the zero depth rounds to a load of either
+      // sign: nothing tangential, or the anchor's -(h c + h^2 k) (I - n n^T) on top.
+      const Eigen::Matrix3d normal = -step_block * n * n.transpose();
+      const Eigen::Matrix3d block = h * h * J.m[0][0][0].topLeftCorner<3, 3>() + h * J.m[1][0][0].topLeftCorner<3, 3>();
+      const double off = (block - normal).norm(), anchored = (block + step_block * Eigen::Matrix3d::Identity()).norm();
+      EXPECT_LT(sticking ? std::min(off, anchored) : off, 1e-9 * step_block) << "kernel:\n" << block << "\nwant:\n" << normal;
     }
   });
 }
@@ -1126,14 +1137,17 @@ TEST(ContactKernel, NormalForceClampsToZeroWhenSeparatingFast) {
       Case<K> c = random_case<K>(rng);
       while (contact_ref(c).depth <= 0) c = random_case<K>(rng);  // overlapping cases only
       const ContactRef r = contact_ref(c);
-      // Make c vn = (1.5..10) k held: overlapping, but separating faster than the spring pushes.
-      const double dvn = rng.uni(1.5, 10) * r.k * r.held / r.c - r.vn;
+      // Make c vn = (1.5..10) k held: overlapping, but separating faster than the spring pushes,
+      // and fast enough to leave the overlap within the step, gravity's fall counted.
+      const double leaves = (r.depth / kEvalH - r.fall) * rng.uni(1.2, 3);
+      const double dvn = std::max(rng.uni(1.5, 10) * r.k * r.held / r.c, leaves) - r.vn;
       const Vec3 n = vec3_at(param(c, "normal"));
       double* v = kPair<K> ? c.body[1] + kVel : c.body[0] + kVel;  // vrel = v_b(pb) - v_a(pa)
       set3(v, vec3_at(v) + (kPair<K> ? dvn : -dvn) * n);
       const ContactRef r2 = contact_ref(c);
       ASSERT_GT(r2.depth, 0);
       ASSERT_LT(r2.k * r2.held - r2.c * r2.vn, 0);
+      ASSERT_LT(r2.depth - kEvalH * (r2.vn + r2.fall), 0);
       // No normal force, so no friction, sliding or sticking (see NoForceAndNoBlocksWhenSeparated).
       for (int sticking : {0, 1}) {
         *param(c, "sticking") = sticking;

@@ -30,6 +30,9 @@ void carry_loads(const std::vector<WorldBody>& bodies, const WorldSettings& s, s
   std::vector<double> support(bodies.size(), 0.0);  // per body: the sum of its supports' shares
   for (size_t i = 0; i < contacts.size(); ++i) {
     const WorldContact& c = contacts[i];
+    // A gap wider than the slop holds nothing up yet: it is a body on its way, which a loaded
+    // contact would drive to the surface as if the weight above pressed on it.
+    if (c.point.penetration < -s.globals.contact_slop) continue;
     const double along = dot(Vec3d::load(c.point.normal), down);  // n from a to b
     if (std::fabs(along) < kSupportCosine) continue;
     // gravity presses b into a when n points up from a (along < 0): b rests on a
@@ -65,6 +68,11 @@ void carry_loads(const std::vector<WorldBody>& bodies, const WorldSettings& s, s
       if (below != kWorldBody && !bodies[below].is_static) weight[below] += carried;
     }
   }
+}
+
+float gravity_fall(const float n[3], bool against_static, const WorldSettings& s) {
+  const double along = dot(Vec3d::load(s.globals.gravity), Vec3d::load(n));  // b's fall away from a
+  return float(s.dt * (against_static ? std::min(-along, 0.0) : -std::fabs(along)));
 }
 
 }  // namespace cellphys::ppe

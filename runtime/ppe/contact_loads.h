@@ -16,4 +16,11 @@ struct WorldSettings;
 /// contact_load_depth under the weight the contact carries (0 without gravity).
 void carry_loads(const std::vector<WorldBody>& bodies, const WorldSettings& s, std::vector<WorldContact>& contacts);
 
+/// How much gravity alone closes a contact of normal n (from a to b) in a step (m/s, 0 or less):
+/// the upper body falls onto what holds it. Against static geometry the fall is signed (a ball
+/// thrown up at a ceiling falls away from it); between two bodies the lower one is taken to rest
+/// on something, so the upper falls onto it. The contact acts in a step only if its gap closes
+/// by the step's end with this fall (codegen/descriptors/forces/contact.yaml).
+float gravity_fall(const float n[3], bool against_static, const WorldSettings& s);
+
 }  // namespace cellphys::ppe

@@ -90,10 +90,12 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       fastest = std::max(fastest, norm(vt));
       // the tangential force, in units of depth: the anchor spring's and its damper's
       total_strain = total_strain + strain[i] + vt * (cd / k);
-      // the normal force, in units of depth: the spring's (on at most the hold depth, as the
-      // contact's; deeper overlap is pushed out), and the damper's while it closes
-      const double held = std::min(double(c.point.penetration), double(s.globals.contact_hold_depth));
-      total_depth += std::max(held - cd / k * vn, 0.0);
+      // the normal force, in units of depth, as the descriptor has it: overlapping, the
+      // spring's (on at most the hold depth; deeper overlap is pushed out) and the damper's
+      // while it closes; at a gap, the damper toward the speed that meets the surface
+      const double pen = c.point.penetration, held = std::min(pen, double(s.globals.contact_hold_depth));
+      const double normal = pen > 0 ? held - cd / k * vn : (cd / k + s.dt) * (pen / s.dt - vn);
+      total_depth += std::max(normal, 0.0);
     }
     // Sticking or sliding, for the pair as a whole (its points share the two bodies' motion, not
     // their loads: a box on a slope presses its downhill edge harder). A sticking pair slides

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/world.h"
 #include "runtime/spu/workspace.h"
 
@@ -35,7 +36,7 @@ int32_t local_of(const std::vector<uint32_t>& bodies, uint32_t id) {
   return it != bodies.end() && *it == id ? static_cast<int32_t>(it - bodies.begin()) : -2;
 }
 
-Contact_Force contact_instance(const WorldContact& c, int32_t a, int32_t b) {
+Contact_Force contact_instance(const WorldContact& c, const WorldSettings& s, int32_t a, int32_t b) {
   Contact_Force_Fields f;
   std::copy(c.point.point, c.point.point + 3, f.point);
   std::copy(c.point.normal, c.point.normal + 3, f.normal);
@@ -45,6 +46,7 @@ Contact_Force contact_instance(const WorldContact& c, int32_t a, int32_t b) {
   f.mass = c.mass;
   f.load = c.load;
   f.sticking = c.sticking;
+  f.fall = gravity_fall(c.point.normal, c.b == kWorldBody, s);
   f.body_a = a;
   f.body_b = b;
   Contact_Force packed;
@@ -129,7 +131,7 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
   });
   for (uint32_t c : cs) {
     const WorldContact& wc = pc.contacts[c];
-    ib.add(ForceType::contact, contact_instance(wc, local_of(p.bodies, wc.a), local_of(p.bodies, wc.b)));
+    ib.add(ForceType::contact, contact_instance(wc, s, local_of(p.bodies, wc.a), local_of(p.bodies, wc.b)));
   }
   for (uint32_t fid : isl.forces) {
     const WorldForce& f = pc.forces[fid];

@@ -6,6 +6,7 @@
 
 #include "runtime/base/quat.h"
 #include "runtime/ppe/body_maths.h"
+#include "runtime/ppe/contact_loads.h"
 #include "runtime/spu/narrow_phase.h"
 
 namespace cellphys::ppe {
@@ -62,7 +63,11 @@ PendingEvents::Candidate candidate(const std::vector<WorldBody>& bodies, const W
     n = n + ni;
     const double closing = -separating(bodies, t.a, t.b, p, ni);
     fastest = std::max(fastest, closing);
-    c.acts = c.acts || cp.penetration + s.dt * std::max(closing, 0.0) >= 0.0;
+    // as the contact decides it: the gap closes by the step's end, with gravity's fall (the
+    // contact's a is the dynamic body: a static a is seen from the other side)
+    const float from_b[3] = {-cp.normal[0], -cp.normal[1], -cp.normal[2]};
+    const double fall = bodies[t.a].is_static ? gravity_fall(from_b, true, s) : gravity_fall(cp.normal, bodies[t.b].is_static, s);
+    c.acts = c.acts || cp.penetration + s.dt * std::max(closing - fall, 0.0) >= 0.0;
   }
   if (!c.acts) return c;  // a speculative pair that does not close this step: nothing more to measure
   mid = mid * (1.0 / t.count);
@@ -178,9 +183,11 @@ void finish_events(const std::vector<WorldBody>& bodies, PendingEvents& pending,
     if (!c.acts) continue;
     ContactEvent& e = c.begin;
     // The contact's impulse along the normal: what the step changed the separating speed by
-    // beyond gravity's change, times the pair's effective mass there.
+    // beyond gravity's change, and what stops the approach still left at its end (a fast pair
+    // arrives at the surface in this step and stops in the next), times the pair's effective
+    // mass there.
     const double after = separating(bodies, e.a, e.b, Vec3d::load(e.point), Vec3d::load(e.normal));
-    e.impulse = float(std::max(0.0, double(c.mass) * (after - c.free_speed)));
+    e.impulse = float(std::max(0.0, double(c.mass) * (std::max(after, 0.0) - c.free_speed)));
     events.push_back(e);
     memory.touching.push_back(key_of(e.a, e.b));
   }

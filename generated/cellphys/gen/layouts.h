@@ -19,9 +19,9 @@ struct alignas(16) Contact_Force {
   float mass;  ///< @56: f32. the contact's effective mass along its normal (kg)
   float load;  ///< @60: f32. the load the contact carries, as a mass (kg): its stiffness follows the larger of the two
   float sticking;  ///< @64: f32. 1: friction holds the contact to its anchor; 0: it slides
-  int32_t body_a;  ///< @68: i32. island index of body a
-  int32_t body_b;  ///< @72: i32. island index of body b, or -1 for static geometry
-  unsigned char pad_76[4];
+  float fall;  ///< @68: f32. how much gravity alone closes the contact in the step (m/s along the normal, 0 or less)
+  int32_t body_a;  ///< @72: i32. island index of body a
+  int32_t body_b;  ///< @76: i32. island index of body b, or -1 for static geometry
 };
 static_assert(sizeof(Contact_Force) == 80, "Contact_Force: size differs from the descriptor");
 static_assert(alignof(Contact_Force) == 16, "Contact_Force: alignment differs from the descriptor");
@@ -33,8 +33,9 @@ static_assert(offsetof(Contact_Force, friction) == 52, "Contact_Force.friction: 
 static_assert(offsetof(Contact_Force, mass) == 56, "Contact_Force.mass: offset differs");
 static_assert(offsetof(Contact_Force, load) == 60, "Contact_Force.load: offset differs");
 static_assert(offsetof(Contact_Force, sticking) == 64, "Contact_Force.sticking: offset differs");
-static_assert(offsetof(Contact_Force, body_a) == 68, "Contact_Force.body_a: offset differs");
-static_assert(offsetof(Contact_Force, body_b) == 72, "Contact_Force.body_b: offset differs");
+static_assert(offsetof(Contact_Force, fall) == 68, "Contact_Force.fall: offset differs");
+static_assert(offsetof(Contact_Force, body_a) == 72, "Contact_Force.body_a: offset differs");
+static_assert(offsetof(Contact_Force, body_b) == 76, "Contact_Force.body_b: offset differs");
 
 /// The fields of Contact_Force without padding: what pack() takes and unpack() gives.
 struct Contact_Force_Fields {
@@ -46,6 +47,7 @@ struct Contact_Force_Fields {
   float mass = 0;
   float load = 0;
   float sticking = 0;
+  float fall = 0;
   int32_t body_a = 0;
   int32_t body_b = 0;
 };
@@ -66,6 +68,7 @@ inline void pack(const Contact_Force_Fields& in, Contact_Force& out) {
   out.mass = in.mass;
   out.load = in.load;
   out.sticking = in.sticking;
+  out.fall = in.fall;
   out.body_a = in.body_a;
   out.body_b = in.body_b;
 }
@@ -85,6 +88,7 @@ inline void unpack(const Contact_Force& in, Contact_Force_Fields& out) {
   out.mass = in.mass;
   out.load = in.load;
   out.sticking = in.sticking;
+  out.fall = in.fall;
   out.body_a = in.body_a;
   out.body_b = in.body_b;
 }
@@ -1904,7 +1908,7 @@ struct StructInfo {
 
 /// Every layout, with the sizes the compiler gave them.
 inline constexpr StructInfo kStructTable[] = {
-    {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 64},
+    {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 68},
     {"Island_Header", sizeof(Island_Header), alignof(Island_Header), 52},
     {"Island_Result", sizeof(Island_Result), alignof(Island_Result), 48},
     {"Island_Section", sizeof(Island_Section), alignof(Island_Section), 16},

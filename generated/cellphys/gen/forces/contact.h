@@ -10,7 +10,7 @@ namespace cellphys::gen {
 
 /// contact (pair): F for 2 bodies and 8 Jacobian block(s).
 /// out = [F_a (6), F_b (6), dF_a/ddelta_a (36), dF_a/ddelta_b (36), dF_a/du_a (36), dF_a/du_b (36), dF_b/ddelta_a (36), dF_b/ddelta_b (36), dF_b/du_a (36), dF_b/du_b (36)]
-/// Total ops: 2136
+/// Total ops: 2177
 struct Contact_Pair_Kernel {
   using Instance = Contact_Force;
   static constexpr ForceType kType = ForceType::contact;
@@ -19,7 +19,7 @@ struct Contact_Pair_Kernel {
   static constexpr int kInputs = 62;
   static constexpr int kNumBlocks = 8;
   static constexpr int kOutputs = 300;
-  static constexpr int kOps = 2136;
+  static constexpr int kOps = 2177;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_ddelta, 0, 1},
@@ -93,14 +93,14 @@ struct Contact_Pair_Kernel {
     in[50 * stride] = f.friction;
     in[51 * stride] = f.mass;
     in[52 * stride] = f.load;
-    in[53 * stride] = f.sticking;
-    in[54 * stride] = g.contact_hertz;
-    in[55 * stride] = g.contact_damping_ratio;
-    in[56 * stride] = g.contact_stiffness;
-    in[57 * stride] = g.contact_damping;
-    in[58 * stride] = g.contact_hold_depth;
-    in[59 * stride] = g.slip_velocity;
-    in[60 * stride] = g.contact_slop;
+    in[53 * stride] = f.fall;
+    in[54 * stride] = f.sticking;
+    in[55 * stride] = g.contact_hertz;
+    in[56 * stride] = g.contact_damping_ratio;
+    in[57 * stride] = g.contact_stiffness;
+    in[58 * stride] = g.contact_damping;
+    in[59 * stride] = g.contact_hold_depth;
+    in[60 * stride] = g.slip_velocity;
     in[61 * stride] = g.contact_rest_speed;
   }
 
@@ -161,16 +161,16 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S p_friction = in[50];
     [[maybe_unused]] const S p_mass = in[51];
     [[maybe_unused]] const S p_load = in[52];
-    [[maybe_unused]] const S p_sticking = in[53];
-    [[maybe_unused]] const S g_contact_hertz = in[54];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[55];
-    [[maybe_unused]] const S g_contact_stiffness = in[56];
-    [[maybe_unused]] const S g_contact_damping = in[57];
-    [[maybe_unused]] const S g_contact_hold_depth = in[58];
-    [[maybe_unused]] const S g_slip_velocity = in[59];
-    [[maybe_unused]] const S g_contact_slop = in[60];
+    [[maybe_unused]] const S p_fall = in[53];
+    [[maybe_unused]] const S p_sticking = in[54];
+    [[maybe_unused]] const S g_contact_hertz = in[55];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[56];
+    [[maybe_unused]] const S g_contact_stiffness = in[57];
+    [[maybe_unused]] const S g_contact_damping = in[58];
+    [[maybe_unused]] const S g_contact_hold_depth = in[59];
+    [[maybe_unused]] const S g_slip_velocity = in[60];
     [[maybe_unused]] const S g_contact_rest_speed = in[61];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:31), let rb (contact.yaml:32)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32), let rb (contact.yaml:33)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -224,15 +224,15 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
-    // let ra (contact.yaml:31)
+    // let ra (contact.yaml:32)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
-    // let rb (contact.yaml:32)
+    // let rb (contact.yaml:33)
     [[maybe_unused]] const S L_rb__0 = b_o1_0;
     [[maybe_unused]] const S L_rb__1 = b_o1_1;
     [[maybe_unused]] const S L_rb__2 = b_o1_2;
-    // let moved (contact.yaml:35)
+    // let moved (contact.yaml:36)
     const S l2_0_0 = (-b_o1_0);
     const S l2_0_1 = (-b_o1_1);
     const S l2_0_2 = (-b_o1_2);
@@ -245,7 +245,7 @@ struct Contact_Pair_Kernel {
     const S L_moved__2 = ((-a_o0_2) - a_pz + b_pz - l2_0_2);
     const S d_L_moved__2__a_dtx = (-a_o0_1);
     const S d_L_moved__2__b_dty = l2_0_0;
-    // let depth (contact.yaml:36)
+    // let depth (contact.yaml:37)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
     const S d_L_depth__a_dtx = ((-(a_o0_2*p_normal__1)) - (d_L_moved__2__a_dtx*p_normal__2));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) - (d_L_moved__0__a_dty*p_normal__0));
@@ -256,7 +256,7 @@ struct Contact_Pair_Kernel {
     const S d_L_depth__b_dtx = ((-(b_o1_1*p_normal__2)) - (d_L_moved__1__b_dtx*p_normal__1));
     const S d_L_depth__b_dty = ((-(b_o1_2*p_normal__0)) - (d_L_moved__2__b_dty*p_normal__2));
     const S d_L_depth__b_dtz = ((-(b_o1_0*p_normal__1)) - (d_L_moved__0__b_dtz*p_normal__0));
-    // let vrel (contact.yaml:37)
+    // let vrel (contact.yaml:38)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S d_L_vrel__0__b_wz = (-L_rb__1);
@@ -266,7 +266,7 @@ struct Contact_Pair_Kernel {
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
     const S d_L_vrel__2__b_wy = (-L_rb__0);
-    // let vn (contact.yaml:38)
+    // let vn (contact.yaml:39)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -277,15 +277,15 @@ struct Contact_Pair_Kernel {
     const S d_L_vn__b_wx = ((L_rb__1*p_normal__2) + (d_L_vrel__1__b_wx*p_normal__1));
     const S d_L_vn__b_wy = ((L_rb__2*p_normal__0) + (d_L_vrel__2__b_wy*p_normal__2));
     const S d_L_vn__b_wz = ((L_rb__0*p_normal__1) + (d_L_vrel__0__b_wz*p_normal__0));
-    // let omega (contact.yaml:41)
+    // let omega (contact.yaml:42)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:45)
+    // let m (contact.yaml:46)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:46)
+    // let k (contact.yaml:47)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:47)
+    // let c (contact.yaml:48)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:51)
+    // let held (contact.yaml:52)
     const auto l10_0_0 = (L_depth > g_contact_hold_depth);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
     const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
@@ -301,45 +301,72 @@ struct Contact_Pair_Kernel {
     const S d_L_held__b_dtx = (d_L_depth__b_dtx*l10_0_1);
     const S d_L_held__b_dty = (d_L_depth__b_dty*l10_0_1);
     const S d_L_held__b_dtz = (d_L_depth__b_dtz*l10_0_1);
-    // let closing (contact.yaml:57)
-    const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:58)
-    const S l12_0_0 = (L_c*L_vn);
-    const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
-    const auto l12_0_2 = (l12_0_1 < S(0));
-    const auto l12_0_3 = (L_depth > S(0));
-    const S l12_0_4 = select(l12_0_3, select(l12_0_2, L_k, S(0)), S(0));
-    const S l12_0_5 = select(l12_0_3, S(0), (L_closing*L_k));
-    const S l12_0_6 = select(l12_0_3, select(l12_0_2, (-L_c), S(0)), (-(L_c*L_closing)));
-    const S L_fn = select(l12_0_3, select(l12_0_2, (-l12_0_1), S(0)), (L_closing*((L_depth*L_k) - l12_0_0)));
-    const S d_L_fn__a_dx = ((d_L_held__a_dx*l12_0_4) + (l12_0_5*p_normal__0));
-    const S d_L_fn__a_dy = ((d_L_held__a_dy*l12_0_4) + (l12_0_5*p_normal__1));
-    const S d_L_fn__a_dz = ((d_L_held__a_dz*l12_0_4) + (l12_0_5*p_normal__2));
-    const S d_L_fn__a_dtx = ((d_L_depth__a_dtx*l12_0_5) + (d_L_held__a_dtx*l12_0_4));
-    const S d_L_fn__a_dty = ((d_L_depth__a_dty*l12_0_5) + (d_L_held__a_dty*l12_0_4));
-    const S d_L_fn__a_dtz = ((d_L_depth__a_dtz*l12_0_5) + (d_L_held__a_dtz*l12_0_4));
-    const S d_L_fn__b_dx = ((d_L_depth__b_dx*l12_0_5) + (d_L_held__b_dx*l12_0_4));
-    const S d_L_fn__b_dy = ((d_L_depth__b_dy*l12_0_5) + (d_L_held__b_dy*l12_0_4));
-    const S d_L_fn__b_dz = ((d_L_depth__b_dz*l12_0_5) + (d_L_held__b_dz*l12_0_4));
-    const S d_L_fn__b_dtx = ((d_L_depth__b_dtx*l12_0_5) + (d_L_held__b_dtx*l12_0_4));
-    const S d_L_fn__b_dty = ((d_L_depth__b_dty*l12_0_5) + (d_L_held__b_dty*l12_0_4));
-    const S d_L_fn__b_dtz = ((d_L_depth__b_dtz*l12_0_5) + (d_L_held__b_dtz*l12_0_4));
-    const S d_L_fn__a_vx = (d_L_vn__a_vx*l12_0_6);
-    const S d_L_fn__a_vy = (d_L_vn__a_vy*l12_0_6);
-    const S d_L_fn__a_vz = (d_L_vn__a_vz*l12_0_6);
-    const S d_L_fn__a_wx = (d_L_vn__a_wx*l12_0_6);
-    const S d_L_fn__a_wy = (d_L_vn__a_wy*l12_0_6);
-    const S d_L_fn__a_wz = (d_L_vn__a_wz*l12_0_6);
-    const S d_L_fn__b_vx = (l12_0_6*p_normal__0);
-    const S d_L_fn__b_vy = (l12_0_6*p_normal__1);
-    const S d_L_fn__b_vz = (l12_0_6*p_normal__2);
-    const S d_L_fn__b_wx = (d_L_vn__b_wx*l12_0_6);
-    const S d_L_fn__b_wy = (d_L_vn__b_wy*l12_0_6);
-    const S d_L_fn__b_wz = (d_L_vn__b_wz*l12_0_6);
-    // let vt (contact.yaml:59)
-    const S l13_0_0 = (-(p_normal__0*p_normal__1));
-    const S l13_0_1 = (-(p_normal__0*p_normal__2));
-    const S l13_0_2 = (-(p_normal__1*p_normal__2));
+    // let closing (contact.yaml:62)
+    const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
+    // let stays (contact.yaml:66)
+    const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
+    // let pushed (contact.yaml:67)
+    const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
+    const S d_L_pushed__a_dx = (L_k*d_L_held__a_dx);
+    const S d_L_pushed__a_dy = (L_k*d_L_held__a_dy);
+    const S d_L_pushed__a_dz = (L_k*d_L_held__a_dz);
+    const S d_L_pushed__a_dtx = (L_k*d_L_held__a_dtx);
+    const S d_L_pushed__a_dty = (L_k*d_L_held__a_dty);
+    const S d_L_pushed__a_dtz = (L_k*d_L_held__a_dtz);
+    const S d_L_pushed__b_dx = (L_k*d_L_held__b_dx);
+    const S d_L_pushed__b_dy = (L_k*d_L_held__b_dy);
+    const S d_L_pushed__b_dz = (L_k*d_L_held__b_dz);
+    const S d_L_pushed__b_dtx = (L_k*d_L_held__b_dtx);
+    const S d_L_pushed__b_dty = (L_k*d_L_held__b_dty);
+    const S d_L_pushed__b_dtz = (L_k*d_L_held__b_dtz);
+    const S d_L_pushed__a_vx = (-(L_c*d_L_vn__a_vx));
+    const S d_L_pushed__a_vy = (-(L_c*d_L_vn__a_vy));
+    const S d_L_pushed__a_vz = (-(L_c*d_L_vn__a_vz));
+    const S d_L_pushed__a_wx = (-(L_c*d_L_vn__a_wx));
+    const S d_L_pushed__a_wy = (-(L_c*d_L_vn__a_wy));
+    const S d_L_pushed__a_wz = (-(L_c*d_L_vn__a_wz));
+    const S d_L_pushed__b_vx = (-(L_c*p_normal__0));
+    const S d_L_pushed__b_vy = (-(L_c*p_normal__1));
+    const S d_L_pushed__b_vz = (-(L_c*p_normal__2));
+    const S d_L_pushed__b_wx = (-(L_c*d_L_vn__b_wx));
+    const S d_L_pushed__b_wy = (-(L_c*d_L_vn__b_wy));
+    const S d_L_pushed__b_wz = (-(L_c*d_L_vn__b_wz));
+    // let fn (contact.yaml:68)
+    const auto l14_0_0 = (L_stays > S(0));
+    const auto l14_0_1 = (L_pushed > S(0));
+    const auto l14_0_2 = (L_depth > S(0));
+    const S l14_0_3 = (L_closing*(L_c + (L_k*h)));
+    const S l14_0_4 = select(l14_0_2, select(l14_0_0, S(1), select(l14_0_1, S(1), S(0))), S(0));
+    const S l14_0_5 = select(l14_0_2, S(0), (-l14_0_3));
+    const S L_fn = select(l14_0_2, select(l14_0_0, L_pushed, select(l14_0_1, L_pushed, S(0))), (l14_0_3*((-L_vn) + (p_penetration/(h)))));
+    const S d_L_fn__a_dx = (d_L_pushed__a_dx*l14_0_4);
+    const S d_L_fn__a_dy = (d_L_pushed__a_dy*l14_0_4);
+    const S d_L_fn__a_dz = (d_L_pushed__a_dz*l14_0_4);
+    const S d_L_fn__a_dtx = (d_L_pushed__a_dtx*l14_0_4);
+    const S d_L_fn__a_dty = (d_L_pushed__a_dty*l14_0_4);
+    const S d_L_fn__a_dtz = (d_L_pushed__a_dtz*l14_0_4);
+    const S d_L_fn__b_dx = (d_L_pushed__b_dx*l14_0_4);
+    const S d_L_fn__b_dy = (d_L_pushed__b_dy*l14_0_4);
+    const S d_L_fn__b_dz = (d_L_pushed__b_dz*l14_0_4);
+    const S d_L_fn__b_dtx = (d_L_pushed__b_dtx*l14_0_4);
+    const S d_L_fn__b_dty = (d_L_pushed__b_dty*l14_0_4);
+    const S d_L_fn__b_dtz = (d_L_pushed__b_dtz*l14_0_4);
+    const S d_L_fn__a_vx = ((d_L_pushed__a_vx*l14_0_4) + (d_L_vn__a_vx*l14_0_5));
+    const S d_L_fn__a_vy = ((d_L_pushed__a_vy*l14_0_4) + (d_L_vn__a_vy*l14_0_5));
+    const S d_L_fn__a_vz = ((d_L_pushed__a_vz*l14_0_4) + (d_L_vn__a_vz*l14_0_5));
+    const S d_L_fn__a_wx = ((d_L_pushed__a_wx*l14_0_4) + (d_L_vn__a_wx*l14_0_5));
+    const S d_L_fn__a_wy = ((d_L_pushed__a_wy*l14_0_4) + (d_L_vn__a_wy*l14_0_5));
+    const S d_L_fn__a_wz = ((d_L_pushed__a_wz*l14_0_4) + (d_L_vn__a_wz*l14_0_5));
+    const S d_L_fn__b_vx = ((d_L_pushed__b_vx*l14_0_4) + (l14_0_5*p_normal__0));
+    const S d_L_fn__b_vy = ((d_L_pushed__b_vy*l14_0_4) + (l14_0_5*p_normal__1));
+    const S d_L_fn__b_vz = ((d_L_pushed__b_vz*l14_0_4) + (l14_0_5*p_normal__2));
+    const S d_L_fn__b_wx = ((d_L_pushed__b_wx*l14_0_4) + (d_L_vn__b_wx*l14_0_5));
+    const S d_L_fn__b_wy = ((d_L_pushed__b_wy*l14_0_4) + (d_L_vn__b_wy*l14_0_5));
+    const S d_L_fn__b_wz = ((d_L_pushed__b_wz*l14_0_4) + (d_L_vn__b_wz*l14_0_5));
+    // let vt (contact.yaml:69)
+    const S l15_0_0 = (-(p_normal__0*p_normal__1));
+    const S l15_0_1 = (-(p_normal__0*p_normal__2));
+    const S l15_0_2 = (-(p_normal__1*p_normal__2));
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -348,8 +375,8 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__0__a_wy = ((-(d_L_vn__a_wy*p_normal__0)) + d_L_vrel__0__a_wy);
     const S d_L_vt__0__a_wz = (L_ra__1 - (d_L_vn__a_wz*p_normal__0));
     const S d_L_vt__0__b_vx = (S(1) - (p_normal__0*p_normal__0));
-    const S d_L_vt__0__b_vy = l13_0_0;
-    const S d_L_vt__0__b_vz = l13_0_1;
+    const S d_L_vt__0__b_vy = l15_0_0;
+    const S d_L_vt__0__b_vz = l15_0_1;
     const S d_L_vt__0__b_wx = (-(d_L_vn__b_wx*p_normal__0));
     const S d_L_vt__0__b_wy = (L_rb__2 - (d_L_vn__b_wy*p_normal__0));
     const S d_L_vt__0__b_wz = ((-(d_L_vn__b_wz*p_normal__0)) + d_L_vrel__0__b_wz);
@@ -360,9 +387,9 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__1__a_wx = (L_ra__2 - (d_L_vn__a_wx*p_normal__1));
     const S d_L_vt__1__a_wy = (-(d_L_vn__a_wy*p_normal__1));
     const S d_L_vt__1__a_wz = ((-(d_L_vn__a_wz*p_normal__1)) + d_L_vrel__1__a_wz);
-    const S d_L_vt__1__b_vx = l13_0_0;
+    const S d_L_vt__1__b_vx = l15_0_0;
     const S d_L_vt__1__b_vy = (S(1) - (p_normal__1*p_normal__1));
-    const S d_L_vt__1__b_vz = l13_0_2;
+    const S d_L_vt__1__b_vz = l15_0_2;
     const S d_L_vt__1__b_wx = ((-(d_L_vn__b_wx*p_normal__1)) + d_L_vrel__1__b_wx);
     const S d_L_vt__1__b_wy = (-(d_L_vn__b_wy*p_normal__1));
     const S d_L_vt__1__b_wz = (L_rb__0 - (d_L_vn__b_wz*p_normal__1));
@@ -373,66 +400,66 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
-    const S d_L_vt__2__b_vx = l13_0_1;
-    const S d_L_vt__2__b_vy = l13_0_2;
+    const S d_L_vt__2__b_vx = l15_0_1;
+    const S d_L_vt__2__b_vy = l15_0_2;
     const S d_L_vt__2__b_vz = (S(1) - (p_normal__2*p_normal__2));
     const S d_L_vt__2__b_wx = (L_rb__1 - (d_L_vn__b_wx*p_normal__2));
     const S d_L_vt__2__b_wy = ((-(d_L_vn__b_wy*p_normal__2)) + d_L_vrel__2__b_wy);
     const S d_L_vt__2__b_wz = (-(d_L_vn__b_wz*p_normal__2));
-    // let strain (contact.yaml:64)
-    const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
-    const S l14_0_1 = ((p_normal__0*p_normal__0) - S(1));
-    const S l14_0_2 = (p_normal__0*p_normal__1);
-    const S l14_0_3 = (p_normal__0*p_normal__2);
-    const S l14_0_4 = (-l14_0_1);
-    const S l14_0_5 = (-l14_0_2);
-    const S l14_0_6 = (-l14_0_3);
-    const S l14_0_7 = ((p_normal__1*p_normal__1) - S(1));
-    const S l14_0_8 = (p_normal__1*p_normal__2);
-    const S l14_0_9 = (-l14_0_7);
-    const S l14_0_10 = (-l14_0_8);
-    const S l14_0_11 = ((p_normal__2*p_normal__2) - S(1));
-    const S l14_0_12 = (-l14_0_11);
-    const S L_strain__0 = (L_moved__0 - (l14_0_0*p_normal__0) + p_anchor__0);
-    const S d_L_strain__0__a_dx = l14_0_1;
-    const S d_L_strain__0__a_dy = l14_0_2;
-    const S d_L_strain__0__a_dz = l14_0_3;
-    const S d_L_strain__0__a_dtx = ((-(a_o0_2*l14_0_2)) - (d_L_moved__2__a_dtx*l14_0_3));
-    const S d_L_strain__0__a_dty = ((-(a_o0_0*l14_0_3)) + (d_L_moved__0__a_dty*l14_0_4));
-    const S d_L_strain__0__a_dtz = ((a_o0_1*l14_0_4) - (d_L_moved__1__a_dtz*l14_0_2));
-    const S d_L_strain__0__b_dx = l14_0_4;
-    const S d_L_strain__0__b_dy = l14_0_5;
-    const S d_L_strain__0__b_dz = l14_0_6;
-    const S d_L_strain__0__b_dtx = ((-(b_o1_1*l14_0_3)) - (d_L_moved__1__b_dtx*l14_0_2));
-    const S d_L_strain__0__b_dty = ((b_o1_2*l14_0_4) - (d_L_moved__2__b_dty*l14_0_3));
-    const S d_L_strain__0__b_dtz = ((-(b_o1_0*l14_0_2)) + (d_L_moved__0__b_dtz*l14_0_4));
-    const S L_strain__1 = (L_moved__1 - (l14_0_0*p_normal__1) + p_anchor__1);
-    const S d_L_strain__1__a_dx = l14_0_2;
-    const S d_L_strain__1__a_dy = l14_0_7;
-    const S d_L_strain__1__a_dz = l14_0_8;
-    const S d_L_strain__1__a_dtx = ((a_o0_2*l14_0_9) - (d_L_moved__2__a_dtx*l14_0_8));
-    const S d_L_strain__1__a_dty = ((-(a_o0_0*l14_0_8)) - (d_L_moved__0__a_dty*l14_0_2));
-    const S d_L_strain__1__a_dtz = ((-(a_o0_1*l14_0_2)) + (d_L_moved__1__a_dtz*l14_0_9));
-    const S d_L_strain__1__b_dx = l14_0_5;
-    const S d_L_strain__1__b_dy = l14_0_9;
-    const S d_L_strain__1__b_dz = l14_0_10;
-    const S d_L_strain__1__b_dtx = ((-(b_o1_1*l14_0_8)) + (d_L_moved__1__b_dtx*l14_0_9));
-    const S d_L_strain__1__b_dty = ((-(b_o1_2*l14_0_2)) - (d_L_moved__2__b_dty*l14_0_8));
-    const S d_L_strain__1__b_dtz = ((b_o1_0*l14_0_9) - (d_L_moved__0__b_dtz*l14_0_2));
-    const S L_strain__2 = (L_moved__2 - (l14_0_0*p_normal__2) + p_anchor__2);
-    const S d_L_strain__2__a_dx = l14_0_3;
-    const S d_L_strain__2__a_dy = l14_0_8;
-    const S d_L_strain__2__a_dz = l14_0_11;
-    const S d_L_strain__2__a_dtx = ((-(a_o0_2*l14_0_8)) + (d_L_moved__2__a_dtx*l14_0_12));
-    const S d_L_strain__2__a_dty = ((a_o0_0*l14_0_12) - (d_L_moved__0__a_dty*l14_0_3));
-    const S d_L_strain__2__a_dtz = ((-(a_o0_1*l14_0_3)) - (d_L_moved__1__a_dtz*l14_0_8));
-    const S d_L_strain__2__b_dx = l14_0_6;
-    const S d_L_strain__2__b_dy = l14_0_10;
-    const S d_L_strain__2__b_dz = l14_0_12;
-    const S d_L_strain__2__b_dtx = ((b_o1_1*l14_0_12) - (d_L_moved__1__b_dtx*l14_0_8));
-    const S d_L_strain__2__b_dty = ((-(b_o1_2*l14_0_3)) + (d_L_moved__2__b_dty*l14_0_12));
-    const S d_L_strain__2__b_dtz = ((-(b_o1_0*l14_0_8)) - (d_L_moved__0__b_dtz*l14_0_3));
-    // let fs (contact.yaml:65)
+    // let strain (contact.yaml:74)
+    const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
+    const S l16_0_1 = ((p_normal__0*p_normal__0) - S(1));
+    const S l16_0_2 = (p_normal__0*p_normal__1);
+    const S l16_0_3 = (p_normal__0*p_normal__2);
+    const S l16_0_4 = (-l16_0_1);
+    const S l16_0_5 = (-l16_0_2);
+    const S l16_0_6 = (-l16_0_3);
+    const S l16_0_7 = ((p_normal__1*p_normal__1) - S(1));
+    const S l16_0_8 = (p_normal__1*p_normal__2);
+    const S l16_0_9 = (-l16_0_7);
+    const S l16_0_10 = (-l16_0_8);
+    const S l16_0_11 = ((p_normal__2*p_normal__2) - S(1));
+    const S l16_0_12 = (-l16_0_11);
+    const S L_strain__0 = (L_moved__0 - (l16_0_0*p_normal__0) + p_anchor__0);
+    const S d_L_strain__0__a_dx = l16_0_1;
+    const S d_L_strain__0__a_dy = l16_0_2;
+    const S d_L_strain__0__a_dz = l16_0_3;
+    const S d_L_strain__0__a_dtx = ((-(a_o0_2*l16_0_2)) - (d_L_moved__2__a_dtx*l16_0_3));
+    const S d_L_strain__0__a_dty = ((-(a_o0_0*l16_0_3)) + (d_L_moved__0__a_dty*l16_0_4));
+    const S d_L_strain__0__a_dtz = ((a_o0_1*l16_0_4) - (d_L_moved__1__a_dtz*l16_0_2));
+    const S d_L_strain__0__b_dx = l16_0_4;
+    const S d_L_strain__0__b_dy = l16_0_5;
+    const S d_L_strain__0__b_dz = l16_0_6;
+    const S d_L_strain__0__b_dtx = ((-(b_o1_1*l16_0_3)) - (d_L_moved__1__b_dtx*l16_0_2));
+    const S d_L_strain__0__b_dty = ((b_o1_2*l16_0_4) - (d_L_moved__2__b_dty*l16_0_3));
+    const S d_L_strain__0__b_dtz = ((-(b_o1_0*l16_0_2)) + (d_L_moved__0__b_dtz*l16_0_4));
+    const S L_strain__1 = (L_moved__1 - (l16_0_0*p_normal__1) + p_anchor__1);
+    const S d_L_strain__1__a_dx = l16_0_2;
+    const S d_L_strain__1__a_dy = l16_0_7;
+    const S d_L_strain__1__a_dz = l16_0_8;
+    const S d_L_strain__1__a_dtx = ((a_o0_2*l16_0_9) - (d_L_moved__2__a_dtx*l16_0_8));
+    const S d_L_strain__1__a_dty = ((-(a_o0_0*l16_0_8)) - (d_L_moved__0__a_dty*l16_0_2));
+    const S d_L_strain__1__a_dtz = ((-(a_o0_1*l16_0_2)) + (d_L_moved__1__a_dtz*l16_0_9));
+    const S d_L_strain__1__b_dx = l16_0_5;
+    const S d_L_strain__1__b_dy = l16_0_9;
+    const S d_L_strain__1__b_dz = l16_0_10;
+    const S d_L_strain__1__b_dtx = ((-(b_o1_1*l16_0_8)) + (d_L_moved__1__b_dtx*l16_0_9));
+    const S d_L_strain__1__b_dty = ((-(b_o1_2*l16_0_2)) - (d_L_moved__2__b_dty*l16_0_8));
+    const S d_L_strain__1__b_dtz = ((b_o1_0*l16_0_9) - (d_L_moved__0__b_dtz*l16_0_2));
+    const S L_strain__2 = (L_moved__2 - (l16_0_0*p_normal__2) + p_anchor__2);
+    const S d_L_strain__2__a_dx = l16_0_3;
+    const S d_L_strain__2__a_dy = l16_0_8;
+    const S d_L_strain__2__a_dz = l16_0_11;
+    const S d_L_strain__2__a_dtx = ((-(a_o0_2*l16_0_8)) + (d_L_moved__2__a_dtx*l16_0_12));
+    const S d_L_strain__2__a_dty = ((a_o0_0*l16_0_12) - (d_L_moved__0__a_dty*l16_0_3));
+    const S d_L_strain__2__a_dtz = ((-(a_o0_1*l16_0_3)) - (d_L_moved__1__a_dtz*l16_0_8));
+    const S d_L_strain__2__b_dx = l16_0_6;
+    const S d_L_strain__2__b_dy = l16_0_10;
+    const S d_L_strain__2__b_dz = l16_0_12;
+    const S d_L_strain__2__b_dtx = ((b_o1_1*l16_0_12) - (d_L_moved__1__b_dtx*l16_0_8));
+    const S d_L_strain__2__b_dty = ((-(b_o1_2*l16_0_3)) + (d_L_moved__2__b_dty*l16_0_12));
+    const S d_L_strain__2__b_dtz = ((-(b_o1_0*l16_0_8)) - (d_L_moved__0__b_dtz*l16_0_3));
+    // let fs (contact.yaml:75)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -508,256 +535,256 @@ struct Contact_Pair_Kernel {
     const S d_L_fs__2__b_wx = (-(L_c*d_L_vt__2__b_wx));
     const S d_L_fs__2__b_wy = (-(L_c*d_L_vt__2__b_wy));
     const S d_L_fs__2__b_wz = (-(L_c*d_L_vt__2__b_wz));
-    // let fmax (contact.yaml:66)
-    const auto l16_0_0 = (L_fn > S(0));
-    const S l16_0_1 = (p_friction*select(l16_0_0, S(1), S(0)));
-    const S L_fmax = (p_friction*select(l16_0_0, L_fn, S(0)));
-    const S d_L_fmax__a_dx = (d_L_fn__a_dx*l16_0_1);
-    const S d_L_fmax__a_dy = (d_L_fn__a_dy*l16_0_1);
-    const S d_L_fmax__a_dz = (d_L_fn__a_dz*l16_0_1);
-    const S d_L_fmax__a_dtx = (d_L_fn__a_dtx*l16_0_1);
-    const S d_L_fmax__a_dty = (d_L_fn__a_dty*l16_0_1);
-    const S d_L_fmax__a_dtz = (d_L_fn__a_dtz*l16_0_1);
-    const S d_L_fmax__b_dx = (d_L_fn__b_dx*l16_0_1);
-    const S d_L_fmax__b_dy = (d_L_fn__b_dy*l16_0_1);
-    const S d_L_fmax__b_dz = (d_L_fn__b_dz*l16_0_1);
-    const S d_L_fmax__b_dtx = (d_L_fn__b_dtx*l16_0_1);
-    const S d_L_fmax__b_dty = (d_L_fn__b_dty*l16_0_1);
-    const S d_L_fmax__b_dtz = (d_L_fn__b_dtz*l16_0_1);
-    const S d_L_fmax__a_vx = (d_L_fn__a_vx*l16_0_1);
-    const S d_L_fmax__a_vy = (d_L_fn__a_vy*l16_0_1);
-    const S d_L_fmax__a_vz = (d_L_fn__a_vz*l16_0_1);
-    const S d_L_fmax__a_wx = (d_L_fn__a_wx*l16_0_1);
-    const S d_L_fmax__a_wy = (d_L_fn__a_wy*l16_0_1);
-    const S d_L_fmax__a_wz = (d_L_fn__a_wz*l16_0_1);
-    const S d_L_fmax__b_vx = (d_L_fn__b_vx*l16_0_1);
-    const S d_L_fmax__b_vy = (d_L_fn__b_vy*l16_0_1);
-    const S d_L_fmax__b_vz = (d_L_fn__b_vz*l16_0_1);
-    const S d_L_fmax__b_wx = (d_L_fn__b_wx*l16_0_1);
-    const S d_L_fmax__b_wy = (d_L_fn__b_wy*l16_0_1);
-    const S d_L_fmax__b_wz = (d_L_fn__b_wz*l16_0_1);
-    // let slip (contact.yaml:72)
+    // let fmax (contact.yaml:76)
+    const auto l18_0_0 = (L_fn > S(0));
+    const S l18_0_1 = (p_friction*select(l18_0_0, S(1), S(0)));
+    const S L_fmax = (p_friction*select(l18_0_0, L_fn, S(0)));
+    const S d_L_fmax__a_dx = (d_L_fn__a_dx*l18_0_1);
+    const S d_L_fmax__a_dy = (d_L_fn__a_dy*l18_0_1);
+    const S d_L_fmax__a_dz = (d_L_fn__a_dz*l18_0_1);
+    const S d_L_fmax__a_dtx = (d_L_fn__a_dtx*l18_0_1);
+    const S d_L_fmax__a_dty = (d_L_fn__a_dty*l18_0_1);
+    const S d_L_fmax__a_dtz = (d_L_fn__a_dtz*l18_0_1);
+    const S d_L_fmax__b_dx = (d_L_fn__b_dx*l18_0_1);
+    const S d_L_fmax__b_dy = (d_L_fn__b_dy*l18_0_1);
+    const S d_L_fmax__b_dz = (d_L_fn__b_dz*l18_0_1);
+    const S d_L_fmax__b_dtx = (d_L_fn__b_dtx*l18_0_1);
+    const S d_L_fmax__b_dty = (d_L_fn__b_dty*l18_0_1);
+    const S d_L_fmax__b_dtz = (d_L_fn__b_dtz*l18_0_1);
+    const S d_L_fmax__a_vx = (d_L_fn__a_vx*l18_0_1);
+    const S d_L_fmax__a_vy = (d_L_fn__a_vy*l18_0_1);
+    const S d_L_fmax__a_vz = (d_L_fn__a_vz*l18_0_1);
+    const S d_L_fmax__a_wx = (d_L_fn__a_wx*l18_0_1);
+    const S d_L_fmax__a_wy = (d_L_fn__a_wy*l18_0_1);
+    const S d_L_fmax__a_wz = (d_L_fn__a_wz*l18_0_1);
+    const S d_L_fmax__b_vx = (d_L_fn__b_vx*l18_0_1);
+    const S d_L_fmax__b_vy = (d_L_fn__b_vy*l18_0_1);
+    const S d_L_fmax__b_vz = (d_L_fn__b_vz*l18_0_1);
+    const S d_L_fmax__b_wx = (d_L_fn__b_wx*l18_0_1);
+    const S d_L_fmax__b_wy = (d_L_fn__b_wy*l18_0_1);
+    const S d_L_fmax__b_wz = (d_L_fn__b_wz*l18_0_1);
+    // let slip (contact.yaml:82)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:73)
-    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
-    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
-    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
-    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
-    // let fast (contact.yaml:74)
+    // let dir (contact.yaml:83)
+    const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
+    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
+    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
+    // let fast (contact.yaml:84)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:75)
-    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
-    const S l20_0_2 = (L_dir__0*L_dir__1);
-    const S l20_0_3 = (L_dir__0*L_dir__2);
-    const S l20_0_4 = (S(1) - (L_dir__1*L_dir__1));
-    const S l20_0_5 = (L_dir__1*L_dir__2);
-    const S l20_0_6 = (S(1) - (L_dir__2*L_dir__2));
-    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
-    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l20_0_1) - (d_L_vt__1__a_vx*l20_0_2) - (d_L_vt__2__a_vx*l20_0_3));
-    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l20_0_1) - (d_L_vt__1__a_vy*l20_0_2) - (d_L_vt__2__a_vy*l20_0_3));
-    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l20_0_1) - (d_L_vt__1__a_vz*l20_0_2) - (d_L_vt__2__a_vz*l20_0_3));
-    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l20_0_1) - (d_L_vt__1__a_wx*l20_0_2) - (d_L_vt__2__a_wx*l20_0_3));
-    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l20_0_1) - (d_L_vt__1__a_wy*l20_0_2) - (d_L_vt__2__a_wy*l20_0_3));
-    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l20_0_1) - (d_L_vt__1__a_wz*l20_0_2) - (d_L_vt__2__a_wz*l20_0_3));
-    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l20_0_1) - (d_L_vt__1__b_vx*l20_0_2) - (d_L_vt__2__b_vx*l20_0_3));
-    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l20_0_1) - (d_L_vt__1__b_vy*l20_0_2) - (d_L_vt__2__b_vy*l20_0_3));
-    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l20_0_1) - (d_L_vt__1__b_vz*l20_0_2) - (d_L_vt__2__b_vz*l20_0_3));
-    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l20_0_1) - (d_L_vt__1__b_wx*l20_0_2) - (d_L_vt__2__b_wx*l20_0_3));
-    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l20_0_1) - (d_L_vt__1__b_wy*l20_0_2) - (d_L_vt__2__b_wy*l20_0_3));
-    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l20_0_1) - (d_L_vt__1__b_wz*l20_0_2) - (d_L_vt__2__b_wz*l20_0_3));
-    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
-    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l20_0_2)) + (d_L_vt__1__a_vx*l20_0_4) - (d_L_vt__2__a_vx*l20_0_5));
-    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l20_0_2)) + (d_L_vt__1__a_vy*l20_0_4) - (d_L_vt__2__a_vy*l20_0_5));
-    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l20_0_2)) + (d_L_vt__1__a_vz*l20_0_4) - (d_L_vt__2__a_vz*l20_0_5));
-    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l20_0_2)) + (d_L_vt__1__a_wx*l20_0_4) - (d_L_vt__2__a_wx*l20_0_5));
-    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l20_0_2)) + (d_L_vt__1__a_wy*l20_0_4) - (d_L_vt__2__a_wy*l20_0_5));
-    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l20_0_2)) + (d_L_vt__1__a_wz*l20_0_4) - (d_L_vt__2__a_wz*l20_0_5));
-    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l20_0_2)) + (d_L_vt__1__b_vx*l20_0_4) - (d_L_vt__2__b_vx*l20_0_5));
-    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l20_0_2)) + (d_L_vt__1__b_vy*l20_0_4) - (d_L_vt__2__b_vy*l20_0_5));
-    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l20_0_2)) + (d_L_vt__1__b_vz*l20_0_4) - (d_L_vt__2__b_vz*l20_0_5));
-    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l20_0_2)) + (d_L_vt__1__b_wx*l20_0_4) - (d_L_vt__2__b_wx*l20_0_5));
-    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l20_0_2)) + (d_L_vt__1__b_wy*l20_0_4) - (d_L_vt__2__b_wy*l20_0_5));
-    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l20_0_2)) + (d_L_vt__1__b_wz*l20_0_4) - (d_L_vt__2__b_wz*l20_0_5));
-    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
-    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l20_0_3)) - (d_L_vt__1__a_vx*l20_0_5) + (d_L_vt__2__a_vx*l20_0_6));
-    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l20_0_3)) - (d_L_vt__1__a_vy*l20_0_5) + (d_L_vt__2__a_vy*l20_0_6));
-    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l20_0_3)) - (d_L_vt__1__a_vz*l20_0_5) + (d_L_vt__2__a_vz*l20_0_6));
-    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
-    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
-    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
-    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l20_0_3)) - (d_L_vt__1__b_vx*l20_0_5) + (d_L_vt__2__b_vx*l20_0_6));
-    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l20_0_3)) - (d_L_vt__1__b_vy*l20_0_5) + (d_L_vt__2__b_vy*l20_0_6));
-    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l20_0_3)) - (d_L_vt__1__b_vz*l20_0_5) + (d_L_vt__2__b_vz*l20_0_6));
-    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l20_0_3)) - (d_L_vt__1__b_wx*l20_0_5) + (d_L_vt__2__b_wx*l20_0_6));
-    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l20_0_3)) - (d_L_vt__1__b_wy*l20_0_5) + (d_L_vt__2__b_wy*l20_0_6));
-    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l20_0_3)) - (d_L_vt__1__b_wz*l20_0_5) + (d_L_vt__2__b_wz*l20_0_6));
-    // let sliding (contact.yaml:76)
-    const S l21_0_0 = (S(1)/(L_slip));
-    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
-    const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
-    const S l21_0_3 = (-l21_0_2);
-    const S l21_0_4 = (L_fast*L_fmax*l21_0_0);
-    const S l21_0_5 = (L_fmax*l21_0_1);
-    const S l21_0_6 = ((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1));
-    const S l21_0_7 = (-l21_0_6);
-    const S l21_0_8 = ((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1));
-    const S l21_0_9 = (-l21_0_8);
-    const S L_sliding__0 = (-(L_fmax*l21_0_2));
-    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l21_0_3);
-    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l21_0_3);
-    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l21_0_3);
-    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l21_0_3);
-    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l21_0_3);
-    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l21_0_3);
-    const S d_L_sliding__0__b_dx = (d_L_fmax__b_dx*l21_0_3);
-    const S d_L_sliding__0__b_dy = (d_L_fmax__b_dy*l21_0_3);
-    const S d_L_sliding__0__b_dz = (d_L_fmax__b_dz*l21_0_3);
-    const S d_L_sliding__0__b_dtx = (d_L_fmax__b_dtx*l21_0_3);
-    const S d_L_sliding__0__b_dty = (d_L_fmax__b_dty*l21_0_3);
-    const S d_L_sliding__0__b_dtz = (d_L_fmax__b_dtz*l21_0_3);
-    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_3) - (d_L_vt__0__a_vx*l21_0_5));
-    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_3) - (d_L_vt__0__a_vy*l21_0_5));
-    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_3) - (d_L_vt__0__a_vz*l21_0_5));
-    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_3) - (d_L_vt__0__a_wx*l21_0_5));
-    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_3) - (d_L_vt__0__a_wy*l21_0_5));
-    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_3) - (d_L_vt__0__a_wz*l21_0_5));
-    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_3) - (d_L_vt__0__b_vx*l21_0_5));
-    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_3) - (d_L_vt__0__b_vy*l21_0_5));
-    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_3) - (d_L_vt__0__b_vz*l21_0_5));
-    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_3) - (d_L_vt__0__b_wx*l21_0_5));
-    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_3) - (d_L_vt__0__b_wy*l21_0_5));
-    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_3) - (d_L_vt__0__b_wz*l21_0_5));
-    const S L_sliding__1 = (-(L_fmax*l21_0_6));
-    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l21_0_7);
-    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l21_0_7);
-    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l21_0_7);
-    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l21_0_7);
-    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l21_0_7);
-    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l21_0_7);
-    const S d_L_sliding__1__b_dx = (d_L_fmax__b_dx*l21_0_7);
-    const S d_L_sliding__1__b_dy = (d_L_fmax__b_dy*l21_0_7);
-    const S d_L_sliding__1__b_dz = (d_L_fmax__b_dz*l21_0_7);
-    const S d_L_sliding__1__b_dtx = (d_L_fmax__b_dtx*l21_0_7);
-    const S d_L_sliding__1__b_dty = (d_L_fmax__b_dty*l21_0_7);
-    const S d_L_sliding__1__b_dtz = (d_L_fmax__b_dtz*l21_0_7);
-    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_7) - (d_L_vt__1__a_vx*l21_0_5));
-    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_7) - (d_L_vt__1__a_vy*l21_0_5));
-    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_7) - (d_L_vt__1__a_vz*l21_0_5));
-    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_7) - (d_L_vt__1__a_wx*l21_0_5));
-    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_7) - (d_L_vt__1__a_wy*l21_0_5));
-    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_7) - (d_L_vt__1__a_wz*l21_0_5));
-    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_7) - (d_L_vt__1__b_vx*l21_0_5));
-    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_7) - (d_L_vt__1__b_vy*l21_0_5));
-    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_7) - (d_L_vt__1__b_vz*l21_0_5));
-    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_7) - (d_L_vt__1__b_wx*l21_0_5));
-    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_7) - (d_L_vt__1__b_wy*l21_0_5));
-    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_7) - (d_L_vt__1__b_wz*l21_0_5));
-    const S L_sliding__2 = (-(L_fmax*l21_0_8));
-    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l21_0_9);
-    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l21_0_9);
-    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l21_0_9);
-    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l21_0_9);
-    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l21_0_9);
-    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l21_0_9);
-    const S d_L_sliding__2__b_dx = (d_L_fmax__b_dx*l21_0_9);
-    const S d_L_sliding__2__b_dy = (d_L_fmax__b_dy*l21_0_9);
-    const S d_L_sliding__2__b_dz = (d_L_fmax__b_dz*l21_0_9);
-    const S d_L_sliding__2__b_dtx = (d_L_fmax__b_dtx*l21_0_9);
-    const S d_L_sliding__2__b_dty = (d_L_fmax__b_dty*l21_0_9);
-    const S d_L_sliding__2__b_dtz = (d_L_fmax__b_dtz*l21_0_9);
-    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_9) - (d_L_vt__2__a_vx*l21_0_5));
-    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_9) - (d_L_vt__2__a_vy*l21_0_5));
-    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_9) - (d_L_vt__2__a_vz*l21_0_5));
-    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
-    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
-    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
-    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_9) - (d_L_vt__2__b_vx*l21_0_5));
-    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_9) - (d_L_vt__2__b_vy*l21_0_5));
-    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_9) - (d_L_vt__2__b_vz*l21_0_5));
-    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_9) - (d_L_vt__2__b_wx*l21_0_5));
-    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_9) - (d_L_vt__2__b_wy*l21_0_5));
-    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_9) - (d_L_vt__2__b_wz*l21_0_5));
-    // let holds (contact.yaml:79)
+    // let across (contact.yaml:85)
+    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l22_0_2 = (L_dir__0*L_dir__1);
+    const S l22_0_3 = (L_dir__0*L_dir__2);
+    const S l22_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l22_0_5 = (L_dir__1*L_dir__2);
+    const S l22_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l22_0_1) - (d_L_vt__1__a_vx*l22_0_2) - (d_L_vt__2__a_vx*l22_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l22_0_1) - (d_L_vt__1__a_vy*l22_0_2) - (d_L_vt__2__a_vy*l22_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l22_0_1) - (d_L_vt__1__a_vz*l22_0_2) - (d_L_vt__2__a_vz*l22_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l22_0_1) - (d_L_vt__1__a_wx*l22_0_2) - (d_L_vt__2__a_wx*l22_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l22_0_1) - (d_L_vt__1__a_wy*l22_0_2) - (d_L_vt__2__a_wy*l22_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l22_0_1) - (d_L_vt__1__a_wz*l22_0_2) - (d_L_vt__2__a_wz*l22_0_3));
+    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l22_0_1) - (d_L_vt__1__b_vx*l22_0_2) - (d_L_vt__2__b_vx*l22_0_3));
+    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l22_0_1) - (d_L_vt__1__b_vy*l22_0_2) - (d_L_vt__2__b_vy*l22_0_3));
+    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l22_0_1) - (d_L_vt__1__b_vz*l22_0_2) - (d_L_vt__2__b_vz*l22_0_3));
+    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l22_0_1) - (d_L_vt__1__b_wx*l22_0_2) - (d_L_vt__2__b_wx*l22_0_3));
+    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l22_0_1) - (d_L_vt__1__b_wy*l22_0_2) - (d_L_vt__2__b_wy*l22_0_3));
+    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l22_0_1) - (d_L_vt__1__b_wz*l22_0_2) - (d_L_vt__2__b_wz*l22_0_3));
+    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l22_0_2)) + (d_L_vt__1__a_vx*l22_0_4) - (d_L_vt__2__a_vx*l22_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l22_0_2)) + (d_L_vt__1__a_vy*l22_0_4) - (d_L_vt__2__a_vy*l22_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l22_0_2)) + (d_L_vt__1__a_vz*l22_0_4) - (d_L_vt__2__a_vz*l22_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l22_0_2)) + (d_L_vt__1__a_wx*l22_0_4) - (d_L_vt__2__a_wx*l22_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l22_0_2)) + (d_L_vt__1__a_wy*l22_0_4) - (d_L_vt__2__a_wy*l22_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l22_0_2)) + (d_L_vt__1__a_wz*l22_0_4) - (d_L_vt__2__a_wz*l22_0_5));
+    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l22_0_2)) + (d_L_vt__1__b_vx*l22_0_4) - (d_L_vt__2__b_vx*l22_0_5));
+    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l22_0_2)) + (d_L_vt__1__b_vy*l22_0_4) - (d_L_vt__2__b_vy*l22_0_5));
+    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l22_0_2)) + (d_L_vt__1__b_vz*l22_0_4) - (d_L_vt__2__b_vz*l22_0_5));
+    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l22_0_2)) + (d_L_vt__1__b_wx*l22_0_4) - (d_L_vt__2__b_wx*l22_0_5));
+    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l22_0_2)) + (d_L_vt__1__b_wy*l22_0_4) - (d_L_vt__2__b_wy*l22_0_5));
+    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l22_0_2)) + (d_L_vt__1__b_wz*l22_0_4) - (d_L_vt__2__b_wz*l22_0_5));
+    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l22_0_3)) - (d_L_vt__1__a_vx*l22_0_5) + (d_L_vt__2__a_vx*l22_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l22_0_3)) - (d_L_vt__1__a_vy*l22_0_5) + (d_L_vt__2__a_vy*l22_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l22_0_3)) - (d_L_vt__1__a_vz*l22_0_5) + (d_L_vt__2__a_vz*l22_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
+    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l22_0_3)) - (d_L_vt__1__b_vx*l22_0_5) + (d_L_vt__2__b_vx*l22_0_6));
+    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l22_0_3)) - (d_L_vt__1__b_vy*l22_0_5) + (d_L_vt__2__b_vy*l22_0_6));
+    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l22_0_3)) - (d_L_vt__1__b_vz*l22_0_5) + (d_L_vt__2__b_vz*l22_0_6));
+    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l22_0_3)) - (d_L_vt__1__b_wx*l22_0_5) + (d_L_vt__2__b_wx*l22_0_6));
+    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l22_0_3)) - (d_L_vt__1__b_wy*l22_0_5) + (d_L_vt__2__b_wy*l22_0_6));
+    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l22_0_3)) - (d_L_vt__1__b_wz*l22_0_5) + (d_L_vt__2__b_wz*l22_0_6));
+    // let sliding (contact.yaml:86)
+    const S l23_0_0 = (S(1)/(L_slip));
+    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
+    const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
+    const S l23_0_3 = (-l23_0_2);
+    const S l23_0_4 = (L_fast*L_fmax*l23_0_0);
+    const S l23_0_5 = (L_fmax*l23_0_1);
+    const S l23_0_6 = ((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1));
+    const S l23_0_7 = (-l23_0_6);
+    const S l23_0_8 = ((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1));
+    const S l23_0_9 = (-l23_0_8);
+    const S L_sliding__0 = (-(L_fmax*l23_0_2));
+    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l23_0_3);
+    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l23_0_3);
+    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l23_0_3);
+    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l23_0_3);
+    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l23_0_3);
+    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l23_0_3);
+    const S d_L_sliding__0__b_dx = (d_L_fmax__b_dx*l23_0_3);
+    const S d_L_sliding__0__b_dy = (d_L_fmax__b_dy*l23_0_3);
+    const S d_L_sliding__0__b_dz = (d_L_fmax__b_dz*l23_0_3);
+    const S d_L_sliding__0__b_dtx = (d_L_fmax__b_dtx*l23_0_3);
+    const S d_L_sliding__0__b_dty = (d_L_fmax__b_dty*l23_0_3);
+    const S d_L_sliding__0__b_dtz = (d_L_fmax__b_dtz*l23_0_3);
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_3) - (d_L_vt__0__a_vx*l23_0_5));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_3) - (d_L_vt__0__a_vy*l23_0_5));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_3) - (d_L_vt__0__a_vz*l23_0_5));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_3) - (d_L_vt__0__a_wx*l23_0_5));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_3) - (d_L_vt__0__a_wy*l23_0_5));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_3) - (d_L_vt__0__a_wz*l23_0_5));
+    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_3) - (d_L_vt__0__b_vx*l23_0_5));
+    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_3) - (d_L_vt__0__b_vy*l23_0_5));
+    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_3) - (d_L_vt__0__b_vz*l23_0_5));
+    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_3) - (d_L_vt__0__b_wx*l23_0_5));
+    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_3) - (d_L_vt__0__b_wy*l23_0_5));
+    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_3) - (d_L_vt__0__b_wz*l23_0_5));
+    const S L_sliding__1 = (-(L_fmax*l23_0_6));
+    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l23_0_7);
+    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l23_0_7);
+    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l23_0_7);
+    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l23_0_7);
+    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l23_0_7);
+    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l23_0_7);
+    const S d_L_sliding__1__b_dx = (d_L_fmax__b_dx*l23_0_7);
+    const S d_L_sliding__1__b_dy = (d_L_fmax__b_dy*l23_0_7);
+    const S d_L_sliding__1__b_dz = (d_L_fmax__b_dz*l23_0_7);
+    const S d_L_sliding__1__b_dtx = (d_L_fmax__b_dtx*l23_0_7);
+    const S d_L_sliding__1__b_dty = (d_L_fmax__b_dty*l23_0_7);
+    const S d_L_sliding__1__b_dtz = (d_L_fmax__b_dtz*l23_0_7);
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_7) - (d_L_vt__1__a_vx*l23_0_5));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_7) - (d_L_vt__1__a_vy*l23_0_5));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_7) - (d_L_vt__1__a_vz*l23_0_5));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_7) - (d_L_vt__1__a_wx*l23_0_5));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_7) - (d_L_vt__1__a_wy*l23_0_5));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_7) - (d_L_vt__1__a_wz*l23_0_5));
+    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_7) - (d_L_vt__1__b_vx*l23_0_5));
+    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_7) - (d_L_vt__1__b_vy*l23_0_5));
+    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_7) - (d_L_vt__1__b_vz*l23_0_5));
+    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_7) - (d_L_vt__1__b_wx*l23_0_5));
+    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_7) - (d_L_vt__1__b_wy*l23_0_5));
+    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_7) - (d_L_vt__1__b_wz*l23_0_5));
+    const S L_sliding__2 = (-(L_fmax*l23_0_8));
+    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l23_0_9);
+    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l23_0_9);
+    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l23_0_9);
+    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l23_0_9);
+    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l23_0_9);
+    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l23_0_9);
+    const S d_L_sliding__2__b_dx = (d_L_fmax__b_dx*l23_0_9);
+    const S d_L_sliding__2__b_dy = (d_L_fmax__b_dy*l23_0_9);
+    const S d_L_sliding__2__b_dz = (d_L_fmax__b_dz*l23_0_9);
+    const S d_L_sliding__2__b_dtx = (d_L_fmax__b_dtx*l23_0_9);
+    const S d_L_sliding__2__b_dty = (d_L_fmax__b_dty*l23_0_9);
+    const S d_L_sliding__2__b_dtz = (d_L_fmax__b_dtz*l23_0_9);
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_9) - (d_L_vt__2__a_vx*l23_0_5));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_9) - (d_L_vt__2__a_vy*l23_0_5));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_9) - (d_L_vt__2__a_vz*l23_0_5));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
+    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_9) - (d_L_vt__2__b_vx*l23_0_5));
+    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_9) - (d_L_vt__2__b_vy*l23_0_5));
+    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_9) - (d_L_vt__2__b_vz*l23_0_5));
+    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_9) - (d_L_vt__2__b_wx*l23_0_5));
+    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_9) - (d_L_vt__2__b_wy*l23_0_5));
+    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_9) - (d_L_vt__2__b_wz*l23_0_5));
+    // let holds (contact.yaml:89)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:80)
-    const S l23_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l23_0_0));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l23_0_0));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l23_0_0));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l23_0_0));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l23_0_0));
-    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) + (d_L_sliding__0__b_dx*l23_0_0));
-    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) + (d_L_sliding__0__b_dy*l23_0_0));
-    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) + (d_L_sliding__0__b_dz*l23_0_0));
-    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) + (d_L_sliding__0__b_dtx*l23_0_0));
-    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) + (d_L_sliding__0__b_dty*l23_0_0));
-    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) + (d_L_sliding__0__b_dtz*l23_0_0));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l23_0_0));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l23_0_0));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l23_0_0));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l23_0_0));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l23_0_0));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l23_0_0));
-    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l23_0_0));
-    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l23_0_0));
-    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l23_0_0));
-    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l23_0_0));
-    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l23_0_0));
-    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l23_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l23_0_0));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l23_0_0));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l23_0_0));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l23_0_0));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l23_0_0));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l23_0_0));
-    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) + (d_L_sliding__1__b_dx*l23_0_0));
-    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) + (d_L_sliding__1__b_dy*l23_0_0));
-    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) + (d_L_sliding__1__b_dz*l23_0_0));
-    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) + (d_L_sliding__1__b_dtx*l23_0_0));
-    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) + (d_L_sliding__1__b_dty*l23_0_0));
-    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) + (d_L_sliding__1__b_dtz*l23_0_0));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l23_0_0));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l23_0_0));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l23_0_0));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l23_0_0));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l23_0_0));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l23_0_0));
-    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l23_0_0));
-    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l23_0_0));
-    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l23_0_0));
-    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l23_0_0));
-    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l23_0_0));
-    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l23_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l23_0_0));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l23_0_0));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l23_0_0));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l23_0_0));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l23_0_0));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l23_0_0));
-    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) + (d_L_sliding__2__b_dx*l23_0_0));
-    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) + (d_L_sliding__2__b_dy*l23_0_0));
-    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) + (d_L_sliding__2__b_dz*l23_0_0));
-    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) + (d_L_sliding__2__b_dtx*l23_0_0));
-    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) + (d_L_sliding__2__b_dty*l23_0_0));
-    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) + (d_L_sliding__2__b_dtz*l23_0_0));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l23_0_0));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l23_0_0));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l23_0_0));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
-    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l23_0_0));
-    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l23_0_0));
-    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l23_0_0));
-    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l23_0_0));
-    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l23_0_0));
-    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l23_0_0));
-    // let f (contact.yaml:81)
+    // let ft (contact.yaml:90)
+    const S l25_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
+    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
+    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l25_0_0));
+    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l25_0_0));
+    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l25_0_0));
+    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l25_0_0));
+    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l25_0_0));
+    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) + (d_L_sliding__0__b_dx*l25_0_0));
+    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) + (d_L_sliding__0__b_dy*l25_0_0));
+    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) + (d_L_sliding__0__b_dz*l25_0_0));
+    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) + (d_L_sliding__0__b_dtx*l25_0_0));
+    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) + (d_L_sliding__0__b_dty*l25_0_0));
+    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) + (d_L_sliding__0__b_dtz*l25_0_0));
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l25_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l25_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l25_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l25_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l25_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l25_0_0));
+    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l25_0_0));
+    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l25_0_0));
+    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l25_0_0));
+    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l25_0_0));
+    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l25_0_0));
+    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l25_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
+    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l25_0_0));
+    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l25_0_0));
+    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l25_0_0));
+    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l25_0_0));
+    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l25_0_0));
+    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l25_0_0));
+    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) + (d_L_sliding__1__b_dx*l25_0_0));
+    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) + (d_L_sliding__1__b_dy*l25_0_0));
+    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) + (d_L_sliding__1__b_dz*l25_0_0));
+    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) + (d_L_sliding__1__b_dtx*l25_0_0));
+    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) + (d_L_sliding__1__b_dty*l25_0_0));
+    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) + (d_L_sliding__1__b_dtz*l25_0_0));
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l25_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l25_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l25_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l25_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l25_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l25_0_0));
+    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l25_0_0));
+    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l25_0_0));
+    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l25_0_0));
+    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l25_0_0));
+    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l25_0_0));
+    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l25_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
+    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l25_0_0));
+    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l25_0_0));
+    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l25_0_0));
+    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l25_0_0));
+    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l25_0_0));
+    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l25_0_0));
+    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) + (d_L_sliding__2__b_dx*l25_0_0));
+    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) + (d_L_sliding__2__b_dy*l25_0_0));
+    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) + (d_L_sliding__2__b_dz*l25_0_0));
+    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) + (d_L_sliding__2__b_dtx*l25_0_0));
+    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) + (d_L_sliding__2__b_dty*l25_0_0));
+    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) + (d_L_sliding__2__b_dtz*l25_0_0));
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l25_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l25_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l25_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
+    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l25_0_0));
+    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l25_0_0));
+    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l25_0_0));
+    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l25_0_0));
+    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l25_0_0));
+    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l25_0_0));
+    // let f (contact.yaml:91)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -833,21 +860,21 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // F_a from apply[0] (contact.yaml:83)
+    // F_a from apply[0] (contact.yaml:93)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:84)
+    // F_b from apply[1] (contact.yaml:94)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:83)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:93)
     out[12] = (-d_L_f__0__a_dx);
     out[13] = (-d_L_f__1__a_dx);
     out[14] = (-d_L_f__2__a_dx);
@@ -884,7 +911,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[46] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[47] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/ddelta_b from apply[0] (contact.yaml:83)
+    // dF_a/ddelta_b from apply[0] (contact.yaml:93)
     out[48] = (-d_L_f__0__b_dx);
     out[49] = (-d_L_f__1__b_dx);
     out[50] = (-d_L_f__2__b_dx);
@@ -921,7 +948,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((-(L_ra__1*d_L_f__2__b_dtz)) + (L_ra__2*d_L_f__1__b_dtz));
     out[82] = ((L_ra__0*d_L_f__2__b_dtz) - (L_ra__2*d_L_f__0__b_dtz));
     out[83] = ((-(L_ra__0*d_L_f__1__b_dtz)) + (L_ra__1*d_L_f__0__b_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:83)
+    // dF_a/du_a from apply[0] (contact.yaml:93)
     out[84] = (-d_L_f__0__a_vx);
     out[85] = (-d_L_f__1__a_vx);
     out[86] = (-d_L_f__2__a_vx);
@@ -958,7 +985,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz));
     out[118] = ((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz));
     out[119] = ((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz));
-    // dF_a/du_b from apply[0] (contact.yaml:83)
+    // dF_a/du_b from apply[0] (contact.yaml:93)
     out[120] = (-d_L_f__0__b_vx);
     out[121] = (-d_L_f__1__b_vx);
     out[122] = (-d_L_f__2__b_vx);
@@ -995,7 +1022,7 @@ struct Contact_Pair_Kernel {
     out[153] = ((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz));
     out[154] = ((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz));
     out[155] = ((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz));
-    // dF_b/ddelta_a from apply[1] (contact.yaml:84)
+    // dF_b/ddelta_a from apply[1] (contact.yaml:94)
     out[156] = d_L_f__0__a_dx;
     out[157] = d_L_f__1__a_dx;
     out[158] = d_L_f__2__a_dx;
@@ -1032,7 +1059,7 @@ struct Contact_Pair_Kernel {
     out[189] = ((L_rb__1*d_L_f__2__a_dtz) - (L_rb__2*d_L_f__1__a_dtz));
     out[190] = ((-(L_rb__0*d_L_f__2__a_dtz)) + (L_rb__2*d_L_f__0__a_dtz));
     out[191] = ((L_rb__0*d_L_f__1__a_dtz) - (L_rb__1*d_L_f__0__a_dtz));
-    // dF_b/ddelta_b from apply[1] (contact.yaml:84)
+    // dF_b/ddelta_b from apply[1] (contact.yaml:94)
     out[192] = d_L_f__0__b_dx;
     out[193] = d_L_f__1__b_dx;
     out[194] = d_L_f__2__b_dx;
@@ -1069,7 +1096,7 @@ struct Contact_Pair_Kernel {
     out[225] = ((L_rb__1*d_L_f__2__b_dtz) - (L_rb__2*d_L_f__1__b_dtz));
     out[226] = ((-(L_rb__0*d_L_f__2__b_dtz)) + (L_rb__2*d_L_f__0__b_dtz));
     out[227] = ((L_rb__0*d_L_f__1__b_dtz) - (L_rb__1*d_L_f__0__b_dtz));
-    // dF_b/du_a from apply[1] (contact.yaml:84)
+    // dF_b/du_a from apply[1] (contact.yaml:94)
     out[228] = d_L_f__0__a_vx;
     out[229] = d_L_f__1__a_vx;
     out[230] = d_L_f__2__a_vx;
@@ -1106,7 +1133,7 @@ struct Contact_Pair_Kernel {
     out[261] = ((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz));
     out[262] = ((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz));
     out[263] = ((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz));
-    // dF_b/du_b from apply[1] (contact.yaml:84)
+    // dF_b/du_b from apply[1] (contact.yaml:94)
     out[264] = d_L_f__0__b_vx;
     out[265] = d_L_f__1__b_vx;
     out[266] = d_L_f__2__b_vx;
@@ -1147,7 +1174,7 @@ struct Contact_Pair_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2653
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2694
   static constexpr int kNumImplicitBlocks = 4;
   static constexpr int kImplicitOutputs = 156;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -1213,16 +1240,16 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S p_friction = in[50];
     [[maybe_unused]] const S p_mass = in[51];
     [[maybe_unused]] const S p_load = in[52];
-    [[maybe_unused]] const S p_sticking = in[53];
-    [[maybe_unused]] const S g_contact_hertz = in[54];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[55];
-    [[maybe_unused]] const S g_contact_stiffness = in[56];
-    [[maybe_unused]] const S g_contact_damping = in[57];
-    [[maybe_unused]] const S g_contact_hold_depth = in[58];
-    [[maybe_unused]] const S g_slip_velocity = in[59];
-    [[maybe_unused]] const S g_contact_slop = in[60];
+    [[maybe_unused]] const S p_fall = in[53];
+    [[maybe_unused]] const S p_sticking = in[54];
+    [[maybe_unused]] const S g_contact_hertz = in[55];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[56];
+    [[maybe_unused]] const S g_contact_stiffness = in[57];
+    [[maybe_unused]] const S g_contact_damping = in[58];
+    [[maybe_unused]] const S g_contact_hold_depth = in[59];
+    [[maybe_unused]] const S g_slip_velocity = in[60];
     [[maybe_unused]] const S g_contact_rest_speed = in[61];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:31), let rb (contact.yaml:32)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32), let rb (contact.yaml:33)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -1276,15 +1303,15 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
-    // let ra (contact.yaml:31)
+    // let ra (contact.yaml:32)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
-    // let rb (contact.yaml:32)
+    // let rb (contact.yaml:33)
     [[maybe_unused]] const S L_rb__0 = b_o1_0;
     [[maybe_unused]] const S L_rb__1 = b_o1_1;
     [[maybe_unused]] const S L_rb__2 = b_o1_2;
-    // let moved (contact.yaml:35)
+    // let moved (contact.yaml:36)
     const S l2_0_0 = (-b_o1_0);
     const S l2_0_1 = (-b_o1_1);
     const S l2_0_2 = (-b_o1_2);
@@ -1297,7 +1324,7 @@ struct Contact_Pair_Kernel {
     const S L_moved__2 = ((-a_o0_2) - a_pz + b_pz - l2_0_2);
     const S d_L_moved__2__a_dtx = (-a_o0_1);
     const S d_L_moved__2__b_dty = l2_0_0;
-    // let depth (contact.yaml:36)
+    // let depth (contact.yaml:37)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
     const S d_L_depth__a_dtx = ((-(a_o0_2*p_normal__1)) - (d_L_moved__2__a_dtx*p_normal__2));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) - (d_L_moved__0__a_dty*p_normal__0));
@@ -1308,7 +1335,7 @@ struct Contact_Pair_Kernel {
     const S d_L_depth__b_dtx = ((-(b_o1_1*p_normal__2)) - (d_L_moved__1__b_dtx*p_normal__1));
     const S d_L_depth__b_dty = ((-(b_o1_2*p_normal__0)) - (d_L_moved__2__b_dty*p_normal__2));
     const S d_L_depth__b_dtz = ((-(b_o1_0*p_normal__1)) - (d_L_moved__0__b_dtz*p_normal__0));
-    // let vrel (contact.yaml:37)
+    // let vrel (contact.yaml:38)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S d_L_vrel__0__b_wz = (-L_rb__1);
@@ -1318,7 +1345,7 @@ struct Contact_Pair_Kernel {
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
     const S d_L_vrel__2__b_wy = (-L_rb__0);
-    // let vn (contact.yaml:38)
+    // let vn (contact.yaml:39)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -1329,15 +1356,15 @@ struct Contact_Pair_Kernel {
     const S d_L_vn__b_wx = ((L_rb__1*p_normal__2) + (d_L_vrel__1__b_wx*p_normal__1));
     const S d_L_vn__b_wy = ((L_rb__2*p_normal__0) + (d_L_vrel__2__b_wy*p_normal__2));
     const S d_L_vn__b_wz = ((L_rb__0*p_normal__1) + (d_L_vrel__0__b_wz*p_normal__0));
-    // let omega (contact.yaml:41)
+    // let omega (contact.yaml:42)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:45)
+    // let m (contact.yaml:46)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:46)
+    // let k (contact.yaml:47)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:47)
+    // let c (contact.yaml:48)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:51)
+    // let held (contact.yaml:52)
     const auto l10_0_0 = (L_depth > g_contact_hold_depth);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
     const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
@@ -1353,45 +1380,72 @@ struct Contact_Pair_Kernel {
     const S d_L_held__b_dtx = (d_L_depth__b_dtx*l10_0_1);
     const S d_L_held__b_dty = (d_L_depth__b_dty*l10_0_1);
     const S d_L_held__b_dtz = (d_L_depth__b_dtz*l10_0_1);
-    // let closing (contact.yaml:57)
-    const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:58)
-    const S l12_0_0 = (L_c*L_vn);
-    const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
-    const auto l12_0_2 = (l12_0_1 < S(0));
-    const auto l12_0_3 = (L_depth > S(0));
-    const S l12_0_4 = select(l12_0_3, select(l12_0_2, L_k, S(0)), S(0));
-    const S l12_0_5 = select(l12_0_3, S(0), (L_closing*L_k));
-    const S l12_0_6 = select(l12_0_3, select(l12_0_2, (-L_c), S(0)), (-(L_c*L_closing)));
-    const S L_fn = select(l12_0_3, select(l12_0_2, (-l12_0_1), S(0)), (L_closing*((L_depth*L_k) - l12_0_0)));
-    const S d_L_fn__a_dx = ((d_L_held__a_dx*l12_0_4) + (l12_0_5*p_normal__0));
-    const S d_L_fn__a_dy = ((d_L_held__a_dy*l12_0_4) + (l12_0_5*p_normal__1));
-    const S d_L_fn__a_dz = ((d_L_held__a_dz*l12_0_4) + (l12_0_5*p_normal__2));
-    const S d_L_fn__a_dtx = ((d_L_depth__a_dtx*l12_0_5) + (d_L_held__a_dtx*l12_0_4));
-    const S d_L_fn__a_dty = ((d_L_depth__a_dty*l12_0_5) + (d_L_held__a_dty*l12_0_4));
-    const S d_L_fn__a_dtz = ((d_L_depth__a_dtz*l12_0_5) + (d_L_held__a_dtz*l12_0_4));
-    const S d_L_fn__b_dx = ((d_L_depth__b_dx*l12_0_5) + (d_L_held__b_dx*l12_0_4));
-    const S d_L_fn__b_dy = ((d_L_depth__b_dy*l12_0_5) + (d_L_held__b_dy*l12_0_4));
-    const S d_L_fn__b_dz = ((d_L_depth__b_dz*l12_0_5) + (d_L_held__b_dz*l12_0_4));
-    const S d_L_fn__b_dtx = ((d_L_depth__b_dtx*l12_0_5) + (d_L_held__b_dtx*l12_0_4));
-    const S d_L_fn__b_dty = ((d_L_depth__b_dty*l12_0_5) + (d_L_held__b_dty*l12_0_4));
-    const S d_L_fn__b_dtz = ((d_L_depth__b_dtz*l12_0_5) + (d_L_held__b_dtz*l12_0_4));
-    const S d_L_fn__a_vx = (d_L_vn__a_vx*l12_0_6);
-    const S d_L_fn__a_vy = (d_L_vn__a_vy*l12_0_6);
-    const S d_L_fn__a_vz = (d_L_vn__a_vz*l12_0_6);
-    const S d_L_fn__a_wx = (d_L_vn__a_wx*l12_0_6);
-    const S d_L_fn__a_wy = (d_L_vn__a_wy*l12_0_6);
-    const S d_L_fn__a_wz = (d_L_vn__a_wz*l12_0_6);
-    const S d_L_fn__b_vx = (l12_0_6*p_normal__0);
-    const S d_L_fn__b_vy = (l12_0_6*p_normal__1);
-    const S d_L_fn__b_vz = (l12_0_6*p_normal__2);
-    const S d_L_fn__b_wx = (d_L_vn__b_wx*l12_0_6);
-    const S d_L_fn__b_wy = (d_L_vn__b_wy*l12_0_6);
-    const S d_L_fn__b_wz = (d_L_vn__b_wz*l12_0_6);
-    // let vt (contact.yaml:59)
-    const S l13_0_0 = (-(p_normal__0*p_normal__1));
-    const S l13_0_1 = (-(p_normal__0*p_normal__2));
-    const S l13_0_2 = (-(p_normal__1*p_normal__2));
+    // let closing (contact.yaml:62)
+    const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
+    // let stays (contact.yaml:66)
+    const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
+    // let pushed (contact.yaml:67)
+    const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
+    const S d_L_pushed__a_dx = (L_k*d_L_held__a_dx);
+    const S d_L_pushed__a_dy = (L_k*d_L_held__a_dy);
+    const S d_L_pushed__a_dz = (L_k*d_L_held__a_dz);
+    const S d_L_pushed__a_dtx = (L_k*d_L_held__a_dtx);
+    const S d_L_pushed__a_dty = (L_k*d_L_held__a_dty);
+    const S d_L_pushed__a_dtz = (L_k*d_L_held__a_dtz);
+    const S d_L_pushed__b_dx = (L_k*d_L_held__b_dx);
+    const S d_L_pushed__b_dy = (L_k*d_L_held__b_dy);
+    const S d_L_pushed__b_dz = (L_k*d_L_held__b_dz);
+    const S d_L_pushed__b_dtx = (L_k*d_L_held__b_dtx);
+    const S d_L_pushed__b_dty = (L_k*d_L_held__b_dty);
+    const S d_L_pushed__b_dtz = (L_k*d_L_held__b_dtz);
+    const S d_L_pushed__a_vx = (-(L_c*d_L_vn__a_vx));
+    const S d_L_pushed__a_vy = (-(L_c*d_L_vn__a_vy));
+    const S d_L_pushed__a_vz = (-(L_c*d_L_vn__a_vz));
+    const S d_L_pushed__a_wx = (-(L_c*d_L_vn__a_wx));
+    const S d_L_pushed__a_wy = (-(L_c*d_L_vn__a_wy));
+    const S d_L_pushed__a_wz = (-(L_c*d_L_vn__a_wz));
+    const S d_L_pushed__b_vx = (-(L_c*p_normal__0));
+    const S d_L_pushed__b_vy = (-(L_c*p_normal__1));
+    const S d_L_pushed__b_vz = (-(L_c*p_normal__2));
+    const S d_L_pushed__b_wx = (-(L_c*d_L_vn__b_wx));
+    const S d_L_pushed__b_wy = (-(L_c*d_L_vn__b_wy));
+    const S d_L_pushed__b_wz = (-(L_c*d_L_vn__b_wz));
+    // let fn (contact.yaml:68)
+    const auto l14_0_0 = (L_stays > S(0));
+    const auto l14_0_1 = (L_pushed > S(0));
+    const auto l14_0_2 = (L_depth > S(0));
+    const S l14_0_3 = (L_closing*(L_c + (L_k*h)));
+    const S l14_0_4 = select(l14_0_2, select(l14_0_0, S(1), select(l14_0_1, S(1), S(0))), S(0));
+    const S l14_0_5 = select(l14_0_2, S(0), (-l14_0_3));
+    const S L_fn = select(l14_0_2, select(l14_0_0, L_pushed, select(l14_0_1, L_pushed, S(0))), (l14_0_3*((-L_vn) + (p_penetration/(h)))));
+    const S d_L_fn__a_dx = (d_L_pushed__a_dx*l14_0_4);
+    const S d_L_fn__a_dy = (d_L_pushed__a_dy*l14_0_4);
+    const S d_L_fn__a_dz = (d_L_pushed__a_dz*l14_0_4);
+    const S d_L_fn__a_dtx = (d_L_pushed__a_dtx*l14_0_4);
+    const S d_L_fn__a_dty = (d_L_pushed__a_dty*l14_0_4);
+    const S d_L_fn__a_dtz = (d_L_pushed__a_dtz*l14_0_4);
+    const S d_L_fn__b_dx = (d_L_pushed__b_dx*l14_0_4);
+    const S d_L_fn__b_dy = (d_L_pushed__b_dy*l14_0_4);
+    const S d_L_fn__b_dz = (d_L_pushed__b_dz*l14_0_4);
+    const S d_L_fn__b_dtx = (d_L_pushed__b_dtx*l14_0_4);
+    const S d_L_fn__b_dty = (d_L_pushed__b_dty*l14_0_4);
+    const S d_L_fn__b_dtz = (d_L_pushed__b_dtz*l14_0_4);
+    const S d_L_fn__a_vx = ((d_L_pushed__a_vx*l14_0_4) + (d_L_vn__a_vx*l14_0_5));
+    const S d_L_fn__a_vy = ((d_L_pushed__a_vy*l14_0_4) + (d_L_vn__a_vy*l14_0_5));
+    const S d_L_fn__a_vz = ((d_L_pushed__a_vz*l14_0_4) + (d_L_vn__a_vz*l14_0_5));
+    const S d_L_fn__a_wx = ((d_L_pushed__a_wx*l14_0_4) + (d_L_vn__a_wx*l14_0_5));
+    const S d_L_fn__a_wy = ((d_L_pushed__a_wy*l14_0_4) + (d_L_vn__a_wy*l14_0_5));
+    const S d_L_fn__a_wz = ((d_L_pushed__a_wz*l14_0_4) + (d_L_vn__a_wz*l14_0_5));
+    const S d_L_fn__b_vx = ((d_L_pushed__b_vx*l14_0_4) + (l14_0_5*p_normal__0));
+    const S d_L_fn__b_vy = ((d_L_pushed__b_vy*l14_0_4) + (l14_0_5*p_normal__1));
+    const S d_L_fn__b_vz = ((d_L_pushed__b_vz*l14_0_4) + (l14_0_5*p_normal__2));
+    const S d_L_fn__b_wx = ((d_L_pushed__b_wx*l14_0_4) + (d_L_vn__b_wx*l14_0_5));
+    const S d_L_fn__b_wy = ((d_L_pushed__b_wy*l14_0_4) + (d_L_vn__b_wy*l14_0_5));
+    const S d_L_fn__b_wz = ((d_L_pushed__b_wz*l14_0_4) + (d_L_vn__b_wz*l14_0_5));
+    // let vt (contact.yaml:69)
+    const S l15_0_0 = (-(p_normal__0*p_normal__1));
+    const S l15_0_1 = (-(p_normal__0*p_normal__2));
+    const S l15_0_2 = (-(p_normal__1*p_normal__2));
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -1400,8 +1454,8 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__0__a_wy = ((-(d_L_vn__a_wy*p_normal__0)) + d_L_vrel__0__a_wy);
     const S d_L_vt__0__a_wz = (L_ra__1 - (d_L_vn__a_wz*p_normal__0));
     const S d_L_vt__0__b_vx = (S(1) - (p_normal__0*p_normal__0));
-    const S d_L_vt__0__b_vy = l13_0_0;
-    const S d_L_vt__0__b_vz = l13_0_1;
+    const S d_L_vt__0__b_vy = l15_0_0;
+    const S d_L_vt__0__b_vz = l15_0_1;
     const S d_L_vt__0__b_wx = (-(d_L_vn__b_wx*p_normal__0));
     const S d_L_vt__0__b_wy = (L_rb__2 - (d_L_vn__b_wy*p_normal__0));
     const S d_L_vt__0__b_wz = ((-(d_L_vn__b_wz*p_normal__0)) + d_L_vrel__0__b_wz);
@@ -1412,9 +1466,9 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__1__a_wx = (L_ra__2 - (d_L_vn__a_wx*p_normal__1));
     const S d_L_vt__1__a_wy = (-(d_L_vn__a_wy*p_normal__1));
     const S d_L_vt__1__a_wz = ((-(d_L_vn__a_wz*p_normal__1)) + d_L_vrel__1__a_wz);
-    const S d_L_vt__1__b_vx = l13_0_0;
+    const S d_L_vt__1__b_vx = l15_0_0;
     const S d_L_vt__1__b_vy = (S(1) - (p_normal__1*p_normal__1));
-    const S d_L_vt__1__b_vz = l13_0_2;
+    const S d_L_vt__1__b_vz = l15_0_2;
     const S d_L_vt__1__b_wx = ((-(d_L_vn__b_wx*p_normal__1)) + d_L_vrel__1__b_wx);
     const S d_L_vt__1__b_wy = (-(d_L_vn__b_wy*p_normal__1));
     const S d_L_vt__1__b_wz = (L_rb__0 - (d_L_vn__b_wz*p_normal__1));
@@ -1425,66 +1479,66 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
-    const S d_L_vt__2__b_vx = l13_0_1;
-    const S d_L_vt__2__b_vy = l13_0_2;
+    const S d_L_vt__2__b_vx = l15_0_1;
+    const S d_L_vt__2__b_vy = l15_0_2;
     const S d_L_vt__2__b_vz = (S(1) - (p_normal__2*p_normal__2));
     const S d_L_vt__2__b_wx = (L_rb__1 - (d_L_vn__b_wx*p_normal__2));
     const S d_L_vt__2__b_wy = ((-(d_L_vn__b_wy*p_normal__2)) + d_L_vrel__2__b_wy);
     const S d_L_vt__2__b_wz = (-(d_L_vn__b_wz*p_normal__2));
-    // let strain (contact.yaml:64)
-    const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
-    const S l14_0_1 = ((p_normal__0*p_normal__0) - S(1));
-    const S l14_0_2 = (p_normal__0*p_normal__1);
-    const S l14_0_3 = (p_normal__0*p_normal__2);
-    const S l14_0_4 = (-l14_0_1);
-    const S l14_0_5 = (-l14_0_2);
-    const S l14_0_6 = (-l14_0_3);
-    const S l14_0_7 = ((p_normal__1*p_normal__1) - S(1));
-    const S l14_0_8 = (p_normal__1*p_normal__2);
-    const S l14_0_9 = (-l14_0_7);
-    const S l14_0_10 = (-l14_0_8);
-    const S l14_0_11 = ((p_normal__2*p_normal__2) - S(1));
-    const S l14_0_12 = (-l14_0_11);
-    const S L_strain__0 = (L_moved__0 - (l14_0_0*p_normal__0) + p_anchor__0);
-    const S d_L_strain__0__a_dx = l14_0_1;
-    const S d_L_strain__0__a_dy = l14_0_2;
-    const S d_L_strain__0__a_dz = l14_0_3;
-    const S d_L_strain__0__a_dtx = ((-(a_o0_2*l14_0_2)) - (d_L_moved__2__a_dtx*l14_0_3));
-    const S d_L_strain__0__a_dty = ((-(a_o0_0*l14_0_3)) + (d_L_moved__0__a_dty*l14_0_4));
-    const S d_L_strain__0__a_dtz = ((a_o0_1*l14_0_4) - (d_L_moved__1__a_dtz*l14_0_2));
-    const S d_L_strain__0__b_dx = l14_0_4;
-    const S d_L_strain__0__b_dy = l14_0_5;
-    const S d_L_strain__0__b_dz = l14_0_6;
-    const S d_L_strain__0__b_dtx = ((-(b_o1_1*l14_0_3)) - (d_L_moved__1__b_dtx*l14_0_2));
-    const S d_L_strain__0__b_dty = ((b_o1_2*l14_0_4) - (d_L_moved__2__b_dty*l14_0_3));
-    const S d_L_strain__0__b_dtz = ((-(b_o1_0*l14_0_2)) + (d_L_moved__0__b_dtz*l14_0_4));
-    const S L_strain__1 = (L_moved__1 - (l14_0_0*p_normal__1) + p_anchor__1);
-    const S d_L_strain__1__a_dx = l14_0_2;
-    const S d_L_strain__1__a_dy = l14_0_7;
-    const S d_L_strain__1__a_dz = l14_0_8;
-    const S d_L_strain__1__a_dtx = ((a_o0_2*l14_0_9) - (d_L_moved__2__a_dtx*l14_0_8));
-    const S d_L_strain__1__a_dty = ((-(a_o0_0*l14_0_8)) - (d_L_moved__0__a_dty*l14_0_2));
-    const S d_L_strain__1__a_dtz = ((-(a_o0_1*l14_0_2)) + (d_L_moved__1__a_dtz*l14_0_9));
-    const S d_L_strain__1__b_dx = l14_0_5;
-    const S d_L_strain__1__b_dy = l14_0_9;
-    const S d_L_strain__1__b_dz = l14_0_10;
-    const S d_L_strain__1__b_dtx = ((-(b_o1_1*l14_0_8)) + (d_L_moved__1__b_dtx*l14_0_9));
-    const S d_L_strain__1__b_dty = ((-(b_o1_2*l14_0_2)) - (d_L_moved__2__b_dty*l14_0_8));
-    const S d_L_strain__1__b_dtz = ((b_o1_0*l14_0_9) - (d_L_moved__0__b_dtz*l14_0_2));
-    const S L_strain__2 = (L_moved__2 - (l14_0_0*p_normal__2) + p_anchor__2);
-    const S d_L_strain__2__a_dx = l14_0_3;
-    const S d_L_strain__2__a_dy = l14_0_8;
-    const S d_L_strain__2__a_dz = l14_0_11;
-    const S d_L_strain__2__a_dtx = ((-(a_o0_2*l14_0_8)) + (d_L_moved__2__a_dtx*l14_0_12));
-    const S d_L_strain__2__a_dty = ((a_o0_0*l14_0_12) - (d_L_moved__0__a_dty*l14_0_3));
-    const S d_L_strain__2__a_dtz = ((-(a_o0_1*l14_0_3)) - (d_L_moved__1__a_dtz*l14_0_8));
-    const S d_L_strain__2__b_dx = l14_0_6;
-    const S d_L_strain__2__b_dy = l14_0_10;
-    const S d_L_strain__2__b_dz = l14_0_12;
-    const S d_L_strain__2__b_dtx = ((b_o1_1*l14_0_12) - (d_L_moved__1__b_dtx*l14_0_8));
-    const S d_L_strain__2__b_dty = ((-(b_o1_2*l14_0_3)) + (d_L_moved__2__b_dty*l14_0_12));
-    const S d_L_strain__2__b_dtz = ((-(b_o1_0*l14_0_8)) - (d_L_moved__0__b_dtz*l14_0_3));
-    // let fs (contact.yaml:65)
+    // let strain (contact.yaml:74)
+    const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
+    const S l16_0_1 = ((p_normal__0*p_normal__0) - S(1));
+    const S l16_0_2 = (p_normal__0*p_normal__1);
+    const S l16_0_3 = (p_normal__0*p_normal__2);
+    const S l16_0_4 = (-l16_0_1);
+    const S l16_0_5 = (-l16_0_2);
+    const S l16_0_6 = (-l16_0_3);
+    const S l16_0_7 = ((p_normal__1*p_normal__1) - S(1));
+    const S l16_0_8 = (p_normal__1*p_normal__2);
+    const S l16_0_9 = (-l16_0_7);
+    const S l16_0_10 = (-l16_0_8);
+    const S l16_0_11 = ((p_normal__2*p_normal__2) - S(1));
+    const S l16_0_12 = (-l16_0_11);
+    const S L_strain__0 = (L_moved__0 - (l16_0_0*p_normal__0) + p_anchor__0);
+    const S d_L_strain__0__a_dx = l16_0_1;
+    const S d_L_strain__0__a_dy = l16_0_2;
+    const S d_L_strain__0__a_dz = l16_0_3;
+    const S d_L_strain__0__a_dtx = ((-(a_o0_2*l16_0_2)) - (d_L_moved__2__a_dtx*l16_0_3));
+    const S d_L_strain__0__a_dty = ((-(a_o0_0*l16_0_3)) + (d_L_moved__0__a_dty*l16_0_4));
+    const S d_L_strain__0__a_dtz = ((a_o0_1*l16_0_4) - (d_L_moved__1__a_dtz*l16_0_2));
+    const S d_L_strain__0__b_dx = l16_0_4;
+    const S d_L_strain__0__b_dy = l16_0_5;
+    const S d_L_strain__0__b_dz = l16_0_6;
+    const S d_L_strain__0__b_dtx = ((-(b_o1_1*l16_0_3)) - (d_L_moved__1__b_dtx*l16_0_2));
+    const S d_L_strain__0__b_dty = ((b_o1_2*l16_0_4) - (d_L_moved__2__b_dty*l16_0_3));
+    const S d_L_strain__0__b_dtz = ((-(b_o1_0*l16_0_2)) + (d_L_moved__0__b_dtz*l16_0_4));
+    const S L_strain__1 = (L_moved__1 - (l16_0_0*p_normal__1) + p_anchor__1);
+    const S d_L_strain__1__a_dx = l16_0_2;
+    const S d_L_strain__1__a_dy = l16_0_7;
+    const S d_L_strain__1__a_dz = l16_0_8;
+    const S d_L_strain__1__a_dtx = ((a_o0_2*l16_0_9) - (d_L_moved__2__a_dtx*l16_0_8));
+    const S d_L_strain__1__a_dty = ((-(a_o0_0*l16_0_8)) - (d_L_moved__0__a_dty*l16_0_2));
+    const S d_L_strain__1__a_dtz = ((-(a_o0_1*l16_0_2)) + (d_L_moved__1__a_dtz*l16_0_9));
+    const S d_L_strain__1__b_dx = l16_0_5;
+    const S d_L_strain__1__b_dy = l16_0_9;
+    const S d_L_strain__1__b_dz = l16_0_10;
+    const S d_L_strain__1__b_dtx = ((-(b_o1_1*l16_0_8)) + (d_L_moved__1__b_dtx*l16_0_9));
+    const S d_L_strain__1__b_dty = ((-(b_o1_2*l16_0_2)) - (d_L_moved__2__b_dty*l16_0_8));
+    const S d_L_strain__1__b_dtz = ((b_o1_0*l16_0_9) - (d_L_moved__0__b_dtz*l16_0_2));
+    const S L_strain__2 = (L_moved__2 - (l16_0_0*p_normal__2) + p_anchor__2);
+    const S d_L_strain__2__a_dx = l16_0_3;
+    const S d_L_strain__2__a_dy = l16_0_8;
+    const S d_L_strain__2__a_dz = l16_0_11;
+    const S d_L_strain__2__a_dtx = ((-(a_o0_2*l16_0_8)) + (d_L_moved__2__a_dtx*l16_0_12));
+    const S d_L_strain__2__a_dty = ((a_o0_0*l16_0_12) - (d_L_moved__0__a_dty*l16_0_3));
+    const S d_L_strain__2__a_dtz = ((-(a_o0_1*l16_0_3)) - (d_L_moved__1__a_dtz*l16_0_8));
+    const S d_L_strain__2__b_dx = l16_0_6;
+    const S d_L_strain__2__b_dy = l16_0_10;
+    const S d_L_strain__2__b_dz = l16_0_12;
+    const S d_L_strain__2__b_dtx = ((b_o1_1*l16_0_12) - (d_L_moved__1__b_dtx*l16_0_8));
+    const S d_L_strain__2__b_dty = ((-(b_o1_2*l16_0_3)) + (d_L_moved__2__b_dty*l16_0_12));
+    const S d_L_strain__2__b_dtz = ((-(b_o1_0*l16_0_8)) - (d_L_moved__0__b_dtz*l16_0_3));
+    // let fs (contact.yaml:75)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -1560,256 +1614,256 @@ struct Contact_Pair_Kernel {
     const S d_L_fs__2__b_wx = (-(L_c*d_L_vt__2__b_wx));
     const S d_L_fs__2__b_wy = (-(L_c*d_L_vt__2__b_wy));
     const S d_L_fs__2__b_wz = (-(L_c*d_L_vt__2__b_wz));
-    // let fmax (contact.yaml:66)
-    const auto l16_0_0 = (L_fn > S(0));
-    const S l16_0_1 = (p_friction*select(l16_0_0, S(1), S(0)));
-    const S L_fmax = (p_friction*select(l16_0_0, L_fn, S(0)));
-    const S d_L_fmax__a_dx = (d_L_fn__a_dx*l16_0_1);
-    const S d_L_fmax__a_dy = (d_L_fn__a_dy*l16_0_1);
-    const S d_L_fmax__a_dz = (d_L_fn__a_dz*l16_0_1);
-    const S d_L_fmax__a_dtx = (d_L_fn__a_dtx*l16_0_1);
-    const S d_L_fmax__a_dty = (d_L_fn__a_dty*l16_0_1);
-    const S d_L_fmax__a_dtz = (d_L_fn__a_dtz*l16_0_1);
-    const S d_L_fmax__b_dx = (d_L_fn__b_dx*l16_0_1);
-    const S d_L_fmax__b_dy = (d_L_fn__b_dy*l16_0_1);
-    const S d_L_fmax__b_dz = (d_L_fn__b_dz*l16_0_1);
-    const S d_L_fmax__b_dtx = (d_L_fn__b_dtx*l16_0_1);
-    const S d_L_fmax__b_dty = (d_L_fn__b_dty*l16_0_1);
-    const S d_L_fmax__b_dtz = (d_L_fn__b_dtz*l16_0_1);
-    const S d_L_fmax__a_vx = (d_L_fn__a_vx*l16_0_1);
-    const S d_L_fmax__a_vy = (d_L_fn__a_vy*l16_0_1);
-    const S d_L_fmax__a_vz = (d_L_fn__a_vz*l16_0_1);
-    const S d_L_fmax__a_wx = (d_L_fn__a_wx*l16_0_1);
-    const S d_L_fmax__a_wy = (d_L_fn__a_wy*l16_0_1);
-    const S d_L_fmax__a_wz = (d_L_fn__a_wz*l16_0_1);
-    const S d_L_fmax__b_vx = (d_L_fn__b_vx*l16_0_1);
-    const S d_L_fmax__b_vy = (d_L_fn__b_vy*l16_0_1);
-    const S d_L_fmax__b_vz = (d_L_fn__b_vz*l16_0_1);
-    const S d_L_fmax__b_wx = (d_L_fn__b_wx*l16_0_1);
-    const S d_L_fmax__b_wy = (d_L_fn__b_wy*l16_0_1);
-    const S d_L_fmax__b_wz = (d_L_fn__b_wz*l16_0_1);
-    // let slip (contact.yaml:72)
+    // let fmax (contact.yaml:76)
+    const auto l18_0_0 = (L_fn > S(0));
+    const S l18_0_1 = (p_friction*select(l18_0_0, S(1), S(0)));
+    const S L_fmax = (p_friction*select(l18_0_0, L_fn, S(0)));
+    const S d_L_fmax__a_dx = (d_L_fn__a_dx*l18_0_1);
+    const S d_L_fmax__a_dy = (d_L_fn__a_dy*l18_0_1);
+    const S d_L_fmax__a_dz = (d_L_fn__a_dz*l18_0_1);
+    const S d_L_fmax__a_dtx = (d_L_fn__a_dtx*l18_0_1);
+    const S d_L_fmax__a_dty = (d_L_fn__a_dty*l18_0_1);
+    const S d_L_fmax__a_dtz = (d_L_fn__a_dtz*l18_0_1);
+    const S d_L_fmax__b_dx = (d_L_fn__b_dx*l18_0_1);
+    const S d_L_fmax__b_dy = (d_L_fn__b_dy*l18_0_1);
+    const S d_L_fmax__b_dz = (d_L_fn__b_dz*l18_0_1);
+    const S d_L_fmax__b_dtx = (d_L_fn__b_dtx*l18_0_1);
+    const S d_L_fmax__b_dty = (d_L_fn__b_dty*l18_0_1);
+    const S d_L_fmax__b_dtz = (d_L_fn__b_dtz*l18_0_1);
+    const S d_L_fmax__a_vx = (d_L_fn__a_vx*l18_0_1);
+    const S d_L_fmax__a_vy = (d_L_fn__a_vy*l18_0_1);
+    const S d_L_fmax__a_vz = (d_L_fn__a_vz*l18_0_1);
+    const S d_L_fmax__a_wx = (d_L_fn__a_wx*l18_0_1);
+    const S d_L_fmax__a_wy = (d_L_fn__a_wy*l18_0_1);
+    const S d_L_fmax__a_wz = (d_L_fn__a_wz*l18_0_1);
+    const S d_L_fmax__b_vx = (d_L_fn__b_vx*l18_0_1);
+    const S d_L_fmax__b_vy = (d_L_fn__b_vy*l18_0_1);
+    const S d_L_fmax__b_vz = (d_L_fn__b_vz*l18_0_1);
+    const S d_L_fmax__b_wx = (d_L_fn__b_wx*l18_0_1);
+    const S d_L_fmax__b_wy = (d_L_fn__b_wy*l18_0_1);
+    const S d_L_fmax__b_wz = (d_L_fn__b_wz*l18_0_1);
+    // let slip (contact.yaml:82)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:73)
-    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
-    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
-    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
-    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
-    // let fast (contact.yaml:74)
+    // let dir (contact.yaml:83)
+    const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
+    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
+    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
+    // let fast (contact.yaml:84)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:75)
-    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
-    const S l20_0_2 = (L_dir__0*L_dir__1);
-    const S l20_0_3 = (L_dir__0*L_dir__2);
-    const S l20_0_4 = (S(1) - (L_dir__1*L_dir__1));
-    const S l20_0_5 = (L_dir__1*L_dir__2);
-    const S l20_0_6 = (S(1) - (L_dir__2*L_dir__2));
-    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
-    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l20_0_1) - (d_L_vt__1__a_vx*l20_0_2) - (d_L_vt__2__a_vx*l20_0_3));
-    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l20_0_1) - (d_L_vt__1__a_vy*l20_0_2) - (d_L_vt__2__a_vy*l20_0_3));
-    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l20_0_1) - (d_L_vt__1__a_vz*l20_0_2) - (d_L_vt__2__a_vz*l20_0_3));
-    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l20_0_1) - (d_L_vt__1__a_wx*l20_0_2) - (d_L_vt__2__a_wx*l20_0_3));
-    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l20_0_1) - (d_L_vt__1__a_wy*l20_0_2) - (d_L_vt__2__a_wy*l20_0_3));
-    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l20_0_1) - (d_L_vt__1__a_wz*l20_0_2) - (d_L_vt__2__a_wz*l20_0_3));
-    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l20_0_1) - (d_L_vt__1__b_vx*l20_0_2) - (d_L_vt__2__b_vx*l20_0_3));
-    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l20_0_1) - (d_L_vt__1__b_vy*l20_0_2) - (d_L_vt__2__b_vy*l20_0_3));
-    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l20_0_1) - (d_L_vt__1__b_vz*l20_0_2) - (d_L_vt__2__b_vz*l20_0_3));
-    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l20_0_1) - (d_L_vt__1__b_wx*l20_0_2) - (d_L_vt__2__b_wx*l20_0_3));
-    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l20_0_1) - (d_L_vt__1__b_wy*l20_0_2) - (d_L_vt__2__b_wy*l20_0_3));
-    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l20_0_1) - (d_L_vt__1__b_wz*l20_0_2) - (d_L_vt__2__b_wz*l20_0_3));
-    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
-    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l20_0_2)) + (d_L_vt__1__a_vx*l20_0_4) - (d_L_vt__2__a_vx*l20_0_5));
-    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l20_0_2)) + (d_L_vt__1__a_vy*l20_0_4) - (d_L_vt__2__a_vy*l20_0_5));
-    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l20_0_2)) + (d_L_vt__1__a_vz*l20_0_4) - (d_L_vt__2__a_vz*l20_0_5));
-    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l20_0_2)) + (d_L_vt__1__a_wx*l20_0_4) - (d_L_vt__2__a_wx*l20_0_5));
-    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l20_0_2)) + (d_L_vt__1__a_wy*l20_0_4) - (d_L_vt__2__a_wy*l20_0_5));
-    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l20_0_2)) + (d_L_vt__1__a_wz*l20_0_4) - (d_L_vt__2__a_wz*l20_0_5));
-    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l20_0_2)) + (d_L_vt__1__b_vx*l20_0_4) - (d_L_vt__2__b_vx*l20_0_5));
-    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l20_0_2)) + (d_L_vt__1__b_vy*l20_0_4) - (d_L_vt__2__b_vy*l20_0_5));
-    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l20_0_2)) + (d_L_vt__1__b_vz*l20_0_4) - (d_L_vt__2__b_vz*l20_0_5));
-    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l20_0_2)) + (d_L_vt__1__b_wx*l20_0_4) - (d_L_vt__2__b_wx*l20_0_5));
-    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l20_0_2)) + (d_L_vt__1__b_wy*l20_0_4) - (d_L_vt__2__b_wy*l20_0_5));
-    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l20_0_2)) + (d_L_vt__1__b_wz*l20_0_4) - (d_L_vt__2__b_wz*l20_0_5));
-    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
-    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l20_0_3)) - (d_L_vt__1__a_vx*l20_0_5) + (d_L_vt__2__a_vx*l20_0_6));
-    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l20_0_3)) - (d_L_vt__1__a_vy*l20_0_5) + (d_L_vt__2__a_vy*l20_0_6));
-    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l20_0_3)) - (d_L_vt__1__a_vz*l20_0_5) + (d_L_vt__2__a_vz*l20_0_6));
-    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
-    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
-    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
-    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l20_0_3)) - (d_L_vt__1__b_vx*l20_0_5) + (d_L_vt__2__b_vx*l20_0_6));
-    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l20_0_3)) - (d_L_vt__1__b_vy*l20_0_5) + (d_L_vt__2__b_vy*l20_0_6));
-    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l20_0_3)) - (d_L_vt__1__b_vz*l20_0_5) + (d_L_vt__2__b_vz*l20_0_6));
-    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l20_0_3)) - (d_L_vt__1__b_wx*l20_0_5) + (d_L_vt__2__b_wx*l20_0_6));
-    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l20_0_3)) - (d_L_vt__1__b_wy*l20_0_5) + (d_L_vt__2__b_wy*l20_0_6));
-    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l20_0_3)) - (d_L_vt__1__b_wz*l20_0_5) + (d_L_vt__2__b_wz*l20_0_6));
-    // let sliding (contact.yaml:76)
-    const S l21_0_0 = (S(1)/(L_slip));
-    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
-    const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
-    const S l21_0_3 = (-l21_0_2);
-    const S l21_0_4 = (L_fast*L_fmax*l21_0_0);
-    const S l21_0_5 = (L_fmax*l21_0_1);
-    const S l21_0_6 = ((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1));
-    const S l21_0_7 = (-l21_0_6);
-    const S l21_0_8 = ((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1));
-    const S l21_0_9 = (-l21_0_8);
-    const S L_sliding__0 = (-(L_fmax*l21_0_2));
-    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l21_0_3);
-    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l21_0_3);
-    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l21_0_3);
-    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l21_0_3);
-    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l21_0_3);
-    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l21_0_3);
-    const S d_L_sliding__0__b_dx = (d_L_fmax__b_dx*l21_0_3);
-    const S d_L_sliding__0__b_dy = (d_L_fmax__b_dy*l21_0_3);
-    const S d_L_sliding__0__b_dz = (d_L_fmax__b_dz*l21_0_3);
-    const S d_L_sliding__0__b_dtx = (d_L_fmax__b_dtx*l21_0_3);
-    const S d_L_sliding__0__b_dty = (d_L_fmax__b_dty*l21_0_3);
-    const S d_L_sliding__0__b_dtz = (d_L_fmax__b_dtz*l21_0_3);
-    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_3) - (d_L_vt__0__a_vx*l21_0_5));
-    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_3) - (d_L_vt__0__a_vy*l21_0_5));
-    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_3) - (d_L_vt__0__a_vz*l21_0_5));
-    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_3) - (d_L_vt__0__a_wx*l21_0_5));
-    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_3) - (d_L_vt__0__a_wy*l21_0_5));
-    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_3) - (d_L_vt__0__a_wz*l21_0_5));
-    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_3) - (d_L_vt__0__b_vx*l21_0_5));
-    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_3) - (d_L_vt__0__b_vy*l21_0_5));
-    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_3) - (d_L_vt__0__b_vz*l21_0_5));
-    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_3) - (d_L_vt__0__b_wx*l21_0_5));
-    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_3) - (d_L_vt__0__b_wy*l21_0_5));
-    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_3) - (d_L_vt__0__b_wz*l21_0_5));
-    const S L_sliding__1 = (-(L_fmax*l21_0_6));
-    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l21_0_7);
-    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l21_0_7);
-    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l21_0_7);
-    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l21_0_7);
-    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l21_0_7);
-    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l21_0_7);
-    const S d_L_sliding__1__b_dx = (d_L_fmax__b_dx*l21_0_7);
-    const S d_L_sliding__1__b_dy = (d_L_fmax__b_dy*l21_0_7);
-    const S d_L_sliding__1__b_dz = (d_L_fmax__b_dz*l21_0_7);
-    const S d_L_sliding__1__b_dtx = (d_L_fmax__b_dtx*l21_0_7);
-    const S d_L_sliding__1__b_dty = (d_L_fmax__b_dty*l21_0_7);
-    const S d_L_sliding__1__b_dtz = (d_L_fmax__b_dtz*l21_0_7);
-    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_7) - (d_L_vt__1__a_vx*l21_0_5));
-    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_7) - (d_L_vt__1__a_vy*l21_0_5));
-    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_7) - (d_L_vt__1__a_vz*l21_0_5));
-    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_7) - (d_L_vt__1__a_wx*l21_0_5));
-    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_7) - (d_L_vt__1__a_wy*l21_0_5));
-    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_7) - (d_L_vt__1__a_wz*l21_0_5));
-    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_7) - (d_L_vt__1__b_vx*l21_0_5));
-    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_7) - (d_L_vt__1__b_vy*l21_0_5));
-    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_7) - (d_L_vt__1__b_vz*l21_0_5));
-    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_7) - (d_L_vt__1__b_wx*l21_0_5));
-    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_7) - (d_L_vt__1__b_wy*l21_0_5));
-    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_7) - (d_L_vt__1__b_wz*l21_0_5));
-    const S L_sliding__2 = (-(L_fmax*l21_0_8));
-    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l21_0_9);
-    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l21_0_9);
-    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l21_0_9);
-    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l21_0_9);
-    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l21_0_9);
-    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l21_0_9);
-    const S d_L_sliding__2__b_dx = (d_L_fmax__b_dx*l21_0_9);
-    const S d_L_sliding__2__b_dy = (d_L_fmax__b_dy*l21_0_9);
-    const S d_L_sliding__2__b_dz = (d_L_fmax__b_dz*l21_0_9);
-    const S d_L_sliding__2__b_dtx = (d_L_fmax__b_dtx*l21_0_9);
-    const S d_L_sliding__2__b_dty = (d_L_fmax__b_dty*l21_0_9);
-    const S d_L_sliding__2__b_dtz = (d_L_fmax__b_dtz*l21_0_9);
-    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_9) - (d_L_vt__2__a_vx*l21_0_5));
-    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_9) - (d_L_vt__2__a_vy*l21_0_5));
-    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_9) - (d_L_vt__2__a_vz*l21_0_5));
-    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
-    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
-    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
-    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l21_0_4)) + (d_L_fmax__b_vx*l21_0_9) - (d_L_vt__2__b_vx*l21_0_5));
-    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l21_0_4)) + (d_L_fmax__b_vy*l21_0_9) - (d_L_vt__2__b_vy*l21_0_5));
-    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l21_0_4)) + (d_L_fmax__b_vz*l21_0_9) - (d_L_vt__2__b_vz*l21_0_5));
-    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l21_0_4)) + (d_L_fmax__b_wx*l21_0_9) - (d_L_vt__2__b_wx*l21_0_5));
-    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l21_0_4)) + (d_L_fmax__b_wy*l21_0_9) - (d_L_vt__2__b_wy*l21_0_5));
-    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l21_0_4)) + (d_L_fmax__b_wz*l21_0_9) - (d_L_vt__2__b_wz*l21_0_5));
-    // let holds (contact.yaml:79)
+    // let across (contact.yaml:85)
+    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l22_0_2 = (L_dir__0*L_dir__1);
+    const S l22_0_3 = (L_dir__0*L_dir__2);
+    const S l22_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l22_0_5 = (L_dir__1*L_dir__2);
+    const S l22_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l22_0_1) - (d_L_vt__1__a_vx*l22_0_2) - (d_L_vt__2__a_vx*l22_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l22_0_1) - (d_L_vt__1__a_vy*l22_0_2) - (d_L_vt__2__a_vy*l22_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l22_0_1) - (d_L_vt__1__a_vz*l22_0_2) - (d_L_vt__2__a_vz*l22_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l22_0_1) - (d_L_vt__1__a_wx*l22_0_2) - (d_L_vt__2__a_wx*l22_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l22_0_1) - (d_L_vt__1__a_wy*l22_0_2) - (d_L_vt__2__a_wy*l22_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l22_0_1) - (d_L_vt__1__a_wz*l22_0_2) - (d_L_vt__2__a_wz*l22_0_3));
+    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l22_0_1) - (d_L_vt__1__b_vx*l22_0_2) - (d_L_vt__2__b_vx*l22_0_3));
+    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l22_0_1) - (d_L_vt__1__b_vy*l22_0_2) - (d_L_vt__2__b_vy*l22_0_3));
+    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l22_0_1) - (d_L_vt__1__b_vz*l22_0_2) - (d_L_vt__2__b_vz*l22_0_3));
+    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l22_0_1) - (d_L_vt__1__b_wx*l22_0_2) - (d_L_vt__2__b_wx*l22_0_3));
+    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l22_0_1) - (d_L_vt__1__b_wy*l22_0_2) - (d_L_vt__2__b_wy*l22_0_3));
+    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l22_0_1) - (d_L_vt__1__b_wz*l22_0_2) - (d_L_vt__2__b_wz*l22_0_3));
+    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l22_0_2)) + (d_L_vt__1__a_vx*l22_0_4) - (d_L_vt__2__a_vx*l22_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l22_0_2)) + (d_L_vt__1__a_vy*l22_0_4) - (d_L_vt__2__a_vy*l22_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l22_0_2)) + (d_L_vt__1__a_vz*l22_0_4) - (d_L_vt__2__a_vz*l22_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l22_0_2)) + (d_L_vt__1__a_wx*l22_0_4) - (d_L_vt__2__a_wx*l22_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l22_0_2)) + (d_L_vt__1__a_wy*l22_0_4) - (d_L_vt__2__a_wy*l22_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l22_0_2)) + (d_L_vt__1__a_wz*l22_0_4) - (d_L_vt__2__a_wz*l22_0_5));
+    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l22_0_2)) + (d_L_vt__1__b_vx*l22_0_4) - (d_L_vt__2__b_vx*l22_0_5));
+    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l22_0_2)) + (d_L_vt__1__b_vy*l22_0_4) - (d_L_vt__2__b_vy*l22_0_5));
+    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l22_0_2)) + (d_L_vt__1__b_vz*l22_0_4) - (d_L_vt__2__b_vz*l22_0_5));
+    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l22_0_2)) + (d_L_vt__1__b_wx*l22_0_4) - (d_L_vt__2__b_wx*l22_0_5));
+    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l22_0_2)) + (d_L_vt__1__b_wy*l22_0_4) - (d_L_vt__2__b_wy*l22_0_5));
+    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l22_0_2)) + (d_L_vt__1__b_wz*l22_0_4) - (d_L_vt__2__b_wz*l22_0_5));
+    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l22_0_3)) - (d_L_vt__1__a_vx*l22_0_5) + (d_L_vt__2__a_vx*l22_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l22_0_3)) - (d_L_vt__1__a_vy*l22_0_5) + (d_L_vt__2__a_vy*l22_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l22_0_3)) - (d_L_vt__1__a_vz*l22_0_5) + (d_L_vt__2__a_vz*l22_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
+    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l22_0_3)) - (d_L_vt__1__b_vx*l22_0_5) + (d_L_vt__2__b_vx*l22_0_6));
+    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l22_0_3)) - (d_L_vt__1__b_vy*l22_0_5) + (d_L_vt__2__b_vy*l22_0_6));
+    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l22_0_3)) - (d_L_vt__1__b_vz*l22_0_5) + (d_L_vt__2__b_vz*l22_0_6));
+    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l22_0_3)) - (d_L_vt__1__b_wx*l22_0_5) + (d_L_vt__2__b_wx*l22_0_6));
+    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l22_0_3)) - (d_L_vt__1__b_wy*l22_0_5) + (d_L_vt__2__b_wy*l22_0_6));
+    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l22_0_3)) - (d_L_vt__1__b_wz*l22_0_5) + (d_L_vt__2__b_wz*l22_0_6));
+    // let sliding (contact.yaml:86)
+    const S l23_0_0 = (S(1)/(L_slip));
+    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
+    const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
+    const S l23_0_3 = (-l23_0_2);
+    const S l23_0_4 = (L_fast*L_fmax*l23_0_0);
+    const S l23_0_5 = (L_fmax*l23_0_1);
+    const S l23_0_6 = ((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1));
+    const S l23_0_7 = (-l23_0_6);
+    const S l23_0_8 = ((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1));
+    const S l23_0_9 = (-l23_0_8);
+    const S L_sliding__0 = (-(L_fmax*l23_0_2));
+    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l23_0_3);
+    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l23_0_3);
+    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l23_0_3);
+    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l23_0_3);
+    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l23_0_3);
+    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l23_0_3);
+    const S d_L_sliding__0__b_dx = (d_L_fmax__b_dx*l23_0_3);
+    const S d_L_sliding__0__b_dy = (d_L_fmax__b_dy*l23_0_3);
+    const S d_L_sliding__0__b_dz = (d_L_fmax__b_dz*l23_0_3);
+    const S d_L_sliding__0__b_dtx = (d_L_fmax__b_dtx*l23_0_3);
+    const S d_L_sliding__0__b_dty = (d_L_fmax__b_dty*l23_0_3);
+    const S d_L_sliding__0__b_dtz = (d_L_fmax__b_dtz*l23_0_3);
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_3) - (d_L_vt__0__a_vx*l23_0_5));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_3) - (d_L_vt__0__a_vy*l23_0_5));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_3) - (d_L_vt__0__a_vz*l23_0_5));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_3) - (d_L_vt__0__a_wx*l23_0_5));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_3) - (d_L_vt__0__a_wy*l23_0_5));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_3) - (d_L_vt__0__a_wz*l23_0_5));
+    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_3) - (d_L_vt__0__b_vx*l23_0_5));
+    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_3) - (d_L_vt__0__b_vy*l23_0_5));
+    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_3) - (d_L_vt__0__b_vz*l23_0_5));
+    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_3) - (d_L_vt__0__b_wx*l23_0_5));
+    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_3) - (d_L_vt__0__b_wy*l23_0_5));
+    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_3) - (d_L_vt__0__b_wz*l23_0_5));
+    const S L_sliding__1 = (-(L_fmax*l23_0_6));
+    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l23_0_7);
+    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l23_0_7);
+    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l23_0_7);
+    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l23_0_7);
+    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l23_0_7);
+    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l23_0_7);
+    const S d_L_sliding__1__b_dx = (d_L_fmax__b_dx*l23_0_7);
+    const S d_L_sliding__1__b_dy = (d_L_fmax__b_dy*l23_0_7);
+    const S d_L_sliding__1__b_dz = (d_L_fmax__b_dz*l23_0_7);
+    const S d_L_sliding__1__b_dtx = (d_L_fmax__b_dtx*l23_0_7);
+    const S d_L_sliding__1__b_dty = (d_L_fmax__b_dty*l23_0_7);
+    const S d_L_sliding__1__b_dtz = (d_L_fmax__b_dtz*l23_0_7);
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_7) - (d_L_vt__1__a_vx*l23_0_5));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_7) - (d_L_vt__1__a_vy*l23_0_5));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_7) - (d_L_vt__1__a_vz*l23_0_5));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_7) - (d_L_vt__1__a_wx*l23_0_5));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_7) - (d_L_vt__1__a_wy*l23_0_5));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_7) - (d_L_vt__1__a_wz*l23_0_5));
+    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_7) - (d_L_vt__1__b_vx*l23_0_5));
+    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_7) - (d_L_vt__1__b_vy*l23_0_5));
+    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_7) - (d_L_vt__1__b_vz*l23_0_5));
+    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_7) - (d_L_vt__1__b_wx*l23_0_5));
+    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_7) - (d_L_vt__1__b_wy*l23_0_5));
+    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_7) - (d_L_vt__1__b_wz*l23_0_5));
+    const S L_sliding__2 = (-(L_fmax*l23_0_8));
+    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l23_0_9);
+    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l23_0_9);
+    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l23_0_9);
+    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l23_0_9);
+    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l23_0_9);
+    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l23_0_9);
+    const S d_L_sliding__2__b_dx = (d_L_fmax__b_dx*l23_0_9);
+    const S d_L_sliding__2__b_dy = (d_L_fmax__b_dy*l23_0_9);
+    const S d_L_sliding__2__b_dz = (d_L_fmax__b_dz*l23_0_9);
+    const S d_L_sliding__2__b_dtx = (d_L_fmax__b_dtx*l23_0_9);
+    const S d_L_sliding__2__b_dty = (d_L_fmax__b_dty*l23_0_9);
+    const S d_L_sliding__2__b_dtz = (d_L_fmax__b_dtz*l23_0_9);
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_9) - (d_L_vt__2__a_vx*l23_0_5));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_9) - (d_L_vt__2__a_vy*l23_0_5));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_9) - (d_L_vt__2__a_vz*l23_0_5));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
+    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_9) - (d_L_vt__2__b_vx*l23_0_5));
+    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_9) - (d_L_vt__2__b_vy*l23_0_5));
+    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_9) - (d_L_vt__2__b_vz*l23_0_5));
+    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_9) - (d_L_vt__2__b_wx*l23_0_5));
+    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_9) - (d_L_vt__2__b_wy*l23_0_5));
+    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_9) - (d_L_vt__2__b_wz*l23_0_5));
+    // let holds (contact.yaml:89)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:80)
-    const S l23_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l23_0_0));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l23_0_0));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l23_0_0));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l23_0_0));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l23_0_0));
-    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) + (d_L_sliding__0__b_dx*l23_0_0));
-    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) + (d_L_sliding__0__b_dy*l23_0_0));
-    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) + (d_L_sliding__0__b_dz*l23_0_0));
-    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) + (d_L_sliding__0__b_dtx*l23_0_0));
-    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) + (d_L_sliding__0__b_dty*l23_0_0));
-    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) + (d_L_sliding__0__b_dtz*l23_0_0));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l23_0_0));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l23_0_0));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l23_0_0));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l23_0_0));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l23_0_0));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l23_0_0));
-    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l23_0_0));
-    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l23_0_0));
-    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l23_0_0));
-    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l23_0_0));
-    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l23_0_0));
-    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l23_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l23_0_0));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l23_0_0));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l23_0_0));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l23_0_0));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l23_0_0));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l23_0_0));
-    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) + (d_L_sliding__1__b_dx*l23_0_0));
-    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) + (d_L_sliding__1__b_dy*l23_0_0));
-    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) + (d_L_sliding__1__b_dz*l23_0_0));
-    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) + (d_L_sliding__1__b_dtx*l23_0_0));
-    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) + (d_L_sliding__1__b_dty*l23_0_0));
-    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) + (d_L_sliding__1__b_dtz*l23_0_0));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l23_0_0));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l23_0_0));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l23_0_0));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l23_0_0));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l23_0_0));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l23_0_0));
-    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l23_0_0));
-    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l23_0_0));
-    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l23_0_0));
-    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l23_0_0));
-    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l23_0_0));
-    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l23_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l23_0_0));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l23_0_0));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l23_0_0));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l23_0_0));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l23_0_0));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l23_0_0));
-    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) + (d_L_sliding__2__b_dx*l23_0_0));
-    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) + (d_L_sliding__2__b_dy*l23_0_0));
-    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) + (d_L_sliding__2__b_dz*l23_0_0));
-    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) + (d_L_sliding__2__b_dtx*l23_0_0));
-    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) + (d_L_sliding__2__b_dty*l23_0_0));
-    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) + (d_L_sliding__2__b_dtz*l23_0_0));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l23_0_0));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l23_0_0));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l23_0_0));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
-    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l23_0_0));
-    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l23_0_0));
-    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l23_0_0));
-    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l23_0_0));
-    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l23_0_0));
-    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l23_0_0));
-    // let f (contact.yaml:81)
+    // let ft (contact.yaml:90)
+    const S l25_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
+    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
+    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l25_0_0));
+    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l25_0_0));
+    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l25_0_0));
+    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l25_0_0));
+    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l25_0_0));
+    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) + (d_L_sliding__0__b_dx*l25_0_0));
+    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) + (d_L_sliding__0__b_dy*l25_0_0));
+    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) + (d_L_sliding__0__b_dz*l25_0_0));
+    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) + (d_L_sliding__0__b_dtx*l25_0_0));
+    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) + (d_L_sliding__0__b_dty*l25_0_0));
+    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) + (d_L_sliding__0__b_dtz*l25_0_0));
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l25_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l25_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l25_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l25_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l25_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l25_0_0));
+    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l25_0_0));
+    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l25_0_0));
+    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l25_0_0));
+    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l25_0_0));
+    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l25_0_0));
+    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l25_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
+    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l25_0_0));
+    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l25_0_0));
+    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l25_0_0));
+    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l25_0_0));
+    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l25_0_0));
+    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l25_0_0));
+    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) + (d_L_sliding__1__b_dx*l25_0_0));
+    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) + (d_L_sliding__1__b_dy*l25_0_0));
+    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) + (d_L_sliding__1__b_dz*l25_0_0));
+    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) + (d_L_sliding__1__b_dtx*l25_0_0));
+    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) + (d_L_sliding__1__b_dty*l25_0_0));
+    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) + (d_L_sliding__1__b_dtz*l25_0_0));
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l25_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l25_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l25_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l25_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l25_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l25_0_0));
+    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l25_0_0));
+    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l25_0_0));
+    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l25_0_0));
+    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l25_0_0));
+    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l25_0_0));
+    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l25_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
+    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l25_0_0));
+    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l25_0_0));
+    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l25_0_0));
+    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l25_0_0));
+    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l25_0_0));
+    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l25_0_0));
+    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) + (d_L_sliding__2__b_dx*l25_0_0));
+    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) + (d_L_sliding__2__b_dy*l25_0_0));
+    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) + (d_L_sliding__2__b_dz*l25_0_0));
+    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) + (d_L_sliding__2__b_dtx*l25_0_0));
+    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) + (d_L_sliding__2__b_dty*l25_0_0));
+    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) + (d_L_sliding__2__b_dtz*l25_0_0));
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l25_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l25_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l25_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
+    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l25_0_0));
+    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l25_0_0));
+    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l25_0_0));
+    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l25_0_0));
+    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l25_0_0));
+    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l25_0_0));
+    // let f (contact.yaml:91)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -1885,7 +1939,7 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // apply (contact.yaml:82), shared subexpressions
+    // apply (contact.yaml:92), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -2010,21 +2064,21 @@ struct Contact_Pair_Kernel {
     const S o121 = ((d_L_f__0__b_dtz*o87) + (d_L_f__0__b_wz*h));
     const S o122 = ((d_L_f__1__b_dtz*o87) + (d_L_f__1__b_wz*h));
     const S o123 = ((d_L_f__2__b_dtz*o87) + (d_L_f__2__b_wz*h));
-    // g_a from apply[0] (contact.yaml:83)
+    // g_a from apply[0] (contact.yaml:93)
     out[0] = (-o12);
     out[1] = (-o13);
     out[2] = (-o14);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o15) + (o1*o16) + (o10*o25) + (o11*o26) + (o17*o2) + (o18*o3) + (o19*o4) + (o20*o5) + (o21*o6) + (o22*o7) + (o23*o8) + (o24*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o27) + (o1*o28) + (o10*o37) + (o11*o38) + (o2*o29) + (o3*o30) + (o31*o4) + (o32*o5) + (o33*o6) + (o34*o7) + (o35*o8) + (o36*o9));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o39) + (o1*o40) + (o10*o49) + (o11*o50) + (o2*o41) + (o3*o42) + (o4*o43) + (o44*o5) + (o45*o6) + (o46*o7) + (o47*o8) + (o48*o9));
-    // g_b from apply[1] (contact.yaml:84)
+    // g_b from apply[1] (contact.yaml:94)
     out[6] = o12;
     out[7] = o13;
     out[8] = o14;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1) + (o0*o51) + (o1*o52) + (o10*o61) + (o11*o62) + (o2*o53) + (o3*o54) + (o4*o55) + (o5*o56) + (o57*o6) + (o58*o7) + (o59*o8) + (o60*o9));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0) + (o0*o63) + (o1*o64) + (o10*o73) + (o11*o74) + (o2*o65) + (o3*o66) + (o4*o67) + (o5*o68) + (o6*o69) + (o7*o70) + (o71*o8) + (o72*o9));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0) + (o0*o75) + (o1*o76) + (o10*o85) + (o11*o86) + (o2*o77) + (o3*o78) + (o4*o79) + (o5*o80) + (o6*o81) + (o7*o82) + (o8*o83) + (o84*o9));
-    // K_aa from apply[0] (contact.yaml:83)
+    // K_aa from apply[0] (contact.yaml:93)
     out[12] = (-o88);
     out[13] = (-o89);
     out[14] = (-o90);
@@ -2061,7 +2115,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((h*((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz))) + (o20*o87));
     out[46] = ((h*((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz))) + (o32*o87));
     out[47] = ((h*((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz))) + (o44*o87));
-    // K_ab from apply[0] (contact.yaml:83)
+    // K_ab from apply[0] (contact.yaml:93)
     out[48] = (-o106);
     out[49] = (-o107);
     out[50] = (-o108);
@@ -2098,7 +2152,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((h*((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz))) + (o26*o87));
     out[82] = ((h*((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz))) + (o38*o87));
     out[83] = ((h*((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz))) + (o50*o87));
-    // K_ba from apply[1] (contact.yaml:84)
+    // K_ba from apply[1] (contact.yaml:94)
     out[84] = o88;
     out[85] = o89;
     out[86] = o90;
@@ -2135,7 +2189,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((h*((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz))) + (o56*o87));
     out[118] = ((h*((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz))) + (o68*o87));
     out[119] = ((h*((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz))) + (o80*o87));
-    // K_bb from apply[1] (contact.yaml:84)
+    // K_bb from apply[1] (contact.yaml:94)
     out[120] = o106;
     out[121] = o107;
     out[122] = o108;
@@ -2181,7 +2235,7 @@ struct Contact_Pair_Kernel {
   static constexpr int kJointArm[2] = { -1, -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 413
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 421
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -2239,16 +2293,16 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S p_friction = in[50];
     [[maybe_unused]] const S p_mass = in[51];
     [[maybe_unused]] const S p_load = in[52];
-    [[maybe_unused]] const S p_sticking = in[53];
-    [[maybe_unused]] const S g_contact_hertz = in[54];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[55];
-    [[maybe_unused]] const S g_contact_stiffness = in[56];
-    [[maybe_unused]] const S g_contact_damping = in[57];
-    [[maybe_unused]] const S g_contact_hold_depth = in[58];
-    [[maybe_unused]] const S g_slip_velocity = in[59];
-    [[maybe_unused]] const S g_contact_slop = in[60];
+    [[maybe_unused]] const S p_fall = in[53];
+    [[maybe_unused]] const S p_sticking = in[54];
+    [[maybe_unused]] const S g_contact_hertz = in[55];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[56];
+    [[maybe_unused]] const S g_contact_stiffness = in[57];
+    [[maybe_unused]] const S g_contact_damping = in[58];
+    [[maybe_unused]] const S g_contact_hold_depth = in[59];
+    [[maybe_unused]] const S g_slip_velocity = in[60];
     [[maybe_unused]] const S g_contact_rest_speed = in[61];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:31), let rb (contact.yaml:32)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32), let rb (contact.yaml:33)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -2302,106 +2356,108 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
-    // let ra (contact.yaml:31)
+    // let ra (contact.yaml:32)
     const S L_ra__0 = held_in ? held_in[0] : S(a_o0_0);
     if (held_out) held_out[0] = L_ra__0;
     const S L_ra__1 = held_in ? held_in[1] : S(a_o0_1);
     if (held_out) held_out[1] = L_ra__1;
     const S L_ra__2 = held_in ? held_in[2] : S(a_o0_2);
     if (held_out) held_out[2] = L_ra__2;
-    // let rb (contact.yaml:32)
+    // let rb (contact.yaml:33)
     const S L_rb__0 = held_in ? held_in[3] : S(b_o1_0);
     if (held_out) held_out[3] = L_rb__0;
     const S L_rb__1 = held_in ? held_in[4] : S(b_o1_1);
     if (held_out) held_out[4] = L_rb__1;
     const S L_rb__2 = held_in ? held_in[5] : S(b_o1_2);
     if (held_out) held_out[5] = L_rb__2;
-    // let moved (contact.yaml:35)
+    // let moved (contact.yaml:36)
     const S L_moved__0 = ((-a_o0_0) - a_px + b_o1_0 + b_px);
     const S L_moved__1 = ((-a_o0_1) - a_py + b_o1_1 + b_py);
     const S L_moved__2 = ((-a_o0_2) - a_pz + b_o1_2 + b_pz);
-    // let depth (contact.yaml:36)
+    // let depth (contact.yaml:37)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
-    // let vrel (contact.yaml:37)
+    // let vrel (contact.yaml:38)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) + (L_rb__0*b_wz) - (L_rb__2*b_wx) - a_vy + b_vy);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
-    // let vn (contact.yaml:38)
+    // let vn (contact.yaml:39)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
-    // let omega (contact.yaml:41)
+    // let omega (contact.yaml:42)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:45)
+    // let m (contact.yaml:46)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:46)
+    // let k (contact.yaml:47)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:47)
+    // let c (contact.yaml:48)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:51)
+    // let held (contact.yaml:52)
     const S L_held = select((L_depth > g_contact_hold_depth), g_contact_hold_depth, L_depth);
-    // let closing (contact.yaml:57)
-    const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:58)
-    const S l12_0_0 = (L_c*L_vn);
-    const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
-    const S L_fn = select((L_depth > S(0)), select((l12_0_1 < S(0)), (-l12_0_1), S(0)), (L_closing*((L_depth*L_k) - l12_0_0)));
-    // let vt (contact.yaml:59)
+    // let closing (contact.yaml:62)
+    const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
+    // let stays (contact.yaml:66)
+    const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
+    // let pushed (contact.yaml:67)
+    const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
+    // let fn (contact.yaml:68)
+    const S L_fn = select((L_depth > S(0)), select((L_stays > S(0)), L_pushed, select((L_pushed > S(0)), L_pushed, S(0))), (L_closing*(L_c + (L_k*h))*((-L_vn) + (p_penetration/(h)))));
+    // let vt (contact.yaml:69)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S L_vt__1 = ((-(L_vn*p_normal__1)) + L_vrel__1);
     const S L_vt__2 = ((-(L_vn*p_normal__2)) + L_vrel__2);
-    // let strain (contact.yaml:64)
-    const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
-    const S L_strain__0 = (L_moved__0 - (l14_0_0*p_normal__0) + p_anchor__0);
-    const S L_strain__1 = (L_moved__1 - (l14_0_0*p_normal__1) + p_anchor__1);
-    const S L_strain__2 = (L_moved__2 - (l14_0_0*p_normal__2) + p_anchor__2);
-    // let fs (contact.yaml:65)
+    // let strain (contact.yaml:74)
+    const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
+    const S L_strain__0 = (L_moved__0 - (l16_0_0*p_normal__0) + p_anchor__0);
+    const S L_strain__1 = (L_moved__1 - (l16_0_0*p_normal__1) + p_anchor__1);
+    const S L_strain__2 = (L_moved__2 - (l16_0_0*p_normal__2) + p_anchor__2);
+    // let fs (contact.yaml:75)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S L_fs__1 = ((-(L_c*L_vt__1)) - (L_k*L_strain__1));
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
-    // let fmax (contact.yaml:66)
+    // let fmax (contact.yaml:76)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:72)
+    // let slip (contact.yaml:82)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let dir (contact.yaml:73)
-    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
-    const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l18_0_0));
+    // let dir (contact.yaml:83)
+    const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l20_0_0));
     if (held_out) held_out[7] = L_dir__0;
-    const S L_dir__1 = held_in ? held_in[8] : S((L_vt__1*l18_0_0));
+    const S L_dir__1 = held_in ? held_in[8] : S((L_vt__1*l20_0_0));
     if (held_out) held_out[8] = L_dir__1;
-    const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l18_0_0));
+    const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l20_0_0));
     if (held_out) held_out[9] = L_dir__2;
-    // let fast (contact.yaml:74)
+    // let fast (contact.yaml:84)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:75)
-    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
-    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
-    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
-    // let sliding (contact.yaml:76)
-    const S l21_0_0 = (S(1)/(L_slip));
-    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
-    const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1))));
-    const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1))));
-    const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1))));
-    // let holds (contact.yaml:79)
+    // let across (contact.yaml:85)
+    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
+    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
+    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
+    // let sliding (contact.yaml:86)
+    const S l23_0_0 = (S(1)/(L_slip));
+    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
+    const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1))));
+    const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1))));
+    const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1))));
+    // let holds (contact.yaml:89)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:80)
-    const S l23_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
-    // let f (contact.yaml:81)
+    // let ft (contact.yaml:90)
+    const S l25_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
+    // let f (contact.yaml:91)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:83)
+    // F_a from apply[0] (contact.yaml:93)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:84)
+    // F_b from apply[1] (contact.yaml:94)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
@@ -2413,7 +2469,7 @@ struct Contact_Pair_Kernel {
 
 /// contact (world): F for 1 body and 2 Jacobian block(s).
 /// out = [F_a (6), dF_a/ddelta_a (36), dF_a/du_a (36)]
-/// Total ops: 1054
+/// Total ops: 1077
 struct Contact_World_Kernel {
   using Instance = Contact_Force;
   static constexpr ForceType kType = ForceType::contact;
@@ -2422,7 +2478,7 @@ struct Contact_World_Kernel {
   static constexpr int kInputs = 42;
   static constexpr int kNumBlocks = 2;
   static constexpr int kOutputs = 78;
-  static constexpr int kOps = 1054;
+  static constexpr int kOps = 1077;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_du, 0, 0},
@@ -2469,14 +2525,14 @@ struct Contact_World_Kernel {
     in[30 * stride] = f.friction;
     in[31 * stride] = f.mass;
     in[32 * stride] = f.load;
-    in[33 * stride] = f.sticking;
-    in[34 * stride] = g.contact_hertz;
-    in[35 * stride] = g.contact_damping_ratio;
-    in[36 * stride] = g.contact_stiffness;
-    in[37 * stride] = g.contact_damping;
-    in[38 * stride] = g.contact_hold_depth;
-    in[39 * stride] = g.slip_velocity;
-    in[40 * stride] = g.contact_slop;
+    in[33 * stride] = f.fall;
+    in[34 * stride] = f.sticking;
+    in[35 * stride] = g.contact_hertz;
+    in[36 * stride] = g.contact_damping_ratio;
+    in[37 * stride] = g.contact_stiffness;
+    in[38 * stride] = g.contact_damping;
+    in[39 * stride] = g.contact_hold_depth;
+    in[40 * stride] = g.slip_velocity;
     in[41 * stride] = g.contact_rest_speed;
   }
 
@@ -2517,16 +2573,16 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S p_friction = in[30];
     [[maybe_unused]] const S p_mass = in[31];
     [[maybe_unused]] const S p_load = in[32];
-    [[maybe_unused]] const S p_sticking = in[33];
-    [[maybe_unused]] const S g_contact_hertz = in[34];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[35];
-    [[maybe_unused]] const S g_contact_stiffness = in[36];
-    [[maybe_unused]] const S g_contact_damping = in[37];
-    [[maybe_unused]] const S g_contact_hold_depth = in[38];
-    [[maybe_unused]] const S g_slip_velocity = in[39];
-    [[maybe_unused]] const S g_contact_slop = in[40];
+    [[maybe_unused]] const S p_fall = in[33];
+    [[maybe_unused]] const S p_sticking = in[34];
+    [[maybe_unused]] const S g_contact_hertz = in[35];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[36];
+    [[maybe_unused]] const S g_contact_stiffness = in[37];
+    [[maybe_unused]] const S g_contact_damping = in[38];
+    [[maybe_unused]] const S g_contact_hold_depth = in[39];
+    [[maybe_unused]] const S g_slip_velocity = in[40];
     [[maybe_unused]] const S g_contact_rest_speed = in[41];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:31)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -2552,34 +2608,34 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
-    // let ra (contact.yaml:31)
+    // let ra (contact.yaml:32)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
-    // let rb (contact.yaml:32)
+    // let rb (contact.yaml:33)
     [[maybe_unused]] const S L_rb__0 = S(0);
     [[maybe_unused]] const S L_rb__1 = S(0);
     [[maybe_unused]] const S L_rb__2 = S(0);
-    // let moved (contact.yaml:35)
+    // let moved (contact.yaml:36)
     const S L_moved__0 = ((-a_o0_0) - a_px + p_point__0);
     const S d_L_moved__0__a_dty = (-a_o0_2);
     const S L_moved__1 = ((-a_o0_1) - a_py + p_point__1);
     const S d_L_moved__1__a_dtz = (-a_o0_0);
     const S L_moved__2 = ((-a_o0_2) - a_pz + p_point__2);
     const S d_L_moved__2__a_dtx = (-a_o0_1);
-    // let depth (contact.yaml:36)
+    // let depth (contact.yaml:37)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
     const S d_L_depth__a_dtx = ((-(a_o0_2*p_normal__1)) - (d_L_moved__2__a_dtx*p_normal__2));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) - (d_L_moved__0__a_dty*p_normal__0));
     const S d_L_depth__a_dtz = ((-(a_o0_1*p_normal__0)) - (d_L_moved__1__a_dtz*p_normal__1));
-    // let vrel (contact.yaml:37)
+    // let vrel (contact.yaml:38)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S d_L_vrel__1__a_wz = (-L_ra__0);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
-    // let vn (contact.yaml:38)
+    // let vn (contact.yaml:39)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -2587,15 +2643,15 @@ struct Contact_World_Kernel {
     const S d_L_vn__a_wx = ((L_ra__2*p_normal__1) + (d_L_vrel__2__a_wx*p_normal__2));
     const S d_L_vn__a_wy = ((L_ra__0*p_normal__2) + (d_L_vrel__0__a_wy*p_normal__0));
     const S d_L_vn__a_wz = ((L_ra__1*p_normal__0) + (d_L_vrel__1__a_wz*p_normal__1));
-    // let omega (contact.yaml:41)
+    // let omega (contact.yaml:42)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:45)
+    // let m (contact.yaml:46)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:46)
+    // let k (contact.yaml:47)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:47)
+    // let c (contact.yaml:48)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:51)
+    // let held (contact.yaml:52)
     const auto l10_0_0 = (L_depth > g_contact_hold_depth);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
     const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
@@ -2605,30 +2661,45 @@ struct Contact_World_Kernel {
     const S d_L_held__a_dtx = (d_L_depth__a_dtx*l10_0_1);
     const S d_L_held__a_dty = (d_L_depth__a_dty*l10_0_1);
     const S d_L_held__a_dtz = (d_L_depth__a_dtz*l10_0_1);
-    // let closing (contact.yaml:57)
-    const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:58)
-    const S l12_0_0 = (L_c*L_vn);
-    const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
-    const auto l12_0_2 = (l12_0_1 < S(0));
-    const auto l12_0_3 = (L_depth > S(0));
-    const S l12_0_4 = select(l12_0_3, select(l12_0_2, L_k, S(0)), S(0));
-    const S l12_0_5 = select(l12_0_3, S(0), (L_closing*L_k));
-    const S l12_0_6 = select(l12_0_3, select(l12_0_2, (-L_c), S(0)), (-(L_c*L_closing)));
-    const S L_fn = select(l12_0_3, select(l12_0_2, (-l12_0_1), S(0)), (L_closing*((L_depth*L_k) - l12_0_0)));
-    const S d_L_fn__a_dx = ((d_L_held__a_dx*l12_0_4) + (l12_0_5*p_normal__0));
-    const S d_L_fn__a_dy = ((d_L_held__a_dy*l12_0_4) + (l12_0_5*p_normal__1));
-    const S d_L_fn__a_dz = ((d_L_held__a_dz*l12_0_4) + (l12_0_5*p_normal__2));
-    const S d_L_fn__a_dtx = ((d_L_depth__a_dtx*l12_0_5) + (d_L_held__a_dtx*l12_0_4));
-    const S d_L_fn__a_dty = ((d_L_depth__a_dty*l12_0_5) + (d_L_held__a_dty*l12_0_4));
-    const S d_L_fn__a_dtz = ((d_L_depth__a_dtz*l12_0_5) + (d_L_held__a_dtz*l12_0_4));
-    const S d_L_fn__a_vx = (d_L_vn__a_vx*l12_0_6);
-    const S d_L_fn__a_vy = (d_L_vn__a_vy*l12_0_6);
-    const S d_L_fn__a_vz = (d_L_vn__a_vz*l12_0_6);
-    const S d_L_fn__a_wx = (d_L_vn__a_wx*l12_0_6);
-    const S d_L_fn__a_wy = (d_L_vn__a_wy*l12_0_6);
-    const S d_L_fn__a_wz = (d_L_vn__a_wz*l12_0_6);
-    // let vt (contact.yaml:59)
+    // let closing (contact.yaml:62)
+    const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
+    // let stays (contact.yaml:66)
+    const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
+    // let pushed (contact.yaml:67)
+    const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
+    const S d_L_pushed__a_dx = (L_k*d_L_held__a_dx);
+    const S d_L_pushed__a_dy = (L_k*d_L_held__a_dy);
+    const S d_L_pushed__a_dz = (L_k*d_L_held__a_dz);
+    const S d_L_pushed__a_dtx = (L_k*d_L_held__a_dtx);
+    const S d_L_pushed__a_dty = (L_k*d_L_held__a_dty);
+    const S d_L_pushed__a_dtz = (L_k*d_L_held__a_dtz);
+    const S d_L_pushed__a_vx = (-(L_c*d_L_vn__a_vx));
+    const S d_L_pushed__a_vy = (-(L_c*d_L_vn__a_vy));
+    const S d_L_pushed__a_vz = (-(L_c*d_L_vn__a_vz));
+    const S d_L_pushed__a_wx = (-(L_c*d_L_vn__a_wx));
+    const S d_L_pushed__a_wy = (-(L_c*d_L_vn__a_wy));
+    const S d_L_pushed__a_wz = (-(L_c*d_L_vn__a_wz));
+    // let fn (contact.yaml:68)
+    const auto l14_0_0 = (L_stays > S(0));
+    const auto l14_0_1 = (L_pushed > S(0));
+    const auto l14_0_2 = (L_depth > S(0));
+    const S l14_0_3 = (L_closing*(L_c + (L_k*h)));
+    const S l14_0_4 = select(l14_0_2, select(l14_0_0, S(1), select(l14_0_1, S(1), S(0))), S(0));
+    const S l14_0_5 = select(l14_0_2, S(0), (-l14_0_3));
+    const S L_fn = select(l14_0_2, select(l14_0_0, L_pushed, select(l14_0_1, L_pushed, S(0))), (l14_0_3*((-L_vn) + (p_penetration/(h)))));
+    const S d_L_fn__a_dx = (d_L_pushed__a_dx*l14_0_4);
+    const S d_L_fn__a_dy = (d_L_pushed__a_dy*l14_0_4);
+    const S d_L_fn__a_dz = (d_L_pushed__a_dz*l14_0_4);
+    const S d_L_fn__a_dtx = (d_L_pushed__a_dtx*l14_0_4);
+    const S d_L_fn__a_dty = (d_L_pushed__a_dty*l14_0_4);
+    const S d_L_fn__a_dtz = (d_L_pushed__a_dtz*l14_0_4);
+    const S d_L_fn__a_vx = ((d_L_pushed__a_vx*l14_0_4) + (d_L_vn__a_vx*l14_0_5));
+    const S d_L_fn__a_vy = ((d_L_pushed__a_vy*l14_0_4) + (d_L_vn__a_vy*l14_0_5));
+    const S d_L_fn__a_vz = ((d_L_pushed__a_vz*l14_0_4) + (d_L_vn__a_vz*l14_0_5));
+    const S d_L_fn__a_wx = ((d_L_pushed__a_wx*l14_0_4) + (d_L_vn__a_wx*l14_0_5));
+    const S d_L_fn__a_wy = ((d_L_pushed__a_wy*l14_0_4) + (d_L_vn__a_wy*l14_0_5));
+    const S d_L_fn__a_wz = ((d_L_pushed__a_wz*l14_0_4) + (d_L_vn__a_wz*l14_0_5));
+    // let vt (contact.yaml:69)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -2650,39 +2721,39 @@ struct Contact_World_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
-    // let strain (contact.yaml:64)
-    const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
-    const S l14_0_1 = ((p_normal__0*p_normal__0) - S(1));
-    const S l14_0_2 = (p_normal__0*p_normal__1);
-    const S l14_0_3 = (p_normal__0*p_normal__2);
-    const S l14_0_4 = (-l14_0_1);
-    const S l14_0_5 = ((p_normal__1*p_normal__1) - S(1));
-    const S l14_0_6 = (p_normal__1*p_normal__2);
-    const S l14_0_7 = (-l14_0_5);
-    const S l14_0_8 = ((p_normal__2*p_normal__2) - S(1));
-    const S l14_0_9 = (-l14_0_8);
-    const S L_strain__0 = (L_moved__0 - (l14_0_0*p_normal__0) + p_anchor__0);
-    const S d_L_strain__0__a_dx = l14_0_1;
-    const S d_L_strain__0__a_dy = l14_0_2;
-    const S d_L_strain__0__a_dz = l14_0_3;
-    const S d_L_strain__0__a_dtx = ((-(a_o0_2*l14_0_2)) - (d_L_moved__2__a_dtx*l14_0_3));
-    const S d_L_strain__0__a_dty = ((-(a_o0_0*l14_0_3)) + (d_L_moved__0__a_dty*l14_0_4));
-    const S d_L_strain__0__a_dtz = ((a_o0_1*l14_0_4) - (d_L_moved__1__a_dtz*l14_0_2));
-    const S L_strain__1 = (L_moved__1 - (l14_0_0*p_normal__1) + p_anchor__1);
-    const S d_L_strain__1__a_dx = l14_0_2;
-    const S d_L_strain__1__a_dy = l14_0_5;
-    const S d_L_strain__1__a_dz = l14_0_6;
-    const S d_L_strain__1__a_dtx = ((a_o0_2*l14_0_7) - (d_L_moved__2__a_dtx*l14_0_6));
-    const S d_L_strain__1__a_dty = ((-(a_o0_0*l14_0_6)) - (d_L_moved__0__a_dty*l14_0_2));
-    const S d_L_strain__1__a_dtz = ((-(a_o0_1*l14_0_2)) + (d_L_moved__1__a_dtz*l14_0_7));
-    const S L_strain__2 = (L_moved__2 - (l14_0_0*p_normal__2) + p_anchor__2);
-    const S d_L_strain__2__a_dx = l14_0_3;
-    const S d_L_strain__2__a_dy = l14_0_6;
-    const S d_L_strain__2__a_dz = l14_0_8;
-    const S d_L_strain__2__a_dtx = ((-(a_o0_2*l14_0_6)) + (d_L_moved__2__a_dtx*l14_0_9));
-    const S d_L_strain__2__a_dty = ((a_o0_0*l14_0_9) - (d_L_moved__0__a_dty*l14_0_3));
-    const S d_L_strain__2__a_dtz = ((-(a_o0_1*l14_0_3)) - (d_L_moved__1__a_dtz*l14_0_6));
-    // let fs (contact.yaml:65)
+    // let strain (contact.yaml:74)
+    const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
+    const S l16_0_1 = ((p_normal__0*p_normal__0) - S(1));
+    const S l16_0_2 = (p_normal__0*p_normal__1);
+    const S l16_0_3 = (p_normal__0*p_normal__2);
+    const S l16_0_4 = (-l16_0_1);
+    const S l16_0_5 = ((p_normal__1*p_normal__1) - S(1));
+    const S l16_0_6 = (p_normal__1*p_normal__2);
+    const S l16_0_7 = (-l16_0_5);
+    const S l16_0_8 = ((p_normal__2*p_normal__2) - S(1));
+    const S l16_0_9 = (-l16_0_8);
+    const S L_strain__0 = (L_moved__0 - (l16_0_0*p_normal__0) + p_anchor__0);
+    const S d_L_strain__0__a_dx = l16_0_1;
+    const S d_L_strain__0__a_dy = l16_0_2;
+    const S d_L_strain__0__a_dz = l16_0_3;
+    const S d_L_strain__0__a_dtx = ((-(a_o0_2*l16_0_2)) - (d_L_moved__2__a_dtx*l16_0_3));
+    const S d_L_strain__0__a_dty = ((-(a_o0_0*l16_0_3)) + (d_L_moved__0__a_dty*l16_0_4));
+    const S d_L_strain__0__a_dtz = ((a_o0_1*l16_0_4) - (d_L_moved__1__a_dtz*l16_0_2));
+    const S L_strain__1 = (L_moved__1 - (l16_0_0*p_normal__1) + p_anchor__1);
+    const S d_L_strain__1__a_dx = l16_0_2;
+    const S d_L_strain__1__a_dy = l16_0_5;
+    const S d_L_strain__1__a_dz = l16_0_6;
+    const S d_L_strain__1__a_dtx = ((a_o0_2*l16_0_7) - (d_L_moved__2__a_dtx*l16_0_6));
+    const S d_L_strain__1__a_dty = ((-(a_o0_0*l16_0_6)) - (d_L_moved__0__a_dty*l16_0_2));
+    const S d_L_strain__1__a_dtz = ((-(a_o0_1*l16_0_2)) + (d_L_moved__1__a_dtz*l16_0_7));
+    const S L_strain__2 = (L_moved__2 - (l16_0_0*p_normal__2) + p_anchor__2);
+    const S d_L_strain__2__a_dx = l16_0_3;
+    const S d_L_strain__2__a_dy = l16_0_6;
+    const S d_L_strain__2__a_dz = l16_0_8;
+    const S d_L_strain__2__a_dtx = ((-(a_o0_2*l16_0_6)) + (d_L_moved__2__a_dtx*l16_0_9));
+    const S d_L_strain__2__a_dty = ((a_o0_0*l16_0_9) - (d_L_moved__0__a_dty*l16_0_3));
+    const S d_L_strain__2__a_dtz = ((-(a_o0_1*l16_0_3)) - (d_L_moved__1__a_dtz*l16_0_6));
+    // let fs (contact.yaml:75)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -2722,154 +2793,154 @@ struct Contact_World_Kernel {
     const S d_L_fs__2__a_wx = (-(L_c*d_L_vt__2__a_wx));
     const S d_L_fs__2__a_wy = (-(L_c*d_L_vt__2__a_wy));
     const S d_L_fs__2__a_wz = (-(L_c*d_L_vt__2__a_wz));
-    // let fmax (contact.yaml:66)
-    const auto l16_0_0 = (L_fn > S(0));
-    const S l16_0_1 = (p_friction*select(l16_0_0, S(1), S(0)));
-    const S L_fmax = (p_friction*select(l16_0_0, L_fn, S(0)));
-    const S d_L_fmax__a_dx = (d_L_fn__a_dx*l16_0_1);
-    const S d_L_fmax__a_dy = (d_L_fn__a_dy*l16_0_1);
-    const S d_L_fmax__a_dz = (d_L_fn__a_dz*l16_0_1);
-    const S d_L_fmax__a_dtx = (d_L_fn__a_dtx*l16_0_1);
-    const S d_L_fmax__a_dty = (d_L_fn__a_dty*l16_0_1);
-    const S d_L_fmax__a_dtz = (d_L_fn__a_dtz*l16_0_1);
-    const S d_L_fmax__a_vx = (d_L_fn__a_vx*l16_0_1);
-    const S d_L_fmax__a_vy = (d_L_fn__a_vy*l16_0_1);
-    const S d_L_fmax__a_vz = (d_L_fn__a_vz*l16_0_1);
-    const S d_L_fmax__a_wx = (d_L_fn__a_wx*l16_0_1);
-    const S d_L_fmax__a_wy = (d_L_fn__a_wy*l16_0_1);
-    const S d_L_fmax__a_wz = (d_L_fn__a_wz*l16_0_1);
-    // let slip (contact.yaml:72)
+    // let fmax (contact.yaml:76)
+    const auto l18_0_0 = (L_fn > S(0));
+    const S l18_0_1 = (p_friction*select(l18_0_0, S(1), S(0)));
+    const S L_fmax = (p_friction*select(l18_0_0, L_fn, S(0)));
+    const S d_L_fmax__a_dx = (d_L_fn__a_dx*l18_0_1);
+    const S d_L_fmax__a_dy = (d_L_fn__a_dy*l18_0_1);
+    const S d_L_fmax__a_dz = (d_L_fn__a_dz*l18_0_1);
+    const S d_L_fmax__a_dtx = (d_L_fn__a_dtx*l18_0_1);
+    const S d_L_fmax__a_dty = (d_L_fn__a_dty*l18_0_1);
+    const S d_L_fmax__a_dtz = (d_L_fn__a_dtz*l18_0_1);
+    const S d_L_fmax__a_vx = (d_L_fn__a_vx*l18_0_1);
+    const S d_L_fmax__a_vy = (d_L_fn__a_vy*l18_0_1);
+    const S d_L_fmax__a_vz = (d_L_fn__a_vz*l18_0_1);
+    const S d_L_fmax__a_wx = (d_L_fn__a_wx*l18_0_1);
+    const S d_L_fmax__a_wy = (d_L_fn__a_wy*l18_0_1);
+    const S d_L_fmax__a_wz = (d_L_fn__a_wz*l18_0_1);
+    // let slip (contact.yaml:82)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:73)
-    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
-    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
-    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
-    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
-    // let fast (contact.yaml:74)
+    // let dir (contact.yaml:83)
+    const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
+    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
+    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
+    // let fast (contact.yaml:84)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:75)
-    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
-    const S l20_0_2 = (L_dir__0*L_dir__1);
-    const S l20_0_3 = (L_dir__0*L_dir__2);
-    const S l20_0_4 = (S(1) - (L_dir__1*L_dir__1));
-    const S l20_0_5 = (L_dir__1*L_dir__2);
-    const S l20_0_6 = (S(1) - (L_dir__2*L_dir__2));
-    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
-    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l20_0_1) - (d_L_vt__1__a_vx*l20_0_2) - (d_L_vt__2__a_vx*l20_0_3));
-    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l20_0_1) - (d_L_vt__1__a_vy*l20_0_2) - (d_L_vt__2__a_vy*l20_0_3));
-    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l20_0_1) - (d_L_vt__1__a_vz*l20_0_2) - (d_L_vt__2__a_vz*l20_0_3));
-    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l20_0_1) - (d_L_vt__1__a_wx*l20_0_2) - (d_L_vt__2__a_wx*l20_0_3));
-    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l20_0_1) - (d_L_vt__1__a_wy*l20_0_2) - (d_L_vt__2__a_wy*l20_0_3));
-    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l20_0_1) - (d_L_vt__1__a_wz*l20_0_2) - (d_L_vt__2__a_wz*l20_0_3));
-    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
-    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l20_0_2)) + (d_L_vt__1__a_vx*l20_0_4) - (d_L_vt__2__a_vx*l20_0_5));
-    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l20_0_2)) + (d_L_vt__1__a_vy*l20_0_4) - (d_L_vt__2__a_vy*l20_0_5));
-    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l20_0_2)) + (d_L_vt__1__a_vz*l20_0_4) - (d_L_vt__2__a_vz*l20_0_5));
-    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l20_0_2)) + (d_L_vt__1__a_wx*l20_0_4) - (d_L_vt__2__a_wx*l20_0_5));
-    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l20_0_2)) + (d_L_vt__1__a_wy*l20_0_4) - (d_L_vt__2__a_wy*l20_0_5));
-    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l20_0_2)) + (d_L_vt__1__a_wz*l20_0_4) - (d_L_vt__2__a_wz*l20_0_5));
-    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
-    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l20_0_3)) - (d_L_vt__1__a_vx*l20_0_5) + (d_L_vt__2__a_vx*l20_0_6));
-    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l20_0_3)) - (d_L_vt__1__a_vy*l20_0_5) + (d_L_vt__2__a_vy*l20_0_6));
-    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l20_0_3)) - (d_L_vt__1__a_vz*l20_0_5) + (d_L_vt__2__a_vz*l20_0_6));
-    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
-    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
-    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
-    // let sliding (contact.yaml:76)
-    const S l21_0_0 = (S(1)/(L_slip));
-    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
-    const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
-    const S l21_0_3 = (-l21_0_2);
-    const S l21_0_4 = (L_fast*L_fmax*l21_0_0);
-    const S l21_0_5 = (L_fmax*l21_0_1);
-    const S l21_0_6 = ((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1));
-    const S l21_0_7 = (-l21_0_6);
-    const S l21_0_8 = ((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1));
-    const S l21_0_9 = (-l21_0_8);
-    const S L_sliding__0 = (-(L_fmax*l21_0_2));
-    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l21_0_3);
-    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l21_0_3);
-    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l21_0_3);
-    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l21_0_3);
-    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l21_0_3);
-    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l21_0_3);
-    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_3) - (d_L_vt__0__a_vx*l21_0_5));
-    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_3) - (d_L_vt__0__a_vy*l21_0_5));
-    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_3) - (d_L_vt__0__a_vz*l21_0_5));
-    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_3) - (d_L_vt__0__a_wx*l21_0_5));
-    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_3) - (d_L_vt__0__a_wy*l21_0_5));
-    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_3) - (d_L_vt__0__a_wz*l21_0_5));
-    const S L_sliding__1 = (-(L_fmax*l21_0_6));
-    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l21_0_7);
-    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l21_0_7);
-    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l21_0_7);
-    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l21_0_7);
-    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l21_0_7);
-    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l21_0_7);
-    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_7) - (d_L_vt__1__a_vx*l21_0_5));
-    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_7) - (d_L_vt__1__a_vy*l21_0_5));
-    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_7) - (d_L_vt__1__a_vz*l21_0_5));
-    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_7) - (d_L_vt__1__a_wx*l21_0_5));
-    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_7) - (d_L_vt__1__a_wy*l21_0_5));
-    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_7) - (d_L_vt__1__a_wz*l21_0_5));
-    const S L_sliding__2 = (-(L_fmax*l21_0_8));
-    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l21_0_9);
-    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l21_0_9);
-    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l21_0_9);
-    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l21_0_9);
-    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l21_0_9);
-    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l21_0_9);
-    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_9) - (d_L_vt__2__a_vx*l21_0_5));
-    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_9) - (d_L_vt__2__a_vy*l21_0_5));
-    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_9) - (d_L_vt__2__a_vz*l21_0_5));
-    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
-    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
-    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
-    // let holds (contact.yaml:79)
+    // let across (contact.yaml:85)
+    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l22_0_2 = (L_dir__0*L_dir__1);
+    const S l22_0_3 = (L_dir__0*L_dir__2);
+    const S l22_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l22_0_5 = (L_dir__1*L_dir__2);
+    const S l22_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l22_0_1) - (d_L_vt__1__a_vx*l22_0_2) - (d_L_vt__2__a_vx*l22_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l22_0_1) - (d_L_vt__1__a_vy*l22_0_2) - (d_L_vt__2__a_vy*l22_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l22_0_1) - (d_L_vt__1__a_vz*l22_0_2) - (d_L_vt__2__a_vz*l22_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l22_0_1) - (d_L_vt__1__a_wx*l22_0_2) - (d_L_vt__2__a_wx*l22_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l22_0_1) - (d_L_vt__1__a_wy*l22_0_2) - (d_L_vt__2__a_wy*l22_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l22_0_1) - (d_L_vt__1__a_wz*l22_0_2) - (d_L_vt__2__a_wz*l22_0_3));
+    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l22_0_2)) + (d_L_vt__1__a_vx*l22_0_4) - (d_L_vt__2__a_vx*l22_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l22_0_2)) + (d_L_vt__1__a_vy*l22_0_4) - (d_L_vt__2__a_vy*l22_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l22_0_2)) + (d_L_vt__1__a_vz*l22_0_4) - (d_L_vt__2__a_vz*l22_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l22_0_2)) + (d_L_vt__1__a_wx*l22_0_4) - (d_L_vt__2__a_wx*l22_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l22_0_2)) + (d_L_vt__1__a_wy*l22_0_4) - (d_L_vt__2__a_wy*l22_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l22_0_2)) + (d_L_vt__1__a_wz*l22_0_4) - (d_L_vt__2__a_wz*l22_0_5));
+    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l22_0_3)) - (d_L_vt__1__a_vx*l22_0_5) + (d_L_vt__2__a_vx*l22_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l22_0_3)) - (d_L_vt__1__a_vy*l22_0_5) + (d_L_vt__2__a_vy*l22_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l22_0_3)) - (d_L_vt__1__a_vz*l22_0_5) + (d_L_vt__2__a_vz*l22_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
+    // let sliding (contact.yaml:86)
+    const S l23_0_0 = (S(1)/(L_slip));
+    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
+    const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
+    const S l23_0_3 = (-l23_0_2);
+    const S l23_0_4 = (L_fast*L_fmax*l23_0_0);
+    const S l23_0_5 = (L_fmax*l23_0_1);
+    const S l23_0_6 = ((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1));
+    const S l23_0_7 = (-l23_0_6);
+    const S l23_0_8 = ((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1));
+    const S l23_0_9 = (-l23_0_8);
+    const S L_sliding__0 = (-(L_fmax*l23_0_2));
+    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l23_0_3);
+    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l23_0_3);
+    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l23_0_3);
+    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l23_0_3);
+    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l23_0_3);
+    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l23_0_3);
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_3) - (d_L_vt__0__a_vx*l23_0_5));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_3) - (d_L_vt__0__a_vy*l23_0_5));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_3) - (d_L_vt__0__a_vz*l23_0_5));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_3) - (d_L_vt__0__a_wx*l23_0_5));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_3) - (d_L_vt__0__a_wy*l23_0_5));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_3) - (d_L_vt__0__a_wz*l23_0_5));
+    const S L_sliding__1 = (-(L_fmax*l23_0_6));
+    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l23_0_7);
+    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l23_0_7);
+    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l23_0_7);
+    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l23_0_7);
+    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l23_0_7);
+    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l23_0_7);
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_7) - (d_L_vt__1__a_vx*l23_0_5));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_7) - (d_L_vt__1__a_vy*l23_0_5));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_7) - (d_L_vt__1__a_vz*l23_0_5));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_7) - (d_L_vt__1__a_wx*l23_0_5));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_7) - (d_L_vt__1__a_wy*l23_0_5));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_7) - (d_L_vt__1__a_wz*l23_0_5));
+    const S L_sliding__2 = (-(L_fmax*l23_0_8));
+    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l23_0_9);
+    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l23_0_9);
+    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l23_0_9);
+    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l23_0_9);
+    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l23_0_9);
+    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l23_0_9);
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_9) - (d_L_vt__2__a_vx*l23_0_5));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_9) - (d_L_vt__2__a_vy*l23_0_5));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_9) - (d_L_vt__2__a_vz*l23_0_5));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
+    // let holds (contact.yaml:89)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:80)
-    const S l23_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l23_0_0));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l23_0_0));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l23_0_0));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l23_0_0));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l23_0_0));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l23_0_0));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l23_0_0));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l23_0_0));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l23_0_0));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l23_0_0));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l23_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l23_0_0));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l23_0_0));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l23_0_0));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l23_0_0));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l23_0_0));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l23_0_0));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l23_0_0));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l23_0_0));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l23_0_0));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l23_0_0));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l23_0_0));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l23_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l23_0_0));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l23_0_0));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l23_0_0));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l23_0_0));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l23_0_0));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l23_0_0));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l23_0_0));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l23_0_0));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l23_0_0));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
-    // let f (contact.yaml:81)
+    // let ft (contact.yaml:90)
+    const S l25_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
+    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
+    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l25_0_0));
+    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l25_0_0));
+    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l25_0_0));
+    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l25_0_0));
+    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l25_0_0));
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l25_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l25_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l25_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l25_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l25_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l25_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
+    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l25_0_0));
+    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l25_0_0));
+    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l25_0_0));
+    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l25_0_0));
+    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l25_0_0));
+    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l25_0_0));
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l25_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l25_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l25_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l25_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l25_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l25_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
+    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l25_0_0));
+    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l25_0_0));
+    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l25_0_0));
+    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l25_0_0));
+    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l25_0_0));
+    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l25_0_0));
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l25_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l25_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l25_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
+    // let f (contact.yaml:91)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -2909,14 +2980,14 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // F_a from apply[0] (contact.yaml:83)
+    // F_a from apply[0] (contact.yaml:93)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:83)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:93)
     out[6] = (-d_L_f__0__a_dx);
     out[7] = (-d_L_f__1__a_dx);
     out[8] = (-d_L_f__2__a_dx);
@@ -2953,7 +3024,7 @@ struct Contact_World_Kernel {
     out[39] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[40] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[41] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:83)
+    // dF_a/du_a from apply[0] (contact.yaml:93)
     out[42] = (-d_L_f__0__a_vx);
     out[43] = (-d_L_f__1__a_vx);
     out[44] = (-d_L_f__2__a_vx);
@@ -2994,7 +3065,7 @@ struct Contact_World_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1223
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1246
   static constexpr int kNumImplicitBlocks = 1;
   static constexpr int kImplicitOutputs = 42;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -3037,16 +3108,16 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S p_friction = in[30];
     [[maybe_unused]] const S p_mass = in[31];
     [[maybe_unused]] const S p_load = in[32];
-    [[maybe_unused]] const S p_sticking = in[33];
-    [[maybe_unused]] const S g_contact_hertz = in[34];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[35];
-    [[maybe_unused]] const S g_contact_stiffness = in[36];
-    [[maybe_unused]] const S g_contact_damping = in[37];
-    [[maybe_unused]] const S g_contact_hold_depth = in[38];
-    [[maybe_unused]] const S g_slip_velocity = in[39];
-    [[maybe_unused]] const S g_contact_slop = in[40];
+    [[maybe_unused]] const S p_fall = in[33];
+    [[maybe_unused]] const S p_sticking = in[34];
+    [[maybe_unused]] const S g_contact_hertz = in[35];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[36];
+    [[maybe_unused]] const S g_contact_stiffness = in[37];
+    [[maybe_unused]] const S g_contact_damping = in[38];
+    [[maybe_unused]] const S g_contact_hold_depth = in[39];
+    [[maybe_unused]] const S g_slip_velocity = in[40];
     [[maybe_unused]] const S g_contact_rest_speed = in[41];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:31)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -3072,34 +3143,34 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
-    // let ra (contact.yaml:31)
+    // let ra (contact.yaml:32)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
-    // let rb (contact.yaml:32)
+    // let rb (contact.yaml:33)
     [[maybe_unused]] const S L_rb__0 = S(0);
     [[maybe_unused]] const S L_rb__1 = S(0);
     [[maybe_unused]] const S L_rb__2 = S(0);
-    // let moved (contact.yaml:35)
+    // let moved (contact.yaml:36)
     const S L_moved__0 = ((-a_o0_0) - a_px + p_point__0);
     const S d_L_moved__0__a_dty = (-a_o0_2);
     const S L_moved__1 = ((-a_o0_1) - a_py + p_point__1);
     const S d_L_moved__1__a_dtz = (-a_o0_0);
     const S L_moved__2 = ((-a_o0_2) - a_pz + p_point__2);
     const S d_L_moved__2__a_dtx = (-a_o0_1);
-    // let depth (contact.yaml:36)
+    // let depth (contact.yaml:37)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
     const S d_L_depth__a_dtx = ((-(a_o0_2*p_normal__1)) - (d_L_moved__2__a_dtx*p_normal__2));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) - (d_L_moved__0__a_dty*p_normal__0));
     const S d_L_depth__a_dtz = ((-(a_o0_1*p_normal__0)) - (d_L_moved__1__a_dtz*p_normal__1));
-    // let vrel (contact.yaml:37)
+    // let vrel (contact.yaml:38)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S d_L_vrel__1__a_wz = (-L_ra__0);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
-    // let vn (contact.yaml:38)
+    // let vn (contact.yaml:39)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -3107,15 +3178,15 @@ struct Contact_World_Kernel {
     const S d_L_vn__a_wx = ((L_ra__2*p_normal__1) + (d_L_vrel__2__a_wx*p_normal__2));
     const S d_L_vn__a_wy = ((L_ra__0*p_normal__2) + (d_L_vrel__0__a_wy*p_normal__0));
     const S d_L_vn__a_wz = ((L_ra__1*p_normal__0) + (d_L_vrel__1__a_wz*p_normal__1));
-    // let omega (contact.yaml:41)
+    // let omega (contact.yaml:42)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:45)
+    // let m (contact.yaml:46)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:46)
+    // let k (contact.yaml:47)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:47)
+    // let c (contact.yaml:48)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:51)
+    // let held (contact.yaml:52)
     const auto l10_0_0 = (L_depth > g_contact_hold_depth);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
     const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
@@ -3125,30 +3196,45 @@ struct Contact_World_Kernel {
     const S d_L_held__a_dtx = (d_L_depth__a_dtx*l10_0_1);
     const S d_L_held__a_dty = (d_L_depth__a_dty*l10_0_1);
     const S d_L_held__a_dtz = (d_L_depth__a_dtz*l10_0_1);
-    // let closing (contact.yaml:57)
-    const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:58)
-    const S l12_0_0 = (L_c*L_vn);
-    const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
-    const auto l12_0_2 = (l12_0_1 < S(0));
-    const auto l12_0_3 = (L_depth > S(0));
-    const S l12_0_4 = select(l12_0_3, select(l12_0_2, L_k, S(0)), S(0));
-    const S l12_0_5 = select(l12_0_3, S(0), (L_closing*L_k));
-    const S l12_0_6 = select(l12_0_3, select(l12_0_2, (-L_c), S(0)), (-(L_c*L_closing)));
-    const S L_fn = select(l12_0_3, select(l12_0_2, (-l12_0_1), S(0)), (L_closing*((L_depth*L_k) - l12_0_0)));
-    const S d_L_fn__a_dx = ((d_L_held__a_dx*l12_0_4) + (l12_0_5*p_normal__0));
-    const S d_L_fn__a_dy = ((d_L_held__a_dy*l12_0_4) + (l12_0_5*p_normal__1));
-    const S d_L_fn__a_dz = ((d_L_held__a_dz*l12_0_4) + (l12_0_5*p_normal__2));
-    const S d_L_fn__a_dtx = ((d_L_depth__a_dtx*l12_0_5) + (d_L_held__a_dtx*l12_0_4));
-    const S d_L_fn__a_dty = ((d_L_depth__a_dty*l12_0_5) + (d_L_held__a_dty*l12_0_4));
-    const S d_L_fn__a_dtz = ((d_L_depth__a_dtz*l12_0_5) + (d_L_held__a_dtz*l12_0_4));
-    const S d_L_fn__a_vx = (d_L_vn__a_vx*l12_0_6);
-    const S d_L_fn__a_vy = (d_L_vn__a_vy*l12_0_6);
-    const S d_L_fn__a_vz = (d_L_vn__a_vz*l12_0_6);
-    const S d_L_fn__a_wx = (d_L_vn__a_wx*l12_0_6);
-    const S d_L_fn__a_wy = (d_L_vn__a_wy*l12_0_6);
-    const S d_L_fn__a_wz = (d_L_vn__a_wz*l12_0_6);
-    // let vt (contact.yaml:59)
+    // let closing (contact.yaml:62)
+    const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
+    // let stays (contact.yaml:66)
+    const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
+    // let pushed (contact.yaml:67)
+    const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
+    const S d_L_pushed__a_dx = (L_k*d_L_held__a_dx);
+    const S d_L_pushed__a_dy = (L_k*d_L_held__a_dy);
+    const S d_L_pushed__a_dz = (L_k*d_L_held__a_dz);
+    const S d_L_pushed__a_dtx = (L_k*d_L_held__a_dtx);
+    const S d_L_pushed__a_dty = (L_k*d_L_held__a_dty);
+    const S d_L_pushed__a_dtz = (L_k*d_L_held__a_dtz);
+    const S d_L_pushed__a_vx = (-(L_c*d_L_vn__a_vx));
+    const S d_L_pushed__a_vy = (-(L_c*d_L_vn__a_vy));
+    const S d_L_pushed__a_vz = (-(L_c*d_L_vn__a_vz));
+    const S d_L_pushed__a_wx = (-(L_c*d_L_vn__a_wx));
+    const S d_L_pushed__a_wy = (-(L_c*d_L_vn__a_wy));
+    const S d_L_pushed__a_wz = (-(L_c*d_L_vn__a_wz));
+    // let fn (contact.yaml:68)
+    const auto l14_0_0 = (L_stays > S(0));
+    const auto l14_0_1 = (L_pushed > S(0));
+    const auto l14_0_2 = (L_depth > S(0));
+    const S l14_0_3 = (L_closing*(L_c + (L_k*h)));
+    const S l14_0_4 = select(l14_0_2, select(l14_0_0, S(1), select(l14_0_1, S(1), S(0))), S(0));
+    const S l14_0_5 = select(l14_0_2, S(0), (-l14_0_3));
+    const S L_fn = select(l14_0_2, select(l14_0_0, L_pushed, select(l14_0_1, L_pushed, S(0))), (l14_0_3*((-L_vn) + (p_penetration/(h)))));
+    const S d_L_fn__a_dx = (d_L_pushed__a_dx*l14_0_4);
+    const S d_L_fn__a_dy = (d_L_pushed__a_dy*l14_0_4);
+    const S d_L_fn__a_dz = (d_L_pushed__a_dz*l14_0_4);
+    const S d_L_fn__a_dtx = (d_L_pushed__a_dtx*l14_0_4);
+    const S d_L_fn__a_dty = (d_L_pushed__a_dty*l14_0_4);
+    const S d_L_fn__a_dtz = (d_L_pushed__a_dtz*l14_0_4);
+    const S d_L_fn__a_vx = ((d_L_pushed__a_vx*l14_0_4) + (d_L_vn__a_vx*l14_0_5));
+    const S d_L_fn__a_vy = ((d_L_pushed__a_vy*l14_0_4) + (d_L_vn__a_vy*l14_0_5));
+    const S d_L_fn__a_vz = ((d_L_pushed__a_vz*l14_0_4) + (d_L_vn__a_vz*l14_0_5));
+    const S d_L_fn__a_wx = ((d_L_pushed__a_wx*l14_0_4) + (d_L_vn__a_wx*l14_0_5));
+    const S d_L_fn__a_wy = ((d_L_pushed__a_wy*l14_0_4) + (d_L_vn__a_wy*l14_0_5));
+    const S d_L_fn__a_wz = ((d_L_pushed__a_wz*l14_0_4) + (d_L_vn__a_wz*l14_0_5));
+    // let vt (contact.yaml:69)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -3170,39 +3256,39 @@ struct Contact_World_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
-    // let strain (contact.yaml:64)
-    const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
-    const S l14_0_1 = ((p_normal__0*p_normal__0) - S(1));
-    const S l14_0_2 = (p_normal__0*p_normal__1);
-    const S l14_0_3 = (p_normal__0*p_normal__2);
-    const S l14_0_4 = (-l14_0_1);
-    const S l14_0_5 = ((p_normal__1*p_normal__1) - S(1));
-    const S l14_0_6 = (p_normal__1*p_normal__2);
-    const S l14_0_7 = (-l14_0_5);
-    const S l14_0_8 = ((p_normal__2*p_normal__2) - S(1));
-    const S l14_0_9 = (-l14_0_8);
-    const S L_strain__0 = (L_moved__0 - (l14_0_0*p_normal__0) + p_anchor__0);
-    const S d_L_strain__0__a_dx = l14_0_1;
-    const S d_L_strain__0__a_dy = l14_0_2;
-    const S d_L_strain__0__a_dz = l14_0_3;
-    const S d_L_strain__0__a_dtx = ((-(a_o0_2*l14_0_2)) - (d_L_moved__2__a_dtx*l14_0_3));
-    const S d_L_strain__0__a_dty = ((-(a_o0_0*l14_0_3)) + (d_L_moved__0__a_dty*l14_0_4));
-    const S d_L_strain__0__a_dtz = ((a_o0_1*l14_0_4) - (d_L_moved__1__a_dtz*l14_0_2));
-    const S L_strain__1 = (L_moved__1 - (l14_0_0*p_normal__1) + p_anchor__1);
-    const S d_L_strain__1__a_dx = l14_0_2;
-    const S d_L_strain__1__a_dy = l14_0_5;
-    const S d_L_strain__1__a_dz = l14_0_6;
-    const S d_L_strain__1__a_dtx = ((a_o0_2*l14_0_7) - (d_L_moved__2__a_dtx*l14_0_6));
-    const S d_L_strain__1__a_dty = ((-(a_o0_0*l14_0_6)) - (d_L_moved__0__a_dty*l14_0_2));
-    const S d_L_strain__1__a_dtz = ((-(a_o0_1*l14_0_2)) + (d_L_moved__1__a_dtz*l14_0_7));
-    const S L_strain__2 = (L_moved__2 - (l14_0_0*p_normal__2) + p_anchor__2);
-    const S d_L_strain__2__a_dx = l14_0_3;
-    const S d_L_strain__2__a_dy = l14_0_6;
-    const S d_L_strain__2__a_dz = l14_0_8;
-    const S d_L_strain__2__a_dtx = ((-(a_o0_2*l14_0_6)) + (d_L_moved__2__a_dtx*l14_0_9));
-    const S d_L_strain__2__a_dty = ((a_o0_0*l14_0_9) - (d_L_moved__0__a_dty*l14_0_3));
-    const S d_L_strain__2__a_dtz = ((-(a_o0_1*l14_0_3)) - (d_L_moved__1__a_dtz*l14_0_6));
-    // let fs (contact.yaml:65)
+    // let strain (contact.yaml:74)
+    const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
+    const S l16_0_1 = ((p_normal__0*p_normal__0) - S(1));
+    const S l16_0_2 = (p_normal__0*p_normal__1);
+    const S l16_0_3 = (p_normal__0*p_normal__2);
+    const S l16_0_4 = (-l16_0_1);
+    const S l16_0_5 = ((p_normal__1*p_normal__1) - S(1));
+    const S l16_0_6 = (p_normal__1*p_normal__2);
+    const S l16_0_7 = (-l16_0_5);
+    const S l16_0_8 = ((p_normal__2*p_normal__2) - S(1));
+    const S l16_0_9 = (-l16_0_8);
+    const S L_strain__0 = (L_moved__0 - (l16_0_0*p_normal__0) + p_anchor__0);
+    const S d_L_strain__0__a_dx = l16_0_1;
+    const S d_L_strain__0__a_dy = l16_0_2;
+    const S d_L_strain__0__a_dz = l16_0_3;
+    const S d_L_strain__0__a_dtx = ((-(a_o0_2*l16_0_2)) - (d_L_moved__2__a_dtx*l16_0_3));
+    const S d_L_strain__0__a_dty = ((-(a_o0_0*l16_0_3)) + (d_L_moved__0__a_dty*l16_0_4));
+    const S d_L_strain__0__a_dtz = ((a_o0_1*l16_0_4) - (d_L_moved__1__a_dtz*l16_0_2));
+    const S L_strain__1 = (L_moved__1 - (l16_0_0*p_normal__1) + p_anchor__1);
+    const S d_L_strain__1__a_dx = l16_0_2;
+    const S d_L_strain__1__a_dy = l16_0_5;
+    const S d_L_strain__1__a_dz = l16_0_6;
+    const S d_L_strain__1__a_dtx = ((a_o0_2*l16_0_7) - (d_L_moved__2__a_dtx*l16_0_6));
+    const S d_L_strain__1__a_dty = ((-(a_o0_0*l16_0_6)) - (d_L_moved__0__a_dty*l16_0_2));
+    const S d_L_strain__1__a_dtz = ((-(a_o0_1*l16_0_2)) + (d_L_moved__1__a_dtz*l16_0_7));
+    const S L_strain__2 = (L_moved__2 - (l16_0_0*p_normal__2) + p_anchor__2);
+    const S d_L_strain__2__a_dx = l16_0_3;
+    const S d_L_strain__2__a_dy = l16_0_6;
+    const S d_L_strain__2__a_dz = l16_0_8;
+    const S d_L_strain__2__a_dtx = ((-(a_o0_2*l16_0_6)) + (d_L_moved__2__a_dtx*l16_0_9));
+    const S d_L_strain__2__a_dty = ((a_o0_0*l16_0_9) - (d_L_moved__0__a_dty*l16_0_3));
+    const S d_L_strain__2__a_dtz = ((-(a_o0_1*l16_0_3)) - (d_L_moved__1__a_dtz*l16_0_6));
+    // let fs (contact.yaml:75)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -3242,154 +3328,154 @@ struct Contact_World_Kernel {
     const S d_L_fs__2__a_wx = (-(L_c*d_L_vt__2__a_wx));
     const S d_L_fs__2__a_wy = (-(L_c*d_L_vt__2__a_wy));
     const S d_L_fs__2__a_wz = (-(L_c*d_L_vt__2__a_wz));
-    // let fmax (contact.yaml:66)
-    const auto l16_0_0 = (L_fn > S(0));
-    const S l16_0_1 = (p_friction*select(l16_0_0, S(1), S(0)));
-    const S L_fmax = (p_friction*select(l16_0_0, L_fn, S(0)));
-    const S d_L_fmax__a_dx = (d_L_fn__a_dx*l16_0_1);
-    const S d_L_fmax__a_dy = (d_L_fn__a_dy*l16_0_1);
-    const S d_L_fmax__a_dz = (d_L_fn__a_dz*l16_0_1);
-    const S d_L_fmax__a_dtx = (d_L_fn__a_dtx*l16_0_1);
-    const S d_L_fmax__a_dty = (d_L_fn__a_dty*l16_0_1);
-    const S d_L_fmax__a_dtz = (d_L_fn__a_dtz*l16_0_1);
-    const S d_L_fmax__a_vx = (d_L_fn__a_vx*l16_0_1);
-    const S d_L_fmax__a_vy = (d_L_fn__a_vy*l16_0_1);
-    const S d_L_fmax__a_vz = (d_L_fn__a_vz*l16_0_1);
-    const S d_L_fmax__a_wx = (d_L_fn__a_wx*l16_0_1);
-    const S d_L_fmax__a_wy = (d_L_fn__a_wy*l16_0_1);
-    const S d_L_fmax__a_wz = (d_L_fn__a_wz*l16_0_1);
-    // let slip (contact.yaml:72)
+    // let fmax (contact.yaml:76)
+    const auto l18_0_0 = (L_fn > S(0));
+    const S l18_0_1 = (p_friction*select(l18_0_0, S(1), S(0)));
+    const S L_fmax = (p_friction*select(l18_0_0, L_fn, S(0)));
+    const S d_L_fmax__a_dx = (d_L_fn__a_dx*l18_0_1);
+    const S d_L_fmax__a_dy = (d_L_fn__a_dy*l18_0_1);
+    const S d_L_fmax__a_dz = (d_L_fn__a_dz*l18_0_1);
+    const S d_L_fmax__a_dtx = (d_L_fn__a_dtx*l18_0_1);
+    const S d_L_fmax__a_dty = (d_L_fn__a_dty*l18_0_1);
+    const S d_L_fmax__a_dtz = (d_L_fn__a_dtz*l18_0_1);
+    const S d_L_fmax__a_vx = (d_L_fn__a_vx*l18_0_1);
+    const S d_L_fmax__a_vy = (d_L_fn__a_vy*l18_0_1);
+    const S d_L_fmax__a_vz = (d_L_fn__a_vz*l18_0_1);
+    const S d_L_fmax__a_wx = (d_L_fn__a_wx*l18_0_1);
+    const S d_L_fmax__a_wy = (d_L_fn__a_wy*l18_0_1);
+    const S d_L_fmax__a_wz = (d_L_fn__a_wz*l18_0_1);
+    // let slip (contact.yaml:82)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:73)
-    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
-    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l18_0_0);
-    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l18_0_0);
-    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l18_0_0);
-    // let fast (contact.yaml:74)
+    // let dir (contact.yaml:83)
+    const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
+    [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
+    [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
+    // let fast (contact.yaml:84)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:75)
-    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S l20_0_1 = (S(1) - (L_dir__0*L_dir__0));
-    const S l20_0_2 = (L_dir__0*L_dir__1);
-    const S l20_0_3 = (L_dir__0*L_dir__2);
-    const S l20_0_4 = (S(1) - (L_dir__1*L_dir__1));
-    const S l20_0_5 = (L_dir__1*L_dir__2);
-    const S l20_0_6 = (S(1) - (L_dir__2*L_dir__2));
-    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
-    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l20_0_1) - (d_L_vt__1__a_vx*l20_0_2) - (d_L_vt__2__a_vx*l20_0_3));
-    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l20_0_1) - (d_L_vt__1__a_vy*l20_0_2) - (d_L_vt__2__a_vy*l20_0_3));
-    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l20_0_1) - (d_L_vt__1__a_vz*l20_0_2) - (d_L_vt__2__a_vz*l20_0_3));
-    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l20_0_1) - (d_L_vt__1__a_wx*l20_0_2) - (d_L_vt__2__a_wx*l20_0_3));
-    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l20_0_1) - (d_L_vt__1__a_wy*l20_0_2) - (d_L_vt__2__a_wy*l20_0_3));
-    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l20_0_1) - (d_L_vt__1__a_wz*l20_0_2) - (d_L_vt__2__a_wz*l20_0_3));
-    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
-    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l20_0_2)) + (d_L_vt__1__a_vx*l20_0_4) - (d_L_vt__2__a_vx*l20_0_5));
-    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l20_0_2)) + (d_L_vt__1__a_vy*l20_0_4) - (d_L_vt__2__a_vy*l20_0_5));
-    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l20_0_2)) + (d_L_vt__1__a_vz*l20_0_4) - (d_L_vt__2__a_vz*l20_0_5));
-    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l20_0_2)) + (d_L_vt__1__a_wx*l20_0_4) - (d_L_vt__2__a_wx*l20_0_5));
-    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l20_0_2)) + (d_L_vt__1__a_wy*l20_0_4) - (d_L_vt__2__a_wy*l20_0_5));
-    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l20_0_2)) + (d_L_vt__1__a_wz*l20_0_4) - (d_L_vt__2__a_wz*l20_0_5));
-    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
-    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l20_0_3)) - (d_L_vt__1__a_vx*l20_0_5) + (d_L_vt__2__a_vx*l20_0_6));
-    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l20_0_3)) - (d_L_vt__1__a_vy*l20_0_5) + (d_L_vt__2__a_vy*l20_0_6));
-    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l20_0_3)) - (d_L_vt__1__a_vz*l20_0_5) + (d_L_vt__2__a_vz*l20_0_6));
-    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l20_0_3)) - (d_L_vt__1__a_wx*l20_0_5) + (d_L_vt__2__a_wx*l20_0_6));
-    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l20_0_3)) - (d_L_vt__1__a_wy*l20_0_5) + (d_L_vt__2__a_wy*l20_0_6));
-    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l20_0_3)) - (d_L_vt__1__a_wz*l20_0_5) + (d_L_vt__2__a_wz*l20_0_6));
-    // let sliding (contact.yaml:76)
-    const S l21_0_0 = (S(1)/(L_slip));
-    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
-    const S l21_0_2 = ((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1));
-    const S l21_0_3 = (-l21_0_2);
-    const S l21_0_4 = (L_fast*L_fmax*l21_0_0);
-    const S l21_0_5 = (L_fmax*l21_0_1);
-    const S l21_0_6 = ((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1));
-    const S l21_0_7 = (-l21_0_6);
-    const S l21_0_8 = ((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1));
-    const S l21_0_9 = (-l21_0_8);
-    const S L_sliding__0 = (-(L_fmax*l21_0_2));
-    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l21_0_3);
-    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l21_0_3);
-    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l21_0_3);
-    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l21_0_3);
-    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l21_0_3);
-    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l21_0_3);
-    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_3) - (d_L_vt__0__a_vx*l21_0_5));
-    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_3) - (d_L_vt__0__a_vy*l21_0_5));
-    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_3) - (d_L_vt__0__a_vz*l21_0_5));
-    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_3) - (d_L_vt__0__a_wx*l21_0_5));
-    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_3) - (d_L_vt__0__a_wy*l21_0_5));
-    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_3) - (d_L_vt__0__a_wz*l21_0_5));
-    const S L_sliding__1 = (-(L_fmax*l21_0_6));
-    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l21_0_7);
-    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l21_0_7);
-    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l21_0_7);
-    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l21_0_7);
-    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l21_0_7);
-    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l21_0_7);
-    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_7) - (d_L_vt__1__a_vx*l21_0_5));
-    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_7) - (d_L_vt__1__a_vy*l21_0_5));
-    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_7) - (d_L_vt__1__a_vz*l21_0_5));
-    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_7) - (d_L_vt__1__a_wx*l21_0_5));
-    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_7) - (d_L_vt__1__a_wy*l21_0_5));
-    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_7) - (d_L_vt__1__a_wz*l21_0_5));
-    const S L_sliding__2 = (-(L_fmax*l21_0_8));
-    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l21_0_9);
-    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l21_0_9);
-    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l21_0_9);
-    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l21_0_9);
-    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l21_0_9);
-    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l21_0_9);
-    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l21_0_4)) + (d_L_fmax__a_vx*l21_0_9) - (d_L_vt__2__a_vx*l21_0_5));
-    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l21_0_4)) + (d_L_fmax__a_vy*l21_0_9) - (d_L_vt__2__a_vy*l21_0_5));
-    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l21_0_4)) + (d_L_fmax__a_vz*l21_0_9) - (d_L_vt__2__a_vz*l21_0_5));
-    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l21_0_4)) + (d_L_fmax__a_wx*l21_0_9) - (d_L_vt__2__a_wx*l21_0_5));
-    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l21_0_4)) + (d_L_fmax__a_wy*l21_0_9) - (d_L_vt__2__a_wy*l21_0_5));
-    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l21_0_4)) + (d_L_fmax__a_wz*l21_0_9) - (d_L_vt__2__a_wz*l21_0_5));
-    // let holds (contact.yaml:79)
+    // let across (contact.yaml:85)
+    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l22_0_2 = (L_dir__0*L_dir__1);
+    const S l22_0_3 = (L_dir__0*L_dir__2);
+    const S l22_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l22_0_5 = (L_dir__1*L_dir__2);
+    const S l22_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l22_0_1) - (d_L_vt__1__a_vx*l22_0_2) - (d_L_vt__2__a_vx*l22_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l22_0_1) - (d_L_vt__1__a_vy*l22_0_2) - (d_L_vt__2__a_vy*l22_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l22_0_1) - (d_L_vt__1__a_vz*l22_0_2) - (d_L_vt__2__a_vz*l22_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l22_0_1) - (d_L_vt__1__a_wx*l22_0_2) - (d_L_vt__2__a_wx*l22_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l22_0_1) - (d_L_vt__1__a_wy*l22_0_2) - (d_L_vt__2__a_wy*l22_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l22_0_1) - (d_L_vt__1__a_wz*l22_0_2) - (d_L_vt__2__a_wz*l22_0_3));
+    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l22_0_2)) + (d_L_vt__1__a_vx*l22_0_4) - (d_L_vt__2__a_vx*l22_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l22_0_2)) + (d_L_vt__1__a_vy*l22_0_4) - (d_L_vt__2__a_vy*l22_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l22_0_2)) + (d_L_vt__1__a_vz*l22_0_4) - (d_L_vt__2__a_vz*l22_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l22_0_2)) + (d_L_vt__1__a_wx*l22_0_4) - (d_L_vt__2__a_wx*l22_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l22_0_2)) + (d_L_vt__1__a_wy*l22_0_4) - (d_L_vt__2__a_wy*l22_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l22_0_2)) + (d_L_vt__1__a_wz*l22_0_4) - (d_L_vt__2__a_wz*l22_0_5));
+    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l22_0_3)) - (d_L_vt__1__a_vx*l22_0_5) + (d_L_vt__2__a_vx*l22_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l22_0_3)) - (d_L_vt__1__a_vy*l22_0_5) + (d_L_vt__2__a_vy*l22_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l22_0_3)) - (d_L_vt__1__a_vz*l22_0_5) + (d_L_vt__2__a_vz*l22_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
+    // let sliding (contact.yaml:86)
+    const S l23_0_0 = (S(1)/(L_slip));
+    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
+    const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
+    const S l23_0_3 = (-l23_0_2);
+    const S l23_0_4 = (L_fast*L_fmax*l23_0_0);
+    const S l23_0_5 = (L_fmax*l23_0_1);
+    const S l23_0_6 = ((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1));
+    const S l23_0_7 = (-l23_0_6);
+    const S l23_0_8 = ((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1));
+    const S l23_0_9 = (-l23_0_8);
+    const S L_sliding__0 = (-(L_fmax*l23_0_2));
+    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l23_0_3);
+    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l23_0_3);
+    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l23_0_3);
+    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l23_0_3);
+    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l23_0_3);
+    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l23_0_3);
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_3) - (d_L_vt__0__a_vx*l23_0_5));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_3) - (d_L_vt__0__a_vy*l23_0_5));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_3) - (d_L_vt__0__a_vz*l23_0_5));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_3) - (d_L_vt__0__a_wx*l23_0_5));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_3) - (d_L_vt__0__a_wy*l23_0_5));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_3) - (d_L_vt__0__a_wz*l23_0_5));
+    const S L_sliding__1 = (-(L_fmax*l23_0_6));
+    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l23_0_7);
+    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l23_0_7);
+    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l23_0_7);
+    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l23_0_7);
+    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l23_0_7);
+    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l23_0_7);
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_7) - (d_L_vt__1__a_vx*l23_0_5));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_7) - (d_L_vt__1__a_vy*l23_0_5));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_7) - (d_L_vt__1__a_vz*l23_0_5));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_7) - (d_L_vt__1__a_wx*l23_0_5));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_7) - (d_L_vt__1__a_wy*l23_0_5));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_7) - (d_L_vt__1__a_wz*l23_0_5));
+    const S L_sliding__2 = (-(L_fmax*l23_0_8));
+    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l23_0_9);
+    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l23_0_9);
+    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l23_0_9);
+    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l23_0_9);
+    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l23_0_9);
+    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l23_0_9);
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_9) - (d_L_vt__2__a_vx*l23_0_5));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_9) - (d_L_vt__2__a_vy*l23_0_5));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_9) - (d_L_vt__2__a_vz*l23_0_5));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
+    // let holds (contact.yaml:89)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:80)
-    const S l23_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l23_0_0));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l23_0_0));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l23_0_0));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l23_0_0));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l23_0_0));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l23_0_0));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l23_0_0));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l23_0_0));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l23_0_0));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l23_0_0));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l23_0_0));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l23_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l23_0_0));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l23_0_0));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l23_0_0));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l23_0_0));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l23_0_0));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l23_0_0));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l23_0_0));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l23_0_0));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l23_0_0));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l23_0_0));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l23_0_0));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l23_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l23_0_0));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l23_0_0));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l23_0_0));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l23_0_0));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l23_0_0));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l23_0_0));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l23_0_0));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l23_0_0));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l23_0_0));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l23_0_0));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l23_0_0));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l23_0_0));
-    // let f (contact.yaml:81)
+    // let ft (contact.yaml:90)
+    const S l25_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
+    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
+    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l25_0_0));
+    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l25_0_0));
+    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l25_0_0));
+    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l25_0_0));
+    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l25_0_0));
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l25_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l25_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l25_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l25_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l25_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l25_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
+    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l25_0_0));
+    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l25_0_0));
+    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l25_0_0));
+    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l25_0_0));
+    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l25_0_0));
+    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l25_0_0));
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l25_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l25_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l25_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l25_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l25_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l25_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
+    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l25_0_0));
+    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l25_0_0));
+    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l25_0_0));
+    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l25_0_0));
+    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l25_0_0));
+    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l25_0_0));
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l25_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l25_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l25_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
+    // let f (contact.yaml:91)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -3429,7 +3515,7 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // apply (contact.yaml:82), shared subexpressions
+    // apply (contact.yaml:92), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -3455,14 +3541,14 @@ struct Contact_World_Kernel {
     const S o22 = ((-(L_ra__0*d_L_f__1__a_dty)) + (L_ra__1*d_L_f__0__a_dty));
     const S o23 = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
     const S o24 = (h*h);
-    // g_a from apply[0] (contact.yaml:83)
+    // g_a from apply[0] (contact.yaml:93)
     out[0] = ((-L_f__0) - (d_L_f__0__a_dtx*o3) - (d_L_f__0__a_dty*o4) - (d_L_f__0__a_dtz*o5) - (d_L_f__0__a_dx*o0) - (d_L_f__0__a_dy*o1) - (d_L_f__0__a_dz*o2));
     out[1] = ((-L_f__1) - (d_L_f__1__a_dtx*o3) - (d_L_f__1__a_dty*o4) - (d_L_f__1__a_dtz*o5) - (d_L_f__1__a_dx*o0) - (d_L_f__1__a_dy*o1) - (d_L_f__1__a_dz*o2));
     out[2] = ((-L_f__2) - (d_L_f__2__a_dtx*o3) - (d_L_f__2__a_dty*o4) - (d_L_f__2__a_dtz*o5) - (d_L_f__2__a_dx*o0) - (d_L_f__2__a_dy*o1) - (d_L_f__2__a_dz*o2));
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o6) + (o1*o7) + (o10*o4) + (o11*o5) + (o2*o8) + (o3*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o12) + (o1*o13) + (o14*o2) + (o15*o3) + (o16*o4) + (o17*o5));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o18) + (o1*o19) + (o2*o20) + (o21*o3) + (o22*o4) + (o23*o5));
-    // K_aa from apply[0] (contact.yaml:83)
+    // K_aa from apply[0] (contact.yaml:93)
     out[6] = ((-(d_L_f__0__a_dx*o24)) - (d_L_f__0__a_vx*h));
     out[7] = ((-(d_L_f__1__a_dx*o24)) - (d_L_f__1__a_vx*h));
     out[8] = ((-(d_L_f__2__a_dx*o24)) - (d_L_f__2__a_vx*h));
@@ -3508,7 +3594,7 @@ struct Contact_World_Kernel {
   static constexpr int kJointArm[1] = { -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 276
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 284
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -3546,16 +3632,16 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S p_friction = in[30];
     [[maybe_unused]] const S p_mass = in[31];
     [[maybe_unused]] const S p_load = in[32];
-    [[maybe_unused]] const S p_sticking = in[33];
-    [[maybe_unused]] const S g_contact_hertz = in[34];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[35];
-    [[maybe_unused]] const S g_contact_stiffness = in[36];
-    [[maybe_unused]] const S g_contact_damping = in[37];
-    [[maybe_unused]] const S g_contact_hold_depth = in[38];
-    [[maybe_unused]] const S g_slip_velocity = in[39];
-    [[maybe_unused]] const S g_contact_slop = in[40];
+    [[maybe_unused]] const S p_fall = in[33];
+    [[maybe_unused]] const S p_sticking = in[34];
+    [[maybe_unused]] const S g_contact_hertz = in[35];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[36];
+    [[maybe_unused]] const S g_contact_stiffness = in[37];
+    [[maybe_unused]] const S g_contact_damping = in[38];
+    [[maybe_unused]] const S g_contact_hold_depth = in[39];
+    [[maybe_unused]] const S g_slip_velocity = in[40];
     [[maybe_unused]] const S g_contact_rest_speed = in[41];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:31)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -3581,99 +3667,101 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
-    // let ra (contact.yaml:31)
+    // let ra (contact.yaml:32)
     const S L_ra__0 = held_in ? held_in[0] : S(a_o0_0);
     if (held_out) held_out[0] = L_ra__0;
     const S L_ra__1 = held_in ? held_in[1] : S(a_o0_1);
     if (held_out) held_out[1] = L_ra__1;
     const S L_ra__2 = held_in ? held_in[2] : S(a_o0_2);
     if (held_out) held_out[2] = L_ra__2;
-    // let rb (contact.yaml:32)
+    // let rb (contact.yaml:33)
     const S L_rb__0 = held_in ? held_in[3] : S(S(0));
     if (held_out) held_out[3] = L_rb__0;
     const S L_rb__1 = held_in ? held_in[4] : S(S(0));
     if (held_out) held_out[4] = L_rb__1;
     const S L_rb__2 = held_in ? held_in[5] : S(S(0));
     if (held_out) held_out[5] = L_rb__2;
-    // let moved (contact.yaml:35)
+    // let moved (contact.yaml:36)
     const S L_moved__0 = ((-a_o0_0) - a_px + p_point__0);
     const S L_moved__1 = ((-a_o0_1) - a_py + p_point__1);
     const S L_moved__2 = ((-a_o0_2) - a_pz + p_point__2);
-    // let depth (contact.yaml:36)
+    // let depth (contact.yaml:37)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
-    // let vrel (contact.yaml:37)
+    // let vrel (contact.yaml:38)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
-    // let vn (contact.yaml:38)
+    // let vn (contact.yaml:39)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
-    // let omega (contact.yaml:41)
+    // let omega (contact.yaml:42)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:45)
+    // let m (contact.yaml:46)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:46)
+    // let k (contact.yaml:47)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:47)
+    // let c (contact.yaml:48)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:51)
+    // let held (contact.yaml:52)
     const S L_held = select((L_depth > g_contact_hold_depth), g_contact_hold_depth, L_depth);
-    // let closing (contact.yaml:57)
-    const S L_closing = select((L_vn <= g_contact_rest_speed), select((g_contact_slop > ((-L_depth) + (L_vn*h))), S(1), S(0)), S(0));
-    // let fn (contact.yaml:58)
-    const S l12_0_0 = (L_c*L_vn);
-    const S l12_0_1 = ((-(L_held*L_k)) + l12_0_0);
-    const S L_fn = select((L_depth > S(0)), select((l12_0_1 < S(0)), (-l12_0_1), S(0)), (L_closing*((L_depth*L_k) - l12_0_0)));
-    // let vt (contact.yaml:59)
+    // let closing (contact.yaml:62)
+    const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
+    // let stays (contact.yaml:66)
+    const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
+    // let pushed (contact.yaml:67)
+    const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
+    // let fn (contact.yaml:68)
+    const S L_fn = select((L_depth > S(0)), select((L_stays > S(0)), L_pushed, select((L_pushed > S(0)), L_pushed, S(0))), (L_closing*(L_c + (L_k*h))*((-L_vn) + (p_penetration/(h)))));
+    // let vt (contact.yaml:69)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S L_vt__1 = ((-(L_vn*p_normal__1)) + L_vrel__1);
     const S L_vt__2 = ((-(L_vn*p_normal__2)) + L_vrel__2);
-    // let strain (contact.yaml:64)
-    const S l14_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
-    const S L_strain__0 = (L_moved__0 - (l14_0_0*p_normal__0) + p_anchor__0);
-    const S L_strain__1 = (L_moved__1 - (l14_0_0*p_normal__1) + p_anchor__1);
-    const S L_strain__2 = (L_moved__2 - (l14_0_0*p_normal__2) + p_anchor__2);
-    // let fs (contact.yaml:65)
+    // let strain (contact.yaml:74)
+    const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
+    const S L_strain__0 = (L_moved__0 - (l16_0_0*p_normal__0) + p_anchor__0);
+    const S L_strain__1 = (L_moved__1 - (l16_0_0*p_normal__1) + p_anchor__1);
+    const S L_strain__2 = (L_moved__2 - (l16_0_0*p_normal__2) + p_anchor__2);
+    // let fs (contact.yaml:75)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S L_fs__1 = ((-(L_c*L_vt__1)) - (L_k*L_strain__1));
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
-    // let fmax (contact.yaml:66)
+    // let fmax (contact.yaml:76)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:72)
+    // let slip (contact.yaml:82)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let dir (contact.yaml:73)
-    const S l18_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
-    const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l18_0_0));
+    // let dir (contact.yaml:83)
+    const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
+    const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l20_0_0));
     if (held_out) held_out[7] = L_dir__0;
-    const S L_dir__1 = held_in ? held_in[8] : S((L_vt__1*l18_0_0));
+    const S L_dir__1 = held_in ? held_in[8] : S((L_vt__1*l20_0_0));
     if (held_out) held_out[8] = L_dir__1;
-    const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l18_0_0));
+    const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l20_0_0));
     if (held_out) held_out[9] = L_dir__2;
-    // let fast (contact.yaml:74)
+    // let fast (contact.yaml:84)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:75)
-    const S l20_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S L_across__0 = ((-(L_dir__0*l20_0_0)) + L_vt__0);
-    const S L_across__1 = ((-(L_dir__1*l20_0_0)) + L_vt__1);
-    const S L_across__2 = ((-(L_dir__2*l20_0_0)) + L_vt__2);
-    // let sliding (contact.yaml:76)
-    const S l21_0_0 = (S(1)/(L_slip));
-    const S l21_0_1 = (l21_0_0*(S(1) - L_fast));
-    const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l21_0_0) + L_dir__0)) + (L_vt__0*l21_0_1))));
-    const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l21_0_0) + L_dir__1)) + (L_vt__1*l21_0_1))));
-    const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l21_0_0) + L_dir__2)) + (L_vt__2*l21_0_1))));
-    // let holds (contact.yaml:79)
+    // let across (contact.yaml:85)
+    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
+    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
+    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
+    // let sliding (contact.yaml:86)
+    const S l23_0_0 = (S(1)/(L_slip));
+    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
+    const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1))));
+    const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1))));
+    const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1))));
+    // let holds (contact.yaml:89)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:80)
-    const S l23_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l23_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l23_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l23_0_0));
-    // let f (contact.yaml:81)
+    // let ft (contact.yaml:90)
+    const S l25_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
+    // let f (contact.yaml:91)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:83)
+    // F_a from apply[0] (contact.yaml:93)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);

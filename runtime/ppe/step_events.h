@@ -53,8 +53,8 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDict
                            std::vector<SensorEvent>& sensor_events);
 
 /// The candidates whose contact acts in the step (the descriptor's: a point that overlaps or
-/// closes within the step) begin touching, with their impulse from the bodies' velocities after
-/// the step.
+/// closes within the step, gravity's fall counted) begin touching, with their impulse from the
+/// bodies' velocities after the step.
 void finish_events(const std::vector<WorldBody>& bodies, PendingEvents& pending,
                    EventMemory& memory, std::vector<ContactEvent>& events);
 

@@ -21,6 +21,7 @@ struct ContactMemory;
 struct PushScratch {
   std::vector<uint32_t> first, adjacent;  // per body: its contacts (CSR)
   std::vector<uint32_t> link_first, linked;  // per body: the bodies joints join it to (CSR)
+  std::vector<uint32_t> group;            // per body: the lowest id of the bodies joints join it to
   std::vector<int32_t> level;             // per body: contacts away from what cannot move
   std::vector<uint32_t> queue, members, order;
   std::vector<double> moved;              // per body: its displacement in this stage (xyz)

@@ -117,8 +117,10 @@ struct ContactEvent {
   float point[3], normal[3];
   /// A begin's: the fastest closing speed among its points before the step (m/s).
   float approach_speed;
-  /// A begin's: the normal impulse of the pair's first step of touching (N s), from the change of
-  /// their separating speed at the point beyond gravity's, times the pair's effective mass there.
+  /// A begin's: the normal impulse that stops the approach (N s): the change the pair's first step
+  /// of touching made to their separating speed at the point beyond gravity's, plus the closing
+  /// speed left at its end (a fast pair arrives in that step and stops in the next), times the
+  /// pair's effective mass there.
   float impulse;
 };
 

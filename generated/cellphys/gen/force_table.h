@@ -208,7 +208,7 @@ struct Force_Globals {
   float contact_push_speed = 3.0f;  ///< speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed
   float contact_hold_depth = 0.001f;  ///< deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
   float slip_velocity = 0.0001f;  ///< speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
-  float contact_slop = 0.005f;  ///< gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
+  float contact_slop = 0.005f;  ///< gap (m) beyond the bodies' reach in the step at which collision still reports a point, and the widest gap that carries a load; whether a gap contact acts is the step's own (its closing speed and gravity's fall)
   float contact_rest_speed = 0.05f;  ///< opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
   float gravity[3] = {0.0f, 0.0f, -9.81f};  ///< gravitational acceleration (m/s^2)
 };
@@ -240,7 +240,7 @@ inline constexpr GlobalInfo kGlobalTable[] = {
     {{"contact_push_speed", ParamType::f32, 40, 1, true, 0.0f, "speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed"}, {3.0f}, "contact.push_speed", offsetof(Force_Globals, contact_push_speed)},
     {{"contact_hold_depth", ParamType::f32, 44, 1, true, 0.0f, "deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)", true}, {0.001f}, "contact.hold_depth", offsetof(Force_Globals, contact_hold_depth)},
     {{"slip_velocity", ParamType::f32, 48, 1, true, 0.0f, "speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks", true}, {0.0001f}, "contact.slip_velocity", offsetof(Force_Globals, slip_velocity)},
-    {{"contact_slop", ParamType::f32, 52, 1, true, 0.0f, "gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
+    {{"contact_slop", ParamType::f32, 52, 1, true, 0.0f, "gap (m) beyond the bodies' reach in the step at which collision still reports a point, and the widest gap that carries a load; whether a gap contact acts is the step's own (its closing speed and gravity's fall)"}, {0.005f}, "contact.slop", offsetof(Force_Globals, contact_slop)},
     {{"contact_rest_speed", ParamType::f32, 56, 1, true, 0.0f, "opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s"}, {0.05f}, "contact.rest_speed", offsetof(Force_Globals, contact_rest_speed)},
     {{"gravity", ParamType::vec3, 0, 3, false, 0.0f, "gravitational acceleration (m/s^2)"}, {0.0f, 0.0f, -9.81f}, "gravity", offsetof(Force_Globals, gravity)},
 };

@@ -1816,7 +1816,7 @@ struct alignas(16) Island_Params {
   float contact_push_speed;  ///< @40: f32. speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed
   float contact_hold_depth;  ///< @44: f32. deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
   float slip_velocity;  ///< @48: f32. speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
-  float contact_slop;  ///< @52: f32. gap (m) a closing contact may still have at the end of the step and act from its start (gravity closes g h^2 = 2.7 mm in a 60 Hz step)
+  float contact_slop;  ///< @52: f32. gap (m) beyond the bodies' reach in the step at which collision still reports a point, and the widest gap that carries a load; whether a gap contact acts is the step's own (its closing speed and gravity's fall)
   float contact_rest_speed;  ///< @56: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
   unsigned char pad_60[4];
 };

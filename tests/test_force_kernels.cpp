@@ -645,6 +645,33 @@ void joint_reference(const Case<K>& c, const std::string& name, std::vector<doub
     put_pair((pull - push + spring) * n);
     return;
   }
+  // motor: the largest force or torque while the target is more than a step of it away
+  auto motor = [&](double target, double rate, double inertia, double most) {
+    if (most <= 0) return 0.0;
+    const double err = target - rate;
+    if (std::fabs(err) * inertia > kEvalH * most) return (err > 0 ? 1.0 : -1.0) * most;
+    return inertia * omega * err;
+  };
+  if (name == "wheel") {
+    const bool limited = p("lower") < p("upper");
+    // the slider's hold onto the suspension line, its spring and stops along it; the hinge's
+    // alignment of the axle and its motor on the spin
+    const Vec3 ns = dir(0, "suspension_a"), d = pb - pa;
+    const double travel = d.dot(ns), rate = vrel.dot(ns);
+    const Vec3 across = -k * (d - travel * ns) - cc * (vrel - rate * ns);
+    const double lim = limited ? stop(p("lower") - travel, -rate, k, cc) - stop(travel - p("upper"), rate, k, cc) : 0.0;
+    const double spring = -(p("spring_stiffness") * (travel - p("spring_travel")) + p("spring_damping") * rate);
+    const Vec3 fb = across + (lim + spring) * ns;
+    add(0, -fb, (pb - A.x).cross(-fb));
+    add(1, fb, (pb - B.x).cross(fb));
+    const Vec3 na = dir(0, "axis_a"), nb = dir(1, "axis_b");
+    const double spin = wrel.dot(na);
+    const double ia = na.dot(A.Iw * na), ib = kPair<K> ? na.dot(B.Iw * na) : 0.0;
+    const double iz = ib > 0 ? ia * ib / (ia + ib) : ia;
+    const Vec3 align = -kr * na.cross(nb) - cr * (wrel - spin * na);
+    put_torque(align + motor(p("motor_speed"), spin, iz, p("motor_torque")) * na);
+    return;
+  }
   const Vec3 na = dir(0, "axis_a"), nb = dir(1, "axis_b"), ua = dir(0, "ref_a"), ub = dir(1, "ref_b");
   // the frame's third axis, axis x ref in the body's frame, turned to the world
   auto third = [&](int body, const char* axis, const char* ref) -> Vec3 {
@@ -658,13 +685,6 @@ void joint_reference(const Case<K>& c, const std::string& name, std::vector<doub
     put_torque(lock);
     return;
   }
-  // motor: the largest force or torque while the target is more than a step of it away
-  auto motor = [&](double target, double rate, double inertia, double most) {
-    if (most <= 0) return 0.0;
-    const double err = target - rate;
-    if (std::fabs(err) * inertia > kEvalH * most) return (err > 0 ? 1.0 : -1.0) * most;
-    return inertia * omega * err;
-  };
   if (name == "cone_twist") {
     put_pair(k * (pb - pa) + cc * vrel);
     // the swing: the angle between the twist axes, opened by b turning about na x nb
@@ -745,7 +765,8 @@ bool reference_force(const Case<K>& c, std::vector<double>& F) {
   } else if (name == "contact") {
     const ContactRef r = contact_ref(c);
     apply_pair(r.pa, r.pb, -r.f);
-  } else if (name == "hinge" || name == "fixed" || name == "slider" || name == "distance" || name == "cone_twist") {
+  } else if (name == "hinge" || name == "fixed" || name == "slider" || name == "distance" || name == "cone_twist" ||
+             name == "wheel") {
     joint_reference(c, name, F);
   } else {
     return false;

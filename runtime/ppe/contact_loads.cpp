@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "cellphys/gen/force_table.h"
 #include "runtime/base/vec3.h"
 #include "runtime/ppe/world.h"
 
@@ -15,10 +16,14 @@ constexpr double kPi = 3.14159265358979323846;
 // A contact holds its upper body up if its normal is within about 84 degrees of vertical:
 // walls do not carry what leans on them.
 constexpr double kSupportCosine = 0.1;
+// A body that moves along gravity slower than this many steps of free fall gives rise to rests on
+// what its joints hold it to.
+constexpr double kRestingSteps = 6.0;
 
 }  // namespace
 
-void carry_loads(const std::vector<WorldBody>& bodies, const WorldSettings& s, std::vector<WorldContact>& contacts) {
+void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const WorldSettings& s,
+                 std::vector<WorldContact>& contacts) {
   for (WorldContact& c : contacts) c.load = 0.0f;
   const Vec3d g = Vec3d::load(s.globals.gravity);
   const double gn = norm(g);
@@ -42,11 +47,38 @@ void carry_loads(const std::vector<WorldBody>& bodies, const WorldSettings& s, s
     share[i] = std::fabs(along);
     support[top] += share[i];
   }
+  // A body no contact holds up hands its weight down its joints: a car's chassis to its wheels,
+  // a raised arm to the shoulder. Each joint to a dynamic body below it takes an equal share;
+  // a joint to the world or a static body holds it all. Without this a wheel's contact was tuned
+  // to the wheel alone, and a 1600 kg car sank through the ground at 0.3 m/s.
+  auto height = [&](uint32_t i) { return -dot(Vec3d::load(bodies[i].state.position), down); };
+  std::vector<std::pair<uint32_t, uint32_t>> joints;  // (upper, lower), both dynamic
+  std::vector<uint8_t> held(bodies.size(), 0);        // jointed to what cannot move
+  for (const WorldForce& f : forces) {
+    if (!f.alive || !gen::kForceTable[static_cast<int>(f.type)].joint) continue;
+    const bool fixed_a = bodies[f.a].is_static, fixed_b = f.b == kWorldBody || bodies[f.b].is_static;
+    if (fixed_a || fixed_b) {
+      if (!fixed_a) held[f.a] = 1;
+      if (!fixed_b) held[f.b] = 1;
+      continue;
+    }
+    if (height(f.a) >= height(f.b)) joints.emplace_back(f.a, f.b);
+    else joints.emplace_back(f.b, f.a);
+  }
+  std::sort(joints.begin(), joints.end());
+  // Only a body that rests on its joints, not one falling on them: a ragdoll falling feet first
+  // handed its whole weight to the foot that touched, whose contact, tuned to it, threw the
+  // foot and opened its joints by 70 cm. Resting is slower along gravity than a few steps of fall.
+  const double falling = kRestingSteps * gn * s.dt;
+  std::vector<uint32_t> below(bodies.size(), 0);  // per body: the joints it hands its weight down
+  for (const auto& j : joints)
+    if (support[j.first] <= 0 && !held[j.first] &&
+        std::fabs(dot(Vec3d::load(bodies[j.first].state.velocity), down)) <= falling)
+      ++below[j.first];
   // Top to bottom: a body's weight, with what rests on it, splits over its supports.
   std::vector<uint32_t> order;
   for (uint32_t i = 0; i < bodies.size(); ++i)
-    if (support[i] > 0) order.push_back(i);
-  auto height = [&](uint32_t i) { return -dot(Vec3d::load(bodies[i].state.position), down); };
+    if (support[i] > 0 || below[i] > 0) order.push_back(i);
   std::stable_sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) { return height(x) > height(y); });
   std::vector<double> weight(bodies.size(), 0.0);  // mass pressing on each body's supports (kg)
   std::vector<size_t> by_upper(contacts.size());
@@ -59,6 +91,11 @@ void carry_loads(const std::vector<WorldBody>& bodies, const WorldSettings& s, s
   const double to_load = gn / (omega * omega * s.contact_load_depth);  // weight (kg) -> load mass
   for (uint32_t top : order) {
     weight[top] += bodies[top].mass;
+    if (below[top] > 0) {
+      const auto from = std::lower_bound(joints.begin(), joints.end(), std::make_pair(top, uint32_t(0)));
+      for (auto j = from; j != joints.end() && j->first == top; ++j) weight[j->second] += weight[top] / below[top];
+      continue;
+    }
     for (size_t k = first_of[top]; k < contacts.size() && upper[by_upper[k]] == int64_t(top); ++k) {
       const size_t i = by_upper[k];
       const double carried = weight[top] * share[i] / support[top];

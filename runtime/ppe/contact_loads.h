@@ -13,8 +13,10 @@ namespace cellphys::ppe {
 struct WorldSettings;
 
 /// Sets each contact's load: the mass whose soft spring, at the contact frequency, sinks by
-/// contact_load_depth under the weight the contact carries (0 without gravity).
-void carry_loads(const std::vector<WorldBody>& bodies, const WorldSettings& s, std::vector<WorldContact>& contacts);
+/// contact_load_depth under the weight the contact carries (0 without gravity). A body no contact
+/// holds up hands its weight down its joints to the bodies below it.
+void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const WorldSettings& s,
+                 std::vector<WorldContact>& contacts);
 
 /// How much gravity alone closes a contact of normal n (from a to b) in a step (m/s, 0 or less):
 /// the upper body falls onto what holds it. Against static geometry the fall is signed (a ball

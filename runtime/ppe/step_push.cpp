@@ -144,12 +144,21 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
     const WorldContact& c = contacts[p.order[i]];
     p.target[i] = joined(c) ? -INFINITY : float(std::min(double(c.point.penetration) - hold, budget));
   }
+  // Joined bodies move as one rigid group: its displacement is kept at its lowest id, its mass is
+  // theirs summed, and a joint to what cannot move pins it all. (Sharing each joint's difference
+  // between its two bodies instead, sweep by sweep, lifted a 1600 kg chassis on 15 kg wheels by
+  // 1% of what its wheels asked a sweep: the car sank through the ground.)
+  p.group_mass.assign(n, 0.0);
+  for (uint32_t b : p.members) {
+    p.group_mass[p.group[b]] += bodies[b].mass;
+    if (pinned[b]) pinned[p.group[b]] = 1;  // the group's, at its lowest id
+  }
   p.moved.assign(3 * size_t(n), 0.0);
-  auto moved = [&](uint32_t b) { return movable(b) ? Vec3d::load(&p.moved[3 * size_t(b)]) : Vec3d{0, 0, 0}; };
-  // what a push may move: not what cannot move, nor a body a joint pins to it
-  auto pushable = [&](uint32_t b) { return movable(b) && !pinned[b]; };
+  auto moved = [&](uint32_t b) { return movable(b) ? Vec3d::load(&p.moved[3 * size_t(p.group[b])]) : Vec3d{0, 0, 0}; };
+  // what a push may move: not what cannot move, nor a group a joint pins to it
+  auto pushable = [&](uint32_t b) { return movable(b) && !pinned[p.group[b]]; };
   auto add = [&](uint32_t b, const Vec3d& d) {
-    double* m = &p.moved[3 * size_t(b)];
+    double* m = &p.moved[3 * size_t(p.group[b])];
     m[0] += d.x, m[1] += d.y, m[2] += d.z;
   };
   const Vec3d g = Vec3d::load(s.globals.gravity);
@@ -162,8 +171,8 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
       const Vec3d nrm = Vec3d::load(c.point.normal);
       const double short_by = p.target[i] - dot(moved(c.b) - moved(c.a), nrm);
       if (short_by <= tolerance) continue;
-      double wa = pushable(c.a) ? 1.0 / bodies[c.a].mass : 0.0;
-      double wb = pushable(c.b) ? 1.0 / bodies[c.b].mass : 0.0;
+      double wa = pushable(c.a) ? 1.0 / p.group_mass[p.group[c.a]] : 0.0;
+      double wb = pushable(c.b) ? 1.0 / p.group_mass[p.group[c.b]] : 0.0;
       const double rise = dot(nrm, up);  // b moves along n, a against it
       if (rise > kUpCosine && wb > 0) wa = 0;
       if (rise < -kUpCosine && wa > 0) wb = 0;
@@ -172,21 +181,6 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
       if (wa > 0) add(c.a, nrm * (-short_by * wa / (wa + wb)));
       if (wb > 0) add(c.b, nrm * (short_by * wb / (wa + wb)));
     }
-    // Joined bodies move alike (a pinned one not at all): each joint shares its parts' difference
-    // by inverse mass.
-    for (uint32_t a : p.members)
-      for (uint32_t e = p.link_first[a]; e < p.link_first[a + 1]; ++e) {
-        const uint32_t b = p.linked[e];
-        if (b < a) continue;  // once per joint
-        const Vec3d apart = moved(b) - moved(a);
-        const double gap = norm(apart);
-        if (gap <= tolerance) continue;
-        const double wa = pinned[a] ? 0.0 : 1.0 / bodies[a].mass, wb = pinned[b] ? 0.0 : 1.0 / bodies[b].mass;
-        if (wa + wb <= 0) continue;
-        worst = std::max(worst, gap);
-        add(a, apart * (wa / (wa + wb)));
-        add(b, apart * (-wb / (wa + wb)));
-      }
     if (worst <= tolerance) break;
   }
 
@@ -205,10 +199,12 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
     const Vec3d mid = (da + db) * 0.5;  // the point sits between the surfaces
     float* x = c.point.point;
     x[0] = float(x[0] + mid.x), x[1] = float(x[1] + mid.y), x[2] = float(x[2] + mid.z);
-    // A contact of a pushed pile that is a gap after the push, or overlap it could not reach,
-    // carries no load this step: a load-stiffened spring there would pull the bodies together,
-    // or throw them.
-    if (c.point.penetration <= 0 || c.point.penetration > 2 * hold) c.load = 0;
+    // A contact of a pushed pile that the push leaves a gap wider than the hold depth, or overlap
+    // it could not reach, carries no load this step: loaded, it would drive the bodies together,
+    // or throw them. A narrower gap keeps its load: a car's wheels, lifted with their chassis as
+    // one until the deepest touched the hold depth, left the others a millimetre off the ground,
+    // and unloaded they held the 1600 kg chassis on their own 15 kg: the car sank at 0.09 m/s.
+    if (c.point.penetration < -hold || c.point.penetration > 2 * hold) c.load = 0;
     const WorldContact* before = i > 0 ? &contacts[p.order[i - 1]] : nullptr;
     if (before && before->a == c.a && before->b == c.b) continue;
     const float fa[3] = {float(da.x), float(da.y), float(da.z)}, fb[3] = {float(db.x), float(db.y), float(db.z)};

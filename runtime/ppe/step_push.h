@@ -24,7 +24,8 @@ struct PushScratch {
   std::vector<uint32_t> group;            // per body: the lowest id of the bodies joints join it to
   std::vector<int32_t> level;             // per body: contacts away from what cannot move
   std::vector<uint32_t> queue, members, order;
-  std::vector<double> moved;              // per body: its displacement in this stage (xyz)
+  std::vector<double> moved;              // per joined group (at its lowest id): its displacement (xyz)
+  std::vector<double> group_mass;         // per joined group (at its lowest id): its bodies' mass
   std::vector<float> target;              // per contact of `order`: the separation it asks for
 };
 

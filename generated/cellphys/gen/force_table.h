@@ -15,6 +15,7 @@
 #include "cellphys/gen/forces/point_to_point.h"
 #include "cellphys/gen/forces/slider.h"
 #include "cellphys/gen/forces/spring.h"
+#include "cellphys/gen/forces/wheel.h"
 
 namespace cellphys::gen {
 
@@ -182,6 +183,23 @@ inline constexpr ParamInfo kSpringParams[] = {
     {"rest_length", ParamType::f32, 40, 1, true, 0.0f, "m"},
 };
 
+inline constexpr ParamInfo kWheelParams[] = {
+    {"point_a", ParamType::vec3, 0, 3, false, 0.0f, "the suspension's mount, body a frame (m): the wheel centre's place at zero travel"},
+    {"point_b", ParamType::vec3, 16, 3, false, 0.0f, "the wheel's centre, body b frame; world frame when b is the world (m)"},
+    {"suspension_a", ParamType::vec3, 32, 3, false, 0.0f, "the suspension's axis, body a frame (unit): travel is b's centre from the mount along it"},
+    {"axis_a", ParamType::vec3, 48, 3, false, 0.0f, "the axle, body a frame (unit)"},
+    {"axis_b", ParamType::vec3, 64, 3, false, 0.0f, "the axle, body b frame; world frame when b is the world (unit)"},
+    {"lower", ParamType::f32, 80, 1, false, 0.0f, "least travel (m); limits act only when lower < upper"},
+    {"upper", ParamType::f32, 84, 1, false, 0.0f, "greatest travel (m)"},
+    {"spring_stiffness", ParamType::f32, 88, 1, true, 0.0f, "the suspension's spring toward spring_travel (N/m)"},
+    {"spring_damping", ParamType::f32, 92, 1, true, 0.0f, "the suspension's damper on the travel's rate (N s/m)"},
+    {"spring_travel", ParamType::f32, 96, 1, false, 0.0f, "the spring's rest travel (m)"},
+    {"motor_speed", ParamType::f32, 100, 1, false, 0.0f, "target spin of b relative to a about the axle (rad/s)"},
+    {"motor_torque", ParamType::f32, 104, 1, true, 0.0f, "largest torque the motor gives (N m); 0: no motor"},
+    {"hertz", ParamType::f32, 108, 1, true, 0.0f, "the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz"},
+    {"damping_ratio", ParamType::f32, 112, 1, true, 0.0f, "the joint's own damping ratio; 0: settings.joint.damping_ratio"},
+};
+
 inline constexpr ForceInfo kForceTable[] = {
     {"applied_wrench", ForceType::applied_wrench, ForceKind::unary, false, true, false, "Applied_Wrench_Force", sizeof(Applied_Wrench_Force), alignof(Applied_Wrench_Force), offsetof(Applied_Wrench_Force, body_a), -1, kApplied_WrenchParams, 2, "A constant force and torque on a body: loads a server applies, and couplings cut by decoupling, applied explicitly."},
     {"cone_twist", ForceType::cone_twist, ForceKind::binary, true, false, true, "Cone_Twist_Force", sizeof(Cone_Twist_Force), alignof(Cone_Twist_Force), offsetof(Cone_Twist_Force, body_a), offsetof(Cone_Twist_Force, body_b), kCone_TwistParams, 13, "Ball-and-socket joint with a cone and a twist limit (a shoulder, a hip, a neck): body points held together, turning free inside a cone about the twist axis and between two twist angles about it; the limits act only when reached. An optional spring toward the aligned pose and a damper on the relative turn (a ragdoll's muscle tone and joint friction). Soft like the hinge: joint.hertz, joint.damping_ratio."},
@@ -195,6 +213,7 @@ inline constexpr ForceInfo kForceTable[] = {
     {"point_to_point", ForceType::point_to_point, ForceKind::binary, true, false, true, "Point_To_Point_Constraint_Force", sizeof(Point_To_Point_Constraint_Force), alignof(Point_To_Point_Constraint_Force), offsetof(Point_To_Point_Constraint_Force, body_a), offsetof(Point_To_Point_Constraint_Force, body_b), kPoint_To_PointParams, 4, "Point-to-point constraint as a stiff zero-length spring-damper between two body points."},
     {"slider", ForceType::slider, ForceKind::binary, true, false, true, "Slider_Force", sizeof(Slider_Force), alignof(Slider_Force), offsetof(Slider_Force, body_a), offsetof(Slider_Force, body_b), kSliderParams, 15, "Prismatic joint: the bodies' frames held turned as one and body b's point held on the line through body a's point along the axis, sliding freely along it; optional limits on the travel (acting only when reached), a motor (a target speed with a largest force) and a spring toward a target travel. Soft like the hinge: joint.hertz, joint.damping_ratio."},
     {"spring", ForceType::spring, ForceKind::binary, true, false, false, "Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), offsetof(Spring_Force, body_a), offsetof(Spring_Force, body_b), kSpringParams, 5, "A damped spring between two body points (or a body point and a fixed world point)."},
+    {"wheel", ForceType::wheel, ForceKind::binary, true, false, true, "Wheel_Force", sizeof(Wheel_Force), alignof(Wheel_Force), offsetof(Wheel_Force, body_a), offsetof(Wheel_Force, body_b), kWheelParams, 14, "Wheel joint: body b (the wheel) turns freely about its axle, held aligned with body a's (the chassis'), and its centre is held on a's suspension line, along which a spring and damper carry it; optional limits on the suspension's travel (acting only when reached) and a motor on the wheel's spin (a target speed with a largest torque). Soft like the hinge: joint.hertz, joint.damping_ratio."},
 };
 
 /// Every global of the forces, at its descriptor default: what a world's settings hold.
@@ -276,6 +295,8 @@ inline void visit_kernels(Visitor&& v) {
   v(Slider_World_Kernel{});
   v(Spring_Pair_Kernel{});
   v(Spring_World_Kernel{});
+  v(Wheel_Pair_Kernel{});
+  v(Wheel_World_Kernel{});
 }
 
 }  // namespace cellphys::gen

@@ -19,8 +19,9 @@ enum class ForceType : uint32_t {
   point_to_point = 9,
   slider = 10,
   spring = 11,
+  wheel = 12,
 };
-inline constexpr int kNumForceTypes = 12;
+inline constexpr int kNumForceTypes = 13;
 
 /// global: every body of an island; unary: one body; binary: two bodies or a body and the world.
 enum class ForceKind : uint32_t { global, unary, binary };

@@ -1803,6 +1803,138 @@ inline void unpack(const unsigned char* bytes, Spring_Force_Fields& out) {
   unpack(tmp, out);
 }
 
+// ---- Wheel_Force (codegen/descriptors/forces/wheel.yaml) ----
+/// Instance of the wheel force.
+struct alignas(16) Wheel_Force {
+  float point_a[4];  ///< @0: vec3 (padded). the suspension's mount, body a frame (m): the wheel centre's place at zero travel
+  float point_b[4];  ///< @16: vec3 (padded). the wheel's centre, body b frame; world frame when b is the world (m)
+  float suspension_a[4];  ///< @32: vec3 (padded). the suspension's axis, body a frame (unit): travel is b's centre from the mount along it
+  float axis_a[4];  ///< @48: vec3 (padded). the axle, body a frame (unit)
+  float axis_b[4];  ///< @64: vec3 (padded). the axle, body b frame; world frame when b is the world (unit)
+  float lower;  ///< @80: f32. least travel (m); limits act only when lower < upper
+  float upper;  ///< @84: f32. greatest travel (m)
+  float spring_stiffness;  ///< @88: f32. the suspension's spring toward spring_travel (N/m)
+  float spring_damping;  ///< @92: f32. the suspension's damper on the travel's rate (N s/m)
+  float spring_travel;  ///< @96: f32. the spring's rest travel (m)
+  float motor_speed;  ///< @100: f32. target spin of b relative to a about the axle (rad/s)
+  float motor_torque;  ///< @104: f32. largest torque the motor gives (N m); 0: no motor
+  float hertz;  ///< @108: f32. the joint's own stiffness as a frequency (Hz); 0: settings.joint.hertz
+  float damping_ratio;  ///< @112: f32. the joint's own damping ratio; 0: settings.joint.damping_ratio
+  int32_t body_a;  ///< @116: i32
+  int32_t body_b;  ///< @120: i32
+  unsigned char pad_124[4];
+};
+static_assert(sizeof(Wheel_Force) == 128, "Wheel_Force: size differs from the descriptor");
+static_assert(alignof(Wheel_Force) == 16, "Wheel_Force: alignment differs from the descriptor");
+static_assert(offsetof(Wheel_Force, point_a) == 0, "Wheel_Force.point_a: offset differs");
+static_assert(offsetof(Wheel_Force, point_b) == 16, "Wheel_Force.point_b: offset differs");
+static_assert(offsetof(Wheel_Force, suspension_a) == 32, "Wheel_Force.suspension_a: offset differs");
+static_assert(offsetof(Wheel_Force, axis_a) == 48, "Wheel_Force.axis_a: offset differs");
+static_assert(offsetof(Wheel_Force, axis_b) == 64, "Wheel_Force.axis_b: offset differs");
+static_assert(offsetof(Wheel_Force, lower) == 80, "Wheel_Force.lower: offset differs");
+static_assert(offsetof(Wheel_Force, upper) == 84, "Wheel_Force.upper: offset differs");
+static_assert(offsetof(Wheel_Force, spring_stiffness) == 88, "Wheel_Force.spring_stiffness: offset differs");
+static_assert(offsetof(Wheel_Force, spring_damping) == 92, "Wheel_Force.spring_damping: offset differs");
+static_assert(offsetof(Wheel_Force, spring_travel) == 96, "Wheel_Force.spring_travel: offset differs");
+static_assert(offsetof(Wheel_Force, motor_speed) == 100, "Wheel_Force.motor_speed: offset differs");
+static_assert(offsetof(Wheel_Force, motor_torque) == 104, "Wheel_Force.motor_torque: offset differs");
+static_assert(offsetof(Wheel_Force, hertz) == 108, "Wheel_Force.hertz: offset differs");
+static_assert(offsetof(Wheel_Force, damping_ratio) == 112, "Wheel_Force.damping_ratio: offset differs");
+static_assert(offsetof(Wheel_Force, body_a) == 116, "Wheel_Force.body_a: offset differs");
+static_assert(offsetof(Wheel_Force, body_b) == 120, "Wheel_Force.body_b: offset differs");
+
+/// The fields of Wheel_Force without padding: what pack() takes and unpack() gives.
+struct Wheel_Force_Fields {
+  float point_a[3]{};
+  float point_b[3]{};
+  float suspension_a[3]{};
+  float axis_a[3]{};
+  float axis_b[3]{};
+  float lower = 0;
+  float upper = 0;
+  float spring_stiffness = 0;
+  float spring_damping = 0;
+  float spring_travel = 0;
+  float motor_speed = 0;
+  float motor_torque = 0;
+  float hertz = 0;
+  float damping_ratio = 0;
+  int32_t body_a = 0;
+  int32_t body_b = 0;
+};
+
+inline void pack(const Wheel_Force_Fields& in, Wheel_Force& out) {
+  std::memset(static_cast<void*>(&out), 0, sizeof out);
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.suspension_a[0] = in.suspension_a[0];
+  out.suspension_a[1] = in.suspension_a[1];
+  out.suspension_a[2] = in.suspension_a[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.lower = in.lower;
+  out.upper = in.upper;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.spring_travel = in.spring_travel;
+  out.motor_speed = in.motor_speed;
+  out.motor_torque = in.motor_torque;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+inline void unpack(const Wheel_Force& in, Wheel_Force_Fields& out) {
+  out.point_a[0] = in.point_a[0];
+  out.point_a[1] = in.point_a[1];
+  out.point_a[2] = in.point_a[2];
+  out.point_b[0] = in.point_b[0];
+  out.point_b[1] = in.point_b[1];
+  out.point_b[2] = in.point_b[2];
+  out.suspension_a[0] = in.suspension_a[0];
+  out.suspension_a[1] = in.suspension_a[1];
+  out.suspension_a[2] = in.suspension_a[2];
+  out.axis_a[0] = in.axis_a[0];
+  out.axis_a[1] = in.axis_a[1];
+  out.axis_a[2] = in.axis_a[2];
+  out.axis_b[0] = in.axis_b[0];
+  out.axis_b[1] = in.axis_b[1];
+  out.axis_b[2] = in.axis_b[2];
+  out.lower = in.lower;
+  out.upper = in.upper;
+  out.spring_stiffness = in.spring_stiffness;
+  out.spring_damping = in.spring_damping;
+  out.spring_travel = in.spring_travel;
+  out.motor_speed = in.motor_speed;
+  out.motor_torque = in.motor_torque;
+  out.hertz = in.hertz;
+  out.damping_ratio = in.damping_ratio;
+  out.body_a = in.body_a;
+  out.body_b = in.body_b;
+}
+
+/// Bytes as they cross a DMA transfer or the wire (128 B).
+inline void pack(const Wheel_Force_Fields& in, unsigned char* bytes) {
+  Wheel_Force tmp;
+  pack(in, tmp);
+  std::memcpy(bytes, &tmp, sizeof tmp);
+}
+
+inline void unpack(const unsigned char* bytes, Wheel_Force_Fields& out) {
+  Wheel_Force tmp;
+  std::memcpy(static_cast<void*>(&tmp), bytes, sizeof tmp);
+  unpack(tmp, out);
+}
+
 // ---- Island_Params (the globals of the force descriptors) ----
 /// Island-wide parameters of the forces (their globals).
 struct alignas(16) Island_Params {
@@ -1929,6 +2061,7 @@ inline constexpr StructInfo kStructTable[] = {
     {"Hinge_Force", sizeof(Hinge_Force), alignof(Hinge_Force), 116},
     {"Slider_Force", sizeof(Slider_Force), alignof(Slider_Force), 116},
     {"Spring_Force", sizeof(Spring_Force), alignof(Spring_Force), 44},
+    {"Wheel_Force", sizeof(Wheel_Force), alignof(Wheel_Force), 104},
     {"Island_Params", sizeof(Island_Params), alignof(Island_Params), 56},
 };
 

@@ -467,6 +467,36 @@ def door_and_bridge(planks=12):
             "shapes": shapes, "bodies": bodies, "forces": forces}
 
 
+def cars():
+    """Two cars on four sprung wheels: one driven by its wheels' motors into a row of crates, one
+    dropped onto the ground beside it; wheel joints hold each wheel on its suspension."""
+    shapes = [dict(GROUND), {"name": "chassis", "type": "box", "half_extents": [1.0, 0.6, 0.2]},
+              {"name": "wheel", "type": "sphere", "radius": 0.35},
+              {"name": "crate", "type": "box", "half_extents": [0.3, 0.3, 0.3]}]
+    bodies, forces = [ground_body(0.9)], []
+    rest, mass, stiffness = 0.3, 800.0, 4.0e4
+    for car, (x, drop, speed) in enumerate([(-6.0, 0.0, 10.0), (0.0, 1.0, 0.0)]):
+        y = 3.0 * car
+        ride = 0.35 + rest + 0.3 + drop
+        name = "car%d" % car
+        bodies.append({"id": name, "shape": "chassis", "mass": mass, "position": vec([x, y, ride])})
+        for k, (dx, dy) in enumerate([(-0.8, -0.9), (-0.8, 0.9), (0.8, -0.9), (0.8, 0.9)]):
+            wheel = "%s_wheel%d" % (name, k)
+            bodies.append({"id": wheel, "shape": "wheel", "mass": 15.0, "friction": 0.9,
+                           "position": vec([x + dx, y + dy, ride - 0.3 - rest])})
+            forces.append({"type": "wheel", "a": name, "b": wheel, "point_a": vec([dx, dy, -0.3]), "point_b": [0, 0, 0],
+                           "suspension_a": [0, 0, -1], "axis_a": [0, 1, 0], "axis_b": [0, 1, 0],
+                           "spring_stiffness": num(stiffness), "spring_damping": num(2 * math.sqrt(stiffness * mass / 4)),
+                           "spring_travel": num(rest), "lower": -0.1, "upper": num(rest + 0.2),
+                           "motor_speed": num(speed), "motor_torque": 400.0 if speed else 0.0})
+    for k in range(4):  # the row of crates the driven car meets
+        bodies.append({"id": "crate%d" % k, "shape": "crate", "mass": 20.0, "position": vec([4.0, -0.9 + 0.62 * k, 0.3])})
+    return {"description": "Two 800 kg cars on four sprung 15 kg wheels: one driven at 10 rad/s by its wheels' motors "
+                           "into a row of four 20 kg crates, one dropped 1 m onto its springs beside it.",
+            "settings": {"dt": num(1 / 60), "sleeping": True},
+            "shapes": shapes, "bodies": bodies, "forces": forces}
+
+
 SCENES = {
     "world1000": sparse,
     "pile65": pile,
@@ -479,6 +509,7 @@ SCENES = {
     "newton_cradle": newton_cradle,
     "ragdoll_pile": ragdoll_pile,
     "door_and_bridge": door_and_bridge,
+    "cars": cars,
 }
 
 

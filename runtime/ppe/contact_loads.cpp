@@ -16,8 +16,8 @@ constexpr double kPi = 3.14159265358979323846;
 // A contact holds its upper body up if its normal is within about 84 degrees of vertical:
 // walls do not carry what leans on them.
 constexpr double kSupportCosine = 0.1;
-// A body that moves along gravity slower than this many steps of free fall gives rise to rests on
-// what its joints hold it to.
+// A body moving along gravity slower than this many steps of free fall would give it rests on
+// what its joints hold it to; a faster one is falling on them.
 constexpr double kRestingSteps = 6.0;
 
 }  // namespace

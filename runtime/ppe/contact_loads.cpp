@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include "cellphys/gen/force_table.h"
 #include "runtime/base/vec3.h"
@@ -23,16 +22,18 @@ constexpr double kRestingSteps = 6.0;
 }  // namespace
 
 void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const WorldSettings& s,
-                 std::vector<WorldContact>& contacts) {
+                 std::vector<WorldContact>& contacts, LoadScratch& sc) {
   for (WorldContact& c : contacts) c.load = 0.0f;
   const Vec3d g = Vec3d::load(s.globals.gravity);
   const double gn = norm(g);
   if (gn <= 0 || contacts.empty()) return;
   const Vec3d down = g * (1.0 / gn);
-  // Per contact: the body it holds up (-1: none) and how squarely (|n . down|).
-  std::vector<int64_t> upper(contacts.size(), -1);
-  std::vector<double> share(contacts.size(), 0.0);
-  std::vector<double> support(bodies.size(), 0.0);  // per body: the sum of its supports' shares
+  std::vector<int64_t>& upper = sc.upper;
+  std::vector<double>& share = sc.share;
+  std::vector<double>& support = sc.support;
+  upper.assign(contacts.size(), -1);
+  share.assign(contacts.size(), 0.0);
+  support.assign(bodies.size(), 0.0);
   for (size_t i = 0; i < contacts.size(); ++i) {
     const WorldContact& c = contacts[i];
     // A gap wider than the slop holds nothing up yet: it is a body on its way, which a loaded
@@ -52,8 +53,10 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   // a joint to the world or a static body holds it all. Without this a wheel's contact was tuned
   // to the wheel alone, and a 1600 kg car sank through the ground at 0.3 m/s.
   auto height = [&](uint32_t i) { return -dot(Vec3d::load(bodies[i].state.position), down); };
-  std::vector<std::pair<uint32_t, uint32_t>> joints;  // (upper, lower), both dynamic
-  std::vector<uint8_t> held(bodies.size(), 0);        // jointed to what cannot move
+  std::vector<std::pair<uint32_t, uint32_t>>& joints = sc.joints;
+  std::vector<uint8_t>& held = sc.held;
+  joints.clear();
+  held.assign(bodies.size(), 0);
   for (const WorldForce& f : forces) {
     if (!f.alive || !gen::kForceTable[static_cast<int>(f.type)].joint) continue;
     const bool fixed_a = bodies[f.a].is_static, fixed_b = f.b == kWorldBody || bodies[f.b].is_static;
@@ -70,23 +73,36 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   // handed its whole weight to the foot that touched, whose contact, tuned to it, threw the
   // foot and opened its joints by 70 cm. Resting is slower along gravity than a few steps of fall.
   const double falling = kRestingSteps * gn * s.dt;
-  std::vector<uint32_t> below(bodies.size(), 0);  // per body: the joints it hands its weight down
+  std::vector<uint32_t>& below = sc.below;
+  below.assign(bodies.size(), 0);
   for (const auto& j : joints)
     if (support[j.first] <= 0 && !held[j.first] &&
         std::fabs(dot(Vec3d::load(bodies[j.first].state.velocity), down)) <= falling)
       ++below[j.first];
   // Top to bottom: a body's weight, with what rests on it, splits over its supports.
-  std::vector<uint32_t> order;
+  // (std::sort with the index as the tie-break: the order of a stable sort, with no buffer)
+  std::vector<uint32_t>& order = sc.order;
+  order.clear();
   for (uint32_t i = 0; i < bodies.size(); ++i)
     if (support[i] > 0 || below[i] > 0) order.push_back(i);
-  std::stable_sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) { return height(x) > height(y); });
-  std::vector<double> weight(bodies.size(), 0.0);  // mass pressing on each body's supports (kg)
-  std::vector<size_t> by_upper(contacts.size());
-  std::iota(by_upper.begin(), by_upper.end(), size_t{0});
-  std::stable_sort(by_upper.begin(), by_upper.end(), [&](size_t x, size_t y) { return upper[x] < upper[y]; });
-  std::vector<size_t> first_of(bodies.size() + 1, contacts.size());
-  for (size_t k = contacts.size(); k-- > 0;)
-    if (upper[by_upper[k]] >= 0) first_of[size_t(upper[by_upper[k]])] = k;
+  std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
+    const double hx = height(x), hy = height(y);
+    return hx != hy ? hx > hy : x < y;
+  });
+  std::vector<double>& weight = sc.weight;
+  weight.assign(bodies.size(), 0.0);
+  // The contacts grouped by the body they hold up, in contact order within a body (a counting
+  // sort): by_upper[first_of[i] .. first_of[i + 1]) hold body i up.
+  std::vector<size_t>& first_of = sc.first_of;
+  first_of.assign(bodies.size() + 1, 0);
+  for (size_t i = 0; i < contacts.size(); ++i)
+    if (upper[i] >= 0) ++first_of[size_t(upper[i]) + 1];
+  for (size_t b = 0; b < bodies.size(); ++b) first_of[b + 1] += first_of[b];
+  std::vector<size_t>& by_upper = sc.by_upper;
+  by_upper.resize(first_of[bodies.size()]);
+  sc.fill.assign(first_of.begin(), first_of.end() - 1);
+  for (size_t i = 0; i < contacts.size(); ++i)
+    if (upper[i] >= 0) by_upper[sc.fill[size_t(upper[i])]++] = i;
   const double omega = 2 * kPi * s.globals.contact_hertz;
   const double to_load = gn / (omega * omega * s.contact_load_depth);  // weight (kg) -> load mass
   for (uint32_t top : order) {
@@ -96,7 +112,7 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
       for (auto j = from; j != joints.end() && j->first == top; ++j) weight[j->second] += weight[top] / below[top];
       continue;
     }
-    for (size_t k = first_of[top]; k < contacts.size() && upper[by_upper[k]] == int64_t(top); ++k) {
+    for (size_t k = first_of[top]; k < first_of[top + 1]; ++k) {
       const size_t i = by_upper[k];
       const double carried = weight[top] * share[i] / support[top];
       WorldContact& c = contacts[i];

@@ -4,6 +4,8 @@
 // from this step's contacts alone: no feedback from how far a contact sank, which, tried
 // first, made a pile's contacts stiffen and soften in turn until it was thrown apart.
 #pragma once
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
@@ -12,11 +14,26 @@ namespace cellphys::ppe {
 
 struct WorldSettings;
 
+/// carry_loads' buffers, kept between steps so a warm step allocates nothing.
+struct LoadScratch {
+  std::vector<int64_t> upper;         // per contact: the body it holds up (-1: none)
+  std::vector<double> share;          // per contact: how squarely (|n . down|)
+  std::vector<double> support;        // per body: the sum of its supports' shares
+  std::vector<std::pair<uint32_t, uint32_t>> joints;  // (upper, lower), both dynamic
+  std::vector<uint8_t> held;          // per body: jointed to what cannot move
+  std::vector<uint32_t> below;        // per body: the joints it hands its weight down
+  std::vector<uint32_t> order;        // bodies that pass weight on, top to bottom
+  std::vector<double> weight;         // per body: mass pressing on its supports (kg)
+  std::vector<size_t> by_upper;       // contacts by the body they hold up
+  std::vector<size_t> first_of;       // per body: its first entry in by_upper (and one past the last)
+  std::vector<size_t> fill;           // per body: the next free entry while filling by_upper
+};
+
 /// Sets each contact's load: the mass whose soft spring, at the contact frequency, sinks by
 /// contact_load_depth under the weight the contact carries (0 without gravity). A body no contact
 /// holds up hands its weight down its joints to the bodies below it.
 void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const WorldSettings& s,
-                 std::vector<WorldContact>& contacts);
+                 std::vector<WorldContact>& contacts, LoadScratch& scratch);
 
 /// How much gravity alone closes a contact of normal n (from a to b) in a step (m/s, 0 or less):
 /// the upper body falls onto what holds it. Against static geometry the fall is signed (a ball

@@ -59,18 +59,24 @@ void set_bodies(const ForceInfo& info, std::vector<unsigned char>& inst, int32_t
   if (info.offset_body_b >= 0) std::memcpy(inst.data() + info.offset_body_b, &b, 4);
 }
 
-PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
+}  // namespace
+
+void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& scratch, PackedIsland& p) {
   const WorldSettings& s = pc.settings;
-  spu::IslandBuilder ib;
+  spu::IslandBuilder& ib = scratch.builder;
+  ib.reset();
   ib.set_step(s.dt);
   ib.set_integrator(s.integrator);
   ib.set_solver(static_cast<uint32_t>(s.solver));
   ib.set_tolerance(s.tolerance);
   ib.set_max_halvings(s.max_halvings);
   pack(s.globals, ib.params());
-  PackedIsland p;
+  p.bodies.clear();
+  p.ghost.clear();
+  p.result.clear();
   // ghosts: the bodies of other parts its contacts and forces reach
-  std::vector<uint32_t> ghosts;
+  std::vector<uint32_t>& ghosts = scratch.ghosts;
+  ghosts.clear();
   auto reach = [&](uint32_t id) {
     if (id != kWorldBody && !std::binary_search(isl.bodies.begin(), isl.bodies.end(), id)) ghosts.push_back(id);
   };
@@ -79,7 +85,8 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
   std::sort(ghosts.begin(), ghosts.end());
   ghosts.erase(std::unique(ghosts.begin(), ghosts.end()), ghosts.end());
   // the bodies a joint holds (kBodyTurnsByKick)
-  std::vector<uint32_t> jointed;
+  std::vector<uint32_t>& jointed = scratch.jointed;
+  jointed.clear();
   for (uint32_t fi : isl.forces) {
     const WorldForce& f = pc.forces[fi];
     if (!kForceTable[static_cast<int>(f.type)].joint) continue;
@@ -124,8 +131,9 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
   }
   if (s.globals.gravity[0] != 0 || s.globals.gravity[1] != 0 || s.globals.gravity[2] != 0) ib.add_global(ForceType::gravity);
   // contacts grouped by body pair, in a fixed order
-  std::vector<uint32_t> cs = isl.contacts;
-  std::stable_sort(cs.begin(), cs.end(), [&](uint32_t x, uint32_t y) {
+  std::vector<uint32_t>& cs = scratch.contacts;
+  cs.assign(isl.contacts.begin(), isl.contacts.end());
+  std::sort(cs.begin(), cs.end(), [&](uint32_t x, uint32_t y) {  // a total order: std::sort allocates nothing
     const WorldContact &a = pc.contacts[x], &b = pc.contacts[y];
     return a.a != b.a ? a.a < b.a : a.b != b.b ? a.b < b.b : x < y;
   });
@@ -136,17 +144,13 @@ PackedIsland pack_one(const PackContext& pc, const IslandContent& isl) {
   for (uint32_t fid : isl.forces) {
     const WorldForce& f = pc.forces[fid];
     const ForceInfo& info = kForceTable[static_cast<int>(f.type)];
-    std::vector<unsigned char> inst = f.instance;
+    std::vector<unsigned char>& inst = scratch.instance;
+    inst.assign(f.instance.begin(), f.instance.end());
     set_bodies(info, inst, local_of(p.bodies, f.a), local_of(p.bodies, f.b));
     ib.add_force(f.type, inst.data(), inst.size());
   }
-  p.image = ib.finish();
-  return p;
+  ib.finish(p.image);
 }
-
-}  // namespace
-
-PackedIsland pack_island(const PackContext& pc, const IslandContent& part) { return pack_one(pc, part); }
 
 void unpack_island(const PackedIsland& p, std::vector<WorldBody>& bodies) {
   const size_t n = p.bodies.size();

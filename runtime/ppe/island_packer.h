@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
+#include "runtime/spu/island_image.h"
 
 namespace cellphys::ppe {
 
@@ -32,9 +33,18 @@ struct PackedIsland {
   std::vector<unsigned char> result;
 };
 
-/// Packs one island or part from the start-of-step state (pc.start); ghosts (kinematic: no
-/// force moves them) take their latest velocity from pc.bodies.
-PackedIsland pack_island(const PackContext& pc, const IslandContent& part);
+/// What packing reuses from one island to the next. The world keeps one, so a warm step packs
+/// its islands without allocating.
+struct PackScratch {
+  spu::IslandBuilder builder;
+  std::vector<uint32_t> ghosts, jointed, contacts;
+  std::vector<unsigned char> instance;
+};
+
+/// Packs one island or part from the start-of-step state (pc.start) into `out` (replaced; its
+/// storage is reused); ghosts (kinematic: no force moves them) take their latest velocity from
+/// pc.bodies.
+void pack_island(const PackContext& pc, const IslandContent& part, PackScratch& scratch, PackedIsland& out);
 
 /// Copies a successful result's advanced bodies back into the world.
 void unpack_island(const PackedIsland& p, std::vector<WorldBody>& bodies);

@@ -129,7 +129,7 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
   }
   StageTimer t(st.times.narrow_ms);
   narrow_phase(bodies, shapes, settings, scratch, contacts, st);
-  carry_loads(bodies, forces, settings, contacts);
+  carry_loads(bodies, forces, settings, contacts, scratch.loads);
   recall_contacts(bodies, settings, memory, contacts);
 }
 

@@ -8,6 +8,7 @@
 
 #include "runtime/ppe/body_records.h"
 #include "runtime/ppe/broad_phase.h"
+#include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/contact_memory.h"
 #include "runtime/ppe/step_events.h"
 #include "runtime/ppe/step_stats.h"
@@ -27,6 +28,7 @@ struct CollideScratch {
   std::vector<uint64_t> joined;  // body pairs a joint joins (low id << 32 | high id), sorted
   std::vector<TouchedPair> touched;                   // the pairs with contacts, for the events
   std::vector<std::pair<uint32_t, uint32_t>> sensed;  // (sensor, visitor) overlapping
+  LoadScratch loads;
 };
 
 /// The step's contact points in `contacts` (replaced): the dynamic body first, normals from a

@@ -2,20 +2,60 @@
 
 #include <algorithm>
 
+#include "cellphys/gen/force_table.h"
 #include "runtime/ppe/world.h"
+#include "runtime/spu/island_image.h"
 #include "runtime/spu/workspace.h"
 
 namespace cellphys::ppe {
 
 namespace {
 
-bool fits(const PackedIsland& p, size_t capacity) {
-  const spu::IslandView v = spu::view_island(const_cast<unsigned char*>(p.image.data()));
-  return spu::footprint(spu::counts_of(v)).total <= capacity;
+// Whether an island surely fits, from its content alone: counts at least those its image would
+// have (every coupling end outside the island a ghost, every body a damping and a gyroscopic
+// instance, every section its alignment, every coupling two blocks, every scratch the largest
+// kernel's). The footprint grows with each count, so an island under this bound needs no
+// packing to know it fits; one over it is packed and measured.
+bool surely_fits(const PackContext& pc, const IslandContent& isl) {
+  const auto inside = [&](uint32_t id) {
+    return id == kWorldBody || std::binary_search(isl.bodies.begin(), isl.bodies.end(), id);
+  };
+  size_t ghosts = 0, instances = 0;
+  for (uint32_t c : isl.contacts) {
+    ghosts += !inside(pc.contacts[c].a) + !inside(pc.contacts[c].b);
+    instances += gen::kForceTable[static_cast<int>(gen::ForceType::contact)].instance_size;
+  }
+  for (uint32_t f : isl.forces) {
+    ghosts += !inside(pc.forces[f].a) + !inside(pc.forces[f].b);
+    instances += pc.forces[f].instance.size();
+  }
+  const size_t n = isl.bodies.size() + ghosts, couplings = isl.contacts.size() + isl.forces.size();
+  if (n > (1u << 20)) return false;
+  instances += n * (gen::kForceTable[static_cast<int>(gen::ForceType::damping)].instance_size +
+                    gen::kForceTable[static_cast<int>(gen::ForceType::gyroscopic)].instance_size);
+  instances += size_t{gen::kNumForceTypes} * 16;
+  spu::IslandCounts c;
+  c.num_bodies = static_cast<uint32_t>(n);
+  c.num_blocks = static_cast<uint32_t>(2 * couplings);
+  c.pair_instances = static_cast<uint32_t>(couplings);
+  c.image_bytes = static_cast<uint32_t>(spu::island_layout(c.num_bodies, gen::kNumForceTypes).instances + instances);
+  c.integrator = pc.settings.integrator;
+  c.solver = pc.settings.solver;
+  c.force_types = ~0u;
+  return spu::footprint(c).total <= pc.settings.local_store_bytes;
 }
 
-void split(const PackContext& pc, IslandContent isl, std::vector<IslandContent>& out, uint32_t& cut) {
-  if (isl.bodies.size() <= 1 || fits(pack_island(pc, isl), pc.settings.local_store_bytes)) {
+bool fits(const PackContext& pc, const IslandContent& isl, PackScratch& scratch, PackedIsland& probe) {
+  if (isl.bodies.size() <= 1 || surely_fits(pc, isl)) return true;
+  pack_island(pc, isl, scratch, probe);
+  const spu::IslandView v = spu::view_island(probe.image.data());
+  return spu::footprint(spu::counts_of(v)).total <= pc.settings.local_store_bytes;
+}
+
+// `too_big`: the caller found it does not fit already.
+void split(const PackContext& pc, IslandContent isl, std::vector<IslandContent>& out, uint32_t& cut,
+           PackScratch& scratch, PackedIsland& probe, bool too_big = false) {
+  if (!too_big && fits(pc, isl, scratch, probe)) {
     out.push_back(std::move(isl));
     return;
   }
@@ -51,28 +91,35 @@ void split(const PackContext& pc, IslandContent isl, std::vector<IslandContent>&
   };
   for (uint32_t c : isl.contacts) place(pc.contacts[c].a, pc.contacts[c].b, &IslandContent::contacts, c);
   for (uint32_t f : isl.forces) place(pc.forces[f].a, pc.forces[f].b, &IslandContent::forces, f);
-  split(pc, std::move(half[0]), out, cut);
-  split(pc, std::move(half[1]), out, cut);
+  split(pc, std::move(half[0]), out, cut, scratch, probe);
+  split(pc, std::move(half[1]), out, cut, scratch, probe);
 }
 
 }  // namespace
 
-std::vector<IslandContent> decouple(const PackContext& pc, IslandContent island, uint32_t& cut_couplings) {
-  std::vector<IslandContent> parts;
-  split(pc, std::move(island), parts, cut_couplings);
-  return parts;
+void decouple(const PackContext& pc, const IslandContent& island, uint32_t& cut_couplings, PackScratch& scratch,
+              PackedIsland& probe, std::vector<IslandContent>& parts) {
+  if (fits(pc, island, scratch, probe)) {  // the island whole, copied into storage kept from earlier steps
+    parts.resize(1);
+    parts[0].bodies.assign(island.bodies.begin(), island.bodies.end());
+    parts[0].contacts.assign(island.contacts.begin(), island.contacts.end());
+    parts[0].forces.assign(island.forces.begin(), island.forces.end());
+    return;
+  }
+  parts.clear();
+  split(pc, island, parts, cut_couplings, scratch, probe, /*too_big=*/true);
 }
 
-DecoupledIslands decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, StepStats& st) {
+void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, StepStats& st,
+                      PackScratch& scratch, DecoupledIslands& d) {
   StageTimer t(st.times.decouple_ms);
-  DecoupledIslands d;
+  d.waves = 0;
   d.parts.resize(islands.size());
   for (size_t k = 0; k < islands.size(); ++k) {
-    d.parts[k] = decouple(pc, islands[k], st.cut_couplings);  // a copy: the sleep stage needs the island whole
+    decouple(pc, islands[k], st.cut_couplings, scratch, d.probe, d.parts[k]);  // a copy: the sleep stage needs the island whole
     if (d.parts[k].size() > 1) ++st.decoupled_islands;
     d.waves = std::max(d.waves, d.parts[k].size());
   }
-  return d;
 }
 
 }  // namespace cellphys::ppe

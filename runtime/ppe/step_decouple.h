@@ -17,15 +17,20 @@ namespace cellphys::ppe {
 /// each holding the bodies across its cuts as kinematic ghosts at their latest velocities, is
 /// one block Gauss-Seidel sweep on the island's linear system; sweeps repeat until the
 /// velocities settle (integrate_islands), so the parts converge on the whole island's step.
-std::vector<IslandContent> decouple(const PackContext& pc, IslandContent island, uint32_t& cut_couplings);
+/// `scratch` and `probe` are the fit test's packing.
+void decouple(const PackContext& pc, const IslandContent& island, uint32_t& cut_couplings, PackScratch& scratch,
+              PackedIsland& probe, std::vector<IslandContent>& parts);
 
 struct DecoupledIslands {
   std::vector<std::vector<IslandContent>> parts;  // per island: its parts in integration order
   size_t waves = 0;                               // the most parts of any island
   bool split() const { return waves > 1; }
+  PackedIsland probe;                             // the fit test's packing, reused
 };
 
-/// The parts of every island; counts decoupled islands and cut couplings.
-DecoupledIslands decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, StepStats& st);
+/// The parts of every island into `d` (replaced; its storage is reused); counts decoupled
+/// islands and cut couplings.
+void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, StepStats& st,
+                      PackScratch& scratch, DecoupledIslands& d);
 
 }  // namespace cellphys::ppe

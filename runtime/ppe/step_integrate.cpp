@@ -34,22 +34,28 @@ void add_report(const spu::IslandReport& r, StepStats& st) {
 // last sweep); a failed whole island is counted and marked in failed now and keeps its state.
 void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const DecoupledIslands& d, size_t wave,
               bool split_only, const IslandCompute& compute, std::vector<WorldBody>& bodies,
-              std::vector<uint8_t>& part_failed, std::vector<uint8_t>& failed, StepStats& st) {
-  std::vector<PackedIsland> packed;
-  std::vector<size_t> island_of_packed;
-  std::vector<size_t> order;  // largest first: the long islands start early on the workers
-  std::vector<spu::IslandJob> jobs;
+              IntegrateScratch& sc, std::vector<uint8_t>& failed, StepStats& st) {
+  std::vector<PackedIsland>& packed = sc.packed;
+  std::vector<size_t>& island_of_packed = sc.island_of_packed;
+  std::vector<size_t>& order = sc.order;  // largest first: the long islands start early on the workers
+  std::vector<spu::IslandJob>& jobs = sc.jobs;
+  size_t used = 0;
+  island_of_packed.clear();
+  jobs.clear();
   {
     StageTimer t(st.times.pack_ms);
     for (size_t k = 0; k < d.parts.size(); ++k)
       if (wave < d.parts[k].size() && (!split_only || d.parts[k].size() > 1)) {
-        packed.push_back(pack_island(pc, d.parts[k][wave]));
+        if (used == packed.size()) packed.emplace_back();
+        pack_island(pc, d.parts[k][wave], sc.pack, packed[used++]);
         island_of_packed.push_back(k);
       }
-    order.resize(packed.size());
+    order.resize(used);
     std::iota(order.begin(), order.end(), size_t{0});
-    std::stable_sort(order.begin(), order.end(),
-                     [&](size_t x, size_t y) { return packed[x].image.size() > packed[y].image.size(); });
+    std::sort(order.begin(), order.end(), [&](size_t x, size_t y) {  // a total order: std::sort allocates nothing
+      const size_t bx = packed[x].image.size(), by = packed[y].image.size();
+      return bx != by ? bx > by : x < y;
+    });
     for (size_t k : order) {
       PackedIsland& p = packed[k];
       p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
@@ -57,7 +63,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
       count_wire_tables(p, shapes, st);
     }
   }
-  std::vector<spu::IslandReport> reports;
+  std::vector<spu::IslandReport>& reports = sc.reports;
   {
     StageTimer t(st.times.integrate_ms);
     IslandRunner& runner = compute.runner();
@@ -79,7 +85,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
     add_report(r, st);
     if (r.status != spu::IslandStatus::ok) {
       const size_t k = island_of_packed[order[j]];
-      if (d.parts[k].size() > 1) part_failed[k] = 1;
+      if (d.parts[k].size() > 1) sc.part_failed[k] = 1;
       else ++st.failed_islands, failed[k] = 1;
       continue;
     }
@@ -87,14 +93,13 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   }
 }
 
-// The linear velocities of the bodies of split islands, in island order.
-std::vector<float> split_velocities(const std::vector<IslandContent>& islands, const DecoupledIslands& d,
-                                    const std::vector<WorldBody>& bodies) {
-  std::vector<float> v;
+// The linear velocities of the bodies of split islands, in island order, into v (replaced).
+void split_velocities(const std::vector<IslandContent>& islands, const DecoupledIslands& d,
+                      const std::vector<WorldBody>& bodies, std::vector<float>& v) {
+  v.clear();
   for (size_t k = 0; k < d.parts.size(); ++k)
     if (d.parts[k].size() > 1)
       for (uint32_t i : islands[k].bodies) v.insert(v.end(), bodies[i].state.velocity, bodies[i].state.velocity + 3);
-  return v;
 }
 
 float largest_change(const std::vector<float>& before, const std::vector<float>& after) {
@@ -105,28 +110,30 @@ float largest_change(const std::vector<float>& before, const std::vector<float>&
 
 }  // namespace
 
-std::vector<uint8_t> integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
+void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
                        const DecoupledIslands& d, const std::vector<WorldForce>& forces,
                        const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, const IslandCompute& compute,
-                       StepStats& st) {
+                       IntegrateScratch& sc, std::vector<uint8_t>& failed, StepStats& st) {
   // Every sweep packs from the start state; it is kept apart only when an island is split.
-  std::vector<WorldBody> start;
+  std::vector<WorldBody>& start = sc.start;
   if (d.split()) {
     StageTimer t(st.times.pack_ms);
     start = bodies;
   }
   const PackContext pc{bodies, forces, contacts, s, d.split() ? start : bodies};
-  std::vector<uint8_t> part_failed(islands.size(), 0);  // split islands: a part failed this sweep
-  std::vector<uint8_t> failed(islands.size(), 0);
+  std::vector<uint8_t>& part_failed = sc.part_failed;  // split islands: a part failed this sweep
+  part_failed.assign(islands.size(), 0);
+  failed.assign(islands.size(), 0);
   const uint32_t sweeps = d.split() ? std::max(1u, s.decouple_sweeps) : 1;
   for (uint32_t sweep = 0; sweep < sweeps; ++sweep) {
     std::fill(part_failed.begin(), part_failed.end(), uint8_t{0});
-    const std::vector<float> before = split_velocities(islands, d, bodies);
+    split_velocities(islands, d, bodies, sc.before);
     for (size_t wave = 0; wave < d.waves; ++wave)
-      run_wave(pc, shapes, d, wave, sweep > 0, compute, bodies, part_failed, failed, st);
+      run_wave(pc, shapes, d, wave, sweep > 0, compute, bodies, sc, failed, st);
     if (!d.split()) break;
     st.decouple_sweeps = sweep + 1;
-    st.decouple_change = largest_change(before, split_velocities(islands, d, bodies));
+    split_velocities(islands, d, bodies, sc.after);
+    st.decouple_change = largest_change(sc.before, sc.after);
     const bool any_failed = std::find(part_failed.begin(), part_failed.end(), uint8_t{1}) != part_failed.end();
     if (sweep > 0 && st.decouple_change <= s.decouple_tolerance && !any_failed) break;
   }
@@ -138,7 +145,6 @@ std::vector<uint8_t> integrate_islands(const WorldSettings& s, const ShapeDictio
       failed[k] = 1;
       for (uint32_t i : islands[k].bodies) bodies[i] = start[i];
     }
-  return failed;
 }
 
 }  // namespace cellphys::ppe

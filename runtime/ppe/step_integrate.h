@@ -26,11 +26,24 @@ struct IslandCompute {
   std::function<spu::ComputeWorker&()> local;
 };
 
-/// Advances the bodies of every island by one step of s.dt. Returns, per island, whether its
-/// step failed (its bodies kept their start state).
-std::vector<uint8_t> integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
+/// What the stage reuses from step to step (the world keeps one): a warm step packs and runs
+/// its islands without allocating.
+struct IntegrateScratch {
+  PackScratch pack;
+  std::vector<PackedIsland> packed;  // the first `used` are this wave's
+  std::vector<size_t> island_of_packed, order;
+  std::vector<spu::IslandJob> jobs;
+  std::vector<spu::IslandReport> reports;
+  std::vector<WorldBody> start;           // the start state, when an island is split
+  std::vector<float> before, after;       // split islands' velocities around a sweep
+  std::vector<uint8_t> part_failed;
+};
+
+/// Advances the bodies of every island by one step of s.dt. Sets, per island, whether its
+/// step failed (its bodies kept their start state) in `failed` (replaced).
+void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
                        const DecoupledIslands& parts, const std::vector<WorldForce>& forces,
                        const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, const IslandCompute& compute,
-                       StepStats& st);
+                       IntegrateScratch& scratch, std::vector<uint8_t>& failed, StepStats& st);
 
 }  // namespace cellphys::ppe

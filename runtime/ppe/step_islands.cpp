@@ -30,8 +30,8 @@ class UnionFind {
 
 }  // namespace
 
-std::vector<IslandContent> build_islands(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
-                                         const std::vector<WorldContact>& contacts, StepStats& st) {
+void build_islands(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
+                   const std::vector<WorldContact>& contacts, StepStats& st, std::vector<IslandContent>& islands) {
   StageTimer t(st.times.islands_ms);
   const uint32_t n = static_cast<uint32_t>(bodies.size());
   UnionFind sets(n);
@@ -40,7 +40,8 @@ std::vector<IslandContent> build_islands(const std::vector<WorldBody>& bodies, c
   for (const WorldForce& f : forces)
     if (f.alive && f.b != kWorldBody && bodies[f.a].awake && bodies[f.b].awake) sets.unite(f.a, f.b);
   std::vector<int32_t> island_of(n, -1);
-  std::vector<IslandContent> islands;
+  size_t count = 0;  // islands in use; the entries past it keep their storage for later steps
+  for (IslandContent& isl : islands) isl.bodies.clear(), isl.contacts.clear(), isl.forces.clear();
   for (uint32_t i = 0; i < n; ++i) {
     const WorldBody& b = bodies[i];
     if (!b.alive) continue;
@@ -55,16 +56,19 @@ std::vector<IslandContent> build_islands(const std::vector<WorldBody>& bodies, c
     }
     ++st.active_bodies;
     const uint32_t r = sets.find(i);
-    if (island_of[r] < 0) island_of[r] = static_cast<int32_t>(islands.size()), islands.emplace_back();
+    if (island_of[r] < 0) {
+      island_of[r] = static_cast<int32_t>(count++);
+      if (count > islands.size()) islands.emplace_back();
+    }
     islands[island_of[r]].bodies.push_back(i);
   }
   for (uint32_t c = 0; c < contacts.size(); ++c)
     if (bodies[contacts[c].a].awake) islands[island_of[sets.find(contacts[c].a)]].contacts.push_back(c);
   for (uint32_t f = 0; f < forces.size(); ++f)
     if (forces[f].alive && bodies[forces[f].a].awake) islands[island_of[sets.find(forces[f].a)]].forces.push_back(f);
+  islands.resize(count);
   st.islands = static_cast<uint32_t>(islands.size());
   st.contacts = static_cast<uint32_t>(contacts.size());
-  return islands;
 }
 
 }  // namespace cellphys::ppe

@@ -12,7 +12,8 @@ namespace cellphys::ppe {
 /// The islands of the awake bodies, each with its bodies (ascending), the contacts and the
 /// forces acting on them; numbered by their smallest body, so the order does not depend on the
 /// order of the couplings. Counts bodies (live, static, active, sleeping), islands, contacts.
-std::vector<IslandContent> build_islands(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
-                                         const std::vector<WorldContact>& contacts, StepStats& st);
+/// `islands` is replaced; the storage of its entries is reused.
+void build_islands(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
+                   const std::vector<WorldContact>& contacts, StepStats& st, std::vector<IslandContent>& islands);
 
 }  // namespace cellphys::ppe

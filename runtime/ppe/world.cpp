@@ -199,11 +199,14 @@ const StepStats& World::step() {
     }
     wake_touched_groups(w.bodies, w.forces, w.contacts, w.sleeping, st);                 // 2
     push_out_overlaps(settings_, w.forces, w.bodies, w.contacts, w.contact_memory, w.push, st);  // 3
-    const std::vector<IslandContent> islands = build_islands(w.bodies, w.forces, w.contacts, st);  // 4
-    const DecoupledIslands parts =                                                      // 5
-        decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands, st);
-    const std::vector<uint8_t> failed = integrate_islands(settings_, shapes_, islands, parts, w.forces,  // 6
-                                                          w.contacts, w.bodies, w.compute(settings_), st);
+    build_islands(w.bodies, w.forces, w.contacts, st, w.islands);                      // 4
+    const std::vector<IslandContent>& islands = w.islands;
+    decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands, st,  // 5
+                     w.integrate.pack, w.parts);
+    const DecoupledIslands& parts = w.parts;
+    integrate_islands(settings_, shapes_, islands, parts, w.forces, w.contacts, w.bodies,  // 6
+                      w.compute(settings_), w.integrate, w.failed, st);
+    const std::vector<uint8_t>& failed = w.failed;
     sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 7
     {
       StageTimer t(st.times.events_ms);  // 8, finished: the begin touches' impulses

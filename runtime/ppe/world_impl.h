@@ -38,6 +38,10 @@ struct World::Impl {
   ContactMemory contact_memory;         // friction anchors and contact masses, kept between steps
   std::vector<WorldContact> contacts;   // this step's, reused
   PushScratch push;                     // the push stage's buffers
+  std::vector<IslandContent> islands;   // this step's islands, their storage reused
+  DecoupledIslands parts;               // and their parts
+  IntegrateScratch integrate;           // packing and running islands: buffers
+  std::vector<uint8_t> failed;          // per island: its step failed
   std::vector<uint32_t> island_of;      // per body slot: its island in the last step (for display only)
   std::vector<uint8_t> island_decoupled;  // per island of the last step: cut in parts
   std::vector<CutCoupling> cut;           // the last step's cut couplings (for display only)

@@ -177,7 +177,10 @@ uint32_t count_offdiagonal_blocks(const IslandView& v) {
   return 2u * static_cast<uint32_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
 }
 
-IslandBuilder::IslandBuilder() : buckets_(kNumForceTypes) {
+IslandBuilder::IslandBuilder() : buckets_(kNumForceTypes) { reset(); }
+
+void IslandBuilder::reset() {
+  header_ = Island_Header{};
   header_.magic = kIslandMagic;
   header_.version = kIslandVersion;
   header_.integrator = static_cast<uint32_t>(Integrator::implicit_split);
@@ -186,6 +189,12 @@ IslandBuilder::IslandBuilder() : buckets_(kNumForceTypes) {
   header_.tolerance = 1e-3f;
   header_.max_halvings = 8;
   params_ = default_island_params();
+  bodies_.clear();
+  for (Bucket& b : buckets_) {
+    b.pair.clear(), b.world.clear();
+    b.pair_count = b.world_count = 0;
+    b.global = false;
+  }
 }
 
 int IslandBuilder::add_body(const Rigid_Body_Fields& body) {
@@ -214,13 +223,19 @@ void IslandBuilder::add_force(ForceType type, const void* instance, size_t insta
 }
 
 std::vector<unsigned char> IslandBuilder::finish() const {
+  std::vector<unsigned char> img;
+  finish(img);
+  return img;
+}
+
+void IslandBuilder::finish(std::vector<unsigned char>& img) const {
   uint32_t num_sections = 0;
   for (const Bucket& b : buckets_) num_sections += b.present();
   const IslandLayout l = island_layout(static_cast<uint32_t>(bodies_.size()), num_sections);
   size_t total = l.instances;
   for (const Bucket& b : buckets_)
     if (b.present()) total = align16(total + b.pair.size() + b.world.size());
-  std::vector<unsigned char> img(total, 0);  // std::vector's storage is 16-byte aligned (operator new)
+  img.assign(total, 0);  // std::vector's storage is 16-byte aligned (operator new)
   Island_Header h = header_;
   h.total_bytes = static_cast<uint32_t>(total);
   h.num_bodies = static_cast<uint32_t>(bodies_.size());
@@ -243,7 +258,6 @@ std::vector<unsigned char> IslandBuilder::finish() const {
   IslandView v = view_island(img.data());
   v.header->num_blocks = count_offdiagonal_blocks(v);
   v.header->checksum = checksum(img.data() + sizeof(Island_Header), total - sizeof(Island_Header));
-  return img;
 }
 
 }  // namespace cellphys::spu

@@ -105,6 +105,11 @@ class IslandBuilder {
   }
   /// The finished image: 16-byte aligned storage, checksum set.
   std::vector<unsigned char> finish() const;
+  /// The same into `img` (replaced; its storage is reused).
+  void finish(std::vector<unsigned char>& img) const;
+  /// Empty again, with the defaults of a new builder; keeps its storage, so a builder reused
+  /// for island after island allocates nothing once warm.
+  void reset();
 
  private:
   gen::Island_Header header_{};

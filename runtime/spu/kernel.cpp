@@ -223,8 +223,10 @@ void ComputeWorker::step_batch(const IslandJob* jobs, size_t count, IslandReport
   // working set: island k computes from slot k % 2 while island k + 1 is fetched into the
   // other and island k - 1's result drains from the other output slot. An island whose
   // own footprint (with double buffering, as the reference design counts it) does not fit is refused.
-  std::vector<Plan> plans(count);
-  std::vector<char> ok(count, 0);
+  plans_.assign(count, Plan{});
+  ok_.assign(count, 0);
+  std::vector<Plan>& plans = plans_;
+  std::vector<char>& ok = ok_;
   size_t in_slot = 0, out_slot = 0, work = 0;
   for (size_t k = 0; k < count; ++k) {
     reports[k] = IslandReport{};

@@ -56,6 +56,8 @@ class ComputeWorker {
   void compute(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r);
   LocalStore ls_;
   Dma dma_;
+  std::vector<Plan> plans_;  // step_batch's, kept so a warm worker allocates nothing
+  std::vector<char> ok_;
 };
 
 }  // namespace cellphys::spu

@@ -87,8 +87,9 @@ std::optional<CommandError> WorldCommands::check(const Command& c) const {
       if (m.shape >= w.shapes().size())
         return invalid(t, "shape", "no shape " + std::to_string(m.shape) + " (the dictionary has " +
                                        std::to_string(w.shapes().size()) + ")");
-      if (w.shapes().type(m.shape) == spu::ShapeType::plane)
-        return invalid(t, "shape", "shape " + std::to_string(m.shape) + " is a plane: planes are static and cannot be spawned");
+      if (w.shapes().is_static_only(m.shape))
+        return invalid(t, "shape", "shape " + std::to_string(m.shape) + " is a " + spu::shape_type_name(w.shapes().type(m.shape)) +
+                                       ": it is static level geometry and cannot be spawned");
       if (auto e = positive(t, "scale", m.scale, 1000.0)) return e;
       if (auto e = positive(t, "mass", m.mass, 1e9)) return e;
       if (!std::isfinite(m.friction) || m.friction < 0) return invalid(t, "friction", "must be a finite number >= 0");

@@ -117,6 +117,9 @@ class MujocoPeer : public Peer {
           geom << " type=\"mesh\" mesh=\"m" << i << "\"";
           break;
         }
+        case spu::ShapeType::mesh:
+        case spu::ShapeType::height_field:
+          throw Unsupported("MuJoCo: meshes and height fields are not mapped to its triangle shapes yet");
         case spu::ShapeType::plane: {
           double q[4];
           z_to(s.normal, q);

@@ -64,6 +64,9 @@ MassProperties unit(const spu::ShapeView& s) {
     }
     case spu::ShapeType::hull: m = polyhedron_mass_properties(s.hull); break;
     case spu::ShapeType::plane: fail(s.type, "a static plane has no mass, volume or inertia");
+    case spu::ShapeType::mesh:
+    case spu::ShapeType::height_field:
+      fail(s.type, "a triangle surface is static level geometry: it has no mass, volume or inertia");
   }
   if (!(m.volume > 0.0) || !std::isfinite(m.volume)) fail(s.type, "the shape has no positive, finite volume");
   return m;
@@ -126,14 +129,14 @@ MassProperties polyhedron_mass_properties(const spu::HullView& h) {
 }
 
 MassProperties mass_properties_from_density(const spu::ShapeView& shape, float scale, float density) {
-  if (shape.type == spu::ShapeType::plane) unit(shape);  // throws: planes first, whatever else is wrong
+  if (shape.type == spu::ShapeType::plane || spu::is_triangle_surface(shape.type)) unit(shape);  // throws: static-only shapes first, whatever else is wrong
   require_positive(shape.type, "scale", scale);
   require_positive(shape.type, "density", density);
   return scaled(shape, scale, density);
 }
 
 MassProperties mass_properties_from_mass(const spu::ShapeView& shape, float scale, float mass) {
-  if (shape.type == spu::ShapeType::plane) unit(shape);
+  if (shape.type == spu::ShapeType::plane || spu::is_triangle_surface(shape.type)) unit(shape);
   require_positive(shape.type, "scale", scale);
   require_positive(shape.type, "mass", mass);
   MassProperties m = scaled(shape, scale, 1.0);

@@ -1,5 +1,7 @@
 #include "runtime/ppe/shape_distance.h"
 
+#include "runtime/spu/surface_tree.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -172,7 +174,9 @@ ConvexCore core_of(const spu::ShapeView& shape, const spu::Pose& pose) {
       c.kind = ConvexCore::Kind::hull;
       c.hull = &shape.hull;
       break;
-    case spu::ShapeType::plane: break;  // callers take planes apart
+    case spu::ShapeType::plane:  // callers take planes and triangle surfaces apart
+    case spu::ShapeType::mesh:
+    case spu::ShapeType::height_field: break;
   }
   return c;
 }
@@ -237,7 +241,65 @@ bool world_plane(const spu::ShapeView& plane, const spu::Pose& pose, Vec3d& n, d
   return true;
 }
 
+TriangleCore::TriangleCore(const ShapeFrame& f, const spu::MeshView& m, int32_t t) {
+  const int32_t* ix = m.triangles + 3 * t;
+  for (int c = 0; c < 3; ++c) v[c] = f.to_world(Vec3d::load(m.vertices + 3 * ix[c]));
+  normal = f.rotate(Vec3d::load(m.normals + 3 * t));
+  const Vec3d mid = (v[0] + v[1] + v[2]) * (1.0 / 3.0);
+  for (int c = 0; c < 3; ++c)
+    for (int k = 0; k < 3; ++k) local_[3 * c + k] = float(v[c][k] - mid[k]);
+  view_.num_vertices = 3;
+  view_.vertices = local_;
+  spu::Pose at;
+  for (int k = 0; k < 3; ++k) at.position[k] = float(mid[k]);
+  core.kind = ConvexCore::Kind::hull;
+  core.frame = ShapeFrame::of(at);
+  core.hull = &view_;
+}
+
+void core_box(const ConvexCore& c, Vec3d& lo, Vec3d& hi) {
+  const Vec3d x{1, 0, 0}, y{0, 1, 0}, z{0, 0, 1};
+  lo = Vec3d{c.support(-x).x, c.support(-y).y, c.support(-z).z} - Vec3d{c.radius, c.radius, c.radius};
+  hi = Vec3d{c.support(x).x, c.support(y).y, c.support(z).z} + Vec3d{c.radius, c.radius, c.radius};
+}
+
+void box_in_surface(const ShapeFrame& f, const Vec3d& lo, const Vec3d& hi, double out_lo[3], double out_hi[3]) {
+  const Vec3d wc = (lo + hi) * 0.5, wh = (hi - lo) * 0.5, lc = f.to_shape(wc);
+  for (int k = 0; k < 3; ++k) {
+    const double h = (std::fabs(f.R.m[0][k]) * wh.x + std::fabs(f.R.m[1][k]) * wh.y + std::fabs(f.R.m[2][k]) * wh.z) / f.s;
+    out_lo[k] = lc[k] - h, out_hi[k] = lc[k] + h;
+  }
+}
+
+namespace {
+
+// A convex shape and a triangle surface overlap where the shape reaches any triangle (either
+// side: an overlap test asks what is there, not what collides).
+bool overlaps_surface(const spu::ShapeView& a, const spu::Pose& pa, const spu::ShapeView& surface, const spu::Pose& ps) {
+  const ShapeFrame f = ShapeFrame::of(ps);
+  if (!(f.s > 0.0)) return false;
+  const ConvexCore k = core_of(a, pa);
+  Vec3d lo, hi;
+  core_box(k, lo, hi);
+  double blo[3], bhi[3];
+  box_in_surface(f, lo, hi, blo, bhi);
+  bool hit = false;
+  spu::visit_triangles_in_box(surface.mesh, blo, bhi, [&](int32_t t) {
+    const TriangleCore tri(f, surface.mesh, t);
+    hit = separation(k, tri.core).overlap;
+    return !hit;
+  });
+  return hit;
+}
+
+}  // namespace
+
 bool shapes_overlap(const spu::ShapeView& a, const spu::Pose& pa, const spu::ShapeView& b, const spu::Pose& pb) {
+  const bool a_surface = spu::is_triangle_surface(a.type), b_surface = spu::is_triangle_surface(b.type);
+  if (a_surface || b_surface) {
+    if ((a_surface && b_surface) || a.type == spu::ShapeType::plane || b.type == spu::ShapeType::plane) return false;
+    return a_surface ? overlaps_surface(b, pb, a, pa) : overlaps_surface(a, pa, b, pb);
+  }
   const bool a_plane = a.type == spu::ShapeType::plane, b_plane = b.type == spu::ShapeType::plane;
   if (a_plane && b_plane) return false;
   if (a_plane || b_plane) {

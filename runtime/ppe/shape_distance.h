@@ -41,6 +41,27 @@ struct Separation {
   Vec3d point_a{}, point_b{};  // the closest surface points, when apart
 };
 
+/// One triangle of a mesh or height field as a core: a three-vertex hull about its centroid,
+/// in world coordinates. It holds the vertices its core points at, so it stays where it is.
+struct TriangleCore {
+  TriangleCore(const ShapeFrame& surface, const spu::MeshView& m, int32_t triangle);
+  TriangleCore(const TriangleCore&) = delete;
+  TriangleCore& operator=(const TriangleCore&) = delete;
+  Vec3d v[3];     // world vertices
+  Vec3d normal;   // world front normal
+  ConvexCore core;
+
+ private:
+  float local_[9];
+  spu::HullView view_;
+};
+
+/// The world box of a core with its radius.
+void core_box(const ConvexCore& c, Vec3d& lo, Vec3d& hi);
+
+/// The box, in a surface's unit-scale coordinates, that holds the world box [lo, hi].
+void box_in_surface(const ShapeFrame& surface, const Vec3d& lo, const Vec3d& hi, double out_lo[3], double out_hi[3]);
+
 /// Distance between a and b (GJK, at most 64 iterations, in double precision).
 Separation separation(const ConvexCore& a, const ConvexCore& b);
 

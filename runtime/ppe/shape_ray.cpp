@@ -5,6 +5,7 @@
 
 #include "runtime/ppe/shape_distance.h"
 #include "runtime/ppe/shape_frame.h"
+#include "runtime/spu/surface_tree.h"
 
 namespace cellphys::ppe {
 
@@ -166,6 +167,43 @@ bool ray_plane(const spu::ShapeView& v, const spu::Pose& p, const Vec3d& o, cons
   return true;
 }
 
+// A triangle surface is one-sided: the ray hits a triangle's front only (Moller-Trumbore in the
+// surface's unit-scale coordinates), the first such hit along the ray; no hit from behind.
+bool ray_surface(const spu::ShapeView& v, const spu::Pose& p, const Vec3d& o, const Vec3d& d, double max_dist,
+                 ShapeRayHit& hit) {
+  const spu::MeshView& m = v.mesh;
+  const ShapeFrame f = ShapeFrame::of(p);
+  if (!(f.s > 0.0)) return false;
+  const Vec3d lo = f.to_shape(o), ld = f.unrotate(d);  // unit: distances in the surface's units are / s
+  const double lo3[3] = {lo.x, lo.y, lo.z}, ld3[3] = {ld.x, ld.y, ld.z};
+  double best = max_dist / f.s;
+  int best_t = -1;
+  spu::visit_triangles_on_ray(m, lo3, ld3, best, [&](int32_t t) {
+    const int32_t* ix = m.triangles + 3 * t;
+    const Vec3d a = Vec3d::load(m.vertices + 3 * ix[0]), b = Vec3d::load(m.vertices + 3 * ix[1]),
+                c = Vec3d::load(m.vertices + 3 * ix[2]);
+    const Vec3d e1 = b - a, e2 = c - a, q = cross(ld, e2);
+    const double det = dot(e1, q);
+    if (!(det < 0.0) && !(det > 0.0)) return true;
+    if (dot(Vec3d::load(m.normals + 3 * t), ld) >= 0.0) return true;  // from behind, or along it
+    const double inv = 1.0 / det;
+    const Vec3d sv = lo - a;
+    const double u = dot(sv, q) * inv;
+    if (u < 0.0 || u > 1.0) return true;
+    const Vec3d r = cross(sv, e1);
+    const double w = dot(ld, r) * inv;
+    if (w < 0.0 || u + w > 1.0) return true;
+    const double at = dot(e2, r) * inv;
+    if (at >= 0.0 && at < best) best = at, best_t = t;  // ties: the first in the tree's order
+    return true;
+  });
+  if (best_t < 0) return false;
+  hit.distance = best * f.s;
+  hit.point = o + d * hit.distance;
+  hit.normal = f.rotate(Vec3d::load(m.normals + 3 * best_t));
+  return true;
+}
+
 }  // namespace
 
 bool ray_shape(const spu::ShapeView& shape, const spu::Pose& pose, const Vec3d& origin, const Vec3d& dir,
@@ -176,6 +214,8 @@ bool ray_shape(const spu::ShapeView& shape, const spu::Pose& pose, const Vec3d& 
     case spu::ShapeType::box: return ray_polytope(true, shape, pose, origin, dir, max_dist, hit);
     case spu::ShapeType::hull: return ray_polytope(false, shape, pose, origin, dir, max_dist, hit);
     case spu::ShapeType::plane: return ray_plane(shape, pose, origin, dir, max_dist, hit);
+    case spu::ShapeType::mesh:
+    case spu::ShapeType::height_field: return ray_surface(shape, pose, origin, dir, max_dist, hit);
   }
   return false;
 }

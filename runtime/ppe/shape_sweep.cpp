@@ -1,7 +1,11 @@
 #include "runtime/ppe/shape_sweep.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "runtime/ppe/shape_distance.h"
 #include "runtime/spu/narrow_phase.h"
+#include "runtime/spu/surface_tree.h"
 
 namespace cellphys::ppe {
 
@@ -52,13 +56,11 @@ bool starts_in_contact(const spu::ShapeView& moving, const spu::Pose& start, con
   return true;
 }
 
-}  // namespace
 
-bool sweep_shape(const spu::ShapeView& moving, const spu::Pose& start, const Vec3d& dir, double max_dist,
-                 const spu::ShapeView& target, const spu::Pose& pose, SweepHit& hit, double tolerance) {
-  ConvexCore a = core_of(moving, start);
-  if (target.type == spu::ShapeType::plane) return sweep_plane(a, start, dir, max_dist, target, pose, hit);
-  const ConvexCore b = core_of(target, pose);
+// Conservative advancement of core a against core b (the target's, or one triangle's).
+bool sweep_cores(ConvexCore a, const ConvexCore& b, const spu::ShapeView& moving, const spu::Pose& start,
+                 const Vec3d& dir, double max_dist, const spu::ShapeView& target, const spu::Pose& pose,
+                 double tolerance, SweepHit& hit) {
   double t = 0.0;
   Separation last;
   for (int step = 0; step < kMaxSweepSteps; ++step) {
@@ -92,6 +94,46 @@ bool sweep_shape(const spu::ShapeView& moving, const spu::Pose& start, const Vec
   hit.point = last.point_b;
   hit.normal = -last.normal;
   return true;
+}
+
+// A triangle surface, one-sided: the first triangle met whose front faces the motion and has
+// the moving shape in front of it, among those the swept box reaches.
+bool sweep_surface(const spu::ShapeView& moving, const spu::Pose& start, const Vec3d& dir, double max_dist,
+                   const spu::ShapeView& target, const spu::Pose& pose, SweepHit& hit, double tolerance) {
+  const spu::MeshView& m = target.mesh;
+  const ShapeFrame f = ShapeFrame::of(pose);
+  if (!(f.s > 0.0) || !std::isfinite(max_dist)) return false;
+  const ConvexCore a = core_of(moving, start);
+  // the swept shape's box, in the surface's unit-scale coordinates
+  Vec3d lo, hi;
+  core_box(a, lo, hi);
+  const Vec3d move = dir * max_dist, pad{tolerance, tolerance, tolerance};
+  lo = min(lo, lo + move) - pad, hi = max(hi, hi + move) + pad;
+  double blo[3], bhi[3];
+  box_in_surface(f, lo, hi, blo, bhi);
+  bool found = false;
+  double reach = max_dist;
+  const Vec3d centre = a.centre();
+  spu::visit_triangles_in_box(m, blo, bhi, [&](int32_t t) {
+    const TriangleCore tri(f, m, t);
+    if (!(dot(tri.normal, dir) < 0.0) || dot(tri.normal, centre - tri.v[0]) < 0.0) return true;  // moving off its front, or behind it
+    SweepHit h;
+    if (sweep_cores(a, tri.core, moving, start, dir, reach, target, pose, tolerance, h) && (!found || h.distance < hit.distance)) {
+      hit = h, found = true, reach = h.distance;
+      if (h.distance == 0.0) return false;  // nothing comes sooner
+    }
+    return true;
+  });
+  return found;
+}
+
+}  // namespace
+
+bool sweep_shape(const spu::ShapeView& moving, const spu::Pose& start, const Vec3d& dir, double max_dist,
+                 const spu::ShapeView& target, const spu::Pose& pose, SweepHit& hit, double tolerance) {
+  if (target.type == spu::ShapeType::plane) return sweep_plane(core_of(moving, start), start, dir, max_dist, target, pose, hit);
+  if (spu::is_triangle_surface(target.type)) return sweep_surface(moving, start, dir, max_dist, target, pose, hit, tolerance);
+  return sweep_cores(core_of(moving, start), core_of(target, pose), moving, start, dir, max_dist, target, pose, tolerance, hit);
 }
 
 }  // namespace cellphys::ppe

@@ -10,6 +10,7 @@
 #include "runtime/base/quat.h"
 #include "runtime/ppe/convex_hull.h"
 #include "runtime/ppe/mass_properties.h"
+#include "runtime/ppe/triangle_surface.h"
 
 namespace cellphys::ppe {
 
@@ -17,7 +18,9 @@ struct ShapeDictionary::Entry {
   spu::ShapeView view;
   ConvexHull hull;  // hulls only; view.hull points into it
   HullInfo info;
-  double lo[3] = {}, hi[3] = {};  // hull box at unit scale
+  TriangleSurface surface;  // meshes and height fields; view.mesh points into it
+  SurfaceInput input;       // what they were made from
+  double lo[3] = {}, hi[3] = {};  // hull, mesh and height-field box at unit scale
   size_t bytes = 0;
 };
 
@@ -169,6 +172,39 @@ uint32_t ShapeDictionary::add_hull(const float* points, int count, HullInfo* inf
   return index;
 }
 
+uint32_t ShapeDictionary::add_mesh(const float* vertices, int num_vertices, const int32_t* triangles, int num_triangles) {
+  auto e = std::make_unique<Entry>();
+  e->surface = build_triangle_surface("mesh", vertices, num_vertices, triangles, num_triangles);
+  e->input.vertices.assign(vertices, vertices + 3 * size_t(num_vertices));
+  e->input.triangles.assign(triangles, triangles + 3 * size_t(num_triangles));
+  e->view.type = spu::ShapeType::mesh;
+  return push_surface(std::move(e));
+}
+
+uint32_t ShapeDictionary::add_height_field(int rows, int columns, const float spacing[2], const float* heights) {
+  if (!spacing || !heights) throw ShapeError("height_field: no spacing or heights given");
+  std::vector<float> vertices;
+  std::vector<int32_t> triangles;
+  height_field_triangles(rows, columns, spacing, heights, vertices, triangles);
+  auto e = std::make_unique<Entry>();
+  e->surface = build_triangle_surface("height_field", vertices.data(), static_cast<int>(vertices.size() / 3),
+                                      triangles.data(), static_cast<int>(triangles.size() / 3));
+  e->input.rows = rows, e->input.columns = columns;
+  e->input.spacing[0] = spacing[0], e->input.spacing[1] = spacing[1];
+  e->input.heights.assign(heights, heights + size_t(rows) * size_t(columns));
+  e->view.type = spu::ShapeType::height_field;
+  return push_surface(std::move(e));
+}
+
+uint32_t ShapeDictionary::push_surface(std::unique_ptr<Entry> e) {
+  e->view.mesh = e->surface.view();
+  e->input.dropped_triangles = e->surface.dropped_triangles;
+  e->input.num_triangles = e->view.mesh.num_triangles;
+  for (int k = 0; k < 3; ++k) e->lo[k] = e->surface.lo[k], e->hi[k] = e->surface.hi[k];
+  e->bytes = e->surface.bytes();
+  return push(std::move(e));
+}
+
 const ShapeDictionary::Entry& ShapeDictionary::entry(uint32_t index) const {
   if (index >= entries_.size())
     throw std::out_of_range("shape " + std::to_string(index) + " does not exist (the dictionary has " +
@@ -179,6 +215,18 @@ const ShapeDictionary::Entry& ShapeDictionary::entry(uint32_t index) const {
 spu::ShapeType ShapeDictionary::type(uint32_t index) const { return entry(index).view.type; }
 const spu::ShapeView& ShapeDictionary::view(uint32_t index) const { return entry(index).view; }
 bool ShapeDictionary::is_static_infinite(uint32_t index) const { return type(index) == spu::ShapeType::plane; }
+bool ShapeDictionary::is_static_only(uint32_t index) const {
+  const spu::ShapeType t = type(index);
+  return t == spu::ShapeType::plane || spu::is_triangle_surface(t);
+}
+
+const SurfaceInput& ShapeDictionary::surface_input(uint32_t index) const {
+  const Entry& e = entry(index);
+  if (!spu::is_triangle_surface(e.view.type))
+    throw ShapeError("shape " + std::to_string(index) + " is a " + spu::shape_type_name(e.view.type) +
+                     ", not a mesh or a height field");
+  return e.input;
+}
 size_t ShapeDictionary::bytes(uint32_t index) const { return entry(index).bytes; }
 
 const HullInfo& ShapeDictionary::hull_info(uint32_t index) const {
@@ -203,8 +251,9 @@ void ShapeDictionary::local_aabb(uint32_t index, float scale, float min[3], floa
       case spu::ShapeType::box: h = v.half_extents[k]; break;
       default: break;
     }
-    lo[k] = v.type == spu::ShapeType::hull ? e.lo[k] * s : -h * s;
-    hi[k] = v.type == spu::ShapeType::hull ? e.hi[k] * s : h * s;
+    const bool boxed = v.type == spu::ShapeType::hull || spu::is_triangle_surface(v.type);  // boxes kept at unit scale
+    lo[k] = boxed ? e.lo[k] * s : -h * s;
+    hi[k] = boxed ? e.hi[k] * s : h * s;
   }
   store(lo, hi, min, max);
 }
@@ -223,6 +272,13 @@ void ShapeDictionary::world_aabb(uint32_t index, const spu::Pose& pose, float mi
     for (int i = 0; i < e.hull.num_vertices(); ++i, p += 3) {
       const Vec3d w = mul(R, Vec3d::load(p)) * s;
       for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], w[k]), hi[k] = std::max(hi[k], w[k]);
+    }
+  } else if (spu::is_triangle_surface(v.type)) {  // its box at unit scale, turned (a surface's vertices may be many)
+    const Vec3d c = (Vec3d::load(e.lo) + Vec3d::load(e.hi)) * 0.5, h = (Vec3d::load(e.hi) - Vec3d::load(e.lo)) * 0.5;
+    const Vec3d wc = mul(R, c) * s;
+    for (int k = 0; k < 3; ++k) {
+      const double r = (std::fabs(R.m[k][0]) * h.x + std::fabs(R.m[k][1]) * h.y + std::fabs(R.m[k][2]) * h.z) * s;
+      lo[k] = wc[k] - r, hi[k] = wc[k] + r;
     }
   } else {
     for (int k = 0; k < 3; ++k) {

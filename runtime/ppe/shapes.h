@@ -35,6 +35,18 @@ struct HullInfo {
   int32_t num_vertices = 0, num_faces = 0, num_edges = 0;
 };
 
+/// What a triangle surface (mesh or height field) was made from, as given: files and snapshots
+/// rebuild it from this, so a restored surface is the same bit for bit.
+struct SurfaceInput {
+  std::vector<float> vertices;     // mesh: 3 floats a vertex
+  std::vector<int32_t> triangles;  // mesh: 3 vertex indices a triangle, counter-clockwise seen from the front
+  int32_t rows = 0, columns = 0;   // height field: the grid
+  float spacing[2] = {};           // height field: between columns (x) and rows (y)
+  std::vector<float> heights;      // height field: rows x columns, row-major
+  int32_t dropped_triangles = 0;   // triangles with no area, left out
+  int32_t num_triangles = 0;       // the triangles the surface holds
+};
+
 class ShapeDictionary {
  public:
   explicit ShapeDictionary(HullLimits limits = {});
@@ -56,6 +68,12 @@ class ShapeDictionary {
   uint32_t add_hull(const float* points, int count, HullInfo* info = nullptr, bool recentre = true);
   /// Static half-space n.x <= offset in world coordinates; the normal is normalised.
   uint32_t add_plane(const float normal[3], float offset);
+  /// Static one-sided triangle mesh in body coordinates (runtime/ppe/triangle_surface.h says what
+  /// is refused); triangles with no area are left out and counted in surface_input().
+  uint32_t add_mesh(const float* vertices, int num_vertices, const int32_t* triangles, int num_triangles);
+  /// Static height field: rows x columns heights along body z, row-major, spaced spacing[0]
+  /// along x and spacing[1] along y, centred on the body origin.
+  uint32_t add_height_field(int rows, int columns, const float spacing[2], const float* heights);
 
   size_t size() const { return entries_.size(); }
   spu::ShapeType type(uint32_t index) const;
@@ -63,8 +81,12 @@ class ShapeDictionary {
   const spu::ShapeView& view(uint32_t index) const;
   /// Throws ShapeError if the entry is not a hull.
   const HullInfo& hull_info(uint32_t index) const;
+  /// Throws ShapeError if the entry is not a mesh or a height field.
+  const SurfaceInput& surface_input(uint32_t index) const;
   /// Planes: unbounded, never dynamic.
   bool is_static_infinite(uint32_t index) const;
+  /// Planes, meshes and height fields: a body of this shape is static.
+  bool is_static_only(uint32_t index) const;
 
   /// Box in body coordinates at a scale. Planes give their world half-space bound
   /// (finite only on the axis an axis-aligned normal points along), +-infinity elsewhere.
@@ -83,6 +105,7 @@ class ShapeDictionary {
   struct Entry;
   const Entry& entry(uint32_t index) const;
   uint32_t push(std::unique_ptr<Entry> e);
+  uint32_t push_surface(std::unique_ptr<Entry> e);
 
   HullLimits limits_;
   std::vector<std::unique_ptr<Entry>> entries_;  // heap entries: views never move

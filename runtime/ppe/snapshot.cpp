@@ -7,6 +7,9 @@
 //           event memory (touching pairs, sensor overlaps: u32 count + sorted u64 keys each;
 //           version 5 on: a version-4 snapshot restores with none, so its first step reports
 //           the touches it has as begun)
+//   shapes:  version 6 on may hold meshes and height fields, stored as they were given (the
+//           vertices and triangles, or the grid) and rebuilt by the dictionary, which builds
+//           the same surface from the same input
 //   settings: u32 count, then per setting (runtime/ppe/settings.h) its scene path and its value
 //           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
 //           each as u32 length + bytes: matched by name, so a build with other forces refuses
@@ -32,7 +35,7 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 5;
+constexpr uint32_t kVersion = 6;
 constexpr uint32_t kOldestVersion = 4;  // without the event memory
 constexpr size_t kHeaderBytes = 32;
 // The fewest bytes of each record, so that a count the rest of the file cannot hold is refused
@@ -222,11 +225,28 @@ void put_shapes(Writer& w, const ShapeDictionary& d) {
         for (int k = 0; k < 2 * v.hull.num_edges; ++k) w.put(v.hull.edges[k]);
         break;
       }
+      case spu::ShapeType::mesh: {
+        const SurfaceInput& in = d.surface_input(i);
+        w.put(static_cast<int32_t>(in.vertices.size() / 3));
+        w.put_floats(in.vertices.data(), in.vertices.size());
+        w.put(static_cast<int32_t>(in.triangles.size() / 3));
+        for (int32_t x : in.triangles) w.put(x);
+        w.put(in.num_triangles);  // to check the rebuilt surface against
+        break;
+      }
+      case spu::ShapeType::height_field: {
+        const SurfaceInput& in = d.surface_input(i);
+        w.put(in.rows), w.put(in.columns);
+        w.put_floats(in.spacing, 2);
+        w.put_floats(in.heights.data(), in.heights.size());
+        w.put(in.num_triangles);
+        break;
+      }
     }
   }
 }
 
-void get_shapes(Reader& r, ShapeDictionary& d) {
+void get_shapes(Reader& r, ShapeDictionary& d, uint32_t version) {
   const uint32_t n = r.count("shapes", kShapeBytes);
   for (uint32_t i = 0; i < n; ++i) {
     const std::string who = "snapshot: shape " + std::to_string(i);
@@ -274,6 +294,33 @@ void get_shapes(Reader& r, ShapeDictionary& d) {
               !same_ints(h.face_start, fs.data(), fs.size()) || !same_ints(h.face_vertices, fvs.data(), fvs.size()) ||
               !same_ints(h.edges, edges.data(), edges.size()))
             throw WorldError(who + ": hull does not rebuild bit for bit from its vertices");
+          break;
+        }
+        case spu::ShapeType::mesh: {
+          if (version < 6) throw WorldError(who + ": a mesh in a version " + std::to_string(version) + " snapshot");
+          const uint32_t nv = r.count("mesh vertices", 12);
+          std::vector<float> verts(3 * size_t(nv));
+          r.get_floats(verts.data(), verts.size(), "mesh vertices");
+          const uint32_t nt = r.count("mesh triangles", 12);
+          std::vector<int32_t> tris(3 * size_t(nt));
+          for (int32_t& x : tris) x = r.get<int32_t>("mesh triangles");
+          const int32_t kept = r.get<int32_t>("mesh");
+          const uint32_t index = d.add_mesh(verts.data(), int(nv), tris.data(), int(nt));
+          if (d.surface_input(index).num_triangles != kept) throw WorldError(who + ": mesh does not rebuild as saved");
+          break;
+        }
+        case spu::ShapeType::height_field: {
+          if (version < 6) throw WorldError(who + ": a height field in a version " + std::to_string(version) + " snapshot");
+          const int32_t rows = r.get<int32_t>("height field"), columns = r.get<int32_t>("height field");
+          if (rows < 2 || columns < 2 || int64_t(rows) * columns > (1 << 22))
+            throw WorldError(who + ": height field grid out of range");
+          float spacing[2];
+          r.get_floats(spacing, 2, "height field");
+          std::vector<float> heights(size_t(rows) * size_t(columns));
+          r.get_floats(heights.data(), heights.size(), "height field heights");
+          const int32_t kept = r.get<int32_t>("height field");
+          const uint32_t index = d.add_height_field(rows, columns, spacing, heights.data());
+          if (d.surface_input(index).num_triangles != kept) throw WorldError(who + ": height field does not rebuild as saved");
           break;
         }
         default: throw WorldError(who + ": unknown shape type " + std::to_string(type));
@@ -430,7 +477,7 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
   World& W = *world;
   Impl& w = *W.impl_;
   W.stats_.step = r.get<uint64_t>("step counter");
-  get_shapes(r, W.shapes_);
+  get_shapes(r, W.shapes_, version);
 
   const uint32_t nb = r.count("bodies", kBodyBytes);
   w.bodies.resize(nb);

@@ -48,7 +48,7 @@ void World::set_settings(const WorldSettings& s) {
 BodyId World::add_body(const BodyDesc& d) {
   warnings_.clear();
   const std::string who = body_name(static_cast<BodyId>(impl_->bodies.size()));
-  const bool is_static = d.is_static || (d.shape < shapes_.size() && shapes_.type(d.shape) == spu::ShapeType::plane);
+  const bool is_static = d.is_static || (d.shape < shapes_.size() && shapes_.is_static_only(d.shape));
   check_body_desc(shapes_, d, is_static, who);
   WorldBody b;
   b.alive = true;

@@ -36,6 +36,12 @@ struct ShapeSpec {
   std::vector<float> points;          // hull: x y z per point, re-centred on the centre of mass
   float normal[3] = {0.0f, 0.0f, 1.0f};  // plane: n.x <= offset is solid
   float offset = 0.0f;
+  std::vector<float> vertices;        // mesh: x y z per vertex (inline, or read from `obj`)
+  std::vector<int32_t> triangles;     // mesh: 3 vertex indices per triangle, counter-clockwise from the front
+  std::string obj;                    // mesh: the OBJ file it was read from, as the scene names it ("" inline)
+  int32_t rows = 0, columns = 0;      // height field: the grid
+  float spacing[2] = {};              // height field: between columns (x) and between rows (y)
+  std::vector<float> heights;         // height field: rows x columns, row-major (row i along y)
 };
 
 struct BodySpec {

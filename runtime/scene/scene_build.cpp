@@ -35,10 +35,23 @@ BuiltScene build_world(const SceneDesc& scene) {
           index = w.shapes().add_hull(s.points.data(), static_cast<int>(s.points.size() / 3));
           break;
         case spu::ShapeType::plane: index = w.shapes().add_plane(s.normal, s.offset); break;
+        case spu::ShapeType::mesh:
+          index = w.shapes().add_mesh(s.vertices.data(), static_cast<int>(s.vertices.size() / 3), s.triangles.data(),
+                                      static_cast<int>(s.triangles.size() / 3));
+          break;
+        case spu::ShapeType::height_field:
+          if (s.heights.size() != size_t(s.rows) * size_t(s.columns))
+            throw ppe::ShapeError("height_field: heights must be rows x columns");
+          index = w.shapes().add_height_field(s.rows, s.columns, s.spacing, s.heights.data());
+          break;
       }
     } catch (const std::invalid_argument& e) {  // ShapeError
       throw SceneError(file, at("shapes", i), e.what());
     }
+    if (spu::is_triangle_surface(s.type))
+      if (const int dropped = w.shapes().surface_input(index).dropped_triangles)
+        out.warnings.push_back(file + ": " + at("shapes", i) + ": " + std::to_string(dropped) +
+                               " triangle(s) with no area left out");
     shapes[s.name] = index;
   }
 

@@ -18,6 +18,7 @@
 #include "cellphys/gen/force_table.h"
 #include "runtime/base/enum_names.h"
 #include "runtime/ppe/settings.h"
+#include "runtime/scene/obj_file.h"
 #include "runtime/scene/scene.h"
 
 namespace cellphys::scene {
@@ -257,6 +258,57 @@ void read_settings(const Reader& r, const json& j, const std::string& group, ppe
 
 
 
+// The directory a scene's relative file names are read from: its own.
+std::string directory_of(const std::string& scene_file) {
+  const size_t slash = scene_file.find_last_of('/');
+  return slash == std::string::npos ? std::string() : scene_file.substr(0, slash + 1);
+}
+
+void read_mesh(const Reader& r, const json& j, const std::string& p, const std::string& scene_file, ShapeSpec& s) {
+  r.known_fields(j, p, {"name", "type", "vertices", "triangles", "obj"}, "a mesh");
+  const json* obj = r.find(j, "obj");
+  if (obj) {
+    if (r.find(j, "vertices") || r.find(j, "triangles")) r.fail(p, "a mesh has either 'obj' or 'vertices' and 'triangles', not both");
+    s.obj = r.name(*obj, p + ".obj");
+    const std::string path = !s.obj.empty() && s.obj[0] == '/' ? s.obj : directory_of(scene_file) + s.obj;
+    try {
+      ObjMesh m = load_obj(path);
+      s.vertices = std::move(m.vertices);
+      s.triangles = std::move(m.triangles);
+    } catch (const ObjError& e) {
+      r.fail(p + ".obj", e.what());
+    }
+    return;
+  }
+  const std::string qv = p + ".vertices", qt = p + ".triangles";
+  const json& vs = r.array(r.need(j, p, "vertices", "a mesh"), qv);
+  s.vertices.resize(3 * vs.size());
+  for (size_t i = 0; i < vs.size(); ++i) r.vec(vs[i], index_path(qv, i), &s.vertices[3 * i], 3);
+  const json& ts = r.array(r.need(j, p, "triangles", "a mesh"), qt);
+  s.triangles.resize(3 * ts.size());
+  for (size_t i = 0; i < ts.size(); ++i) {
+    const std::string q = index_path(qt, i);
+    r.array(ts[i], q);
+    if (ts[i].size() != 3) r.fail(q, "expected 3 vertex indices, got " + std::to_string(ts[i].size()));
+    for (size_t c = 0; c < 3; ++c)
+      s.triangles[3 * i + c] = static_cast<int32_t>(r.integer(ts[i][c], index_path(q, c), 0, int64_t(vs.size()) - 1));
+  }
+}
+
+void read_height_field(const Reader& r, const json& j, const std::string& p, ShapeSpec& s) {
+  r.known_fields(j, p, {"name", "type", "rows", "columns", "spacing", "heights"}, "a height field");
+  s.rows = static_cast<int32_t>(r.integer(r.need(j, p, "rows", "a height field"), p + ".rows", 2, 1 << 22));
+  s.columns = static_cast<int32_t>(r.integer(r.need(j, p, "columns", "a height field"), p + ".columns", 2, 1 << 22));
+  r.vec(r.need(j, p, "spacing", "a height field"), p + ".spacing", s.spacing, 2);
+  const std::string q = p + ".heights";
+  const json& hs = r.array(r.need(j, p, "heights", "a height field"), q);
+  const size_t want = size_t(s.rows) * size_t(s.columns);
+  if (hs.size() != want)
+    r.fail(q, std::to_string(hs.size()) + " heights, but rows x columns is " + std::to_string(want));
+  s.heights.resize(want);
+  for (size_t i = 0; i < want; ++i) s.heights[i] = r.number(hs[i], index_path(q, i));
+}
+
 ShapeSpec read_shape(const Reader& r, const json& j, const std::string& p) {
   r.object(j, p);
   ShapeSpec s;
@@ -291,6 +343,8 @@ ShapeSpec read_shape(const Reader& r, const json& j, const std::string& p) {
       r.vec(r.need(j, p, "normal", "a plane"), p + ".normal", s.normal, 3);
       if (const json* v = r.find(j, "offset")) s.offset = r.number(*v, p + ".offset");
       break;
+    case spu::ShapeType::mesh: read_mesh(r, j, p, r.file(), s); break;
+    case spu::ShapeType::height_field: read_height_field(r, j, p, s); break;
   }
   return s;
 }
@@ -538,7 +592,7 @@ SceneDesc parse_scene(const std::string& text, const std::string& name) {
       const ShapeSpec* shape = nullptr;
       for (const ShapeSpec& s : scene.shapes)
         if (s.name == b.shape) shape = &s;
-      const bool is_static = b.is_static || shape->type == spu::ShapeType::plane;
+      const bool is_static = b.is_static || shape->type == spu::ShapeType::plane || spu::is_triangle_surface(shape->type);
       if (!is_static && b.mass == 0.0f && b.density == 0.0f) r.fail(p, "a dynamic body needs a mass or a density");
       if (!body_ids.insert(b.id).second) r.fail(p + ".id", "a body with id " + shown(b.id) + " already exists");
       scene.bodies.push_back(std::move(b));
@@ -602,6 +656,24 @@ std::string write_scene(const SceneDesc& scene) {
         o["normal"] = arr(sh.normal, 3);
         o["offset"] = tidy(sh.offset);
         break;
+      case spu::ShapeType::mesh: {  // inline, whatever it was read from: the written file stands alone
+        ojson vs = ojson::array(), ts = ojson::array();
+        for (size_t i = 0; i + 2 < sh.vertices.size(); i += 3) vs.push_back(arr(&sh.vertices[i], 3));
+        for (size_t i = 0; i + 2 < sh.triangles.size(); i += 3)
+          ts.push_back(ojson::array({sh.triangles[i], sh.triangles[i + 1], sh.triangles[i + 2]}));
+        o["vertices"] = vs;
+        o["triangles"] = ts;
+        break;
+      }
+      case spu::ShapeType::height_field: {
+        o["rows"] = sh.rows;
+        o["columns"] = sh.columns;
+        o["spacing"] = arr(sh.spacing, 2);
+        ojson hs = ojson::array();
+        for (float h : sh.heights) hs.push_back(tidy(h));
+        o["heights"] = hs;
+        break;
+      }
     }
     shapes.push_back(o);
   }
@@ -711,6 +783,10 @@ bool operator==(const ShapeSpec& a, const ShapeSpec& b) {
     case spu::ShapeType::capsule: return a.radius == b.radius && a.half_height == b.half_height;
     case spu::ShapeType::hull: return a.points == b.points;
     case spu::ShapeType::plane: return same(a.normal, b.normal) && a.offset == b.offset;
+    case spu::ShapeType::mesh: return a.vertices == b.vertices && a.triangles == b.triangles;  // not where it was read from
+    case spu::ShapeType::height_field:
+      return a.rows == b.rows && a.columns == b.columns && a.spacing[0] == b.spacing[0] && a.spacing[1] == b.spacing[1] &&
+             a.heights == b.heights;
   }
   return false;
 }

@@ -16,6 +16,7 @@
 #include <limits>
 
 #include "runtime/base/vec3.h"
+#include "runtime/spu/surface_tree.h"
 
 namespace cellphys::spu {
 namespace {
@@ -120,15 +121,27 @@ SegmentPair closest_segments(const Vec3d& a0, const Vec3d& a1, const Vec3d& b0, 
 
 // ---- the contact sink -----------------------------------------------------------------------
 
-/// Collects up to kMaxManifoldPoints contacts, applying the margin rule in one place.
+/// A contact kept in double precision (a triangle surface's, until its manifold is chosen).
+struct ContactPointD {
+  Vec3d point, normal;
+  double penetration;
+};
+
+/// Collects up to kMaxManifoldPoints contacts, applying the margin rule in one place; into
+/// `exact` instead of `out` when it is set.
 struct Sink {
   ContactPoint* out;
   double margin;
   int n = 0;
+  ContactPointD* exact = nullptr;
 
   bool keeps(double penetration) const { return penetration > -margin; }
   void add(const Vec3d& point, const Vec3d& normal, double penetration) {
     if (n >= kMaxManifoldPoints || !keeps(penetration)) return;
+    if (exact) {
+      exact[n++] = {point, normal, penetration};
+      return;
+    }
     ContactPoint& c = out[n++];
     c.point[0] = float(point.x), c.point[1] = float(point.y), c.point[2] = float(point.z);
     c.normal[0] = float(normal.x), c.normal[1] = float(normal.y), c.normal[2] = float(normal.z);
@@ -376,11 +389,20 @@ bool make_hull(const ShapeView& shape, const Frame& f, bool with_edges, Polytope
 /// it, the largest triangle, then the point adding the most area. The penalty forces need the
 /// support polygon, not every point. Ties go to the lower index; the indices come out sorted
 /// (clipped polygons keep their winding). eps2: squared length below which points coincide.
+int reduce_spread(const Vec3d* p, const double* depth, int n, const Vec3d& normal, double eps2, int keep[4]);
+
 int reduce_manifold(const Vec3d* p, const double* depth, int n, const Vec3d& normal, double eps2, int keep[4]) {
   if (n <= 4) {
     for (int i = 0; i < n; ++i) keep[i] = i;
     return n;
   }
+  return reduce_spread(p, depth, n, normal, eps2, keep);
+}
+
+/// The same choice for any n: a point adding no area (a repeat, or one between two others on a
+/// line) is dropped even when there are four or fewer.
+int reduce_spread(const Vec3d* p, const double* depth, int n, const Vec3d& normal, double eps2, int keep[4]) {
+  if (n <= 0) return 0;
   int i0 = 0;
   for (int i = 1; i < n; ++i)
     if (depth[i] > depth[i0]) i0 = i;
@@ -876,6 +898,181 @@ void polytope_polytope(const Polytope& A, const Polytope& B, Sink& s) {
   s.add(I.v[deepest] + fm.n * (pen * 0.5), normal, pen);
 }
 
+// ---- triangle surfaces: meshes and height fields --------------------------------------------
+
+// A triangle collides as a prism: its face on top, extruded behind it by about twice the other
+// shape's size, so the general routines above find the contact and a shape sunk a little into
+// the surface is still pushed out of its front. Vertices 0-2 are the triangle, 3-5 the same
+// moved behind it; faces: the front, the back, then the side under edge k (vertex k to k + 1).
+constexpr int32_t kPrismFaceStart[6] = {0, 3, 6, 10, 14, 18};
+constexpr int32_t kPrismFaceVertices[18] = {0, 1, 2, 3, 5, 4, 0, 3, 4, 1, 1, 4, 5, 2, 2, 5, 3, 0};
+constexpr int32_t kPrismEdges[18] = {0, 1, 1, 2, 2, 0, 3, 4, 4, 5, 5, 3, 0, 3, 1, 4, 2, 5};
+constexpr int16_t kPrismEdgeFaces[9][2] = {{0, 2}, {0, 3}, {0, 4}, {1, 2}, {1, 3}, {1, 4}, {2, 4}, {3, 2}, {4, 3}};
+// A contact normal this close to the triangle's is its face normal.
+constexpr double kFaceNormalCos = 0.9999;
+// Contacts gathered from a surface's triangles before they are reduced to a manifold.
+constexpr int kSurfaceGather = 64;
+
+struct SurfaceTriangle {
+  Vec3d v[3], n;
+  uint8_t active = 0;  // bit k: edge k (vertex k to k + 1) is active
+};
+
+SurfaceTriangle triangle_of(const MeshView& m, const Frame& f, int t) {
+  SurfaceTriangle tr;
+  const int32_t* ix = m.triangles + 3 * t;
+  for (int c = 0; c < 3; ++c) tr.v[c] = f.point(Vec3d::load(m.vertices + 3 * ix[c]));
+  tr.n = f.rotate(Vec3d::load(m.normals + 3 * t));
+  tr.active = m.edge_flags[t];
+  return tr;
+}
+
+void make_prism(const SurfaceTriangle& t, double depth, Polytope& P) {
+  P.nv = 6, P.nf = 5, P.ne = 9;
+  P.face_start = kPrismFaceStart, P.face_vertices = kPrismFaceVertices, P.edges = kPrismEdges;
+  P.edge_faces = kPrismEdgeFaces;
+  P.is_box = false;
+  const double d0 = dot(t.n, t.v[0]);
+  P.centre = {0, 0, 0};
+  for (int i = 0; i < 3; ++i) {
+    P.v[i] = t.v[i], P.v[i + 3] = t.v[i] - t.n * depth;
+    P.centre = P.centre + (P.v[i] + P.v[i + 3]) * (1.0 / 6.0);
+  }
+  P.n[0] = t.n, P.d[0] = d0;
+  P.n[1] = -t.n, P.d[1] = depth - d0;
+  for (int k = 0; k < 3; ++k) {
+    const Vec3d side = cross(t.v[(k + 1) % 3] - t.v[k], t.n);
+    P.n[2 + k] = side * (1.0 / norm(side));  // the dictionary keeps only triangles with an area
+    P.d[2 + k] = dot(P.n[2 + k], t.v[k]);
+  }
+  P.size = 0.0;
+  for (int i = 0; i < 6; ++i) P.size = std::max(P.size, norm(P.v[i] - P.centre));
+}
+
+/// The other shape of a surface pair, in world space.
+struct SurfaceVisitor {
+  ShapeType type = ShapeType::sphere;  // sphere, capsule, or a polytope (box, hull)
+  Vec3d centre;
+  double radius = 0.0, size = 0.0;
+  Segment core;                  // capsule
+  const Polytope* P = nullptr;   // box, hull
+  Vec3d lo, hi;                  // its box
+};
+
+void visitor_vs_prism(const SurfaceVisitor& a, const Polytope& T, Sink& s) {
+  if (a.type == ShapeType::sphere) return sphere_polytope(a.centre, a.radius, T, s);
+  if (a.type == ShapeType::capsule) return capsule_polytope(a.core, T, s);
+  polytope_polytope(*a.P, T, s);
+}
+
+/// The contact against the triangle's face alone, clipped to the triangle: what a shape on an
+/// inactive edge gets, as it would from the one plane the neighbouring triangles share.
+void visitor_on_face(const SurfaceVisitor& a, const Polytope& T, Sink& s) {
+  const Vec3d& n = T.n[0];
+  if (a.type == ShapeType::sphere) {
+    const double h = dot(n, a.centre) - T.d[0];
+    const Vec3d q = a.centre - n * h;
+    for (int k = 0; k < 3; ++k)
+      if (dot(T.n[2 + k], q) > T.d[2 + k]) return;  // beside the triangle: a neighbour's
+    s.add(a.centre - n * ((a.radius + h) * 0.5), -n, a.radius - h);
+    return;
+  }
+  if (a.type == ShapeType::capsule) {
+    segment_on_face(a.core, T, 0, s);
+    return;
+  }
+  FaceManifold fm;
+  if (!face_contact(T, 0, *a.P, s.margin, fm)) return;
+  for (int i = 0; i < fm.count; ++i) s.add(fm.point[i] + fm.n * (fm.depth[i] * 0.5), -fm.n, fm.depth[i]);
+}
+
+/// Whether a contact point lies on an active edge of the triangle (a vertex counts as on both
+/// its edges): within `tol` of that edge's side plane.
+bool on_active_edge(const SurfaceTriangle& t, const Polytope& T, const Vec3d& x, double tol) {
+  for (int k = 0; k < 3; ++k)
+    if ((t.active >> k & 1) && dot(T.n[2 + k], x) - T.d[2 + k] > -tol) return true;
+  return false;
+}
+
+/// The visitor against one triangle, one-sided: nothing if its centre is behind the face; the
+/// general contact if its normal is the face's, or it is on an active edge and faces the front;
+/// else the face's contact (an inside edge of a flat or smooth surface never pushes sideways).
+int triangle_contacts(const SurfaceVisitor& a, const SurfaceTriangle& t, double margin, Polytope& T,
+                      ContactPointD out[kMaxManifoldPoints]) {
+  if (dot(t.n, a.centre - t.v[0]) < 0.0) return 0;
+  make_prism(t, 2.0 * a.size + margin, T);
+  Sink s{nullptr, margin, 0, out};
+  visitor_vs_prism(a, T, s);
+  if (s.n == 0) return 0;
+  const double along = -dot(t.n, out[0].normal);
+  bool keep = along >= kFaceNormalCos;
+  if (!keep && along >= 0.0) {
+    keep = true;
+    const double tol = 1e-4 * T.size;
+    for (int i = 0; i < s.n && keep; ++i) keep = on_active_edge(t, T, out[i].point, tol + std::fabs(out[i].penetration));
+  }
+  if (keep) return s.n;
+  Sink face{nullptr, margin, 0, out};
+  visitor_on_face(a, T, face);
+  return face.n;
+}
+
+/// A sphere, capsule or polytope (a) against a triangle surface (b): every triangle whose
+/// hierarchy leaf its box (grown by the margin) reaches, gathered and reduced to one manifold.
+void visitor_vs_surface(const SurfaceVisitor& a, const ShapeView& b, const Pose& pb, Sink& s) {
+  const MeshView& m = b.mesh;
+  if (m.num_triangles <= 0 || !m.nodes) return;
+  const Frame f = frame_of(pb);
+  if (!(f.s > 0.0)) return;
+  // the visitor's box in the surface's coordinates (unit scale)
+  const Vec3d wc = (a.lo + a.hi) * 0.5, wh = (a.hi - a.lo) * 0.5 + Vec3d{s.margin, s.margin, s.margin};
+  const Vec3d lc = f.unrotate(wc - f.t) * (1.0 / f.s);
+  const Vec3d cols[3] = {f.c0, f.c1, f.c2};
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) {
+    const double h = (std::fabs(cols[k].x) * wh.x + std::fabs(cols[k].y) * wh.y + std::fabs(cols[k].z) * wh.z) / f.s;
+    lo[k] = lc[k] - h, hi[k] = lc[k] + h;
+  }
+  Polytope T;
+  Vec3d pts[kSurfaceGather + kMaxManifoldPoints], nrm[kSurfaceGather + kMaxManifoldPoints];
+  double depth[kSurfaceGather + kMaxManifoldPoints];
+  int count = 0;
+  const double eps = 1e-6 * a.size, eps2 = eps * eps;
+  // Down to the manifold's best four, the deepest point's normal deciding the winding. The
+  // first kept is the deepest, or of points as deep to a thousandth of the shape's size, the one
+  // farthest from their middle: triangles clip a flat contact at their edges, and the support
+  // polygon's corners, not a clipped point inside it, are what a plane would give.
+  auto reduce = [&]() {
+    int deepest = 0;
+    for (int i = 1; i < count; ++i)
+      if (depth[i] > depth[deepest]) deepest = i;
+    const double level = depth[deepest] - 1e-3 * a.size;
+    Vec3d mid{0, 0, 0};
+    for (int i = 0; i < count; ++i) mid = mid + pts[i] * (1.0 / count);
+    double first[kSurfaceGather + kMaxManifoldPoints];
+    for (int i = 0; i < count; ++i) first[i] = depth[i] >= level ? 1.0 + squared_norm(pts[i] - mid) : 0.0;
+    int keep[4];
+    const int k = reduce_spread(pts, first, count, nrm[deepest], eps2, keep);
+    for (int i = 0; i < k; ++i) pts[i] = pts[keep[i]], nrm[i] = nrm[keep[i]], depth[i] = depth[keep[i]];
+    count = k;
+  };
+  visit_triangles_in_box(m, lo, hi, [&](int32_t t) {
+    ContactPointD cp[kMaxManifoldPoints];
+    const int n = triangle_contacts(a, triangle_of(m, f, t), s.margin, T, cp);
+    if (count + n > kSurfaceGather) reduce();
+    for (int i = 0; i < n; ++i, ++count) pts[count] = cp[i].point, nrm[count] = cp[i].normal, depth[count] = cp[i].penetration;
+    return true;
+  });
+  // Always: the triangles' clipped points repeat where two triangles meet.
+  if (count > 1) reduce();
+  for (int i = 0; i < count; ++i) s.add(pts[i], nrm[i], depth[i]);
+}
+
+void polytope_box(const Polytope& P, Vec3d& lo, Vec3d& hi) {
+  lo = hi = P.v[0];
+  for (int i = 1; i < P.nv; ++i) lo = min(lo, P.v[i]), hi = max(hi, P.v[i]);
+}
+
 // ---- dispatch -------------------------------------------------------------------------------
 
 // One function per family keeps each polytope's stack scratch in its own frame.
@@ -903,6 +1100,13 @@ void sphere_vs(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pos
       if (plane_of(b, pb, pl)) sphere_plane(c, r, pl, s);
       return;
     }
+    case ShapeType::mesh:
+    case ShapeType::height_field: {
+      SurfaceVisitor v;
+      v.type = ShapeType::sphere, v.centre = c, v.radius = r, v.size = r;
+      v.lo = c - Vec3d{r, r, r}, v.hi = c + Vec3d{r, r, r};
+      return visitor_vs_surface(v, b, pb, s);
+    }
   }
 }
 
@@ -923,6 +1127,15 @@ void capsule_vs(const ShapeView& a, const Pose& pa, const ShapeView& b, const Po
       if (plane_of(b, pb, pl)) capsule_plane(ca, pl, s);
       return;
     }
+    case ShapeType::mesh:
+    case ShapeType::height_field: {
+      SurfaceVisitor v;
+      v.type = ShapeType::capsule, v.core = ca, v.centre = (ca.p0 + ca.p1) * 0.5, v.radius = ca.radius;
+      v.size = ca.radius + 0.5 * norm(ca.p1 - ca.p0);
+      const Vec3d r{ca.radius, ca.radius, ca.radius};
+      v.lo = min(ca.p0, ca.p1) - r, v.hi = max(ca.p0, ca.p1) + r;
+      return visitor_vs_surface(v, b, pb, s);
+    }
     default:
       return;
   }
@@ -940,6 +1153,14 @@ void polytope_vs(const ShapeView& a, const Pose& pa, const ShapeView& b, const P
     Plane pl;
     if (make_polytope(a, pa, false, A) && plane_of(b, pb, pl)) polytope_plane(A, pl, s);
     return;
+  }
+  if (is_triangle_surface(b.type)) {
+    Polytope A;
+    if (!make_polytope(a, pa, true, A)) return;
+    SurfaceVisitor v;
+    v.type = a.type, v.P = &A, v.centre = A.centre, v.size = A.size;
+    polytope_box(A, v.lo, v.hi);
+    return visitor_vs_surface(v, b, pb, s);
   }
   Polytope A, B;
   if (make_polytope(a, pa, true, A) && make_polytope(b, pb, true, B)) polytope_polytope(A, B, s);
@@ -986,7 +1207,9 @@ int collide_ordered(const ShapeView& a, const Pose& pa, const ShapeView& b, cons
     case ShapeType::capsule: capsule_vs(a, pa, b, pb, s); break;
     case ShapeType::box:
     case ShapeType::hull: polytope_vs(a, pa, b, pb, s); break;
-    case ShapeType::plane: break;  // planes are static: plane-plane has no contact
+    case ShapeType::plane:  // static: nothing static collides with anything static
+    case ShapeType::mesh:
+    case ShapeType::height_field: break;
   }
   return s.n;
 }

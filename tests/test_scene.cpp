@@ -61,7 +61,7 @@ TEST(Scene, BuiltinScenesAreAllThere) {
   std::vector<std::string> names;
   for (const std::string& f : builtin_scene_files()) names.push_back(fs::path(f).stem().string());
   for (const char* want : {"world1000", "pile65", "stack10", "chain_ratio", "spin", "stiff_spring", "incline",
-                           "pendulum", "newton_cradle", "ragdoll_pile", "door_and_bridge", "cars"})
+                           "pendulum", "newton_cradle", "ragdoll_pile", "door_and_bridge", "cars", "terrain"})
     EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
 }
 

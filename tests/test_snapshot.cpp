@@ -67,7 +67,7 @@ TEST(Snapshot, World1000WithSleepersAndHullsResumesBitForBit) {
 // (world1000 above) after a second of motion, with its joints, springs and sleepers.
 TEST(Snapshot, EveryBuiltInSceneResumesAfterASecond) {
   for (const char* name : {"stack10", "chain_ratio", "incline", "newton_cradle", "pendulum", "spin", "stiff_spring",
-                           "ragdoll_pile", "door_and_bridge", "cars"}) {
+                           "ragdoll_pile", "door_and_bridge", "cars", "terrain"}) {
     SCOPED_TRACE(name);
     auto built = cellphys::scene::build_world(cellphys::scene::load_scene(scene_file(name)));
     check_resume(*built.world, 60, 2);

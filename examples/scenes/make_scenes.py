@@ -497,6 +497,45 @@ def cars():
             "shapes": shapes, "bodies": bodies, "forces": forces}
 
 
+def terrain(rows=41, columns=41, spacing=0.5, seed=3):
+    """Rolling hills as a height field and a ramp as a mesh, with balls, boxes and capsules
+    dropped on the slopes to roll and slide into the hollows."""
+    heights = []
+    for i in range(rows):
+        for j in range(columns):
+            x, y = (j - (columns - 1) / 2) * spacing, (i - (rows - 1) / 2) * spacing
+            heights.append(num(0.8 * math.sin(0.35 * x) * math.cos(0.3 * y) + 0.01 * (x * x + y * y)))
+    # a 4 m wide ramp rising 2.4 m over 6 m (22 degrees), its low end a border the crates slide off
+    ramp_v = [[-3, -2, 0], [3, -2, 2.4], [3, 2, 2.4], [-3, 2, 0]]
+    shapes = [{"name": "hills", "type": "height_field", "rows": rows, "columns": columns,
+               "spacing": [num(spacing), num(spacing)], "heights": heights},
+              {"name": "ramp", "type": "mesh", "vertices": ramp_v, "triangles": [[0, 1, 2], [0, 2, 3]]},
+              {"name": "ball", "type": "sphere", "radius": 0.3},
+              {"name": "crate", "type": "box", "half_extents": [0.3, 0.25, 0.2]},
+              {"name": "log", "type": "capsule", "radius": 0.15, "half_height": 0.4}]
+    bodies = [{"id": "hills", "shape": "hills", "static": True, "friction": 0.6},
+              {"id": "ramp", "shape": "ramp", "static": True, "friction": 0.2, "position": [4.0, 4.0, 1.2]}]
+    r = Rng(seed)
+    for k in range(24):
+        kind = ("ball", "crate", "log")[k % 3]
+        x, y = r.uniform(-8.0, 8.0), r.uniform(-8.0, 8.0)
+        body = {"id": "%s%d" % (kind, k), "shape": kind, "mass": num(r.uniform(2.0, 20.0)),
+                "position": vec([x, y, 3.0 + 0.5 * (k % 4)])}
+        if kind != "ball":
+            body["orientation"] = vec(random_small_rotation(r, 0.6))
+        bodies.append(body)
+    tilt = math.atan2(2.4, 6.0)
+    for k in range(3):  # crates on the ramp's top, turned to lie on it, that slide down and off it
+        x = 6.2
+        bodies.append({"id": "ramp_crate%d" % k, "shape": "crate", "mass": 10.0,
+                       "position": vec([x, 2.8 + 1.2 * k, 1.2 + (x - 1.0) * 0.4 + 0.2 / math.cos(tilt) + 0.01]),
+                       "orientation": vec(axis_angle(0, 1, 0, -tilt))})
+    return {"description": "Rolling hills (a 41 x 41 height field) and a mesh ramp, with 24 balls, crates and logs "
+                           "dropped to roll and slide into the hollows, and 3 crates sliding down the ramp and off its end.",
+            "settings": {"dt": num(1 / 60), "sleeping": True},
+            "shapes": shapes, "bodies": bodies}
+
+
 SCENES = {
     "world1000": sparse,
     "pile65": pile,
@@ -510,6 +549,7 @@ SCENES = {
     "ragdoll_pile": ragdoll_pile,
     "door_and_bridge": door_and_bridge,
     "cars": cars,
+    "terrain": terrain,
 }
 
 

@@ -1,5 +1,6 @@
-// Narrow phase: contact points between two convex shapes (the reference design's "narrow-phase jobs on
-// packed shape data"). Pure functions of shape views and poses: no state, no allocation,
+// Narrow phase: contact points between two convex shapes, or a convex shape and the triangles
+// of a mesh or height field near it (the reference design's "narrow-phase jobs on packed shape
+// data"). Pure functions of shape views and poses: no state, no allocation,
 // scratch on the stack within fixed bounds (about 100 KB for two hulls at the bounds below),
 // ties broken by index, never by address, so the same inputs give the same bits.
 //
@@ -37,7 +38,10 @@ inline constexpr int kMaxHullLoopLength = 2 * kMaxHullEdges;  // sum of all face
 bool hull_supported(const HullView& hull);
 
 /// Contact points between a and b (0..kMaxManifoldPoints), written to out. Any pair of types
-/// (plane-plane gives 0). A hull failing the size bounds above gives 0.
+/// (two static shapes, planes and triangle surfaces, give 0). A hull failing the size bounds
+/// above gives 0. Against a triangle surface (one-sided, inactive edges taking the face's
+/// normal: spu::MeshView) the points of every triangle the other shape's box reaches are
+/// reduced to one manifold.
 int collide(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, float margin,
             ContactPoint out[kMaxManifoldPoints]);
 

@@ -72,6 +72,8 @@ class BulletPeer : public Peer {
         case spu::ShapeType::mesh:
         case spu::ShapeType::height_field:
           throw Unsupported("Bullet: meshes and height fields are not mapped to its triangle shapes yet");
+        case spu::ShapeType::compound:
+          throw Unsupported("Bullet: compound bodies are not mapped to its compound shapes yet");
         case spu::ShapeType::plane:
           shape = std::make_unique<btStaticPlaneShape>(btVector3(s.normal[0], s.normal[1], s.normal[2]), s.offset);
           tr.setIdentity();  // the plane is in world coordinates

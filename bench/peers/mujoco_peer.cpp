@@ -120,6 +120,8 @@ class MujocoPeer : public Peer {
         case spu::ShapeType::mesh:
         case spu::ShapeType::height_field:
           throw Unsupported("MuJoCo: meshes and height fields are not mapped to its triangle shapes yet");
+        case spu::ShapeType::compound:
+          throw Unsupported("MuJoCo: compound bodies are not mapped to its compound shapes yet");
         case spu::ShapeType::plane: {
           double q[4];
           z_to(s.normal, q);

@@ -81,6 +81,8 @@ class OdePeer : public Peer {
         case spu::ShapeType::mesh:
         case spu::ShapeType::height_field:
           throw Unsupported("ODE: meshes and height fields are not mapped to its triangle shapes yet");
+        case spu::ShapeType::compound:
+          throw Unsupported("ODE: compound bodies are not mapped to its compound shapes yet");
         case spu::ShapeType::plane: geom = dCreatePlane(space_, s.normal[0], s.normal[1], s.normal[2], s.offset); break;
       }
       geoms_[i] = geom;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "runtime/base/vec3.h"
 
@@ -23,6 +24,61 @@ std::string num(double v) {
 
 void require_positive(spu::ShapeType t, const char* what, double v) {
   if (!(v > 0.0) || !std::isfinite(v)) fail(t, std::string(what) + " must be positive and finite, got " + num(v));
+}
+
+MassProperties scaled(const spu::ShapeView& s, double scale, double density);
+
+// The parts at their poses, unit density: volumes add, centroids average, each part's inertia
+// turns with it and moves to the common centroid (parallel axes). Where parts overlap, the
+// overlap counts twice: a compound's parts are taken as solids side by side.
+MassProperties compound_mass_properties(const spu::CompoundView& c) {
+  if (c.num_parts < 1 || !c.parts) fail(spu::ShapeType::compound, "no parts");
+  double V = 0;
+  Vec3d S{0, 0, 0};
+  struct Part {
+    MassProperties m;
+    Vec3d centre;
+    double R[3][3];
+  };
+  std::vector<Part> parts(size_t(c.num_parts));
+  for (int i = 0; i < c.num_parts; ++i) {
+    const spu::CompoundPartView& p = c.parts[i];
+    Part& q = parts[i];
+    q.m = scaled(*p.shape, p.scale, 1.0);
+    const double w = p.orientation[0], x = p.orientation[1], y = p.orientation[2], z = p.orientation[3];
+    const double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
+                            {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
+                            {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}};
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) q.R[j][k] = R[j][k];
+    Vec3d local{q.m.center_of_mass[0], q.m.center_of_mass[1], q.m.center_of_mass[2]};
+    q.centre = Vec3d::load(p.position) + Vec3d{dot(Vec3d{R[0][0], R[0][1], R[0][2]}, local),
+                                              dot(Vec3d{R[1][0], R[1][1], R[1][2]}, local),
+                                              dot(Vec3d{R[2][0], R[2][1], R[2][2]}, local)};
+    V += q.m.volume;
+    S = S + q.centre * q.m.volume;
+  }
+  MassProperties m;
+  m.volume = m.mass = V;
+  const Vec3d g = S * (1.0 / V);
+  for (int k = 0; k < 3; ++k) m.center_of_mass[k] = g[k];
+  double T[3][3] = {};
+  for (const Part& q : parts) {
+    const double* I = q.m.inertia;
+    const double L[3][3] = {{I[0], I[3], I[4]}, {I[3], I[1], I[5]}, {I[4], I[5], I[2]}};
+    const Vec3d d = q.centre - g;
+    const double dd = dot(d, d);
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) {
+        double r = 0;  // (R L R^T)_jk
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) r += q.R[j][a] * L[a][b] * q.R[k][b];
+        T[j][k] += r + q.m.volume * ((j == k ? dd : 0.0) - d[j] * d[k]);
+      }
+  }
+  m.inertia[0] = T[0][0], m.inertia[1] = T[1][1], m.inertia[2] = T[2][2];
+  m.inertia[3] = T[0][1], m.inertia[4] = T[0][2], m.inertia[5] = T[1][2];
+  return m;
 }
 
 // Unit density and unit scale.
@@ -67,6 +123,7 @@ MassProperties unit(const spu::ShapeView& s) {
     case spu::ShapeType::mesh:
     case spu::ShapeType::height_field:
       fail(s.type, "a triangle surface is static level geometry: it has no mass, volume or inertia");
+    case spu::ShapeType::compound: m = compound_mass_properties(s.compound); break;
   }
   if (!(m.volume > 0.0) || !std::isfinite(m.volume)) fail(s.type, "the shape has no positive, finite volume");
   return m;

@@ -176,7 +176,8 @@ ConvexCore core_of(const spu::ShapeView& shape, const spu::Pose& pose) {
       break;
     case spu::ShapeType::plane:  // callers take planes and triangle surfaces apart
     case spu::ShapeType::mesh:
-    case spu::ShapeType::height_field: break;
+    case spu::ShapeType::height_field:
+    case spu::ShapeType::compound: break;
   }
   return c;
 }
@@ -295,6 +296,17 @@ bool overlaps_surface(const spu::ShapeView& a, const spu::Pose& pa, const spu::S
 }  // namespace
 
 bool shapes_overlap(const spu::ShapeView& a, const spu::Pose& pa, const spu::ShapeView& b, const spu::Pose& pb) {
+  if (a.type == spu::ShapeType::compound || b.type == spu::ShapeType::compound) {  // any part
+    const bool first = a.type == spu::ShapeType::compound;
+    const spu::ShapeView& c = first ? a : b;
+    const spu::Pose& pc = first ? pa : pb;
+    for (int i = 0; i < c.compound.num_parts; ++i) {
+      const spu::CompoundPartView& part = c.compound.parts[i];
+      const spu::Pose q = spu::part_pose(pc, part);
+      if (first ? shapes_overlap(*part.shape, q, b, pb) : shapes_overlap(a, pa, *part.shape, q)) return true;
+    }
+    return false;
+  }
   const bool a_surface = spu::is_triangle_surface(a.type), b_surface = spu::is_triangle_surface(b.type);
   if (a_surface || b_surface) {
     if ((a_surface && b_surface) || a.type == spu::ShapeType::plane || b.type == spu::ShapeType::plane) return false;

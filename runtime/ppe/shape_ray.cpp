@@ -216,6 +216,17 @@ bool ray_shape(const spu::ShapeView& shape, const spu::Pose& pose, const Vec3d& 
     case spu::ShapeType::plane: return ray_plane(shape, pose, origin, dir, max_dist, hit);
     case spu::ShapeType::mesh:
     case spu::ShapeType::height_field: return ray_surface(shape, pose, origin, dir, max_dist, hit);
+    case spu::ShapeType::compound: {  // the first part hit (ties: the first part)
+      bool found = false;
+      for (int i = 0; i < shape.compound.num_parts; ++i) {
+        ShapeRayHit h;
+        const spu::CompoundPartView& part = shape.compound.parts[i];
+        if (ray_shape(*part.shape, spu::part_pose(pose, part), origin, dir, found ? hit.distance : max_dist, h) &&
+            (!found || h.distance < hit.distance))
+          hit = h, found = true;
+      }
+      return found;
+    }
   }
   return false;
 }

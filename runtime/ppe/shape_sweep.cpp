@@ -133,6 +133,18 @@ bool sweep_shape(const spu::ShapeView& moving, const spu::Pose& start, const Vec
                  const spu::ShapeView& target, const spu::Pose& pose, SweepHit& hit, double tolerance) {
   if (target.type == spu::ShapeType::plane) return sweep_plane(core_of(moving, start), start, dir, max_dist, target, pose, hit);
   if (spu::is_triangle_surface(target.type)) return sweep_surface(moving, start, dir, max_dist, target, pose, hit, tolerance);
+  if (target.type == spu::ShapeType::compound) {  // the first part met
+    bool found = false;
+    for (int i = 0; i < target.compound.num_parts; ++i) {
+      const spu::CompoundPartView& part = target.compound.parts[i];
+      SweepHit h;
+      if (sweep_shape(moving, start, dir, found ? hit.distance : max_dist, *part.shape, spu::part_pose(pose, part), h,
+                      tolerance) &&
+          (!found || h.distance < hit.distance))
+        hit = h, found = true;
+    }
+    return found;
+  }
   return sweep_cores(core_of(moving, start), core_of(target, pose), moving, start, dir, max_dist, target, pose, tolerance, hit);
 }
 

@@ -19,6 +19,8 @@ struct ShapeDictionary::Entry {
   ConvexHull hull;  // hulls only; view.hull points into it
   HullInfo info;
   TriangleSurface surface;  // meshes and height fields; view.mesh points into it
+  std::vector<CompoundPart> parts;            // compounds, as stored
+  std::vector<spu::CompoundPartView> part_views;  // view.compound points into it
   SurfaceInput input;       // what they were made from
   double lo[3] = {}, hi[3] = {};  // hull, mesh and height-field box at unit scale
   size_t bytes = 0;
@@ -205,6 +207,70 @@ uint32_t ShapeDictionary::push_surface(std::unique_ptr<Entry> e) {
   return push(std::move(e));
 }
 
+uint32_t ShapeDictionary::add_compound(const CompoundPart* parts, int count, CompoundInfo* info, bool recentre) {
+  if (!parts || count < 1 || count > kMaxCompoundParts)
+    throw ShapeError("compound: needs 1 to " + std::to_string(kMaxCompoundParts) + " parts, got " + std::to_string(count));
+  auto e = std::make_unique<Entry>();
+  e->parts.assign(parts, parts + count);
+  for (int i = 0; i < count; ++i) {
+    CompoundPart& p = e->parts[i];
+    const std::string who = "compound: part " + std::to_string(i);
+    if (p.shape >= entries_.size())
+      throw ShapeError(who + ": shape " + std::to_string(p.shape) + " does not exist (the dictionary has " +
+                       std::to_string(entries_.size()) + ")");
+    const spu::ShapeType t = entries_[p.shape]->view.type;
+    if (!spu::is_convex(t))
+      throw ShapeError(who + ": a " + std::string(spu::shape_type_name(t)) +
+                       " cannot be a part (parts are spheres, capsules, boxes or hulls)");
+    for (float x : p.position)
+      if (!std::isfinite(x)) throw ShapeError(who + ": position is not finite");
+    double q2 = 0;
+    for (float x : p.orientation) {
+      if (!std::isfinite(x)) throw ShapeError(who + ": orientation is not finite");
+      q2 += double(x) * x;
+    }
+    if (!(q2 > 1e-12)) throw ShapeError(who + ": orientation is zero");
+    // A unit quaternion to float rounding is kept as it is, so a stored part rebuilds bit for bit.
+    if (std::fabs(q2 - 1.0) > 1e-6)
+      for (float& x : p.orientation) x = float(x / std::sqrt(q2));
+    require_positive("compound part", "scale", p.scale);
+  }
+  e->view.type = spu::ShapeType::compound;
+  const auto link = [&]() {
+    e->part_views.resize(e->parts.size());
+    for (size_t i = 0; i < e->parts.size(); ++i) {
+      spu::CompoundPartView& v = e->part_views[i];
+      const CompoundPart& p = e->parts[i];
+      v.shape = &entries_[p.shape]->view;
+      std::copy(p.position, p.position + 3, v.position);
+      std::copy(p.orientation, p.orientation + 4, v.orientation);
+      v.scale = p.scale;
+    }
+    e->view.compound.num_parts = count;
+    e->view.compound.parts = e->part_views.data();
+  };
+  link();
+  const MassProperties m = mass_properties_from_density(e->view, 1.0f, 1.0f);
+  CompoundInfo ci;
+  if (recentre) {
+    for (CompoundPart& p : e->parts)
+      for (int k = 0; k < 3; ++k) p.position[k] = float(double(p.position[k]) - m.center_of_mass[k]);
+    for (int k = 0; k < 3; ++k) ci.shift[k] = float(m.center_of_mass[k]);
+    link();
+  }
+  e->bytes = e->parts.size() * sizeof(CompoundPart);
+  const uint32_t index = push(std::move(e));
+  if (info) *info = ci;
+  return index;
+}
+
+const std::vector<CompoundPart>& ShapeDictionary::compound_parts(uint32_t index) const {
+  const Entry& e = entry(index);
+  if (e.view.type != spu::ShapeType::compound)
+    throw ShapeError("shape " + std::to_string(index) + " is a " + spu::shape_type_name(e.view.type) + ", not a compound");
+  return e.parts;
+}
+
 const ShapeDictionary::Entry& ShapeDictionary::entry(uint32_t index) const {
   if (index >= entries_.size())
     throw std::out_of_range("shape " + std::to_string(index) + " does not exist (the dictionary has " +
@@ -240,6 +306,11 @@ void ShapeDictionary::local_aabb(uint32_t index, float scale, float min[3], floa
   const Entry& e = entry(index);
   const spu::ShapeView& v = e.view;
   if (v.type == spu::ShapeType::plane) return plane_box(v, min, max);
+  if (v.type == spu::ShapeType::compound) {
+    spu::Pose at;
+    at.scale = scale;
+    return world_aabb(index, at, min, max);
+  }
   require_positive(spu::shape_type_name(v.type), "scale", scale);
   const double s = scale;
   double lo[3], hi[3];
@@ -263,6 +334,15 @@ void ShapeDictionary::world_aabb(uint32_t index, const spu::Pose& pose, float mi
   const spu::ShapeView& v = e.view;
   if (v.type == spu::ShapeType::plane) return plane_box(v, min, max);
   require_positive(spu::shape_type_name(v.type), "pose scale", pose.scale);
+  if (v.type == spu::ShapeType::compound) {  // the parts' boxes together
+    for (int k = 0; k < 3; ++k) min[k] = std::numeric_limits<float>::infinity(), max[k] = -min[k];
+    for (size_t i = 0; i < e.parts.size(); ++i) {
+      float lo[3], hi[3];
+      world_aabb(e.parts[i].shape, spu::part_pose(pose, e.part_views[i]), lo, hi);
+      for (int k = 0; k < 3; ++k) min[k] = std::min(min[k], lo[k]), max[k] = std::max(max[k], hi[k]);
+    }
+    return;
+  }
   const Mat3d R = rotation(pose.orientation);
   const double s = pose.scale;
   double lo[3], hi[3];

@@ -47,6 +47,24 @@ struct SurfaceInput {
   int32_t num_triangles = 0;       // the triangles the surface holds
 };
 
+/// A part of a compound as given: a shape of the dictionary (sphere, capsule, box or hull) at a
+/// pose in the compound's frame, with its own uniform scale.
+struct CompoundPart {
+  uint32_t shape = 0;
+  float position[3] = {};
+  float orientation[4] = {1, 0, 0, 0};  // normalised by add_compound
+  float scale = 1.0f;
+};
+
+/// What add_compound made of its parts.
+struct CompoundInfo {
+  /// The parts' common centre of mass (uniform density) in input coordinates; the stored parts
+  /// are moved by minus this, as a hull's vertices are (HullInfo::shift).
+  float shift[3] = {};
+};
+
+inline constexpr int kMaxCompoundParts = 64;
+
 class ShapeDictionary {
  public:
   explicit ShapeDictionary(HullLimits limits = {});
@@ -74,6 +92,14 @@ class ShapeDictionary {
   /// Static height field: rows x columns heights along body z, row-major, spaced spacing[0]
   /// along x and spacing[1] along y, centred on the body origin.
   uint32_t add_height_field(int rows, int columns, const float spacing[2], const float* heights);
+  /// A body of 1 to kMaxCompoundParts convex parts (runtime/spu/shape.h: CompoundView), re-centred
+  /// on their centre of mass at uniform density (`recentre` false takes them where they are: a
+  /// snapshot's are centred already). Throws ShapeError naming the part: a shape that does not
+  /// exist or is not convex, a pose that is not finite, a zero orientation, a scale that is not
+  /// positive.
+  uint32_t add_compound(const CompoundPart* parts, int count, CompoundInfo* info = nullptr, bool recentre = true);
+  /// The parts as stored (re-centred); throws ShapeError if the entry is not a compound.
+  const std::vector<CompoundPart>& compound_parts(uint32_t index) const;
 
   size_t size() const { return entries_.size(); }
   spu::ShapeType type(uint32_t index) const;

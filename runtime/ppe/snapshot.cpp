@@ -9,7 +9,8 @@
 //           the touches it has as begun)
 //   shapes:  version 6 on may hold meshes and height fields, stored as they were given (the
 //           vertices and triangles, or the grid) and rebuilt by the dictionary, which builds
-//           the same surface from the same input
+//           the same surface from the same input; and compounds, their parts as stored
+//           (shape index, position, orientation, scale: already centred)
 //   settings: u32 count, then per setting (runtime/ppe/settings.h) its scene path and its value
 //           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
 //           each as u32 length + bytes: matched by name, so a build with other forces refuses
@@ -234,6 +235,17 @@ void put_shapes(Writer& w, const ShapeDictionary& d) {
         w.put(in.num_triangles);  // to check the rebuilt surface against
         break;
       }
+      case spu::ShapeType::compound: {
+        const std::vector<CompoundPart>& parts = d.compound_parts(i);
+        w.put(static_cast<uint32_t>(parts.size()));
+        for (const CompoundPart& p : parts) {
+          w.put(p.shape);
+          w.put_floats(p.position, 3);
+          w.put_floats(p.orientation, 4);
+          w.put(p.scale);
+        }
+        break;
+      }
       case spu::ShapeType::height_field: {
         const SurfaceInput& in = d.surface_input(i);
         w.put(in.rows), w.put(in.columns);
@@ -321,6 +333,24 @@ void get_shapes(Reader& r, ShapeDictionary& d, uint32_t version) {
           const int32_t kept = r.get<int32_t>("height field");
           const uint32_t index = d.add_height_field(rows, columns, spacing, heights.data());
           if (d.surface_input(index).num_triangles != kept) throw WorldError(who + ": height field does not rebuild as saved");
+          break;
+        }
+        case spu::ShapeType::compound: {
+          if (version < 6) throw WorldError(who + ": a compound in a version " + std::to_string(version) + " snapshot");
+          const uint32_t np = r.count("compound parts", 36);
+          if (np < 1 || np > uint32_t(kMaxCompoundParts)) throw WorldError(who + ": compound part count out of range");
+          std::vector<CompoundPart> parts(np);
+          for (CompoundPart& p : parts) {
+            p.shape = r.get<uint32_t>("compound part");
+            if (p.shape >= i) throw WorldError(who + ": a compound part names a shape not before it");
+            r.get_floats(p.position, 3, "compound part");
+            r.get_floats(p.orientation, 4, "compound part");
+            p.scale = r.get<float>("compound part");
+          }
+          const std::vector<CompoundPart>& got = d.compound_parts(d.add_compound(parts.data(), int(np), nullptr, false));
+          for (uint32_t k = 0; k < np; ++k)
+            if (!same_floats(got[k].orientation, parts[k].orientation, 4) || !same_floats(got[k].position, parts[k].position, 3))
+              throw WorldError(who + ": compound does not rebuild bit for bit");
           break;
         }
         default: throw WorldError(who + ": unknown shape type " + std::to_string(type));

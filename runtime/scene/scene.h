@@ -27,6 +27,15 @@ class SceneError : public std::runtime_error {
   std::string file_, path_, reason_;
 };
 
+/// A part of a compound shape: a shape named earlier in the file, at a pose in the compound's frame.
+struct PartSpec {
+  std::string shape;
+  float position[3] = {};
+  float orientation[4] = {1.0f, 0.0f, 0.0f, 0.0f};
+  float scale = 1.0f;
+  bool operator==(const PartSpec& o) const;
+};
+
 struct ShapeSpec {
   std::string name;
   spu::ShapeType type = spu::ShapeType::sphere;  // by spu::shape_type_name in the file
@@ -42,6 +51,7 @@ struct ShapeSpec {
   int32_t rows = 0, columns = 0;      // height field: the grid
   float spacing[2] = {};              // height field: between columns (x) and between rows (y)
   std::vector<float> heights;         // height field: rows x columns, row-major (row i along y)
+  std::vector<PartSpec> parts;        // compound: re-centred on their centre of mass when built
 };
 
 struct BodySpec {

@@ -39,6 +39,21 @@ BuiltScene build_world(const SceneDesc& scene) {
           index = w.shapes().add_mesh(s.vertices.data(), static_cast<int>(s.vertices.size() / 3), s.triangles.data(),
                                       static_cast<int>(s.triangles.size() / 3));
           break;
+        case spu::ShapeType::compound: {
+          std::vector<ppe::CompoundPart> parts(s.parts.size());
+          for (size_t k = 0; k < s.parts.size(); ++k) {
+            const auto named = shapes.find(s.parts[k].shape);
+            if (named == shapes.end())
+              throw SceneError(file, at("shapes", i) + ".parts[" + std::to_string(k) + "].shape",
+                               "no shape named '" + s.parts[k].shape + "' before this one");
+            parts[k].shape = named->second;
+            std::copy(s.parts[k].position, s.parts[k].position + 3, parts[k].position);
+            std::copy(s.parts[k].orientation, s.parts[k].orientation + 4, parts[k].orientation);
+            parts[k].scale = s.parts[k].scale;
+          }
+          index = w.shapes().add_compound(parts.data(), static_cast<int>(parts.size()));
+          break;
+        }
         case spu::ShapeType::height_field:
           if (s.heights.size() != size_t(s.rows) * size_t(s.columns))
             throw ppe::ShapeError("height_field: heights must be rows x columns");

@@ -309,6 +309,24 @@ void read_height_field(const Reader& r, const json& j, const std::string& p, Sha
   for (size_t i = 0; i < want; ++i) s.heights[i] = r.number(hs[i], index_path(q, i));
 }
 
+void read_compound(const Reader& r, const json& j, const std::string& p, ShapeSpec& s) {
+  r.known_fields(j, p, {"name", "type", "parts"}, "a compound");
+  const std::string q = p + ".parts";
+  const json& parts = r.array(r.need(j, p, "parts", "a compound"), q);
+  if (parts.empty()) r.fail(q, "a compound needs at least one part");
+  for (size_t i = 0; i < parts.size(); ++i) {
+    const std::string pp = index_path(q, i);
+    const json& pj = r.object(parts[i], pp);
+    r.known_fields(pj, pp, {"shape", "position", "orientation", "scale"}, "a compound part");
+    PartSpec part;
+    part.shape = r.name(r.need(pj, pp, "shape", "a compound part"), pp + ".shape");
+    if (const json* v = r.find(pj, "position")) r.vec(*v, pp + ".position", part.position, 3);
+    if (const json* v = r.find(pj, "orientation")) r.vec(*v, pp + ".orientation", part.orientation, 4);
+    if (const json* v = r.find(pj, "scale")) part.scale = r.positive(*v, pp + ".scale");
+    s.parts.push_back(part);
+  }
+}
+
 ShapeSpec read_shape(const Reader& r, const json& j, const std::string& p) {
   r.object(j, p);
   ShapeSpec s;
@@ -345,6 +363,7 @@ ShapeSpec read_shape(const Reader& r, const json& j, const std::string& p) {
       break;
     case spu::ShapeType::mesh: read_mesh(r, j, p, r.file(), s); break;
     case spu::ShapeType::height_field: read_height_field(r, j, p, s); break;
+    case spu::ShapeType::compound: read_compound(r, j, p, s); break;
   }
   return s;
 }
@@ -665,6 +684,19 @@ std::string write_scene(const SceneDesc& scene) {
         o["triangles"] = ts;
         break;
       }
+      case spu::ShapeType::compound: {
+        ojson parts = ojson::array();
+        for (const PartSpec& part : sh.parts) {
+          ojson po = ojson::object();
+          po["shape"] = part.shape;
+          po["position"] = arr(part.position, 3);
+          po["orientation"] = arr(part.orientation, 4);
+          po["scale"] = tidy(part.scale);
+          parts.push_back(po);
+        }
+        o["parts"] = parts;
+        break;
+      }
       case spu::ShapeType::height_field: {
         o["rows"] = sh.rows;
         o["columns"] = sh.columns;
@@ -787,8 +819,14 @@ bool operator==(const ShapeSpec& a, const ShapeSpec& b) {
     case spu::ShapeType::height_field:
       return a.rows == b.rows && a.columns == b.columns && a.spacing[0] == b.spacing[0] && a.spacing[1] == b.spacing[1] &&
              a.heights == b.heights;
+    case spu::ShapeType::compound: return a.parts == b.parts;
   }
   return false;
+}
+
+bool PartSpec::operator==(const PartSpec& o) const {
+  return shape == o.shape && std::equal(position, position + 3, o.position) &&
+         std::equal(orientation, orientation + 4, o.orientation) && scale == o.scale;
 }
 
 bool operator==(const BodySpec& a, const BodySpec& b) {

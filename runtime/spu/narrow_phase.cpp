@@ -1107,6 +1107,7 @@ void sphere_vs(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pos
       v.lo = c - Vec3d{r, r, r}, v.hi = c + Vec3d{r, r, r};
       return visitor_vs_surface(v, b, pb, s);
     }
+    case ShapeType::compound: return;  // taken apart by collide()
   }
 }
 
@@ -1209,12 +1210,75 @@ int collide_ordered(const ShapeView& a, const Pose& pa, const ShapeView& b, cons
     case ShapeType::hull: polytope_vs(a, pa, b, pb, s); break;
     case ShapeType::plane:  // static: nothing static collides with anything static
     case ShapeType::mesh:
-    case ShapeType::height_field: break;
+    case ShapeType::height_field:
+    case ShapeType::compound: break;  // taken apart by collide()
   }
   return s.n;
 }
 
 bool known(ShapeType t) { return uint32_t(t) < kNumShapeTypes; }
+
+// ---- compounds -----------------------------------------------------------------------------
+
+int compare_compounds(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb) {
+  if (int c = compare_words(pa.position, pb.position, 3)) return c;
+  if (int c = compare_words(pa.orientation, pb.orientation, 4)) return c;
+  if (int c = compare_words(&pa.scale, &pb.scale, 1)) return c;
+  if (int c = compare_words(&a.compound.num_parts, &b.compound.num_parts, 1)) return c;
+  for (int i = 0; i < a.compound.num_parts; ++i) {
+    const CompoundPartView &x = a.compound.parts[i], &y = b.compound.parts[i];
+    if (int c = compare_words(x.position, y.position, 3)) return c;
+    if (int c = compare_words(x.orientation, y.orientation, 4)) return c;
+    if (int c = compare_words(&x.scale, &y.scale, 1)) return c;
+  }
+  return 0;
+}
+
+constexpr int kCompoundGather = 64;
+
+/// Each part of a (a compound, or a whole shape) against each part of b, gathered and reduced
+/// to one manifold, a's parts outer: the caller puts the pair in a fixed order.
+int collide_parts(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, float margin, ContactPoint* out) {
+  const bool ca = a.type == ShapeType::compound, cb = b.type == ShapeType::compound;
+  const int na = ca ? a.compound.num_parts : 1, nb = cb ? b.compound.num_parts : 1;
+  Vec3d pts[kCompoundGather + kMaxManifoldPoints], nrm[kCompoundGather + kMaxManifoldPoints];
+  double depth[kCompoundGather + kMaxManifoldPoints];
+  double size = 0.0;  // for the repeat tolerance: the largest part scale seen
+  int count = 0;
+  auto reduce = [&]() {
+    int deepest = 0;
+    for (int i = 1; i < count; ++i)
+      if (depth[i] > depth[deepest]) deepest = i;
+    int keep[4];
+    const double eps = 1e-6 * size;
+    const int k = reduce_manifold(pts, depth, count, nrm[deepest], eps * eps, keep);
+    for (int i = 0; i < k; ++i) pts[i] = pts[keep[i]], nrm[i] = nrm[keep[i]], depth[i] = depth[keep[i]];
+    count = k;
+  };
+  for (int i = 0; i < na; ++i) {
+    const ShapeView& sa = ca ? *a.compound.parts[i].shape : a;
+    const Pose qa = ca ? part_pose(pa, a.compound.parts[i]) : pa;
+    for (int j = 0; j < nb; ++j) {
+      const ShapeView& sb = cb ? *b.compound.parts[j].shape : b;
+      const Pose qb = cb ? part_pose(pb, b.compound.parts[j]) : pb;
+      ContactPoint cp[kMaxManifoldPoints];
+      const int n = collide(sa, qa, sb, qb, margin, cp);
+      if (n == 0) continue;
+      size = std::max({size, double(qa.scale), double(qb.scale)});
+      if (count + n > kCompoundGather) reduce();
+      for (int k = 0; k < n; ++k, ++count)
+        pts[count] = Vec3d::load(cp[k].point), nrm[count] = Vec3d::load(cp[k].normal), depth[count] = cp[k].penetration;
+    }
+  }
+  if (count > kMaxManifoldPoints) reduce();
+  for (int i = 0; i < count; ++i) {
+    ContactPoint& c = out[i];
+    c.point[0] = float(pts[i].x), c.point[1] = float(pts[i].y), c.point[2] = float(pts[i].z);
+    c.normal[0] = float(nrm[i].x), c.normal[1] = float(nrm[i].y), c.normal[2] = float(nrm[i].z);
+    c.penetration = float(depth[i]);
+  }
+  return count;
+}
 
 }  // namespace
 
@@ -1261,6 +1325,15 @@ bool hull_supported(const HullView& h) {
 int collide(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, float margin,
             ContactPoint out[kMaxManifoldPoints]) {
   if (!known(a.type) || !known(b.type)) return 0;
+  if (a.type == ShapeType::compound || b.type == ShapeType::compound) {
+    // One fixed order of the pair, as below: the compound second, or of two the lesser first.
+    const bool swap = a.type != b.type ? a.type == ShapeType::compound : compare_compounds(a, pa, b, pb) > 0;
+    if (!swap) return collide_parts(a, pa, b, pb, margin, out);
+    const int n = collide_parts(b, pb, a, pa, margin, out);
+    for (int i = 0; i < n; ++i)
+      for (float& c : out[i].normal) c = -c;
+    return n;
+  }
   const double m = margin > 0.0f ? double(margin) : 0.0;
   const bool swap = a.type != b.type ? a.type > b.type : compare(a, pa, b, pb) > 0;
   if (!swap) return collide_ordered(a, pa, b, pb, m, out);

@@ -997,10 +997,25 @@ bool on_active_edge(const SurfaceTriangle& t, const Polytope& T, const Vec3d& x,
 /// The visitor against one triangle, one-sided: nothing if its centre is behind the face; the
 /// general contact if its normal is the face's, or it is on an active edge and faces the front;
 /// else the face's contact (an inside edge of a flat or smooth surface never pushes sideways).
+// The visitor's lowest point along -n, the triangle's normal: nothing of it comes within
+// `margin` of the triangle's plane above that.
+double lowest_along_normal(const SurfaceVisitor& a, const Vec3d& n) {
+  if (a.type == ShapeType::sphere) return dot(n, a.centre) - a.radius;
+  if (a.type == ShapeType::capsule) return std::min(dot(n, a.core.p0), dot(n, a.core.p1)) - a.radius;
+  return lowest_along(*a.P, n);
+}
+
 int triangle_contacts(const SurfaceVisitor& a, const SurfaceTriangle& t, double margin, Polytope& T,
                       ContactPointD out[kMaxManifoldPoints]) {
-  if (dot(t.n, a.centre - t.v[0]) < 0.0) return 0;
+  const double d0 = dot(t.n, t.v[0]);
+  if (dot(t.n, a.centre) < d0) return 0;
+  if (lowest_along_normal(a, t.n) - d0 > margin) return 0;  // wholly in front, beyond the margin
   make_prism(t, 2.0 * a.size + margin, T);
+  if (t.active == 0) {  // no active edge: whatever the general contact, it would come to the face's
+    Sink face{nullptr, margin, 0, out};
+    visitor_on_face(a, T, face);
+    return face.n;
+  }
   Sink s{nullptr, margin, 0, out};
   visitor_vs_prism(a, T, s);
   if (s.n == 0) return 0;
@@ -1057,6 +1072,12 @@ void visitor_vs_surface(const SurfaceVisitor& a, const ShapeView& b, const Pose&
     count = k;
   };
   visit_triangles_in_box(m, lo, hi, [&](int32_t t) {
+    // the triangle's own box against the visitor's (a leaf holds several triangles)
+    const int32_t* ix = m.triangles + 3 * t;
+    for (int k = 0; k < 3; ++k) {
+      const float x0 = m.vertices[3 * ix[0] + k], x1 = m.vertices[3 * ix[1] + k], x2 = m.vertices[3 * ix[2] + k];
+      if (std::max({x0, x1, x2}) < lo[k] || std::min({x0, x1, x2}) > hi[k]) return true;
+    }
     ContactPointD cp[kMaxManifoldPoints];
     const int n = triangle_contacts(a, triangle_of(m, f, t), s.margin, T, cp);
     if (count + n > kSurfaceGather) reduce();

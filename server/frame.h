@@ -31,7 +31,8 @@ struct Frame {
   uint64_t state_hash = 0;
   protocol::TickStats stats{};
   std::vector<FrameBody> bodies;  // ascending id
-  // The join's shape dictionary section (ShapeRecords and hull data), the same for a whole epoch.
+  // The join's shape dictionary section (ShapeRecords, and the vertices and faces of hulls,
+  // meshes and height fields), the same for a whole epoch.
   std::shared_ptr<const std::vector<unsigned char>> shapes;
   uint32_t num_shapes = 0;
   // The stages message of the step (server/stages_encoder.h), for the clients that ask for it.

@@ -34,6 +34,7 @@ class Reader {
     return true;
   }
   bool done() const { return at_ == n_; }
+  size_t left() const { return n_ - at_; }
 
  private:
   const unsigned char* p_;
@@ -73,13 +74,23 @@ std::string decode_join(const unsigned char* data, size_t size, JoinMessage& out
   for (uint32_t i = 0; i < out.head.num_shapes; ++i) {
     ShapeRecord s;
     if (!r.get(s)) return "cut in shape " + std::to_string(i);
+    const bool faces = s.type == static_cast<uint32_t>(spu::ShapeType::hull) ||
+                       spu::is_triangle_surface(static_cast<spu::ShapeType>(s.type));
+    // The counts checked against what is left before anything is sized by them.
+    const size_t want = 12 * size_t(s.num_vertices) + (faces ? 4 * (size_t(s.num_faces) + 1 + s.num_face_vertices) : 0);
+    if (want > r.left()) return "cut in the vertices and faces of shape " + std::to_string(i);
     std::vector<float> v(3 * size_t(s.num_vertices));
+    std::vector<uint32_t> start(faces ? size_t(s.num_faces) + 1 : 0), loops(faces ? s.num_face_vertices : 0);
     for (float& x : v)
-      if (!r.get(x)) return "cut in hull " + std::to_string(i);
-    const bool hull = s.type == static_cast<uint32_t>(spu::ShapeType::hull);
-    if (hull && !r.skip(4 * (size_t(s.num_faces) + 1 + s.num_face_vertices))) return "cut in hull " + std::to_string(i);
+      if (!r.get(x)) return "cut in the vertices of shape " + std::to_string(i);
+    for (uint32_t& x : start)
+      if (!r.get(x)) return "cut in the faces of shape " + std::to_string(i);
+    for (uint32_t& x : loops)
+      if (!r.get(x)) return "cut in the faces of shape " + std::to_string(i);
     out.shapes.push_back(s);
-    out.hull_vertices.push_back(std::move(v));
+    out.vertices.push_back(std::move(v));
+    out.face_start.push_back(std::move(start));
+    out.face_vertices.push_back(std::move(loops));
   }
   out.bodies.resize(out.head.num_bodies);
   for (BodyFull& b : out.bodies)

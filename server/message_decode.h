@@ -16,7 +16,10 @@ struct JoinMessage {
   protocol::Join head{};
   std::string world;
   std::vector<protocol::ShapeRecord> shapes;
-  std::vector<std::vector<float>> hull_vertices;  // per shape (empty but for hulls)
+  // Per shape, empty but for hulls, meshes and height fields: the vertices (3 floats each),
+  // face_start (faces + 1) and face_vertices (a mesh's or height field's triangles, 3 each).
+  std::vector<std::vector<float>> vertices;
+  std::vector<std::vector<uint32_t>> face_start, face_vertices;
   std::vector<protocol::BodyFull> bodies;
 };
 

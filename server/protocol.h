@@ -111,18 +111,22 @@ struct Join {
   uint32_t num_bodies;
   uint32_t name_bytes;  // the world's name, UTF-8, padded with zeros to a multiple of 4
   uint32_t revision;    // kRevision (0 from a revision-1 server)
-  // then: name | num_shapes x [ShapeRecord | hull data] | num_bodies x BodyFull
+  // then: name | num_shapes x [ShapeRecord | vertex and face data] | num_bodies x BodyFull
 };
 static_assert(sizeof(Join) == 48);
 
 // One entry of the shape dictionary. A hull's ShapeRecord is followed by its vertices
 // (num_vertices x 3 floats), face_start (num_faces + 1 uint32) and face_vertices
 // (num_face_vertices uint32: each face's vertex loop, counter-clockwise seen from outside).
+// A mesh or a height field is followed by the same three arrays, its triangles the faces
+// (face_start 0, 3, 6, ...; each counter-clockwise seen from the surface's front), so a client
+// draws it as it draws a hull; a height field comes as the triangles its grid was made into.
 struct ShapeRecord {
-  uint32_t type;  // spu::ShapeType: 0 sphere, 1 capsule, 2 box, 3 hull, 4 plane (as shape_type_name)
-  uint32_t num_vertices, num_faces, num_face_vertices;  // hulls; 0 otherwise
+  uint32_t type;  // spu::ShapeType: 0 sphere, 1 capsule, 2 box, 3 hull, 4 plane, 5 mesh, 6 height_field
+                  // (as shape_type_name)
+  uint32_t num_vertices, num_faces, num_face_vertices;  // hulls, meshes, height fields; 0 otherwise
   float params[8];  // sphere: radius | capsule: radius, half_height (on body z) | box: half extents |
-                    // plane: normal x y z, offset (n.x <= offset solid) | hull: unused
+                    // plane: normal x y z, offset (n.x <= offset solid) | hull, mesh, height field: unused
 };
 static_assert(sizeof(ShapeRecord) == 48);
 

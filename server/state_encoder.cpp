@@ -82,12 +82,22 @@ std::vector<unsigned char> encode_shapes(const ppe::ShapeDictionary& shapes) {
         r.num_faces = static_cast<uint32_t>(v.hull.num_faces);
         r.num_face_vertices = static_cast<uint32_t>(v.hull.face_start[v.hull.num_faces]);
         break;
+      case spu::ShapeType::mesh:
+      case spu::ShapeType::height_field:  // its triangles, as a hull's faces of 3: a client draws both alike
+        r.num_vertices = static_cast<uint32_t>(v.mesh.num_vertices);
+        r.num_faces = static_cast<uint32_t>(v.mesh.num_triangles);
+        r.num_face_vertices = 3 * r.num_faces;
+        break;
     }
     put(out, r);
     if (v.type == spu::ShapeType::hull) {
       put_floats(out, v.hull.vertices, 3 * r.num_vertices);
       for (uint32_t k = 0; k <= r.num_faces; ++k) put(out, static_cast<uint32_t>(v.hull.face_start[k]));
       for (uint32_t k = 0; k < r.num_face_vertices; ++k) put(out, static_cast<uint32_t>(v.hull.face_vertices[k]));
+    } else if (spu::is_triangle_surface(v.type)) {
+      put_floats(out, v.mesh.vertices, 3 * r.num_vertices);
+      for (uint32_t k = 0; k <= r.num_faces; ++k) put(out, 3 * k);
+      for (uint32_t k = 0; k < r.num_face_vertices; ++k) put(out, static_cast<uint32_t>(v.mesh.triangles[k]));
     }
   }
   return out;

@@ -21,7 +21,8 @@ struct Interest {
   bool contains(const FrameBody& b) const;
 };
 
-/// The join's shape-dictionary section: one ShapeRecord per shape, hulls followed by their data.
+/// The join's shape-dictionary section: one ShapeRecord per shape, hulls, meshes and height
+/// fields followed by their vertices and faces.
 std::vector<unsigned char> encode_shapes(const ppe::ShapeDictionary& shapes);
 
 /// Appends a join message for `f`; `known` becomes the ids of the bodies it carries.

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -102,6 +103,115 @@ TEST(Server, JoinCarriesTheShapeDictionaryThenTicksCarryOnlyWhatChanged) {
   for (const auto& t : c.ticks) moved += t.moved.size();
   EXPECT_GT(moved, 0u);  // the pile is falling into its bin
   EXPECT_EQ(c.last_problem, "");
+}
+
+// Level geometry: a mesh and a height field go out as their triangles, each as a hull's face of
+// 3, so a client draws them with a hull's code; the height field's triangles are its grid's as
+// the scene format describes it (row i along y, column j along x, centred on the body origin).
+// Neither can be spawned.
+TEST(Server, MeshesAndHeightFieldsAreSentAsTheirTriangles) {
+  const fs::path dir = fs::temp_directory_path() / ("cellphys_surfaces_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const int rows = 4, columns = 5;
+  const float spacing[2] = {0.5f, 0.75f};
+  json heights = json::array();
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < columns; ++j) heights.push_back(0.125 * i - 0.0625 * j + 0.25 * ((i * j) % 3));
+  // A pyramid: four sides and a base of two triangles, counter-clockwise from outside.
+  const std::vector<float> pv = {-0.5f, -0.5f, 0, 0.5f, -0.5f, 0, 0.5f, 0.5f, 0, -0.5f, 0.5f, 0, 0, 0, 0.75f};
+  const std::vector<int> pt = {0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0, 4, 0, 2, 1, 0, 3, 2};
+  json verts = json::array(), tris = json::array();
+  for (size_t k = 0; k < pv.size(); k += 3) verts.push_back({pv[k], pv[k + 1], pv[k + 2]});
+  for (size_t k = 0; k < pt.size(); k += 3) tris.push_back({pt[k], pt[k + 1], pt[k + 2]});
+  const json scene = {
+      {"shapes",
+       {{{"name", "ball"}, {"type", "sphere"}, {"radius", 0.2}},
+        {{"name", "terrain"}, {"type", "height_field"}, {"rows", rows}, {"columns", columns},
+         {"spacing", {spacing[0], spacing[1]}}, {"heights", heights}},
+        {{"name", "pyramid"}, {"type", "mesh"}, {"vertices", verts}, {"triangles", tris}}}},
+      {"bodies",
+       {{{"id", "terrain"}, {"shape", "terrain"}, {"static", true}, {"position", {0.5, -0.25, 0}}},
+        {{"id", "pyramid"}, {"shape", "pyramid"}, {"static", true}, {"position", {3, 0, 0}}},
+        {{"id", "ball"}, {"shape", "ball"}, {"mass", 1.0}, {"position", {0.5, -0.25, 1.5}}}}}};
+  const fs::path file = dir / "surfaces.json";
+  std::ofstream(file) << scene.dump();
+  const auto built_scene = cellphys::scene::build_world(cellphys::scene::load_scene(file.string()));
+  const cellphys::ppe::World& w = *built_scene.world;
+
+  ServeProcess s = serve({file.string()});
+  ServerClient c(s.port(), "surfaces", s.token());
+  ASSERT_TRUE(c.until([&] { return c.joins == 1 && c.ticks.size() >= 5; }));
+  EXPECT_EQ(c.last_problem, "");
+  ASSERT_EQ(c.join.shapes.size(), w.shapes().size());
+  using cellphys::spu::ShapeType;
+  // A triangle as its three vertex positions, rotated to start at the smallest: the winding
+  // kept, the order of the triangles and the numbering of the vertices not.
+  using Tri = std::array<std::array<float, 3>, 3>;
+  auto triangle = [](const float* v, const uint32_t* t) {
+    Tri r;
+    for (int k = 0; k < 3; ++k) r[k] = {v[3 * t[k]], v[3 * t[k] + 1], v[3 * t[k] + 2]};
+    std::rotate(r.begin(), std::min_element(r.begin(), r.end()), r.end());
+    return r;
+  };
+  int surfaces = 0;
+  for (uint32_t i = 0; i < w.shapes().size(); ++i) {
+    const ShapeType type = w.shapes().type(i);
+    const p::ShapeRecord& r = c.join.shapes[i];
+    EXPECT_EQ(r.type, static_cast<uint32_t>(type));
+    if (!cellphys::spu::is_triangle_surface(type)) continue;
+    ++surfaces;
+    SCOPED_TRACE(cellphys::spu::shape_type_name(type));
+    const cellphys::spu::MeshView& m = w.shapes().view(i).mesh;
+    ASSERT_EQ(r.num_vertices, uint32_t(m.num_vertices));
+    ASSERT_EQ(r.num_faces, uint32_t(m.num_triangles));
+    ASSERT_EQ(r.num_face_vertices, 3 * r.num_faces);
+    const std::vector<float>& v = c.join.vertices[i];
+    const std::vector<uint32_t>& start = c.join.face_start[i];
+    const std::vector<uint32_t>& loops = c.join.face_vertices[i];
+    ASSERT_EQ(v.size(), 3 * size_t(m.num_vertices));
+    ASSERT_EQ(start.size(), size_t(m.num_triangles) + 1);
+    EXPECT_TRUE(std::equal(v.begin(), v.end(), m.vertices));
+    for (uint32_t f = 0; f <= r.num_faces; ++f) EXPECT_EQ(start[f], 3 * f);
+    EXPECT_TRUE(std::equal(loops.begin(), loops.end(), m.triangles, [](uint32_t a, int32_t b) { return int64_t(a) == b; }));
+    // The triangles against the scene's own numbers.
+    std::multiset<Tri> sent, want;
+    for (uint32_t f = 0; f < r.num_faces; ++f) sent.insert(triangle(v.data(), &loops[3 * f]));
+    if (type == ShapeType::mesh) {
+      for (size_t k = 0; k < pt.size(); k += 3) {
+        const uint32_t t[3] = {uint32_t(pt[k]), uint32_t(pt[k + 1]), uint32_t(pt[k + 2])};
+        want.insert(triangle(pv.data(), t));
+      }
+    } else {
+      std::vector<float> grid;
+      for (int row = 0; row < rows; ++row)
+        for (int col = 0; col < columns; ++col)
+          grid.insert(grid.end(), {float((col - 0.5 * (columns - 1)) * spacing[0]), float((row - 0.5 * (rows - 1)) * spacing[1]),
+                                   heights[size_t(row) * columns + col].get<float>()});
+      for (int row = 0; row + 1 < rows; ++row)
+        for (int col = 0; col + 1 < columns; ++col) {
+          const uint32_t a = row * columns + col, b = a + 1, d = a + columns, e = d + 1;
+          const uint32_t t0[3] = {a, b, e}, t1[3] = {a, e, d};
+          want.insert(triangle(grid.data(), t0));
+          want.insert(triangle(grid.data(), t1));
+        }
+      EXPECT_EQ(want.size(), size_t(2 * (rows - 1) * (columns - 1)));
+    }
+    EXPECT_TRUE(sent == want) << sent.size() << " triangles sent, " << want.size() << " in the scene";
+    // Neither can be spawned; the world is unchanged.
+    p::Spawn sp = spawn_box(0, 0, 3);
+    sp.shape = i;
+    const uint32_t seq = c.command(p::Type::spawn, sp);
+    EXPECT_FALSE(c.answer(seq));
+    EXPECT_EQ(c.errors[seq].field, "spawn.shape");
+    EXPECT_NE(c.errors[seq].reason.find(cellphys::spu::shape_type_name(type)), std::string::npos) << c.errors[seq].reason;
+  }
+  EXPECT_EQ(surfaces, 2);
+  EXPECT_EQ(world_metrics(s, "surfaces")["bodies"], 1);  // the ball: nothing was spawned
+  for (const p::BodyFull& b : c.join.bodies)
+    if (cellphys::spu::is_triangle_surface(w.shapes().type(b.shape))) {
+      EXPECT_NE(b.flags & p::kBodyStatic, 0u);
+    }
+  fs::remove_all(dir);
 }
 
 // Revision 3: a client that asks gets a stages message after each state message, for its step,

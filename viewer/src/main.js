@@ -260,7 +260,7 @@ let down = null;
 function spawnAt(hit) {
   const shapes = state.join.shapes;
   let shape = shapes.findIndex((s) => s.type === P.SHAPE.box);
-  if (shape < 0) shape = shapes.findIndex((s) => s.type !== P.SHAPE.plane);
+  if (shape < 0) shape = shapes.findIndex((s) => !P.isStaticShape(s.type));
   if (shape < 0) { setStatus('no shape in this world can be spawned', true); return; }
   const s = shapes[shape];
   const half = s.type === P.SHAPE.box ? Math.max(s.params[0], s.params[1], s.params[2]) : s.params[0] || 0.25;
@@ -272,13 +272,14 @@ function spawnAt(hit) {
 canvas.addEventListener('pointerdown', (e) => {
   if (e.button !== 0 || !state.model) return;
   const hit = renderer.pick(e.clientX, e.clientY, true);
-  const isPlane = hit.slot >= 0 && state.model.shapes[state.model.bodies[hit.slot].shape].type === P.SHAPE.plane;
+  // The ground (a plane, a mesh, a height field) is where one clicks to deselect or to spawn, not a body to pick.
+  const isGround = hit.slot >= 0 && P.isStaticShape(state.model.shapes[state.model.bodies[hit.slot].shape].type);
   const live = state.model.source === 'live' && state.live;
   if ((e.shiftKey || $('spawnmode').checked) && live && state.canCommand && hit.slot >= 0) {
     spawnAt(hit);
     return;
   }
-  if (hit.slot < 0 || isPlane) { down = { x: e.clientX, y: e.clientY, slot: -1 }; return; }
+  if (hit.slot < 0 || isGround) { down = { x: e.clientX, y: e.clientY, slot: -1 }; return; }
   select(hit.slot);
   down = { x: e.clientX, y: e.clientY, slot: hit.slot };
   const b = state.model.bodies[hit.slot];
@@ -340,7 +341,7 @@ function select(slot) {
 // ---- panels ----
 
 const fmt = (v, d = 3) => v.map((x) => x.toFixed(d).padStart(8)).join(' ');
-const SHAPE_NAMES = ['sphere', 'capsule', 'box', 'hull', 'plane'];
+const SHAPE_NAMES = Object.fromEntries(Object.entries(P.SHAPE).map(([name, type]) => [type, name.replace('_', ' ')]));
 
 function debugLine(s) {
   const b = state.debugBodies?.get(s.id);
@@ -513,7 +514,8 @@ async function openFiles(files) {
       try { scene = JSON.parse(await json.text()); } catch (e) { throw new Error(`${json.name}: not JSON (${e.message})`); }
     }
     loadModel(trajectoryModel(rows, scene, json?.name));
-    setStatus(`${csv.name}${json ? ' + ' + json.name : ''}: ${state.model.bodies.length} bodies, ${state.model.frameCount()} frames${json ? '' : ' (drawn as boxes: drop the scene JSON too for shapes)'}`);
+    const w = state.model.warning;
+    setStatus(`${csv.name}${json ? ' + ' + json.name : ''}: ${state.model.bodies.length} bodies, ${state.model.frameCount()} frames${json ? '' : ' (drawn as boxes: drop the scene JSON too for shapes)'}${w ? ` (warning: ${w})` : ''}`, !!w);
   } catch (e) {
     setStatus(e.message, true);
   }
@@ -586,6 +588,8 @@ window.__viewer = {
   bodyState: (id) => { const s = slotOfShown(id); return s === undefined ? null : state.model.bodyState(state.shown, s); },
   drawnPosition: (id) => { const s = slotOfShown(id); return s === undefined ? null : renderer.instancePosition(s); },
   screenOf: (id) => { const b = window.__viewer.bodyState(id); return b && renderer.toScreen(b.position); },
+  screenOfPoint: (v) => renderer.toScreen(v),
+  surfaces: () => renderer.surfaces(),
   selected: () => (state.selected < 0 ? null : state.model.bodies[state.selected].id),
   status: () => ui.status.textContent,
   lastStats: () => state.lastStats,

@@ -3,11 +3,12 @@
 // and axis-aligned bounding boxes computed here from each body's shape, scale and pose.
 import * as THREE from 'three';
 import { FLOATS, F_PRESENT } from './model.js';
-import { SHAPE } from './protocol.js';
+import { SHAPE, isSurface } from './protocol.js';
 
 const NORMAL_LENGTH = 0.5; // m, the longest normal in a message (the largest force)
 
-/// A body's world box from its shape record, scale and pose (w x y z); null for a plane.
+/// A body's world box from its shape record, scale and pose (w x y z); null for a plane, or a
+/// shape whose vertices the viewer does not have.
 export function boundingBox(shape, scale, pos, q) {
   const [w, x, y, z] = q;
   // rotation matrix rows
@@ -21,8 +22,9 @@ export function boundingBox(shape, scale, pos, q) {
   if (shape.type === SHAPE.sphere) half.fill(p[0] * scale);
   else if (shape.type === SHAPE.box) for (let i = 0; i < 3; ++i) half[i] = scale * (Math.abs(R[i][0]) * p[0] + Math.abs(R[i][1]) * p[1] + Math.abs(R[i][2]) * p[2]);
   else if (shape.type === SHAPE.capsule) for (let i = 0; i < 3; ++i) half[i] = scale * (Math.abs(R[i][2]) * p[1] + p[0]);
-  else if (shape.type === SHAPE.hull) {
+  else if (shape.type === SHAPE.hull || isSurface(shape.type)) { // their vertices, turned
     const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity], v = shape.vertices;
+    if (!v || !v.length) return null; // a trajectory's hull (points only) or an OBJ mesh it could not read
     for (let k = 0; k < v.length; k += 3)
       for (let i = 0; i < 3; ++i) {
         const c = scale * (R[i][0] * v[k] + R[i][1] * v[k + 1] + R[i][2] * v[k + 2]);

@@ -7,7 +7,11 @@ export const T = {
   spawn: 33, remove: 34, impulse: 35, drag_start: 36, drag_move: 37, drag_release: 38,
   pause: 39, resume: 40, step_once: 41, reset: 42,
 };
-export const SHAPE = { sphere: 0, capsule: 1, box: 2, hull: 3, plane: 4 };
+export const SHAPE = { sphere: 0, capsule: 1, box: 2, hull: 3, plane: 4, mesh: 5, height_field: 6 };
+/// Triangle surfaces: static level geometry, sent (and drawn) as a hull is, their triangles the faces.
+export const isSurface = (type) => type === SHAPE.mesh || type === SHAPE.height_field;
+/// Shapes only a static body has: the ground and level geometry, never spawned or dragged.
+export const isStaticShape = (type) => type === SHAPE.plane || isSurface(type);
 export const BODY_AWAKE = 1, BODY_STATIC = 2, BODY_UNBOUNDED = 4;
 export const TICK_QUANTISED = 1, TICK_PAUSED = 2;
 export const WORLD_STATE = ['running', 'paused', 'failed'];
@@ -78,9 +82,9 @@ function shapeDictionary(dv, at, count) {
     };
     for (let k = 0; k < 8; ++k) rec.params.push(dv.getFloat32(at + 16 + 4 * k, true));
     at += SHAPE_RECORD;
-    if (rec.type === SHAPE.hull) {
+    if (rec.type === SHAPE.hull || isSurface(rec.type)) {
       const bytes = 12 * rec.num_vertices + 4 * (rec.num_faces + 1) + 4 * rec.num_face_vertices;
-      need(dv, at + bytes, `join.shapes[${s}] hull data`);
+      need(dv, at + bytes, `join.shapes[${s}] vertex and face data`);
       rec.vertices = new Float32Array(dv.buffer.slice(dv.byteOffset + at, dv.byteOffset + at + 12 * rec.num_vertices));
       at += 12 * rec.num_vertices;
       rec.face_start = new Uint32Array(dv.buffer.slice(dv.byteOffset + at, dv.byteOffset + at + 4 * (rec.num_faces + 1)));

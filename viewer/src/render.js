@@ -1,13 +1,18 @@
 // Drawing a Model's frame with three.js: one InstancedMesh per shape of the dictionary (a body
 // is an instance: its pose and uniform scale in the instance matrix, its colour by state), an
 // orbit camera about z up, a sun with shadows, a sky light and a grid on the ground plane.
+// Meshes and height fields (static level geometry) are drawn from their triangles.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import { ConvexGeometry } from 'three/examples/jsm/geometries/ConvexGeometry.js';
 import { FLOATS, F_AWAKE, F_PRESENT, F_STATIC } from './model.js';
-import { SHAPE } from './protocol.js';
+import { SHAPE, isStaticShape, isSurface } from './protocol.js';
+import { boundingBox } from './overlay.js';
 
-const COLOURS = { [SHAPE.sphere]: 0x4f8fd8, [SHAPE.capsule]: 0x58b368, [SHAPE.box]: 0xd8924f, [SHAPE.hull]: 0xb36bc4, [SHAPE.plane]: 0x9aa3ad };
+const COLOURS = {
+  [SHAPE.sphere]: 0x4f8fd8, [SHAPE.capsule]: 0x58b368, [SHAPE.box]: 0xd8924f, [SHAPE.hull]: 0xb36bc4, [SHAPE.plane]: 0x9aa3ad,
+  [SHAPE.mesh]: 0x9b8c6e, [SHAPE.height_field]: 0x6e8f4f, // stone and grass: ground, not bodies
+};
 const STATIC_COLOUR = new THREE.Color(0x6d747c);
 const ASLEEP_COLOUR = new THREE.Color(0xa0a0a0);
 const SELECTED_COLOUR = new THREE.Color(0xffe04a);
@@ -24,6 +29,18 @@ function hullGeometry(s) {
   const g = new THREE.BufferGeometry();
   g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
   g.computeVertexNormals(); // not indexed: one normal a face, flat shading
+  return g;
+}
+
+/// A height field's triangles sharing its grid's vertices, so the normals computed at a vertex
+/// average its triangles' and the terrain shades smooth; a mesh is drawn flat, as a hull is
+/// (its edges may be creases meant to show).
+function surfaceGeometry(s) {
+  if (s.type !== SHAPE.height_field) return hullGeometry(s);
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(Float32Array.from(s.vertices), 3));
+  g.setIndex(new THREE.BufferAttribute(Uint32Array.from(s.face_vertices), 1));
+  g.computeVertexNormals();
   return g;
 }
 
@@ -44,6 +61,8 @@ export function shapeGeometry(s, extent) {
       c.divideScalar(s.points.length);
       return g.translate(-c.x, -c.y, -c.z);
     }
+    case SHAPE.mesh:
+    case SHAPE.height_field: return surfaceGeometry(s);
     case SHAPE.plane: {
       const n = new THREE.Vector3(p[0], p[1], p[2]).normalize();
       const g = new THREE.PlaneGeometry(extent, extent);
@@ -101,22 +120,31 @@ export class Renderer {
     this.meshes = [];
     this.model = model;
     let gridDone = false;
-    const box = new THREE.Box3();
+    // Framed on the bodies; the ground and level geometry only when there is nothing else.
+    const box = new THREE.Box3(), ground = new THREE.Box3();
     for (let s = 0; s < frame.flags.length; ++s) {
-      if (!(frame.flags[s] & F_PRESENT) || model.shapes[model.bodies[s].shape]?.type === SHAPE.plane) continue;
-      box.expandByPoint(new THREE.Vector3().fromArray(frame.data, s * FLOATS));
+      if (!(frame.flags[s] & F_PRESENT)) continue;
+      const b = model.bodies[s], type = model.shapes[b.shape]?.type, o = s * FLOATS;
+      if (isSurface(type)) {
+        const d = frame.data;
+        const w = boundingBox(model.shapes[b.shape], b.scale, [d[o], d[o + 1], d[o + 2]], [d[o + 3], d[o + 4], d[o + 5], d[o + 6]]);
+        if (w) ground.union(new THREE.Box3(new THREE.Vector3(...w.min), new THREE.Vector3(...w.max)));
+      } else if (type !== SHAPE.plane) box.expandByPoint(new THREE.Vector3().fromArray(frame.data, o));
     }
+    const lowest = Math.min(box.isEmpty() ? Infinity : box.min.z, ground.isEmpty() ? Infinity : ground.min.z);
+    if (box.isEmpty()) box.copy(ground);
     if (box.isEmpty()) box.set(new THREE.Vector3(-5, -5, 0), new THREE.Vector3(5, 5, 2));
     const size = box.getSize(new THREE.Vector3()), centre = box.getCenter(new THREE.Vector3());
     const radius = Math.max(2, 0.5 * size.length());
     this.extent = Math.max(20, 4 * radius);
     model.shapes.forEach((s, i) => {
       const geometry = shapeGeometry(s, this.extent);
-      const material = new THREE.MeshStandardMaterial({ color: 0xffffff, roughness: 0.75, metalness: 0.05, flatShading: s.type === SHAPE.hull });
+      const material = new THREE.MeshStandardMaterial({ color: 0xffffff, roughness: s.type === SHAPE.height_field ? 0.95 : 0.75, metalness: 0.05, flatShading: s.type === SHAPE.hull || s.type === SHAPE.mesh });
       if (s.type === SHAPE.plane) { material.polygonOffset = true; material.polygonOffsetFactor = 1; material.polygonOffsetUnits = 1; }
       const mesh = new THREE.InstancedMesh(geometry, material, 16);
       mesh.userData = { shape: i, slots: [] };
-      mesh.castShadow = s.type !== SHAPE.plane;
+      // The ground receives shadows; a terrain casting them on itself would speckle.
+      mesh.castShadow = s.type !== SHAPE.plane && s.type !== SHAPE.height_field;
       mesh.receiveShadow = true;
       mesh.frustumCulled = false;
       mesh.count = 0;
@@ -135,7 +163,8 @@ export class Renderer {
     if (!model.shapes.some((s) => s.type === SHAPE.plane)) {
       const grid = new THREE.GridHelper(this.extent, Math.min(100, Math.round(this.extent)), 0x5a6470, 0x3e4650);
       grid.rotateX(Math.PI / 2);
-      grid.position.z = box.min.z;
+      // Under any level geometry, so a flat terrain hides it rather than flickers with it.
+      grid.position.z = ground.isEmpty() ? box.min.z : lowest - 0.01;
       this.world.add(grid);
     }
     const sc = this.sun.shadow.camera;
@@ -193,7 +222,7 @@ export class Renderer {
       else if (f & F_AWAKE && this.islandOf && this.islandOf.has(b.id)) islandColour(this.islandOf.get(b.id), c);
       else if (f & F_AWAKE) c.setHex(COLOURS[m.shapes[b.shape].type] ?? 0xcccccc);
       else c.copy(ASLEEP_COLOUR);
-      if (m.shapes[b.shape].type === SHAPE.plane) c.setHex(COLOURS[SHAPE.plane]);
+      if (isStaticShape(m.shapes[b.shape].type)) c.setHex(COLOURS[m.shapes[b.shape].type]);
       mesh.setColorAt(k, c);
     }
     for (const mesh of this.meshes) {
@@ -209,13 +238,14 @@ export class Renderer {
     this.frames++;
   }
 
-  /// The body (slot) and point under a canvas pixel; planes count only with `withPlanes`.
-  pick(clientX, clientY, withPlanes = false) {
+  /// The body (slot) and point under a canvas pixel; the ground (planes, meshes, height fields)
+  /// counts only with `withGround`.
+  pick(clientX, clientY, withGround = false) {
     const r = this.canvas.getBoundingClientRect();
     const ndc = new THREE.Vector2(((clientX - r.left) / r.width) * 2 - 1, -((clientY - r.top) / r.height) * 2 + 1);
     const ray = new THREE.Raycaster();
     ray.setFromCamera(ndc, this.camera);
-    const targets = this.meshes.filter((mesh) => withPlanes || this.model.shapes[mesh.userData.shape].type !== SHAPE.plane);
+    const targets = this.meshes.filter((mesh) => withGround || !isStaticShape(this.model.shapes[mesh.userData.shape].type));
     const hit = ray.intersectObjects(targets, false)[0];
     if (!hit) return { ray: ray.ray, slot: -1 };
     return { ray: ray.ray, slot: hit.object.userData.slots[hit.instanceId], point: hit.point, normal: hit.face ? hit.face.normal.clone().transformDirection(hit.object.matrixWorld) : null, distance: hit.distance };
@@ -226,6 +256,24 @@ export class Renderer {
     const r = this.canvas.getBoundingClientRect();
     const p = new THREE.Vector3().fromArray(v).project(this.camera);
     return { x: r.left + (p.x + 1) / 2 * r.width, y: r.top + (1 - p.y) / 2 * r.height };
+  }
+
+  /// The triangles drawn for each mesh and height field, in its body frame (three vertices each),
+  /// with its shape index, type and instance count.
+  surfaces() {
+    return this.meshes.filter((mesh) => isSurface(this.model.shapes[mesh.userData.shape].type)).map((mesh) => {
+      const g = mesh.geometry, pos = g.attributes.position.array, index = g.index ? g.index.array : null;
+      const triangles = [];
+      for (let t = 0, n = index ? index.length / 3 : pos.length / 9; t < n; ++t) {
+        const tri = [];
+        for (let k = 0; k < 3; ++k) {
+          const i = index ? index[3 * t + k] : 3 * t + k;
+          tri.push([pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]]);
+        }
+        triangles.push(tri);
+      }
+      return { shape: mesh.userData.shape, type: this.model.shapes[mesh.userData.shape].type, instances: mesh.count, triangles };
+    });
   }
 
   /// Instances drawn, and the drawn position of one slot (read back from its instance matrix).

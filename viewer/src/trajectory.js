@@ -1,7 +1,8 @@
 // Offline: a `cellphys run --out` trajectory CSV (step,t,body,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz)
 // as a Model with one frame per step written. The CSV has no shapes: each body is drawn as the
 // shape its scene file gives it when that file is dropped with the CSV (the scene's static
-// bodies, a ground plane say, are drawn too), otherwise as a 0.5 m box.
+// bodies, a ground plane say, are drawn too), otherwise as a 0.5 m box. A scene's meshes and
+// height fields become the vertices and triangles the server would send for them.
 import { Model, F_AWAKE, F_PRESENT, F_STATIC } from './model.js';
 import { SHAPE } from './protocol.js';
 
@@ -44,13 +45,67 @@ export function parseTrajectory(text, name = 'trajectory.csv') {
   return rows;
 }
 
-function sceneShape(s, where) {
+/// Triangles as the server sends them: each a face of 3.
+function surface(type, vertices, triangles) {
+  const n = triangles.length / 3;
+  return {
+    type, params: [], vertices, face_vertices: triangles, face_start: Uint32Array.from({ length: n + 1 }, (_, k) => 3 * k),
+    num_vertices: vertices.length / 3, num_faces: n, num_face_vertices: 3 * n,
+  };
+}
+
+/// A scene file's inline mesh: its vertices ([x, y, z] each) and triangles ([i, j, k] each).
+function sceneMesh(s, where) {
+  if (!Array.isArray(s.vertices) || !Array.isArray(s.triangles)) throw new FileError(`${where}: a mesh needs vertices and triangles`);
+  const v = new Float32Array(3 * s.vertices.length), t = new Uint32Array(3 * s.triangles.length);
+  s.vertices.forEach((x, i) => {
+    if (!Array.isArray(x) || x.length !== 3 || !x.every(Number.isFinite)) throw new FileError(`${where}.vertices[${i}]: not 3 numbers`);
+    v.set(x, 3 * i);
+  });
+  s.triangles.forEach((x, i) => {
+    if (!Array.isArray(x) || x.length !== 3 || !x.every((k) => Number.isInteger(k) && k >= 0 && k < s.vertices.length))
+      throw new FileError(`${where}.triangles[${i}]: not 3 indices of its ${s.vertices.length} vertices`);
+    t.set(x, 3 * i);
+  });
+  return surface(SHAPE.mesh, v, t);
+}
+
+/// A height field's grid as the engine makes it (runtime/ppe/triangle_surface.cpp): row i along
+/// y, column j along x, centred on the body origin, heights along z; each cell two triangles,
+/// counter-clockwise seen from +z.
+function sceneHeightField(s, where) {
+  const R = s.rows, C = s.columns, h = s.heights;
+  if (!Number.isInteger(R) || !Number.isInteger(C) || R < 2 || C < 2) throw new FileError(`${where}: rows and columns must be integers of at least 2`);
+  if (!Array.isArray(s.spacing) || s.spacing.length !== 2 || !s.spacing.every((x) => x > 0)) throw new FileError(`${where}.spacing: not 2 positive numbers`);
+  const sp = s.spacing.map(Math.fround); // the engine's spacing is a float, its products doubles
+  if (!Array.isArray(h) || h.length !== R * C) throw new FileError(`${where}.heights: ${Array.isArray(h) ? h.length : 'no'} heights, but rows x columns is ${R * C}`);
+  const v = new Float32Array(3 * R * C), t = new Uint32Array(6 * (R - 1) * (C - 1));
+  for (let i = 0; i < R; ++i)
+    for (let j = 0; j < C; ++j) v.set([(j - 0.5 * (C - 1)) * sp[0], (i - 0.5 * (R - 1)) * sp[1], h[i * C + j]], 3 * (i * C + j));
+  let k = 0;
+  for (let i = 0; i + 1 < R; ++i)
+    for (let j = 0; j + 1 < C; ++j) {
+      const a = i * C + j, b = a + 1, d = a + C, c = d + 1;
+      t.set([a, b, c, a, c, d], k);
+      k += 6;
+    }
+  return surface(SHAPE.height_field, v, t);
+}
+
+function sceneShape(s, where, warnings) {
   switch (s.type) {
     case 'sphere': return { type: SHAPE.sphere, params: [s.radius] };
     case 'capsule': return { type: SHAPE.capsule, params: [s.radius, s.half_height] };
     case 'box': return { type: SHAPE.box, params: [...s.half_extents] };
     case 'plane': return { type: SHAPE.plane, params: [...s.normal, s.offset ?? 0] };
     case 'hull': return { type: SHAPE.hull, points: s.points };
+    case 'mesh':
+      if (s.obj !== undefined) { // the OBJ file is not among the dropped files: drawn as nothing
+        warnings.push(`${where}: mesh "${s.name}" is read from ${s.obj}, which the viewer does not open; it is not drawn`);
+        return surface(SHAPE.mesh, new Float32Array(0), new Uint32Array(0));
+      }
+      return sceneMesh(s, where);
+    case 'height_field': return sceneHeightField(s, where);
     default: throw new FileError(`${where}.type: "${s.type}" is not a shape type`);
   }
 }
@@ -60,9 +115,10 @@ export function trajectoryModel(rows, scene = null, sceneName = 'scene.json') {
   const shapes = [{ type: SHAPE.box, params: [0.25, 0.25, 0.25] }];
   const sceneBodies = new Map();
   const shapeIndex = new Map();
+  const warnings = [];
   if (scene) {
     if (!Array.isArray(scene.shapes) || !Array.isArray(scene.bodies)) throw new FileError(`${sceneName}: not a scene file (no shapes or bodies array)`);
-    scene.shapes.forEach((s, i) => { shapeIndex.set(s.name, shapes.length); shapes.push(sceneShape(s, `${sceneName}: shapes[${i}]`)); });
+    scene.shapes.forEach((s, i) => { shapeIndex.set(s.name, shapes.length); shapes.push(sceneShape(s, `${sceneName}: shapes[${i}]`, warnings)); });
     scene.bodies.forEach((b, i) => {
       if (!shapeIndex.has(b.shape)) throw new FileError(`${sceneName}: bodies[${i}].shape: "${b.shape}" is not a shape of the file`);
       sceneBodies.set(String(b.id), b);
@@ -70,6 +126,7 @@ export function trajectoryModel(rows, scene = null, sceneName = 'scene.json') {
   }
   const dt = rows.length > 1 && rows[1][0] !== rows[0][0] ? (rows[1][1] - rows[0][1]) / (rows[1][0] - rows[0][0]) : 0;
   const m = new Model({ shapes, name: 'file', dt, source: 'file', capacity: Infinity });
+  m.warning = warnings.join('; ');
   for (const r of rows) {
     if (m.slotOf.has(r[2])) continue;
     const sb = sceneBodies.get(r[2]);

@@ -239,6 +239,99 @@ try {
   if (images) await wpage.screenshot({ path: join(images, 'viewer_world1000.png') });
   await wpage.close();
 
+  // ---- level geometry: a height field (a bowl) and a mesh (a pyramid), live and from the scene file ----
+  const terrainFile = join(here, 'terrain.json');
+  const terrainScene = JSON.parse(readFileSync(terrainFile, 'utf8'));
+  const bowl = terrainScene.shapes.find((s) => s.type === 'height_field'), pyramid = terrainScene.shapes.find((s) => s.type === 'mesh');
+  const terrain = await serve([terrainFile]);
+  servers.push(terrain);
+  const tpage = await openPage(`${terrain.url}?token=${terrain.token}`, 'terrain');
+  const tj = await tpage.evaluate(() => window.__viewer.join());
+  check((await tpage.evaluate(() => window.__viewer.instanceCount())) === tj.bodies, 'terrain: one instance a body, the bowl and the pyramid among them', `${tj.bodies} bodies`);
+  // A triangle as its vertices (to 1e-5 m), rotated to start at the smallest: the winding kept,
+  // the order of the triangles and the numbering of the vertices not.
+  const triangleKeys = (tris) => tris.map((t) => {
+    const v = t.map((p) => p.map((x) => x.toFixed(5)).join(' '));
+    const k = v.indexOf([...v].sort()[0]);
+    return [...v.slice(k), ...v.slice(0, k)].join(' | ');
+  }).sort();
+  const drawn = await tpage.evaluate(() => window.__viewer.surfaces());
+  const drawnBowl = drawn.find((d) => d.type === 6), drawnPyramid = drawn.find((d) => d.type === 5);
+  const bowlTriangles = 2 * (bowl.rows - 1) * (bowl.columns - 1);
+  check(drawn.length === 2 && drawnBowl?.instances === 1 && drawnBowl.triangles.length === bowlTriangles,
+        'the height field is drawn once, as its grid\'s triangles', `${drawnBowl?.triangles.length} triangles drawn, ${bowlTriangles} in a ${bowl.rows} x ${bowl.columns} grid`);
+  check(drawnPyramid?.instances === 1 && drawnPyramid.triangles.length === pyramid.triangles.length,
+        'the mesh is drawn once, as its triangles', `${drawnPyramid?.triangles.length} drawn, ${pyramid.triangles.length} in the scene`);
+  // Against the scene file's own numbers: the mesh's triangles as given, the grid's as the scene format describes it
+  // (row i along y, column j along x, centred on the body origin; two triangles a cell, counter-clockwise from +z).
+  const gridVertex = (i, j) => [(j - 0.5 * (bowl.columns - 1)) * Math.fround(bowl.spacing[0]), (i - 0.5 * (bowl.rows - 1)) * Math.fround(bowl.spacing[1]),
+    bowl.heights[i * bowl.columns + j]].map(Math.fround);
+  const gridTriangles = [];
+  for (let i = 0; i + 1 < bowl.rows; ++i)
+    for (let j = 0; j + 1 < bowl.columns; ++j)
+      gridTriangles.push([gridVertex(i, j), gridVertex(i, j + 1), gridVertex(i + 1, j + 1)], [gridVertex(i, j), gridVertex(i + 1, j + 1), gridVertex(i + 1, j)]);
+  const pyramidTriangles = pyramid.triangles.map((t) => t.map((k) => pyramid.vertices[k].map(Math.fround)));
+  const sameTriangles = (a, b) => JSON.stringify(triangleKeys(a)) === JSON.stringify(triangleKeys(b));
+  check(drawnBowl && sameTriangles(drawnBowl.triangles, gridTriangles), 'the height field\'s drawn triangles are the scene\'s grid, winding and all');
+  check(drawnPyramid && sameTriangles(drawnPyramid.triangles, pyramidTriangles), 'the mesh\'s drawn triangles are the scene\'s');
+  // On screen: a grid vertex on the near half of the bowl (nearer the camera than the balls in it),
+  // 120 px or more from every ball on screen (clear of their shadows), shows the terrain's green.
+  const near = [];
+  for (let i = 1; i + 1 < bowl.rows; ++i) for (let j = 1; j + 1 < bowl.columns; ++j) if (gridVertex(i, j)[1] < -0.9) near.push(gridVertex(i, j));
+  const seen = await tpage.evaluate((points) => {
+    const v = window.__viewer, c = document.getElementById('view'), r = c.getBoundingClientRect();
+    const ballsAt = v.bodies().filter((b) => !b.static).map((b) => v.screenOf(b.id));
+    const onScreen = points.map((p) => ({ p, at: v.screenOfPoint(p) })).filter(({ at }) =>
+      at.x > r.left + 20 && at.x < r.right - 20 && at.y > r.top + 20 && at.y < r.bottom - 20 &&
+      ballsAt.every((b) => Math.hypot(b.x - at.x, b.y - at.y) > 120));
+    if (!onScreen.length) return null;
+    const centre = { x: (r.left + r.right) / 2, y: (r.top + r.bottom) / 2 };
+    onScreen.sort((a, b) => Math.hypot(a.at.x - centre.x, a.at.y - centre.y) - Math.hypot(b.at.x - centre.x, b.at.y - centre.y));
+    const { p, at } = onScreen[0];
+    const x = Math.round((at.x - r.left) * c.width / r.width), y = Math.round((at.y - r.top) * c.height / r.height);
+    const g = document.createElement('canvas');
+    g.width = 5; g.height = 5;
+    g.getContext('2d').drawImage(c, x - 2, y - 2, 5, 5, 0, 0, 5, 5);
+    const d = g.getContext('2d').getImageData(0, 0, 5, 5).data, sum = [0, 0, 0];
+    for (let i = 0; i < d.length; i += 4) for (let k = 0; k < 3; ++k) sum[k] += d[i + k] / 25;
+    return { rgb: sum.map(Math.round), x, y, point: p, screen: at };
+  }, near);
+  const [red, green, blue] = seen?.rgb ?? [0, 0, 0];
+  check(seen && green > red + 10 && green > blue + 10, 'the height field is on screen in its grass green',
+        seen ? `rgb ${seen.rgb.join(' ')} at pixel ${seen.x},${seen.y} (the bowl at ${seen.point.map((x) => x.toFixed(2)).join(' ')})` : 'no point of its near slope on screen clear of the balls');
+  // Bounding boxes: one a body, the bowl and the pyramid too (there is no plane).
+  await tpage.click('#ov-boxes');
+  const tboxes = await tpage.evaluate(() => window.__viewer.boxCount());
+  check(tboxes === tj.bodies, 'bounding boxes: one a body, level geometry included', `${tboxes} boxes, ${tj.bodies} bodies`);
+  await tpage.click('#ov-boxes');
+  if (images) { await sleep(1500); await tpage.screenshot({ path: join(images, 'viewer_terrain.png') }); }
+  // A click on the bowl picks nothing (it is the ground); shift-click spawns onto it the one shape a
+  // client may spawn, the ball (the bowl and the pyramid come first in the dictionary, and cannot).
+  const onSlope = await tpage.evaluate((p) => window.__viewer.screenOfPoint(p), seen?.point ?? near[0]);
+  await tpage.mouse.click(onSlope.x, onSlope.y);
+  check((await tpage.evaluate(() => window.__viewer.selected())) === null, 'a click on the height field picks no body');
+  const tBefore = await tpage.evaluate(() => window.__viewer.instanceCount());
+  await tpage.keyboard.down('Shift');
+  await tpage.mouse.click(onSlope.x, onSlope.y);
+  await tpage.keyboard.up('Shift');
+  await until('the spawned ball', async () => (await tpage.evaluate(() => window.__viewer.instanceCount())) === tBefore + 1, 5000).catch(() => null);
+  check((await tpage.evaluate(() => window.__viewer.instanceCount())) === tBefore + 1 && /spawned body/.test(await tpage.evaluate(() => window.__viewer.status())),
+        'shift-click on the height field spawns a ball', await tpage.evaluate(() => window.__viewer.status()));
+  // Offline: a trajectory of the scene, dropped with the scene file, draws the same triangles as the server sent.
+  const tdir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-terrain-'));
+  const tcsv = join(tdir, 'terrain.csv');
+  execFileSync(exe, ['run', terrainFile, '--duration', '0.5', '--out', tcsv, '--every', '6'], { stdio: ['ignore', 'ignore', 'inherit'] });
+  await tpage.setInputFiles('#file', [tcsv, terrainFile]);
+  await until('the terrain file to load', () => tpage.evaluate(() => window.__viewer.source() === 'file'));
+  const offline = await tpage.evaluate(() => ({ surfaces: window.__viewer.surfaces(), instances: window.__viewer.instanceCount(), status: window.__viewer.status() }));
+  const offBowl = offline.surfaces.find((d) => d.type === 6), offPyramid = offline.surfaces.find((d) => d.type === 5);
+  check(offline.instances === terrainScene.bodies.length && offBowl && offPyramid && sameTriangles(offBowl.triangles, drawnBowl.triangles) &&
+        sameTriangles(offPyramid.triangles, drawnPyramid.triangles),
+        'from the scene file, the bowl and the pyramid are drawn with the triangles the server sent', `${offline.instances} instances; ${offline.status}`);
+  await tpage.close();
+  terrain.stop();
+  rmSync(tdir, { recursive: true, force: true });
+
   // ---- offline: a trajectory CSV scrubbed to a tick ----
   const dir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-csv-'));
   const csv = join(dir, 'pile.csv');

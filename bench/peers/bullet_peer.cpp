@@ -3,6 +3,9 @@
 // given). Friction: each body gets sqrt(mu) and Bullet multiplies the pair, giving the
 // geometric mean. Inertia: the diagonal of the body-axes tensor (exact for spheres, boxes and
 // capsules; hulls lose their products of inertia). Sleeping maps onto Bullet's deactivation.
+// Joints: btPoint2Point, btHinge, btSlider, btFixed and btConeTwist constraints with Bullet's
+// default softness and limit settings; a joint spring or damper, and a distance joint, are
+// refused (those constraints have none; Bullet has no distance joint).
 #include <btBulletDynamicsCommon.h>
 
 #include <cmath>
@@ -14,6 +17,17 @@
 
 namespace cellphys::bench {
 namespace {
+
+// A joint frame at p: with axis_is_x, x along the axis and y along ref; otherwise z along the
+// axis and x along ref (ref is perpendicular to the axis, both unit).
+btTransform frame(const double p[3], const double axis[3], const double ref[3], bool axis_is_x) {
+  const btVector3 n(axis[0], axis[1], axis[2]), u(ref[0], ref[1], ref[2]);
+  const btVector3 x = axis_is_x ? n : u, y = axis_is_x ? u : n.cross(u), z = x.cross(y);
+  btTransform t;
+  t.setBasis(btMatrix3x3(x.x(), y.x(), z.x(), x.y(), y.y(), z.y(), x.z(), y.z(), z.z()));
+  t.setOrigin(btVector3(p[0], p[1], p[2]));
+  return t;
+}
 
 class BulletPeer : public Peer {
  public:
@@ -98,15 +112,68 @@ class BulletPeer : public Peer {
       bodies_.push_back(std::move(body));
       shapes_.push_back(std::move(shape));
     }
-    for (const scene::ForceSpec& f : scene.forces) {
-      if (f.type != "point_to_point") continue;
-      const int a = body_index(scene, f.a), bb = body_index(scene, f.b);
-      const btVector3 pa(param_of(f.params, "point_a", 0), param_of(f.params, "point_a", 1), param_of(f.params, "point_a", 2));
-      const btVector3 pb(param_of(f.params, "point_b", 0), param_of(f.params, "point_b", 1), param_of(f.params, "point_b", 2));
-      btRigidBody& rb = bb < 0 ? btTypedConstraint::getFixedBody() : *bodies_[bb];
-      auto j = std::make_unique<btPoint2PointConstraint>(*bodies_[a], rb, pa, pb);
-      world_->addConstraint(j.get(), true);
-      joints_.push_back(std::move(j));
+    for (const JointSpec& j : scene_joints(scene)) {
+      btRigidBody& ra = *bodies_[j.a];
+      btRigidBody& rb = j.b < 0 ? btTypedConstraint::getFixedBody() : *bodies_[j.b];
+      const btVector3 pa(j.pa[0], j.pa[1], j.pa[2]), pb(j.pb[0], j.pb[1], j.pb[2]);
+      std::unique_ptr<btTypedConstraint> c;
+      if ((j.type == "hinge" || j.type == "slider" || j.type == "cone_twist") && (j.spring_k > 0 || j.spring_c > 0))
+        throw Unsupported("Bullet: its " + std::string(j.type == "hinge" ? "btHingeConstraint" : j.type == "slider"
+                          ? "btSliderConstraint" : "btConeTwistConstraint") + " has no spring or damper (the " + j.type +
+                          " has spring_stiffness or spring_damping)");
+      if (j.type == "point_to_point") {
+        c = std::make_unique<btPoint2PointConstraint>(ra, rb, pa, pb);
+      } else if (j.type == "hinge") {
+        // Frames with z along the axis and x along ref; referenced to A, Bullet's angle is B's x
+        // from A's about A's z (cellphys's angle) and its motor drives that angle's rate.
+        auto h = std::make_unique<btHingeConstraint>(ra, rb, frame(j.pa, j.axis_a, j.ref_a, false),
+                                                     frame(j.pb, j.axis_b, j.ref_b, false), true);
+        if (j.limited()) h->setLimit(j.lower, j.upper);
+        if (j.motor_max > 0) h->enableAngularMotor(true, j.motor_speed, j.motor_max * dt_);  // an impulse a step
+        c = std::move(h);
+      } else if (j.type == "slider") {
+        // Frames with x along the axis (Bullet slides along x) and y along ref; the travel is B's
+        // origin from A's along A's x, as cellphys's; rotation about the axis is locked.
+        auto sl = std::make_unique<btSliderConstraint>(ra, rb, frame(j.pa, j.axis_a, j.ref_a, true),
+                                                       frame(j.pb, j.axis_b, j.ref_b, true), true);
+        if (j.limited()) {
+          sl->setLowerLinLimit(j.lower);
+          sl->setUpperLinLimit(j.upper);
+        } else {
+          sl->setLowerLinLimit(1);  // lower above upper: free
+          sl->setUpperLinLimit(-1);
+        }
+        sl->setLowerAngLimit(0);
+        sl->setUpperAngLimit(0);
+        if (j.motor_max > 0) {
+          sl->setPoweredLinMotor(true);
+          sl->setTargetLinMotorVelocity(j.motor_speed);
+          sl->setMaxLinMotorForce(j.motor_max);
+        }
+        c = std::move(sl);
+      } else if (j.type == "fixed") {
+        c = std::make_unique<btFixedConstraint>(ra, rb, frame(j.pa, j.axis_a, j.ref_a, false),
+                                                frame(j.pb, j.axis_b, j.ref_b, false));
+      } else if (j.type == "cone_twist") {
+        // Bullet twists about the frames' x; its twist limit is symmetric, so frame A is turned
+        // about the axis to the middle of cellphys's twist range.
+        const double mid = j.twist_limited() ? 0.5 * (j.twist_lower + j.twist_upper) : 0.0;
+        btTransform fa = frame(j.pa, j.axis_a, j.ref_a, true);
+        fa.setBasis(fa.getBasis() * btMatrix3x3(btQuaternion(btVector3(1, 0, 0), btScalar(mid))));
+        auto ct = std::make_unique<btConeTwistConstraint>(ra, rb, fa, frame(j.pb, j.axis_b, j.ref_b, true));
+        const btScalar free = BT_LARGE_FLOAT;
+        const btScalar cone = j.cone_angle > 0 ? btScalar(j.cone_angle) : free;
+        ct->setLimit(cone, cone, j.twist_limited() ? btScalar(0.5 * (j.twist_upper - j.twist_lower)) : free);
+        c = std::move(ct);
+      } else {
+        // distance: a rope or rod holds |pb - pa| within bounds with both ends free to turn;
+        // Bullet's joints hold frames along fixed axes (btGeneric6DofSpring2 limits each axis of
+        // a box, not a radius), and btPoint2Point holds the points together.
+        throw Unsupported("Bullet has no distance joint (rope or rod between two points free to turn); "
+                          "btPoint2Point holds the points together and btGeneric6DofSpring2 limits box axes");
+      }
+      world_->addConstraint(c.get(), true);  // true: the joined pair does not collide, as in cellphys
+      joints_.push_back(std::move(c));
     }
     states_.resize(scene.bodies.size());
   }

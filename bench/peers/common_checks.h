@@ -6,11 +6,12 @@
 
 namespace cellphys::bench {
 
-/// Throws Unsupported for a force type the peers cannot map (e.g. a hand-placed contact).
+/// Throws Unsupported for a force type no peer maps (e.g. a hand-placed contact). Each peer
+/// refuses the joints, and the joints' features, it cannot map itself.
 inline void check_forces(const scene::SceneDesc& scene, const char* engine) {
   for (const scene::ForceSpec& f : scene.forces) {
-    if (f.type == "spring" || f.type == "point_to_point" || f.type == "applied_wrench" ||
-        f.type == "damping" || f.type == "gyroscopic")
+    if (f.type == "spring" || is_joint_type(f.type) || f.type == "applied_wrench" || f.type == "damping" ||
+        f.type == "gyroscopic")
       continue;
     throw Unsupported(std::string(engine) + " has no equivalent of force '" + f.type + "'");
   }

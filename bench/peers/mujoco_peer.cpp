@@ -8,11 +8,17 @@
 // friction. MuJoCo takes the larger of two geoms' friction, so a scene whose bodies' friction
 // differ is written with an explicit <pair> (geometric mean) for every pair of geoms, up to 64
 // bodies; beyond that it is refused. MuJoCo 2.2 has no sleeping: every body is always simulated.
+// Joints: hinge, slider and a limitless cone_twist are joints of MuJoCo's kinematic tree (exact:
+// reduced coordinates), point_to_point and fixed are equalities, distance a tendon; motors and
+// closed loops of tree joints are refused. CELLPHYS_BENCH_MJCF=FILE writes the model there.
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <sstream>
 #include <vector>
@@ -91,8 +97,107 @@ class MujocoPeer : public Peer {
     }
     const auto& g = scene.settings.globals.gravity;
     index_.assign(scene.bodies.size(), -1);
-    int next_body = 1;
-    for (size_t i = 0; i < scene.bodies.size(); ++i) {
+    const size_t n = scene.bodies.size();
+    std::vector<bool> dynamic(n);
+    for (size_t i = 0; i < n; ++i)
+      dynamic[i] = !scene.bodies[i].is_static && scene.shapes[info[i].shape].type != spu::ShapeType::plane;
+
+    // Joints. hinge, slider and a free cone_twist are joints of MuJoCo's kinematic tree: the
+    // child body nested in its parent (the world for a joint to the world) with a hinge, slide
+    // or ball joint at the joint's point in the child's frame; the tree is grown from the world
+    // outward, then from the first body not yet in it (with a free joint). A closed loop of such
+    // joints is refused. point_to_point is a `connect` equality, fixed a `weld` (the start pose),
+    // distance a spatial tendon with a length range.
+    const std::vector<JointSpec> js = scene_joints(scene);
+    auto in_tree = [](const JointSpec& j) { return j.type == "hinge" || j.type == "slider" || j.type == "cone_twist"; };
+    for (const JointSpec& j : js) {
+      if (in_tree(j) && j.motor_max > 0)
+        throw Unsupported("MuJoCo: its joints have no motor (a velocity actuator needs a gain the scene does not give)");
+      if (j.type == "cone_twist" && (j.cone_angle > 0 || j.twist_limited()))
+        throw Unsupported("MuJoCo: its ball joint limits the whole turn's angle, not a swing cone and a twist range");
+      if (j.type == "cone_twist" && j.spring_k > 0)
+        throw Unsupported("MuJoCo: its ball joint's spring pulls toward the start pose, not the aligned pose");
+    }
+    constexpr int kUnplaced = -3, kFree = -2;
+    std::vector<int> parent(n, kUnplaced), via(n, -1);
+    std::vector<bool> used(js.size(), false);
+    const std::string loop = "MuJoCo: a closed loop of hinge, slider or cone_twist joints (its tree joints cannot close one)";
+    for (size_t k = 0; k < js.size(); ++k) {
+      if (!in_tree(js[k]) || js[k].b >= 0) continue;
+      if (parent[js[k].a] != kUnplaced) throw Unsupported(loop);
+      parent[js[k].a] = -1, via[js[k].a] = static_cast<int>(k), used[k] = true;
+    }
+    for (;;) {
+      for (bool grew = true; grew;) {
+        grew = false;
+        for (size_t k = 0; k < js.size(); ++k) {
+          if (used[k] || !in_tree(js[k]) || js[k].b < 0) continue;
+          const int a = js[k].a, bb = js[k].b;
+          const bool ha = parent[a] != kUnplaced, hb = parent[bb] != kUnplaced;
+          if (ha == hb) continue;
+          const int child = ha ? bb : a;
+          parent[child] = ha ? a : bb, via[child] = static_cast<int>(k), used[k] = grew = true;
+        }
+      }
+      size_t i = 0;
+      while (i < n && !(dynamic[i] && parent[i] == kUnplaced)) ++i;
+      if (i == n) break;
+      parent[i] = kFree;
+    }
+    for (size_t k = 0; k < js.size(); ++k)
+      if (in_tree(js[k]) && !used[k]) throw Unsupported(loop);
+    tree_ = false;
+    for (size_t i = 0; i < n; ++i) tree_ = tree_ || (dynamic[i] && parent[i] != kFree);
+
+    // Pairs a joint joins make no contacts in cellphys: a tree joint's are filtered as parent
+    // and child; the others are excluded.
+    std::vector<std::pair<int, int>> joined;
+    for (const JointSpec& j : js)
+      if (j.b >= 0) joined.push_back({std::min(j.a, j.b), std::max(j.a, j.b)});
+    std::ostringstream eq, contact;
+    eq.precision(9);
+    contact.precision(9);
+    for (const JointSpec& j : js) {
+      if (in_tree(j)) continue;
+      const std::string b1 = "b" + std::to_string(j.a), b2 = j.b >= 0 ? " body2=\"b" + std::to_string(j.b) + "\"" : "";
+      if (j.type == "point_to_point") {
+        eq << "<connect body1=\"" << b1 << "\"" << b2 << " anchor=\"" << j.pa[0] << " " << j.pa[1] << " " << j.pa[2]
+           << "\"/>\n";
+      } else if (j.type == "fixed") {
+        eq << "<weld body1=\"" << b1 << "\"" << b2 << "/>\n";  // holds the start pose
+      } else {  // distance
+        const std::string tag = "j" + std::to_string(j.force);
+        auto site = [&](const double* p, int body, const char* end) {
+          std::ostringstream o;
+          o.precision(9);
+          o << "<site name=\"" << tag << end << "\" pos=\"" << p[0] << " " << p[1] << " " << p[2] << "\"/>";
+          if (body < 0) world_sites << o.str() << "\n";
+          else sites[body] += o.str();
+        };
+        site(j.pa, j.a, "a");
+        site(j.pb, j.b, "b");
+        tendons << "<spatial name=\"" << tag << "\" stiffness=\"" << j.spring_k << "\" damping=\"" << j.spring_c
+                << "\" springlength=\"" << j.spring_rest << "\"";
+        // A rod (both bounds equal) is an equality on the tendon's length, which MuJoCo
+        // measures from its length at the start; a rope or spacer is a limit on one side.
+        if (j.min_length > 0 && j.min_length == j.max_length)
+          eq << "<tendon tendon1=\"" << tag << "\" polycoef=\"" << j.max_length - j.length0 << " 0 0 0 0\"/>\n";
+        else if (j.min_length > 0 || j.max_length > 0)
+          tendons << " limited=\"true\" range=\"" << j.min_length << " " << (j.max_length > 0 ? j.max_length : 1e10)
+                  << "\"";
+        tendons << "><site site=\"" << tag << "a\"/><site site=\"" << tag << "b\"/></spatial>\n";
+      }
+      if (j.b >= 0 && !pairs) contact << "<exclude body1=\"" << b1 << "\" body2=\"b" << j.b << "\"/>\n";
+    }
+
+    struct TreeJoint {
+      int body, joint;
+      double sign;
+    };
+    std::vector<TreeJoint> tree_joints;
+    std::vector<std::string> body_xml(n);  // a dynamic body's geom, inertial, joint and sites
+    std::vector<std::vector<int>> children(n + 1);  // children[n]: the world's
+    for (size_t i = 0; i < n; ++i) {
       const scene::BodySpec& b = scene.bodies[i];
       const ppe::BodyState& st = b.state;
       const BodyInfo& bi = info[i];
@@ -135,36 +240,71 @@ class MujocoPeer : public Peer {
       }
       geom << " friction=\"" << b.friction << " 0 0\"";
       if (pairs) geom << " contype=\"0\" conaffinity=\"0\"";
-      const std::string pose = " pos=\"" + num(st.position[0]) + " " + num(st.position[1]) + " " + num(st.position[2]) +
-                               "\" quat=\"" + num(st.orientation[0]) + " " + num(st.orientation[1]) + " " +
-                               num(st.orientation[2]) + " " + num(st.orientation[3]) + "\"";
-      if (b.is_static || s.type == spu::ShapeType::plane) {
+      if (!dynamic[i]) {
         if (s.type == spu::ShapeType::plane)
           world << geom.str() << "/>\n";
         else
-          world << geom.str() << pose << "/>\n";
+          world << geom.str() << pose_xml(st.position, st.orientation) << "/>\n";
         continue;
       }
-      index_[i] = next_body++;
       contacts_guess += 3;
-      world << "<body name=\"b" << i << "\"" << pose << "><freejoint/><inertial pos=\"0 0 0\" mass=\"" << bi.mass
-            << "\" fullinertia=\"" << bi.inertia[0] << " " << bi.inertia[1] << " " << bi.inertia[2] << " "
-            << bi.inertia[3] << " " << bi.inertia[4] << " " << bi.inertia[5] << "\"/>" << geom.str() << "/>" << sites[i]
-            << "</body>\n";
+      std::ostringstream o;
+      o.precision(9);
+      if (parent[i] == kFree) {
+        o << "<freejoint/>";
+      } else {
+        // The joint in the child's frame; sign: +1 when the child is the joint's b (MuJoCo's
+        // coordinate is then cellphys's angle or travel less its start value), -1 when it is a.
+        const JointSpec& j = js[via[i]];
+        const bool child_b = j.b == static_cast<int>(i);
+        const double* p = child_b ? j.pb : j.pa;
+        const double* ax = child_b ? j.axis_b : j.axis_a;
+        const double sign = child_b ? 1.0 : -1.0;
+        const double start = j.type == "hinge" ? j.angle0 : j.travel0;
+        o << "<joint type=\"" << (j.type == "hinge" ? "hinge" : j.type == "slider" ? "slide" : "ball") << "\" pos=\""
+          << p[0] << " " << p[1] << " " << p[2] << "\"";
+        if (j.type != "cone_twist") {
+          o << " axis=\"" << ax[0] << " " << ax[1] << " " << ax[2] << "\"";
+          if (j.limited()) {
+            const double lo = sign * (j.lower - start), hi = sign * (j.upper - start);
+            o << " limited=\"true\" range=\"" << std::min(lo, hi) << " " << std::max(lo, hi) << "\"";
+          }
+          if (j.spring_k > 0) o << " stiffness=\"" << j.spring_k << "\" springref=\"" << sign * (j.spring_rest - start) << "\"";
+        }
+        if (j.spring_c > 0) o << " damping=\"" << j.spring_c << "\"";
+        o << "/>";
+        tree_joints.push_back({static_cast<int>(i), via[i], sign});
+      }
+      o << "<inertial pos=\"0 0 0\" mass=\"" << bi.mass << "\" fullinertia=\"" << bi.inertia[0] << " " << bi.inertia[1]
+        << " " << bi.inertia[2] << " " << bi.inertia[3] << " " << bi.inertia[4] << " " << bi.inertia[5] << "\"/>"
+        << geom.str() << "/>" << sites[i];
+      body_xml[i] = o.str();
+      children[parent[i] >= 0 ? parent[i] : n].push_back(static_cast<int>(i));
     }
-    std::ostringstream eq, contact;
-    for (const scene::ForceSpec& f : scene.forces) {
-      if (f.type != "point_to_point") continue;
-      const int a = body_index(scene, f.a), bb = body_index(scene, f.b);
-      if (index_[a] < 0) throw Unsupported("MuJoCo: a joint on a static body");
-      eq << "<connect body1=\"b" << a << "\"" << (bb >= 0 ? " body2=\"b" + std::to_string(bb) + "\"" : std::string())
-         << " anchor=\"" << param_of(f.params, "point_a", 0) << " " << param_of(f.params, "point_a", 1) << " "
-         << param_of(f.params, "point_a", 2) << "\"/>\n";
-    }
+    // The bodies, nested: a child's pose relative to its parent's.
+    std::function<void(int, int)> emit = [&](int i, int par) {
+      const ppe::BodyState& st = scene.bodies[i].state;
+      double p[3], q[4];
+      pose_of(st, p, q);
+      if (par >= 0) {
+        double pp[3], pq[4], d[3], rel[4];
+        pose_of(scene.bodies[par].state, pp, pq);
+        for (int k = 0; k < 3; ++k) d[k] = p[k] - pp[k];
+        quat_rotate_inv(pq, d, p);
+        const double c[4] = {pq[0], -pq[1], -pq[2], -pq[3]};
+        quat_mul(c, q, rel);
+        std::copy(rel, rel + 4, q);
+      }
+      world << "<body name=\"b" << i << "\"" << pose_xml(p, q) << ">" << body_xml[i];
+      for (int c : children[i]) emit(c, i);
+      world << "</body>\n";
+    };
+    for (int i : children[n]) emit(i, -1);
     if (pairs) {
-      for (size_t i = 0; i < scene.bodies.size(); ++i)
-        for (size_t j = i + 1; j < scene.bodies.size(); ++j) {
-          if (index_[i] < 0 && index_[j] < 0) continue;
+      for (size_t i = 0; i < n; ++i)
+        for (size_t j = i + 1; j < n; ++j) {
+          if (!dynamic[i] && !dynamic[j]) continue;
+          if (std::find(joined.begin(), joined.end(), std::make_pair(int(i), int(j))) != joined.end()) continue;
           const double mu = std::sqrt(double(scene.bodies[i].friction) * scene.bodies[j].friction);
           contact << "<pair geom1=\"g" << i << "\" geom2=\"g" << j << "\" condim=\"3\" friction=\"" << mu << " " << mu
                   << " 0 0 0\"/>\n";
@@ -180,6 +320,9 @@ class MujocoPeer : public Peer {
       << "<tendon>\n" << tendons.str() << "</tendon>\n"
       << "<equality>\n" << eq.str() << "</equality>\n<contact>\n" << contact.str() << "</contact>\n</mujoco>\n";
     const std::string xml = x.str();
+    if (const char* dump = std::getenv("CELLPHYS_BENCH_MJCF")) {  // the model as written, for a look
+      if (FILE* out = std::fopen(dump, "w")) std::fputs(xml.c_str(), out), std::fclose(out);
+    }
 
     auto vfs = std::make_unique<mjVFS>();
     mj_defaultVFS(vfs.get());
@@ -204,17 +347,41 @@ class MujocoPeer : public Peer {
                     njmax, model_->nv, 8e-9 * double(njmax) * double(njmax + model_->nv));
       throw Unsupported(why);
     }
-    for (size_t i = 0; i < scene.bodies.size(); ++i) {
-      if (index_[i] < 0) continue;
+    for (size_t i = 0; i < n; ++i)
+      if (dynamic[i]) index_[i] = mj_name2id(model_, mjOBJ_BODY, ("b" + std::to_string(i)).c_str());
+    for (size_t i = 0; i < n; ++i) {
+      if (index_[i] < 0 || parent[i] != kFree) continue;
       const ppe::BodyState& b = scene.bodies[i].state;
       const int dof = model_->jnt_dofadr[model_->body_jntadr[index_[i]]];
-      double w[3] = {b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]}, wb[3];
-      double q[4] = {b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]};
-      const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-      for (double& e : q) e /= n;
+      double w[3] = {b.angular_velocity[0], b.angular_velocity[1], b.angular_velocity[2]}, wb[3], p[3], q[4];
+      pose_of(b, p, q);
       quat_rotate_inv(q, w, wb);
       for (int k = 0; k < 3; ++k) data_->qvel[dof + k] = b.velocity[k], data_->qvel[dof + 3 + k] = wb[k];
     }
+    // A tree joint's speed from the scene's start velocities: the hinge's or slider's rate
+    // (b's from a's, along a's axis), the ball's relative turn in the child's frame.
+    for (const TreeJoint& t : tree_joints) {
+      const JointSpec& j = js[t.joint];
+      const int dof = model_->jnt_dofadr[model_->body_jntadr[index_[t.body]]];
+      double va[3], vb[3] = {}, wa[3], wb[3] = {}, rel[3];
+      point_velocity(scene.bodies[j.a].state, j.wpb, va, wa);
+      if (j.b >= 0) point_velocity(scene.bodies[j.b].state, j.wpb, vb, wb);
+      if (j.type == "cone_twist") {
+        double p[3], q[4];
+        pose_of(scene.bodies[t.body].state, p, q);
+        for (int k = 0; k < 3; ++k) rel[k] = t.sign * (wb[k] - wa[k]);
+        double local[3];
+        quat_rotate_inv(q, rel, local);
+        for (int k = 0; k < 3; ++k) data_->qvel[dof + k] = local[k];
+        continue;
+      }
+      const double* u = j.type == "hinge" ? wa : va;
+      const double* v = j.type == "hinge" ? wb : vb;
+      double rate = 0;
+      for (int k = 0; k < 3; ++k) rate += (v[k] - u[k]) * j.wna[k];
+      data_->qvel[dof] = t.sign * rate;
+    }
+    if (tree_) mj_forward(model_, data_);
     static_state_.resize(scene.bodies.size());
     for (size_t i = 0; i < scene.bodies.size(); ++i) {
       State& s = static_state_[i];
@@ -238,11 +405,25 @@ class MujocoPeer : public Peer {
     }
     const long before = warnings();
     mj_step(model_, data_);
+    if (tree_) {  // bodies inside a tree are read from their frames: bring them to the new state
+      mj_kinematics(model_, data_);
+      mj_comPos(model_, data_);
+      mj_comVel(model_, data_);
+    }
     failed_ = warnings() > before;
   }
   State state(size_t i) const override {
     if (index_[i] < 0) return static_state_[i];
     const int j = model_->body_jntadr[index_[i]];
+    if (model_->jnt_type[j] != mjJNT_FREE) {
+      State s;
+      const int id = index_[i];
+      mjtNum vel[6];
+      mj_objectVelocity(model_, data_, mjOBJ_BODY, id, vel, 0);  // angular, linear; world axes
+      for (int k = 0; k < 3; ++k) s.p[k] = data_->xpos[3 * id + k], s.w[k] = vel[k], s.v[k] = vel[3 + k];
+      for (int k = 0; k < 4; ++k) s.q[k] = data_->xquat[4 * id + k];
+      return s;
+    }
     const mjtNum* qp = data_->qpos + model_->jnt_qposadr[j];
     const mjtNum* qv = data_->qvel + model_->jnt_dofadr[j];
     State s;
@@ -269,6 +450,32 @@ class MujocoPeer : public Peer {
     for (int k = 0; k < mjNWARNING; ++k) n += data_->warning[k].number;
     return n;
   }
+  template <class T, class U>
+  static std::string pose_xml(const T* p, const U* q) {
+    return " pos=\"" + num(p[0]) + " " + num(p[1]) + " " + num(p[2]) + "\" quat=\"" + num(q[0]) + " " + num(q[1]) +
+           " " + num(q[2]) + " " + num(q[3]) + "\"";
+  }
+  static void pose_of(const ppe::BodyState& b, double p[3], double q[4]) {
+    double len = 0;
+    for (int k = 0; k < 4; ++k) q[k] = b.orientation[k], len += q[k] * q[k];
+    len = std::sqrt(len);
+    for (int k = 0; k < 4; ++k) q[k] /= len;
+    for (int k = 0; k < 3; ++k) p[k] = b.position[k];
+  }
+  static void quat_mul(const double a[4], const double b[4], double o[4]) {
+    o[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+    o[1] = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+    o[2] = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+    o[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+  }
+  // The velocity of a body's point x (world) and its angular velocity, at the scene's start.
+  static void point_velocity(const ppe::BodyState& b, const double x[3], double v[3], double w[3]) {
+    double r[3];
+    for (int k = 0; k < 3; ++k) r[k] = x[k] - b.position[k], w[k] = b.angular_velocity[k];
+    v[0] = b.velocity[0] + w[1] * r[2] - w[2] * r[1];
+    v[1] = b.velocity[1] + w[2] * r[0] - w[0] * r[2];
+    v[2] = b.velocity[2] + w[0] * r[1] - w[1] * r[0];
+  }
   static std::string num(double v) {
     std::ostringstream o;
     o.precision(9);
@@ -280,6 +487,7 @@ class MujocoPeer : public Peer {
   mjModel* model_ = nullptr;
   mjData* data_ = nullptr;
   std::vector<int> index_;  // MuJoCo body id of each scene body, -1 for static ones
+  bool tree_ = false;       // some body sits in a kinematic tree (not on a free joint)
   std::vector<State> static_state_, states_;
   std::vector<double> wrench_;
   int failed_ = 0;

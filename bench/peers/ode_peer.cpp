@@ -2,7 +2,9 @@
 // dWorldQuickStep (iterative SOR, 20 iterations unless given). Contacts: up to 8 points a pair,
 // dContactApprox1 friction with the geometric mean of the bodies' coefficients, ODE's default
 // ERP and CFM, a 1 mm surface layer. Hulls: dCreateConvex on the cellphys hull's planes and
-// faces. Sleeping maps onto ODE's auto-disable.
+// faces. Sleeping maps onto ODE's auto-disable. Joints: ball, hinge, slider, fixed and (for a
+// rod) double-ball joints with ODE's default ERP and CFM; a joint spring or damper, a rope or
+// spacer and a cone-twist are refused.
 #include <ode/ode.h>
 
 #include <cmath>
@@ -106,16 +108,69 @@ class OdePeer : public Peer {
       dGeomSetBody(geom, body);
       bodies_[i] = body;
     }
-    for (const scene::ForceSpec& f : scene.forces) {
-      if (f.type != "point_to_point") continue;
-      const int a = body_index(scene, f.a), bb = body_index(scene, f.b);
-      if (bodies_[a] == nullptr) throw Unsupported("ODE: a joint on a static body");
-      dJointID j = dJointCreateBall(world_, nullptr);
-      dJointAttach(j, bodies_[a], bb < 0 ? nullptr : bodies_[bb]);
-      dVector3 anchor;
-      dBodyGetRelPointPos(bodies_[a], param_of(f.params, "point_a", 0), param_of(f.params, "point_a", 1),
-                          param_of(f.params, "point_a", 2), anchor);
-      dJointSetBallAnchor(j, anchor[0], anchor[1], anchor[2]);
+    for (const JointSpec& j : scene_joints(scene)) {
+      dBodyID ba = bodies_[j.a], bb = j.b < 0 ? nullptr : bodies_[j.b];
+      const char* lacks = j.type == "hinge" || j.type == "slider" ? "a spring or damper" : nullptr;
+      if (lacks && (j.spring_k > 0 || j.spring_c > 0))
+        throw Unsupported("ODE: its " + j.type + " joint has no spring or damper (the scene's has spring_stiffness "
+                          "or spring_damping)");
+      dJointID jt = nullptr;
+      // ODE measures hinge angles and slider positions of body 1 (a) from body 2 (b), zero at
+      // the pose the joint is set up in: cellphys's angle and travel less their start values,
+      // negated. Limits and motor speeds are turned the same way.
+      if (j.type == "point_to_point") {
+        jt = dJointCreateBall(world_, nullptr);
+        dJointAttach(jt, ba, bb);
+        dJointSetBallAnchor(jt, j.wpa[0], j.wpa[1], j.wpa[2]);
+      } else if (j.type == "hinge") {
+        jt = dJointCreateHinge(world_, nullptr);
+        dJointAttach(jt, ba, bb);
+        dJointSetHingeAnchor(jt, j.wpa[0], j.wpa[1], j.wpa[2]);
+        dJointSetHingeAxis(jt, j.wna[0], j.wna[1], j.wna[2]);
+        if (j.limited()) {
+          const double lo = j.angle0 - j.upper, hi = j.angle0 - j.lower;
+          if (lo < -M_PI || hi > M_PI)
+            throw Unsupported("ODE: hinge stops must lie in [-pi, pi] from the start pose");
+          dJointSetHingeParam(jt, dParamLoStop, lo);
+          dJointSetHingeParam(jt, dParamHiStop, hi);
+        }
+        if (j.motor_max > 0) {
+          dJointSetHingeParam(jt, dParamVel, -j.motor_speed);
+          dJointSetHingeParam(jt, dParamFMax, j.motor_max);
+        }
+      } else if (j.type == "slider") {
+        jt = dJointCreateSlider(world_, nullptr);
+        dJointAttach(jt, ba, bb);
+        dJointSetSliderAxis(jt, j.wna[0], j.wna[1], j.wna[2]);
+        if (j.limited()) {
+          dJointSetSliderParam(jt, dParamLoStop, j.travel0 - j.upper);
+          dJointSetSliderParam(jt, dParamHiStop, j.travel0 - j.lower);
+        }
+        if (j.motor_max > 0) {
+          dJointSetSliderParam(jt, dParamVel, -j.motor_speed);
+          dJointSetSliderParam(jt, dParamFMax, j.motor_max);
+        }
+      } else if (j.type == "fixed") {
+        jt = dJointCreateFixed(world_, nullptr);
+        dJointAttach(jt, ba, bb);
+        dJointSetFixed(jt);  // holds the start pose
+      } else if (j.type == "distance") {
+        // dJointCreateDBall holds two anchors at a fixed distance: a rod (min_length =
+        // max_length); a rope or a spacer is one-sided, which ODE has no joint for.
+        if (!(j.max_length > 0 && j.min_length == j.max_length))
+          throw Unsupported("ODE: a distance joint maps only as a rod (min_length = max_length) onto dJointCreateDBall; "
+                            "ODE has no one-sided rope or spacer joint");
+        if (j.spring_k > 0 || j.spring_c > 0)
+          throw Unsupported("ODE: its double-ball joint has no spring or damper");
+        jt = dJointCreateDBall(world_, nullptr);
+        dJointAttach(jt, ba, bb);
+        dJointSetDBallAnchor1(jt, j.wpa[0], j.wpa[1], j.wpa[2]);
+        dJointSetDBallAnchor2(jt, j.wpb[0], j.wpb[1], j.wpb[2]);
+        dJointSetDBallDistance(jt, j.max_length);
+      } else {
+        throw Unsupported("ODE: no cone-twist joint (a ball joint with an angular motor's Euler-angle stops "
+                          "is not the same cone) is mapped");
+      }
     }
     states_.resize(scene.bodies.size());
   }

@@ -12,7 +12,10 @@
 //    the bench as external forces evaluated from the state at the start of each step (those
 //    engines have no spring element); in MuJoCo a `spring` is a spatial tendon with the same
 //    stiffness, damping and rest length (MuJoCo's own passive force); `point_to_point`: the engine's own ball joint, rigid, with its
-//    default constraint softness; `gyroscopic`: the engine's own rigid-body dynamics.
+//    default constraint softness; `gyroscopic`: the engine's own rigid-body dynamics;
+//    `hinge`, `slider`, `fixed`, `distance`, `cone_twist`: the engine's own joint where it has
+//    one, with points, axes and limits (and motors and springs where that joint has them;
+//    a scene that needs what the joint lacks is refused; docs/bench.md has the table).
 //  - contacts: each engine's own contact model (cellphys: penalty spring-dampers).
 // A scene an engine cannot express throws Unsupported with the reason; no row is invented.
 #pragma once
@@ -100,6 +103,36 @@ class ExternalForces {
 
 /// Index of a scene body id, or -1 for "world".
 int body_index(const scene::SceneDesc& scene, const std::string& id);
+
+/// A joint force of the scene (point_to_point, hinge, slider, fixed, distance, cone_twist) as
+/// the peers map it: its parameters (left out: 0), the axes normalised and each ref made
+/// perpendicular to its axis (any perpendicular when none is given), and the pose quantities
+/// at the scene's start in world coordinates. A static scene body as b is turned into the
+/// world (b = -1, its point, axis and ref into world coordinates); a static body as a is
+/// refused (Unsupported).
+struct JointSpec {
+  std::string type;
+  size_t force = 0;  // index in scene.forces
+  int a = -1, b = -1;  // scene bodies; b = -1: the world
+  double pa[3] = {}, pb[3] = {};  // body frames (pb: world frame when b = -1)
+  double axis_a[3] = {}, axis_b[3] = {}, ref_a[3] = {}, ref_b[3] = {};
+  bool has_axis = false;  // axis_a and axis_b given
+  double lower = 0, upper = 0;            // hinge (rad), slider (m); limited when lower < upper
+  double motor_speed = 0, motor_max = 0;  // hinge motor_torque, slider motor_force; 0: no motor
+  double spring_k = 0, spring_c = 0, spring_rest = 0;  // hinge spring_angle, slider spring_travel, distance rest_length
+  double min_length = 0, max_length = 0;  // distance
+  double cone_angle = 0, twist_lower = 0, twist_upper = 0;  // cone_twist
+  // At the start, world frame: the joint's points, axes and refs, its angle (hinge: ref_a to
+  // ref_b about axis_a; cone_twist: the twist) and travel (slider: b's point from a's along axis_a).
+  double wpa[3] = {}, wpb[3] = {}, wna[3] = {}, wnb[3] = {}, wua[3] = {}, wub[3] = {};
+  double angle0 = 0, travel0 = 0, length0 = 0;
+  bool limited() const { return lower < upper; }
+  bool twist_limited() const { return twist_lower < twist_upper; }
+};
+/// The scene's joints in force order (other forces are left out).
+std::vector<JointSpec> scene_joints(const scene::SceneDesc& scene);
+/// The force types scene_joints returns.
+bool is_joint_type(const std::string& type);
 
 std::unique_ptr<Peer> make_cellphys(const scene::SceneDesc& scene, const EngineConfig& c);
 std::unique_ptr<Peer> make_bullet(const scene::SceneDesc& scene, const EngineConfig& c);

@@ -37,6 +37,125 @@ int body_index(const scene::SceneDesc& scene, const std::string& id) {
   throw std::invalid_argument("no body '" + id + "'");
 }
 
+bool is_joint_type(const std::string& t) {
+  return t == "point_to_point" || t == "hinge" || t == "slider" || t == "fixed" || t == "distance" ||
+         t == "cone_twist";
+}
+
+namespace {
+double jparam(const ppe::ForceParams& p, const char* name, int k = 0) {
+  for (const auto& [n, v] : p)
+    if (n == name && static_cast<int>(v.size()) > k) return v[k];
+  return 0.0;
+}
+void vec_of(const ppe::ForceParams& p, const char* name, double out[3]) {
+  for (int k = 0; k < 3; ++k) out[k] = jparam(p, name, k);
+}
+double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+void cross3(const double a[3], const double b[3], double o[3]) {
+  o[0] = a[1] * b[2] - a[2] * b[1], o[1] = a[2] * b[0] - a[0] * b[2], o[2] = a[0] * b[1] - a[1] * b[0];
+}
+bool normalise(double v[3]) {
+  const double n = std::sqrt(dot3(v, v));
+  if (n < 1e-12) return false;
+  for (int k = 0; k < 3; ++k) v[k] /= n;
+  return true;
+}
+// ref made perpendicular to the unit axis; any perpendicular when ref is zero or along the axis.
+void perpendicular(const double axis[3], double ref[3]) {
+  const double d = dot3(ref, axis);
+  for (int k = 0; k < 3; ++k) ref[k] -= d * axis[k];
+  if (normalise(ref)) return;
+  const double e[3] = {std::fabs(axis[0]) < 0.9 ? 1.0 : 0.0, std::fabs(axis[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+  cross3(axis, e, ref);
+  normalise(ref);
+}
+void body_pose(const scene::BodySpec& b, double p[3], double q[4]) {
+  for (int k = 0; k < 3; ++k) p[k] = b.state.position[k];
+  double n = 0;
+  for (int k = 0; k < 4; ++k) q[k] = b.state.orientation[k], n += q[k] * q[k];
+  n = std::sqrt(n);
+  for (int k = 0; k < 4; ++k) q[k] /= n;
+}
+}  // namespace
+
+std::vector<JointSpec> scene_joints(const scene::SceneDesc& scene) {
+  std::vector<JointSpec> out;
+  for (size_t f = 0; f < scene.forces.size(); ++f) {
+    const scene::ForceSpec& fs = scene.forces[f];
+    if (!is_joint_type(fs.type)) continue;
+    const ppe::ForceParams& P = fs.params;
+    JointSpec j;
+    j.type = fs.type;
+    j.force = f;
+    j.a = body_index(scene, fs.a);
+    j.b = body_index(scene, fs.b);
+    if (scene.bodies[j.a].is_static) throw Unsupported("a joint whose body a is static ('" + fs.a + "')");
+    vec_of(P, "point_a", j.pa);
+    vec_of(P, "point_b", j.pb);
+    vec_of(P, "axis_a", j.axis_a);
+    vec_of(P, "axis_b", j.axis_b);
+    vec_of(P, "ref_a", j.ref_a);
+    vec_of(P, "ref_b", j.ref_b);
+    j.has_axis = normalise(j.axis_a) && normalise(j.axis_b);
+    if (!j.has_axis) j.axis_a[0] = j.axis_a[1] = 0, j.axis_a[2] = 1, j.axis_b[0] = j.axis_b[1] = 0, j.axis_b[2] = 1;
+    perpendicular(j.axis_a, j.ref_a);
+    perpendicular(j.axis_b, j.ref_b);
+    j.lower = jparam(P, "lower");
+    j.upper = jparam(P, "upper");
+    j.motor_speed = jparam(P, "motor_speed");
+    j.motor_max = fs.type == "slider" ? jparam(P, "motor_force") : jparam(P, "motor_torque");
+    j.spring_k = jparam(P, "spring_stiffness");
+    j.spring_c = jparam(P, "spring_damping");
+    j.spring_rest = fs.type == "hinge" ? jparam(P, "spring_angle") : fs.type == "slider" ? jparam(P, "spring_travel")
+                                                                                       : jparam(P, "rest_length");
+    j.min_length = jparam(P, "min_length");
+    j.max_length = jparam(P, "max_length");
+    j.cone_angle = jparam(P, "cone_angle");
+    j.twist_lower = jparam(P, "twist_lower");
+    j.twist_upper = jparam(P, "twist_upper");
+    // A static body b becomes the world: its point and directions in world coordinates.
+    if (j.b >= 0 && scene.bodies[j.b].is_static) {
+      double p[3], q[4], t[3];
+      body_pose(scene.bodies[j.b], p, q);
+      quat_rotate(q, j.pb, t);
+      for (int k = 0; k < 3; ++k) j.pb[k] = p[k] + t[k];
+      quat_rotate(q, j.axis_b, t);
+      std::copy(t, t + 3, j.axis_b);
+      quat_rotate(q, j.ref_b, t);
+      std::copy(t, t + 3, j.ref_b);
+      j.b = -1;
+    }
+    double p[3], q[4];
+    body_pose(scene.bodies[j.a], p, q);
+    quat_rotate(q, j.pa, j.wpa);
+    for (int k = 0; k < 3; ++k) j.wpa[k] += p[k];
+    quat_rotate(q, j.axis_a, j.wna);
+    quat_rotate(q, j.ref_a, j.wua);
+    if (j.b >= 0) {
+      body_pose(scene.bodies[j.b], p, q);
+      quat_rotate(q, j.pb, j.wpb);
+      for (int k = 0; k < 3; ++k) j.wpb[k] += p[k];
+      quat_rotate(q, j.axis_b, j.wnb);
+      quat_rotate(q, j.ref_b, j.wub);
+    } else {
+      std::copy(j.pb, j.pb + 3, j.wpb);
+      std::copy(j.axis_b, j.axis_b + 3, j.wnb);
+      std::copy(j.ref_b, j.ref_b + 3, j.wub);
+    }
+    double d[3], c[3];
+    for (int k = 0; k < 3; ++k) d[k] = j.wpb[k] - j.wpa[k];
+    j.travel0 = dot3(d, j.wna);
+    j.length0 = std::sqrt(dot3(d, d));
+    // The twist of a cone_twist is measured with ref_b turned back by the swing; at a start
+    // with the axes aligned, as scenes place their joints, that is the hinge's angle.
+    cross3(j.wua, j.wub, c);
+    j.angle0 = std::atan2(dot3(c, j.wna), dot3(j.wua, j.wub));
+    out.push_back(j);
+  }
+  return out;
+}
+
 std::vector<BodyInfo> body_info(const scene::SceneDesc& scene) {
   scene::SceneDesc copy = scene;
   copy.forces.clear();  // mass properties only
@@ -115,7 +234,7 @@ ExternalForces::ExternalForces(const scene::SceneDesc& scene, const std::vector<
       t.k = param(f.params, "linear");
       t.c = param(f.params, "angular");
     } else {
-      continue;  // point_to_point: a joint; gyroscopic: native; anything else is refused by the peer
+      continue;  // the joints: the peers' own; gyroscopic: native; anything else is refused by the peer
     }
     terms_.push_back(t);
   }

@@ -5,7 +5,9 @@
 // capsules; hulls lose their products of inertia). Sleeping maps onto Bullet's deactivation.
 // Joints: btPoint2Point, btHinge, btSlider, btFixed and btConeTwist constraints with Bullet's
 // default softness and limit settings; a joint spring or damper, and a distance joint, are
-// refused (those constraints have none; Bullet has no distance joint).
+// refused (those constraints have none; Bullet has no distance joint). Meshes and height
+// fields: the cellphys triangles in a static btBvhTriangleMeshShape (two-sided, no internal-edge
+// smoothing); compounds: btCompoundShape of the re-centred parts.
 #include <btBulletDynamicsCommon.h>
 
 #include <cmath>
@@ -27,6 +29,30 @@ btTransform frame(const double p[3], const double axis[3], const double ref[3], 
   t.setBasis(btMatrix3x3(x.x(), y.x(), z.x(), x.y(), y.y(), z.y(), x.z(), y.z(), z.z()));
   t.setOrigin(btVector3(p[0], p[1], p[2]));
   return t;
+}
+
+// A convex shape at a scale (a hull from its cellphys vertices, already scaled); nullptr for
+// the others.
+std::unique_ptr<btCollisionShape> convex(const scene::ShapeSpec& s, double sc, const std::vector<double>& hull_vertices) {
+  switch (s.type) {
+    case spu::ShapeType::sphere: return std::make_unique<btSphereShape>(s.radius * sc);
+    case spu::ShapeType::box: {
+      const btVector3 h(s.half_extents[0] * sc, s.half_extents[1] * sc, s.half_extents[2] * sc);
+      auto box = std::make_unique<btBoxShape>(h);
+      box->setMargin(std::min<btScalar>(0.04f, 0.2f * h[h.minAxis()]));
+      return box;
+    }
+    case spu::ShapeType::capsule: return std::make_unique<btCapsuleShapeZ>(s.radius * sc, 2 * s.half_height * sc);
+    case spu::ShapeType::hull: {
+      auto hull = std::make_unique<btConvexHullShape>();
+      for (size_t k = 0; k + 2 < hull_vertices.size(); k += 3)
+        hull->addPoint(btVector3(hull_vertices[k], hull_vertices[k + 1], hull_vertices[k + 2]), false);
+      hull->recalcLocalAabb();
+      hull->setMargin(0.005f);
+      return hull;
+    }
+    default: return nullptr;
+  }
 }
 
 class BulletPeer : public Peer {
@@ -63,31 +89,38 @@ class BulletPeer : public Peer {
       tr.setOrigin(btVector3(st.position[0], st.position[1], st.position[2]));
       tr.setRotation(btQuaternion(st.orientation[1], st.orientation[2], st.orientation[3], st.orientation[0]));
       switch (s.type) {
-        case spu::ShapeType::sphere: shape = std::make_unique<btSphereShape>(s.radius * sc); break;
-        case spu::ShapeType::box: {
-          const btVector3 h(s.half_extents[0] * sc, s.half_extents[1] * sc, s.half_extents[2] * sc);
-          auto box = std::make_unique<btBoxShape>(h);
-          box->setMargin(std::min<btScalar>(0.04f, 0.2f * h[h.minAxis()]));
-          shape = std::move(box);
-          break;
-        }
+        case spu::ShapeType::sphere:
+        case spu::ShapeType::box:
         case spu::ShapeType::capsule:
-          shape = std::make_unique<btCapsuleShapeZ>(s.radius * sc, 2 * s.half_height * sc);
-          break;
-        case spu::ShapeType::hull: {
-          auto hull = std::make_unique<btConvexHullShape>();
-          for (size_t k = 0; k + 2 < bi.hull_vertices.size(); k += 3)
-            hull->addPoint(btVector3(bi.hull_vertices[k], bi.hull_vertices[k + 1], bi.hull_vertices[k + 2]), false);
-          hull->recalcLocalAabb();
-          hull->setMargin(0.005f);
-          shape = std::move(hull);
+        case spu::ShapeType::hull: shape = convex(s, sc, bi.hull_vertices); break;
+        case spu::ShapeType::mesh:
+        case spu::ShapeType::height_field: {
+          // The dictionary's triangles (a height field's grid as cellphys triangulates it) in
+          // a btBvhTriangleMeshShape: static only, and two-sided where cellphys's are one-sided.
+          if (!b.is_static) throw Unsupported("Bullet: a triangle mesh on a dynamic body");
+          mesh_vertices_.push_back(std::make_unique<std::vector<btScalar>>(bi.mesh_vertices.begin(), bi.mesh_vertices.end()));
+          mesh_indices_.push_back(std::make_unique<std::vector<int>>(bi.mesh_triangles.begin(), bi.mesh_triangles.end()));
+          meshes_.push_back(std::make_unique<btTriangleIndexVertexArray>(
+              int(bi.mesh_triangles.size() / 3), mesh_indices_.back()->data(), int(3 * sizeof(int)),
+              int(bi.mesh_vertices.size() / 3), mesh_vertices_.back()->data(), int(3 * sizeof(btScalar))));
+          shape = std::make_unique<btBvhTriangleMeshShape>(meshes_.back().get(), true);
           break;
         }
-        case spu::ShapeType::mesh:
-        case spu::ShapeType::height_field:
-          throw Unsupported("Bullet: meshes and height fields are not mapped to its triangle shapes yet");
-        case spu::ShapeType::compound:
-          throw Unsupported("Bullet: compound bodies are not mapped to its compound shapes yet");
+        case spu::ShapeType::compound: {
+          // Each part at its pose about the compound's centre of mass (cellphys's re-centred parts).
+          auto compound = std::make_unique<btCompoundShape>();
+          for (const BodyInfo::Part& part : bi.parts) {
+            auto child = convex(scene.shapes[part.shape], part.scale, part.hull_vertices);
+            if (!child) throw Unsupported("Bullet: a compound part that is not convex");
+            btTransform pt;
+            pt.setOrigin(btVector3(part.position[0], part.position[1], part.position[2]));
+            pt.setRotation(btQuaternion(part.orientation[1], part.orientation[2], part.orientation[3], part.orientation[0]));
+            compound->addChildShape(pt, child.get());
+            parts_.push_back(std::move(child));
+          }
+          shape = std::move(compound);
+          break;
+        }
         case spu::ShapeType::plane:
           shape = std::make_unique<btStaticPlaneShape>(btVector3(s.normal[0], s.normal[1], s.normal[2]), s.offset);
           tr.setIdentity();  // the plane is in world coordinates
@@ -222,6 +255,11 @@ class BulletPeer : public Peer {
   std::unique_ptr<btBroadphaseInterface> broadphase_;
   std::unique_ptr<btSequentialImpulseConstraintSolver> solver_;
   std::unique_ptr<btDiscreteDynamicsWorld> world_;
+  // Triangle data and compound parts outlive the shapes that use them (declared first).
+  std::vector<std::unique_ptr<std::vector<btScalar>>> mesh_vertices_;
+  std::vector<std::unique_ptr<std::vector<int>>> mesh_indices_;
+  std::vector<std::unique_ptr<btTriangleIndexVertexArray>> meshes_;
+  std::vector<std::unique_ptr<btCollisionShape>> parts_;
   std::vector<std::unique_ptr<btCollisionShape>> shapes_;
   std::vector<std::unique_ptr<btDefaultMotionState>> motion_;
   std::vector<std::unique_ptr<btRigidBody>> bodies_;

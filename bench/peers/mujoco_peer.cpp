@@ -10,7 +10,9 @@
 // bodies; beyond that it is refused. MuJoCo 2.2 has no sleeping: every body is always simulated.
 // Joints: hinge, slider and a limitless cone_twist are joints of MuJoCo's kinematic tree (exact:
 // reduced coordinates), point_to_point and fixed are equalities, distance a tendon; motors and
-// closed loops of tree joints are refused. CELLPHYS_BENCH_MJCF=FILE writes the model there.
+// closed loops of tree joints are refused. Height fields: an hfield; compounds: a geom per
+// part; a triangle mesh is refused (MuJoCo's meshes are convex). CELLPHYS_BENCH_MJCF=FILE
+// writes the model there.
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
@@ -195,7 +197,9 @@ class MujocoPeer : public Peer {
       double sign;
     };
     std::vector<TreeJoint> tree_joints;
-    std::vector<std::string> body_xml(n);  // a dynamic body's geom, inertial, joint and sites
+    std::vector<std::pair<std::string, std::vector<float>>> elevations;  // each hfield's, in [0, 1]
+    std::vector<std::string> body_xml(n);  // a dynamic body's geoms, inertial, joint and sites
+    std::vector<std::vector<std::string>> geom_names(n);
     std::vector<std::vector<int>> children(n + 1);  // children[n]: the world's
     for (size_t i = 0; i < n; ++i) {
       const scene::BodySpec& b = scene.bodies[i];
@@ -203,48 +207,73 @@ class MujocoPeer : public Peer {
       const BodyInfo& bi = info[i];
       const scene::ShapeSpec& s = scene.shapes[bi.shape];
       const double sc = b.scale;
-      std::ostringstream geom;
+      const std::string fr = " friction=\"" + num(b.friction) + " 0 0\"" + (pairs ? " contype=\"0\" conaffinity=\"0\"" : "");
+      std::ostringstream geom;  // the body's geoms, in its frame
       geom.precision(9);
-      geom << "<geom name=\"g" << i << "\"";
+      bool framed = false;      // a static body written as a jointless body (its geoms at poses in it)
       switch (s.type) {
-        case spu::ShapeType::sphere: geom << " type=\"sphere\" size=\"" << s.radius * sc << "\""; break;
+        case spu::ShapeType::sphere:
         case spu::ShapeType::box:
-          geom << " type=\"box\" size=\"" << s.half_extents[0] * sc << " " << s.half_extents[1] * sc << " "
-               << s.half_extents[2] * sc << "\"";
-          break;
         case spu::ShapeType::capsule:
-          geom << " type=\"capsule\" size=\"" << s.radius * sc << " " << s.half_height * sc << "\"";
+        case spu::ShapeType::hull:
+          geom << "<geom name=\"g" << i << "\"" << shape_attrs(s, sc, bi.hull_vertices, "m" + std::to_string(i), assets)
+               << fr << "/>";
+          geom_names[i].push_back("g" + std::to_string(i));
           break;
-        case spu::ShapeType::hull: {
-          assets << "<mesh name=\"m" << i << "\" vertex=\"";
-          for (double p : bi.hull_vertices) assets << p << " ";
-          assets << "\"/>\n";
-          geom << " type=\"mesh\" mesh=\"m" << i << "\"";
+        case spu::ShapeType::mesh:
+          throw Unsupported("MuJoCo: its meshes are convex (the hull of the vertices); a triangle mesh has no equivalent");
+        case spu::ShapeType::height_field: {
+          // An hfield asset: MuJoCo's grid is centred on the geom, rows along y from -y, columns
+          // along x, as cellphys's; it scales the heights to [0, 1] of size[2], so the geom sits
+          // at the lowest height. MuJoCo triangulates each cell itself.
+          const double rx = 0.5 * (s.columns - 1) * s.spacing[0] * sc, ry = 0.5 * (s.rows - 1) * s.spacing[1] * sc;
+          const double lo = sc * *std::min_element(s.heights.begin(), s.heights.end());
+          const double hi = sc * *std::max_element(s.heights.begin(), s.heights.end());
+          const double top = std::max(hi - lo, 1e-6);
+          assets << "<hfield name=\"h" << i << "\" nrow=\"" << s.rows << "\" ncol=\"" << s.columns << "\" size=\"" << rx
+                 << " " << ry << " " << top << " " << std::max(1.0, top) << "\"/>\n";
+          // MuJoCo 2.2 reads elevations only from files: they are set in the model once loaded.
+          std::vector<float> e;
+          for (float hgt : s.heights) e.push_back(float((sc * hgt - lo) / top));
+          elevations.push_back({"h" + std::to_string(i), std::move(e)});
+          geom << "<geom name=\"g" << i << "\" type=\"hfield\" hfield=\"h" << i << "\" pos=\"0 0 " << lo << "\"" << fr << "/>";
+          geom_names[i].push_back("g" + std::to_string(i));
+          framed = true;
           break;
         }
-        case spu::ShapeType::mesh:
-        case spu::ShapeType::height_field:
-          throw Unsupported("MuJoCo: meshes and height fields are not mapped to its triangle shapes yet");
         case spu::ShapeType::compound:
-          throw Unsupported("MuJoCo: compound bodies are not mapped to its compound shapes yet");
+          // A geom per part at its pose about the compound's centre of mass (cellphys's re-centred parts).
+          for (size_t k = 0; k < bi.parts.size(); ++k) {
+            const BodyInfo::Part& part = bi.parts[k];
+            const std::string gname = "g" + std::to_string(i) + "_" + std::to_string(k);
+            const std::string attrs = shape_attrs(scene.shapes[part.shape], part.scale, part.hull_vertices,
+                                                  "m" + std::to_string(i) + "_" + std::to_string(k), assets);
+            if (attrs.empty()) throw Unsupported("MuJoCo: a compound part that is not convex");
+            geom << "<geom name=\"" << gname << "\"" << attrs << pose_xml(part.position, part.orientation) << fr << "/>";
+            geom_names[i].push_back(gname);
+          }
+          framed = true;
+          break;
         case spu::ShapeType::plane: {
           double q[4];
           z_to(s.normal, q);
           const double len = std::sqrt(double(s.normal[0]) * s.normal[0] + double(s.normal[1]) * s.normal[1] +
                                        double(s.normal[2]) * s.normal[2]);
-          geom << " type=\"plane\" size=\"0 0 1\" pos=\"" << s.normal[0] * s.offset / (len * len) << " "
-               << s.normal[1] * s.offset / (len * len) << " " << s.normal[2] * s.offset / (len * len) << "\" quat=\""
-               << q[0] << " " << q[1] << " " << q[2] << " " << q[3] << "\"";
+          geom << "<geom name=\"g" << i << "\" type=\"plane\" size=\"0 0 1\" pos=\"" << s.normal[0] * s.offset / (len * len)
+               << " " << s.normal[1] * s.offset / (len * len) << " " << s.normal[2] * s.offset / (len * len)
+               << "\" quat=\"" << q[0] << " " << q[1] << " " << q[2] << " " << q[3] << "\"" << fr << "/>";
+          geom_names[i].push_back("g" + std::to_string(i));
           break;
         }
       }
-      geom << " friction=\"" << b.friction << " 0 0\"";
-      if (pairs) geom << " contype=\"0\" conaffinity=\"0\"";
       if (!dynamic[i]) {
-        if (s.type == spu::ShapeType::plane)
-          world << geom.str() << "/>\n";
+        std::string g = geom.str();
+        if (framed)
+          world << "<body name=\"s" << i << "\"" << pose_xml(st.position, st.orientation) << ">" << g << "</body>\n";
+        else if (s.type == spu::ShapeType::plane)
+          world << g << "\n";
         else
-          world << geom.str() << pose_xml(st.position, st.orientation) << "/>\n";
+          world << g.substr(0, g.size() - 2) << pose_xml(st.position, st.orientation) << "/>\n";
         continue;
       }
       contacts_guess += 3;
@@ -277,7 +306,7 @@ class MujocoPeer : public Peer {
       }
       o << "<inertial pos=\"0 0 0\" mass=\"" << bi.mass << "\" fullinertia=\"" << bi.inertia[0] << " " << bi.inertia[1]
         << " " << bi.inertia[2] << " " << bi.inertia[3] << " " << bi.inertia[4] << " " << bi.inertia[5] << "\"/>"
-        << geom.str() << "/>" << sites[i];
+        << geom.str() << sites[i];
       body_xml[i] = o.str();
       children[parent[i] >= 0 ? parent[i] : n].push_back(static_cast<int>(i));
     }
@@ -306,8 +335,10 @@ class MujocoPeer : public Peer {
           if (!dynamic[i] && !dynamic[j]) continue;
           if (std::find(joined.begin(), joined.end(), std::make_pair(int(i), int(j))) != joined.end()) continue;
           const double mu = std::sqrt(double(scene.bodies[i].friction) * scene.bodies[j].friction);
-          contact << "<pair geom1=\"g" << i << "\" geom2=\"g" << j << "\" condim=\"3\" friction=\"" << mu << " " << mu
-                  << " 0 0 0\"/>\n";
+          for (const std::string& g1 : geom_names[i])
+            for (const std::string& g2 : geom_names[j])
+              contact << "<pair geom1=\"" << g1 << "\" geom2=\"" << g2 << "\" condim=\"3\" friction=\"" << mu << " " << mu
+                      << " 0 0 0\"/>\n";
         }
     }
     // Resting contacts: about 2.5 a body in a sparse world, 6 in a pile.
@@ -338,6 +369,10 @@ class MujocoPeer : public Peer {
                         " rows: about " + std::to_string(int(8e-9 * double(njmax) * double(njmax + 6 * contacts_guess / 3) + 0.5)) +
                         " GB)");
     if (!model_) throw std::runtime_error(std::string("MuJoCo refused the model: ") + err);
+    for (const auto& [hname, e] : elevations) {
+      const int id = mj_name2id(model_, mjOBJ_HFIELD, hname.c_str());
+      std::copy(e.begin(), e.end(), model_->hfield_data + model_->hfield_adr[id]);
+    }
     data_ = mj_makeData(model_);
     if (!data_) {
       // MuJoCo 2.2 preallocates dense njmax x nv and njmax x njmax constraint arrays.
@@ -475,6 +510,25 @@ class MujocoPeer : public Peer {
     v[0] = b.velocity[0] + w[1] * r[2] - w[2] * r[1];
     v[1] = b.velocity[1] + w[2] * r[0] - w[0] * r[2];
     v[2] = b.velocity[2] + w[0] * r[1] - w[1] * r[0];
+  }
+  // A convex shape's type and size attributes at a scale (a hull: a mesh asset of its cellphys
+  // vertices, already scaled, added to assets); "" for the others.
+  static std::string shape_attrs(const scene::ShapeSpec& s, double sc, const std::vector<double>& hull,
+                                 const std::string& mesh, std::ostringstream& assets) {
+    switch (s.type) {
+      case spu::ShapeType::sphere: return " type=\"sphere\" size=\"" + num(s.radius * sc) + "\"";
+      case spu::ShapeType::box:
+        return " type=\"box\" size=\"" + num(s.half_extents[0] * sc) + " " + num(s.half_extents[1] * sc) + " " +
+               num(s.half_extents[2] * sc) + "\"";
+      case spu::ShapeType::capsule:
+        return " type=\"capsule\" size=\"" + num(s.radius * sc) + " " + num(s.half_height * sc) + "\"";
+      case spu::ShapeType::hull:
+        assets << "<mesh name=\"" << mesh << "\" vertex=\"";
+        for (double p : hull) assets << p << " ";
+        assets << "\"/>\n";
+        return " type=\"mesh\" mesh=\"" + mesh + "\"";
+      default: return "";
+    }
   }
   static std::string num(double v) {
     std::ostringstream o;

@@ -4,7 +4,9 @@
 // ERP and CFM, a 1 mm surface layer. Hulls: dCreateConvex on the cellphys hull's planes and
 // faces. Sleeping maps onto ODE's auto-disable. Joints: ball, hinge, slider, fixed and (for a
 // rod) double-ball joints with ODE's default ERP and CFM; a joint spring or damper, a rope or
-// spacer and a cone-twist are refused.
+// spacer and a cone-twist are refused. Meshes and height fields: the cellphys triangles in a
+// static dCreateTriMesh (ODE here has no libccd, so a scene with both triangles and a dynamic
+// hull is refused); compounds: a geom per part on the one body, at the part's offset.
 #include <ode/ode.h>
 
 #include <cmath>
@@ -30,6 +32,24 @@ struct OdeInit {
 
 class OdePeer : public Peer {
  public:
+  // A convex geom at a scale in the space (a hull from its cellphys planes and faces, already
+  // scaled); nullptr for the others.
+  dGeomID convex(const scene::ShapeSpec& s, double sc, const std::vector<double>& vertices,
+                 const std::vector<double>& planes, const std::vector<int>& faces) {
+    switch (s.type) {
+      case spu::ShapeType::sphere: return dCreateSphere(space_, s.radius * sc);
+      case spu::ShapeType::box:
+        return dCreateBox(space_, 2 * s.half_extents[0] * sc, 2 * s.half_extents[1] * sc, 2 * s.half_extents[2] * sc);
+      case spu::ShapeType::capsule: return dCreateCapsule(space_, s.radius * sc, 2 * s.half_height * sc);
+      case spu::ShapeType::hull:
+        hull_points_.push_back(std::make_unique<std::vector<dReal>>(vertices.begin(), vertices.end()));
+        hull_planes_.push_back(std::make_unique<std::vector<dReal>>(planes.begin(), planes.end()));
+        hull_faces_.push_back(std::make_unique<std::vector<unsigned>>(faces.begin(), faces.end()));
+        return dCreateConvex(space_, hull_planes_.back()->data(), unsigned(planes.size() / 4),
+                             hull_points_.back()->data(), unsigned(vertices.size() / 3), hull_faces_.back()->data());
+      default: return nullptr;
+    }
+  }
   OdePeer(const scene::SceneDesc& scene, const EngineConfig& c) {
     static OdeInit init;
     check_forces(scene, "ODE");
@@ -54,6 +74,15 @@ class OdePeer : public Peer {
       dWorldSetAutoDisableTime(world_, scene.settings.sleep_time);
       dWorldSetAutoDisableSteps(world_, std::max(1, int(scene.settings.sleep_time / dt_)));
     }
+    bool has_mesh = false, has_hull = false;
+    for (size_t i = 0; i < scene.bodies.size(); ++i) {
+      const scene::ShapeSpec& s = scene.shapes[info[i].shape];
+      has_mesh = has_mesh || s.type == spu::ShapeType::mesh || s.type == spu::ShapeType::height_field;
+      has_hull = has_hull || (!scene.bodies[i].is_static && s.type == spu::ShapeType::hull);
+      for (const BodyInfo::Part& p : info[i].parts)
+        has_hull = has_hull || scene.shapes[p.shape].type == spu::ShapeType::hull;
+    }
+    const bool hull_meets_mesh = has_mesh && has_hull;
     friction_.resize(scene.bodies.size());
     bodies_.assign(scene.bodies.size(), nullptr);
     geoms_.resize(scene.bodies.size());
@@ -65,26 +94,38 @@ class OdePeer : public Peer {
       const double sc = b.scale;
       friction_[i] = b.friction;
       dGeomID geom = nullptr;
+      std::vector<dGeomID> parts;  // a compound's geoms, each with its pose about the body
       switch (s.type) {
-        case spu::ShapeType::sphere: geom = dCreateSphere(space_, s.radius * sc); break;
+        case spu::ShapeType::sphere:
         case spu::ShapeType::box:
-          geom = dCreateBox(space_, 2 * s.half_extents[0] * sc, 2 * s.half_extents[1] * sc, 2 * s.half_extents[2] * sc);
+        case spu::ShapeType::capsule:
+        case spu::ShapeType::hull:
+          geom = convex(s, sc, bi.hull_vertices, bi.hull_planes, bi.hull_faces);
           break;
-        case spu::ShapeType::capsule: geom = dCreateCapsule(space_, s.radius * sc, 2 * s.half_height * sc); break;
-        case spu::ShapeType::hull: {
-          hull_points_.push_back(std::make_unique<std::vector<dReal>>(bi.hull_vertices.begin(), bi.hull_vertices.end()));
-          hull_planes_.push_back(std::make_unique<std::vector<dReal>>(bi.hull_planes.begin(), bi.hull_planes.end()));
-          hull_faces_.push_back(std::make_unique<std::vector<unsigned>>(bi.hull_faces.begin(), bi.hull_faces.end()));
-          geom = dCreateConvex(space_, hull_planes_.back()->data(), unsigned(bi.hull_planes.size() / 4),
-                               hull_points_.back()->data(), unsigned(bi.hull_vertices.size() / 3),
-                               hull_faces_.back()->data());
+        case spu::ShapeType::mesh:
+        case spu::ShapeType::height_field: {
+          // The dictionary's triangles (a height field's grid as cellphys triangulates it).
+          if (!b.is_static) throw Unsupported("ODE: a triangle mesh on a dynamic body");
+          if (hull_meets_mesh) throw Unsupported("ODE (built without libccd) has no convex-hull-to-triangle-mesh collider");
+          tri_vertices_.push_back(std::make_unique<std::vector<dReal>>(bi.mesh_vertices.begin(), bi.mesh_vertices.end()));
+          tri_indices_.push_back(std::make_unique<std::vector<dTriIndex>>(bi.mesh_triangles.begin(), bi.mesh_triangles.end()));
+          dTriMeshDataID data = dGeomTriMeshDataCreate();
+          dGeomTriMeshDataBuildDouble(data, tri_vertices_.back()->data(), 3 * sizeof(dReal),
+                                      int(bi.mesh_vertices.size() / 3), tri_indices_.back()->data(),
+                                      int(bi.mesh_triangles.size()), 3 * sizeof(dTriIndex));
+          tri_data_.push_back(data);
+          geom = dCreateTriMesh(space_, data, nullptr, nullptr, nullptr);
           break;
         }
-        case spu::ShapeType::mesh:
-        case spu::ShapeType::height_field:
-          throw Unsupported("ODE: meshes and height fields are not mapped to its triangle shapes yet");
         case spu::ShapeType::compound:
-          throw Unsupported("ODE: compound bodies are not mapped to its compound shapes yet");
+          for (const BodyInfo::Part& part : bi.parts) {
+            dGeomID g = convex(scene.shapes[part.shape], part.scale, part.hull_vertices, part.hull_planes, part.hull_faces);
+            if (!g) throw Unsupported("ODE: a compound part that is not convex");
+            dGeomSetData(g, reinterpret_cast<void*>(i));
+            parts.push_back(g);
+          }
+          geom = parts.front();
+          break;
         case spu::ShapeType::plane: geom = dCreatePlane(space_, s.normal[0], s.normal[1], s.normal[2], s.offset); break;
       }
       geoms_[i] = geom;
@@ -92,8 +133,25 @@ class OdePeer : public Peer {
       const dQuaternion q = {st.orientation[0], st.orientation[1], st.orientation[2], st.orientation[3]};
       if (s.type == spu::ShapeType::plane) continue;
       if (b.is_static) {
-        dGeomSetPosition(geom, st.position[0], st.position[1], st.position[2]);
-        dGeomSetQuaternion(geom, q);
+        if (parts.empty()) {
+          dGeomSetPosition(geom, st.position[0], st.position[1], st.position[2]);
+          dGeomSetQuaternion(geom, q);
+        }
+        for (size_t k = 0; k < parts.size(); ++k) {  // a static compound: each part's world pose
+          const BodyInfo::Part& part = bi.parts[k];
+          double bq[4] = {q[0], q[1], q[2], q[3]}, r[3], pq[4];
+          const double n = std::sqrt(bq[0] * bq[0] + bq[1] * bq[1] + bq[2] * bq[2] + bq[3] * bq[3]);
+          for (double& e : bq) e /= n;
+          quat_rotate(bq, part.position, r);
+          const double* o = part.orientation;
+          pq[0] = bq[0] * o[0] - bq[1] * o[1] - bq[2] * o[2] - bq[3] * o[3];
+          pq[1] = bq[0] * o[1] + bq[1] * o[0] + bq[2] * o[3] - bq[3] * o[2];
+          pq[2] = bq[0] * o[2] - bq[1] * o[3] + bq[2] * o[0] + bq[3] * o[1];
+          pq[3] = bq[0] * o[3] + bq[1] * o[2] - bq[2] * o[1] + bq[3] * o[0];
+          const dQuaternion dq = {pq[0], pq[1], pq[2], pq[3]};
+          dGeomSetPosition(parts[k], st.position[0] + r[0], st.position[1] + r[1], st.position[2] + r[2]);
+          dGeomSetQuaternion(parts[k], dq);
+        }
         continue;
       }
       dBodyID body = dBodyCreate(world_);
@@ -105,7 +163,17 @@ class OdePeer : public Peer {
       dBodySetQuaternion(body, q);
       dBodySetLinearVel(body, st.velocity[0], st.velocity[1], st.velocity[2]);
       dBodySetAngularVel(body, st.angular_velocity[0], st.angular_velocity[1], st.angular_velocity[2]);
-      dGeomSetBody(geom, body);
+      if (parts.empty()) {
+        dGeomSetBody(geom, body);
+      } else {
+        for (size_t k = 0; k < parts.size(); ++k) {
+          const BodyInfo::Part& part = bi.parts[k];
+          const dQuaternion pq = {part.orientation[0], part.orientation[1], part.orientation[2], part.orientation[3]};
+          dGeomSetBody(parts[k], body);
+          dGeomSetOffsetPosition(parts[k], part.position[0], part.position[1], part.position[2]);
+          dGeomSetOffsetQuaternion(parts[k], pq);
+        }
+      }
       bodies_[i] = body;
     }
     for (const JointSpec& j : scene_joints(scene)) {
@@ -178,6 +246,7 @@ class OdePeer : public Peer {
     dJointGroupDestroy(contacts_);
     dSpaceDestroy(space_);
     dWorldDestroy(world_);
+    for (dTriMeshDataID d : tri_data_) dGeomTriMeshDataDestroy(d);
   }
   void step() override {
     if (!forces_->empty()) {
@@ -231,6 +300,7 @@ class OdePeer : public Peer {
     OdePeer& self = *static_cast<OdePeer*>(data);
     dBodyID b1 = dGeomGetBody(o1), b2 = dGeomGetBody(o2);
     if (!b1 && !b2) return;
+    if (b1 == b2) return;  // two parts of one compound
     const bool e1 = b1 && dBodyIsEnabled(b1), e2 = b2 && dBodyIsEnabled(b2);
     if (!e1 && !e2) return;
     if (b1 && b2 && dAreConnectedExcluding(b1, b2, dJointTypeContact)) return;
@@ -260,6 +330,9 @@ class OdePeer : public Peer {
   std::vector<dGeomID> geoms_;
   std::vector<std::unique_ptr<std::vector<dReal>>> hull_points_, hull_planes_;
   std::vector<std::unique_ptr<std::vector<unsigned>>> hull_faces_;
+  std::vector<std::unique_ptr<std::vector<dReal>>> tri_vertices_;
+  std::vector<std::unique_ptr<std::vector<dTriIndex>>> tri_indices_;
+  std::vector<dTriMeshDataID> tri_data_;
   std::vector<State> states_;
   std::vector<double> wrench_;
 };

@@ -4,7 +4,9 @@
 //
 // What each peer maps, and how (docs/bench.md has the full table):
 //  - shapes: sphere, box (half extents), capsule (core along body z), hull (the cellphys
-//    hull's re-centred vertices), plane (static);
+//    hull's re-centred vertices), plane (static); mesh and height field (static: cellphys's
+//    triangles, or MuJoCo's hfield); compound (the parts cellphys re-centred on the centre of
+//    mass, as a compound shape or several geoms on one body);
 //  - masses and inertia tensors: taken from the cellphys world built from the same scene, so
 //    density-given bodies and hulls weigh the same in every engine;
 //  - friction: the geometric mean of the two bodies' coefficients, per contact;
@@ -78,6 +80,20 @@ struct BodyInfo {
   std::vector<double> hull_vertices;  // x y z, re-centred and scaled (hulls only)
   std::vector<double> hull_planes;    // nx ny nz d (n.x = d), scaled
   std::vector<int> hull_faces;        // per face: count, then vertex indices (outward, counter-clockwise)
+  // Meshes and height fields: the dictionary's triangles (a height field's grid as cellphys
+  // triangulates it), vertices x y z scaled, 3 indices a triangle, front counter-clockwise.
+  std::vector<double> mesh_vertices;
+  std::vector<int> mesh_triangles;
+  // Compounds: the parts as cellphys stores them, re-centred on the body's centre of mass;
+  // position scaled by the body's scale, scale the part's times the body's; a hull part's
+  // geometry at that scale.
+  struct Part {
+    int shape = -1;  // index into scene.shapes
+    double position[3] = {}, orientation[4] = {1, 0, 0, 0}, scale = 1;
+    std::vector<double> hull_vertices, hull_planes;
+    std::vector<int> hull_faces;
+  };
+  std::vector<Part> parts;
 };
 std::vector<BodyInfo> body_info(const scene::SceneDesc& scene);
 

@@ -156,6 +156,32 @@ std::vector<JointSpec> scene_joints(const scene::SceneDesc& scene) {
   return out;
 }
 
+namespace {
+// A hull's vertices, planes and faces (each counter-clockwise seen from outside) at a scale.
+void hull_geometry(const spu::HullView& h, double s, std::vector<double>& vertices, std::vector<double>& planes,
+                   std::vector<int>& faces) {
+  for (int k = 0; k < 3 * h.num_vertices; ++k) vertices.push_back(s * h.vertices[k]);
+  for (int f = 0; f < h.num_faces; ++f) {
+    const float* pl = h.planes + 4 * f;
+    planes.insert(planes.end(), {pl[0], pl[1], pl[2], s * pl[3]});
+    const int b0 = h.face_start[f], b1 = h.face_start[f + 1];
+    std::vector<int> loop(h.face_vertices + b0, h.face_vertices + b1);
+    // Make the loop counter-clockwise seen from outside (its normal along the plane's).
+    double n[3] = {};
+    for (size_t k = 0; k < loop.size(); ++k) {
+      const float* p = h.vertices + 3 * loop[k];
+      const float* q = h.vertices + 3 * loop[(k + 1) % loop.size()];
+      n[0] += (p[1] - q[1]) * (p[2] + q[2]);
+      n[1] += (p[2] - q[2]) * (p[0] + q[0]);
+      n[2] += (p[0] - q[0]) * (p[1] + q[1]);
+    }
+    if (n[0] * pl[0] + n[1] * pl[1] + n[2] * pl[2] < 0) std::reverse(loop.begin(), loop.end());
+    faces.push_back(static_cast<int>(loop.size()));
+    faces.insert(faces.end(), loop.begin(), loop.end());
+  }
+}
+}  // namespace
+
 std::vector<BodyInfo> body_info(const scene::SceneDesc& scene) {
   scene::SceneDesc copy = scene;
   copy.forces.clear();  // mass properties only
@@ -173,29 +199,29 @@ std::vector<BodyInfo> body_info(const scene::SceneDesc& scene) {
       const float* I = w.inertia_body(built.bodies[i]);
       for (int k = 0; k < 6; ++k) o.inertia[k] = I[k];
     }
-    if (spec.type == spu::ShapeType::hull) {
-      // The dictionary holds shapes in file order (build_world adds them so, to a fresh world).
-      const spu::ShapeView& v = w.shapes().view(static_cast<uint32_t>(o.shape));
-      if (v.type != spu::ShapeType::hull) throw std::logic_error("shape order mismatch");
-      const double s = b.scale;
-      for (int k = 0; k < 3 * v.hull.num_vertices; ++k) o.hull_vertices.push_back(s * v.hull.vertices[k]);
-      for (int f = 0; f < v.hull.num_faces; ++f) {
-        const float* pl = v.hull.planes + 4 * f;
-        o.hull_planes.insert(o.hull_planes.end(), {pl[0], pl[1], pl[2], s * pl[3]});
-        const int b0 = v.hull.face_start[f], b1 = v.hull.face_start[f + 1];
-        std::vector<int> loop(v.hull.face_vertices + b0, v.hull.face_vertices + b1);
-        // Make the loop counter-clockwise seen from outside (its normal along the plane's).
-        double n[3] = {};
-        for (size_t k = 0; k < loop.size(); ++k) {
-          const float* p = v.hull.vertices + 3 * loop[k];
-          const float* q = v.hull.vertices + 3 * loop[(k + 1) % loop.size()];
-          n[0] += (p[1] - q[1]) * (p[2] + q[2]);
-          n[1] += (p[2] - q[2]) * (p[0] + q[0]);
-          n[2] += (p[0] - q[0]) * (p[1] + q[1]);
-        }
-        if (n[0] * pl[0] + n[1] * pl[1] + n[2] * pl[2] < 0) std::reverse(loop.begin(), loop.end());
-        o.hull_faces.push_back(static_cast<int>(loop.size()));
-        o.hull_faces.insert(o.hull_faces.end(), loop.begin(), loop.end());
+    // The dictionary holds shapes in file order (build_world adds them so, to a fresh world).
+    if (spec.type != spu::ShapeType::hull && spec.type != spu::ShapeType::mesh &&
+        spec.type != spu::ShapeType::height_field && spec.type != spu::ShapeType::compound)
+      continue;
+    const spu::ShapeView& v = w.shapes().view(static_cast<uint32_t>(o.shape));
+    if (v.type != spec.type) throw std::logic_error("shape order mismatch");
+    const double s = b.scale;
+    if (spec.type == spu::ShapeType::hull) hull_geometry(v.hull, s, o.hull_vertices, o.hull_planes, o.hull_faces);
+    if (spec.type == spu::ShapeType::mesh || spec.type == spu::ShapeType::height_field) {
+      for (int k = 0; k < 3 * v.mesh.num_vertices; ++k) o.mesh_vertices.push_back(s * v.mesh.vertices[k]);
+      o.mesh_triangles.assign(v.mesh.triangles, v.mesh.triangles + 3 * v.mesh.num_triangles);
+    }
+    if (spec.type == spu::ShapeType::compound) {
+      for (const ppe::CompoundPart& cp : w.shapes().compound_parts(static_cast<uint32_t>(o.shape))) {
+        BodyInfo::Part part;
+        part.shape = static_cast<int>(cp.shape);
+        for (int k = 0; k < 3; ++k) part.position[k] = s * cp.position[k];
+        for (int k = 0; k < 4; ++k) part.orientation[k] = cp.orientation[k];
+        part.scale = s * cp.scale;
+        const spu::ShapeView& pv = w.shapes().view(cp.shape);
+        if (pv.type == spu::ShapeType::hull)
+          hull_geometry(pv.hull, part.scale, part.hull_vertices, part.hull_planes, part.hull_faces);
+        o.parts.push_back(std::move(part));
       }
     }
   }

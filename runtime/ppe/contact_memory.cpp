@@ -52,6 +52,9 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     const Mat3d Ia = rotate_sym(fa.R, bodies[a].inverse_inertia);
     const Mat3d Ib = b == kWorldBody ? Mat3d{} : rotate_sym(fb.R, bodies[b].inverse_inertia);
     ContactMemory::Pair now;
+    // where the old anchors are on a now (each is compared with every point)
+    Vec3d old_on_a[spu::kMaxManifoldPoints];
+    for (uint32_t j = 0; old && j < old->count; ++j) old_on_a[j] = fa.to_world(old->anchors[j].on_a);
     bool used[spu::kMaxManifoldPoints] = {};
     int matched[spu::kMaxManifoldPoints];
     Vec3d strain[spu::kMaxManifoldPoints];
@@ -74,14 +77,14 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       matched[i] = -1;
       double best_d = match;
       for (uint32_t j = 0; old && j < old->count; ++j) {
-        const double d = norm(fa.to_world(old->anchors[j].on_a) - p);
+        const double d = norm(old_on_a[j] - p);
         if (!used[j] && d < best_d) matched[i] = int(j), best_d = d;
       }
       strain[i] = {0, 0, 0};
       if (matched[i] >= 0) {
         used[matched[i]] = true;
         const ContactMemory::Anchor& an = old->anchors[matched[i]];
-        strain[i] = fb.to_world(an.on_b) - fa.to_world(an.on_a);
+        strain[i] = fb.to_world(an.on_b) - old_on_a[matched[i]];
         strain[i] = strain[i] - n * dot(strain[i], n);
       }
       const Vec3d vrel = velocity_at(bodies, b, p) - velocity_at(bodies, a, p);
@@ -128,7 +131,8 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       put3(c.anchor, strain[i]);
     }
     now.seen = memory.step + 1;
-    memory.pairs[pair_key(a, b)] = now;
+    if (found != memory.pairs.end()) found->second = now;  // (old points into it: read through above)
+    else memory.pairs.emplace(pair_key(a, b), now);
   }
   // Pairs not touching this step are forgotten, but for sleepers' (they are not collided).
   // Decided from the world alone, so a world restored from a snapshot forgets the same ones.

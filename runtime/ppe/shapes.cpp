@@ -10,6 +10,7 @@
 #include "runtime/base/quat.h"
 #include "runtime/ppe/convex_hull.h"
 #include "runtime/ppe/mass_properties.h"
+#include "runtime/ppe/outward_rounding.h"
 #include "runtime/ppe/triangle_surface.h"
 
 namespace cellphys::ppe {
@@ -42,18 +43,8 @@ void require_positive(const char* shape, const char* what, float v) {
 }
 
 // Boxes are rounded outward so the float box always contains the double one.
-float down(double v) {
-  float f = static_cast<float>(v);
-  if (static_cast<double>(f) > v) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-  return f;
-}
-float up(double v) {
-  float f = static_cast<float>(v);
-  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
-}
 void store(const double lo[3], const double hi[3], float min[3], float max[3]) {
-  for (int k = 0; k < 3; ++k) min[k] = down(lo[k]), max[k] = up(hi[k]);
+  for (int k = 0; k < 3; ++k) min[k] = round_down(lo[k]), max[k] = round_up(hi[k]);
 }
 
 // The half-space n.x <= offset is bounded only along an axis its normal points exactly along.

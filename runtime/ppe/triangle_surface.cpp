@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "runtime/base/vec3.h"
+#include "runtime/ppe/outward_rounding.h"
 #include "runtime/ppe/shapes.h"
 
 namespace cellphys::ppe {
@@ -19,17 +20,6 @@ constexpr double kPi = 3.14159265358979323846;
 std::string at(const char* kind, const char* what, long i) { return std::string(kind) + ": " + what + " " + std::to_string(i); }
 
 Vec3d vertex(const std::vector<float>& v, int32_t i) { return Vec3d::load(&v[3 * size_t(i)]); }
-
-float round_down(double v) {
-  float f = static_cast<float>(v);
-  if (static_cast<double>(f) > v) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-  return f;
-}
-float round_up(double v) {
-  float f = static_cast<float>(v);
-  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
-}
 
 // Edge k of triangle t as (low vertex, high vertex), a key for finding the triangle across it.
 uint64_t edge_key(int32_t a, int32_t b) { return uint64_t(uint32_t(std::min(a, b))) << 32 | uint32_t(std::max(a, b)); }

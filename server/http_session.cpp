@@ -97,8 +97,18 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       }
       const auto t = query.find("token");
       const bool can_command = t != query.end() && same_token(t->second, ctx_.options.token);
+      // The protocol revision the client reads (docs/protocol.md, "Revisions"); clients older
+      // than revision 4 give none.
+      uint32_t revision = 0;
+      if (const auto r = query.find("revision"); r != query.end()) {
+        const std::string& v = r->second;
+        if (v.empty() || v.size() > 9 || v.find_first_not_of("0123456789") != std::string::npos)
+          return reply(400, "text/plain", "revision=" + v + ": not a whole number (the protocol revision the client reads)\n");
+        revision = static_cast<uint32_t>(std::stoul(v));
+      }
       stream_.expires_never();
-      std::make_shared<WsSession>(stream_.release_socket(), std::move(room), can_command, ctx_)->run(std::move(request_));
+      std::make_shared<WsSession>(stream_.release_socket(), std::move(room), can_command, revision, ctx_)
+          ->run(std::move(request_));
       return;
     }
     if (request_.method() != http::verb::get && request_.method() != http::verb::head)

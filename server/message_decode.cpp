@@ -74,6 +74,28 @@ std::string decode_join(const unsigned char* data, size_t size, JoinMessage& out
   for (uint32_t i = 0; i < out.head.num_shapes; ++i) {
     ShapeRecord s;
     if (!r.get(s)) return "cut in shape " + std::to_string(i);
+    const std::string shape = "shape " + std::to_string(i);
+    if (s.type == static_cast<uint32_t>(spu::ShapeType::compound)) {
+      // num_vertices counts the parts; the count checked against what is left before sizing by it.
+      if (s.num_faces || s.num_face_vertices) return "compound " + shape + " has faces";
+      if (s.num_vertices == 0) return "compound " + shape + " has no parts";
+      if (sizeof(CompoundPartRecord) * size_t(s.num_vertices) > r.left()) return "cut in the parts of " + shape;
+      std::vector<CompoundPartRecord> parts(s.num_vertices);
+      for (size_t k = 0; k < parts.size(); ++k) {
+        if (!r.get(parts[k])) return "cut in the parts of " + shape;
+        // An earlier shape, and a convex one, so a client resolves every part on the way.
+        const uint32_t of = parts[k].shape;
+        if (of >= i) return shape + " part " + std::to_string(k) + " names shape " + std::to_string(of) + ", not an earlier one";
+        if (!spu::is_convex(static_cast<spu::ShapeType>(out.shapes[of].type)))
+          return shape + " part " + std::to_string(k) + " names shape " + std::to_string(of) + ", which is not convex";
+      }
+      out.shapes.push_back(s);
+      out.vertices.emplace_back();
+      out.face_start.emplace_back();
+      out.face_vertices.emplace_back();
+      out.parts.push_back(std::move(parts));
+      continue;
+    }
     const bool faces = s.type == static_cast<uint32_t>(spu::ShapeType::hull) ||
                        spu::is_triangle_surface(static_cast<spu::ShapeType>(s.type));
     // The counts checked against what is left before anything is sized by them.
@@ -91,6 +113,7 @@ std::string decode_join(const unsigned char* data, size_t size, JoinMessage& out
     out.vertices.push_back(std::move(v));
     out.face_start.push_back(std::move(start));
     out.face_vertices.push_back(std::move(loops));
+    out.parts.emplace_back();
   }
   out.bodies.resize(out.head.num_bodies);
   for (BodyFull& b : out.bodies)

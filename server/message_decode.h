@@ -20,6 +20,8 @@ struct JoinMessage {
   // face_start (faces + 1) and face_vertices (a mesh's or height field's triangles, 3 each).
   std::vector<std::vector<float>> vertices;
   std::vector<std::vector<uint32_t>> face_start, face_vertices;
+  // Per shape, empty but for compounds (revision 4): the parts, each naming an earlier shape.
+  std::vector<std::vector<protocol::CompoundPartRecord>> parts;
   std::vector<protocol::BodyFull> bodies;
 };
 

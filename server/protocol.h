@@ -19,8 +19,15 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the protocol's structs
 inline constexpr uint16_t kVersion = 1;
 // Additions that keep every revision-1 message's layout, announced in Join::revision: 2 adds the
 // subscribe flag kSubscribeDebug and the debug message; 3 the subscribe flag kSubscribeStages
-// and the stages message, and the debug message's cut couplings (in what was its reserved field).
-inline constexpr uint32_t kRevision = 3;
+// and the stages message, and the debug message's cut couplings (in what was its reserved field);
+// 4 the shape types mesh, height_field and compound, with data after their ShapeRecord.
+inline constexpr uint32_t kRevision = 4;
+
+/// The revision a client must read to read a dictionary holding a shape of this type: a client
+/// of revision 3 or less reads data after a hull's ShapeRecord only, so it would take a mesh's,
+/// a height field's or a compound's for the next record. The server tells such a client so
+/// (docs/protocol.md, "Revisions") rather than send it a join it would misread.
+constexpr uint32_t shape_revision(uint32_t type) { return type >= 5 ? 4u : 1u; }
 
 enum class Type : uint16_t {
   // server -> client
@@ -111,7 +118,7 @@ struct Join {
   uint32_t num_bodies;
   uint32_t name_bytes;  // the world's name, UTF-8, padded with zeros to a multiple of 4
   uint32_t revision;    // kRevision (0 from a revision-1 server)
-  // then: name | num_shapes x [ShapeRecord | vertex and face data] | num_bodies x BodyFull
+  // then: name | num_shapes x [ShapeRecord | vertex and face data, or compound parts] | num_bodies x BodyFull
 };
 static_assert(sizeof(Join) == 48);
 
@@ -121,14 +128,31 @@ static_assert(sizeof(Join) == 48);
 // A mesh or a height field is followed by the same three arrays, its triangles the faces
 // (face_start 0, 3, 6, ...; each counter-clockwise seen from the surface's front), so a client
 // draws it as it draws a hull; a height field comes as the triangles its grid was made into.
+// A compound's is followed by its parts: num_vertices x CompoundPartRecord (revision 4; the
+// record's layout is unchanged, its count field reused).
 struct ShapeRecord {
-  uint32_t type;  // spu::ShapeType: 0 sphere, 1 capsule, 2 box, 3 hull, 4 plane, 5 mesh, 6 height_field
-                  // (as shape_type_name)
-  uint32_t num_vertices, num_faces, num_face_vertices;  // hulls, meshes, height fields; 0 otherwise
+  uint32_t type;  // spu::ShapeType: 0 sphere, 1 capsule, 2 box, 3 hull, 4 plane, 5 mesh, 6 height_field,
+                  // 7 compound (as shape_type_name)
+  uint32_t num_vertices;  // hulls, meshes, height fields: vertices | compound: parts (1 to 64) | 0 otherwise
+  uint32_t num_faces, num_face_vertices;  // hulls, meshes, height fields; 0 otherwise
   float params[8];  // sphere: radius | capsule: radius, half_height (on body z) | box: half extents |
-                    // plane: normal x y z, offset (n.x <= offset solid) | hull, mesh, height field: unused
+                    // plane: normal x y z, offset (n.x <= offset solid) | hull, mesh, height field, compound: unused
 };
 static_assert(sizeof(ShapeRecord) == 48);
+
+// One part of a compound (revision 4), as the world's dictionary holds it
+// (ppe::ShapeDictionary::compound_parts): a shape of the dictionary at a pose in the compound's
+// frame, which is centred on the compound's centre of mass, so a part's world pose is
+// spu::part_pose(body pose, part): position + R(body) (body scale * part position), orientation
+// body * part, scale body * part.
+struct CompoundPartRecord {
+  uint32_t shape;        // an earlier ShapeRecord of the same join: sphere, capsule, box or hull
+  float position[3];
+  float orientation[4];  // w x y z, unit
+  float scale;
+};
+static_assert(sizeof(CompoundPartRecord) == 36);
+static_assert(offsetof(CompoundPartRecord, orientation) == 16 && offsetof(CompoundPartRecord, scale) == 32);
 
 // Tick flags.
 inline constexpr uint32_t kTickQuantised = 1u;  // `moved` holds BodyMovedQ, not BodyMoved

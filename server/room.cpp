@@ -33,6 +33,7 @@ Room::Room(std::string name, std::string source, std::unique_ptr<ppe::World> wor
       commands_(world->snapshot(), options_.limits) {
   world.reset();
   shapes_ = std::make_shared<const std::vector<unsigned char>>(encode_shapes(commands_.world().shapes()));
+  revision_needed_ = server::revision_needed(commands_.world().shapes());
   if (!options_.record.empty()) {
     recorder_ = std::make_unique<RecordingWriter>(options_.record, options_.record_frames);
     recorder_->world(name_, commands_.initial_snapshot());

@@ -19,6 +19,7 @@
 #include "server/frame.h"
 #include "server/play_state.h"
 #include "server/recording.h"
+#include "server/state_encoder.h"
 #include "server/watcher_stream.h"
 #include "server/world_commands.h"
 
@@ -95,6 +96,9 @@ class Room {
   void submit(const Command& c, std::weak_ptr<ClientSink> from);
   /// The newest published frame (never null once constructed).
   std::shared_ptr<const Frame> latest() const;
+  /// The protocol revision a client must read to read this world's join (revision_needed of its
+  /// dictionary, which no command or reset changes).
+  const RevisionNeed& revision_needed() const { return revision_needed_; }
   RoomMetrics metrics() const;
 
   // Counted by the clients' sessions.
@@ -132,6 +136,7 @@ class Room {
   uint64_t seq_ = 0;
   double last_step_ms_ = 0;
   std::shared_ptr<const std::vector<unsigned char>> shapes_;
+  RevisionNeed revision_needed_;
 
   mutable std::mutex frame_mutex_;
   std::shared_ptr<const Frame> latest_;

@@ -88,6 +88,7 @@ std::vector<unsigned char> encode_shapes(const ppe::ShapeDictionary& shapes) {
         r.num_faces = static_cast<uint32_t>(v.mesh.num_triangles);
         r.num_face_vertices = 3 * r.num_faces;
         break;
+      case spu::ShapeType::compound: r.num_vertices = static_cast<uint32_t>(v.compound.num_parts); break;
     }
     put(out, r);
     if (v.type == spu::ShapeType::hull) {
@@ -98,9 +99,29 @@ std::vector<unsigned char> encode_shapes(const ppe::ShapeDictionary& shapes) {
       put_floats(out, v.mesh.vertices, 3 * r.num_vertices);
       for (uint32_t k = 0; k <= r.num_faces; ++k) put(out, 3 * k);
       for (uint32_t k = 0; k < r.num_face_vertices; ++k) put(out, static_cast<uint32_t>(v.mesh.triangles[k]));
+    } else if (v.type == spu::ShapeType::compound) {
+      // The parts as stored, re-centred: a part names its shape by index, and the dictionary
+      // takes only shapes it already holds, so that index is always an earlier record's.
+      for (const ppe::CompoundPart& p : shapes.compound_parts(i)) {
+        CompoundPartRecord c;
+        c.shape = p.shape;
+        std::memcpy(c.position, p.position, sizeof c.position);
+        std::memcpy(c.orientation, p.orientation, sizeof c.orientation);
+        c.scale = p.scale;
+        put(out, c);
+      }
     }
   }
   return out;
+}
+
+RevisionNeed revision_needed(const ppe::ShapeDictionary& shapes) {
+  RevisionNeed r;
+  for (uint32_t i = 0; i < shapes.size(); ++i) {
+    const uint32_t need = shape_revision(static_cast<uint32_t>(shapes.type(i)));
+    if (need > r.revision) r = {need, i, shapes.type(i)};
+  }
+  return r;
 }
 
 void encode_join(const Frame& f, const Interest& in, bool can_command, std::vector<uint32_t>& known,

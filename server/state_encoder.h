@@ -22,8 +22,18 @@ struct Interest {
 };
 
 /// The join's shape-dictionary section: one ShapeRecord per shape, hulls, meshes and height
-/// fields followed by their vertices and faces.
+/// fields followed by their vertices and faces, compounds by their parts.
 std::vector<unsigned char> encode_shapes(const ppe::ShapeDictionary& shapes);
+
+/// The lowest protocol revision a client must read to read a join of this dictionary
+/// (protocol::shape_revision of its shapes): 4 with a mesh, a height field or a compound, else 1;
+/// and the first shape that needs it, to name it to a client that reads less.
+struct RevisionNeed {
+  uint32_t revision = 1;
+  uint32_t shape = 0;
+  spu::ShapeType type = spu::ShapeType::sphere;
+};
+RevisionNeed revision_needed(const ppe::ShapeDictionary& shapes);
 
 /// Appends a join message for `f`; `known` becomes the ids of the bodies it carries.
 void encode_join(const Frame& f, const Interest& in, bool can_command, std::vector<uint32_t>& known,

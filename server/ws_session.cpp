@@ -23,10 +23,10 @@ constexpr double kAbuseBursts = 10;          // refusals in a row, in bursts, be
 
 }  // namespace
 
-WsSession::WsSession(net::ip::tcp::socket&& socket, std::shared_ptr<Room> room, bool can_command,
+WsSession::WsSession(net::ip::tcp::socket&& socket, std::shared_ptr<Room> room, bool can_command, uint32_t revision,
                      const ServerContext& ctx)
     : ws_(std::move(socket)), deadline_timer_(ws_.get_executor()), room_(std::move(room)), ctx_(ctx),
-      can_command_(can_command), limiter_(ctx.options.command_rate, ctx.options.command_burst) {}
+      can_command_(can_command), revision_(revision), limiter_(ctx.options.command_rate, ctx.options.command_burst) {}
 
 WsSession::~WsSession() {
   if (interest_.debug) room_->count_debug(-1);
@@ -49,11 +49,37 @@ void WsSession::on_accept(beast::error_code ec) {
   if (ec) return;
   open_ = true;
   ws_.binary(true);
+  // A client that gives no revision predates revision 4, the first that asks for it.
+  if ((revision_ ? revision_ : 3u) < room_->revision_needed().revision) return refuse_revision();
   room_->attach(shared_from_this());
   pending_ = room_->latest();  // the join
   maybe_write();
   do_read();
   watch_deadline();
+}
+
+// A client of an older revision reads a ShapeRecord's data only after a hull: it would take a
+// mesh's, a height field's or a compound's for records and misread the rest of the join. It is
+// sent an error message instead (a layout every revision reads), then closed; it never joins.
+void WsSession::refuse_revision() {
+  const RevisionNeed& need = room_->revision_needed();
+  const std::string want = std::to_string(need.revision);
+  const std::string said = revision_ ? "this connection reads revision " + std::to_string(revision_)
+                                     : "this connection gave no revision (a client older than revision 4)";
+  closed_ = true;  // nothing else is sent, and what the client sends is not read
+  writing_ = encode_error(
+      0, static_cast<uint16_t>(protocol::Type::join),
+      CommandError{protocol::ErrorCode::invalid, "revision",
+                   "world '" + room_->name() + "' holds a " + spu::shape_type_name(need.type) + " (shape " +
+                       std::to_string(need.shape) + "), which only a client of protocol revision " + want +
+                       " or later reads; " + said + ". A client that reads it connects with /ws?world=NAME&revision=" + want});
+  ws_.async_write(net::buffer(*writing_), [self = shared_from_this(), want](beast::error_code ec, size_t bytes) {
+    self->writing_.reset();
+    if (ec) return;
+    self->count_sent(bytes);
+    self->ws_.async_close(websocket::close_reason(websocket::close_code::policy_error, "protocol revision " + want + " needed"),
+                          [self](beast::error_code) {});
+  });
 }
 
 void WsSession::do_read() {

@@ -1,9 +1,11 @@
-// One WebSocket client of a room (/ws?world=NAME[&token=TOKEN]). It reads the client's messages
+// One WebSocket client of a room (/ws?world=NAME[&token=TOKEN][&revision=N]). It reads the client's messages
 // (interest, commands: checked for the token and rate limited here, applied by the room) and
 // writes, one message at a time, the room's answers (never dropped) and its newest state: a
 // frame that arrives while a write is in flight replaces the one waiting, and the next tick
 // tells the client how many it skipped. A client whose write has not completed within the
-// deadline (it stopped reading) is dropped, so no client holds up the room or other clients.
+// deadline (it stopped reading) is dropped, so no client holds up the room or other clients. A
+// client that reads an older protocol revision than the world's join needs gets an error saying
+// so, and is closed, instead of a join it would misread.
 #pragma once
 #include <boost/asio/steady_timer.hpp>
 #include <boost/beast/core.hpp>
@@ -22,7 +24,8 @@ namespace cellphys::server {
 
 class WsSession : public ClientSink, public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(boost::asio::ip::tcp::socket&& socket, std::shared_ptr<Room> room, bool can_command,
+  /// `revision`: the protocol revision the client said it reads (0: it said none).
+  WsSession(boost::asio::ip::tcp::socket&& socket, std::shared_ptr<Room> room, bool can_command, uint32_t revision,
             const ServerContext& ctx);
   ~WsSession() override;
 
@@ -34,6 +37,7 @@ class WsSession : public ClientSink, public std::enable_shared_from_this<WsSessi
 
  private:
   void on_accept(boost::beast::error_code ec);
+  void refuse_revision();
   void do_read();
   void on_read(boost::beast::error_code ec, size_t bytes);
   void handle(const unsigned char* data, size_t size);
@@ -50,6 +54,7 @@ class WsSession : public ClientSink, public std::enable_shared_from_this<WsSessi
   std::shared_ptr<Room> room_;
   const ServerContext& ctx_;
   const bool can_command_;
+  const uint32_t revision_;
   RateLimiter limiter_;
   uint64_t refused_in_a_row_ = 0;
 

@@ -71,6 +71,10 @@ p::Spawn spawn_box(float x, float y, float z) {
   return s;
 }
 
+// The world argument of a client that reads protocol revision 4 (meshes, height fields,
+// compounds): ServerClient puts it after "/ws?world=".
+std::string reading_revision_4(const std::string& world) { return world + "&revision=4"; }
+
 // The scene as the server builds it, for comparison.
 cellphys::scene::BuiltScene built(const std::string& name) {
   return cellphys::scene::build_world(cellphys::scene::load_scene(kScenes + "/" + name + ".json"));
@@ -139,7 +143,7 @@ TEST(Server, MeshesAndHeightFieldsAreSentAsTheirTriangles) {
   const cellphys::ppe::World& w = *built_scene.world;
 
   ServeProcess s = serve({file.string()});
-  ServerClient c(s.port(), "surfaces", s.token());
+  ServerClient c(s.port(), reading_revision_4("surfaces"), s.token());
   ASSERT_TRUE(c.until([&] { return c.joins == 1 && c.ticks.size() >= 5; }));
   EXPECT_EQ(c.last_problem, "");
   ASSERT_EQ(c.join.shapes.size(), w.shapes().size());
@@ -207,11 +211,194 @@ TEST(Server, MeshesAndHeightFieldsAreSentAsTheirTriangles) {
   }
   EXPECT_EQ(surfaces, 2);
   EXPECT_EQ(world_metrics(s, "surfaces")["bodies"], 1);  // the ball: nothing was spawned
+  // A client that gives no revision (one older than 4) is told, not sent a join it would misread.
+  ServerClient old(s.port(), "surfaces");
+  EXPECT_FALSE(old.until([&] { return old.joins > 0; }, 3s));
+  ASSERT_EQ(old.errors.count(0), 1u);
+  EXPECT_EQ(old.errors[0].field, "revision");
+  EXPECT_NE(old.errors[0].reason.find("height_field (shape 1)"), std::string::npos) << old.errors[0].reason;
   for (const p::BodyFull& b : c.join.bodies)
     if (cellphys::spu::is_triangle_surface(w.shapes().type(b.shape))) {
       EXPECT_NE(b.flags & p::kBodyStatic, 0u);
     }
   fs::remove_all(dir);
+}
+
+// Revision 4: a compound goes out as its ShapeRecord (type 7, num_vertices its parts) and its
+// parts, each naming an earlier shape of the dictionary, at the pose and scale the world holds
+// (re-centred on the compound's centre of mass), bit for bit. A client that reads an older
+// revision gets an error naming the revision and the compound, then the connection closes;
+// it never gets the join.
+TEST(Server, CompoundsAreSentAsTheirPartsAndOlderClientsAreTold) {
+  const fs::path dir = fs::temp_directory_path() / ("cellphys_compounds_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const double top_z = 0.74, leg_x = 0.5, leg_y = 0.3, leg_z = 0.35;
+  const json scene = {
+      {"shapes",
+       {{{"name", "ground"}, {"type", "plane"}, {"normal", {0, 0, 1}}},
+        {{"name", "top"}, {"type", "box"}, {"half_extents", {0.6, 0.4, 0.04}}},
+        {{"name", "leg"}, {"type", "box"}, {"half_extents", {0.04, 0.04, 0.35}}},
+        {{"name", "ball"}, {"type", "sphere"}, {"radius", 0.1}},
+        {{"name", "bar"}, {"type", "capsule"}, {"radius", 0.03}, {"half_height", 0.3}},
+        {{"name", "wedge"}, {"type", "hull"}, {"points", {{0, 0, 0}, {0.3, 0, 0}, {0, 0.2, 0}, {0, 0, 0.25}}}},
+        {{"name", "table"}, {"type", "compound"}, {"parts",
+          {{{"shape", "top"}, {"position", {0, 0, top_z}}},
+           {{"shape", "leg"}, {"position", {-leg_x, -leg_y, leg_z}}}, {{"shape", "leg"}, {"position", {leg_x, -leg_y, leg_z}}},
+           {{"shape", "leg"}, {"position", {-leg_x, leg_y, leg_z}}}, {{"shape", "leg"}, {"position", {leg_x, leg_y, leg_z}}}}}},
+        // Turned (a quaternion not quite unit: the dictionary normalises it) and scaled parts.
+        {{"name", "dumbbell"}, {"type", "compound"}, {"parts",
+          {{{"shape", "ball"}, {"position", {0.6, 0, 0}}, {"scale", 1.5}},
+           {{"shape", "bar"}, {"position", {1.0, 0, 0}}, {"orientation", {0.7, 0, 0.7, 0}}},
+           {{"shape", "ball"}, {"position", {1.4, 0, 0}}, {"scale", 1.5}}}}},
+        {{"name", "lamp"}, {"type", "compound"}, {"parts",
+          {{{"shape", "wedge"}, {"position", {0, 0, 0.1}}, {"scale", 2}}, {{"shape", "bar"}, {"position", {0.2, 0.1, 0.5}}}}}}}},
+      {"bodies",
+       {{{"id", "ground"}, {"shape", "ground"}, {"static", true}},
+        {{"id", "table"}, {"shape", "table"}, {"mass", 10.0}, {"position", {0, 0, 0.7}}},
+        {{"id", "dumbbell"}, {"shape", "dumbbell"}, {"mass", 4.0}, {"position", {0, 1.5, 0.2}}},
+        {{"id", "lamp"}, {"shape", "lamp"}, {"mass", 2.0}, {"position", {2, 0, 0.5}}, {"scale", 0.8}}}}};
+  const fs::path file = dir / "compounds.json";
+  std::ofstream(file) << scene.dump();
+  const auto built_scene = cellphys::scene::build_world(cellphys::scene::load_scene(file.string()));
+  const cellphys::ppe::World& w = *built_scene.world;
+  const cellphys::ppe::ShapeDictionary& d = w.shapes();
+  using cellphys::spu::ShapeType;
+
+  ServeProcess s = serve({file.string()});
+  // Older clients: none given (every client before revision 4), and 3 said.
+  for (const std::string& revision : {std::string(""), std::string("&revision=3")}) {
+    SCOPED_TRACE("revision: '" + revision + "'");
+    ServerClient old(s.port(), "compounds" + revision, s.token());
+    EXPECT_FALSE(old.until([&] { return old.joins > 0; }, 3s));
+    EXPECT_EQ(old.joins, 0);
+    EXPECT_TRUE(old.ws().closed() && !old.ws().timed_out()) << "the server closes the connection";
+    ASSERT_EQ(old.errors.count(0), 1u);
+    const cellphys::server::ErrorMessage& e = old.errors[0];
+    EXPECT_EQ(e.head.code, uint16_t(p::ErrorCode::invalid));
+    EXPECT_EQ(e.head.command_type, uint16_t(p::Type::join));
+    EXPECT_EQ(e.field, "revision");
+    EXPECT_NE(e.reason.find("a compound (shape 6)"), std::string::npos) << e.reason;
+    EXPECT_NE(e.reason.find("revision=4"), std::string::npos) << e.reason;
+    EXPECT_NE(e.reason.find(revision.empty() ? "gave no revision" : "reads revision 3"), std::string::npos) << e.reason;
+  }
+  EXPECT_THROW(cellphys::test::WsClient(s.port(), "/ws?world=compounds&revision=four"), std::exception);
+
+  ServerClient c(s.port(), reading_revision_4("compounds"), s.token());
+  ASSERT_TRUE(c.until([&] { return c.joins == 1 && c.ticks.size() >= 3; }));
+  EXPECT_EQ(c.last_problem, "");
+  EXPECT_EQ(c.join.head.revision, 4u);
+  ASSERT_EQ(c.join.shapes.size(), d.size());
+  ASSERT_EQ(c.join.parts.size(), d.size());
+  int compounds = 0;
+  for (uint32_t i = 0; i < d.size(); ++i) {
+    const p::ShapeRecord& r = c.join.shapes[i];
+    EXPECT_EQ(r.type, static_cast<uint32_t>(d.type(i)));
+    if (d.type(i) != ShapeType::compound) {
+      EXPECT_TRUE(c.join.parts[i].empty());
+      continue;
+    }
+    ++compounds;
+    SCOPED_TRACE("shape " + std::to_string(i));
+    const std::vector<cellphys::ppe::CompoundPart>& held = d.compound_parts(i);
+    const cellphys::spu::CompoundView& view = d.view(i).compound;
+    const std::vector<p::CompoundPartRecord>& sent = c.join.parts[i];
+    EXPECT_EQ(r.num_faces, 0u);
+    EXPECT_EQ(r.num_face_vertices, 0u);
+    ASSERT_EQ(r.num_vertices, held.size());
+    ASSERT_EQ(sent.size(), held.size());
+    ASSERT_EQ(size_t(view.num_parts), held.size());
+    for (size_t k = 0; k < sent.size(); ++k) {
+      const p::CompoundPartRecord& a = sent[k];
+      EXPECT_EQ(a.shape, held[k].shape);
+      EXPECT_LT(a.shape, i);  // an earlier record: a client resolves it as it reads
+      EXPECT_TRUE(cellphys::spu::is_convex(static_cast<ShapeType>(c.join.shapes[a.shape].type)));
+      EXPECT_EQ(std::memcmp(a.position, held[k].position, 12), 0);
+      EXPECT_EQ(std::memcmp(a.orientation, held[k].orientation, 16), 0);
+      EXPECT_EQ(std::memcmp(&a.scale, &held[k].scale, 4), 0);
+      // ... and as the narrow phase reads them.
+      EXPECT_EQ(view.parts[k].shape, &d.view(a.shape));
+      EXPECT_EQ(std::memcmp(a.position, view.parts[k].position, 12), 0);
+      EXPECT_EQ(std::memcmp(a.orientation, view.parts[k].orientation, 16), 0);
+      EXPECT_EQ(a.scale, view.parts[k].scale);
+    }
+  }
+  EXPECT_EQ(compounds, 3);
+  // Against the scene's own numbers: the table's parts are the file's, moved by one shift, its
+  // centre of mass at uniform density (the boxes' volume-weighted centre: the top 0.0768 m^3 at
+  // z 0.74, each leg 0.00448 m^3 at 0.35).
+  const uint32_t table = 6;
+  ASSERT_EQ(d.type(table), ShapeType::compound);
+  const double vt = 8 * 0.6 * 0.4 * 0.04, vl = 8 * 0.04 * 0.04 * 0.35;
+  const double com_z = (vt * top_z + 4 * vl * leg_z) / (vt + 4 * vl);
+  const std::vector<p::CompoundPartRecord>& tp = c.join.parts[table];
+  const double want[5][3] = {{0, 0, top_z}, {-leg_x, -leg_y, leg_z}, {leg_x, -leg_y, leg_z}, {-leg_x, leg_y, leg_z}, {leg_x, leg_y, leg_z}};
+  for (size_t k = 0; k < 5; ++k)
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(tp[k].position[a], want[k][a] - (a == 2 ? com_z : 0.0), 1e-6) << "part " << k << " axis " << a;
+  // The dumbbell's bar turned a quarter about y, its quaternion normalised; the balls scaled.
+  const std::vector<p::CompoundPartRecord>& dp = c.join.parts[table + 1];
+  EXPECT_NEAR(dp[1].orientation[0], std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(dp[1].orientation[2], std::sqrt(0.5), 1e-6);
+  EXPECT_EQ(dp[0].scale, 1.5f);
+  EXPECT_NEAR(dp[0].position[0], -0.4, 1e-6);  // the centre (x = 1) taken off
+  // The bodies carry the compound's index; a compound can be spawned, and enters as one.
+  for (const p::BodyFull& b : c.join.bodies) EXPECT_EQ(b.shape, w.shape(b.id));
+  p::Spawn sp = spawn_box(0, -2, 1);
+  sp.shape = table + 1;
+  const uint32_t seq = c.command(p::Type::spawn, sp);
+  ASSERT_TRUE(c.answer(seq)) << c.errors[seq].reason;
+  const uint32_t spawned = c.acks[seq].result;
+  ASSERT_TRUE(c.until([&] { return c.bodies.count(spawned) > 0; }));
+  EXPECT_EQ(c.bodies[spawned].shape, table + 1);
+  fs::remove_all(dir);
+}
+
+// In process: the C++ decoder reads a compound's parts and refuses, before it allocates, a part
+// count the message cannot hold, a part naming a later shape or one that is not convex.
+TEST(JoinDecoder, ReadsCompoundPartsAndRefusesBadOnes) {
+  cellphys::ppe::ShapeDictionary d;
+  const float half[3] = {0.5f, 0.25f, 0.125f}, up[3] = {0, 0, 1};
+  d.add_sphere(0.3f);
+  d.add_plane(up, 0);
+  d.add_box(half);
+  cellphys::ppe::CompoundPart parts[2];
+  parts[0].shape = 0;
+  parts[0].position[0] = 1;
+  parts[1].shape = 2;
+  parts[1].scale = 2;
+  parts[1].orientation[0] = 0.6f;
+  parts[1].orientation[3] = 0.8f;
+  const uint32_t compound = d.add_compound(parts, 2);
+  const std::vector<unsigned char> shapes = cellphys::server::encode_shapes(d);
+  p::Join j{};
+  j.header = {0, uint16_t(p::Type::join), p::kVersion};
+  j.num_shapes = uint32_t(d.size());
+  j.revision = p::kRevision;
+  std::vector<unsigned char> bytes(sizeof j);
+  bytes.insert(bytes.end(), shapes.begin(), shapes.end());
+  j.header.length = uint32_t(bytes.size());
+  std::memcpy(bytes.data(), &j, sizeof j);
+  cellphys::server::JoinMessage m;
+  ASSERT_EQ(cellphys::server::decode_join(bytes.data(), bytes.size(), m), "");
+  ASSERT_EQ(m.parts.size(), 4u);
+  ASSERT_EQ(m.parts[compound].size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    const cellphys::ppe::CompoundPart& held = d.compound_parts(compound)[k];
+    EXPECT_EQ(m.parts[compound][k].shape, held.shape);
+    EXPECT_EQ(std::memcmp(m.parts[compound][k].position, held.position, 12), 0);
+    EXPECT_EQ(std::memcmp(m.parts[compound][k].orientation, held.orientation, 16), 0);
+    EXPECT_EQ(m.parts[compound][k].scale, held.scale);
+  }
+  const size_t record = sizeof(p::Join) + compound * sizeof(p::ShapeRecord), part1 = record + sizeof(p::ShapeRecord) + sizeof(p::CompoundPartRecord);
+  auto with = [&](size_t at, uint32_t v) {
+    std::vector<unsigned char> b = bytes;
+    std::memcpy(b.data() + at, &v, 4);
+    cellphys::server::JoinMessage out;
+    return cellphys::server::decode_join(b.data(), b.size(), out);
+  };
+  EXPECT_EQ(with(record + offsetof(p::ShapeRecord, num_vertices), 0x40000000u), "cut in the parts of shape 3");
+  EXPECT_EQ(with(record + offsetof(p::ShapeRecord, num_vertices), 0u), "compound shape 3 has no parts");
+  EXPECT_EQ(with(part1 + offsetof(p::CompoundPartRecord, shape), 3u), "shape 3 part 1 names shape 3, not an earlier one");
+  EXPECT_EQ(with(part1 + offsetof(p::CompoundPartRecord, shape), 1u), "shape 3 part 1 names shape 1, which is not convex");
 }
 
 // Revision 3: a client that asks gets a stages message after each state message, for its step,
@@ -220,7 +407,8 @@ TEST(Server, StagesFollowEachTickWithEveryNamedStage) {
   ServeProcess s = serve({"pile65"});
   ServerClient c(s.port(), "pile65"), quiet(s.port(), "pile65");
   ASSERT_TRUE(c.until([&] { return c.joins == 1; }));
-  EXPECT_EQ(c.join.head.revision, 3u);
+  // Revision 4, to a client that gave none: pile65 holds no shape a client of revision 3 misreads.
+  EXPECT_EQ(c.join.head.revision, 4u);
   p::Subscribe sub{};
   sub.flags = p::kSubscribeStages;
   c.subscribe(sub);

@@ -8,7 +8,7 @@ import './style.css';
 import * as P from './protocol.js';
 import { applyTick, modelFromJoin, F_STATIC } from './model.js';
 import { Renderer } from './render.js';
-import { Overlay } from './overlay.js';
+import { Overlay, boundingBox } from './overlay.js';
 import { parseTrajectory, trajectoryModel } from './trajectory.js';
 import { isRecording, readRecording } from './recording.js';
 
@@ -72,7 +72,7 @@ for (const box of Object.values(ov)) box.addEventListener('change', () => { subs
 function connect(world) {
   if (state.ws) { state.ws.onclose = null; state.ws.close(); }
   state.world = world;
-  const q = new URLSearchParams({ world });
+  const q = new URLSearchParams({ world, revision: String(P.REVISION) });
   if (state.token) q.set('token', state.token);
   const ws = new WebSocket(`${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws?${q}`);
   ws.binaryType = 'arraybuffer';
@@ -356,8 +356,9 @@ function updateSelection() {
   if (state.selected < 0 || !state.model) { el.textContent = 'Click a body to inspect it; drag it to pull it\n(needs the token); shift-click to spawn a box.'; return; }
   const s = state.model.bodyState(state.shown, state.selected);
   if (!s) { el.textContent = `body ${state.model.bodies[state.selected].label}: not in this frame`; return; }
+  const parts = s.shape_type === P.SHAPE.compound ? ` of ${state.model.shapes[s.shape].parts.length} parts` : '';
   el.textContent = [
-    `body ${s.label}  ${SHAPE_NAMES[s.shape_type] ?? '?'} (shape ${s.shape}) ×${s.scale}`,
+    `body ${s.label}  ${SHAPE_NAMES[s.shape_type] ?? '?'}${parts} (shape ${s.shape}) ×${s.scale}`,
     s.static ? 'static' : s.awake ? 'awake' : 'asleep',
     `pos   ${fmt(s.position)}`, `quat  ${fmt(s.orientation, 4)}`, `vel   ${fmt(s.velocity)}`, `omega ${fmt(s.angular_velocity)}`,
     debugLine(s),
@@ -587,6 +588,11 @@ window.__viewer = {
   framesDrawn: () => renderer.frames,
   bodyState: (id) => { const s = slotOfShown(id); return s === undefined ? null : state.model.bodyState(state.shown, s); },
   drawnPosition: (id) => { const s = slotOfShown(id); return s === undefined ? null : renderer.instancePosition(s); },
+  drawnParts: (id) => { const s = slotOfShown(id); return s === undefined ? null : renderer.parts(s); },
+  boxOf: (id) => {
+    const s = slotOfShown(id), b = s === undefined ? null : state.model.bodyState(state.shown, s);
+    return b && boundingBox(state.model.shapes[b.shape], b.scale, b.position, b.orientation);
+  },
   screenOf: (id) => { const b = window.__viewer.bodyState(id); return b && renderer.toScreen(b.position); },
   screenOfPoint: (v) => renderer.toScreen(v),
   surfaces: () => renderer.surfaces(),

@@ -4,12 +4,24 @@
 import * as THREE from 'three';
 import { FLOATS, F_PRESENT } from './model.js';
 import { SHAPE, isSurface } from './protocol.js';
+import { partPose } from './compound.js';
 
 const NORMAL_LENGTH = 0.5; // m, the longest normal in a message (the largest force)
 
 /// A body's world box from its shape record, scale and pose (w x y z); null for a plane, or a
-/// shape whose vertices the viewer does not have.
+/// shape whose vertices the viewer does not have. A compound's is the union of its parts' boxes,
+/// each at its part pose.
 export function boundingBox(shape, scale, pos, q) {
+  if (shape.type === SHAPE.compound) {
+    let box = null;
+    for (const part of shape.parts) {
+      const p = partPose(pos, q, scale, part);
+      const b = boundingBox(part.record, p.scale, p.position, p.orientation);
+      if (!b) return null;
+      box = box ? { min: box.min.map((c, i) => Math.min(c, b.min[i])), max: box.max.map((c, i) => Math.max(c, b.max[i])) } : b;
+    }
+    return box;
+  }
   const [w, x, y, z] = q;
   // rotation matrix rows
   const R = [
@@ -24,7 +36,7 @@ export function boundingBox(shape, scale, pos, q) {
   else if (shape.type === SHAPE.capsule) for (let i = 0; i < 3; ++i) half[i] = scale * (Math.abs(R[i][2]) * p[1] + p[0]);
   else if (shape.type === SHAPE.hull || isSurface(shape.type)) { // their vertices, turned
     const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity], v = shape.vertices;
-    if (!v || !v.length) return null; // a trajectory's hull (points only) or an OBJ mesh it could not read
+    if (!v || !v.length) return null; // an OBJ mesh a trajectory could not read
     for (let k = 0; k < v.length; k += 3)
       for (let i = 0; i < 3; ++i) {
         const c = scale * (R[i][0] * v[k] + R[i][1] * v[k + 1] + R[i][2] * v[k + 2]);

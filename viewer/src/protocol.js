@@ -2,12 +2,17 @@
 // encoding the client's. Little-endian throughout; offsets are the documented ones.
 
 export const VERSION = 1;
+/// The protocol revision this page reads, said to the server when connecting (/ws?...&revision=4):
+/// a server refuses, with an error naming it, a client that reads less than its world's join needs.
+export const REVISION = 4;
 export const T = {
   join: 1, tick: 2, ack: 3, error: 4, status: 5, debug: 6, stages: 7, subscribe: 32,
   spawn: 33, remove: 34, impulse: 35, drag_start: 36, drag_move: 37, drag_release: 38,
   pause: 39, resume: 40, step_once: 41, reset: 42,
 };
-export const SHAPE = { sphere: 0, capsule: 1, box: 2, hull: 3, plane: 4, mesh: 5, height_field: 6 };
+export const SHAPE = { sphere: 0, capsule: 1, box: 2, hull: 3, plane: 4, mesh: 5, height_field: 6, compound: 7 };
+/// The shapes a compound's parts are.
+export const isConvex = (type) => type >= SHAPE.sphere && type <= SHAPE.hull;
 /// Triangle surfaces: static level geometry, sent (and drawn) as a hull is, their triangles the faces.
 export const isSurface = (type) => type === SHAPE.mesh || type === SHAPE.height_field;
 /// Shapes only a static body has: the ground and level geometry, never spawned or dragged.
@@ -17,7 +22,7 @@ export const TICK_QUANTISED = 1, TICK_PAUSED = 2;
 export const WORLD_STATE = ['running', 'paused', 'failed'];
 export const ERROR_CODE = ['', 'malformed', 'invalid', 'unauthorized', 'rate_limited', 'world_failed'];
 
-const BODY_FULL = 68, BODY_MOVED = 56, BODY_MOVED_Q = 28, SHAPE_RECORD = 48;
+const BODY_FULL = 68, BODY_MOVED = 56, BODY_MOVED_Q = 28, SHAPE_RECORD = 48, COMPOUND_PART = 36;
 
 export class ProtocolError extends Error {}
 
@@ -82,7 +87,19 @@ function shapeDictionary(dv, at, count) {
     };
     for (let k = 0; k < 8; ++k) rec.params.push(dv.getFloat32(at + 16 + 4 * k, true));
     at += SHAPE_RECORD;
-    if (rec.type === SHAPE.hull || isSurface(rec.type)) {
+    if (rec.type === SHAPE.compound) {
+      // Revision 4: num_vertices parts, each an earlier (convex) shape at a pose in the compound's
+      // frame; `record` is that shape's own record, so a part is drawn and boxed as one.
+      const n = rec.num_vertices;
+      need(dv, at + COMPOUND_PART * n, `join.shapes[${s}] parts`);
+      rec.parts = [];
+      for (let k = 0; k < n; ++k, at += COMPOUND_PART) {
+        const shape = dv.getUint32(at, true);
+        if (shape >= s || !isConvex(shapes[shape].type))
+          throw new ProtocolError(`join.shapes[${s}].parts[${k}]: shape ${shape} is not an earlier convex shape`);
+        rec.parts.push({ shape, record: shapes[shape], position: f3(dv, at + 4), orientation: f4(dv, at + 16), scale: dv.getFloat32(at + 32, true) });
+      }
+    } else if (rec.type === SHAPE.hull || isSurface(rec.type)) {
       const bytes = 12 * rec.num_vertices + 4 * (rec.num_faces + 1) + 4 * rec.num_face_vertices;
       need(dv, at + bytes, `join.shapes[${s}] vertex and face data`);
       rec.vertices = new Float32Array(dv.buffer.slice(dv.byteOffset + at, dv.byteOffset + at + 12 * rec.num_vertices));

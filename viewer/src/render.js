@@ -1,10 +1,11 @@
 // Drawing a Model's frame with three.js: one InstancedMesh per shape of the dictionary (a body
 // is an instance: its pose and uniform scale in the instance matrix, its colour by state), an
 // orbit camera about z up, a sun with shadows, a sky light and a grid on the ground plane.
-// Meshes and height fields (static level geometry) are drawn from their triangles.
+// Meshes and height fields (static level geometry) are drawn from their triangles. A compound
+// has one InstancedMesh a part: the part's shape's geometry moved to the part's pose in the
+// body frame, so a compound body is an instance of each, at the body's pose.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
-import { ConvexGeometry } from 'three/examples/jsm/geometries/ConvexGeometry.js';
 import { FLOATS, F_AWAKE, F_PRESENT, F_STATIC } from './model.js';
 import { SHAPE, isStaticShape, isSurface } from './protocol.js';
 import { boundingBox } from './overlay.js';
@@ -12,6 +13,7 @@ import { boundingBox } from './overlay.js';
 const COLOURS = {
   [SHAPE.sphere]: 0x4f8fd8, [SHAPE.capsule]: 0x58b368, [SHAPE.box]: 0xd8924f, [SHAPE.hull]: 0xb36bc4, [SHAPE.plane]: 0x9aa3ad,
   [SHAPE.mesh]: 0x9b8c6e, [SHAPE.height_field]: 0x6e8f4f, // stone and grass: ground, not bodies
+  [SHAPE.compound]: 0xd0607e, // one colour for all its parts: one body
 };
 const STATIC_COLOUR = new THREE.Color(0x6d747c);
 const ASLEEP_COLOUR = new THREE.Color(0xa0a0a0);
@@ -51,16 +53,7 @@ export function shapeGeometry(s, extent) {
     case SHAPE.sphere: return new THREE.SphereGeometry(p[0], 24, 16);
     case SHAPE.capsule: return new THREE.CapsuleGeometry(p[0], 2 * p[1], 6, 16).rotateX(Math.PI / 2); // three's axis is y, ours z
     case SHAPE.box: return new THREE.BoxGeometry(2 * p[0], 2 * p[1], 2 * p[2]);
-    case SHAPE.hull: {
-      if (s.vertices) return hullGeometry(s);
-      // From a scene file's points: their hull, centred on the points' mean (the scene centres
-      // it on its centre of mass; for the point-symmetric clouds of the built-in scenes the same).
-      const g = new ConvexGeometry(s.points.map((x) => new THREE.Vector3(...x)));
-      const c = new THREE.Vector3();
-      s.points.forEach((x) => c.add(new THREE.Vector3(...x)));
-      c.divideScalar(s.points.length);
-      return g.translate(-c.x, -c.y, -c.z);
-    }
+    case SHAPE.hull: return hullGeometry(s); // a trajectory's too: trajectory.js makes its faces
     case SHAPE.mesh:
     case SHAPE.height_field: return surfaceGeometry(s);
     case SHAPE.plane: {
@@ -72,6 +65,13 @@ export function shapeGeometry(s, extent) {
     }
     default: return new THREE.BoxGeometry(0.1, 0.1, 0.1);
   }
+}
+
+/// A compound part's placement in its body's frame.
+function partMatrix(part) {
+  const [w, x, y, z] = part.orientation;
+  return new THREE.Matrix4().compose(new THREE.Vector3(...part.position), new THREE.Quaternion(x, y, z, w).normalize(),
+    new THREE.Vector3().setScalar(part.scale));
 }
 
 /// A colour per island: hues a golden angle apart, so neighbouring indices differ.
@@ -138,18 +138,24 @@ export class Renderer {
     const radius = Math.max(2, 0.5 * size.length());
     this.extent = Math.max(20, 4 * radius);
     model.shapes.forEach((s, i) => {
-      const geometry = shapeGeometry(s, this.extent);
-      const material = new THREE.MeshStandardMaterial({ color: 0xffffff, roughness: s.type === SHAPE.height_field ? 0.95 : 0.75, metalness: 0.05, flatShading: s.type === SHAPE.hull || s.type === SHAPE.mesh });
-      if (s.type === SHAPE.plane) { material.polygonOffset = true; material.polygonOffsetFactor = 1; material.polygonOffsetUnits = 1; }
-      const mesh = new THREE.InstancedMesh(geometry, material, 16);
-      mesh.userData = { shape: i, slots: [] };
-      // The ground receives shadows; a terrain casting them on itself would speckle.
-      mesh.castShadow = s.type !== SHAPE.plane && s.type !== SHAPE.height_field;
-      mesh.receiveShadow = true;
-      mesh.frustumCulled = false;
-      mesh.count = 0;
-      this.meshes.push(mesh);
-      this.world.add(mesh);
+      // A compound's parts, each its shape's geometry placed in the body frame; other shapes one piece.
+      const pieces = s.type === SHAPE.compound
+        ? s.parts.map((part, k) => { const m = partMatrix(part); return { geometry: shapeGeometry(part.record, this.extent).applyMatrix4(m), type: part.record.type, part: k, matrix: m }; })
+        : [{ geometry: shapeGeometry(s, this.extent), type: s.type, part: -1, matrix: null }];
+      for (const piece of pieces) {
+        const t = piece.type;
+        const material = new THREE.MeshStandardMaterial({ color: 0xffffff, roughness: t === SHAPE.height_field ? 0.95 : 0.75, metalness: 0.05, flatShading: t === SHAPE.hull || t === SHAPE.mesh });
+        if (t === SHAPE.plane) { material.polygonOffset = true; material.polygonOffsetFactor = 1; material.polygonOffsetUnits = 1; }
+        const mesh = new THREE.InstancedMesh(piece.geometry, material, 16);
+        mesh.userData = { shape: i, part: piece.part, partMatrix: piece.matrix, slots: [] };
+        // The ground receives shadows; a terrain casting them on itself would speckle.
+        mesh.castShadow = t !== SHAPE.plane && t !== SHAPE.height_field;
+        mesh.receiveShadow = true;
+        mesh.frustumCulled = false;
+        mesh.count = 0;
+        this.meshes.push(mesh);
+        this.world.add(mesh);
+      }
       if (s.type === SHAPE.plane && !gridDone) {
         gridDone = true;
         const p = s.params, n = new THREE.Vector3(p[0], p[1], p[2]).normalize();
@@ -190,11 +196,12 @@ export class Renderer {
     const m = this.model;
     if (!m) return;
     this.frame = frame;
-    const counts = new Array(this.meshes.length).fill(0);
+    const counts = new Array(m.shapes.length).fill(0);
     for (let s = 0; s < frame.flags.length; ++s) if (frame.flags[s] & F_PRESENT) counts[m.bodies[s].shape]++;
     this.meshes.forEach((mesh, i) => {
-      if (counts[i] > mesh.instanceMatrix.count) {
-        const bigger = new THREE.InstancedMesh(mesh.geometry, mesh.material, Math.max(counts[i], 2 * mesh.instanceMatrix.count));
+      const need = counts[mesh.userData.shape];
+      if (need > mesh.instanceMatrix.count) {
+        const bigger = new THREE.InstancedMesh(mesh.geometry, mesh.material, Math.max(need, 2 * mesh.instanceMatrix.count));
         Object.assign(bigger, { userData: mesh.userData, castShadow: mesh.castShadow, receiveShadow: mesh.receiveShadow, frustumCulled: false });
         this.world.remove(mesh);
         this.world.add(bigger);
@@ -203,27 +210,31 @@ export class Renderer {
       this.meshes[i].count = 0;
       this.meshes[i].userData.slots.length = 0;
     });
+    const meshesOf = m.shapes.map(() => []); // a shape's meshes: one, or a compound's one a part
+    for (const mesh of this.meshes) meshesOf[mesh.userData.shape].push(mesh);
     const mat = new THREE.Matrix4(), p = new THREE.Vector3(), q = new THREE.Quaternion(), sc = new THREE.Vector3(), c = new THREE.Color();
     const d = frame.data;
     for (let s = 0; s < frame.flags.length; ++s) {
       const f = frame.flags[s];
       if (!(f & F_PRESENT)) continue;
-      const b = m.bodies[s], mesh = this.meshes[b.shape];
+      const b = m.bodies[s];
       const o = s * FLOATS;
       p.set(d[o], d[o + 1], d[o + 2]);
       q.set(d[o + 4], d[o + 5], d[o + 6], d[o + 3]); // ours w x y z, three's x y z w
       sc.setScalar(b.scale);
       mat.compose(p, q, sc);
-      const k = mesh.count++;
-      mesh.setMatrixAt(k, mat);
-      mesh.userData.slots[k] = s;
       if (s === this.selectedSlot) c.copy(SELECTED_COLOUR);
       else if (f & F_STATIC || b.static) c.copy(STATIC_COLOUR);
       else if (f & F_AWAKE && this.islandOf && this.islandOf.has(b.id)) islandColour(this.islandOf.get(b.id), c);
       else if (f & F_AWAKE) c.setHex(COLOURS[m.shapes[b.shape].type] ?? 0xcccccc);
       else c.copy(ASLEEP_COLOUR);
       if (isStaticShape(m.shapes[b.shape].type)) c.setHex(COLOURS[m.shapes[b.shape].type]);
-      mesh.setColorAt(k, c);
+      for (const mesh of meshesOf[b.shape]) {
+        const k = mesh.count++;
+        mesh.setMatrixAt(k, mat);
+        mesh.setColorAt(k, c);
+        mesh.userData.slots[k] = s;
+      }
     }
     for (const mesh of this.meshes) {
       mesh.instanceMatrix.needsUpdate = true;
@@ -276,7 +287,27 @@ export class Renderer {
     });
   }
 
-  /// Instances drawn, and the drawn position of one slot (read back from its instance matrix).
+  /// The parts drawn for one slot (a compound body), in part order: each its shape type and its
+  /// world pose (position, orientation w x y z, scale), read back from its instance matrix and
+  /// the part's placement in its mesh.
+  parts(slot) {
+    const out = [];
+    for (const mesh of this.meshes) {
+      const k = mesh.userData.slots.indexOf(slot);
+      if (mesh.userData.part < 0 || k < 0 || k >= mesh.count) continue;
+      const mat = new THREE.Matrix4();
+      mesh.getMatrixAt(k, mat);
+      mat.multiply(mesh.userData.partMatrix);
+      const p = new THREE.Vector3(), q = new THREE.Quaternion(), sc = new THREE.Vector3();
+      mat.decompose(p, q, sc);
+      const part = this.model.shapes[mesh.userData.shape].parts[mesh.userData.part];
+      out[mesh.userData.part] = { type: part.record.type, position: p.toArray(), orientation: [q.w, q.x, q.y, q.z], scale: sc.x };
+    }
+    return out;
+  }
+
+  /// Instances drawn (a compound body is one a part), and the drawn position of one slot (read
+  /// back from its instance matrix).
   instanceCount() { return this.meshes.reduce((n, m) => n + m.count, 0); }
   instancePosition(slot) {
     for (const mesh of this.meshes) {

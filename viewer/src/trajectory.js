@@ -2,9 +2,14 @@
 // as a Model with one frame per step written. The CSV has no shapes: each body is drawn as the
 // shape its scene file gives it when that file is dropped with the CSV (the scene's static
 // bodies, a ground plane say, are drawn too), otherwise as a 0.5 m box. A scene's meshes and
-// height fields become the vertices and triangles the server would send for them.
+// height fields become the vertices and triangles the server would send for them, its hulls the
+// faces of their points' convex hull centred on its centre of mass, and its compounds their
+// parts centred on theirs: the engine's centring, which a trajectory's positions are of.
+import { Vector3 } from 'three';
+import { ConvexHull } from 'three/examples/jsm/math/ConvexHull.js';
 import { Model, F_AWAKE, F_PRESENT, F_STATIC } from './model.js';
-import { SHAPE } from './protocol.js';
+import { SHAPE, isConvex } from './protocol.js';
+import { centredParts, polyhedronVolume } from './compound.js';
 
 const HEADER = ['step', 't', 'body', 'px', 'py', 'pz', 'qw', 'qx', 'qy', 'qz', 'vx', 'vy', 'vz', 'wx', 'wy', 'wz'];
 
@@ -92,13 +97,57 @@ function sceneHeightField(s, where) {
   return surface(SHAPE.height_field, v, t);
 }
 
-function sceneShape(s, where, warnings) {
+/// A scene file's hull as the server sends one: its points' convex hull (three's quickhull; the
+/// engine's may differ for a cloud it simplifies, over HullLimits' 256 vertices), its faces
+/// counter-clockwise from outside, centred on its centre of mass as the engine centres a hull.
+function sceneHull(s, where) {
+  if (!Array.isArray(s.points) || s.points.length < 4 || !s.points.every((x) => Array.isArray(x) && x.length === 3 && x.every(Number.isFinite)))
+    throw new FileError(`${where}.points: not 4 or more points of 3 numbers`);
+  const hull = new ConvexHull().setFromPoints(s.points.map((x) => new Vector3(...x)));
+  const index = new Map(), vertices = [], faceStart = [0], loops = [];
+  for (const face of hull.faces) {
+    let e = face.edge;
+    do {
+      const v = e.head();
+      if (!index.has(v)) { index.set(v, vertices.length / 3); vertices.push(v.point.x, v.point.y, v.point.z); }
+      loops.push(index.get(v));
+      e = e.next;
+    } while (e !== face.edge);
+    faceStart.push(loops.length);
+  }
+  const rec = {
+    type: SHAPE.hull, params: [], vertices: Float32Array.from(vertices), face_start: Uint32Array.from(faceStart), face_vertices: Uint32Array.from(loops),
+    num_vertices: vertices.length / 3, num_faces: faceStart.length - 1, num_face_vertices: loops.length,
+  };
+  const { volume, centroid } = polyhedronVolume(rec);
+  if (!(volume > 0)) throw new FileError(`${where}.points: their hull has no volume`);
+  for (let i = 0; i < rec.vertices.length; ++i) rec.vertices[i] -= centroid[i % 3];
+  return rec;
+}
+
+/// A scene file's compound: each part names a shape earlier in the file (`named`: name to its
+/// record and index); the parts come out centred on their centre of mass, as the server's are.
+function sceneCompound(s, where, named) {
+  if (!Array.isArray(s.parts) || !s.parts.length) throw new FileError(`${where}.parts: a compound needs at least one part`);
+  const parts = s.parts.map((p, k) => {
+    const at = `${where}.parts[${k}]`, n = named.get(p.shape);
+    if (!n) throw new FileError(`${at}.shape: "${p.shape}" is not a shape named before this one`);
+    if (!isConvex(n.record.type)) throw new FileError(`${at}.shape: "${p.shape}" is not a sphere, capsule, box or hull`);
+    const q = p.orientation ?? [1, 0, 0, 0], norm = Math.hypot(...q);
+    if (!(norm > 0)) throw new FileError(`${at}.orientation: not a rotation`);
+    return { shape: n.index, record: n.record, position: [...(p.position ?? [0, 0, 0])], orientation: q.map((x) => x / norm), scale: p.scale ?? 1 };
+  });
+  return { type: SHAPE.compound, params: [], num_vertices: parts.length, parts: centredParts(parts).parts };
+}
+
+function sceneShape(s, where, warnings, named) {
   switch (s.type) {
     case 'sphere': return { type: SHAPE.sphere, params: [s.radius] };
     case 'capsule': return { type: SHAPE.capsule, params: [s.radius, s.half_height] };
     case 'box': return { type: SHAPE.box, params: [...s.half_extents] };
     case 'plane': return { type: SHAPE.plane, params: [...s.normal, s.offset ?? 0] };
-    case 'hull': return { type: SHAPE.hull, points: s.points };
+    case 'hull': return sceneHull(s, where);
+    case 'compound': return sceneCompound(s, where, named);
     case 'mesh':
       if (s.obj !== undefined) { // the OBJ file is not among the dropped files: drawn as nothing
         warnings.push(`${where}: mesh "${s.name}" is read from ${s.obj}, which the viewer does not open; it is not drawn`);
@@ -115,10 +164,16 @@ export function trajectoryModel(rows, scene = null, sceneName = 'scene.json') {
   const shapes = [{ type: SHAPE.box, params: [0.25, 0.25, 0.25] }];
   const sceneBodies = new Map();
   const shapeIndex = new Map();
+  const named = new Map(); // the shapes read so far, for compounds' parts
   const warnings = [];
   if (scene) {
     if (!Array.isArray(scene.shapes) || !Array.isArray(scene.bodies)) throw new FileError(`${sceneName}: not a scene file (no shapes or bodies array)`);
-    scene.shapes.forEach((s, i) => { shapeIndex.set(s.name, shapes.length); shapes.push(sceneShape(s, `${sceneName}: shapes[${i}]`, warnings)); });
+    scene.shapes.forEach((s, i) => {
+      const record = sceneShape(s, `${sceneName}: shapes[${i}]`, warnings, named);
+      named.set(s.name, { record, index: shapes.length });
+      shapeIndex.set(s.name, shapes.length);
+      shapes.push(record);
+    });
     scene.bodies.forEach((b, i) => {
       if (!shapeIndex.has(b.shape)) throw new FileError(`${sceneName}: bodies[${i}].shape: "${b.shape}" is not a shape of the file`);
       sceneBodies.set(String(b.id), b);

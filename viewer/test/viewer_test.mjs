@@ -332,6 +332,154 @@ try {
   terrain.stop();
   rmSync(tdir, { recursive: true, force: true });
 
+  // ---- compounds: a table, a dumbbell, a lamp and a static arch, each one body drawn as its parts ----
+  const compoundFile = join(here, 'compounds.json');
+  const compoundScene = JSON.parse(readFileSync(compoundFile, 'utf8'));
+  // What the scene says, worked out here: each compound's parts in its body frame, the frame
+  // centred on the parts' centre of mass at uniform density as the engine centres it (the volumes
+  // in closed form; the lamp's hull is a tetrahedron, a b c / 6, centred on its own centroid).
+  const sceneShapes = new Map(compoundScene.shapes.map((s) => [s.name, s]));
+  const unitVolume = (s) => s.type === 'sphere' ? 4 / 3 * Math.PI * s.radius ** 3
+    : s.type === 'box' ? 8 * s.half_extents[0] * s.half_extents[1] * s.half_extents[2]
+    : s.type === 'capsule' ? Math.PI * s.radius ** 2 * 2 * s.half_height + 4 / 3 * Math.PI * s.radius ** 3
+    : s.type === 'hull' ? Math.abs(s.points[1][0] * s.points[2][1] * s.points[3][2]) / 6 : NaN;
+  const expectedParts = new Map();
+  for (const s of compoundScene.shapes.filter((x) => x.type === 'compound')) {
+    const parts = s.parts.map((p) => {
+      const q = p.orientation ?? [1, 0, 0, 0], n = Math.hypot(...q);
+      return { shape: sceneShapes.get(p.shape), position: p.position ?? [0, 0, 0], orientation: q.map((x) => x / n), scale: p.scale ?? 1 };
+    });
+    const volumes = parts.map((p) => unitVolume(p.shape) * p.scale ** 3), V = volumes.reduce((a, b) => a + b, 0);
+    const com = [0, 1, 2].map((k) => parts.reduce((a, p, i) => a + volumes[i] * p.position[k], 0) / V);
+    expectedParts.set(s.name, parts.map((p) => ({ ...p, position: p.position.map((x, k) => x - com[k]) })));
+  }
+  const qmul = (q, r) => [q[0] * r[0] - q[1] * r[1] - q[2] * r[2] - q[3] * r[3], q[0] * r[1] + q[1] * r[0] + q[2] * r[3] - q[3] * r[2],
+    q[0] * r[2] - q[1] * r[3] + q[2] * r[0] + q[3] * r[1], q[0] * r[3] + q[1] * r[2] - q[2] * r[1] + q[3] * r[0]];
+  const qrot = (q, v) => qmul(qmul(q, [0, ...v]), [q[0], -q[1], -q[2], -q[3]]).slice(1);
+  const TYPE = { sphere: 0, capsule: 1, box: 2, hull: 3 };
+  // Live, a body's id is its index in the scene (the server numbers them in order); from a trajectory, its label.
+  const compoundBodies = compoundScene.bodies.map((b, index) => ({ ...b, index })).filter((b) => sceneShapes.get(b.shape).type === 'compound');
+  const liveId = (label) => compoundScene.bodies.findIndex((b) => b.id === label);
+  const partCount = compoundBodies.reduce((n, b) => n + expectedParts.get(b.shape).length, 0);
+  const wantInstances = compoundScene.bodies.length - compoundBodies.length + partCount;
+  // Every compound's drawn parts against the scene's, at the pose the page shows the body at:
+  // each part's type, position (to 0.1 mm), orientation (to 1e-4, either sign) and scale.
+  async function checkCompounds(pg, where, live) {
+    const got = await pg.evaluate((ids) => ids.map((id) => ({ id, body: window.__viewer.bodyState(id), parts: window.__viewer.drawnParts(id) })),
+      compoundBodies.map((b) => (live ? b.index : b.id)));
+    const bad = [];
+    for (const g of got) {
+      const { body, parts } = g, sb = compoundBodies.find((b) => (live ? b.index : b.id) === g.id), id = g.id = sb.id, want = expectedParts.get(sb.shape), sc = sb.scale ?? 1;
+      if (!body || !parts || parts.length !== want.length) { bad.push(`${id}: ${parts?.length} parts drawn, ${want.length} in the scene`); continue; }
+      want.forEach((w, k) => {
+        const p = parts[k], at = qrot(body.orientation, w.position.map((x) => x * sc)).map((x, i) => x + body.position[i]);
+        const q = qmul(body.orientation, w.orientation), dot = Math.abs(q.reduce((a, x, i) => a + x * p.orientation[i], 0));
+        const off = Math.max(...at.map((x, i) => Math.abs(x - p.position[i])));
+        if (p.type !== TYPE[w.shape.type] || off > 1e-4 || dot < 1 - 1e-4 || Math.abs(p.scale - sc * w.scale) > 1e-5)
+          bad.push(`${id} part ${k}: ${JSON.stringify(p)}, want at ${JSON.stringify(at)} scale ${sc * w.scale} (off ${off.toExponential(2)})`);
+      });
+    }
+    check(bad.length === 0, `${where}: every compound is drawn as its parts, each at its part pose about the body's centre of mass`,
+          bad.length ? bad.join('; ') : `${got.length} compounds, ${partCount} parts`);
+    return got;
+  }
+  // A body's world box from the drawn parts' poses, worked out here for boxes, spheres and capsules.
+  function partsBox(parts, want) {
+    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+    parts.forEach((p, k) => {
+      const s = want[k].shape, axis = (i) => qrot(p.orientation, [0, 1, 2].map((j) => (j === i ? 1 : 0)));
+      const half = [0, 1, 2].map((i) => s.type === 'box' ? p.scale * [0, 1, 2].reduce((a, j) => a + Math.abs(axis(j)[i]) * s.half_extents[j], 0)
+        : s.type === 'sphere' ? p.scale * s.radius : p.scale * (Math.abs(axis(2)[i]) * s.half_height + s.radius));
+      for (let i = 0; i < 3; ++i) { lo[i] = Math.min(lo[i], p.position[i] - half[i]); hi[i] = Math.max(hi[i], p.position[i] + half[i]); }
+    });
+    return { min: lo, max: hi };
+  }
+  const compounds = await serve([compoundFile]);
+  servers.push(compounds);
+  const cpg = await openPage(compounds.url, 'compounds'); // no token: a click picks, it does not drag
+  const cj = await cpg.evaluate(() => window.__viewer.join());
+  check(cj.bodies === compoundScene.bodies.length && (await cpg.evaluate(() => window.__viewer.instanceCount())) === wantInstances,
+        'compounds: one instance a part of each compound, one a body of the others', `${await cpg.evaluate(() => window.__viewer.instanceCount())} instances, want ${wantInstances}`);
+  await until('the compounds to settle', async () => (await metrics(compounds, 'compounds')).bodies_awake === 0, 10000).catch(() => null);
+  await sleep(300);
+  const liveParts = await checkCompounds(cpg, 'live', true);
+  // Boxes: one a body but the plane; a compound's the union of its parts' (table and dumbbell).
+  await cpg.click('#ov-boxes');
+  const cboxes = await cpg.evaluate(() => window.__viewer.boxCount());
+  check(cboxes === compoundScene.bodies.length - 1, 'compounds: bounding boxes, one a body but the ground plane', `${cboxes} boxes`);
+  for (const id of ['table', 'dumbbell']) {
+    const drawnNow = await cpg.evaluate((i) => ({ box: window.__viewer.boxOf(i), parts: window.__viewer.drawnParts(i) }), liveId(id));
+    const want = partsBox(drawnNow.parts, expectedParts.get(compoundBodies.find((b) => b.id === id).shape));
+    const off = Math.max(...[0, 1, 2].flatMap((i) => [Math.abs(drawnNow.box.min[i] - want.min[i]), Math.abs(drawnNow.box.max[i] - want.max[i])]));
+    check(off < 1e-5, `the ${id}'s box is the union of its parts' boxes`, `${JSON.stringify(drawnNow.box)} (off ${off.toExponential(2)})`);
+  }
+  await cpg.click('#ov-boxes');
+  // Picking meets the parts: a click on a front leg picks the table, and the selected table draws
+  // every part yellow (its top and that leg on screen); a click inside the dumbbell's box but off
+  // its parts (above its bar, between the balls) picks nothing.
+  const table = liveParts.find((g) => g.id === 'table'), dumbbell = liveParts.find((g) => g.id === 'dumbbell');
+  const frontLeg = table.parts.slice(1).reduce((a, p) => (p.position[1] < a.position[1] || (p.position[1] === a.position[1] && p.position[0] > a.position[0]) ? p : a));
+  const topFace = [table.parts[0].position[0], table.parts[0].position[1], table.parts[0].position[2] + 0.04];
+  const pixelAt = (pg, v) => pg.evaluate((p) => {
+    const c = document.getElementById('view'), r = c.getBoundingClientRect(), at = window.__viewer.screenOfPoint(p);
+    const x = Math.round((at.x - r.left) * c.width / r.width), y = Math.round((at.y - r.top) * c.height / r.height);
+    const g = document.createElement('canvas');
+    g.width = 3; g.height = 3;
+    g.getContext('2d').drawImage(c, x - 1, y - 1, 3, 3, 0, 0, 3, 3);
+    const d = g.getContext('2d').getImageData(0, 0, 3, 3).data, sum = [0, 0, 0];
+    for (let i = 0; i < d.length; i += 4) for (let k = 0; k < 3; ++k) sum[k] += d[i + k] / 9;
+    return sum.map(Math.round);
+  }, v);
+  const yellow = ([r, g, b]) => r > b + 50 && g > b + 40;
+  const unpicked = [await pixelAt(cpg, topFace), await pixelAt(cpg, frontLeg.position)];
+  const legAt = await cpg.evaluate((p) => window.__viewer.screenOfPoint(p), frontLeg.position);
+  await cpg.mouse.click(legAt.x, legAt.y);
+  check((await cpg.evaluate(() => window.__viewer.selected())) === liveId('table'), 'a click on a leg picks the table', `at ${legAt.x.toFixed(0)},${legAt.y.toFixed(0)}`);
+  await sleep(300);
+  const after = [await pixelAt(cpg, topFace), await pixelAt(cpg, frontLeg.position)];
+  check(!unpicked.some(yellow) && after.every(yellow), 'the picked table is drawn yellow, its top and its leg where they should be',
+        `top rgb ${unpicked[0].join(" ")} -> ${after[0].join(" ")}, leg ${unpicked[1].join(" ")} -> ${after[1].join(" ")}`);
+  check(/compound of 5 parts/.test(await cpg.evaluate(() => window.__viewer.selection())), 'the pick panel names a compound of 5 parts', (await cpg.evaluate(() => window.__viewer.selection())).split('\n')[0]);
+  if (images) await cpg.screenshot({ path: join(images, 'viewer_compounds.png') });
+  const dbBody = dumbbell.body, gap = qrot(dbBody.orientation, [0, 0, 0.12]).map((x, i) => x + dbBody.position[i]);
+  const gapAt = await cpg.evaluate((p) => window.__viewer.screenOfPoint(p), gap);
+  await cpg.mouse.click(gapAt.x, gapAt.y);
+  check((await cpg.evaluate(() => window.__viewer.selected())) === null, "a click inside the dumbbell's box, off its parts, picks nothing", `at ${gap.map((x) => x.toFixed(3)).join(' ')}`);
+  const dbCentre = await cpg.evaluate((p) => window.__viewer.screenOfPoint(p), dumbbell.parts[0].position);
+  await cpg.mouse.click(dbCentre.x, dbCentre.y);
+  check((await cpg.evaluate(() => window.__viewer.selected())) === liveId('dumbbell'), 'a click on a ball of the dumbbell picks it');
+  // A client of an older revision (one that gives none, as every client before revision 4) is
+  // told in an error message, and the connection closed, rather than sent a join it would misread.
+  const oldClient = await cpg.evaluate(() => new Promise((resolve) => {
+    const ws = new WebSocket(`ws://${location.host}/ws?world=compounds`), got = [];
+    ws.binaryType = 'arraybuffer';
+    ws.onmessage = (e) => {
+      const dv = new DataView(e.data), fb = dv.getUint16(16, true), rb = dv.getUint16(18, true), t = (a, n) => new TextDecoder().decode(new Uint8Array(e.data, a, n));
+      got.push({ type: dv.getUint16(4, true), code: dv.getUint16(14, true), field: t(24, fb), reason: t(24 + fb, rb) });
+    };
+    ws.onclose = (e) => resolve({ got, code: e.code, reason: e.reason });
+  }));
+  check(oldClient.got.length === 1 && oldClient.got[0].type === 4 && oldClient.got[0].field === 'revision' && /revision=4/.test(oldClient.got[0].reason) &&
+        oldClient.code === 1008 && /revision 4/.test(oldClient.reason),
+        'a client that gives no revision gets an error naming the revision it needs, then a close, and no join', JSON.stringify(oldClient));
+  // Offline: a trajectory of the scene with the scene file: the parts centred here as the engine
+  // centres them, at the same places.
+  const cdir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-compounds-'));
+  const ccsv = join(cdir, 'compounds.csv');
+  execFileSync(exe, ['run', compoundFile, '--duration', '0.5', '--out', ccsv, '--every', '6'], { stdio: ['ignore', 'ignore', 'inherit'] });
+  await cpg.setInputFiles('#file', [ccsv, compoundFile]);
+  await until('the compounds file to load', () => cpg.evaluate(() => window.__viewer.source() === 'file'));
+  await cpg.evaluate(() => { const s = document.getElementById('scrub'); s.value = s.max; s.dispatchEvent(new Event('input')); });
+  check((await cpg.evaluate(() => window.__viewer.instanceCount())) === wantInstances, 'trajectory: one instance a part of each compound, as live',
+        `${await cpg.evaluate(() => window.__viewer.instanceCount())} instances, ${await cpg.evaluate(() => window.__viewer.status())}`);
+  await checkCompounds(cpg, 'trajectory', false);
+  await cpg.click('#ov-boxes');
+  check((await cpg.evaluate(() => window.__viewer.boxCount())) === compoundScene.bodies.length - 1, 'trajectory: a box for every compound');
+  await cpg.click('#ov-boxes');
+  await cpg.close();
+  compounds.stop();
+  rmSync(cdir, { recursive: true, force: true });
+
   // ---- offline: a trajectory CSV scrubbed to a tick ----
   const dir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-csv-'));
   const csv = join(dir, 'pile.csv');

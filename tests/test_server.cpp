@@ -928,6 +928,22 @@ TEST(Server, RecordingFormatsAndTheFrameCheck) {
   EXPECT_EQ(replay(dir / "missing.rec", out), 2) << out;
   EXPECT_NE(out.find("missing.rec: cannot open the recording"), std::string::npos) << out;
 
+  // A recording made before revision 4 (its joins announce 3) of a world with no mesh, height
+  // field or compound replays: its join is the same bytes as revision 3 would send.
+  RecordFile older = f2;
+  int joins = 0;
+  for (auto& r : older.records)
+    if (r.type == 5 && cellphys::server::message_type(r.payload.data() + 8, r.payload.size() - 8) == uint16_t(p::Type::join)) {
+      const uint32_t three = 3;
+      std::memcpy(r.payload.data() + 8 + offsetof(p::Join, revision), &three, 4);
+      ++joins;
+    }
+  ASSERT_GT(joins, 0);
+  older.write(dir / "revision3.rec");
+  out.clear();
+  EXPECT_EQ(replay(dir / "revision3.rec", out), 0) << out;
+  EXPECT_NE(out.find("stages matched"), std::string::npos) << out;
+
   // One float of one moved body changed in a recorded tick (its checksum made good): no state
   // hash notices, the frame check does, and names the body.
   RecordFile bad = f2;

@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
   std::thread stirrer;
   if (stir)
     stirrer = std::thread([&] {
-      cellphys::test::WsClient ws(server.port(), "/ws?world=" + scene + "&token=" + server.token());
+      cellphys::test::WsClient ws(server.port(), "/ws?world=" + scene + "&revision=4&token=" + server.token());
       uint32_t seq = 0;
       auto next = std::chrono::steady_clock::now();
       while (!stop) {
@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
   std::vector<std::thread> threads;
   for (int c = 0; c < clients; ++c)
     threads.emplace_back([&] {
-      cellphys::test::WsClient ws(server.port(), "/ws?world=" + scene);
+      cellphys::test::WsClient ws(server.port(), "/ws?world=" + scene + "&revision=4");
       if (quantised) {
         cellphys::server::protocol::Subscribe s{};
         s.flags = cellphys::server::protocol::kSubscribeQuantised;

@@ -7,15 +7,40 @@
 //  - the sparse 1,000-body world at its start (all awake) and after 10 s (most asleep).
 // The awake cases restore the same state before every step (outside the timing), so every
 // iteration times the same step; the 10 s case keeps stepping its mostly sleeping world.
+// allocs_per_step counts the heap allocations made inside world.step() (this binary replaces
+// operator new to count them): what a warm step still allocates.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cstdlib>
 #include <memory>
+#include <new>
 #include <string>
 #include <vector>
 
 #include "runtime/ppe/world.h"
 #include "testing/scenes.h"
+
+namespace {
+std::atomic<uint64_t> g_allocations{0};
+}  // namespace
+
+void* operator new(size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new(size_t n, std::align_val_t a) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  const size_t al = static_cast<size_t>(a);
+  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, size_t, std::align_val_t) noexcept { std::free(p); }
 
 namespace {
 
@@ -43,7 +68,7 @@ struct Snapshot {
 
 struct Sums {
   StageTimes stages;  // summed over the steps
-  double contacts = 0, islands = 0, active = 0, iterations = 0, decoupled = 0, failed = 0;
+  double contacts = 0, islands = 0, active = 0, iterations = 0, decoupled = 0, failed = 0, allocations = 0;
   size_t store = 0;
   void add(const StepStats& s) {
     for (const StageTimeField& f : kStageTimeFields) stages.*f.ms += s.times.*f.ms;
@@ -66,6 +91,7 @@ struct Sums {
     state.counters["decoupled"] = Counter(decoupled, avg);
     state.counters["failed"] = Counter(failed, avg);
     state.counters["store_peak_B"] = Counter(double(store));
+    state.counters["allocs_per_step"] = Counter(allocations, avg);
   }
 };
 
@@ -76,7 +102,9 @@ void time_restored_steps(benchmark::State& state, World& w, const Snapshot& snap
     state.PauseTiming();
     snap.restore(w);
     state.ResumeTiming();
+    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
     sums.add(w.step());
+    sums.allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
   }
   sums.report(state);
   state.counters["max_speed"] = max_speed(w, snap.ids);  // after the timed step: a sanity flag
@@ -153,7 +181,11 @@ void BM_Sparse1000Step(benchmark::State& state) {
   }
   for (int i = 0; i < settle * 60; ++i) w.step();
   Sums sums;
-  for (auto _ : state) sums.add(w.step());
+  for (auto _ : state) {
+    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
+    sums.add(w.step());
+    sums.allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
+  }
   sums.report(state);
   state.counters["asleep"] = count_asleep(w, bodies);
   state.SetLabel("after " + std::to_string(settle) + " s, mostly asleep");

@@ -40,7 +40,7 @@ void build_islands(const std::vector<WorldBody>& bodies, const std::vector<World
   for (const WorldForce& f : forces)
     if (f.alive && f.b != kWorldBody && bodies[f.a].awake && bodies[f.b].awake) sets.unite(f.a, f.b);
   std::vector<int32_t> island_of(n, -1);
-  size_t count = 0;  // islands in use; the entries past it keep their storage for later steps
+  size_t count = 0;  // islands so far; the entries reused keep their storage (a step with fewer frees the rest)
   for (IslandContent& isl : islands) isl.bodies.clear(), isl.contacts.clear(), isl.forces.clear();
   for (uint32_t i = 0; i < n; ++i) {
     const WorldBody& b = bodies[i];

@@ -169,6 +169,11 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
 
 uint32_t count_offdiagonal_blocks(const IslandView& v) {
   std::vector<uint64_t> keys;
+  return count_offdiagonal_blocks(v, keys);
+}
+
+uint32_t count_offdiagonal_blocks(const IslandView& v, std::vector<uint64_t>& keys) {
+  keys.clear();
   for_each_pair_instance(v, [&](int32_t a, int32_t b) {
     const uint32_t lo = static_cast<uint32_t>(std::min(a, b)), hi = static_cast<uint32_t>(std::max(a, b));
     keys.push_back((uint64_t{lo} << 32) | hi);
@@ -256,7 +261,7 @@ void IslandBuilder::finish(std::vector<unsigned char>& img) const {
   }
   std::memcpy(img.data(), &h, sizeof h);
   IslandView v = view_island(img.data());
-  v.header->num_blocks = count_offdiagonal_blocks(v);
+  v.header->num_blocks = count_offdiagonal_blocks(v, keys_);
   v.header->checksum = checksum(img.data() + sizeof(Island_Header), total - sizeof(Island_Header));
 }
 

@@ -122,9 +122,12 @@ class IslandBuilder {
     bool present() const { return global || pair_count + world_count > 0; }
   };
   std::vector<Bucket> buckets_;  // per force type
+  mutable std::vector<uint64_t> keys_;  // finish()'s scratch for counting blocks
 };
 
 /// Distinct off-diagonal blocks the island's pair forces create (2 per coupled body pair).
 uint32_t count_offdiagonal_blocks(const IslandView& v);
+/// The same with the caller's scratch (replaced).
+uint32_t count_offdiagonal_blocks(const IslandView& v, std::vector<uint64_t>& keys);
 
 }  // namespace cellphys::spu

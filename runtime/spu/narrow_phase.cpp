@@ -898,6 +898,55 @@ void polytope_polytope(const Polytope& A, const Polytope& B, Sink& s) {
   s.add(I.v[deepest] + fm.n * (pen * 0.5), normal, pen);
 }
 
+// ---- several calls' contacts as one manifold -------------------------------------------------
+
+/// Contacts gathered from several calls (a surface's triangles, a compound's parts), in double
+/// precision, and reduced to one manifold of at most kMaxManifoldPoints: the deepest point's
+/// normal decides the winding.
+struct Gather {
+  static constexpr int kCapacity = 64;
+  Vec3d pts[kCapacity + kMaxManifoldPoints], nrm[kCapacity + kMaxManifoldPoints];
+  double depth[kCapacity + kMaxManifoldPoints];
+  int count = 0;
+  double size = 0.0;  // a length of the shapes, for the tolerances (0: the points' own spread)
+  // Of points as deep to a thousandth of `size`, the first kept is the one farthest from their
+  // middle, and points that add no area go even when four or fewer are left: triangles clip a
+  // flat contact at their edges, and the support polygon's corners, not a clipped point inside
+  // it or a repeat, are what a plane would give.
+  bool corners = false;
+
+  void add(const Vec3d& p, const Vec3d& n, double d) {
+    if (count == kCapacity + kMaxManifoldPoints) return;  // (reduce() keeps room: not reached)
+    pts[count] = p, nrm[count] = n, depth[count] = d, ++count;
+  }
+  /// Makes room for n more, reducing what is there if need be.
+  void room_for(int n) {
+    if (count + n > kCapacity) reduce();
+  }
+  void reduce() {
+    if (count <= (corners ? 1 : kMaxManifoldPoints)) return;
+    int deepest = 0;
+    for (int i = 1; i < count; ++i)
+      if (depth[i] > depth[deepest]) deepest = i;
+    double length = size;
+    for (int i = 1; length <= 0.0 && i < count; ++i) length = std::max(length, norm(pts[i] - pts[0]));
+    const double eps = 1e-6 * length;
+    int keep[4], k = 0;
+    if (corners) {
+      const double level = depth[deepest] - 1e-3 * length;
+      Vec3d mid{0, 0, 0};
+      for (int i = 0; i < count; ++i) mid = mid + pts[i] * (1.0 / count);
+      double first[kCapacity + kMaxManifoldPoints];
+      for (int i = 0; i < count; ++i) first[i] = depth[i] >= level ? 1.0 + squared_norm(pts[i] - mid) : 0.0;
+      k = reduce_spread(pts, first, count, nrm[deepest], eps * eps, keep);
+    } else {
+      k = reduce_manifold(pts, depth, count, nrm[deepest], eps * eps, keep);
+    }
+    for (int i = 0; i < k; ++i) pts[i] = pts[keep[i]], nrm[i] = nrm[keep[i]], depth[i] = depth[keep[i]];
+    count = k;
+  }
+};
+
 // ---- triangle surfaces: meshes and height fields --------------------------------------------
 
 // A triangle collides as a prism: its face on top, extruded behind it by about twice the other
@@ -910,8 +959,6 @@ constexpr int32_t kPrismEdges[18] = {0, 1, 1, 2, 2, 0, 3, 4, 4, 5, 5, 3, 0, 3, 1
 constexpr int16_t kPrismEdgeFaces[9][2] = {{0, 2}, {0, 3}, {0, 4}, {1, 2}, {1, 3}, {1, 4}, {2, 4}, {3, 2}, {4, 3}};
 // A contact normal this close to the triangle's is its face normal.
 constexpr double kFaceNormalCos = 0.9999;
-// Contacts gathered from a surface's triangles before they are reduced to a manifold.
-constexpr int kSurfaceGather = 64;
 
 struct SurfaceTriangle {
   Vec3d v[3], n;
@@ -994,9 +1041,6 @@ bool on_active_edge(const SurfaceTriangle& t, const Polytope& T, const Vec3d& x,
   return false;
 }
 
-/// The visitor against one triangle, one-sided: nothing if its centre is behind the face; the
-/// general contact if its normal is the face's, or it is on an active edge and faces the front;
-/// else the face's contact (an inside edge of a flat or smooth surface never pushes sideways).
 // The visitor's lowest point along -n, the triangle's normal: nothing of it comes within
 // `margin` of the triangle's plane above that.
 double lowest_along_normal(const SurfaceVisitor& a, const Vec3d& n) {
@@ -1004,6 +1048,10 @@ double lowest_along_normal(const SurfaceVisitor& a, const Vec3d& n) {
   if (a.type == ShapeType::capsule) return std::min(dot(n, a.core.p0), dot(n, a.core.p1)) - a.radius;
   return lowest_along(*a.P, n);
 }
+
+/// The visitor against one triangle, one-sided: nothing if its centre is behind the face; the
+/// general contact if its normal is the face's, or it is on an active edge and faces the front;
+/// else the face's contact (an inside edge of a flat or smooth surface never pushes sideways).
 
 int triangle_contacts(const SurfaceVisitor& a, const SurfaceTriangle& t, double margin, Polytope& T,
                       ContactPointD out[kMaxManifoldPoints]) {
@@ -1049,28 +1097,9 @@ void visitor_vs_surface(const SurfaceVisitor& a, const ShapeView& b, const Pose&
     lo[k] = lc[k] - h, hi[k] = lc[k] + h;
   }
   Polytope T;
-  Vec3d pts[kSurfaceGather + kMaxManifoldPoints], nrm[kSurfaceGather + kMaxManifoldPoints];
-  double depth[kSurfaceGather + kMaxManifoldPoints];
-  int count = 0;
-  const double eps = 1e-6 * a.size, eps2 = eps * eps;
-  // Down to the manifold's best four, the deepest point's normal deciding the winding. The
-  // first kept is the deepest, or of points as deep to a thousandth of the shape's size, the one
-  // farthest from their middle: triangles clip a flat contact at their edges, and the support
-  // polygon's corners, not a clipped point inside it, are what a plane would give.
-  auto reduce = [&]() {
-    int deepest = 0;
-    for (int i = 1; i < count; ++i)
-      if (depth[i] > depth[deepest]) deepest = i;
-    const double level = depth[deepest] - 1e-3 * a.size;
-    Vec3d mid{0, 0, 0};
-    for (int i = 0; i < count; ++i) mid = mid + pts[i] * (1.0 / count);
-    double first[kSurfaceGather + kMaxManifoldPoints];
-    for (int i = 0; i < count; ++i) first[i] = depth[i] >= level ? 1.0 + squared_norm(pts[i] - mid) : 0.0;
-    int keep[4];
-    const int k = reduce_spread(pts, first, count, nrm[deepest], eps2, keep);
-    for (int i = 0; i < k; ++i) pts[i] = pts[keep[i]], nrm[i] = nrm[keep[i]], depth[i] = depth[keep[i]];
-    count = k;
-  };
+  Gather g;
+  g.size = a.size;
+  g.corners = true;
   visit_triangles_in_box(m, lo, hi, [&](int32_t t) {
     // the triangle's own box against the visitor's (a leaf holds several triangles)
     const int32_t* ix = m.triangles + 3 * t;
@@ -1080,13 +1109,12 @@ void visitor_vs_surface(const SurfaceVisitor& a, const ShapeView& b, const Pose&
     }
     ContactPointD cp[kMaxManifoldPoints];
     const int n = triangle_contacts(a, triangle_of(m, f, t), s.margin, T, cp);
-    if (count + n > kSurfaceGather) reduce();
-    for (int i = 0; i < n; ++i, ++count) pts[count] = cp[i].point, nrm[count] = cp[i].normal, depth[count] = cp[i].penetration;
+    g.room_for(n);
+    for (int i = 0; i < n; ++i) g.add(cp[i].point, cp[i].normal, cp[i].penetration);
     return true;
   });
-  // Always: the triangles' clipped points repeat where two triangles meet.
-  if (count > 1) reduce();
-  for (int i = 0; i < count; ++i) s.add(pts[i], nrm[i], depth[i]);
+  g.reduce();
+  for (int i = 0; i < g.count; ++i) s.add(g.pts[i], g.nrm[i], g.depth[i]);
 }
 
 void polytope_box(const Polytope& P, Vec3d& lo, Vec3d& hi) {
@@ -1255,27 +1283,12 @@ int compare_compounds(const ShapeView& a, const Pose& pa, const ShapeView& b, co
   return 0;
 }
 
-constexpr int kCompoundGather = 64;
-
 /// Each part of a (a compound, or a whole shape) against each part of b, gathered and reduced
 /// to one manifold, a's parts outer: the caller puts the pair in a fixed order.
 int collide_parts(const ShapeView& a, const Pose& pa, const ShapeView& b, const Pose& pb, float margin, ContactPoint* out) {
   const bool ca = a.type == ShapeType::compound, cb = b.type == ShapeType::compound;
   const int na = ca ? a.compound.num_parts : 1, nb = cb ? b.compound.num_parts : 1;
-  Vec3d pts[kCompoundGather + kMaxManifoldPoints], nrm[kCompoundGather + kMaxManifoldPoints];
-  double depth[kCompoundGather + kMaxManifoldPoints];
-  double size = 0.0;  // for the repeat tolerance: the largest part scale seen
-  int count = 0;
-  auto reduce = [&]() {
-    int deepest = 0;
-    for (int i = 1; i < count; ++i)
-      if (depth[i] > depth[deepest]) deepest = i;
-    int keep[4];
-    const double eps = 1e-6 * size;
-    const int k = reduce_manifold(pts, depth, count, nrm[deepest], eps * eps, keep);
-    for (int i = 0; i < k; ++i) pts[i] = pts[keep[i]], nrm[i] = nrm[keep[i]], depth[i] = depth[keep[i]];
-    count = k;
-  };
+  Gather g;  // its tolerances from the points' spread
   for (int i = 0; i < na; ++i) {
     const ShapeView& sa = ca ? *a.compound.parts[i].shape : a;
     const Pose qa = ca ? part_pose(pa, a.compound.parts[i]) : pa;
@@ -1284,21 +1297,14 @@ int collide_parts(const ShapeView& a, const Pose& pa, const ShapeView& b, const 
       const Pose qb = cb ? part_pose(pb, b.compound.parts[j]) : pb;
       ContactPoint cp[kMaxManifoldPoints];
       const int n = collide(sa, qa, sb, qb, margin, cp);
-      if (n == 0) continue;
-      size = std::max({size, double(qa.scale), double(qb.scale)});
-      if (count + n > kCompoundGather) reduce();
-      for (int k = 0; k < n; ++k, ++count)
-        pts[count] = Vec3d::load(cp[k].point), nrm[count] = Vec3d::load(cp[k].normal), depth[count] = cp[k].penetration;
+      g.room_for(n);
+      for (int k = 0; k < n; ++k) g.add(Vec3d::load(cp[k].point), Vec3d::load(cp[k].normal), cp[k].penetration);
     }
   }
-  if (count > kMaxManifoldPoints) reduce();
-  for (int i = 0; i < count; ++i) {
-    ContactPoint& c = out[i];
-    c.point[0] = float(pts[i].x), c.point[1] = float(pts[i].y), c.point[2] = float(pts[i].z);
-    c.normal[0] = float(nrm[i].x), c.normal[1] = float(nrm[i].y), c.normal[2] = float(nrm[i].z);
-    c.penetration = float(depth[i]);
-  }
-  return count;
+  g.reduce();
+  Sink s{out, margin > 0.0f ? double(margin) : 0.0};  // (every point passed the parts' margin already)
+  for (int i = 0; i < g.count; ++i) s.add(g.pts[i], g.nrm[i], g.depth[i]);
+  return s.n;
 }
 
 }  // namespace

@@ -5,7 +5,7 @@
 #include <limits>
 #include <numeric>
 #include <string>
-#include <unordered_map>
+#include <utility>
 
 #include "runtime/base/vec3.h"
 #include "runtime/ppe/outward_rounding.h"
@@ -28,20 +28,24 @@ uint64_t edge_key(int32_t a, int32_t b) { return uint64_t(uint32_t(std::min(a, b
 // neighbour, or a convex crease sharper than kActiveEdgeDegrees.
 void mark_edges(TriangleSurface& s) {
   const size_t n = s.triangles.size() / 3;
-  std::unordered_map<uint64_t, std::vector<uint32_t>> sides;  // edge -> (triangle << 2 | k)
+  // every triangle's edges as (edge, triangle << 2 | k), sorted: an edge's sides are one run
+  std::vector<std::pair<uint64_t, uint32_t>> sides;
   sides.reserve(3 * n);
   for (size_t t = 0; t < n; ++t)
     for (uint32_t k = 0; k < 3; ++k)
-      sides[edge_key(s.triangles[3 * t + k], s.triangles[3 * t + (k + 1) % 3])].push_back(uint32_t(t) << 2 | k);
+      sides.emplace_back(edge_key(s.triangles[3 * t + k], s.triangles[3 * t + (k + 1) % 3]), uint32_t(t) << 2 | k);
+  std::sort(sides.begin(), sides.end());
   const double flat = std::cos(kActiveEdgeDegrees * kPi / 180.0);
   s.edge_flags.assign(n, 0);
-  for (size_t t = 0; t < n; ++t)
-    for (uint32_t k = 0; k < 3; ++k) {
+  for (size_t first = 0, end; first < sides.size(); first = end) {
+    for (end = first + 1; end < sides.size() && sides[end].first == sides[first].first; ++end) {
+    }
+    for (size_t i = first; i < end; ++i) {
+      const size_t t = sides[i].second >> 2, k = sides[i].second & 3;
       const int32_t a = s.triangles[3 * t + k], b = s.triangles[3 * t + (k + 1) % 3];
-      const std::vector<uint32_t>& list = sides[edge_key(a, b)];
-      bool active = list.size() != 2;
+      bool active = end - first != 2;
       if (!active) {
-        const uint32_t other = list[0] >> 2 == t ? list[1] : list[0];
+        const uint32_t other = sides[i == first ? first + 1 : first].second;
         const size_t u = other >> 2, j = other & 3;
         // a consistent neighbour runs the edge the other way: from b to a
         if (s.triangles[3 * u + j] != b || s.triangles[3 * u + (j + 1) % 3] != a) {
@@ -55,6 +59,7 @@ void mark_edges(TriangleSurface& s) {
       }
       if (active) s.edge_flags[t] |= uint8_t(1u << k);
     }
+  }
 }
 
 // Node `node` of the hierarchy over triangles [first, first + count) of `order`: median split on
@@ -73,17 +78,21 @@ void build_node(TriangleSurface& s, const std::vector<Vec3d>& centroid, std::vec
     for (int k = 0; k < 3; ++k) clo[k] = std::min(clo[k], centroid[t][k]), chi[k] = std::max(chi[k], centroid[t][k]);
   }
   for (int k = 0; k < 3; ++k) s.nodes[node].min[k] = round_down(lo[k]), s.nodes[node].max[k] = round_up(hi[k]);
-  if (count <= kMeshLeafTriangles) {
+  if (count <= kMeshLeafTriangles) {  // a leaf's triangles in input order
+    std::sort(order.begin() + first, order.begin() + first + count);
     s.nodes[node].first = first, s.nodes[node].count = count;
     return;
   }
   int axis = 0;
   for (int k = 1; k < 3; ++k)
     if (chi[k] - clo[k] > chi[axis] - clo[axis]) axis = k;
-  std::sort(order.begin() + first, order.begin() + first + count, [&](int32_t x, int32_t y) {
-    return centroid[x][axis] != centroid[y][axis] ? centroid[x][axis] < centroid[y][axis] : x < y;
-  });
+  // The lower half by centroid (a total order: which triangles fall in each half does not depend
+  // on the library; their order inside it is settled at the leaves).
   const int32_t half = count / 2, child = static_cast<int32_t>(s.nodes.size());
+  std::nth_element(order.begin() + first, order.begin() + first + half, order.begin() + first + count,
+                   [&](int32_t x, int32_t y) {
+                     return centroid[x][axis] != centroid[y][axis] ? centroid[x][axis] < centroid[y][axis] : x < y;
+                   });
   s.nodes.emplace_back();
   s.nodes.emplace_back();
   s.nodes[node].first = child, s.nodes[node].count = 0;

@@ -1,5 +1,6 @@
 // Level geometry's costs (runtime/ppe/triangle_surface.h): a rolling height field of 64 x 64
 // to 1024 x 1024 samples (8 thousand to 2 million triangles), 0.5 m apart.
+//  - building one (checks, active edges, the hierarchy);
 //  - a body's box against the hierarchy, and against every triangle's box (brute force);
 //  - rays cast down onto it through the hierarchy; rays per second;
 //  - the narrow phase of a box resting on it against the same box on a plane;
@@ -51,6 +52,20 @@ std::vector<std::array<double, 3>> points(const Terrain& t, int count) {
   for (auto& x : p) x = {u(g), u(g), 0.0}, x[2] = height(x[0], x[1]);
   return p;
 }
+
+// Adding the field to a dictionary: its checks, active edges and hierarchy.
+void BM_SurfaceBuild(benchmark::State& state) {
+  const int n = int(state.range(0));
+  std::vector<float> h(size_t(n) * n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) h[size_t(i) * n + j] = height((j - 0.5 * (n - 1)) * 0.5, (i - 0.5 * (n - 1)) * 0.5);
+  const float spacing[2] = {0.5f, 0.5f};
+  for (auto _ : state) {
+    ppe::ShapeDictionary d;
+    benchmark::DoNotOptimize(d.add_height_field(n, n, spacing, h.data()));
+  }
+}
+BENCHMARK(BM_SurfaceBuild)->ArgName("samples")->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
 
 // A 1 m box around a point on the surface: the triangles its leaves hold.
 void BM_SurfaceBoxQuery(benchmark::State& state) {

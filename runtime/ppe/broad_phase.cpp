@@ -11,14 +11,12 @@ bool inside_region(const Aabb& box, const float (&min)[3], const float (&max)[3]
 }
 
 void SweepAndPrune::find_pairs(const std::vector<Aabb>& boxes, const std::vector<BoxKind>& kind,
-                               std::vector<std::pair<uint32_t, uint32_t>>& pairs) {
-  pairs.clear();
-  const uint32_t n = static_cast<uint32_t>(boxes.size());
-  // Axis of largest spread of the box centres (of boxes that can move).
+                               const std::vector<uint32_t>& ids, std::vector<std::pair<uint32_t, uint32_t>>& pairs) {
+  // Axis of largest spread of the box centres.
   double sum[3] = {}, sq[3] = {};
   int count = 0;
-  for (uint32_t i = 0; i < n; ++i) {
-    if (kind[i] == BoxKind::none || kind[i] == BoxKind::fixed) continue;
+  for (uint32_t i : ids) {
+    if (kind[i] != BoxKind::awake) continue;
     ++count;
     for (int k = 0; k < 3; ++k) {
       const double c = 0.5 * (double(boxes[i].min[k]) + boxes[i].max[k]);
@@ -36,14 +34,16 @@ void SweepAndPrune::find_pairs(const std::vector<Aabb>& boxes, const std::vector
     double cur = count ? sq[axis_] / count - (sum[axis_] / count) * (sum[axis_] / count) : 0.0;
     if (best < 1.5 * cur) axis = axis_;
   }
-  // Keep the previous order; drop slots without a box, append new ones.
-  std::vector<char> seen(n, 0);
+  // Keep the previous order; drop slots no longer awake in the region, append new ones.
+  if (in_order_.size() < boxes.size()) in_order_.resize(boxes.size(), 0);
   size_t w = 0;
-  for (uint32_t s : order_)
-    if (s < n && kind[s] != BoxKind::none && !seen[s]) seen[s] = 1, order_[w++] = s;
+  for (uint32_t s : order_) {
+    if (s < kind.size() && kind[s] == BoxKind::awake) order_[w++] = s;
+    else in_order_[s] = 0;
+  }
   order_.resize(w);
-  for (uint32_t i = 0; i < n; ++i)
-    if (kind[i] != BoxKind::none && !seen[i]) order_.push_back(i);
+  for (uint32_t i : ids)
+    if (kind[i] == BoxKind::awake && !in_order_[i]) in_order_[i] = 1, order_.push_back(i);
   if (axis != axis_) {
     axis_ = axis;
     std::sort(order_.begin(), order_.end(), [&](uint32_t a, uint32_t b) {
@@ -72,12 +72,10 @@ void SweepAndPrune::find_pairs(const std::vector<Aabb>& boxes, const std::vector
       const uint32_t b = order_[j];
       const Aabb& B = boxes[b];
       if (B.min[axis] > A.max[axis]) break;
-      if (kind[a] != BoxKind::awake && kind[b] != BoxKind::awake) continue;
       if (B.min[o1] > A.max[o1] || B.max[o1] < A.min[o1] || B.min[o2] > A.max[o2] || B.max[o2] < A.min[o2]) continue;
       pairs.emplace_back(std::min(a, b), std::max(a, b));
     }
   }
-  std::sort(pairs.begin(), pairs.end());
 }
 
 }  // namespace cellphys::ppe

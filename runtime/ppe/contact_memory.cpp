@@ -38,8 +38,19 @@ bool asleep(const std::vector<WorldBody>& bodies, uint32_t id) {
 
 }  // namespace
 
-void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, ContactMemory& memory,
-                     std::vector<WorldContact>& contacts) {
+void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, const std::vector<uint32_t>& woken,
+                     bool all, ContactMemory& memory, std::vector<WorldContact>& contacts) {
+  // The pairs this recall may forget: the last one's, and the sleepers' of bodies that woke.
+  std::vector<uint64_t>& review = memory.review;
+  review.clear();
+  if (all) {
+    memory.dormant.clear();
+    for (const auto& kv : memory.pairs) review.push_back(kv.first);
+  } else {
+    review.swap(memory.active);
+    memory.dormant.take(woken, review);
+  }
+  memory.active.clear();
   // An anchor is the same one while this step's point is this close to where it stuck.
   const double match = std::max(2.0 * s.globals.contact_slop, 1e-3);
   for (size_t first = 0, end; first < contacts.size(); first = end) {
@@ -133,16 +144,22 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     now.seen = memory.step + 1;
     if (found != memory.pairs.end()) found->second = now;  // (old points into it: read through above)
     else memory.pairs.emplace(pair_key(a, b), now);
+    memory.active.push_back(pair_key(a, b));
   }
-  // Pairs not touching this step are forgotten, but for sleepers' (they are not collided).
-  // Decided from the world alone, so a world restored from a snapshot forgets the same ones.
+  // Pairs not touching this step are forgotten, but for sleepers' (they are not collided),
+  // which wait aside until a body of theirs wakes. Decided from the world alone, so a world
+  // restored from a snapshot forgets the same ones.
   ++memory.step;
-  for (auto it = memory.pairs.begin(); it != memory.pairs.end();) {
-    const uint32_t a = uint32_t(it->first >> 32), b = uint32_t(it->first);
-    const bool keep = it->second.seen == memory.step ||
-                      (a < bodies.size() && bodies[a].alive && asleep(bodies, a) && asleep(bodies, b));
-    it = keep ? std::next(it) : memory.pairs.erase(it);
+  std::vector<uint64_t>& resting = memory.resting;
+  resting.clear();
+  for (uint64_t key : review) {
+    const auto it = memory.pairs.find(key);
+    if (it == memory.pairs.end() || it->second.seen == memory.step) continue;
+    const uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
+    if (a < bodies.size() && bodies[a].alive && asleep(bodies, a) && asleep(bodies, b)) resting.push_back(key);
+    else memory.pairs.erase(it);
   }
+  memory.dormant.add(resting);
 }
 
 void move_anchors(const std::vector<WorldBody>& bodies, ContactMemory& memory, uint32_t a, uint32_t b,
@@ -163,6 +180,8 @@ void forget_body(ContactMemory& memory, uint32_t id) {
   for (auto it = memory.pairs.begin(); it != memory.pairs.end();)
     if (uint32_t(it->first >> 32) == id || uint32_t(it->first) == id) it = memory.pairs.erase(it);
     else ++it;
+  std::vector<uint64_t> gone;  // (the active list's keys of it are found missing by the next recall)
+  memory.dormant.take({id}, gone);
 }
 
 }  // namespace cellphys::ppe

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
+#include "runtime/ppe/dormant_pairs.h"
 #include "runtime/spu/shape.h"
 
 namespace cellphys::ppe {
@@ -28,6 +29,11 @@ struct ContactMemory {
   };
   std::unordered_map<uint64_t, Pair> pairs;  // by pair_key(a, b)
   uint64_t step = 0;                          // recalls so far
+  // Which pairs a recall may forget: those it found (`active`), and those of bodies that woke,
+  // taken back from `dormant`, where the pairs of two sleeping (or static) bodies wait.
+  std::vector<uint64_t> active;
+  DormantPairs dormant;
+  std::vector<uint64_t> review, resting;  // buffers
 };
 
 inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }
@@ -36,8 +42,10 @@ inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | 
 /// effective mass along the normal and its friction strain and mode from the pair's memory,
 /// and makes this step's the memory. Pairs
 /// of sleeping bodies are remembered as they were; pairs no longer touching are forgotten.
-void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, ContactMemory& memory,
-                     std::vector<WorldContact>& contacts);
+/// `woken` (ascending): the bodies awake now that slept at the last recall, or may have;
+/// `all`: every pair may have changed (a restored world).
+void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, const std::vector<uint32_t>& woken,
+                     bool all, ContactMemory& memory, std::vector<WorldContact>& contacts);
 
 /// The push stage moved a by `da` and b by `db` (world frame): the pair's anchors follow the
 /// middle of the two, as its points do, so that moving bodies out of overlap strains no friction.

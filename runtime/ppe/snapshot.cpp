@@ -470,7 +470,8 @@ std::vector<unsigned char> World::snapshot() const {
     p.put(pair.count);
     for (uint32_t k = 0; k < pair.count; ++k) put_anchor(p, pair.anchors[k]);
   }
-  for (const std::vector<uint64_t>* keys : {&w.event_memory.touching, &w.event_memory.sensing}) {
+  const std::vector<uint64_t> touching = touching_pairs(w.event_memory);
+  for (const std::vector<uint64_t>* keys : {&touching, &w.event_memory.sensing}) {
     p.put(static_cast<uint32_t>(keys->size()));
     for (uint64_t k : *keys) p.put(k);
   }

@@ -24,42 +24,91 @@ float reach_in_step(const WorldBody& b, const Aabb& box, const WorldSettings& s)
   return static_cast<float>(s.dt * (speed + spin * norm(half)) + s.contact_margin);
 }
 
-// Boxes of every live non-plane body, grown by its reach; the region cull decides its kind.
-void broad_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
-                 CollideScratch& c, StepStats& st) {
-  const uint32_t n = static_cast<uint32_t>(bodies.size());
-  c.boxes.resize(n);
-  c.reach.assign(n, 0.0f);
-  c.kinds.assign(n, BoxKind::none);
-  c.planes.clear();
-  for (uint32_t i = 0; i < n; ++i) {
-    const WorldBody& b = bodies[i];
-    if (!b.alive) continue;
-    if (shapes.type(b.shape) == spu::ShapeType::plane) {
-      c.planes.push_back(i);
-      continue;
-    }
-    Aabb& box = c.boxes[i];
-    shapes.world_aabb(b.shape, pose_of(b), box.min, box.max);
-    c.reach[i] = reach_in_step(b, box, s);
-    const float grow = c.reach[i] + 0.5f * s.globals.contact_slop;
-    for (int k = 0; k < 3; ++k) box.min[k] -= grow, box.max[k] += grow;
-    if (!inside_region(box, s.region_min, s.region_max)) {
-      if (!b.is_static) ++st.outside_region;
-      continue;
-    }
-    c.kinds[i] = b.is_static ? BoxKind::fixed : b.awake ? BoxKind::awake : BoxKind::asleep;
-    ++st.broad_phase_boxes;
+// A body's grown box, its reach, and whether the region holds it.
+bool grown_box(const WorldBody& b, const ShapeDictionary& shapes, const WorldSettings& s, Aabb& box, float& reach) {
+  shapes.world_aabb(b.shape, pose_of(b), box.min, box.max);
+  reach = reach_in_step(b, box, s);
+  const float grow = reach + 0.5f * s.globals.contact_slop;
+  for (int k = 0; k < 3; ++k) box.min[k] -= grow, box.max[k] += grow;
+  return inside_region(box, s.region_min, s.region_max);
+}
+
+// Files body i again after a change: a sleeping or static body's box into the tree of still
+// boxes, a plane into the list of planes; an awake body's box is made each step.
+void refile(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s, uint32_t i,
+            CollideScratch& c) {
+  if (c.leaf[i] >= 0) c.still.remove(c.leaf[i]), c.leaf[i] = -1;
+  if (c.outside[i]) c.outside[i] = 0, --c.still_outside;
+  c.kinds[i] = BoxKind::none;
+  c.reach[i] = 0.0f;
+  const auto plane = std::lower_bound(c.planes.begin(), c.planes.end(), i);
+  const bool listed = plane != c.planes.end() && *plane == i;
+  const WorldBody& b = bodies[i];
+  const bool is_plane = b.alive && shapes.type(b.shape) == spu::ShapeType::plane;
+  if (is_plane != listed) {
+    if (is_plane) c.planes.insert(plane, i);
+    else c.planes.erase(plane);
   }
+  if (!b.alive || is_plane || (b.awake && !b.is_static)) return;
+  if (!grown_box(b, shapes, s, c.boxes[i], c.reach[i])) {
+    if (!b.is_static) c.outside[i] = 1, ++c.still_outside;
+    return;
+  }
+  c.kinds[i] = b.is_static ? BoxKind::fixed : BoxKind::asleep;
+  c.leaf[i] = c.still.insert(i, c.boxes[i]);
+}
+
+// The boxes: the still ones kept, those of bodies that changed filed again, the awake ones
+// made afresh (grown by their reach), each culled against the region.
+void broad_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                 const BodyChanges& changes, CollideScratch& c, StepStats& st) {
+  const uint32_t n = static_cast<uint32_t>(bodies.size());
+  if (changes.all) {
+    c.still.clear();
+    c.leaf.assign(n, -1);
+    c.outside.assign(n, 0);
+    c.still_outside = 0;
+    c.boxes.resize(n);
+    c.reach.assign(n, 0.0f);
+    c.kinds.assign(n, BoxKind::none);
+    c.planes.clear();
+    for (uint32_t i = 0; i < n; ++i) refile(bodies, shapes, s, i, c);
+  } else {
+    c.leaf.resize(n, -1);
+    c.outside.resize(n, 0);
+    c.boxes.resize(n);
+    c.reach.resize(n, 0.0f);
+    c.kinds.resize(n, BoxKind::none);
+    for (uint32_t i : changes.changed) refile(bodies, shapes, s, i, c);
+  }
+  st.outside_region += c.still_outside;
+  st.broad_phase_boxes += c.still.size();
+  for (uint32_t i : changes.awake) {
+    if (grown_box(bodies[i], shapes, s, c.boxes[i], c.reach[i])) {
+      c.kinds[i] = BoxKind::awake;
+      ++st.broad_phase_boxes;
+    } else {
+      c.kinds[i] = BoxKind::none;
+      ++st.outside_region;
+    }
+  }
+}
+
+// Every awake body's box against the others' (the sweep) and against the still ones (the tree).
+void box_pairs(const BodyChanges& changes, CollideScratch& c) {
+  c.pairs.clear();
+  c.sap.find_pairs(c.boxes, c.kinds, changes.awake, c.pairs);
+  for (uint32_t i : changes.awake)
+    if (c.kinds[i] == BoxKind::awake)
+      c.still.overlap(c.boxes[i], [&](uint32_t j) { c.pairs.emplace_back(std::min(i, j), std::max(i, j)); });
 }
 
 // Every awake body whose grown box reaches within half the slop of a plane.
 void plane_pairs(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
-                 CollideScratch& c) {
-  const uint32_t n = static_cast<uint32_t>(bodies.size());
+                 const BodyChanges& changes, CollideScratch& c) {
   for (uint32_t p : c.planes) {
     const spu::ShapeView& pv = shapes.view(bodies[p].shape);
-    for (uint32_t i = 0; i < n; ++i) {
+    for (uint32_t i : changes.awake) {
       if (c.kinds[i] != BoxKind::awake) continue;
       const Aabb& B = c.boxes[i];
       double lowest = 0;  // the (grown) box corner furthest along -normal
@@ -113,16 +162,16 @@ void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& s
 }  // namespace
 
 void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const ShapeDictionary& shapes,
-             const WorldSettings& settings, CollideScratch& scratch, ContactMemory& memory,
+             const WorldSettings& settings, const BodyChanges& changes, CollideScratch& scratch, ContactMemory& memory,
              std::vector<WorldContact>& contacts, StepStats& st) {
   {
     StageTimer t(st.times.broad_ms);
-    broad_phase(bodies, shapes, settings, scratch, st);
+    broad_phase(bodies, shapes, settings, changes, scratch, st);
   }
   {
     StageTimer t(st.times.mid_ms);
-    scratch.sap.find_pairs(scratch.boxes, scratch.kinds, scratch.pairs);
-    plane_pairs(bodies, shapes, settings, scratch);
+    box_pairs(changes, scratch);
+    plane_pairs(bodies, shapes, settings, changes, scratch);
     std::sort(scratch.pairs.begin(), scratch.pairs.end());
     drop_joined_pairs(forces, scratch);
     st.mid_phase_pairs = static_cast<uint32_t>(scratch.pairs.size());
@@ -130,7 +179,12 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
   StageTimer t(st.times.narrow_ms);
   narrow_phase(bodies, shapes, settings, scratch, contacts, st);
   carry_loads(bodies, forces, settings, contacts, scratch.loads);
-  recall_contacts(bodies, settings, memory, contacts);
+  scratch.woken.clear();
+  for (uint32_t i : changes.changed)
+    if (bodies[i].alive && !bodies[i].is_static && bodies[i].awake) scratch.woken.push_back(i);
+  std::sort(scratch.woken.begin(), scratch.woken.end());
+  scratch.woken.erase(std::unique(scratch.woken.begin(), scratch.woken.end()), scratch.woken.end());
+  recall_contacts(bodies, settings, scratch.woken, changes.all, memory, contacts);
 }
 
 }  // namespace cellphys::ppe

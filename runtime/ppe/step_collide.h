@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
+#include "runtime/ppe/box_tree.h"
 #include "runtime/ppe/broad_phase.h"
 #include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/contact_memory.h"
@@ -17,13 +18,30 @@ namespace cellphys::ppe {
 
 struct WorldSettings;
 
-/// What collision keeps between steps (the sweep's order) and reuses (its buffers).
+/// The bodies a step visits and what changed since the last step's collision: the awake
+/// bodies (ascending) and the ids of bodies that may have changed set, or moved while static,
+/// since then (`changed`, may repeat); `all`: everything may have (a new or restored world,
+/// changed settings).
+struct BodyChanges {
+  const std::vector<uint32_t>& awake;
+  const std::vector<uint32_t>& changed;
+  bool all;
+};
+
+/// What collision keeps between steps (the sweep's order, the still boxes) and reuses (its
+/// buffers). Per body slot, the box, reach and kind of a sleeping or static body are kept from
+/// when it last changed; an awake body's are the step's.
 struct CollideScratch {
   SweepAndPrune sap;
+  BoxTree still;              // the boxes of sleeping and static bodies in the region
+  std::vector<int32_t> leaf;  // per body: its leaf in `still`, or -1
+  std::vector<uint8_t> outside;  // per body: a sleeping body outside the region
+  uint32_t still_outside = 0;
   std::vector<Aabb> boxes;
   std::vector<float> reach;  // per body: distance it may close within the step (m)
   std::vector<BoxKind> kinds;
-  std::vector<uint32_t> planes;
+  std::vector<uint32_t> planes;  // ascending
+  std::vector<uint32_t> woken;   // this step: the changed bodies awake now, ascending
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
   std::vector<uint64_t> joined;  // body pairs a joint joins (low id << 32 | high id), sorted
   std::vector<TouchedPair> touched;                   // the pairs with contacts, for the events
@@ -38,7 +56,7 @@ struct CollideScratch {
 /// a sensor gives no contacts: it is in scratch.sensed while the two overlap. Times
 /// broad, mid and narrow phase (with the recall).
 void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const ShapeDictionary& shapes,
-             const WorldSettings& settings, CollideScratch& scratch, ContactMemory& memory,
+             const WorldSettings& settings, const BodyChanges& changes, CollideScratch& scratch, ContactMemory& memory,
              std::vector<WorldContact>& contacts, StepStats& st);
 
 }  // namespace cellphys::ppe

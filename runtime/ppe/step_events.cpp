@@ -108,17 +108,26 @@ bool still_closing(const std::vector<WorldBody>& bodies, const ShapeDictionary& 
 }
 
 // Keeps in `memory` (sorted) the keys found this step (`found`, sorted) and those `keep` says
-// stay; the rest end.
-template <class Keep, class End>
-void keep_or_end(const std::vector<uint64_t>& found, std::vector<uint64_t>& memory, Keep keep, End end) {
+// stay; the rest end. Each key kept is first offered to `aside`, which may take it.
+template <class Keep, class Aside, class End>
+void keep_or_end(const std::vector<uint64_t>& found, std::vector<uint64_t>& memory, Keep keep, Aside aside, End end) {
   auto f = found.begin();
   size_t out = 0;
   for (uint64_t k : memory) {
     while (f != found.end() && *f < k) ++f;
-    if ((f != found.end() && *f == k) || keep(k)) memory[out++] = k;
+    const bool was_found = f != found.end() && *f == k;
+    if (!was_found && aside(k)) continue;
+    if (was_found || keep(k)) memory[out++] = k;
     else end(k);
   }
   memory.resize(out);
+}
+
+void merge_in(std::vector<uint64_t>& keys, std::vector<uint64_t>& more) {
+  std::sort(more.begin(), more.end());
+  const size_t old = keys.size();
+  keys.insert(keys.end(), more.begin(), more.end());
+  std::inplace_merge(keys.begin(), keys.begin() + old, keys.end());
 }
 
 bool by_pair(const ContactEvent& x, const ContactEvent& y) {
@@ -128,6 +137,7 @@ bool by_pair(const ContactEvent& x, const ContactEvent& y) {
 }  // namespace
 
 PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                           const std::vector<uint32_t>& woken, bool all,
                            const std::vector<float>& reach, const std::vector<WorldContact>& contacts,
                            const std::vector<TouchedPair>& touched,
                            const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
@@ -138,8 +148,15 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDict
   sensor_events = std::move(memory.removed_overlaps);
   memory.removed_overlaps.clear();
 
-  // Touches: what touched and still collides, what sleeps as it was; what collides anew may begin.
-  // One pass over the memory against this step's pairs, sorted: a step costs what is awake.
+  // Touches: what touched and still collides, what sleeps as it was (set aside until a body of
+  // it wakes); what collides anew may begin. One pass over the memory against this step's
+  // pairs, sorted: a step costs what is awake.
+  {
+    std::vector<uint64_t> back;
+    if (all) back = memory.resting.keys(), memory.resting.clear();
+    else memory.resting.take(woken, back);
+    merge_in(memory.touching, back);
+  }
   std::vector<uint64_t> found;
   found.reserve(touched.size());
   for (const TouchedPair& t : touched) {
@@ -149,19 +166,23 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDict
       out.candidates.push_back(candidate(bodies, s, contacts, t));
   }
   std::sort(found.begin(), found.end());
-  const auto stays = [&](uint64_t k) { return kept(bodies, k) || still_closing(bodies, shapes, s, reach, k); };
-  keep_or_end(found, memory.touching, stays, [&](uint64_t k) {
+  std::vector<uint64_t> resting;
+  const auto aside = [&](uint64_t k) { return kept(bodies, k) && (resting.push_back(k), true); };
+  const auto closing = [&](uint64_t k) { return still_closing(bodies, shapes, s, reach, k); };
+  keep_or_end(found, memory.touching, closing, aside, [&](uint64_t k) {
     ContactEvent e{};
     e.kind = ContactEvent::Kind::end;
     e.a = high(k), e.b = low(k);
     out.events.push_back(e);
   });
+  memory.resting.add(resting);
 
   // Sensor overlaps, the same way; an overlap begins as soon as it is found (no force acts).
   found.clear();
   for (const auto& [sensor, visitor] : sensed) found.push_back(key_of(sensor, visitor));
   std::sort(found.begin(), found.end());
-  keep_or_end(found, memory.sensing, [&](uint64_t k) { return kept(bodies, k); }, [&](uint64_t k) { sensor_events.push_back({SensorEvent::Kind::end, high(k), low(k)}); });
+  keep_or_end(found, memory.sensing, [&](uint64_t k) { return kept(bodies, k); }, [](uint64_t) { return false; },
+              [&](uint64_t k) { sensor_events.push_back({SensorEvent::Kind::end, high(k), low(k)}); });
   const size_t kept_overlaps = memory.sensing.size();
   for (uint64_t k : found)
     if (!std::binary_search(memory.sensing.begin(), memory.sensing.begin() + kept_overlaps, k)) {
@@ -206,13 +227,25 @@ void end_events_of(EventMemory& memory, uint32_t id) {
                               }),
                keys.end());
   };
-  split(memory.touching, [&](uint64_t k) {
+  const auto end_touch = [&](uint64_t k) {
     ContactEvent e{};
     e.kind = ContactEvent::Kind::end;
     e.a = high(k), e.b = low(k);
     memory.removed_touches.push_back(e);
-  });
+  };
+  split(memory.touching, end_touch);
+  std::vector<uint64_t> resting;
+  memory.resting.take({id}, resting);
+  for (uint64_t k : resting) end_touch(k);
   split(memory.sensing, [&](uint64_t k) { memory.removed_overlaps.push_back({SensorEvent::Kind::end, high(k), low(k)}); });
+}
+
+std::vector<uint64_t> touching_pairs(const EventMemory& memory) {
+  std::vector<uint64_t> all = memory.touching;
+  const size_t awake = all.size();
+  all.insert(all.end(), memory.resting.keys().begin(), memory.resting.keys().end());
+  std::inplace_merge(all.begin(), all.begin() + awake, all.end());
+  return all;
 }
 
 }  // namespace cellphys::ppe

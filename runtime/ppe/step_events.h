@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
+#include "runtime/ppe/dormant_pairs.h"
 #include "runtime/ppe/world.h"
 
 namespace cellphys::ppe {
@@ -14,7 +15,8 @@ namespace cellphys::ppe {
 /// touching and the sensor overlaps at the end of the last step, and the ends that bodies
 /// removed since then owe to the next step's events.
 struct EventMemory {
-  std::vector<uint64_t> touching;  // low id << 32 | high id, sorted
+  std::vector<uint64_t> touching;  // low id << 32 | high id, sorted; with a body that may move
+  DormantPairs resting;            // the touching pairs of bodies that both sleep or are static
   std::vector<uint64_t> sensing;   // sensor << 32 | visitor, sorted
   std::vector<ContactEvent> removed_touches;
   std::vector<SensorEvent> removed_overlaps;
@@ -45,8 +47,10 @@ struct PendingEvents {
 /// begins are candidates. A touching pair the step did not collide stays touching while both
 /// bodies sleep or are static, or while it still closes: within twice the margin collision used
 /// (`reach`: each body's in the step), a point of it closing, as a fast body braked short of what
-/// it falls on is.
+/// it falls on is. `woken` (ascending): the bodies awake now that may have slept at the last
+/// step; `all`: any may have (a restored world).
 PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                           const std::vector<uint32_t>& woken, bool all,
                            const std::vector<float>& reach, const std::vector<WorldContact>& contacts,
                            const std::vector<TouchedPair>& touched,
                            const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
@@ -60,5 +64,8 @@ void finish_events(const std::vector<WorldBody>& bodies, PendingEvents& pending,
 
 /// Body `id` is removed: its touches and overlaps end, reported by the next step.
 void end_events_of(EventMemory& memory, uint32_t id);
+
+/// Every touching pair, ascending (what a snapshot keeps).
+std::vector<uint64_t> touching_pairs(const EventMemory& memory);
 
 }  // namespace cellphys::ppe

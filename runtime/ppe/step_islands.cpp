@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <numeric>
 
 #include "runtime/ppe/world.h"
 
@@ -10,51 +9,44 @@ namespace cellphys::ppe {
 
 namespace {
 
-// Union-find over body slots; the smallest slot of a set is its root, so the result does not
-// depend on the order in which pairs are joined.
-class UnionFind {
- public:
-  explicit UnionFind(uint32_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0u); }
+// Union-find over the awake bodies' slots (the scratch's arrays, set for them alone); the
+// smallest slot of a set is its root, so the result does not depend on the order in which
+// pairs are joined.
+struct UnionFind {
+  std::vector<uint32_t>& parent;
   uint32_t find(uint32_t x) {
-    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
   }
   void unite(uint32_t x, uint32_t y) {
     x = find(x), y = find(y);
-    if (x != y) parent_[std::max(x, y)] = std::min(x, y);
+    if (x != y) parent[std::max(x, y)] = std::min(x, y);
   }
-
- private:
-  std::vector<uint32_t> parent_;
 };
 
 }  // namespace
 
 void build_islands(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
-                   const std::vector<WorldContact>& contacts, StepStats& st, std::vector<IslandContent>& islands) {
+                   const std::vector<WorldContact>& contacts, const AwakeBodies& awake, IslandScratch& scratch,
+                   StepStats& st, std::vector<IslandContent>& islands) {
   StageTimer t(st.times.islands_ms);
   const uint32_t n = static_cast<uint32_t>(bodies.size());
-  UnionFind sets(n);
+  scratch.parent.resize(n);
+  scratch.island_of.resize(n);
+  for (uint32_t i : awake.ids()) scratch.parent[i] = i, scratch.island_of[i] = -1;
+  UnionFind sets{scratch.parent};
   for (const WorldContact& c : contacts)
     if (c.b != kWorldBody && bodies[c.a].awake && bodies[c.b].awake) sets.unite(c.a, c.b);
   for (const WorldForce& f : forces)
     if (f.alive && f.b != kWorldBody && bodies[f.a].awake && bodies[f.b].awake) sets.unite(f.a, f.b);
-  std::vector<int32_t> island_of(n, -1);
+  std::vector<int32_t>& island_of = scratch.island_of;
   size_t count = 0;  // islands so far; the entries reused keep their storage (a step with fewer frees the rest)
   for (IslandContent& isl : islands) isl.bodies.clear(), isl.contacts.clear(), isl.forces.clear();
-  for (uint32_t i = 0; i < n; ++i) {
-    const WorldBody& b = bodies[i];
-    if (!b.alive) continue;
-    ++st.bodies;
-    if (b.is_static) {
-      ++st.static_bodies;
-      continue;
-    }
-    if (!b.awake) {
-      ++st.sleeping_bodies;
-      continue;
-    }
-    ++st.active_bodies;
+  st.bodies += awake.live();
+  st.static_bodies += awake.statics();
+  st.active_bodies += static_cast<uint32_t>(awake.ids().size());
+  st.sleeping_bodies += awake.live() - awake.statics() - static_cast<uint32_t>(awake.ids().size());
+  for (uint32_t i : awake.ids()) {
     const uint32_t r = sets.find(i);
     if (island_of[r] < 0) {
       island_of[r] = static_cast<int32_t>(count++);

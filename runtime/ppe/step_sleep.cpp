@@ -14,9 +14,11 @@ void wake_body(std::vector<WorldBody>& bodies, SleepingGroups& sleeping, uint32_
   const int32_t g = b.sleep_group;
   if (g < 0) {
     b.awake = true;
+    sleeping.changed.push_back(id);
     return;
   }
   for (uint32_t m : sleeping.groups[g].bodies) {
+    sleeping.changed.push_back(m);
     bodies[m].awake = true;
     bodies[m].sleep_group = -1;
     bodies[m].sleep_timer = 0.0f;
@@ -78,6 +80,7 @@ void sleep_quiet_islands(const WorldSettings& s, const std::vector<IslandContent
       WorldBody& b = bodies[i];
       b.awake = false;
       b.sleep_group = g;
+      sleeping.changed.push_back(i);
       std::fill(b.state.velocity, b.state.velocity + 3, 0.0f);
       std::fill(b.state.angular_velocity, b.state.angular_velocity + 3, 0.0f);
     }

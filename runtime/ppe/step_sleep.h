@@ -14,10 +14,14 @@ namespace cellphys::ppe {
 
 struct WorldSettings;
 
-/// The sleeping groups and the free slots among them.
+/// The sleeping groups and the free slots among them, and the ids of the bodies whose set may
+/// have changed since the step last looked (woke, fell asleep; the world adds those added,
+/// removed, or moved while static), or that all may have.
 struct SleepingGroups {
   std::vector<SleepGroup> groups;
   std::vector<int32_t> free;
+  std::vector<uint32_t> changed;
+  bool all_changed = true;
 };
 
 /// Wakes body `id` (resets its sleep timer) and, when it sleeps in a group, the whole group,

@@ -1,6 +1,7 @@
 #include "runtime/ppe/world.h"
 
 #include <algorithm>
+#include <cassert>
 
 #include "runtime/ppe/body_maths.h"
 #include "runtime/ppe/settings.h"
@@ -43,6 +44,7 @@ IslandRunner* World::runner() const { return impl_->runner.get(); }
 void World::set_settings(const WorldSettings& s) {
   validate_settings(s);
   settings_ = s;
+  impl_->sleeping.all_changed = true;  // boxes grow by the margins, the region culls
 }
 
 BodyId World::add_body(const BodyDesc& d) {
@@ -63,6 +65,7 @@ BodyId World::add_body(const BodyDesc& d) {
   if (!b.is_static) set_mass_properties(shapes_, d, who, b);
   impl_->bodies.push_back(b);
   ++impl_->revision;
+  impl_->changed(static_cast<BodyId>(impl_->bodies.size() - 1));
   return static_cast<BodyId>(impl_->bodies.size() - 1);
 }
 
@@ -78,6 +81,7 @@ void World::remove_body(BodyId id) {
   forget_body(impl_->contact_memory, id);
   end_events_of(impl_->event_memory, id);
   b.alive = false;
+  impl_->changed(id);
   ++impl_->revision;
 }
 
@@ -128,6 +132,7 @@ void World::set_state(BodyId id, const BodyState& s) {
   check_body_state(s, body_name(id));
   take_state(s, body_name(id), warnings_, b);
   impl_->wake(id);
+  impl_->changed(id);
   ++impl_->revision;
 }
 
@@ -190,16 +195,25 @@ const StepStats& World::step() {
   st.step = stats_.step + 1;
   {
     StageTimer total(st.times.total_ms);
-    collide(w.bodies, w.forces, shapes_, settings_, w.collide, w.contact_memory, w.contacts, st);  // 1
+    // The bodies that changed set since the last step; those stage 2 wakes join after it.
+    const bool all = w.sleeping.all_changed;
+    w.awake.update(w.bodies, w.sleeping.changed, all);
+    assert(w.awake.agrees_with(w.bodies));
+    w.step_changed.swap(w.sleeping.changed);
+    w.sleeping.changed.clear();
+    w.sleeping.all_changed = false;
+    const BodyChanges changes{w.awake.ids(), w.step_changed, all};
+    collide(w.bodies, w.forces, shapes_, settings_, changes, w.collide, w.contact_memory, w.contacts, st);  // 1
     PendingEvents events;  // 8, begun: what a touch's begin measures before the step moves anything
     {
       StageTimer t(st.times.events_ms);
-      events = begin_events(w.bodies, shapes_, settings_, w.collide.reach, w.contacts, w.collide.touched,
+      events = begin_events(w.bodies, shapes_, settings_, w.collide.woken, all, w.collide.reach, w.contacts, w.collide.touched,
                             w.collide.sensed, w.event_memory, w.sensor_events);
     }
     wake_touched_groups(w.bodies, w.forces, w.contacts, w.sleeping, st);                 // 2
+    w.awake.update(w.bodies, w.sleeping.changed, false);
     push_out_overlaps(settings_, w.forces, w.bodies, w.contacts, w.contact_memory, w.push, st);  // 3
-    build_islands(w.bodies, w.forces, w.contacts, st, w.islands);                      // 4
+    build_islands(w.bodies, w.forces, w.contacts, w.awake, w.island_scratch, st, w.islands);  // 4
     const std::vector<IslandContent>& islands = w.islands;
     decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands, st,  // 5
                      w.integrate.pack, w.parts);

@@ -7,10 +7,12 @@
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
+#include "runtime/ppe/body_sets.h"
 #include "runtime/ppe/query_tree.h"
 #include "runtime/ppe/step_collide.h"
 #include "runtime/ppe/step_events.h"
 #include "runtime/ppe/step_integrate.h"
+#include "runtime/ppe/step_islands.h"
 #include "runtime/ppe/step_push.h"
 #include "runtime/ppe/step_sleep.h"
 #include "runtime/ppe/world.h"
@@ -29,6 +31,8 @@ struct World::Impl {
   std::vector<WorldBody> bodies;
   std::vector<WorldForce> forces;
   SleepingGroups sleeping;
+  AwakeBodies awake;                    // the awake dynamic bodies, kept from sleeping.changed
+  std::vector<uint32_t> step_changed;   // what sleeping.changed held at the step's start
   std::unique_ptr<WorkerPool> pool;
   int pool_workers = 0;
   size_t pool_bytes = 0;
@@ -38,6 +42,7 @@ struct World::Impl {
   ContactMemory contact_memory;         // friction anchors and contact masses, kept between steps
   std::vector<WorldContact> contacts;   // this step's, reused
   PushScratch push;                     // the push stage's buffers
+  IslandScratch island_scratch;
   std::vector<IslandContent> islands;   // this step's islands, their storage reused
   DecoupledIslands parts;               // and their parts
   IntegrateScratch integrate;           // packing and running islands: buffers
@@ -80,6 +85,8 @@ struct World::Impl {
     return bodies[id];
   }
   void wake(BodyId id) { wake_body(bodies, sleeping, id); }
+  // Body `id` was added or removed, or its state was set: the step files it again.
+  void changed(BodyId id) { sleeping.changed.push_back(id); }
 };
 
 }  // namespace cellphys::ppe

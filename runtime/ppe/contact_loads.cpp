@@ -28,12 +28,28 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   const double gn = norm(g);
   if (gn <= 0 || contacts.empty()) return;
   const Vec3d down = g * (1.0 / gn);
+  const size_t n = bodies.size();
+  if (sc.named.size() < n) {
+    sc.named.resize(n, 0);
+    sc.support.resize(n, 0.0);
+    sc.held.resize(n, 0);
+    sc.below.resize(n, 0);
+    sc.weight.resize(n, 0.0);
+    sc.first_of.resize(n, 0);
+    sc.count.resize(n, 0);
+  }
+  sc.involved.clear();
+  const auto name = [&](uint32_t id) {
+    if (id != kWorldBody && !sc.named[id]) sc.named[id] = 1, sc.involved.push_back(id);
+  };
+  for (const WorldContact& c : contacts) name(c.a), name(c.b);
+  for (const WorldForce& f : forces)
+    if (f.alive && gen::kForceTable[static_cast<int>(f.type)].joint) name(f.a), name(f.b);
   std::vector<int64_t>& upper = sc.upper;
   std::vector<double>& share = sc.share;
   std::vector<double>& support = sc.support;
   upper.assign(contacts.size(), -1);
   share.assign(contacts.size(), 0.0);
-  support.assign(bodies.size(), 0.0);
   for (size_t i = 0; i < contacts.size(); ++i) {
     const WorldContact& c = contacts[i];
     // A gap wider than the slop holds nothing up yet: it is a body on its way, which a loaded
@@ -56,7 +72,6 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   std::vector<std::pair<uint32_t, uint32_t>>& joints = sc.joints;
   std::vector<uint8_t>& held = sc.held;
   joints.clear();
-  held.assign(bodies.size(), 0);
   for (const WorldForce& f : forces) {
     if (!f.alive || !gen::kForceTable[static_cast<int>(f.type)].joint) continue;
     const bool fixed_a = bodies[f.a].is_static, fixed_b = f.b == kWorldBody || bodies[f.b].is_static;
@@ -74,7 +89,6 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   // foot and opened its joints by 70 cm. Resting is slower along gravity than a few steps of fall.
   const double falling = kRestingSteps * gn * s.dt;
   std::vector<uint32_t>& below = sc.below;
-  below.assign(bodies.size(), 0);
   for (const auto& j : joints)
     if (support[j.first] <= 0 && !held[j.first] &&
         std::fabs(dot(Vec3d::load(bodies[j.first].state.velocity), down)) <= falling)
@@ -83,26 +97,25 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   // (std::sort with the index as the tie-break: the order of a stable sort, with no buffer)
   std::vector<uint32_t>& order = sc.order;
   order.clear();
-  for (uint32_t i = 0; i < bodies.size(); ++i)
+  for (uint32_t i : sc.involved)
     if (support[i] > 0 || below[i] > 0) order.push_back(i);
   std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
     const double hx = height(x), hy = height(y);
     return hx != hy ? hx > hy : x < y;
   });
   std::vector<double>& weight = sc.weight;
-  weight.assign(bodies.size(), 0.0);
   // The contacts grouped by the body they hold up, in contact order within a body (a counting
-  // sort): by_upper[first_of[i] .. first_of[i + 1]) hold body i up.
+  // sort): by_upper[first_of[i] .. first_of[i] + count[i]) hold body i up.
   std::vector<size_t>& first_of = sc.first_of;
-  first_of.assign(bodies.size() + 1, 0);
+  std::vector<uint32_t>& count = sc.count;
   for (size_t i = 0; i < contacts.size(); ++i)
-    if (upper[i] >= 0) ++first_of[size_t(upper[i]) + 1];
-  for (size_t b = 0; b < bodies.size(); ++b) first_of[b + 1] += first_of[b];
+    if (upper[i] >= 0) ++count[size_t(upper[i])];
+  size_t entries = 0;
+  for (uint32_t b : sc.involved) first_of[b] = entries, entries += count[b], count[b] = 0;
   std::vector<size_t>& by_upper = sc.by_upper;
-  by_upper.resize(first_of[bodies.size()]);
-  sc.fill.assign(first_of.begin(), first_of.end() - 1);
+  by_upper.resize(entries);
   for (size_t i = 0; i < contacts.size(); ++i)
-    if (upper[i] >= 0) by_upper[sc.fill[size_t(upper[i])]++] = i;
+    if (upper[i] >= 0) by_upper[first_of[size_t(upper[i])] + count[size_t(upper[i])]++] = i;
   const double omega = 2 * kPi * s.globals.contact_hertz;
   const double to_load = gn / (omega * omega * s.contact_load_depth);  // weight (kg) -> load mass
   for (uint32_t top : order) {
@@ -112,7 +125,7 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
       for (auto j = from; j != joints.end() && j->first == top; ++j) weight[j->second] += weight[top] / below[top];
       continue;
     }
-    for (size_t k = first_of[top]; k < first_of[top + 1]; ++k) {
+    for (size_t k = first_of[top]; k < first_of[top] + count[top]; ++k) {
       const size_t i = by_upper[k];
       const double carried = weight[top] * share[i] / support[top];
       WorldContact& c = contacts[i];
@@ -121,6 +134,7 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
       if (below != kWorldBody && !bodies[below].is_static) weight[below] += carried;
     }
   }
+  for (uint32_t b : sc.involved) sc.named[b] = 0, support[b] = 0, held[b] = 0, sc.below[b] = 0, weight[b] = 0, count[b] = 0;
 }
 
 float gravity_fall(const float n[3], bool against_static, const WorldSettings& s) {

@@ -15,9 +15,13 @@ namespace cellphys::ppe {
 struct WorldSettings;
 
 /// carry_loads' buffers, kept between steps so a warm step allocates nothing.
+/// The per-body arrays are set for the bodies a contact or joint names alone and zeroed
+/// again after, so a step pays for what touches, not for every body of the world.
 struct LoadScratch {
   std::vector<int64_t> upper;         // per contact: the body it holds up (-1: none)
   std::vector<double> share;          // per contact: how squarely (|n . down|)
+  std::vector<uint32_t> involved;     // the bodies named, in the order first named
+  std::vector<uint8_t> named;         // per body: in `involved`
   std::vector<double> support;        // per body: the sum of its supports' shares
   std::vector<std::pair<uint32_t, uint32_t>> joints;  // (upper, lower), both dynamic
   std::vector<uint8_t> held;          // per body: jointed to what cannot move
@@ -25,8 +29,8 @@ struct LoadScratch {
   std::vector<uint32_t> order;        // bodies that pass weight on, top to bottom
   std::vector<double> weight;         // per body: mass pressing on its supports (kg)
   std::vector<size_t> by_upper;       // contacts by the body they hold up
-  std::vector<size_t> first_of;       // per body: its first entry in by_upper (and one past the last)
-  std::vector<size_t> fill;           // per body: the next free entry while filling by_upper
+  std::vector<size_t> first_of;       // per body: its first entry in by_upper
+  std::vector<uint32_t> count;        // per body: its entries in by_upper
 };
 
 /// Sets each contact's load: the mass whose soft spring, at the contact frequency, sinks by

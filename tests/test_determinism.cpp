@@ -62,7 +62,7 @@ const Pinned kPinned[] = {
     // Paths the defaults leave out: a pile decoupled into local-store parts, the other
     // integrators and solvers.
     {"pile65", 45, "decoupled in a 64 KiB local store",
-     [](WorldSettings& s) { s.local_store_bytes = 64 * 1024; }, 0x34d2b8d67aa7d7a9ull},
+     [](WorldSettings& s) { s.local_store_bytes = 64 * 1024, s.whole_island_bytes = 0; }, 0x34d2b8d67aa7d7a9ull},
     {"pile65", 30, "rosenbrock, bicgstab",
      [](WorldSettings& s) {
        s.integrator = cellphys::spu::Integrator::rosenbrock;

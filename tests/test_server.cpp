@@ -1029,6 +1029,7 @@ TEST(Server, MetricsAreJsonWithEveryField) {
 TEST(DebugMessage, CarriesEveryCouplingDecouplingCut) {
   cellphys::scene::SceneDesc desc = cellphys::scene::load_scene(kScenes + "/pile65.json");
   desc.settings.local_store_bytes = 32 * 1024;
+  desc.settings.whole_island_bytes = 0;  // split, not computed whole
   desc.settings.sleeping = false;
   auto scene = cellphys::scene::build_world(desc);
   cellphys::ppe::World& w = *scene.world;

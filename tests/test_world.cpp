@@ -461,6 +461,7 @@ TEST(World, IslandsOfKnownScenes) {
 TEST(World, DecoupledStackStandsAndSleepsLikeTheWholeOne) {
   WorldSettings s;
   s.local_store_bytes = 16 * 1024;
+  s.whole_island_bytes = 0;  // split, not computed whole
   World w(s);
   ground_plane(w);
   const std::vector<BodyId> boxes = stack(w, 10, 0.25f);
@@ -490,6 +491,7 @@ TEST(World, DecoupledStackStandsAndSleepsLikeTheWholeOne) {
 TEST(World, SplitIslandThatFailsKeepsItsStateAndCountsOnce) {
   WorldSettings s;
   s.local_store_bytes = 16 * 1024;
+  s.whole_island_bytes = 0;
   s.integrator = cellphys::spu::Integrator::rosenbrock;
   s.tolerance = 1e-30f;
   s.max_halvings = 0;
@@ -516,7 +518,9 @@ TEST(World, SplitIslandThatFailsKeepsItsStateAndCountsOnce) {
 }
 
 TEST(World, PileOf300BoxesIsDecoupledToFitTheLocalStoreAndSettles) {
-  World w;
+  WorldSettings s;
+  s.whole_island_bytes = 0;  // split into parts that fit, as the reference design does
+  World w(s);
   const std::vector<BodyId> boxes = pile_in_bin(w, 300, 0.25f, 1);
   const size_t capacity = w.settings().local_store_bytes;
   uint32_t decoupled_steps = 0, max_cut = 0, max_parts_islands = 0, failed = 0, max_sweeps = 0;
@@ -544,6 +548,35 @@ TEST(World, PileOf300BoxesIsDecoupledToFitTheLocalStoreAndSettles) {
   EXPECT_LE(peak, capacity);
   EXPECT_LE(peak, size_t(256 * 1024));
   EXPECT_LT(v, 0.1f) << "the decoupled pile has not settled after 5 s";
+}
+
+// The same pile with the default settings: its island, too big for the local store, is computed
+// whole in a store grown to fit it (never split), settles, and gives the same bits on two
+// workers as on one.
+TEST(World, PileOf300BoxesTooBigForTheLocalStoreIsComputedWholeAndSettles) {
+  WorldSettings s1, s2;
+  s2.workers = 2;
+  World w(s1), w2(s2);
+  const std::vector<BodyId> boxes = pile_in_bin(w, 300, 0.25f, 1);
+  pile_in_bin(w2, 300, 0.25f, 1);
+  const size_t capacity = w.settings().local_store_bytes;
+  uint32_t decoupled = 0, failed = 0;
+  size_t peak = 0;
+  for (int i = 1; i <= 5 * kHz; ++i) {
+    const StepStats& st = w.step();
+    w2.step();
+    ASSERT_EQ(w.state_hash(), w2.state_hash()) << "step " << i;
+    failed += st.failed_islands;
+    decoupled += st.decoupled_islands;
+    peak = std::max(peak, st.local_store_peak_bytes);
+  }
+  const float v = max_speed(w, boxes);
+  record("pile300_whole_local_store_peak_bytes", double(peak), 7);
+  record("pile300_whole_max_speed_at_5s", v);
+  EXPECT_EQ(decoupled, 0u);
+  EXPECT_GT(peak, capacity) << "the pile fitted the local store: nothing was computed whole";
+  EXPECT_EQ(failed, 0u);
+  EXPECT_LT(v, 0.1f) << "the pile has not settled after 5 s";
 }
 
 // ---------------------------------------------------------------------------------------------

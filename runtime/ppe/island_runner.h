@@ -31,6 +31,9 @@ class IslandRunner {
   virtual void run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) = 0;
   /// The local store every kernel gets (WorldSettings::local_store_bytes), set before run().
   virtual void set_local_store(size_t bytes) { (void)bytes; }
+  /// The largest island (its local store footprint, bytes) the runner computes whole when it
+  /// does not fit the local store; the world splits a bigger one into parts that fit. 0: none.
+  virtual size_t whole_island_bytes() const { return 0; }
   /// Counters of the last run() call.
   virtual TransportCounters last_transport() const { return {}; }
   virtual const char* name() const = 0;

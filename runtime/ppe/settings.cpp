@@ -24,7 +24,7 @@ struct SettingsShape {
   bool sleeping;
   int workers;
   float contact_margin, contact_load_depth;
-  size_t local_store_bytes;
+  size_t local_store_bytes, whole_island_bytes;
   uint32_t decouple_sweeps;
   float decouple_tolerance, region_min[3], region_max[3], sleep_linear, sleep_angular, sleep_time;
 };
@@ -73,7 +73,11 @@ std::vector<Setting> world_settings() {
                        "body holds a heavy one (m)"),
       CELLPHYS_SETTING(local_store_bytes, "local_store_bytes",
                        between(double(kMinLocalStoreBytes), double(spu::LocalStore::kMaxCapacity)),
-                       "a compute worker's local store; an island too big for it is split (bytes)"),
+                       "a compute worker's local store (bytes)"),
+      CELLPHYS_SETTING(whole_island_bytes, "whole_island_bytes", between(0, double(spu::LocalStore::kMaxCapacity)),
+                       "an island too big for the local store but not for this is computed whole, in a store grown "
+                       "to its size (by the in-process workers; compute nodes over MPI split it); a bigger one is "
+                       "split into parts that fit the local store (bytes; 0: always split)"),
       CELLPHYS_SETTING(decouple_sweeps, "decouple.sweeps", between(1, kMaxDecoupleSweeps),
                        "an island split to fit the local store is swept (its parts integrated in order) until no "
                        "velocity changes by more than decouple.tolerance, at most this many times"),

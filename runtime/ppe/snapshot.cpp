@@ -14,7 +14,8 @@
 //   settings: u32 count, then per setting (runtime/ppe/settings.h) its scene path and its value
 //           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
 //           each as u32 length + bytes: matched by name, so a build with other forces refuses
-//           a setting it lacks, or lacks one it has, by name
+//           a setting it lacks, or lacks one it has, by name; before version 7 there was no
+//           whole_island_bytes, and such a world restores with 0 (big islands split, as then)
 //   body (136 bytes): u8 alive, static, awake, flags (1: sensor; version 4: 0) | u32 shape | f32 scale, mass | f32 inertia[6],
 //           inverse inertia[6] | position[3], orientation[4], velocity[3], angular velocity[3] |
 //           f32 friction, linear and angular damping, sleep timer | i32 sleeping group
@@ -36,7 +37,7 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 6;
+constexpr uint32_t kVersion = 7;
 constexpr uint32_t kOldestVersion = 4;  // without the event memory
 constexpr size_t kHeaderBytes = 32;
 // The fewest bytes of each record, so that a count the rest of the file cannot hold is refused
@@ -142,7 +143,7 @@ void put_settings(Writer& w, const WorldSettings& s) {
   }
 }
 
-WorldSettings get_settings(Reader& r) {
+WorldSettings get_settings(Reader& r, uint32_t version) {
   WorldSettings s;
   const std::vector<Setting>& table = settings_table();
   std::vector<bool> seen(table.size());
@@ -182,8 +183,14 @@ WorldSettings get_settings(Reader& r) {
       }
     }
   }
-  for (size_t i = 0; i < table.size(); ++i)
-    if (!seen[i]) throw WorldError("snapshot: setting '" + table[i].path + "' is missing");
+  for (size_t i = 0; i < table.size(); ++i) {
+    if (seen[i]) continue;
+    if (version < 7 && table[i].path == "whole_island_bytes") {
+      s.whole_island_bytes = 0;  // a world saved when every big island was split steps on split
+      continue;
+    }
+    throw WorldError("snapshot: setting '" + table[i].path + "' is missing");
+  }
   try {
     validate_settings(s);
   } catch (const WorldError& e) {
@@ -503,7 +510,7 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
   if (spu::checksum(bytes + kHeaderBytes, payload) != sum) throw WorldError("snapshot: checksum mismatch");
 
   Reader r(bytes + kHeaderBytes, payload);
-  const WorldSettings settings = get_settings(r);
+  const WorldSettings settings = get_settings(r, version);
   auto world = std::make_unique<World>(settings);
   World& W = *world;
   Impl& w = *W.impl_;

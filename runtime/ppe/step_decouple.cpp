@@ -16,7 +16,7 @@ namespace {
 // instance, every section its alignment, every coupling two blocks, every scratch the largest
 // kernel's). The footprint grows with each count, so an island under this bound needs no
 // packing to know it fits; one over it is packed and measured.
-bool surely_fits(const PackContext& pc, const IslandContent& isl) {
+bool surely_fits(const PackContext& pc, const IslandContent& isl, size_t fit) {
   const auto inside = [&](uint32_t id) {
     return id == kWorldBody || std::binary_search(isl.bodies.begin(), isl.bodies.end(), id);
   };
@@ -42,20 +42,20 @@ bool surely_fits(const PackContext& pc, const IslandContent& isl) {
   c.integrator = pc.settings.integrator;
   c.solver = pc.settings.solver;
   c.force_types = ~0u;
-  return spu::footprint(c).total <= pc.settings.local_store_bytes;
+  return spu::footprint(c).total <= fit;
 }
 
-bool fits(const PackContext& pc, const IslandContent& isl, PackScratch& scratch, PackedIsland& probe) {
-  if (isl.bodies.size() <= 1 || surely_fits(pc, isl)) return true;
+bool fits(const PackContext& pc, const IslandContent& isl, size_t fit, PackScratch& scratch, PackedIsland& probe) {
+  if (isl.bodies.size() <= 1 || surely_fits(pc, isl, fit)) return true;
   pack_island(pc, isl, scratch, probe);
   const spu::IslandView v = spu::view_island(probe.image.data());
-  return spu::footprint(spu::counts_of(v)).total <= pc.settings.local_store_bytes;
+  return spu::footprint(spu::counts_of(v)).total <= fit;
 }
 
 // `too_big`: the caller found it does not fit already.
 void split(const PackContext& pc, IslandContent isl, std::vector<IslandContent>& out, uint32_t& cut,
            PackScratch& scratch, PackedIsland& probe, bool too_big = false) {
-  if (!too_big && fits(pc, isl, scratch, probe)) {
+  if (!too_big && fits(pc, isl, pc.settings.local_store_bytes, scratch, probe)) {
     out.push_back(std::move(isl));
     return;
   }
@@ -97,9 +97,9 @@ void split(const PackContext& pc, IslandContent isl, std::vector<IslandContent>&
 
 }  // namespace
 
-void decouple(const PackContext& pc, const IslandContent& island, uint32_t& cut_couplings, PackScratch& scratch,
-              PackedIsland& probe, std::vector<IslandContent>& parts) {
-  if (fits(pc, island, scratch, probe)) {  // the island whole, copied into storage kept from earlier steps
+void decouple(const PackContext& pc, const IslandContent& island, size_t fit, uint32_t& cut_couplings,
+              PackScratch& scratch, PackedIsland& probe, std::vector<IslandContent>& parts) {
+  if (fits(pc, island, fit, scratch, probe)) {  // the island whole, copied into storage kept from earlier steps
     parts.resize(1);
     parts[0].bodies.assign(island.bodies.begin(), island.bodies.end());
     parts[0].contacts.assign(island.contacts.begin(), island.contacts.end());
@@ -110,13 +110,14 @@ void decouple(const PackContext& pc, const IslandContent& island, uint32_t& cut_
   split(pc, island, parts, cut_couplings, scratch, probe, /*too_big=*/true);
 }
 
-void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, StepStats& st,
-                      PackScratch& scratch, DecoupledIslands& d) {
+void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, size_t whole_bytes,
+                      StepStats& st, PackScratch& scratch, DecoupledIslands& d) {
   StageTimer t(st.times.decouple_ms);
+  const size_t fit = std::max(pc.settings.local_store_bytes, std::min(whole_bytes, pc.settings.whole_island_bytes));
   d.waves = 0;
   d.parts.resize(islands.size());
   for (size_t k = 0; k < islands.size(); ++k) {
-    decouple(pc, islands[k], st.cut_couplings, scratch, d.probe, d.parts[k]);  // a copy: the sleep stage needs the island whole
+    decouple(pc, islands[k], fit, st.cut_couplings, scratch, d.probe, d.parts[k]);  // a copy: the sleep stage needs the island whole
     if (d.parts[k].size() > 1) ++st.decoupled_islands;
     d.waves = std::max(d.waves, d.parts[k].size());
   }

@@ -1,4 +1,5 @@
-// Stage 5 of the step: islands too big for a local store are cut in space into parts that fit.
+// Stage 5 of the step: islands too big for a local store, and for what the runner computes
+// whole (IslandRunner::whole_island_bytes), are cut in space into parts that fit.
 // A coupling the cut crosses goes into both parts, each of which holds the body across the cut
 // as a ghost, so both sides stay implicit in the coupling; the parts of a split island are
 // integrated in order, one part per wave (runtime/ppe/step_integrate.h).
@@ -17,9 +18,11 @@ namespace cellphys::ppe {
 /// each holding the bodies across its cuts as kinematic ghosts at their latest velocities, is
 /// one block Gauss-Seidel sweep on the island's linear system; sweeps repeat until the
 /// velocities settle (integrate_islands), so the parts converge on the whole island's step.
+/// An island fits when its footprint is at most `fit` bytes (the local store, or more when the
+/// runner computes big islands whole); a part always fits the local store.
 /// `scratch` and `probe` are the fit test's packing.
-void decouple(const PackContext& pc, const IslandContent& island, uint32_t& cut_couplings, PackScratch& scratch,
-              PackedIsland& probe, std::vector<IslandContent>& parts);
+void decouple(const PackContext& pc, const IslandContent& island, size_t fit, uint32_t& cut_couplings,
+              PackScratch& scratch, PackedIsland& probe, std::vector<IslandContent>& parts);
 
 struct DecoupledIslands {
   std::vector<std::vector<IslandContent>> parts;  // per island: its parts in integration order
@@ -29,8 +32,8 @@ struct DecoupledIslands {
 };
 
 /// The parts of every island into `d` (replaced; its storage is reused); counts decoupled
-/// islands and cut couplings.
-void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, StepStats& st,
-                      PackScratch& scratch, DecoupledIslands& d);
+/// islands and cut couplings. `whole_bytes`: the runner's IslandRunner::whole_island_bytes().
+void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, size_t whole_bytes,
+                      StepStats& st, PackScratch& scratch, DecoupledIslands& d);
 
 }  // namespace cellphys::ppe

@@ -1,10 +1,14 @@
 #include "runtime/ppe/worker_pool.h"
 
+#include <algorithm>
+
 namespace cellphys::ppe {
 
-WorkerPool::WorkerPool(int workers, size_t local_store_bytes) {
+WorkerPool::WorkerPool(int workers, size_t local_store_bytes, size_t whole_island_bytes)
+    : local_store_bytes_(local_store_bytes), whole_island_bytes_(whole_island_bytes) {
   if (workers < 1) workers = 1;
   for (int i = 0; i < workers; ++i) workers_.push_back(std::make_unique<spu::ComputeWorker>(local_store_bytes));
+  wide_.resize(workers);
   // worker 0 is the calling thread; the others wait for work
   for (int i = 1; i < workers; ++i) threads_.emplace_back([this, i] { loop(i); });
 }
@@ -18,6 +22,15 @@ WorkerPool::~WorkerPool() {
   for (auto& t : threads_) t.join();
 }
 
+spu::ComputeWorker& WorkerPool::worker_for(int index, const spu::IslandJob& job) {
+  const size_t need = local_store_bytes_ < whole_island_bytes_ ? spu::ComputeWorker::bytes_needed(job) : 0;
+  if (need <= local_store_bytes_ || need > whole_island_bytes_) return *workers_[index];
+  std::unique_ptr<spu::ComputeWorker>& wide = wide_[index];
+  if (!wide || wide->local_store().capacity() < need)  // a quarter more: an island that grows a little fits still
+    wide = std::make_unique<spu::ComputeWorker>(std::min(need + need / 4, whole_island_bytes_));
+  return *wide;
+}
+
 void WorkerPool::work(int index) {
   for (;;) {
     size_t k;
@@ -28,7 +41,7 @@ void WorkerPool::work(int index) {
       ++running_;
     }
     const spu::IslandJob& j = (*jobs_)[k];
-    spu::IslandReport r = workers_[index]->step(j.image, j.bytes, j.result, j.result_capacity);
+    spu::IslandReport r = worker_for(index, j).step(j.image, j.bytes, j.result, j.result_capacity);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       (*reports_)[k] = std::move(r);

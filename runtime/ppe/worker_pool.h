@@ -1,6 +1,9 @@
 // A fixed pool of threads, each with its own compute worker (its own local store). Jobs
 // are taken largest-first from a shared counter; each island's result goes to its own
-// slot, so the outcome is the same whatever the number of workers.
+// slot, so the outcome is the same whatever the number of workers. An island too big for
+// the local store, up to whole_island_bytes, is computed whole by the thread's wide worker,
+// whose store is grown to fit it (main memory standing in for blocks streamed through the
+// store): the same kernel, so the same result as a store that big.
 #pragma once
 #include <condition_variable>
 #include <functional>
@@ -16,17 +19,21 @@ namespace cellphys::ppe {
 
 class WorkerPool : public IslandRunner {
  public:
-  WorkerPool(int workers, size_t local_store_bytes);
+  WorkerPool(int workers, size_t local_store_bytes, size_t whole_island_bytes = 0);
   ~WorkerPool() override;
   int size() const { return static_cast<int>(workers_.size()); }
   /// Runs every job (in the given order of priority) and returns when all are done.
   void run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) override;
   const char* name() const override { return "threads"; }
+  size_t whole_island_bytes() const override { return whole_island_bytes_; }
 
  private:
   void loop(int index);
   void work(int index);
+  spu::ComputeWorker& worker_for(int index, const spu::IslandJob& job);
   std::vector<std::unique_ptr<spu::ComputeWorker>> workers_;
+  std::vector<std::unique_ptr<spu::ComputeWorker>> wide_;  // per thread, made on first use
+  size_t local_store_bytes_ = 0, whole_island_bytes_ = 0;
   std::vector<std::thread> threads_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;

@@ -215,7 +215,8 @@ const StepStats& World::step() {
     push_out_overlaps(settings_, w.forces, w.bodies, w.contacts, w.contact_memory, w.push, st);  // 3
     build_islands(w.bodies, w.forces, w.contacts, w.awake, w.island_scratch, st, w.islands);  // 4
     const std::vector<IslandContent>& islands = w.islands;
-    decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands, st,  // 5
+    decouple_islands(PackContext{w.bodies, w.forces, w.contacts, settings_, w.bodies}, islands,  // 5
+                     w.islands_runner(settings_).whole_island_bytes(), st,
                      w.integrate.pack, w.parts);
     const DecoupledIslands& parts = w.parts;
     integrate_islands(settings_, shapes_, islands, parts, w.forces, w.contacts, w.bodies,  // 6

@@ -59,6 +59,7 @@ struct WorldSettings {
   float contact_margin = 0.001f;
   float contact_load_depth = 1e-4f;
   size_t local_store_bytes = spu::LocalStore::kDefaultCapacity;
+  size_t whole_island_bytes = spu::LocalStore::kMaxCapacity;
   uint32_t decouple_sweeps = 8;
   float decouple_tolerance = 1e-3f;
   float region_min[3] = {-1e4f, -1e4f, -1e4f};

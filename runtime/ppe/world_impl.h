@@ -35,7 +35,7 @@ struct World::Impl {
   std::vector<uint32_t> step_changed;   // what sleeping.changed held at the step's start
   std::unique_ptr<WorkerPool> pool;
   int pool_workers = 0;
-  size_t pool_bytes = 0;
+  size_t pool_bytes = 0, pool_whole_bytes = 0;
   std::shared_ptr<IslandRunner> runner;   // set_runner(); the pool when null
   std::unique_ptr<spu::ComputeWorker> local;  // recomputes islands whose result came back unsound
   CollideScratch collide;               // the sweep's order, kept between steps; buffers
@@ -57,11 +57,12 @@ struct World::Impl {
   mutable QueryIndex queries;             // the queries' tree, brought up to date by the first query after a change
 
   WorkerPool& workers(const WorldSettings& s) {
-    if (!pool || pool_workers != s.workers || pool_bytes != s.local_store_bytes) {
+    if (!pool || pool_workers != s.workers || pool_bytes != s.local_store_bytes || pool_whole_bytes != s.whole_island_bytes) {
       pool.reset();
-      pool = std::make_unique<WorkerPool>(s.workers, s.local_store_bytes);
+      pool = std::make_unique<WorkerPool>(s.workers, s.local_store_bytes, s.whole_island_bytes);
       pool_workers = s.workers;
       pool_bytes = s.local_store_bytes;
+      pool_whole_bytes = s.whole_island_bytes;
     }
     return *pool;
   }

@@ -84,30 +84,17 @@ void write_refusal(const IslandJob& job, IslandReport& r, IslandStatus s, std::s
   }
 }
 
-}  // namespace
-
-bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
-  // The header and section table, read the way the control side's scheduler would: enough
-  // to account for every byte before the island is fetched.
-  if (job.bytes < sizeof(Island_Header) || reinterpret_cast<uintptr_t>(job.image) % 16 ||
-      reinterpret_cast<uintptr_t>(job.result) % 16) {
-    write_refusal(job, r, IslandStatus::malformed, "image shorter than a header or not 16-byte aligned");
-    return false;
-  }
-  std::memcpy(&p.header, job.image, sizeof p.header);
-  const Island_Header& h = p.header;
+// The header and the counts its section table gives, read the way the control side's
+// scheduler would: enough to account for every byte before the island is fetched.
+enum class Unreadable { none, header, bodies, sections };
+Unreadable read_counts(const IslandJob& job, Island_Header& h, IslandCounts& c) {
+  std::memcpy(&h, job.image, sizeof h);
   if (h.magic != kIslandMagic || h.version != kIslandVersion || h.total_bytes != job.bytes || h.num_bodies == 0 ||
       h.num_sections > static_cast<uint32_t>(kNumForceTypes) || h.integrator >= static_cast<uint32_t>(kNumIntegrators) ||
-      h.solver >= static_cast<uint32_t>(kNumSolvers)) {
-    write_refusal(job, r, IslandStatus::malformed, "bad header: " + validate_island(job.image, job.bytes));
-    return false;
-  }
+      h.solver >= static_cast<uint32_t>(kNumSolvers))
+    return Unreadable::header;
   const IslandLayout layout = island_layout(h.num_bodies, h.num_sections);
-  if (layout.instances > job.bytes) {
-    write_refusal(job, r, IslandStatus::malformed, "too short for its bodies");
-    return false;
-  }
-  IslandCounts& c = p.counts;
+  if (layout.instances > job.bytes) return Unreadable::bodies;
   c.num_bodies = h.num_bodies;
   c.num_blocks = h.num_blocks;
   c.image_bytes = h.total_bytes;
@@ -117,12 +104,37 @@ bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
   for (uint32_t k = 0; k < h.num_sections; ++k) {
     Island_Section s;
     std::memcpy(&s, job.image + layout.sections + k * sizeof s, sizeof s);
-    if (s.force_type >= static_cast<uint32_t>(kNumForceTypes) || s.world_count > s.count) {
-      write_refusal(job, r, IslandStatus::malformed, validate_island(job.image, job.bytes));
-      return false;
-    }
+    if (s.force_type >= static_cast<uint32_t>(kNumForceTypes) || s.world_count > s.count) return Unreadable::sections;
     if (kForceTable[s.force_type].offset_body_b >= 0) c.pair_instances += s.count - s.world_count;
     c.force_types |= 1u << s.force_type;
+  }
+  return Unreadable::none;
+}
+
+}  // namespace
+
+size_t ComputeWorker::bytes_needed(const IslandJob& job) {
+  Island_Header h;
+  IslandCounts c;
+  if (job.bytes < sizeof h || read_counts(job, h, c) != Unreadable::none) return 0;
+  return footprint(c).total;
+}
+
+bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
+  if (job.bytes < sizeof(Island_Header) || reinterpret_cast<uintptr_t>(job.image) % 16 ||
+      reinterpret_cast<uintptr_t>(job.result) % 16) {
+    write_refusal(job, r, IslandStatus::malformed, "image shorter than a header or not 16-byte aligned");
+    return false;
+  }
+  const Island_Header& h = p.header;
+  IslandCounts& c = p.counts;
+  switch (read_counts(job, p.header, c)) {
+    case Unreadable::none: break;
+    case Unreadable::header:
+      write_refusal(job, r, IslandStatus::malformed, "bad header: " + validate_island(job.image, job.bytes));
+      return false;
+    case Unreadable::bodies: write_refusal(job, r, IslandStatus::malformed, "too short for its bodies"); return false;
+    case Unreadable::sections: write_refusal(job, r, IslandStatus::malformed, validate_island(job.image, job.bytes)); return false;
   }
   r.footprint = footprint(c);
   if (r.footprint.total > ls_.capacity()) {

@@ -45,6 +45,10 @@ class ComputeWorker {
   void step_batch(const IslandJob* jobs, size_t count, IslandReport* reports);
   LocalStore& local_store() { return ls_; }
   const Dma& dma() const { return dma_; }
+  /// The local store an island needs (its footprint, double buffering counted), read from its
+  /// header and section table as step() reads them; 0 for an image step() would refuse as
+  /// malformed.
+  static size_t bytes_needed(const IslandJob& job);
 
  private:
   struct Plan {

@@ -3,6 +3,7 @@
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseLU>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -27,6 +28,29 @@ float norm(int n, const float* a) { return std::sqrt(dot(n, a, a)); }
 
 int iteration_limit(const BlockRowMatrix& A, const SolveSettings& s) {
   return s.max_iterations > 0 ? s.max_iterations : 2 * 6 * A.n;  // the reference design's max_iters
+}
+
+// The smallest residual so far and where: a solve that has not bettered it for as many
+// iterations as it took to reach it (and at least kStallIterations) has diverged. CGS's
+// residual jumps by orders of magnitude in its first iterations and comes back; once its
+// iterates blow up they stay up, and a halved step costs less than running to the limit.
+constexpr int kStallIterations = 100;
+struct Progress {
+  float smallest = std::numeric_limits<float>::infinity();
+  int at = 0;
+};
+
+// The checks at the head of every iteration: the residual not finite, converged, over the
+// iteration limit, or diverged. True when the solve is over, with res.code and res.residual set.
+bool finished(float rr, float norm_b, int iter, int max_iters, const SolveSettings& s, Progress& p, SolveResult& res) {
+  res.residual = rr / norm_b;
+  // NaN fails every comparison below, so test it first rather than run to max_iters.
+  if (!std::isfinite(res.residual)) return res.code = kNotFinite, true;
+  if (res.residual < s.rel_tol || rr < s.abs_tol) return res.code = kConverged, true;
+  if (iter >= max_iters) return res.code = kMaxIterations, true;
+  if (res.residual < p.smallest) p.smallest = res.residual, p.at = iter;
+  if (iter - p.at > std::max(kStallIterations, p.at)) return res.code = kDiverged, true;
+  return false;
 }
 
 // r = b - A x, with tmp as scratch.
@@ -58,13 +82,9 @@ SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, 
   copy(n, r, r_tilde);
 
   float rho_1 = 0.0f, rho_2 = 0.0f;
+  Progress progress;
   for (int iter = 0;; ++iter) {
-    const float rr = norm(n, r);
-    res.residual = rr / norm_b;
-    // NaN fails every comparison below, so test it first rather than run to max_iters.
-    if (!std::isfinite(res.residual)) { res.code = kNotFinite; return res; }
-    if (res.residual < s.rel_tol || rr < s.abs_tol) { res.code = kConverged; return res; }
-    if (iter >= max_iters) { res.code = kMaxIterations; return res; }
+    if (finished(norm(n, r), norm_b, iter, max_iters, s, progress, res)) return res;
     ++res.iterations;  // the reference design's ++*Pdest_num_iters: counts a breakdown pass too
 
     rho_1 = dot(n, r_tilde, r);
@@ -121,12 +141,9 @@ SolveResult bicgstab(const BlockRowMatrix& A, const float* b, float* x, float* w
   copy(n, r, r_tilde);
 
   float rho_prev = 1.0f, alpha = 1.0f, omega = 1.0f;
+  Progress progress;
   for (int iter = 0;; ++iter) {
-    const float rr = norm(n, r);
-    res.residual = rr / norm_b;
-    if (!std::isfinite(res.residual)) { res.code = kNotFinite; return res; }
-    if (res.residual < s.rel_tol || rr < s.abs_tol) { res.code = kConverged; return res; }
-    if (iter >= max_iters) { res.code = kMaxIterations; return res; }
+    if (finished(norm(n, r), norm_b, iter, max_iters, s, progress, res)) return res;
     ++res.iterations;
 
     const float rho = dot(n, r_tilde, r);

@@ -16,8 +16,17 @@ bool parse_solver(const std::string& name, Solver* out);
 /// "cgs, bicgstab, direct": for messages and help text.
 std::string solver_names();
 
-/// The reference design's failure codes, kept: 0 converged, 1 max iterations, 2 rho = 0, 3 denominator = 0.
-enum SolveCode : int { kConverged = 0, kMaxIterations = 1, kRhoZero = 2, kDenominatorZero = 3, kNotFinite = 4 };
+/// The reference design's failure codes, kept: 0 converged, 1 max iterations, 2 rho = 0, 3 denominator = 0;
+/// and 4 not finite, 5 diverged (no smaller residual for as many iterations as the smallest took,
+/// and at least 100: the iterates blew up, and a halved step costs less than running to the limit).
+enum SolveCode : int {
+  kConverged = 0,
+  kMaxIterations = 1,
+  kRhoZero = 2,
+  kDenominatorZero = 3,
+  kNotFinite = 4,
+  kDiverged = 5
+};
 
 struct SolveSettings {
   float rel_tol = 1e-3f;   // the reference design's rel_tol: stop when |r| / |b| < rel_tol

@@ -30,11 +30,9 @@ Rigid_Body_Fields fields_of(const WorldBody& b) {
 
 bool isotropic(const float* I) { return I[0] == I[1] && I[1] == I[2] && I[3] == 0 && I[4] == 0 && I[5] == 0; }
 
-int32_t local_of(const std::vector<uint32_t>& bodies, uint32_t id) {
-  if (id == kWorldBody) return -1;
-  const auto it = std::lower_bound(bodies.begin(), bodies.end(), id);
-  return it != bodies.end() && *it == id ? static_cast<int32_t>(it - bodies.begin()) : -2;
-}
+constexpr int32_t kOutside = -2;  // as the kernel's validation calls a body that is not in the island
+
+int32_t local_of(const std::vector<int32_t>& local, uint32_t id) { return id == kWorldBody ? -1 : local[id]; }
 
 Contact_Force contact_instance(const WorldContact& c, const WorldSettings& s, int32_t a, int32_t b) {
   Contact_Force_Fields f;
@@ -74,11 +72,15 @@ void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& s
   p.bodies.clear();
   p.ghost.clear();
   p.result.clear();
-  // ghosts: the bodies of other parts its contacts and forces reach
+  // ghosts: the bodies of other parts its contacts and forces reach (marked: the island's
+  // bodies hold 0 in `local` until they get their index)
+  std::vector<int32_t>& local = scratch.local;
+  if (local.size() < pc.bodies.size()) local.resize(pc.bodies.size(), kOutside);
+  for (uint32_t id : isl.bodies) local[id] = 0;
   std::vector<uint32_t>& ghosts = scratch.ghosts;
   ghosts.clear();
   auto reach = [&](uint32_t id) {
-    if (id != kWorldBody && !std::binary_search(isl.bodies.begin(), isl.bodies.end(), id)) ghosts.push_back(id);
+    if (id != kWorldBody && local[id] == kOutside) ghosts.push_back(id);
   };
   for (uint32_t c : isl.contacts) reach(pc.contacts[c].a), reach(pc.contacts[c].b);
   for (uint32_t f : isl.forces) reach(pc.forces[f].a), reach(pc.forces[f].b);
@@ -98,7 +100,8 @@ void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& s
   std::merge(isl.bodies.begin(), isl.bodies.end(), ghosts.begin(), ghosts.end(), p.bodies.begin());
   for (uint32_t id : p.bodies) {
     const WorldBody& b = pc.start[id];
-    const bool ghost = std::binary_search(ghosts.begin(), ghosts.end(), id);
+    const bool ghost = local[id] == kOutside;
+    local[id] = static_cast<int32_t>(p.ghost.size());
     p.ghost.push_back(ghost);
     Rigid_Body_Fields f = fields_of(b);
     if (s.integrator == spu::Integrator::implicit_split && !isotropic(b.inertia) &&
@@ -139,16 +142,17 @@ void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& s
   });
   for (uint32_t c : cs) {
     const WorldContact& wc = pc.contacts[c];
-    ib.add(ForceType::contact, contact_instance(wc, s, local_of(p.bodies, wc.a), local_of(p.bodies, wc.b)));
+    ib.add(ForceType::contact, contact_instance(wc, s, local_of(local, wc.a), local_of(local, wc.b)));
   }
   for (uint32_t fid : isl.forces) {
     const WorldForce& f = pc.forces[fid];
     const ForceInfo& info = kForceTable[static_cast<int>(f.type)];
     std::vector<unsigned char>& inst = scratch.instance;
     inst.assign(f.instance.begin(), f.instance.end());
-    set_bodies(info, inst, local_of(p.bodies, f.a), local_of(p.bodies, f.b));
+    set_bodies(info, inst, local_of(local, f.a), local_of(local, f.b));
     ib.add_force(f.type, inst.data(), inst.size());
   }
+  for (uint32_t id : p.bodies) local[id] = kOutside;
   ib.finish(p.image);
 }
 

@@ -39,6 +39,7 @@ struct PackScratch {
   spu::IslandBuilder builder;
   std::vector<uint32_t> ghosts, jointed, contacts;
   std::vector<unsigned char> instance;
+  std::vector<int32_t> local;  // per world body: its index in the island being packed; -2 outside it
 };
 
 /// Packs one island or part from the start-of-step state (pc.start) into `out` (replaced; its

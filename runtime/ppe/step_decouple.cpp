@@ -16,20 +16,22 @@ namespace {
 // instance, every section its alignment, every coupling two blocks, every scratch the largest
 // kernel's). The footprint grows with each count, so an island under this bound needs no
 // packing to know it fits; one over it is packed and measured.
-bool surely_fits(const PackContext& pc, const IslandContent& isl, size_t fit) {
+// (`exact`: the ghosts counted one by one; otherwise every coupling end is taken for one, which
+// bounds the count from above at no cost.)
+bool surely_fits(const PackContext& pc, const IslandContent& isl, size_t fit, bool exact) {
   const auto inside = [&](uint32_t id) {
     return id == kWorldBody || std::binary_search(isl.bodies.begin(), isl.bodies.end(), id);
   };
-  size_t ghosts = 0, instances = 0;
-  for (uint32_t c : isl.contacts) {
-    ghosts += !inside(pc.contacts[c].a) + !inside(pc.contacts[c].b);
-    instances += gen::kForceTable[static_cast<int>(gen::ForceType::contact)].instance_size;
-  }
+  const size_t couplings = isl.contacts.size() + isl.forces.size();
+  size_t ghosts = exact ? 0 : 2 * couplings;
+  size_t instances = isl.contacts.size() * gen::kForceTable[static_cast<int>(gen::ForceType::contact)].instance_size;
+  for (uint32_t c : isl.contacts)
+    if (exact) ghosts += !inside(pc.contacts[c].a) + !inside(pc.contacts[c].b);
   for (uint32_t f : isl.forces) {
-    ghosts += !inside(pc.forces[f].a) + !inside(pc.forces[f].b);
+    if (exact) ghosts += !inside(pc.forces[f].a) + !inside(pc.forces[f].b);
     instances += pc.forces[f].instance.size();
   }
-  const size_t n = isl.bodies.size() + ghosts, couplings = isl.contacts.size() + isl.forces.size();
+  const size_t n = isl.bodies.size() + ghosts;
   if (n > (1u << 20)) return false;
   instances += n * (gen::kForceTable[static_cast<int>(gen::ForceType::damping)].instance_size +
                     gen::kForceTable[static_cast<int>(gen::ForceType::gyroscopic)].instance_size);
@@ -46,7 +48,7 @@ bool surely_fits(const PackContext& pc, const IslandContent& isl, size_t fit) {
 }
 
 bool fits(const PackContext& pc, const IslandContent& isl, size_t fit, PackScratch& scratch, PackedIsland& probe) {
-  if (isl.bodies.size() <= 1 || surely_fits(pc, isl, fit)) return true;
+  if (isl.bodies.size() <= 1 || surely_fits(pc, isl, fit, false) || surely_fits(pc, isl, fit, true)) return true;
   pack_island(pc, isl, scratch, probe);
   const spu::IslandView v = spu::view_island(probe.image.data());
   return spu::footprint(spu::counts_of(v)).total <= fit;

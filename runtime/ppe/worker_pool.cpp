@@ -31,35 +31,32 @@ spu::ComputeWorker& WorkerPool::worker_for(int index, const spu::IslandJob& job)
   return *wide;
 }
 
-void WorkerPool::work(int index) {
-  for (;;) {
-    size_t k;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!jobs_ || next_ >= jobs_->size()) return;  // a late waker finds the run over
-      k = next_++;
-      ++running_;
-    }
-    const spu::IslandJob& j = (*jobs_)[k];
-    spu::IslandReport r = worker_for(index, j).step(j.image, j.bytes, j.result, j.result_capacity);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      (*reports_)[k] = std::move(r);
-      --running_;
-    }
+void WorkerPool::work(int index, const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {
+  for (size_t k; (k = next_.fetch_add(1, std::memory_order_relaxed)) < jobs.size();) {
+    const spu::IslandJob& j = jobs[k];
+    reports[k] = worker_for(index, j).step(j.image, j.bytes, j.result, j.result_capacity);
   }
 }
 
 void WorkerPool::loop(int index) {
   uint64_t seen = 0;
   for (;;) {
+    const std::vector<spu::IslandJob>* jobs;
+    std::vector<spu::IslandReport>* reports;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
       if (stop_) return;
       seen = generation_;
+      if (!jobs_) continue;  // a late waker finds the run over
+      jobs = jobs_, reports = reports_;
+      ++joined_;
     }
-    work(index);
+    work(index, *jobs, *reports);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      --joined_;
+    }
     done_.notify_all();
   }
 }
@@ -71,13 +68,15 @@ void WorkerPool::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::I
     std::lock_guard<std::mutex> lock(mutex_);
     jobs_ = &jobs;
     reports_ = &reports;
-    next_ = 0;
+    next_.store(0, std::memory_order_relaxed);
     ++generation_;
   }
-  wake_.notify_all();
-  work(0);
+  if (!threads_.empty()) wake_.notify_all();
+  work(0, jobs, reports);
+  // Every job is taken; the threads that joined finish theirs (their reports are published by
+  // the lock they leave under).
   std::unique_lock<std::mutex> lock(mutex_);
-  done_.wait(lock, [&] { return next_ >= jobs.size() && running_ == 0; });
+  done_.wait(lock, [&] { return joined_ == 0; });
   jobs_ = nullptr;
   reports_ = nullptr;
 }

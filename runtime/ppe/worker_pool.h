@@ -5,6 +5,7 @@
 // whose store is grown to fit it (main memory standing in for blocks streamed through the
 // store): the same kernel, so the same result as a store that big.
 #pragma once
+#include <atomic>
 #include <condition_variable>
 #include <functional>
 #include <memory>
@@ -29,7 +30,8 @@ class WorkerPool : public IslandRunner {
 
  private:
   void loop(int index);
-  void work(int index);
+  // Takes jobs until none is left; `jobs` and `reports` are the run's, held while `joined`.
+  void work(int index, const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports);
   spu::ComputeWorker& worker_for(int index, const spu::IslandJob& job);
   std::vector<std::unique_ptr<spu::ComputeWorker>> workers_;
   std::vector<std::unique_ptr<spu::ComputeWorker>> wide_;  // per thread, made on first use
@@ -39,8 +41,8 @@ class WorkerPool : public IslandRunner {
   std::condition_variable wake_, done_;
   const std::vector<spu::IslandJob>* jobs_ = nullptr;
   std::vector<spu::IslandReport>* reports_ = nullptr;
-  size_t next_ = 0;
-  int running_ = 0;  // jobs being computed right now
+  std::atomic<size_t> next_{0};  // the next job to take: taken without the lock, each job's report its own slot
+  int joined_ = 0;                // threads working on the current run
   uint64_t generation_ = 0;
   bool stop_ = false;
 };

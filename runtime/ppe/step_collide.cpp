@@ -134,36 +134,59 @@ void drop_joined_pairs(const std::vector<WorldForce>& forces, CollideScratch& c)
                 c.pairs.end());
 }
 
+void find_manifold(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                   const CollideScratch& c, std::pair<uint32_t, uint32_t> pair, PairManifold& m) {
+  m.a = pair.first, m.b = pair.second;
+  m.sensing = bodies[m.a].sensor || bodies[m.b].sensor;
+  m.k = -1;
+  if (m.sensing && bodies[m.a].sensor == bodies[m.b].sensor) return;  // sensors do not sense sensors
+  if (m.sensing ? bodies[m.a].sensor : bodies[m.a].is_static) std::swap(m.a, m.b);
+  const float margin = m.sensing ? 0.0f : s.globals.contact_slop + c.reach[m.a] + c.reach[m.b];
+  m.k = spu::collide(shapes.view(bodies[m.a].shape), pose_of(bodies[m.a]), shapes.view(bodies[m.b].shape),
+                     pose_of(bodies[m.b]), margin, m.cp);
+}
+
+// Pairs a task of the parallel narrow phase takes at a time, and the fewest pairs worth the threads.
+constexpr size_t kPairsPerTask = 32, kParallelPairs = 256;
+
 void narrow_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
-                  CollideScratch& c, std::vector<WorldContact>& contacts, StepStats& st) {
+                  WorkerPool* pool, CollideScratch& c, std::vector<WorldContact>& contacts, StepStats& st) {
   contacts.clear();
   c.touched.clear();
   c.sensed.clear();
-  for (const auto& [i, j] : c.pairs) {
-    uint32_t a = i, b = j;
-    const bool sensing = bodies[a].sensor || bodies[b].sensor;
-    if (sensing && bodies[a].sensor == bodies[b].sensor) continue;  // sensors do not sense sensors
-    if (sensing ? bodies[a].sensor : bodies[a].is_static) std::swap(a, b);
-    spu::ContactPoint cp[spu::kMaxManifoldPoints];
-    const float margin = sensing ? 0.0f : s.globals.contact_slop + c.reach[a] + c.reach[b];
-    const int k = spu::collide(shapes.view(bodies[a].shape), pose_of(bodies[a]), shapes.view(bodies[b].shape),
-                               pose_of(bodies[b]), margin, cp);
-    if (sensing) {  // a is the visitor, b the sensor: inside while a point overlaps
-      if (std::any_of(cp, cp + k, [](const spu::ContactPoint& p) { return p.penetration > 0.0f; })) c.sensed.emplace_back(b, a);
-      continue;
+  // The manifolds are found in any order (on several threads), and taken in pair order.
+  auto take = [&](const PairManifold& m) {
+    if (m.k < 0) return;
+    if (m.sensing) {  // a is the visitor, b the sensor: inside while a point overlaps
+      if (std::any_of(m.cp, m.cp + m.k, [](const spu::ContactPoint& p) { return p.penetration > 0.0f; }))
+        c.sensed.emplace_back(m.b, m.a);
+      return;
     }
-    if (k > 0) ++st.narrow_phase_pairs;
-    if (k > 0) c.touched.push_back({a, b, uint32_t(contacts.size()), uint32_t(k)});
-    const float mu = std::sqrt(bodies[a].friction * bodies[b].friction);
-    for (int p = 0; p < k; ++p) contacts.push_back({a, bodies[b].is_static ? kWorldBody : b, cp[p], mu, 0.0f, 0.0f, {}, 1.0f});
+    if (m.k > 0) ++st.narrow_phase_pairs;
+    if (m.k > 0) c.touched.push_back({m.a, m.b, uint32_t(contacts.size()), uint32_t(m.k)});
+    const float mu = std::sqrt(bodies[m.a].friction * bodies[m.b].friction);
+    for (int p = 0; p < m.k; ++p)
+      contacts.push_back({m.a, bodies[m.b].is_static ? kWorldBody : m.b, m.cp[p], mu, 0.0f, 0.0f, {}, 1.0f});
+  };
+  const size_t n = c.pairs.size();
+  if (!pool || pool->size() < 2 || n < kParallelPairs) {
+    PairManifold m;
+    for (const auto& pair : c.pairs) find_manifold(bodies, shapes, s, c, pair, m), take(m);
+    return;
   }
+  c.manifolds.resize(n);
+  pool->for_each((n + kPairsPerTask - 1) / kPairsPerTask, [&](size_t task, int) {
+    for (size_t p = task * kPairsPerTask; p < std::min(n, (task + 1) * kPairsPerTask); ++p)
+      find_manifold(bodies, shapes, s, c, c.pairs[p], c.manifolds[p]);
+  });
+  for (const PairManifold& m : c.manifolds) take(m);
 }
 
 }  // namespace
 
 void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const ShapeDictionary& shapes,
-             const WorldSettings& settings, const BodyChanges& changes, CollideScratch& scratch, ContactMemory& memory,
-             std::vector<WorldContact>& contacts, StepStats& st) {
+             const WorldSettings& settings, const BodyChanges& changes, WorkerPool* pool, CollideScratch& scratch,
+             ContactMemory& memory, std::vector<WorldContact>& contacts, StepStats& st) {
   {
     StageTimer t(st.times.broad_ms);
     broad_phase(bodies, shapes, settings, changes, scratch, st);
@@ -177,7 +200,7 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
     st.mid_phase_pairs = static_cast<uint32_t>(scratch.pairs.size());
   }
   StageTimer t(st.times.narrow_ms);
-  narrow_phase(bodies, shapes, settings, scratch, contacts, st);
+  narrow_phase(bodies, shapes, settings, pool, scratch, contacts, st);
   carry_loads(bodies, forces, settings, contacts, scratch.loads);
   scratch.woken.clear();
   for (uint32_t i : changes.changed)

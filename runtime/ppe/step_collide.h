@@ -13,6 +13,7 @@
 #include "runtime/ppe/contact_memory.h"
 #include "runtime/ppe/step_events.h"
 #include "runtime/ppe/step_stats.h"
+#include "runtime/ppe/worker_pool.h"
 
 namespace cellphys::ppe {
 
@@ -26,6 +27,15 @@ struct BodyChanges {
   const std::vector<uint32_t>& awake;
   const std::vector<uint32_t>& changed;
   bool all;
+};
+
+/// One pair's manifold as the narrow phase finds it: a the dynamic body (or a sensor's
+/// visitor), k points (k < 0: the pair is skipped, two sensors).
+struct PairManifold {
+  uint32_t a, b;
+  int k;
+  bool sensing;
+  spu::ContactPoint cp[spu::kMaxManifoldPoints];
 };
 
 /// What collision keeps between steps (the sweep's order, the still boxes) and reuses (its
@@ -42,6 +52,7 @@ struct CollideScratch {
   std::vector<BoxKind> kinds;
   std::vector<uint32_t> planes;  // ascending
   std::vector<uint32_t> woken;   // this step: the changed bodies awake now, ascending
+  std::vector<PairManifold> manifolds;  // per pair, when the narrow phase runs on several threads
   std::vector<std::pair<uint32_t, uint32_t>> pairs;
   std::vector<uint64_t> joined;  // body pairs a joint joins (low id << 32 | high id), sorted
   std::vector<TouchedPair> touched;                   // the pairs with contacts, for the events
@@ -54,9 +65,11 @@ struct CollideScratch {
 /// pair's memory (then updated). Two bodies a joint joins (a force whose descriptor says
 /// `joint: true`) do not collide: a ragdoll's limbs overlap at their joints by design. A pair with
 /// a sensor gives no contacts: it is in scratch.sensed while the two overlap. Times
-/// broad, mid and narrow phase (with the recall).
+/// broad, mid and narrow phase (with the recall). The narrow phase finds the pairs' manifolds
+/// on the pool's threads when it has several (`pool` may be null), and takes them in pair order:
+/// the same contacts on any number of threads.
 void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const ShapeDictionary& shapes,
-             const WorldSettings& settings, const BodyChanges& changes, CollideScratch& scratch, ContactMemory& memory,
-             std::vector<WorldContact>& contacts, StepStats& st);
+             const WorldSettings& settings, const BodyChanges& changes, WorkerPool* pool, CollideScratch& scratch,
+             ContactMemory& memory, std::vector<WorldContact>& contacts, StepStats& st);
 
 }  // namespace cellphys::ppe

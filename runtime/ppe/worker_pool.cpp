@@ -31,28 +31,25 @@ spu::ComputeWorker& WorkerPool::worker_for(int index, const spu::IslandJob& job)
   return *wide;
 }
 
-void WorkerPool::work(int index, const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {
-  for (size_t k; (k = next_.fetch_add(1, std::memory_order_relaxed)) < jobs.size();) {
-    const spu::IslandJob& j = jobs[k];
-    reports[k] = worker_for(index, j).step(j.image, j.bytes, j.result, j.result_capacity);
-  }
+void WorkerPool::work(int index, const std::function<void(size_t, int)>& task, size_t count) {
+  for (size_t k; (k = next_.fetch_add(1, std::memory_order_relaxed)) < count;) task(k, index);
 }
 
 void WorkerPool::loop(int index) {
   uint64_t seen = 0;
   for (;;) {
-    const std::vector<spu::IslandJob>* jobs;
-    std::vector<spu::IslandReport>* reports;
+    const std::function<void(size_t, int)>* task;
+    size_t count;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
       if (stop_) return;
       seen = generation_;
-      if (!jobs_) continue;  // a late waker finds the run over
-      jobs = jobs_, reports = reports_;
+      if (!task_) continue;  // a late waker finds the task over
+      task = task_, count = count_;
       ++joined_;
     }
-    work(index, *jobs, *reports);
+    work(index, *task, count);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       --joined_;
@@ -61,24 +58,34 @@ void WorkerPool::loop(int index) {
   }
 }
 
-void WorkerPool::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {
-  reports.assign(jobs.size(), spu::IslandReport{});
-  if (jobs.empty()) return;
+void WorkerPool::for_each(size_t count, const std::function<void(size_t, int)>& task) {
+  if (count == 0) return;
+  if (threads_.empty() || count == 1) {
+    for (size_t k = 0; k < count; ++k) task(k, 0);
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    jobs_ = &jobs;
-    reports_ = &reports;
+    task_ = &task;
+    count_ = count;
     next_.store(0, std::memory_order_relaxed);
     ++generation_;
   }
-  if (!threads_.empty()) wake_.notify_all();
-  work(0, jobs, reports);
-  // Every job is taken; the threads that joined finish theirs (their reports are published by
-  // the lock they leave under).
+  wake_.notify_all();
+  work(0, task, count);
+  // Every item is taken; the threads that joined finish theirs (what they wrote is published
+  // by the lock they leave under).
   std::unique_lock<std::mutex> lock(mutex_);
   done_.wait(lock, [&] { return joined_ == 0; });
-  jobs_ = nullptr;
-  reports_ = nullptr;
+  task_ = nullptr;
+}
+
+void WorkerPool::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {
+  reports.assign(jobs.size(), spu::IslandReport{});
+  for_each(jobs.size(), [&](size_t k, int thread) {
+    const spu::IslandJob& j = jobs[k];
+    reports[k] = worker_for(thread, j).step(j.image, j.bytes, j.result, j.result_capacity);
+  });
 }
 
 }  // namespace cellphys::ppe

@@ -7,6 +7,7 @@
 #pragma once
 #include <atomic>
 #include <condition_variable>
+#include <cstddef>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -25,13 +26,16 @@ class WorkerPool : public IslandRunner {
   int size() const { return static_cast<int>(workers_.size()); }
   /// Runs every job (in the given order of priority) and returns when all are done.
   void run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) override;
+  /// task(i, thread) for every i in [0, count), each once, on the pool's threads (the calling
+  /// one is thread 0); returns when all are done. Whatever a task writes must be its own.
+  void for_each(size_t count, const std::function<void(size_t, int)>& task);
   const char* name() const override { return "threads"; }
   size_t whole_island_bytes() const override { return whole_island_bytes_; }
 
  private:
   void loop(int index);
-  // Takes jobs until none is left; `jobs` and `reports` are the run's, held while `joined`.
-  void work(int index, const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports);
+  // Takes items of the current task until none is left.
+  void work(int index, const std::function<void(size_t, int)>& task, size_t count);
   spu::ComputeWorker& worker_for(int index, const spu::IslandJob& job);
   std::vector<std::unique_ptr<spu::ComputeWorker>> workers_;
   std::vector<std::unique_ptr<spu::ComputeWorker>> wide_;  // per thread, made on first use
@@ -39,10 +43,10 @@ class WorkerPool : public IslandRunner {
   std::vector<std::thread> threads_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
-  const std::vector<spu::IslandJob>* jobs_ = nullptr;
-  std::vector<spu::IslandReport>* reports_ = nullptr;
-  std::atomic<size_t> next_{0};  // the next job to take: taken without the lock, each job's report its own slot
-  int joined_ = 0;                // threads working on the current run
+  const std::function<void(size_t, int)>* task_ = nullptr;  // the current for_each's, held while joined
+  size_t count_ = 0;
+  std::atomic<size_t> next_{0};  // the next item to take: taken without the lock
+  int joined_ = 0;                // threads working on the current task
   uint64_t generation_ = 0;
   bool stop_ = false;
 };

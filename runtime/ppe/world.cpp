@@ -203,7 +203,8 @@ const StepStats& World::step() {
     w.sleeping.changed.clear();
     w.sleeping.all_changed = false;
     const BodyChanges changes{w.awake.ids(), w.step_changed, all};
-    collide(w.bodies, w.forces, shapes_, settings_, changes, w.collide, w.contact_memory, w.contacts, st);  // 1
+    collide(w.bodies, w.forces, shapes_, settings_, changes, &w.workers(settings_), w.collide, w.contact_memory,  // 1
+            w.contacts, st);
     PendingEvents events;  // 8, begun: what a touch's begin measures before the step moves anything
     {
       StageTimer t(st.times.events_ms);

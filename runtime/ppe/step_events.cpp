@@ -152,13 +152,14 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDict
   // it wakes); what collides anew may begin. One pass over the memory against this step's
   // pairs, sorted: a step costs what is awake.
   {
-    std::vector<uint64_t> back;
+    std::vector<uint64_t>& back = memory.back;
+    back.clear();
     if (all) back = memory.resting.keys(), memory.resting.clear();
     else memory.resting.take(woken, back);
     merge_in(memory.touching, back);
   }
-  std::vector<uint64_t> found;
-  found.reserve(touched.size());
+  std::vector<uint64_t>& found = memory.found;
+  found.clear();
   for (const TouchedPair& t : touched) {
     const uint64_t k = key_of(std::min(t.a, t.b), std::max(t.a, t.b));
     found.push_back(k);
@@ -166,7 +167,8 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDict
       out.candidates.push_back(candidate(bodies, s, contacts, t));
   }
   std::sort(found.begin(), found.end());
-  std::vector<uint64_t> resting;
+  std::vector<uint64_t>& resting = memory.resting_now;
+  resting.clear();
   const auto aside = [&](uint64_t k) { return kept(bodies, k) && (resting.push_back(k), true); };
   const auto closing = [&](uint64_t k) { return still_closing(bodies, shapes, s, reach, k); };
   keep_or_end(found, memory.touching, closing, aside, [&](uint64_t k) {

@@ -20,6 +20,7 @@ struct EventMemory {
   std::vector<uint64_t> sensing;   // sensor << 32 | visitor, sorted
   std::vector<ContactEvent> removed_touches;
   std::vector<SensorEvent> removed_overlaps;
+  std::vector<uint64_t> found, back, resting_now;  // the stage's buffers (not kept: a snapshot leaves them out)
 };
 
 /// A pair of bodies collision found this step: `contacts[first, first + count)` are its points

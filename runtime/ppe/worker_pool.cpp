@@ -31,25 +31,25 @@ spu::ComputeWorker& WorkerPool::worker_for(int index, const spu::IslandJob& job)
   return *wide;
 }
 
-void WorkerPool::work(int index, const std::function<void(size_t, int)>& task, size_t count) {
-  for (size_t k; (k = next_.fetch_add(1, std::memory_order_relaxed)) < count;) task(k, index);
+void WorkerPool::work(int index, TaskRef task, size_t count) {
+  for (size_t k; (k = next_.fetch_add(1, std::memory_order_relaxed)) < count;) task.call(task.context, k, index);
 }
 
 void WorkerPool::loop(int index) {
   uint64_t seen = 0;
   for (;;) {
-    const std::function<void(size_t, int)>* task;
+    TaskRef task;
     size_t count;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
       if (stop_) return;
       seen = generation_;
-      if (!task_) continue;  // a late waker finds the task over
+      if (!task_.call) continue;  // a late waker finds the task over
       task = task_, count = count_;
       ++joined_;
     }
-    work(index, *task, count);
+    work(index, task, count);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       --joined_;
@@ -58,15 +58,15 @@ void WorkerPool::loop(int index) {
   }
 }
 
-void WorkerPool::for_each(size_t count, const std::function<void(size_t, int)>& task) {
+void WorkerPool::run_task(size_t count, TaskRef task) {
   if (count == 0) return;
   if (threads_.empty() || count == 1) {
-    for (size_t k = 0; k < count; ++k) task(k, 0);
+    for (size_t k = 0; k < count; ++k) task.call(task.context, k, 0);
     return;
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    task_ = &task;
+    task_ = task;
     count_ = count;
     next_.store(0, std::memory_order_relaxed);
     ++generation_;
@@ -77,7 +77,7 @@ void WorkerPool::for_each(size_t count, const std::function<void(size_t, int)>& 
   // by the lock they leave under).
   std::unique_lock<std::mutex> lock(mutex_);
   done_.wait(lock, [&] { return joined_ == 0; });
-  task_ = nullptr;
+  task_ = {nullptr, nullptr};
 }
 
 void WorkerPool::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {

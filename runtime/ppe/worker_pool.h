@@ -8,7 +8,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstddef>
-#include <functional>
+#include <type_traits>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -28,14 +28,24 @@ class WorkerPool : public IslandRunner {
   void run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) override;
   /// task(i, thread) for every i in [0, count), each once, on the pool's threads (the calling
   /// one is thread 0); returns when all are done. Whatever a task writes must be its own.
-  void for_each(size_t count, const std::function<void(size_t, int)>& task);
+  template <class Task>
+  void for_each(size_t count, Task&& task) {
+    using T = std::remove_reference_t<Task>;
+    run_task(count, {&task, [](void* t, size_t k, int thread) { (*static_cast<T*>(t))(k, thread); }});
+  }
   const char* name() const override { return "threads"; }
   size_t whole_island_bytes() const override { return whole_island_bytes_; }
 
  private:
+  // A task without its type (no allocation, unlike std::function): what for_each runs.
+  struct TaskRef {
+    void* context;
+    void (*call)(void*, size_t, int);
+  };
+  void run_task(size_t count, TaskRef task);
   void loop(int index);
   // Takes items of the current task until none is left.
-  void work(int index, const std::function<void(size_t, int)>& task, size_t count);
+  void work(int index, TaskRef task, size_t count);
   spu::ComputeWorker& worker_for(int index, const spu::IslandJob& job);
   std::vector<std::unique_ptr<spu::ComputeWorker>> workers_;
   std::vector<std::unique_ptr<spu::ComputeWorker>> wide_;  // per thread, made on first use
@@ -43,7 +53,7 @@ class WorkerPool : public IslandRunner {
   std::vector<std::thread> threads_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
-  const std::function<void(size_t, int)>* task_ = nullptr;  // the current for_each's, held while joined
+  TaskRef task_{nullptr, nullptr};  // the current for_each's, held while joined
   size_t count_ = 0;
   std::atomic<size_t> next_{0};  // the next item to take: taken without the lock
   int joined_ = 0;                // threads working on the current task

@@ -1,9 +1,11 @@
 #include "runtime/spu/island_image.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <vector>
 
 #include "runtime/base/enum_names.h"
 #include "runtime/spu/krylov.h"
@@ -26,6 +28,48 @@ int32_t read_i32(const unsigned char* p) {
   int32_t v;
   std::memcpy(&v, p, 4);
   return v;
+}
+
+// The 4-byte words of each force type's instance that hold its parameters, as runs of
+// consecutive words: what validation checks for finiteness, in one pass an instance.
+struct ParamWords {
+  uint32_t runs[2 * 32];  // [first, end) word pairs
+  int count = 0;
+};
+const ParamWords& param_words(int force_type) {
+  static const auto table = [] {
+    std::array<ParamWords, kNumForceTypes> t{};
+    for (int f = 0; f < kNumForceTypes; ++f) {
+      std::vector<uint32_t> words;
+      for (uint32_t p = 0; p < kForceTable[f].num_params; ++p)
+        for (uint32_t l = 0; l < kForceTable[f].params[p].lanes; ++l) words.push_back(kForceTable[f].params[p].offset / 4 + l);
+      std::sort(words.begin(), words.end());
+      words.erase(std::unique(words.begin(), words.end()), words.end());
+      for (size_t i = 0; i < words.size(); ++i) {
+        ParamWords& w = t[f];
+        if (w.count > 0 && w.runs[2 * w.count - 1] == words[i]) {
+          ++w.runs[2 * w.count - 1];
+        } else {
+          if (w.count == 32) throw std::logic_error("a force type's parameters lie in more than 32 runs");
+          w.runs[2 * w.count] = words[i], w.runs[2 * w.count + 1] = words[i] + 1, ++w.count;
+        }
+      }
+    }
+    return t;
+  }();
+  return table[force_type];
+}
+
+// Every parameter of the instance is finite (its exponent bits not all ones).
+bool params_finite(const unsigned char* inst, const ParamWords& w) {
+  uint32_t bad = 0;
+  for (int r = 0; r < w.count; ++r)
+    for (uint32_t k = w.runs[2 * r]; k < w.runs[2 * r + 1]; ++k) {
+      uint32_t bits;
+      std::memcpy(&bits, inst + 4 * k, 4);
+      bad |= uint32_t((bits & 0x7f800000u) == 0x7f800000u);
+    }
+  return bad == 0;
 }
 
 // Body pair (a, b) of every pair instance of every binary section, as (row, col) both ways.
@@ -135,6 +179,7 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
     if (sec.world_count > 0 && !info.world_anchor) return std::string("section ") + std::to_string(s) + ": " + info.name + " cannot be anchored to the world";
     const size_t n = size_t{sec.count} * info.instance_size;
     if (sec.offset + n > bytes) return "section " + std::to_string(s) + ": instances run past the end";
+    const ParamWords& words = param_words(int(sec.force_type));
     for (uint32_t k = 0; k < sec.count; ++k) {
       const unsigned char* inst = image + sec.offset + size_t{k} * info.instance_size;
       const int32_t a = read_i32(inst + info.offset_body_a);
@@ -145,7 +190,8 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
         if (world ? b != -1 : (b < 0 || static_cast<uint32_t>(b) >= h.num_bodies || b == a))
           return std::string(info.name) + " instance " + std::to_string(k) + ": body b " + std::to_string(b) + " invalid";
       }
-      for (uint32_t p = 0; p < info.num_params; ++p) {
+      if (params_finite(inst, words)) continue;
+      for (uint32_t p = 0; p < info.num_params; ++p) {  // which one, for the message
         const ParamInfo& pi = info.params[p];
         float vals[3];
         std::memcpy(vals, inst + pi.offset, 4 * pi.lanes);

@@ -5,6 +5,10 @@
 //  - the 65-box pile after 0.5 s of settling, all awake (the reference scene, 1 kg boxes;
 //    and the same pile of 62.5 kg crates);
 //  - the sparse 1,000-body world at its start (all awake) and after 10 s (most asleep).
+//  - per-island cost by island size: N separate stacks of k boxes (k = 1, 2, 4, 8, 16, 65;
+//    about 1,040 boxes in all), after 0.5 s, all awake; ns_per_island and ns_per_body;
+//  - a step of the 100,000-body sparse world with every body asleep (built and settled once
+//    per process, untimed, on the first run of BM_Sleeping100k).
 // The awake cases restore the same state before every step (outside the timing), so every
 // iteration times the same step; the 10 s case keeps stepping its mostly sleeping world.
 // allocs_per_step counts the heap allocations made inside world.step() (this binary replaces
@@ -13,6 +17,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <memory>
 #include <new>
@@ -197,5 +203,110 @@ BENCHMARK(BM_Sparse1000Step)
     ->Args({10, 1})
     ->Args({10, 2})
     ->Unit(benchmark::kMicrosecond);
+
+// Per-island cost by island size. arg 0: boxes per stack k; arg 1: workers. N = 1040 / k
+// separate stacks of k 1 kg boxes (0.25 m half-extent, one dictionary box, each resting exactly
+// on the one below) on a 2 m grid on the ground: N islands of k bodies, about 1,040 bodies in
+// all. Timed after 0.5 s (landed, awake: sleeping is off), the state restored before every
+// step. ns_per_island and ns_per_body: the step's wall time over N and over N k.
+void BM_IslandSize(benchmark::State& state) {
+  const int k = int(state.range(0));
+  const int n = std::max(1, 1040 / k);
+  WorldSettings s;
+  s.sleeping = false;
+  s.workers = int(state.range(1));
+  World w(s);
+  ground_plane(w);
+  const float h = 0.25f, half[3] = {h, h, h};
+  ppe::BodyDesc d;
+  d.shape = w.shapes().add_box(half);
+  d.mass = 1.0f;
+  const int side = int(std::ceil(std::sqrt(double(n))));
+  std::vector<BodyId> bodies;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < k; ++j) {
+      d.state.position[0] = 2.0f * float(i % side - side / 2);
+      d.state.position[1] = 2.0f * float(i / side - side / 2);
+      d.state.position[2] = h + float(j) * 2 * h;
+      bodies.push_back(w.add_body(d));
+    }
+  }
+  for (int i = 0; i < 30; ++i) w.step();
+  Snapshot snap;
+  snap.take(w, bodies);
+  Sums sums;
+  double wall = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    snap.restore(w);
+    state.ResumeTiming();
+    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
+    const auto t0 = std::chrono::steady_clock::now();
+    sums.add(w.step());
+    wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    sums.allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
+  }
+  sums.report(state);
+  const double per_step_ns = 1e9 * wall / double(std::max<benchmark::IterationCount>(1, state.iterations()));
+  state.counters["ns_per_island"] = per_step_ns / n;
+  state.counters["ns_per_body"] = per_step_ns / (double(n) * k);
+  state.counters["stacks"] = n;
+  state.counters["max_speed"] = max_speed(w, bodies);
+  state.SetLabel(std::to_string(n) + " stacks of " + std::to_string(k) + ", after 0.5 s");
+}
+BENCHMARK(BM_IslandSize)
+    ->ArgNames({"k", "workers"})
+    ->Args({1, 1})
+    ->Args({2, 1})
+    ->Args({4, 1})
+    ->Args({8, 1})
+    ->Args({16, 1})
+    ->Args({65, 1})
+    ->Args({1, 2})
+    ->Args({65, 2})
+    ->Unit(benchmark::kMicrosecond);
+
+// The 100,000-body sparse world (sparse_world(w, 100000, 1000, 1): world1000's mix at the same
+// density) stepped until every body sleeps (at most 60 simulated seconds), once per process
+// and untimed; then a step of it, everything asleep. settle_s: the simulated seconds it took.
+struct SleepingWorld {
+  std::unique_ptr<World> world;
+  std::vector<BodyId> bodies;
+  double settle_s = 0, settle_wall_s = 0;
+};
+
+SleepingWorld& sleeping_world() {
+  static SleepingWorld* sw = [] {
+    auto* p = new SleepingWorld;  // kept to the end of the process
+    p->world = std::make_unique<World>(WorldSettings{});
+    p->bodies = sparse_world(*p->world, 100000, 1000.0f, 1);
+    const auto t0 = std::chrono::steady_clock::now();
+    int steps = 0;
+    const int n = int(p->bodies.size());
+    while (steps < 3600 && count_asleep(*p->world, p->bodies) < n) p->world->step(), ++steps;
+    p->settle_s = steps / 60.0;
+    p->settle_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return p;
+  }();
+  return *sw;
+}
+
+void BM_Sleeping100k(benchmark::State& state) {
+  SleepingWorld& sw = sleeping_world();
+  World& w = *sw.world;
+  Sums sums;
+  for (auto _ : state) {
+    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
+    sums.add(w.step());
+    sums.allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
+  }
+  sums.report(state);
+  state.counters["bodies"] = double(sw.bodies.size());
+  state.counters["asleep"] = count_asleep(w, sw.bodies);
+  state.counters["settle_s"] = sw.settle_s;
+  state.counters["settle_wall_s"] = sw.settle_wall_s;
+  state.SetLabel("settled until every body sleeps, then stepped");
+}
+BENCHMARK(BM_Sleeping100k)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

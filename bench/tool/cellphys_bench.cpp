@@ -8,9 +8,21 @@
 //       wall time of each run's stepping (median and all), and the first run's trajectory of
 //       every dynamic body every K steps (K = 0: the initial and final states only).
 //   cellphys_bench throughput SCENE --engine E [...] [--warmup W] --timed N --settle S
+//                  [--until-asleep 1]
 //       Steps W simulated seconds untimed (0: none), times N single steps (bodies awake), steps
 //       on untimed to S simulated seconds, then times N more (most bodies asleep): the median
-//       of each phase.
+//       of each phase. --until-asleep 1 makes S a limit: the settling stops at the first step
+//       after which no body is active (settled_at says when, in simulated seconds; null if it
+//       never did, settle_wall_s how long it took).
+//   cellphys_bench rest SCENE --engine E [...] --steps N [--budget W]
+//       For a structure built at rest (a pyramid): times N single steps from the start and
+//       reports the median and mean ms per step (the mean leaves out the first step, as Box3D's
+//       benchmark does, and the first is reported alone), then how far the world moved from its
+//       start: the top's sink (the bodies that start highest: the most any of them went down),
+//       the largest sideways drift of any body (its displacement across gravity), the largest
+//       drop of any body, and the kinetic energy at the end (translation and rotation, J), the
+//       fastest body at the end. --budget W stops after W wall seconds of stepping (steps_done
+//       says where; the figures are then those of that step).
 //   cellphys_bench stability SCENE --engine E [...] --dts H1,H2,... --steps N [--max-speed V]
 //                  [--separate-within S] [--separation D]
 //       Runs N steps at each step size, largest first, until one stays bounded; reports how each
@@ -94,6 +106,7 @@ struct Args {
   std::string command, scene, engine = "cellphys", variant;
   double dt = 0, tolerance = 0, duration = 1, settle = 0, warmup = 0;
   double max_speed = 0, separate_within = 0, separation = 0.01, budget = 0;
+  bool until_asleep = false;
   int workers = 0, iterations = 0, reps = 1, record = 0, timed = 20, steps = 400;
   std::vector<double> dts;
 };
@@ -132,6 +145,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--separate-within") a.separate_within = std::stod(v);
     else if (k == "--separation") a.separation = std::stod(v);
     else if (k == "--budget") a.budget = std::stod(v);
+    else if (k == "--until-asleep") a.until_asleep = std::stoi(v) != 0;
     else if (k == "--timed") a.timed = std::max(1, std::stoi(v));
     else if (k == "--steps") a.steps = std::max(1, std::stoi(v));
     else if (k == "--dts") {
@@ -256,7 +270,15 @@ int cmd_throughput(const Args& a, const scene::SceneDesc& sc) {
   const long active_awake = peer->active_bodies();
   n += a.timed;
   const long settle_steps = std::lround(a.settle / dt);
-  while (n < settle_steps) peer->step(), ++n;
+  double settled_at = NAN;
+  if (a.until_asleep && peer->active_bodies() == 0) settled_at = n * dt;
+  const auto ts = Clock::now();
+  while (n < settle_steps && !std::isfinite(settled_at)) {
+    peer->step(), ++n;
+    if (a.until_asleep && peer->active_bodies() == 0) settled_at = n * dt;
+  }
+  const double settle_wall = std::chrono::duration<double>(Clock::now() - ts).count();
+  const long active_before = a.settle > 0 ? peer->active_bodies() : -1;
   if (a.settle > 0) phase(settled);
   bool finite = true;
   for (size_t i : dyn) finite = finite && finite_state(peer->state(i));
@@ -264,7 +286,78 @@ int cmd_throughput(const Args& a, const scene::SceneDesc& sc) {
             << ",\"bodies\":" << dyn.size() << ",\"build_s\":" << jnum(build_s)
             << ",\"ms_awake\":" << jnum(median(awake)) << ",\"active_awake\":" << active_awake
             << ",\"ms_settled\":" << jnum(median(settled)) << ",\"active_settled\":"
-            << (a.settle > 0 ? peer->active_bodies() : -1) << ",\"finite\":" << (finite ? "true" : "false") << "}\n";
+            << (a.settle > 0 ? peer->active_bodies() : -1) << ",\"active_before_settled\":" << active_before
+            << ",\"settled_at\":" << jnum(settled_at) << ",\"settle_wall_s\":" << jnum(settle_wall)
+            << ",\"finite\":" << (finite ? "true" : "false") << "}\n";
+  return 0;
+}
+
+int cmd_rest(const Args& a, const scene::SceneDesc& sc) {
+  const double dt = a.dt > 0 ? a.dt : sc.settings.dt;
+  const auto tb = Clock::now();
+  auto peer = make_peer(sc, config_of(a, dt));
+  const double build_s = std::chrono::duration<double>(Clock::now() - tb).count();
+  const std::vector<size_t> dyn = dynamic_bodies(sc);
+  const std::vector<BodyInfo> info = body_info(sc);
+  std::vector<State> start(sc.bodies.size());
+  for (size_t i : dyn) start[i] = peer->state(i);
+  // "Down" is along gravity (or -z without it); sideways is across it.
+  double down[3] = {0, 0, -1};
+  const auto& g = sc.settings.globals.gravity;
+  const double gn = std::sqrt(double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2]);
+  if (gn > 0)
+    for (int k = 0; k < 3; ++k) down[k] = g[k] / gn;
+  auto depth = [&](const State& s) { return s.p[0] * down[0] + s.p[1] * down[1] + s.p[2] * down[2]; };
+  double top = INFINITY;  // the smallest depth: the highest start
+  for (size_t i : dyn) top = std::min(top, depth(start[i]));
+  std::vector<double> ms;
+  double wall = 0;
+  bool finite = true;
+  long n = 0;
+  while (n < a.steps && !(a.budget > 0 && wall > a.budget)) {
+    const auto t0 = Clock::now();
+    peer->step();
+    const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+    wall += s;
+    ms.push_back(1e3 * s);
+    ++n;
+  }
+  double top_sink = -INFINITY, drift = 0, drop = -INFINITY, kinetic = 0, fastest = 0;
+  long tops = 0;
+  for (size_t i : dyn) {
+    const State s = peer->state(i);
+    if (!finite_state(s)) {
+      finite = false;
+      continue;
+    }
+    const double sink = depth(s) - depth(start[i]);
+    if (depth(start[i]) < top + 1e-3) top_sink = std::max(top_sink, sink), ++tops;
+    drop = std::max(drop, sink);
+    double d[3], across = 0;
+    for (int k = 0; k < 3; ++k) d[k] = s.p[k] - start[i].p[k];
+    const double along = d[0] * down[0] + d[1] * down[1] + d[2] * down[2];
+    for (int k = 0; k < 3; ++k) across += (d[k] - along * down[k]) * (d[k] - along * down[k]);
+    drift = std::max(drift, std::sqrt(across));
+    double Iw[3];
+    world_inertia_mul(s.q, info[i].inertia, s.w, Iw);
+    kinetic += 0.5 * info[i].mass * (s.v[0] * s.v[0] + s.v[1] * s.v[1] + s.v[2] * s.v[2]) +
+               0.5 * (s.w[0] * Iw[0] + s.w[1] * Iw[1] + s.w[2] * Iw[2]);
+    fastest = std::max(fastest, speed(s));
+  }
+  double mean = NAN;
+  if (ms.size() > 1) {
+    mean = 0;
+    for (size_t k = 1; k < ms.size(); ++k) mean += ms[k];
+    mean /= double(ms.size() - 1);
+  }
+  std::cout << "{\"status\":\"ok\",\"label\":" << jstr(peer->label()) << ",\"dt\":" << jnum(dt)
+            << ",\"bodies\":" << dyn.size() << ",\"build_s\":" << jnum(build_s) << ",\"steps\":" << a.steps
+            << ",\"steps_done\":" << n << ",\"wall_s\":" << jnum(wall) << ",\"ms_per_step\":" << jnum(median(ms))
+            << ",\"ms_mean\":" << jnum(mean) << ",\"ms_first\":" << jnum(ms.empty() ? NAN : ms[0])
+            << ",\"active_end\":" << peer->active_bodies() << ",\"tops\":" << tops
+            << ",\"top_sink\":" << jnum(top_sink) << ",\"max_drift\":" << jnum(drift) << ",\"max_drop\":" << jnum(drop)
+            << ",\"kinetic_end\":" << jnum(kinetic) << ",\"speed_end\":" << jnum(fastest)
+            << ",\"finite\":" << (finite ? "true" : "false") << "}\n";
   return 0;
 }
 
@@ -519,6 +612,7 @@ int main(int argc, char** argv) {
     const scene::SceneDesc sc = scene::load_scene(a.scene);
     if (a.command == "run") return cmd_run(a, sc);
     if (a.command == "throughput") return cmd_throughput(a, sc);
+    if (a.command == "rest") return cmd_rest(a, sc);
     if (a.command == "stability") return cmd_stability(a, sc);
     if (a.command == "situation") return cmd_situation(a, sc);
     usage("unknown command " + a.command);

@@ -2,12 +2,15 @@
 """Writes the built-in scene files (examples/scenes/*.json). Deterministic, standard library only.
 
     /usr/bin/python3 examples/scenes/make_scenes.py [--out DIR]
+    /usr/bin/python3 examples/scenes/make_scenes.py --bench [--out DIR]   # the benchmark worlds
 
 pile65 mirrors testing/scenes.cpp pile_in_bin(w, 65, 0.25, seed 1): the same Mersenne
 Twister draws, in the same order, with float32 rounding, so the file is the fixture's scene.
 world1000 is a sparse world of 1,000 bodies in the manner of sparse_world(w, 1000, 100, 1)
 (its hulls are point-symmetric clouds, so their centre of mass is their origin and the file
-needs no hull arithmetic). The small scenes are written out by hand below.
+needs no hull arithmetic). The small scenes are written out by hand below. The benchmark
+worlds (BENCH_SCENES: Box3D's large pyramid and many pyramids, a 100,000-body sparse world to
+measure asleep) are too big to keep in the tree; scripts/bench writes them to build/bench-scenes.
 """
 import argparse
 import json
@@ -536,6 +539,80 @@ def terrain(rows=41, columns=41, spacing=0.5, seed=3):
             "shapes": shapes, "bodies": bodies}
 
 
+# ---- benchmark worlds: written on demand (--bench), not built-in scenes ----
+#
+# Box3D's benchmark scenes (its shared/benchmarks.c, CreateLargePyramid and CreateManyPyramids)
+# turned from its y up to cellphys's z up: Box3D's x stays x, its y becomes z and its z becomes y.
+# As there: cubes of half-extent 0.5 m at density 100 kg/m^3 (100 kg), friction 0.6 on every
+# shape (Box3D's default material, the ground's too), each row resting exactly on the one
+# below (no gap) and shifted by half a box, sleeping off. Gravity and the integrator are
+# cellphys's defaults (Box3D's gravity is 10 m/s^2; its solver takes 4 substeps at 60 Hz).
+
+
+def pyramid_boxes(base, h, x0, y, bodies, friction=0.6, density=100.0):
+    """One layer of boxes in the x-z plane at y: `base` boxes on the ground, one fewer each row up,
+    row i's centres at z = (2 i + 1) h and x = x0 + (i + 1) h + 2 (j - i) h (j = i .. base - 1)."""
+    for i in range(base):
+        z = (2.0 * i + 1.0) * h
+        for j in range(i, base):
+            x = x0 + (i + 1.0) * h + 2.0 * (j - i) * h
+            bodies.append({"id": len(bodies), "shape": "box", "density": num(density),
+                           "position": vec([x, y, z]), "friction": num(friction)})
+
+
+def pyramid_scene(description, bodies, h):
+    return {"description": description,
+            "settings": {"dt": num(1 / 60), "integrator": "implicit_split", "solver": "cgs", "sleeping": False},
+            "shapes": [GROUND, {"name": "box", "type": "box", "half_extents": [h, h, h]}],
+            "bodies": bodies}
+
+
+def large_pyramid(base=100, h=0.5):
+    bodies = [ground_body(0.6)]
+    pyramid_boxes(base, h, -h * base, 0.0, bodies)
+    n = base * (base + 1) // 2
+    return pyramid_scene(
+        "Box3D's large pyramid: one layer of %s boxes (0.5 m half-extent cubes, 100 kg: density 100, friction 0.6) "
+        "standing in the x-z plane on the ground, %d at the base centred on x = 0, each row up one fewer, shifted "
+        "by half a box and resting exactly on the row below; sleeping off, 60 Hz." % ("{:,}".format(n), base),
+        bodies, h)
+
+
+def many_pyramids(base=10, rows=14, columns=14, h=0.5):
+    bodies = [ground_body(0.6)]
+    extent = h * columns * (base + 1.0)  # Box3D's ground half-width
+    width = 2.0 * h * base
+    y = -extent + 2.0 * h
+    dy = 2.0 * (extent - 2.0 * h) / (rows - 1.0) if rows > 1 else 0.0
+    for _ in range(rows):
+        for j in range(columns):
+            centre = -extent + j * (width + 2.0 * h) + 2.0 * h
+            pyramid_boxes(base, h, centre - 0.5, y, bodies)
+        y += dy
+    each = base * (base + 1) // 2
+    return pyramid_scene(
+        "Box3D's many pyramids: a %d x %d grid of one-layer pyramids, %d boxes each (%d at the base), %s boxes in "
+        "all (0.5 m half-extent cubes, 100 kg: density 100, friction 0.6); each pyramid stands in an x-z plane, "
+        "its base from x = c - 0.5 to c + %g with c = %g + %g j, the rows of the grid at y = %g + %.6g i; sleeping "
+        "off, 60 Hz." % (rows, columns, each, base, "{:,}".format(rows * columns * each), width - 0.5,
+                         -extent + 2.0 * h, width + 2.0 * h, -extent + 2.0 * h, dy),
+        bodies, h)
+
+
+def sleep100k(n=100000):
+    scene = sparse(n=n, area=100.0 * math.sqrt(n / 1000.0), seed=1)
+    scene["description"] = ("world1000's mix at %s bodies and the same density (a %g m square): measured once it "
+                            "has settled and every body sleeps." % ("{:,}".format(n), 100.0 * math.sqrt(n / 1000.0)))
+    return scene
+
+
+BENCH_SCENES = {
+    "large_pyramid": large_pyramid,
+    "many_pyramids": many_pyramids,
+    "sleep100k": sleep100k,
+}
+
+
 SCENES = {
     "world1000": sparse,
     "pile65": pile,
@@ -566,10 +643,15 @@ def compact(obj, indent=0):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=os.path.dirname(os.path.abspath(__file__)))
+    ap.add_argument("--out", default=None, help="default: examples/scenes (with --bench: build/bench-scenes)")
+    ap.add_argument("--bench", action="store_true",
+                    help="write the benchmark worlds (%s) instead of the built-in scenes" % ", ".join(BENCH_SCENES))
     args = ap.parse_args()
-    for name, make in SCENES.items():
-        path = os.path.join(args.out, name + ".json")
+    here = os.path.dirname(os.path.abspath(__file__))
+    out = args.out or (os.path.join(here, "..", "..", "build", "bench-scenes") if args.bench else here)
+    os.makedirs(out, exist_ok=True)
+    for name, make in (BENCH_SCENES if args.bench else SCENES).items():
+        path = os.path.normpath(os.path.join(out, name + ".json"))
         with open(path, "w") as f:
             f.write(compact(make()) + "\n")
         print("wrote", path)

@@ -401,3 +401,41 @@ TEST(Snapshot, RecordsWrittenWrongAreRefusedByFieldAndTheWorldKept) {
 }
 
 }  // namespace
+
+// Version 6 had no whole_island_bytes: such a world restores with 0 and splits its big islands
+// as it did; a version-7 snapshot keeps the setting.
+TEST(Snapshot, Version6WithoutWholeIslandBytesRestoresSplittingBigIslands) {
+  World w;
+  cellphys::testing::pile_in_bin(w, 300, 0.25f, 1);
+  size_t largest = 0;  // until it lands in one island too big for the local store
+  for (int i = 0; i < 300 && largest <= w.settings().local_store_bytes; ++i) largest = w.step().local_store_peak_bytes;
+  ASSERT_GT(largest, w.settings().local_store_bytes);
+  const std::vector<unsigned char> now = w.snapshot();
+  EXPECT_EQ(World::restore(now.data(), now.size())->settings().whole_island_bytes, w.settings().whole_island_bytes);
+  std::vector<unsigned char> b = now;
+  const std::string name = "whole_island_bytes";
+  const auto at = std::search(b.begin() + 32, b.end(), name.begin(), name.end());
+  ASSERT_NE(at, b.end());
+  const size_t start = size_t(at - b.begin()) - 4, value = start + 4 + name.size();
+  uint32_t len = 0;
+  std::memcpy(&len, b.data() + value, 4);
+  ASSERT_EQ(len, 8u);
+  b.erase(b.begin() + long(start), b.begin() + long(value + 4 + len));
+  uint32_t count = 0;
+  std::memcpy(&count, b.data() + 32, 4);
+  put_at<uint32_t>(b, 32, count - 1);
+  put_at<uint32_t>(b, 8, 6);
+  seal(b);
+  auto old = World::restore(b.data(), b.size());
+  EXPECT_EQ(old->settings().whole_island_bytes, 0u);
+  EXPECT_GT(old->step().decoupled_islands, 0u);
+  EXPECT_EQ(w.step().decoupled_islands, 0u);
+  put_at<uint32_t>(b, 8, 7);  // the same bytes as version 7 lack a setting this build has
+  seal(b);
+  try {
+    World::restore(b.data(), b.size());
+    ADD_FAILURE() << "a version-7 snapshot without whole_island_bytes was accepted";
+  } catch (const WorldError& e) {
+    EXPECT_NE(std::string(e.what()).find("'whole_island_bytes' is missing"), std::string::npos) << e.what();
+  }
+}

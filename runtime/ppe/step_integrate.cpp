@@ -44,12 +44,22 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   jobs.clear();
   {
     StageTimer t(st.times.pack_ms);
+    sc.todo.clear();
     for (size_t k = 0; k < d.parts.size(); ++k)
       if (wave < d.parts[k].size() && (!split_only || d.parts[k].size() > 1)) {
-        if (used == packed.size()) packed.emplace_back();
-        pack_island(pc, d.parts[k][wave], sc.pack, packed[used++]);
+        sc.todo.push_back(&d.parts[k][wave]);
         island_of_packed.push_back(k);
       }
+    used = sc.todo.size();
+    while (packed.size() < used) packed.emplace_back();
+    // Each image depends on its part alone: packed on the threads, the same bytes.
+    WorkerPool* threads = compute.threads;
+    if (threads && threads->size() > 1 && used > 1) {
+      sc.thread_pack.resize(size_t(threads->size()));
+      threads->for_each(used, [&](size_t i, int thread) { pack_island(pc, *sc.todo[i], sc.thread_pack[size_t(thread)], packed[i]); });
+    } else {
+      for (size_t i = 0; i < used; ++i) pack_island(pc, *sc.todo[i], sc.pack, packed[i]);
+    }
     order.resize(used);
     std::iota(order.begin(), order.end(), size_t{0});
     std::sort(order.begin(), order.end(), [&](size_t x, size_t y) {  // a total order: std::sort allocates nothing

@@ -13,6 +13,7 @@
 #include "runtime/ppe/island_runner.h"
 #include "runtime/ppe/step_decouple.h"
 #include "runtime/ppe/step_stats.h"
+#include "runtime/ppe/worker_pool.h"
 
 namespace cellphys::ppe {
 
@@ -24,12 +25,15 @@ struct WorldSettings;
 struct IslandCompute {
   std::function<IslandRunner&()> runner;
   std::function<spu::ComputeWorker&()> local;
+  WorkerPool* threads = nullptr;  // the world's threads, which pack the islands (null: packed here)
 };
 
 /// What the stage reuses from step to step (the world keeps one): a warm step packs and runs
 /// its islands without allocating.
 struct IntegrateScratch {
   PackScratch pack;
+  std::vector<PackScratch> thread_pack;    // one a thread, when the threads pack
+  std::vector<const IslandContent*> todo;  // this wave's parts
   std::vector<PackedIsland> packed;  // the first `used` are this wave's
   std::vector<size_t> island_of_packed, order;
   std::vector<spu::IslandJob> jobs;

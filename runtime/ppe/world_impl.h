@@ -75,7 +75,7 @@ struct World::Impl {
   // Where the step computes islands; each part is made on first use.
   IslandCompute compute(const WorldSettings& s) {
     return {[this, &s]() -> IslandRunner& { return islands_runner(s); },
-            [this, &s]() -> spu::ComputeWorker& { return local_worker(s); }};
+            [this, &s]() -> spu::ComputeWorker& { return local_worker(s); }, &workers(s)};
   }
   WorldBody& live(BodyId id) {
     if (id >= bodies.size() || !bodies[id].alive) throw WorldError(body_name(id) + " does not exist");

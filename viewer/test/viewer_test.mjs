@@ -208,10 +208,10 @@ try {
   await page.close();
 
   // ---- cut couplings: the reference pile in a 32 KiB local store (its island needs 126 kB), kept
-  // awake: it settles into islands of which one or two are cut in parts every step ----
+  // awake: it settles into islands of which one or two are cut in parts every step (split, not computed whole) ----
   const cutDir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-cut-'));
   const cutScene = JSON.parse(readFileSync(join(scenesDir, 'pile65.json'), 'utf8'));
-  Object.assign(cutScene.settings, { local_store_bytes: 32768, sleeping: false });
+  Object.assign(cutScene.settings, { local_store_bytes: 32768, whole_island_bytes: 0, sleeping: false });
   writeFileSync(join(cutDir, 'pile65_cut.json'), JSON.stringify(cutScene));
   const cut = await serve([join(cutDir, 'pile65_cut.json')]);
   servers.push(cut);

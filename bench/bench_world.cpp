@@ -76,6 +76,12 @@ struct Sums {
   StageTimes stages;  // summed over the steps
   double contacts = 0, islands = 0, active = 0, iterations = 0, decoupled = 0, failed = 0, allocations = 0;
   size_t store = 0;
+  // One step of w: its statistics and the heap allocations made inside it.
+  void step(World& w) {
+    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
+    add(w.step());
+    allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
+  }
   void add(const StepStats& s) {
     for (const StageTimeField& f : kStageTimeFields) stages.*f.ms += s.times.*f.ms;
     contacts += s.contacts, islands += s.islands, active += s.active_bodies, iterations += s.solver_iterations;
@@ -108,9 +114,7 @@ void time_restored_steps(benchmark::State& state, World& w, const Snapshot& snap
     state.PauseTiming();
     snap.restore(w);
     state.ResumeTiming();
-    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
-    sums.add(w.step());
-    sums.allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
+    sums.step(w);
   }
   sums.report(state);
   state.counters["max_speed"] = max_speed(w, snap.ids);  // after the timed step: a sanity flag
@@ -188,9 +192,7 @@ void BM_Sparse1000Step(benchmark::State& state) {
   for (int i = 0; i < settle * 60; ++i) w.step();
   Sums sums;
   for (auto _ : state) {
-    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
-    sums.add(w.step());
-    sums.allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
+    sums.step(w);
   }
   sums.report(state);
   state.counters["asleep"] = count_asleep(w, bodies);
@@ -240,11 +242,9 @@ void BM_IslandSize(benchmark::State& state) {
     state.PauseTiming();
     snap.restore(w);
     state.ResumeTiming();
-    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
     const auto t0 = std::chrono::steady_clock::now();
-    sums.add(w.step());
+    sums.step(w);
     wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    sums.allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
   }
   sums.report(state);
   const double per_step_ns = 1e9 * wall / double(std::max<benchmark::IterationCount>(1, state.iterations()));
@@ -296,9 +296,7 @@ void BM_Sleeping100k(benchmark::State& state) {
   World& w = *sw.world;
   Sums sums;
   for (auto _ : state) {
-    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
-    sums.add(w.step());
-    sums.allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
+    sums.step(w);
   }
   sums.report(state);
   state.counters["bodies"] = double(sw.bodies.size());

@@ -217,7 +217,7 @@ struct DebugContact {
   float point[3];     // world
   float normal[3];    // from a to b
   float depth;        // m
-  float force;        // N, the contact spring's force at that depth (ppe::DebugContact)
+  float force;        // N, the normal force the step applied there (ppe::DebugContact)
 };
 static_assert(sizeof(DebugContact) == 40);
 

@@ -91,8 +91,10 @@ struct DebugContact {
   BodyId a, b;                // b is kWorldBody for static geometry
   float point[3], normal[3];  // world; the normal from a to b
   float depth;                // m, > 0 when overlapping
-  /// N: the contact spring's force at that depth (k·depth, k = m ω² for the point's mass or
-  /// contact.stiffness), an estimate of the normal force: the solver's implicit force is not kept.
+  /// N: the normal force the step's linear solve applied there: the contact's spring-damper
+  /// (or a landing's damper) linearised as the step linearises it, at the separating speed the
+  /// step ended with (runtime/ppe/world_debug.cpp). Over a step its sum is the momentum the
+  /// contact gave: a resting body's contacts sum to its weight.
   float force;
 };
 inline constexpr uint32_t kNoIsland = 0xFFFFFFFFu;

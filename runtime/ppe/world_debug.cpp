@@ -1,29 +1,68 @@
-// What the last step saw, for display (debug overlays): its contacts with an estimate of their
-// normal force, each body's island, and the couplings decoupling cut. Read-only: nothing here
+// What the last step saw, for display (debug overlays): its contacts with the normal force the
+// step applied at each, each body's island, and the couplings decoupling cut. Read-only: nothing here
 // feeds the step.
 #include <algorithm>
 #include <cmath>
 #include <map>
 
+#include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/world_impl.h"
 
 namespace cellphys::ppe {
 
 namespace {
 
-DebugContact view(const WorldContact& c, const WorldSettings& s) {
+// The velocity at world point p of body id after the step (zero for static geometry), and its
+// centre of mass where the step began: the implicit step moves it by h v.
+void point_velocity(const std::vector<WorldBody>& bodies, uint32_t id, const float p[3], double h, double out[3]) {
+  out[0] = out[1] = out[2] = 0;
+  if (id == kWorldBody || id >= bodies.size() || bodies[id].is_static) return;
+  const BodyState& s = bodies[id].state;
+  double r[3];
+  for (int i = 0; i < 3; ++i) r[i] = double(p[i]) - (double(s.position[i]) - h * s.velocity[i]);
+  const float* w = s.angular_velocity;
+  out[0] = s.velocity[0] + w[1] * r[2] - w[2] * r[1];
+  out[1] = s.velocity[1] + w[2] * r[0] - w[0] * r[2];
+  out[2] = s.velocity[2] + w[0] * r[1] - w[1] * r[0];
+}
+
+// The normal force (N) the step's linear solve applied at a contact: the normal part of the
+// contact descriptor (codegen/descriptors/forces/contact.yaml) linearised as the implicit step
+// linearises it, about the step's start, and taken at the separating speed the step ended with.
+// The kernels keep no per-contact force, and the spring's k·depth alone says nothing of a
+// landing (a gap contact has no depth) or of the damper: this is what moved the bodies.
+float step_normal_force(const WorldContact& c, const std::vector<WorldBody>& bodies, const WorldSettings& s) {
+  const auto& g = s.globals;
+  const double h = s.dt;
+  double va[3], vb[3];
+  point_velocity(bodies, c.a, c.point.point, h, va);
+  point_velocity(bodies, c.b, c.point.point, h, vb);
+  const float* n = c.point.normal;
+  const double vn = (vb[0] - va[0]) * n[0] + (vb[1] - va[1]) * n[1] + (vb[2] - va[2]) * n[2];
+  const double omega = 2 * 3.14159265358979323846 * g.contact_hertz;
+  const double m = std::max(c.load, c.mass);
+  const double k = g.contact_stiffness > 0 ? double(g.contact_stiffness) : m * omega * omega;
+  const double damp = g.contact_damping > 0 ? double(g.contact_damping) : 2 * double(g.contact_damping_ratio) * m * omega;
+  const double pen = c.point.penetration, fall = gravity_fall(n, c.b == kWorldBody, s);
+  const double end_depth = pen - h * (vn + fall);  // the overlap at the step's end, with gravity's fall
+  if (pen > 0) {
+    // Deeper than the hold depth the spring is flat (the push stage takes the rest).
+    const double held = pen > g.contact_hold_depth ? double(g.contact_hold_depth) : pen - h * vn;
+    const double pushed = k * held - damp * vn;
+    return static_cast<float>(end_depth > 0 ? pushed : std::max(0.0, pushed));
+  }
+  const bool closing = vn <= g.contact_rest_speed && end_depth >= 0;
+  return closing ? static_cast<float>((damp + h * k) * (pen / h - vn)) : 0.0f;
+}
+
+DebugContact view(const WorldContact& c, const std::vector<WorldBody>& bodies, const WorldSettings& s) {
   DebugContact d{};
   d.a = c.a;
   d.b = c.b;
   std::copy(c.point.point, c.point.point + 3, d.point);
   std::copy(c.point.normal, c.point.normal + 3, d.normal);
   d.depth = c.point.penetration;
-  // The contact's spring as the descriptor tunes it (docs/contacts.md): k = m ω², m the larger
-  // of the point's effective mass and its load, unless contact.stiffness fixes k.
-  const double omega = 2 * 3.14159265358979323846 * s.globals.contact_hertz;
-  const double k = s.globals.contact_stiffness > 0 ? s.globals.contact_stiffness
-                                                   : double(std::max(c.mass, c.load)) * omega * omega;
-  d.force = static_cast<float>(k * std::max(0.0, double(c.point.penetration)));
+  d.force = step_normal_force(c, bodies, s);
   return d;
 }
 
@@ -37,10 +76,10 @@ std::vector<DebugContact> World::debug_contacts() const {
   std::vector<DebugContact> out;
   // The step's contacts between bodies that went to sleep in it are their group's now.
   for (const WorldContact& c : w.contacts)
-    if (awake(c.a) || awake(c.b)) out.push_back(view(c, settings_));
+    if (awake(c.a) || awake(c.b)) out.push_back(view(c, w.bodies, settings_));
   for (const SleepGroup& g : w.sleeping.groups)
     if (!g.bodies.empty())
-      for (const WorldContact& c : g.contacts) out.push_back(view(c, settings_));
+      for (const WorldContact& c : g.contacts) out.push_back(view(c, w.bodies, settings_));
   return out;
 }
 

@@ -26,6 +26,7 @@
 #include "server/debug_encoder.h"
 #include "server/message_decode.h"
 #include "server/quantise.h"
+#include "server/spawn_shapes.h"
 #include "server/state_encoder.h"
 #include "tests/support/serve_process.h"
 #include "tests/support/server_client.h"
@@ -75,10 +76,14 @@ p::Spawn spawn_box(float x, float y, float z) {
 // compounds): ServerClient puts it after "/ws?world=".
 std::string reading_revision_4(const std::string& world) { return world + "&revision=4"; }
 
-// The scene as the server builds it, for comparison.
-cellphys::scene::BuiltScene built(const std::string& name) {
-  return cellphys::scene::build_world(cellphys::scene::load_scene(kScenes + "/" + name + ".json"));
+// A scene file's world as `cellphys serve` builds it, for comparison: with the shapes it adds
+// for spawning.
+cellphys::scene::BuiltScene served(const std::string& file) {
+  cellphys::scene::BuiltScene b = cellphys::scene::build_world(cellphys::scene::load_scene(file));
+  cellphys::server::add_spawn_shapes(b.world->shapes());
+  return b;
 }
+cellphys::scene::BuiltScene built(const std::string& name) { return served(kScenes + "/" + name + ".json"); }
 
 TEST(Server, JoinCarriesTheShapeDictionaryThenTicksCarryOnlyWhatChanged) {
   ServeProcess s = serve({"pile65"});
@@ -139,7 +144,7 @@ TEST(Server, MeshesAndHeightFieldsAreSentAsTheirTriangles) {
         {{"id", "ball"}, {"shape", "ball"}, {"mass", 1.0}, {"position", {0.5, -0.25, 1.5}}}}}};
   const fs::path file = dir / "surfaces.json";
   std::ofstream(file) << scene.dump();
-  const auto built_scene = cellphys::scene::build_world(cellphys::scene::load_scene(file.string()));
+  const auto built_scene = served(file.string());
   const cellphys::ppe::World& w = *built_scene.world;
 
   ServeProcess s = serve({file.string()});
@@ -259,7 +264,7 @@ TEST(Server, CompoundsAreSentAsTheirPartsAndOlderClientsAreTold) {
         {{"id", "lamp"}, {"shape", "lamp"}, {"mass", 2.0}, {"position", {2, 0, 0.5}}, {"scale", 0.8}}}}};
   const fs::path file = dir / "compounds.json";
   std::ofstream(file) << scene.dump();
-  const auto built_scene = cellphys::scene::build_world(cellphys::scene::load_scene(file.string()));
+  const auto built_scene = served(file.string());
   const cellphys::ppe::World& w = *built_scene.world;
   const cellphys::ppe::ShapeDictionary& d = w.shapes();
   using cellphys::spu::ShapeType;

@@ -7,6 +7,7 @@
 
 #include "runtime/scene/scene.h"
 #include "server/server.h"
+#include "server/spawn_shapes.h"
 #include "tools/builtin_scenes.h"
 #include "tools/cli.h"
 #include "tools/serve_options.h"
@@ -25,6 +26,7 @@ std::shared_ptr<server::Room> make_room(const ServeOptions& o, const ServeWorld&
   scene::SceneDesc desc = scene::load_scene(file);
   if (o.workers > 0) desc.settings.workers = o.workers;
   scene::BuiltScene built = scene::build_world(desc);
+  server::add_spawn_shapes(built.world->shapes());
   for (const std::string& warning : built.warnings) std::fprintf(stderr, "cellphys: %s: warning: %s\n", w.name.c_str(), warning.c_str());
   server::RoomOptions ro;
   ro.tick_hz = o.tick_hz;

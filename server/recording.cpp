@@ -34,10 +34,11 @@ T get(const unsigned char* p) {
 
 }  // namespace
 
-RecordingWriter::RecordingWriter(const std::string& path, bool frames) : path_(path), frames_(frames) {
+RecordingWriter::RecordingWriter(const std::string& path, bool frames, bool debug)
+    : path_(path), frames_(frames), debug_(frames && debug) {
   f_ = std::fopen(path.c_str(), "wb");
   if (!f_) throw RecordingError(path + ": cannot create the recording: " + std::strerror(errno));
-  uint32_t head[2] = {kRecordingVersion, frames ? kRecordingFrames : 0u};
+  uint32_t head[2] = {kRecordingVersion, (frames_ ? kRecordingFrames : 0u) | (debug_ ? kRecordingDebug : 0u)};
   if (std::fwrite(kMagic, 1, 8, f_) != 8 || std::fwrite(head, 4, 2, f_) != 2) failed_ = true;
 }
 
@@ -103,6 +104,7 @@ Recording read_recording(const std::string& path) {
   Recording r;
   r.version = version;
   r.frames = version >= 2 && (get<uint32_t>(bytes.data() + 12) & kRecordingFrames) != 0;
+  r.debug = r.frames && (get<uint32_t>(bytes.data() + 12) & kRecordingDebug) != 0;
   size_t at = 16, count = 0;
   bool have_world = false;
   while (at < bytes.size()) {
@@ -147,9 +149,11 @@ Recording read_recording(const std::string& path) {
         protocol::Header mh{};
         if (h.bytes >= 8 + sizeof mh) std::memcpy(&mh, p + 8, sizeof mh);
         const auto mt = static_cast<protocol::Type>(mh.type);
-        const bool state = mt == protocol::Type::join || mt == protocol::Type::tick || mt == protocol::Type::stages;
+        const bool state = mt == protocol::Type::join || mt == protocol::Type::tick || mt == protocol::Type::stages ||
+                           (mt == protocol::Type::debug && r.debug);
         if (h.bytes < 8 + sizeof mh || mh.length != h.bytes - 8 || !state) {
-          r.damage = where + " is not a frame: its message's header is not a join, tick or stages of its length";
+          r.damage = where + " is not a frame: its message's header is not a join, tick, stages" +
+                     std::string(r.debug ? " or debug" : "") + " of its length";
           break;
         }
         e.message.assign(p + 8, p + h.bytes);

@@ -6,15 +6,16 @@
 // appended with a length and checksum each and flushed every tick, so the file of a server that
 // was killed reads up to its last whole record; a clean stop appends an end record.
 //
-// File: "CELLREC1" | u32 version (1 or 2) | u32 flags (version 2: 1 = frames recorded; 0 in
-// version 1) | records. Record: u32 type | u32 payload bytes | u32 checksum (spu::checksum of the
+// File: "CELLREC1" | u32 version (1 or 2) | u32 flags (version 2: 1 = frames recorded, 2 = and
+// debug messages; 0 in version 1) | records. Record: u32 type | u32 payload bytes | u32 checksum (spu::checksum of the
 // record with this field zero, then of the payload) | u32 0 | payload:
 //   world    u32 name bytes | name | World::snapshot() bytes
 //   command  u64 step | the command's protocol bytes (server/protocol.h)
 //   hash     u64 step | u64 World::state_hash() after that step
 //   end      u64 step | u64 state hash
 //   frame    u64 step | one server message's protocol bytes: a join or a tick, each followed by
-//            the stages message of the same frame (version 2)
+//            the stages message of the same frame (version 2) and, with flag 2
+//            (`--record-debug on`), its debug message
 // A frame follows the command and hash records of its tick (docs/server.md, "Recording").
 #pragma once
 #include <cstdint>
@@ -36,12 +37,13 @@ enum class RecordType : uint32_t { world = 1, command = 2, hash = 3, end = 4, fr
 
 inline constexpr uint32_t kRecordingVersion = 2;   // what this cellphys writes; it reads 1 and 2
 inline constexpr uint32_t kRecordingFrames = 1u;   // header flag: frame records follow each published state
+inline constexpr uint32_t kRecordingDebug = 2u;    // header flag: each frame's debug message is recorded too
 
 class RecordingWriter {
  public:
   /// Creates (or truncates) the file; throws RecordingError naming it. `frames`: the state
-  /// messages will be recorded (the header says so).
-  explicit RecordingWriter(const std::string& path, bool frames = true);
+  /// messages will be recorded; `debug`: and each frame's debug message (the header says so).
+  explicit RecordingWriter(const std::string& path, bool frames = true, bool debug = false);
   ~RecordingWriter();
   RecordingWriter(const RecordingWriter&) = delete;
   RecordingWriter& operator=(const RecordingWriter&) = delete;
@@ -52,6 +54,7 @@ class RecordingWriter {
   /// A state message as sent, for the frame at `step`.
   void frame(uint64_t step, const std::vector<unsigned char>& message);
   bool frames() const { return frames_; }
+  bool debug() const { return debug_; }
   /// Pushes what was written to the file (every tick).
   void flush();
   /// Appends the end record and closes; throws RecordingError if a write failed at any point.
@@ -64,6 +67,7 @@ class RecordingWriter {
   FILE* f_ = nullptr;
   bool failed_ = false;
   bool frames_ = true;
+  bool debug_ = false;
 };
 
 struct RecordEntry {
@@ -77,6 +81,7 @@ struct RecordEntry {
 struct Recording {
   uint32_t version = kRecordingVersion;
   bool frames = false;  // the state messages were recorded (version 2 and its header's flag)
+  bool debug = false;   // and each frame's debug message
   std::string world;
   std::vector<unsigned char> snapshot;
   std::vector<RecordEntry> entries;  // after the world record, in file order (the end record last, if any)

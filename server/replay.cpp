@@ -3,6 +3,7 @@
 #include <cstring>
 #include <memory>
 
+#include "server/debug_encoder.h"
 #include "server/frame_builder.h"
 #include "server/message_decode.h"
 #include "server/play_state.h"
@@ -93,6 +94,14 @@ ReplayResult replay(const Recording& r, const std::function<void(const ppe::Worl
       if (on_step) on_step(cmds.world());
     }
   };
+  // A recorded message against the one made again; where they first differ when they do.
+  auto same = [&](const RecordEntry& e, const std::vector<unsigned char>& mine) {
+    if (mine == e.message) return true;
+    out.matched = false;
+    out.mismatch_step = e.step;
+    out.frame_difference = describe_difference(e.message, mine);
+    return false;
+  };
   for (const RecordEntry& e : r.entries) {
     step_to(e.step);
     if (e.type == RecordType::command) {
@@ -113,12 +122,14 @@ ReplayResult replay(const Recording& r, const std::function<void(const ppe::Worl
       ++out.stages_checked;
       const std::vector<unsigned char> mine =
           prev ? encode_stages(prev->step, prev->epoch, recorded_times(e.message)) : std::vector<unsigned char>{};
-      if (mine != e.message) {
-        out.matched = false;
-        out.mismatch_step = e.step;
-        out.frame_difference = describe_difference(e.message, mine);
-        break;
-      }
+      if (!same(e, mine)) break;
+      continue;
+    }
+    if (e.type == RecordType::frame && type_of(e.message) == static_cast<uint16_t>(protocol::Type::debug)) {
+      // What the solver did in the step just made again: the same bytes.
+      ++out.debug_checked;
+      const std::vector<unsigned char> mine = encode_debug(cmds.world(), play.epoch);
+      if (!same(e, mine)) break;
       continue;
     }
     if (e.type == RecordType::frame) {
@@ -151,12 +162,7 @@ ReplayResult replay(const Recording& r, const std::function<void(const ppe::Worl
           mine = &as_recorded;
         }
       }
-      if (*mine != e.message) {
-        out.matched = false;
-        out.mismatch_step = e.step;
-        out.frame_difference = describe_difference(e.message, *mine);
-        break;
-      }
+      if (!same(e, *mine)) break;
       continue;
     }
     const uint64_t h = cmds.world().state_hash();

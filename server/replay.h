@@ -17,6 +17,7 @@ namespace cellphys::server {
 struct ReplayResult {
   uint64_t steps = 0, commands = 0, hashes_checked = 0;
   uint64_t frames_checked = 0, stages_checked = 0;  // joins and ticks; the stages messages after them
+  uint64_t debug_checked = 0;                       // their debug messages (`--record-debug on`)
   uint64_t final_step = 0, final_hash = 0;
   bool matched = true;            // every hash and frame equal
   uint64_t mismatch_step = 0;     // the first that is not

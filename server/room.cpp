@@ -35,7 +35,8 @@ Room::Room(std::string name, std::string source, std::unique_ptr<ppe::World> wor
   shapes_ = std::make_shared<const std::vector<unsigned char>>(encode_shapes(commands_.world().shapes()));
   revision_needed_ = server::revision_needed(commands_.world().shapes());
   if (!options_.record.empty()) {
-    recorder_ = std::make_unique<RecordingWriter>(options_.record, options_.record_frames);
+    recorder_ = std::make_unique<RecordingWriter>(options_.record, options_.record_frames,
+                                                  options_.record_frames && options_.record_debug);
     recorder_->world(name_, commands_.initial_snapshot());
   }
   publish();
@@ -221,11 +222,12 @@ void Room::publish() {
   at.step_ms = last_step_ms_;
   at.shapes = shapes_;
   const std::shared_ptr<Frame> f = build_frame(w, at, latest().get());
-  if (debug_clients_.load(std::memory_order_relaxed) > 0)
+  if (debug_clients_.load(std::memory_order_relaxed) > 0 || (recorder_ && recorder_->debug()))
     f->debug = std::make_shared<const std::vector<unsigned char>>(encode_debug(w, play_.epoch));
   if (recorder_ && recorder_->frames()) {
     recorder_->frame(f->step, *recorded_.next(*f));
     recorder_->frame(f->step, *f->stages);
+    if (recorder_->debug()) recorder_->frame(f->step, *f->debug);
   }
   {
     std::lock_guard<std::mutex> lock(frame_mutex_);

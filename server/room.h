@@ -55,6 +55,7 @@ struct RoomOptions {
   bool fast = false;    // step as fast as possible
   std::string record;   // recording file, or none
   bool record_frames = true;  // the recording keeps the state messages sent (server/recording.h)
+  bool record_debug = false;  // and a debug message a frame, so a recording shows the solver's overlays
   CommandLimits limits;
   // Test hooks (`cellphys serve --fault`): the step that would reach fault_throw_at throws (once);
   // every tick sleeps fault_slow_ms inside the step (a world under load).

@@ -988,6 +988,69 @@ TEST(Server, RecordingFormatsAndTheFrameCheck) {
   fs::remove_all(dir);
 }
 
+// `--record-debug on`: every recorded frame keeps its debug message (header flag 2), which
+// replay makes again byte for byte; a changed contact force is caught and named. The option
+// needs the frames it goes with.
+TEST(Server, RecordingKeepsTheDebugMessagesReplayMakesAgain) {
+  const fs::path dir = fs::temp_directory_path() / ("cellphys_recdebug_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const fs::path rec = dir / "debug.rec";
+  {
+    ServeProcess s = serve({"pile65", "--record", rec.string(), "--record-debug", "on"});
+    ServerClient c(s.port(), "pile65", s.token());
+    ASSERT_TRUE(c.until([&] { return c.ticks.size() > 5; }));
+    ASSERT_TRUE(c.answer(c.command(p::Type::spawn, spawn_box(6, 0, 3))));  // a landing in the recording
+    ASSERT_TRUE(c.until([&] { return c.ticks.size() > 60; }));
+    EXPECT_EQ(s.stop(SIGTERM), 0);
+  }
+  const RecordFile f = RecordFile::read(rec);
+  EXPECT_EQ(f.flags, 3u);
+  const size_t frames = f.count_messages(p::Type::join) + f.count_messages(p::Type::tick);
+  EXPECT_GT(frames, 60u);
+  EXPECT_EQ(f.count_messages(p::Type::debug), frames);
+  std::string out;
+  EXPECT_EQ(replay(rec, out), 0) << out;
+  EXPECT_NE(out.find(" " + std::to_string(frames) + " frames and " + std::to_string(frames) + " stages and " +
+                     std::to_string(frames) + " debug messages matched"),
+            std::string::npos) << out;
+
+  // One contact's force changed in a recorded debug message (its checksum made good).
+  RecordFile bad = f;
+  uint64_t bad_step = 0;
+  for (auto& r : bad.records) {
+    if (r.type != 5 || cellphys::server::message_type(r.payload.data() + 8, r.payload.size() - 8) != uint16_t(p::Type::debug)) continue;
+    p::Debug d;
+    std::memcpy(&d, r.payload.data() + 8, sizeof d);
+    if (d.num_contacts == 0) continue;
+    const size_t at = 8 + sizeof d + d.num_bodies * sizeof(p::DebugBody) + offsetof(p::DebugContact, force);
+    float force;
+    std::memcpy(&force, r.payload.data() + at, 4);
+    force += 1.0f;
+    std::memcpy(r.payload.data() + at, &force, 4);
+    std::memcpy(&bad_step, r.payload.data(), 8);
+    break;
+  }
+  ASSERT_GT(bad_step, 0u);
+  bad.write(dir / "bad.rec");
+  out.clear();
+  EXPECT_EQ(replay(dir / "bad.rec", out), 1) << out;
+  EXPECT_NE(out.find("the frame at step " + std::to_string(bad_step) + " differs from the recorded one: debug of"),
+            std::string::npos) << out;
+
+  const std::string cmd = "'" + kExe + "' serve pile65 --port 0 --record '" + (dir / "x.rec").string() +
+                          "' --record-frames off --record-debug on 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  out.clear();
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
+  const int st = pclose(pipe);
+  EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << out;
+  EXPECT_NE(out.find("--record-debug on keeps a debug message with each recorded frame: it needs --record-frames on"),
+            std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "x.rec"));
+  fs::remove_all(dir);
+}
+
 TEST(Server, MetricsAreJsonWithEveryField) {
   // A viewer directory that does not exist: `/` is then the page listing the worlds (the built
   // viewer, viewer/dist, is tested in the browser by viewer/test).

@@ -132,7 +132,8 @@ int replay_main(int argc, char** argv) {
     return 2;
   }
   const std::string frames =
-      rec.frames ? std::to_string(r.frames_checked) + " frames and " + std::to_string(r.stages_checked) + " stages matched"
+      rec.frames ? std::to_string(r.frames_checked) + " frames and " + std::to_string(r.stages_checked) + " stages" +
+                       (rec.debug ? " and " + std::to_string(r.debug_checked) + " debug messages" : std::string()) + " matched"
       : rec.version < 2 ? "no frames (a version-1 recording)"
                         : "no frames (recorded with --record-frames off)";
   std::printf("world %s: %llu steps, %llu commands, %llu state hashes matched, %s\nstep %llu\nstate hash 0x%016llx\n",

@@ -33,6 +33,7 @@ std::shared_ptr<server::Room> make_room(const ServeOptions& o, const ServeWorld&
   ro.fast = o.fast;
   ro.record = w.record;
   ro.record_frames = o.record_frames;
+  ro.record_debug = o.record_debug;
   ro.fault_throw_at = w.fault_throw_at;
   ro.fault_slow_ms = w.fault_slow_ms;
   auto room = std::make_shared<server::Room>(w.name, file, std::move(built.world), ro);

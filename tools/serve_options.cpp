@@ -34,6 +34,9 @@ const char kServeHelp[] =
     "                    the viewer\n"
     "  --record-frames on|off  keep the state messages sent in recordings, for the viewer and\n"
     "                    replay's frame check (default on; off: commands and hashes only)\n"
+    "  --record-debug on|off  keep each frame's debug message too (contacts with their forces,\n"
+    "                    islands, cut couplings), so the viewer draws the solver's overlays\n"
+    "                    from the recording (default off: about 40 bytes a contact a tick)\n"
     "  --rate N          commands a second a connection may send on average (default 60)\n"
     "  --burst N         and in a burst (default 120); beyond, refused with an error\n"
     "  --client-deadline S  drop a client whose write has not completed in S seconds (default 5)\n"
@@ -104,6 +107,9 @@ bool parse_serve_options(int argc, char** argv, ServeOptions& o) {
     } else if (arg == "--record-frames") {
       if (value != "on" && value != "off") throw UsageError{"--record-frames takes on or off, got '" + value + "'"};
       o.record_frames = value == "on";
+    } else if (arg == "--record-debug") {
+      if (value != "on" && value != "off") throw UsageError{"--record-debug takes on or off, got '" + value + "'"};
+      o.record_debug = value == "on";
     } else if (arg == "--rate") {
       o.server.command_rate = parse_number(arg, value, 0.001, 1e6);
     } else if (arg == "--burst") {
@@ -118,6 +124,8 @@ bool parse_serve_options(int argc, char** argv, ServeOptions& o) {
       throw UsageError{"unknown option '" + arg + "'"};
     }
   }
+  if (o.record_debug && !o.record_frames)
+    throw UsageError{"--record-debug on keeps a debug message with each recorded frame: it needs --record-frames on"};
   if (scenes.empty()) scenes.push_back(kDefaultScene);
   for (const std::string& s : scenes) {
     auto [name, scene] = named(s);

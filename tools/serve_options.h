@@ -20,6 +20,7 @@ struct ServeOptions {
   double tick_hz = 60;
   bool fast = false;
   bool record_frames = true;  // recordings keep the state messages sent (server/recording.h)
+  bool record_debug = false;  // and each frame's debug message
   int workers = 0;  // 0: the scene's
 };
 

@@ -24,6 +24,7 @@ const state = {
   live: true, shown: null, shownIndex: 0, paused: false, worldState: 'running', canCommand: false,
   seq: 1, pending: new Map(), drag: null, selected: -1, errors: [], received: [], playing: false,
   lastStats: null, steps: 0, connected: false,
+  debug: null, debugBodies: null, debugs: new Map(), // the shown frame's debug message; the live ones kept, by step
 };
 $('token').value = state.token;
 
@@ -58,7 +59,18 @@ function subscribeDebug() {
   if (want === state.debugWanted || !state.ws || state.ws.readyState !== 1) return;
   state.debugWanted = want;
   state.ws.send(P.subscribe({ debug: want, stages: true }));
-  if (!want) { state.debug = null; overlay.setContacts(null, shown()); overlay.setCuts(null); renderer.islandOf = null; }
+  if (!want) { setDebug(null); state.debugs.clear(); overlay.setContacts(null, shown()); overlay.setCuts(null); renderer.islandOf = null; }
+}
+function setDebug(m) {
+  state.debug = m;
+  state.debugBodies = m ? new Map(m.bodies.map((b) => [b.id, b])) : null;
+}
+// The debug message of the frame shown: a recording's own (`--record-debug on`); live, the one
+// kept for its step (the newest while following live, until the next one arrives).
+function debugOfShown(m, index, f) {
+  if (m.source === 'recording') return m.debugAt(index);
+  if (m.source !== 'live') return null;
+  return state.debugs.get(f.step) ?? (state.live ? state.debug : null);
 }
 function applyDebug() {
   const d = state.debug;
@@ -86,8 +98,18 @@ function connect(world) {
   };
 }
 
+// What the page's own work costs (viewer/bench/frame_cost.mjs reads it): ms to take in a tick
+// (decode, apply, update the instances) and ms a frame's render call takes, the last 600 of each.
+const cost = { tick: [], render: [] };
+const sample = (list, ms) => { list.push(ms); if (list.length > 600) list.shift(); };
+
 function onMessage(buffer) {
   const now = performance.now();
+  handle(buffer, now);
+  if (state.lastTickAt === now) sample(cost.tick, performance.now() - now);
+}
+
+function handle(buffer, now) {
   state.received.push([now, buffer.byteLength]);
   let m;
   try {
@@ -100,6 +122,8 @@ function onMessage(buffer) {
     case 'join': {
       const sameWorld = state.join && state.join.name === m.name;
       state.join = m;
+      state.debugs.clear();
+      setDebug(null);
       state.canCommand = (m.flags & 1) !== 0;
       state.model = modelFromJoin(m, HISTORY);
       state.selected = -1;
@@ -113,6 +137,7 @@ function onMessage(buffer) {
     }
     case 'tick': {
       if (!state.model || m.epoch !== state.join.epoch) return;
+      state.lastTickAt = now;
       const f = applyTick(state.model, m);
       state.lastStats = m.stats;
       state.paused = (m.flags & P.TICK_PAUSED) !== 0;
@@ -130,9 +155,9 @@ function onMessage(buffer) {
       break;
     case 'debug':
       if (!state.join || m.epoch !== state.join.epoch) return;
-      state.debug = m;
-      state.debugBodies = new Map(m.bodies.map((b) => [b.id, b]));
-      if (state.live) applyDebug();
+      state.debugs.set(m.step, m); // kept with the timeline's history, as long as it
+      while (state.debugs.size > HISTORY) state.debugs.delete(state.debugs.keys().next().value);
+      if (state.live || state.shown?.step === m.step) { setDebug(m); applyDebug(); }
       break;
     case 'ack': {
       const p = state.pending.get(m.seq);
@@ -181,9 +206,12 @@ function show(index) {
   index = Math.max(0, Math.min(m.frameCount() - 1, index));
   state.shownIndex = index;
   state.shown = m.frameAt(index);
-  renderer.draw(state.shown);
+  const d = debugOfShown(m, index, state.shown);
+  if (d !== state.debug) { setDebug(d); applyDebug(); } else {
+    renderer.draw(state.shown);
+    overlay.setCuts(state.debug?.cuts, m, state.shown, ov.cuts.checked); // drawn between the shown bodies
+  }
   overlay.setBoxes(m, state.shown, ov.boxes.checked);
-  overlay.setCuts(state.debug?.cuts, m, state.shown, ov.cuts.checked);
   ui.scrub.max = String(m.frameCount() - 1);
   ui.scrub.value = String(index);
   const f = state.shown;
@@ -257,16 +285,22 @@ window.addEventListener('keydown', (e) => {
 const canvas = $('view');
 let down = null;
 
+// The first shape of the chosen type in the dictionary (`cellphys serve` gives every world a
+// sphere and a box), else the first a client may spawn (a server that adds none).
+function spawnShape() {
+  const shapes = state.join.shapes, want = P.SHAPE[$('spawnshape').value];
+  const shape = shapes.findIndex((s) => s.type === want);
+  return shape >= 0 ? shape : shapes.findIndex((s) => !P.isStaticShape(s.type));
+}
+
 function spawnAt(hit) {
-  const shapes = state.join.shapes;
-  let shape = shapes.findIndex((s) => s.type === P.SHAPE.box);
-  if (shape < 0) shape = shapes.findIndex((s) => !P.isStaticShape(s.type));
+  const shape = spawnShape();
   if (shape < 0) { setStatus('no shape in this world can be spawned', true); return; }
-  const s = shapes[shape];
+  const s = state.join.shapes[shape];
   const half = s.type === P.SHAPE.box ? Math.max(s.params[0], s.params[1], s.params[2]) : s.params[0] || 0.25;
   const n = hit.normal && hit.normal.z > 0.3 ? hit.normal : new THREE.Vector3(0, 0, 1);
   const p = hit.point.clone().addScaledVector(n, half * 1.8 + 0.02);
-  quiet(command((seq) => P.spawn(seq, { shape, position: p.toArray() })).then((a) => setStatus(`spawned body ${a.result} at step ${a.step}`)));
+  quiet(command((seq) => P.spawn(seq, { shape, position: p.toArray() })).then((a) => setStatus(`spawned body ${a.result} (${SHAPE_NAMES[s.type]}) at step ${a.step}`)));
 }
 
 canvas.addEventListener('pointerdown', (e) => {
@@ -346,14 +380,16 @@ const SHAPE_NAMES = Object.fromEntries(Object.entries(P.SHAPE).map(([name, type]
 function debugLine(s) {
   const b = state.debugBodies?.get(s.id);
   if (s.static) return 'mass  static';
-  if (state.model?.source !== 'live') return 'mass and island: not in the file (a recording keeps no debug messages)';
-  if (!b) return 'mass and island: waiting for the server';
+  const m = state.model;
+  if (!b && m?.source === 'recording') return m.hasDebug ? 'mass and island: no debug message with this frame' : 'mass and island: not in this recording (record with --record-debug on)';
+  if (!b && m?.source !== 'live') return 'mass and island: not in a trajectory file';
+  if (!b) return state.live ? 'mass and island: waiting for the server' : 'mass and island: no debug message kept for this step';
   return `mass  ${b.mass.toPrecision(4)} kg   island ${b.island === null ? '— (asleep)' : b.island + (b.decoupled ? ' (decoupled)' : '')}`;
 }
 
 function updateSelection() {
   const el = $('selection');
-  if (state.selected < 0 || !state.model) { el.textContent = 'Click a body to inspect it; drag it to pull it\n(needs the token); shift-click to spawn a box.'; return; }
+  if (state.selected < 0 || !state.model) { el.textContent = 'Click a body to inspect it; drag it to pull it\n(needs the token); shift-click to spawn a box or a sphere.'; return; }
   const s = state.model.bodyState(state.shown, state.selected);
   if (!s) { el.textContent = `body ${state.model.bodies[state.selected].label}: not in this frame`; return; }
   const parts = s.shape_type === P.SHAPE.compound ? ` of ${state.model.shapes[s.shape].parts.length} parts` : '';
@@ -404,7 +440,7 @@ function updateStats() {
       `contacts        ${s.contacts}`, `islands         ${s.islands}`, `solver iters    ${s.solver_iterations}`,
       `failed islands  ${s.failed_islands}`, `step halvings   ${s.step_halvings}`, `received        ${(bytesPerSecond() / 1000).toFixed(1)} kB/s`);
   }
-  if (state.debug && m?.source === 'live') lines.push(`cut couplings   ${state.debug.cuts.length}`);
+  if (state.debug) lines.push(`cut couplings   ${state.debug.cuts.length}`);
   lines.push(`drawn instances ${renderer.instanceCount()}`, `frames drawn    ${fps.toFixed(0)}/s`);
   $('stats').textContent = lines.join('\n');
 }
@@ -528,9 +564,9 @@ function loadModel(model) {
   state.join = null;
   state.lastStats = null;
   state.selected = -1;
-  // The live world's debug message says nothing of a file's bodies.
-  state.debug = null;
-  state.debugBodies = null;
+  // The live world's debug messages say nothing of a file's bodies.
+  setDebug(null);
+  state.debugs.clear();
   overlay.setContacts(null, shown());
   overlay.setCuts(null);
   renderer.islandOf = null;
@@ -552,7 +588,9 @@ window.addEventListener('drop', (e) => { e.preventDefault(); $('drop').classList
 let fps = 0, fpsCount = 0, fpsClock = performance.now(), panelClock = 0;
 function frame(now) {
   advancePlayback(now);
+  const t0 = performance.now();
   renderer.render();
+  sample(cost.render, performance.now() - t0);
   if (++fpsCount && now - fpsClock >= 1000) { fps = (fpsCount * 1000) / (now - fpsClock); fpsCount = 0; fpsClock = now; }
   if (now - panelClock > 250) { panelClock = now; updateSelection(); updateStats(); updatePlots(); }
   requestAnimationFrame(frame);
@@ -600,6 +638,11 @@ window.__viewer = {
   status: () => ui.status.textContent,
   lastStats: () => state.lastStats,
   debug: () => (state.debug ? { step: state.debug.step, contacts: state.debug.contacts.length, bodies: state.debug.bodies.length, cuts: state.debug.cuts.length } : null),
+  debugKept: () => state.debugs.size,
+  // The page's own cost: ms per tick taken in and per render call (the last 600), draw calls a frame.
+  cost: () => ({ tick: [...cost.tick], render: [...cost.render], drawCalls: renderer.gl.info.render.calls }),
+  // Summed up force of the shown debug message's contacts on body id (N; the normal points from a to b).
+  contactLift: (id) => (state.debug ? state.debug.contacts.reduce((s, c) => s + (c.a === id ? -c.normal[2] : c.b === id ? c.normal[2] : 0) * c.force, 0) : null),
   cutLines: () => overlay.cutCount,
   frameEpochs: () => state.model?.entries?.map((e) => e.epoch) ?? null,
   contactMarkers: () => overlay.contactCount,

@@ -1,8 +1,8 @@
 // A `cellphys serve --record` file (server/recording.h) in the page: its records checked as
 // `cellphys replay` checks them (length and checksum; a damaged or cut tail ends the recording
 // there, with a warning), and its frames — the join and tick messages the server sent, each with
-// its stages message — decoded by the live decoders (protocol.js) into a Model the timeline
-// scrubs over. Keeping every frame
+// its stages message and, recorded with `--record-debug on`, its debug message — decoded by the
+// live decoders (protocol.js) into a Model the timeline scrubs over. Keeping every frame
 // of a long recording would take 52 bytes a body a tick, so one in KEY_EVERY is kept and the
 // others are rebuilt from the one before, as the live page built them.
 import * as P from './protocol.js';
@@ -13,6 +13,7 @@ export class RecordingError extends Error {}
 const MAGIC = 'CELLREC1';
 const VERSION = 2; // the newest this page reads
 const FRAMES = 1; // header flag: frames recorded
+const DEBUG = 2; // header flag: and each frame's debug message
 const REC = { world: 1, command: 2, hash: 3, end: 4, frame: 5 };
 const KEY_EVERY = 64;
 
@@ -74,6 +75,11 @@ export class RecordingModel extends Model {
   }
 
   frameCount() { return this.entries.length; }
+  /// The debug message recorded with frame i (`--record-debug on`), or null.
+  debugAt(i) {
+    const b = this.entries[i]?.debugBytes;
+    return b ? P.decode(b) : null;
+  }
   stepAt(i) { return this.entries[i].step; }
   timeAt(i) { return this.entries[i].step * this.dt; }
 
@@ -135,6 +141,8 @@ export function readRecording(bytes, name) {
         m.entries.push({ step, bytes: msg, key: m.entries.length % KEY_EVERY === 0 ? prev : null, stats: decoded.stats, epoch: decoded.epoch });
       } else if (decoded.type === 'stages' && m) {
         m.entries[m.entries.length - 1].stages = decoded.stages;
+      } else if (decoded.type === 'debug' && m) {
+        m.entries[m.entries.length - 1].debugBytes = msg; // decoded when its frame is shown
       }
     } else if (type === REC.command) {
       ++commands;
@@ -152,6 +160,7 @@ export function readRecording(bytes, name) {
   if (!m) throw new RecordingError(`${name}: no frames before ${warning || 'its end'}`);
   if (!warning && !ended) warning = 'no end record (the server did not stop cleanly)';
   m.world = world;
+  m.hasDebug = (flags & DEBUG) !== 0;
   m.commands = commands;
   m.warning = warning;
   return m;

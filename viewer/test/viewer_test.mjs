@@ -2,15 +2,13 @@
 // `cellphys serve` started here on a free port. Usage:
 //   node viewer/test/viewer_test.mjs CELLPHYS_EXE [--images DIR]
 // Exit 0: every check passed; 1: a check failed; 77: skipped (no Chromium; scripts/setup installs it).
-import { spawn, execFileSync } from 'node:child_process';
+import { execFileSync } from 'node:child_process';
 import { existsSync, mkdtempSync, readFileSync, rmSync, mkdirSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { createInterface } from 'node:readline';
-const { chromium } = await import('playwright-core').catch(() => { console.error('viewer_test: playwright-core is not installed in viewer/node_modules (scripts/setup runs npm ci there)'); process.exit(1); });
-
-const CHROMIUM = '/usr/bin/chromium';
+import { CHROMIUM, launchBrowser, serve as harnessServe } from './harness.mjs';
+await import('playwright-core').catch(() => { console.error('viewer_test: playwright-core is not installed in viewer/node_modules (scripts/setup runs npm ci there)'); process.exit(1); });
 const here = dirname(fileURLToPath(import.meta.url));
 const exe = process.argv[2];
 const imagesAt = process.argv.indexOf('--images');
@@ -42,23 +40,7 @@ async function until(what, fn, ms = 15000) {
   }
 }
 
-/// `cellphys serve ARGS --port 0`; resolves with its URL and token from the first two lines.
-function serve(args) {
-  return new Promise((resolveServe, reject) => {
-    const p = spawn(exe, ['serve', ...args, '--port', '0', '--viewer', viewerDir], { stdio: ['ignore', 'pipe', 'inherit'], env: { ...process.env, CELLPHYS_SCENES: scenesDir } });
-    const lines = [];
-    const rl = createInterface({ input: p.stdout });
-    rl.on('line', (l) => {
-      lines.push(l);
-      if (lines.length === 2) {
-        const url = /^listening on (http:\/\/\S+)$/.exec(lines[0])?.[1], token = /^token (\S+)$/.exec(lines[1])?.[1];
-        if (!url || !token) reject(new Error(`unexpected server output: ${lines.join(' | ')}`));
-        else resolveServe({ url, token, proc: p, stop: () => { p.kill('SIGTERM'); } });
-      }
-    });
-    p.on('exit', (code) => { if (lines.length < 2) reject(new Error(`cellphys serve exited with ${code} before printing its URL`)); });
-  });
-}
+const serve = (args) => harnessServe(exe, args, { viewerDir, scenesDir });
 
 async function metrics(server, world) {
   const r = await fetch(new URL('/metrics', server.url));
@@ -66,17 +48,8 @@ async function metrics(server, world) {
   return m.worlds.find((w) => w.name === world);
 }
 
-const userData = mkdtempSync(join(tmpdir(), 'cellphys-viewer-chromium-'));
-// A fresh profile (playwright passes it as --user-data-dir).
-const browser = await chromium.launchPersistentContext(userData, {
-  executablePath: CHROMIUM,
-  headless: true,
-  viewport: { width: 1280, height: 800 },
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
-    '--disable-component-update', '--disable-sync',
-    // WebGL without a GPU: Chromium's software rasteriser, which it no longer falls back to unasked.
-    '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
-});
+const launched = await launchBrowser();
+const browser = launched.context;
 const servers = [];
 const consoleErrors = [];
 async function openPage(url, name) {
@@ -152,6 +125,17 @@ try {
   // Every box of the pile rests on something: at least one contact a dynamic body.
   check(shownContacts.debug.contacts >= dynamic && shownContacts.debug.bodies === dynamic,
         'the debug message covers the pile', `${shownContacts.debug.contacts} contacts, ${shownContacts.debug.bodies} bodies, ${dynamic} dynamic`);
+  // The debug messages are kept with the timeline: scrubbed back, the overlays are that step's.
+  await until('debug messages kept', async () => (await page.evaluate(() => window.__viewer.debugKept())) >= 30);
+  const back = await page.evaluate(() => {
+    const v = window.__viewer, s = document.getElementById('scrub');
+    s.value = String(v.frameCount() - 20);
+    s.dispatchEvent(new Event('input'));
+    return { step: v.step(), debug: v.debug(), markers: v.contactMarkers() };
+  });
+  check(back.debug && back.debug.step === back.step && back.markers === back.debug.contacts,
+        "scrubbed back, the overlays show that step's debug message", `step ${back.step}, debug of step ${back.debug?.step}, ${back.markers} markers for ${back.debug?.contacts} contacts`);
+  await page.click('#live');
   await page.click('#ov-boxes');
   const boxes = await page.evaluate(() => window.__viewer.boxCount());
   check(boxes === instances - 1, 'bounding boxes on demand: one a body but the ground plane', `${boxes} boxes, ${instances} instances`);
@@ -196,6 +180,18 @@ try {
   await page.keyboard.up('Shift');
   await until('the spawned box', async () => (await page.evaluate(() => window.__viewer.instanceCount())) === nBefore + 1, 5000).catch(() => null);
   check((await page.evaluate(() => window.__viewer.instanceCount())) === nBefore + 1, 'shift-click spawns a box', await page.evaluate(() => window.__viewer.status()));
+  // A sphere, in a world of boxes only: the server adds one to the dictionary to spawn.
+  await page.selectOption('#spawnshape', 'sphere');
+  await page.keyboard.down('Shift');
+  await page.mouse.click(ground.x + 120, ground.y);
+  await page.keyboard.up('Shift');
+  await until('the spawned sphere', async () => /\(sphere\)/.test(await page.evaluate(() => window.__viewer.status())), 5000).catch(() => null);
+  const sphereId = Number(/spawned body (\d+) \(sphere\)/.exec(await page.evaluate(() => window.__viewer.status()))?.[1]);
+  await until('the sphere in a tick', async () => (await page.evaluate((id) => window.__viewer.bodyState(id), sphereId)) !== null, 5000).catch(() => null);
+  const sphere = await page.evaluate((id) => window.__viewer.bodyState(id), sphereId);
+  check(sphere !== null && sphere.shape_type === 0 && (await page.evaluate(() => window.__viewer.instanceCount())) === nBefore + 2,
+        'with sphere chosen, shift-click spawns a sphere', `${await page.evaluate(() => window.__viewer.status())}; shape type ${sphere?.shape_type}`);
+  await page.selectOption('#spawnshape', 'box');
 
   // ---- the timeline scrubs back over received ticks ----
   const fc = await page.evaluate(() => window.__viewer.frameCount());
@@ -305,8 +301,8 @@ try {
   check(tboxes === tj.bodies, 'bounding boxes: one a body, level geometry included', `${tboxes} boxes, ${tj.bodies} bodies`);
   await tpage.click('#ov-boxes');
   if (images) { await sleep(1500); await tpage.screenshot({ path: join(images, 'viewer_terrain.png') }); }
-  // A click on the bowl picks nothing (it is the ground); shift-click spawns onto it the one shape a
-  // client may spawn, the ball (the bowl and the pyramid come first in the dictionary, and cannot).
+  // A click on the bowl picks nothing (it is the ground); shift-click spawns a box onto it (the
+  // scene has balls only: the server adds a box to spawn).
   const onSlope = await tpage.evaluate((p) => window.__viewer.screenOfPoint(p), seen?.point ?? near[0]);
   await tpage.mouse.click(onSlope.x, onSlope.y);
   check((await tpage.evaluate(() => window.__viewer.selected())) === null, 'a click on the height field picks no body');
@@ -314,9 +310,9 @@ try {
   await tpage.keyboard.down('Shift');
   await tpage.mouse.click(onSlope.x, onSlope.y);
   await tpage.keyboard.up('Shift');
-  await until('the spawned ball', async () => (await tpage.evaluate(() => window.__viewer.instanceCount())) === tBefore + 1, 5000).catch(() => null);
-  check((await tpage.evaluate(() => window.__viewer.instanceCount())) === tBefore + 1 && /spawned body/.test(await tpage.evaluate(() => window.__viewer.status())),
-        'shift-click on the height field spawns a ball', await tpage.evaluate(() => window.__viewer.status()));
+  await until('the spawned box', async () => (await tpage.evaluate(() => window.__viewer.instanceCount())) === tBefore + 1, 5000).catch(() => null);
+  check((await tpage.evaluate(() => window.__viewer.instanceCount())) === tBefore + 1 && /spawned body \d+ \(box\)/.test(await tpage.evaluate(() => window.__viewer.status())),
+        'shift-click on the height field spawns a box', await tpage.evaluate(() => window.__viewer.status()));
   // Offline: a trajectory of the scene, dropped with the scene file, draws the same triangles as the server sent.
   const tdir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-terrain-'));
   const tcsv = join(tdir, 'terrain.csv');
@@ -506,7 +502,7 @@ try {
   // ---- a recording of a real `cellphys serve --record` run (a spawn, then a reset), opened and scrubbed ----
   const recDir = mkdtempSync(join(tmpdir(), 'cellphys-viewer-rec-'));
   const rec = join(recDir, 'pile.rec');
-  const recording = await serve(['pile65', '--record', rec]);
+  const recording = await serve(['pile65', '--record', rec, '--record-debug', 'on']);
   const rpage = await openPage(`${recording.url}?token=${recording.token}`, 'recorded');
   await rpage.keyboard.down('Shift');
   await rpage.mouse.click(...(await rpage.evaluate(() => [innerWidth * 0.3, innerHeight * 0.85])));
@@ -520,8 +516,9 @@ try {
   await new Promise((r) => { recording.proc.on('exit', r); recording.stop(); });
   const traj = join(recDir, 'replayed.csv');
   const replayed = execFileSync(exe, ['replay', rec, '--out', traj], { encoding: 'utf8' });
-  const framesMatched = Number(/(\d+) frames and \d+ stages matched/.exec(replayed)?.[1]);
-  check(framesMatched > 60 && / 2 commands/.test(replayed), 'cellphys replay re-made every recorded frame', replayed.split('\n')[0]);
+  const framesMatched = Number(/(\d+) frames and \d+ stages and (\d+) debug messages matched/.exec(replayed)?.[1]);
+  const debugMatched = Number(/(\d+) debug messages matched/.exec(replayed)?.[1]);
+  check(framesMatched > 60 && debugMatched === framesMatched && / 2 commands/.test(replayed), 'cellphys replay re-made every recorded frame and its debug message', replayed.split('\n')[0]);
   // The replayed trajectory by epoch (a reset takes the step counter back), step and body id.
   const replayedAt = [new Map()];
   let lastRowStep = -1;
@@ -560,6 +557,17 @@ try {
           `epoch ${epoch}: the scrubbed frame draws every body at replay's position for that step`,
           `step ${step}: ${want.size} bodies replayed, ${shown.instances} drawn, ${wrong.length} differ${wrong.length ? ` (body ${wrong[0]}: ${JSON.stringify(shown.drawn[ids.indexOf(wrong[0])])} vs ${JSON.stringify(want.get(wrong[0]))})` : ''}`);
   }
+  // Recorded with --record-debug on: a scrubbed frame's overlays and pick panel are its own step's.
+  await vpage.click('#ov-contacts');
+  const recDebug = await vpage.evaluate(() => {
+    const v = window.__viewer, s = document.getElementById('scrub');
+    s.value = String(Math.floor(v.frameCount() / 3));
+    s.dispatchEvent(new Event('input'));
+    return { step: v.step(), debug: v.debug(), markers: v.contactMarkers() };
+  });
+  check(recDebug.debug && recDebug.debug.step === recDebug.step && recDebug.markers > 0 && recDebug.markers === recDebug.debug.contacts,
+        "a recording's frame shows its own step's contacts", `step ${recDebug.step}, debug of step ${recDebug.debug?.step}, ${recDebug.markers} markers for ${recDebug.debug?.contacts} contacts`);
+  await vpage.click('#ov-contacts');
   const recordedStages = await vpage.evaluate(() => window.__viewer.stageChart());
   const recLegend = await legendOf(vpage);
   check(recordedStages.points > 10 && JSON.stringify([...recLegend].sort()) === JSON.stringify(serverStages),
@@ -593,9 +601,8 @@ try {
 } catch (e) {
   check(false, 'viewer test ran to the end', e.stack || String(e));
 } finally {
-  await browser.close();
+  await launched.close();
   for (const s of servers) s.stop();
-  rmSync(userData, { recursive: true, force: true });
 }
 console.log(failures ? `viewer_test: ${failures} check(s) failed` : 'viewer_test: all checks passed');
 process.exit(failures ? 1 : 0);

@@ -25,6 +25,7 @@ std::string metrics_json(const ServerContext& ctx) {
         {"step", m.step},
         {"state_hash", hash},
         {"tick_hz_target", m.tick_hz_target},
+        {"speed", m.speed},
         {"tick_hz", m.tick_hz},
         {"step_ms_median", m.step_ms_median},
         {"step_ms_p99", m.step_ms_p99},

@@ -20,8 +20,9 @@ inline constexpr uint16_t kVersion = 1;
 // Additions that keep every revision-1 message's layout, announced in Join::revision: 2 adds the
 // subscribe flag kSubscribeDebug and the debug message; 3 the subscribe flag kSubscribeStages
 // and the stages message, and the debug message's cut couplings (in what was its reserved field);
-// 4 the shape types mesh, height_field and compound, with data after their ShapeRecord.
-inline constexpr uint32_t kRevision = 4;
+// 4 the shape types mesh, height_field and compound, with data after their ShapeRecord; 5 the
+// set_speed command (a server that announces less refuses it as no command).
+inline constexpr uint32_t kRevision = 5;
 
 /// The revision a client must read to read a dictionary holding a shape of this type: a client
 /// of revision 3 or less reads data after a hull's ShapeRecord only, so it would take a mesh's,
@@ -50,6 +51,7 @@ enum class Type : uint16_t {
   resume = 40,
   step_once = 41,
   reset = 42,
+  set_speed = 43,  // revision 5: the pace of the world's steps against real time
 };
 
 struct Header {
@@ -380,6 +382,16 @@ struct Control {
 };
 static_assert(sizeof(Control) == 16);
 
+// set_speed (revision 5): the room steps at speed times its tick rate (slow motion below 1),
+// each step still of the world's dt; the physics is unchanged. No effect under `--fast`.
+inline constexpr float kMinSpeed = 0.05f, kMaxSpeed = 8.0f;
+struct SetSpeed {
+  Header header;
+  uint32_t seq;
+  float speed;  // [kMinSpeed, kMaxSpeed]
+};
+static_assert(sizeof(SetSpeed) == 16);
+
 /// The fixed size of a client message of this type; 0 for a type clients do not send.
 constexpr size_t client_message_size(uint16_t type) {
   switch (static_cast<Type>(type)) {
@@ -394,6 +406,7 @@ constexpr size_t client_message_size(uint16_t type) {
     case Type::resume:
     case Type::step_once:
     case Type::reset: return sizeof(Control);
+    case Type::set_speed: return sizeof(SetSpeed);
     default: return 0;
   }
 }

@@ -22,6 +22,7 @@ const char* type_name(uint16_t type) {
     case Type::resume: return "resume";
     case Type::step_once: return "step_once";
     case Type::reset: return "reset";
+    case Type::set_speed: return "set_speed";
   }
   return "";
 }

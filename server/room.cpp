@@ -101,12 +101,14 @@ std::shared_ptr<const Frame> Room::latest() const {
 }
 
 void Room::run() {
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options_.tick_hz));
   auto next = Clock::now();
   double bytes_at = now_s();
   uint64_t bytes_then = bytes_.load();
   for (;;) {
     if (!options_.fast) {
+      // set_speed paces the ticks: speed times the tick rate, each step of the world's dt.
+      const auto period = std::chrono::duration_cast<Clock::duration>(
+          std::chrono::duration<double>(1.0 / (options_.tick_hz * speed_.load(std::memory_order_relaxed))));
       next += period;
       const auto now = Clock::now();
       if (now > next + period) {  // more than a tick behind: count it and keep the rhythm from now
@@ -181,6 +183,7 @@ void Room::apply(const Pending& p, bool& changed) {
     failed_ = false;
     error_.clear();
   }
+  if (type == Type::set_speed) speed_.store(c.as<protocol::SetSpeed>().speed, std::memory_order_relaxed);
   changed = true;
   reply(encode_ack(c, step, a.result));
   if (status) broadcast_status();
@@ -257,7 +260,8 @@ RoomMetrics Room::metrics() const {
   m.name = name_;
   m.source = source_;
   m.recording = options_.record;
-  m.tick_hz_target = options_.fast ? 0.0 : options_.tick_hz;
+  m.speed = speed_.load(std::memory_order_relaxed);
+  m.tick_hz_target = options_.fast ? 0.0 : options_.tick_hz * m.speed;
   if (const auto f = latest()) {
     m.step = f->step;
     m.state_hash = f->state_hash;

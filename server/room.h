@@ -66,7 +66,8 @@ struct RoomOptions {
 struct RoomMetrics {
   std::string name, source, state, error, recording;
   uint64_t step = 0, state_hash = 0;
-  double tick_hz_target = 0, tick_hz = 0;
+  double tick_hz_target = 0, tick_hz = 0;  // the target is the tick rate times the speed
+  double speed = 1;                         // set_speed's: the pace against real time
   double step_ms_median = 0, step_ms_p99 = 0;
   std::vector<std::pair<const char*, double>> stage_ms_mean;
   uint32_t bodies = 0, bodies_awake = 0, bodies_asleep = 0;
@@ -159,6 +160,7 @@ class Room {
   uint64_t failed_islands_ = 0, late_ticks_ = 0, accepted_ = 0;
   double bytes_rate_ = 0;
   std::atomic<int> debug_clients_{0};
+  std::atomic<double> speed_{1.0};  // set by set_speed on the room's thread, read by metrics()
   std::atomic<uint64_t> refused_{0}, bytes_{0}, skipped_{0}, dropped_{0};
 
   std::mutex stop_mutex_;

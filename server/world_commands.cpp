@@ -16,9 +16,9 @@ CommandError invalid(const char* type, const std::string& field, const std::stri
   return CommandError{protocol::ErrorCode::invalid, std::string(type) + "." + field, reason};
 }
 
-std::string num(double v) {
+std::string num(double v, int digits = 9) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
   return buf;
 }
 
@@ -154,6 +154,14 @@ std::optional<CommandError> WorldCommands::check(const Command& c) const {
     case Type::step_once:
     case Type::reset:
       return std::nullopt;
+    case Type::set_speed: {
+      const float v = c.as<protocol::SetSpeed>().speed;
+      if (!(v >= protocol::kMinSpeed && v <= protocol::kMaxSpeed))
+        return invalid("set_speed", "speed",
+                       num(v) + " is not from " + num(double(protocol::kMinSpeed), 3) + " to " +
+                           num(double(protocol::kMaxSpeed), 3) + " (times real time)");
+      return std::nullopt;
+    }
     default:
       return CommandError{protocol::ErrorCode::malformed, "header.type",
                           "type " + std::to_string(c.type) + " is not a command"};
@@ -227,7 +235,7 @@ std::optional<CommandError> WorldCommands::apply(const Command& c, Applied& out)
         out.reset = true;
         break;
       default:
-        break;  // pause, resume, step_once: the caller's
+        break;  // pause, resume, step_once, set_speed: the caller's
     }
   } catch (const ppe::WorldError& e) {
     return CommandError{protocol::ErrorCode::invalid, protocol::type_name(c.type), e.what()};

@@ -260,6 +260,13 @@ function advancePlayback(now) {
 $('play').onclick = () => quiet(command((s) => P.simple(state.paused ? P.T.resume : P.T.pause, s)));
 $('step').onclick = () => quiet(command((s) => P.simple(P.T.step_once, s)));
 $('reset').onclick = () => quiet(command((s) => P.simple(P.T.reset, s)));
+// The speed selector paces the timeline's playback and, live with the token, the world itself.
+$('speed').onchange = () => {
+  const v = Number($('speed').value);
+  if (state.model?.source !== 'live' || !state.canCommand) return;
+  if (state.join.revision < P.SET_SPEED_REVISION) { setStatus(`this server (protocol revision ${state.join.revision}) has no speed command`, true); return; }
+  quiet(command((s) => P.setSpeed(s, v)).then(() => setStatus(`world at ${v}× real time`)));
+};
 $('token').onchange = () => {
   state.token = $('token').value.trim();
   const u = new URL(location.href);

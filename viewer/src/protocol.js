@@ -8,8 +8,10 @@ export const REVISION = 4;
 export const T = {
   join: 1, tick: 2, ack: 3, error: 4, status: 5, debug: 6, stages: 7, subscribe: 32,
   spawn: 33, remove: 34, impulse: 35, drag_start: 36, drag_move: 37, drag_release: 38,
-  pause: 39, resume: 40, step_once: 41, reset: 42,
+  pause: 39, resume: 40, step_once: 41, reset: 42, set_speed: 43,
 };
+/// The first revision whose server takes set_speed (the join's revision says what a server takes).
+export const SET_SPEED_REVISION = 5;
 export const SHAPE = { sphere: 0, capsule: 1, box: 2, hull: 3, plane: 4, mesh: 5, height_field: 6, compound: 7 };
 /// The shapes a compound's parts are.
 export const isConvex = (type) => type >= SHAPE.sphere && type <= SHAPE.hull;
@@ -237,6 +239,14 @@ export function subscribe({ quantised = false, region = null, debug = false, sta
 export function simple(type, seq) {
   const dv = message(type, 16);
   dv.setUint32(8, seq, true);
+  return dv.buffer;
+}
+
+/// set_speed (revision 5): the world's pace against real time, 0.05 to 8.
+export function setSpeed(seq, speed) {
+  const dv = message(T.set_speed, 16);
+  dv.setUint32(8, seq, true);
+  dv.setFloat32(12, speed, true);
   return dv.buffer;
 }
 

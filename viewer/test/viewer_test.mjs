@@ -114,6 +114,15 @@ try {
   await until('the page to show that step', async () => (await page.evaluate(() => window.__viewer.step())) === s1);
   await page.click('#play');
   await until('the world to run', async () => (await metrics(pile, 'pile65')).state === 'running');
+  // The speed selector paces the live world: half speed, 30 steps a real second.
+  await page.selectOption('#speed', '0.5');
+  await until('the world at half speed', async () => (await metrics(pile, 'pile65')).speed === 0.5, 5000).catch(() => null);
+  await sleep(2500); // the metrics' rate is over the last 2 s
+  const slow = await metrics(pile, 'pile65');
+  check(slow.speed === 0.5 && slow.tick_hz_target === 30 && slow.tick_hz > 20 && slow.tick_hz < 36,
+        'the speed selector sets the live world\'s pace', `speed ${slow.speed}, ${slow.tick_hz.toFixed(1)} steps a second (target ${slow.tick_hz_target})`);
+  await page.selectOption('#speed', '1');
+  await until('the world at full speed', async () => (await metrics(pile, 'pile65')).speed === 1, 5000);
 
   // ---- overlays: contacts as the server's debug message reports them; bounding boxes ----
   await page.click('#ov-contacts');

@@ -453,4 +453,60 @@ TEST(Joints, EveryTypeHoldsAHundredToOneLoad) {
   }
 }
 
+// Projection (joint.projection): a joint the step leaves opened wider than the setting is moved
+// back to it at the end of the step, each body by its share (inverse mass and inertia about the
+// point), without a velocity changing and without moving the pair's centre of mass. Each joint
+// type that holds its points, between a 1 kg and a 100 kg box started 8 cm apart (no gravity, at
+// rest), and a bar hinged to the world 5 cm off its pivot; against the same step without it.
+TEST(Joints, ProjectionBoundsTheGapWithoutMovingTheCentreOfMassOrAVelocity) {
+  for (const char* type : {"hinge", "fixed", "cone_twist"}) {
+    SCOPED_TRACE(type);
+    WorldSettings off = joint_settings(false), on = off;
+    off.joint_projection = 0;
+    on.joint_projection = 0.005f;
+    std::vector<BodyState> after[2];
+    Vec3 centre[2];
+    double gap[2];
+    for (int k = 0; k < 2; ++k) {
+      World w(k ? on : off);
+      const Box light = add_box(w, Vec3(0.1, 0.1, 0.1), 1.0, kPivot, Quat(Eigen::AngleAxisd(0.3, Vec3::UnitZ())));
+      const Box heavy = add_box(w, Vec3(0.3, 0.3, 0.3), 100.0, kPivot - Vec3(0.05, 0.02, 1.06));
+      w.add_force(type, light.id, heavy.id,
+                  {{"point_a", {0, 0, -0.1f}}, {"point_b", {0, 0, 0.9f}}, {"axis_a", {0, 1, 0}}, {"axis_b", {0, 1, 0}},
+                   {"ref_a", {1, 0, 0}}, {"ref_b", {1, 0, 0}}});
+      const uint32_t projected = w.step().projected_joints;
+      EXPECT_EQ(projected, k ? 1u : 0u);
+      after[k] = {w.state(light.id), w.state(heavy.id)};
+      centre[k] = (position(after[k][0]) * light.mass + position(after[k][1]) * heavy.mass) / (light.mass + heavy.mass);
+      gap[k] = (world_point(after[k][0], Vec3(0, 0, -0.1)) - world_point(after[k][1], Vec3(0, 0, 0.9))).norm();
+    }
+    EXPECT_GT(gap[0], 0.01) << "the soft joint alone leaves it over the projection distance (8 cm to about 2 cm)";
+    EXPECT_LT(gap[1], 0.005 + 1e-5);
+    EXPECT_NEAR((centre[1] - centre[0]).norm(), 0.0, 1e-6);
+    for (int b = 0; b < 2; ++b) {
+      EXPECT_EQ(velocity(after[1][b]), velocity(after[0][b])) << "body " << b;
+      EXPECT_EQ(spin(after[1][b]), spin(after[0][b])) << "body " << b;
+    }
+  }
+  // To the world: the bar alone moves, and only its position and orientation.
+  std::vector<BodyState> bar[2];
+  for (int k = 0; k < 2; ++k) {
+    WorldSettings s = joint_settings();
+    s.joint_projection = k ? 0.005f : 0.0f;
+    World w(s);
+    HingedBar h{1.0, 2.0, 0.5};
+    h.build(w);
+    BodyState st = w.state(h.bar.id);
+    st.position[0] += 0.05f;  // 5 cm off its pivot
+    w.set_state(h.bar.id, st);
+    w.step();
+    bar[k] = {w.state(h.bar.id)};
+    const double gap = (world_point(bar[k][0], Vec3(-0.5, 0, 0)) - kPivot).norm();
+    if (k) EXPECT_LT(gap, 0.005 + 1e-5);
+    else EXPECT_GT(gap, 0.01);
+  }
+  EXPECT_EQ(velocity(bar[1][0]), velocity(bar[0][0]));
+  EXPECT_EQ(spin(bar[1][0]), spin(bar[0][0]));
+}
+
 }  // namespace

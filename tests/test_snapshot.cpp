@@ -400,6 +400,39 @@ TEST(Snapshot, RecordsWrittenWrongAreRefusedByFieldAndTheWorldKept) {
   EXPECT_EQ(source->snapshot(), good);
 }
 
+// A snapshot as an older version wrote it: without the setting `name` (its value `bytes` long),
+// the settings' count one less, the header's version `version`, sealed again.
+std::vector<unsigned char> without_setting(std::vector<unsigned char> b, const std::string& name, uint32_t bytes,
+                                           uint32_t version) {
+  const auto at = std::search(b.begin() + 32, b.end(), name.begin(), name.end());
+  EXPECT_NE(at, b.end()) << name;
+  if (at == b.end()) return b;
+  const size_t start = size_t(at - b.begin()) - 4, value = start + 4 + name.size();
+  uint32_t len = 0;
+  std::memcpy(&len, b.data() + value, 4);
+  EXPECT_EQ(len, bytes) << name;
+  b.erase(b.begin() + long(start), b.begin() + long(value + 4 + len));
+  uint32_t count = 0;
+  std::memcpy(&count, b.data() + 32, 4);
+  put_at<uint32_t>(b, 32, count - 1);
+  put_at<uint32_t>(b, 8, version);
+  seal(b);
+  return b;
+}
+
+// The bytes as version `version` would write them, which has the setting `name` they lack:
+// refused, naming it.
+void expect_missing(std::vector<unsigned char> b, const std::string& name, uint32_t version) {
+  put_at<uint32_t>(b, 8, version);
+  seal(b);
+  try {
+    World::restore(b.data(), b.size());
+    ADD_FAILURE() << "a version-" << version << " snapshot without " << name << " was accepted";
+  } catch (const WorldError& e) {
+    EXPECT_NE(std::string(e.what()).find("'" + name + "' is missing"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 
 // Version 6 had no whole_island_bytes: such a world restores with 0 and splits its big islands
@@ -412,30 +445,37 @@ TEST(Snapshot, Version6WithoutWholeIslandBytesRestoresSplittingBigIslands) {
   ASSERT_GT(largest, w.settings().local_store_bytes);
   const std::vector<unsigned char> now = w.snapshot();
   EXPECT_EQ(World::restore(now.data(), now.size())->settings().whole_island_bytes, w.settings().whole_island_bytes);
-  std::vector<unsigned char> b = now;
-  const std::string name = "whole_island_bytes";
-  const auto at = std::search(b.begin() + 32, b.end(), name.begin(), name.end());
-  ASSERT_NE(at, b.end());
-  const size_t start = size_t(at - b.begin()) - 4, value = start + 4 + name.size();
-  uint32_t len = 0;
-  std::memcpy(&len, b.data() + value, 4);
-  ASSERT_EQ(len, 8u);
-  b.erase(b.begin() + long(start), b.begin() + long(value + 4 + len));
-  uint32_t count = 0;
-  std::memcpy(&count, b.data() + 32, 4);
-  put_at<uint32_t>(b, 32, count - 1);
-  put_at<uint32_t>(b, 8, 6);
-  seal(b);
+  std::vector<unsigned char> b = without_setting(now, "whole_island_bytes", 8, 6);
   auto old = World::restore(b.data(), b.size());
   EXPECT_EQ(old->settings().whole_island_bytes, 0u);
   EXPECT_GT(old->step().decoupled_islands, 0u);
   EXPECT_EQ(w.step().decoupled_islands, 0u);
-  put_at<uint32_t>(b, 8, 7);  // the same bytes as version 7 lack a setting this build has
-  seal(b);
-  try {
-    World::restore(b.data(), b.size());
-    ADD_FAILURE() << "a version-7 snapshot without whole_island_bytes was accepted";
-  } catch (const WorldError& e) {
-    EXPECT_NE(std::string(e.what()).find("'whole_island_bytes' is missing"), std::string::npos) << e.what();
-  }
+  expect_missing(b, "whole_island_bytes", 7);
+}
+
+// Version 7 had no joint.projection: such a world restores with 0 and steps on as it did, its
+// joints unprojected; a version-8 snapshot keeps the setting, and one without it is refused.
+TEST(Snapshot, Version7WithoutJointProjectionRestoresUnprojected) {
+  using cellphys::ppe::BodyDesc;
+  using cellphys::ppe::BodyId;
+  using cellphys::ppe::kWorldBody;
+  World w;
+  const float half[3] = {0.2f, 0.2f, 0.2f};
+  BodyDesc d;
+  d.shape = w.shapes().add_box(half);
+  d.mass = 5;
+  d.state.position[2] = 2;
+  const BodyId a = w.add_body(d);
+  const float pivot[3] = {0.05f, 0, 2.3f};  // 5 cm off the box's joint point: the first step projects it
+  w.add_force("cone_twist", a, kWorldBody,
+              {{"point_a", {0, 0, 0.3f}}, {"point_b", {pivot[0], pivot[1], pivot[2]}}, {"axis_a", {0, 0, 1}},
+               {"axis_b", {0, 0, 1}}, {"ref_a", {1, 0, 0}}, {"ref_b", {1, 0, 0}}});
+  const std::vector<unsigned char> now = w.snapshot();
+  EXPECT_EQ(World::restore(now.data(), now.size())->settings().joint_projection, w.settings().joint_projection);
+  std::vector<unsigned char> b = without_setting(now, "joint.projection", 4, 7);
+  auto old = World::restore(b.data(), b.size());
+  EXPECT_EQ(old->settings().joint_projection, 0.0f);
+  EXPECT_EQ(old->step().projected_joints, 0u);
+  EXPECT_EQ(w.step().projected_joints, 1u);
+  expect_missing(b, "joint.projection", 8);
 }

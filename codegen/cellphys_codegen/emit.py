@@ -71,6 +71,7 @@ def render(structs_dir, force_dirs, src_root):
                          min=p.min, min_exclusive=p.min_exclusive, doc=p.doc) for p in f.params],
             globals=[g.name for g in f.globals],
             body_b=inst.field("body_b") is not None,
+            held=[inst.field(h).offset for h in f.holds_points] or [-1, -1],
             kernels=[kernel_view(f, k) for k in f.kernels],
         ))
     global_views = [dict(name=g.name, type=g.type, lanes=g.lanes, offset=gstruct.field(g.name).offset,

@@ -15,7 +15,8 @@ from .structs import layout, unknown_keys
 
 KINDS = ("global", "unary", "binary")
 PARAM_TYPES = ("f32", "vec3")
-TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "joint", "instance", "params", "globals", "let", "apply"}
+TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "joint", "holds_points", "instance", "params", "globals",
+            "let", "apply"}
 PARAM_KEYS = {"type", "min", "greater_than", "doc"}
 GLOBAL_KEYS = {"type", "min", "greater_than", "doc", "default", "setting"}
 
@@ -95,6 +96,9 @@ class Force:
     instance: object  # structs.Struct
     source: str
     kernels: list = field(default_factory=list)
+    # the names of the two vec3 params a joint holds together (a's point in a's frame, b's in b's
+    # or the world's): the world projects them back together when a step leaves them apart
+    holds_points: tuple = ()
 
 
 def camel(name):
@@ -207,9 +211,17 @@ def load_force(path, structs):
     dup = {n for n in names if names.count(n) > 1}
     if dup:
         raise DescriptorError(path, "params", f"name(s) {sorted(dup)} declared twice")
+    holds = d.get("holds_points")
+    if holds is not None:
+        vec3s = [p.name for p in params if p.type == "vec3"]
+        if not d.get("joint"):
+            raise DescriptorError(path, "holds_points", "only a joint (joint: true) holds points together")
+        if not (isinstance(holds, list) and len(holds) == 2 and all(h in vec3s for h in holds) and holds[0] != holds[1]):
+            raise DescriptorError(path, "holds_points", f"must name two different vec3 params (a's point, then b's) "
+                                  f"of {vec3s}, got {holds!r}")
     instance = _instance_struct(path, d, name, kind, params, structs)
     force = Force(name, kind, d.get("doc", ""), d.get("symmetric", False), d.get("world_anchor", False),
-                  d.get("joint", False), params, globals_, instance, str(path))
+                  d.get("joint", False), params, globals_, instance, str(path), holds_points=tuple(holds or ()))
     variants = {"global": ["body"], "unary": ["body"], "binary": ["pair"] + (["world"] if force.world_anchor else [])}
     force.kernels = [_build_kernel(force, v, d, lines, path) for v in variants[kind]]
     return force

@@ -37,7 +37,7 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 7;
+constexpr uint32_t kVersion = 8;
 constexpr uint32_t kOldestVersion = 4;  // without the event memory
 constexpr size_t kHeaderBytes = 32;
 // The fewest bytes of each record, so that a count the rest of the file cannot hold is refused
@@ -187,6 +187,10 @@ WorldSettings get_settings(Reader& r, uint32_t version) {
     if (seen[i]) continue;
     if (version < 7 && table[i].path == "whole_island_bytes") {
       s.whole_island_bytes = 0;  // a world saved when every big island was split steps on split
+      continue;
+    }
+    if (version < 8 && table[i].path == "joint.projection") {
+      s.joint_projection = 0;  // a world saved before joints were projected steps on without
       continue;
     }
     throw WorldError("snapshot: setting '" + table[i].path + "' is missing");

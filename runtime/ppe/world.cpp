@@ -10,6 +10,7 @@
 #include "runtime/ppe/step_events.h"
 #include "runtime/ppe/step_integrate.h"
 #include "runtime/ppe/step_islands.h"
+#include "runtime/ppe/step_project.h"
 #include "runtime/ppe/step_push.h"
 #include "runtime/ppe/step_sleep.h"
 #include "runtime/ppe/world_checks.h"
@@ -222,6 +223,10 @@ const StepStats& World::step() {
     const DecoupledIslands& parts = w.parts;
     integrate_islands(settings_, shapes_, islands, parts, w.forces, w.contacts, w.bodies,  // 6
                       w.compute(settings_), w.integrate, w.failed, st);
+    {
+      StageTimer t(st.times.integrate_ms);  // the end of integration: joints opened too far
+      project_joints(settings_, w.forces, w.bodies, st);
+    }
     const std::vector<uint8_t>& failed = w.failed;
     sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 7
     {

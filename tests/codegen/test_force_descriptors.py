@@ -114,6 +114,19 @@ class GoodForceTests(unittest.TestCase):
         self.assertRegex(table, r'\{"probe_joint", ForceType::probe_joint, ForceKind::binary, false, false, true, ')
         self.assertRegex(table, r'\{"probe_link", ForceType::probe_link, ForceKind::binary, false, false, false, ')
 
+    def test_held_points_reach_the_force_table(self):
+        # holds_points names the two vec3 params a joint holds together: their offsets in the
+        # instance (vec3s come first in its layout) follow the doc; a joint without has -1, -1
+        sb = Sandbox(temp_dir(self))
+        sb.force("probe_weld.yaml", "name: probe_weld\nkind: binary\njoint: true\nholds_points: [pa, pb]\n"
+                                    "params:\n  k: {type: f32}\n  pa: {type: vec3}\n  pb: {type: vec3}\n"
+                                    "apply: ['force(a, k * (b.x - a.x) + pa + pb)', 'force(b, a.x - b.x)']\n")
+        sb.force("probe_link.yaml", "name: probe_link\nkind: binary\njoint: true\n"
+                                    "apply: ['force(a, b.x - a.x)', 'force(b, a.x - b.x)']\n")
+        table = sb.render()["cellphys/gen/force_table.h"]
+        self.assertRegex(table, r'\{"probe_weld", ForceType::probe_weld, .*, "", 0, 16\},')
+        self.assertRegex(table, r'\{"probe_link", ForceType::probe_link, .*, "", -1, -1\},')
+
     def test_a_global_shared_by_two_forces_at_a_place_of_its_own(self):
         # two forces declare the same global with the same setting: one field, one place
         sb = Sandbox(temp_dir(self))
@@ -173,6 +186,18 @@ class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
     def test_joint_not_a_bool(self):
         self.check("name: probe_force\nkind: binary\njoint: 1\napply: ['force(a, b.x - a.x)']\n", "joint",
                    r"true or false")
+
+    def test_holds_points_of_a_force_that_is_no_joint(self):
+        self.check("name: probe_force\nkind: binary\nholds_points: [p, q]\nparams:\n  p: {type: vec3}\n  q: {type: vec3}\n"
+                   "apply: ['force(a, p)', 'force(b, q)']\n", "holds_points", r"only a joint")
+
+    def test_holds_points_that_are_not_two_vec3_params(self):
+        for held in ("[p]", "[p, k]", "[p, p]", "[p, r]", "p"):
+            with self.subTest(held=held):
+                self.check("name: probe_force\nkind: binary\njoint: true\nholds_points: " + held +
+                           "\nparams:\n  p: {type: vec3}\n  q: {type: vec3}\n  k: {type: f32}\n"
+                           "apply: ['force(a, p * k)', 'force(b, q)']\n", "holds_points",
+                           r"must name two different vec3 params \(a's point, then b's\) of \['p', 'q'\]")
 
     def test_world_anchor_on_a_global_force(self):
         self.check("name: probe_force\nkind: global\nworld_anchor: true\napply: ['force(a, a.x)']\n",

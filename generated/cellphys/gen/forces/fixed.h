@@ -170,7 +170,7 @@ struct Fixed_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[59];
     [[maybe_unused]] const S g_joint_hertz = in[60];
     [[maybe_unused]] const S g_joint_damping_ratio = in[61];
-    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:24), let pb (fixed.yaml:25), let na (fixed.yaml:27), let nb (fixed.yaml:28), let ua (fixed.yaml:29), let ub (fixed.yaml:30), let ta (fixed.yaml:33), let tb (fixed.yaml:34)
+    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:25), let pb (fixed.yaml:26), let na (fixed.yaml:28), let nb (fixed.yaml:29), let ua (fixed.yaml:30), let ub (fixed.yaml:31), let ta (fixed.yaml:34), let tb (fixed.yaml:35)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -235,29 +235,29 @@ struct Fixed_Pair_Kernel {
     const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
     const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
     const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
-    // let omega (fixed.yaml:20)
+    // let omega (fixed.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (fixed.yaml:21)
+    // let zeta (fixed.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (fixed.yaml:22)
+    // let m (fixed.yaml:23)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (fixed.yaml:23)
+    // let im (fixed.yaml:24)
     [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let pa (fixed.yaml:24)
+    // let pa (fixed.yaml:25)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (fixed.yaml:25)
+    // let pb (fixed.yaml:26)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let f (fixed.yaml:26)
+    // let f (fixed.yaml:27)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (b_r1_2*b_wy);
     const S l6_0_2 = (b_r1_1*b_wz);
@@ -324,53 +324,53 @@ struct Fixed_Pair_Kernel {
     const S d_L_f__2__b_vz = l6_0_3;
     const S d_L_f__2__b_wx = l6_0_14;
     const S d_L_f__2__b_wy = (-l6_0_20);
-    // let na (fixed.yaml:27)
+    // let na (fixed.yaml:28)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (fixed.yaml:28)
+    // let nb (fixed.yaml:29)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let ua (fixed.yaml:29)
+    // let ua (fixed.yaml:30)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (fixed.yaml:30)
+    // let ub (fixed.yaml:31)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let ta (fixed.yaml:33)
+    // let ta (fixed.yaml:34)
     const S L_ta__0 = a_r6_0;
     const S d_L_ta__0__a_dtz = (-a_r6_1);
     const S L_ta__1 = a_r6_1;
     const S d_L_ta__1__a_dtx = (-a_r6_2);
     const S L_ta__2 = a_r6_2;
     const S d_L_ta__2__a_dty = (-a_r6_0);
-    // let tb (fixed.yaml:34)
+    // let tb (fixed.yaml:35)
     const S L_tb__0 = b_r7_0;
     const S d_L_tb__0__b_dtz = (-b_r7_1);
     const S L_tb__1 = b_r7_1;
     const S d_L_tb__1__b_dtx = (-b_r7_2);
     const S L_tb__2 = b_r7_2;
     const S d_L_tb__2__b_dty = (-b_r7_0);
-    // let wrel (fixed.yaml:35)
+    // let wrel (fixed.yaml:36)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (fixed.yaml:36)
+    // let tau (fixed.yaml:37)
     const S l14_0_0 = (L_omega*L_omega);
     const S l14_0_1 = (S(0.5)*L_im*l14_0_0);
     const S l14_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -420,19 +420,19 @@ struct Fixed_Pair_Kernel {
     const S d_L_tau__2__b_dtz = ((S(0.5)*L_im*L_na__1*d_L_nb__0__b_dtz*l14_0_0) + (S(0.5)*L_im*L_ta__1*d_L_tb__0__b_dtz*l14_0_0) + (S(0.5)*L_im*L_ua__1*d_L_ub__0__b_dtz*l14_0_0) - (b_r3_0*l14_0_19) - (b_r5_0*l14_0_21) - (b_r7_0*l14_0_20));
     const S d_L_tau__2__a_wz = l14_0_2;
     const S d_L_tau__2__b_wz = l14_0_15;
-    // apply[0] (fixed.yaml:38)
+    // apply[0] (fixed.yaml:39)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l16_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l16_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l16_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l16_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (fixed.yaml:39)
+    // apply[1] (fixed.yaml:40)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l18_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (fixed.yaml:37), shared subexpressions
+    // apply (fixed.yaml:38), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -455,21 +455,21 @@ struct Fixed_Pair_Kernel {
     const S o19 = (T3_turn*d_L_pb__2__b_dty);
     const S o20 = (T3_turn*b_r1_2);
     const S o21 = (L_f__2*T3_turn);
-    // F_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // F_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // F_b from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4) + L_tau__0);
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5) + L_tau__1);
     out[11] = ((L_f__0*o4) - (L_f__1*o5) + L_tau__2);
-    // dF_a/ddelta_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // dF_a/ddelta_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[12] = d_L_f__0__a_dx;
     out[13] = S(0);
     out[14] = S(0);
@@ -506,7 +506,7 @@ struct Fixed_Pair_Kernel {
     out[45] = ((a_r0_0*o13) + (d_L_f__1__a_dtz*o7) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[46] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o8) - (d_L_pa__0__a_dtz*o13) - d_L_tau__1__a_dtz);
     out[47] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o6) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/ddelta_b from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // dF_a/ddelta_b from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[48] = d_L_f__0__b_dx;
     out[49] = S(0);
     out[50] = S(0);
@@ -543,7 +543,7 @@ struct Fixed_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o7) + (d_L_f__2__b_dtz*o1) - d_L_tau__0__b_dtz);
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o8) - d_L_tau__1__b_dtz);
     out[83] = ((d_L_f__0__b_dtz*o6) + (d_L_f__1__b_dtz*o2) - d_L_tau__2__b_dtz);
-    // dF_a/du_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // dF_a/du_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[84] = d_L_f__0__a_vx;
     out[85] = S(0);
     out[86] = S(0);
@@ -580,7 +580,7 @@ struct Fixed_Pair_Kernel {
     out[117] = (d_L_f__1__a_wz*o7);
     out[118] = (d_L_f__0__a_wz*o0);
     out[119] = ((d_L_f__0__a_wz*o6) + (d_L_f__1__a_wz*o2) - d_L_tau__2__a_wz);
-    // dF_a/du_b from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // dF_a/du_b from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[120] = d_L_f__0__b_vx;
     out[121] = S(0);
     out[122] = S(0);
@@ -617,7 +617,7 @@ struct Fixed_Pair_Kernel {
     out[153] = (d_L_f__1__b_wz*o7);
     out[154] = (d_L_f__0__b_wz*o0);
     out[155] = ((d_L_f__0__b_wz*o6) + (d_L_f__1__b_wz*o2) - d_L_tau__2__b_wz);
-    // dF_b/ddelta_a from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // dF_b/ddelta_a from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = S(0);
     out[158] = S(0);
@@ -654,7 +654,7 @@ struct Fixed_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o16) + d_L_tau__0__a_dtz);
     out[190] = ((d_L_f__0__a_dtz*o14) + (d_L_f__2__a_dtz*o5) + d_L_tau__1__a_dtz);
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o15) + d_L_tau__2__a_dtz);
-    // dF_b/ddelta_b from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // dF_b/ddelta_b from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[192] = (-d_L_f__0__b_dx);
     out[193] = S(0);
     out[194] = S(0);
@@ -691,7 +691,7 @@ struct Fixed_Pair_Kernel {
     out[225] = ((-(b_r1_0*o21)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o16) + d_L_tau__0__b_dtz);
     out[226] = ((d_L_f__0__b_dtz*o14) + (d_L_f__2__b_dtz*o5) + (d_L_pb__0__b_dtz*o21) + d_L_tau__1__b_dtz);
     out[227] = ((L_f__0*T3_turn*b_r1_0) - (L_f__1*T3_turn*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o15) + d_L_tau__2__b_dtz);
-    // dF_b/du_a from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // dF_b/du_a from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = S(0);
     out[230] = S(0);
@@ -728,7 +728,7 @@ struct Fixed_Pair_Kernel {
     out[261] = (d_L_f__1__a_wz*o3);
     out[262] = (d_L_f__0__a_wz*o14);
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o15) + d_L_tau__2__a_wz);
-    // dF_b/du_b from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // dF_b/du_b from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[264] = (-d_L_f__0__b_vx);
     out[265] = S(0);
     out[266] = S(0);
@@ -844,7 +844,7 @@ struct Fixed_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[59];
     [[maybe_unused]] const S g_joint_hertz = in[60];
     [[maybe_unused]] const S g_joint_damping_ratio = in[61];
-    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:24), let pb (fixed.yaml:25), let na (fixed.yaml:27), let nb (fixed.yaml:28), let ua (fixed.yaml:29), let ub (fixed.yaml:30), let ta (fixed.yaml:33), let tb (fixed.yaml:34)
+    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:25), let pb (fixed.yaml:26), let na (fixed.yaml:28), let nb (fixed.yaml:29), let ua (fixed.yaml:30), let ub (fixed.yaml:31), let ta (fixed.yaml:34), let tb (fixed.yaml:35)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -909,29 +909,29 @@ struct Fixed_Pair_Kernel {
     const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
     const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
     const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
-    // let omega (fixed.yaml:20)
+    // let omega (fixed.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (fixed.yaml:21)
+    // let zeta (fixed.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (fixed.yaml:22)
+    // let m (fixed.yaml:23)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (fixed.yaml:23)
+    // let im (fixed.yaml:24)
     [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let pa (fixed.yaml:24)
+    // let pa (fixed.yaml:25)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (fixed.yaml:25)
+    // let pb (fixed.yaml:26)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let f (fixed.yaml:26)
+    // let f (fixed.yaml:27)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (b_r1_2*b_wy);
     const S l6_0_2 = (b_r1_1*b_wz);
@@ -998,53 +998,53 @@ struct Fixed_Pair_Kernel {
     const S d_L_f__2__b_vz = l6_0_3;
     const S d_L_f__2__b_wx = l6_0_14;
     const S d_L_f__2__b_wy = (-l6_0_20);
-    // let na (fixed.yaml:27)
+    // let na (fixed.yaml:28)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (fixed.yaml:28)
+    // let nb (fixed.yaml:29)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let ua (fixed.yaml:29)
+    // let ua (fixed.yaml:30)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (fixed.yaml:30)
+    // let ub (fixed.yaml:31)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let ta (fixed.yaml:33)
+    // let ta (fixed.yaml:34)
     const S L_ta__0 = a_r6_0;
     const S d_L_ta__0__a_dtz = (-a_r6_1);
     const S L_ta__1 = a_r6_1;
     const S d_L_ta__1__a_dtx = (-a_r6_2);
     const S L_ta__2 = a_r6_2;
     const S d_L_ta__2__a_dty = (-a_r6_0);
-    // let tb (fixed.yaml:34)
+    // let tb (fixed.yaml:35)
     const S L_tb__0 = b_r7_0;
     const S d_L_tb__0__b_dtz = (-b_r7_1);
     const S L_tb__1 = b_r7_1;
     const S d_L_tb__1__b_dtx = (-b_r7_2);
     const S L_tb__2 = b_r7_2;
     const S d_L_tb__2__b_dty = (-b_r7_0);
-    // let wrel (fixed.yaml:35)
+    // let wrel (fixed.yaml:36)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (fixed.yaml:36)
+    // let tau (fixed.yaml:37)
     const S l14_0_0 = (L_omega*L_omega);
     const S l14_0_1 = (S(0.5)*L_im*l14_0_0);
     const S l14_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -1094,19 +1094,19 @@ struct Fixed_Pair_Kernel {
     const S d_L_tau__2__b_dtz = ((S(0.5)*L_im*L_na__1*d_L_nb__0__b_dtz*l14_0_0) + (S(0.5)*L_im*L_ta__1*d_L_tb__0__b_dtz*l14_0_0) + (S(0.5)*L_im*L_ua__1*d_L_ub__0__b_dtz*l14_0_0) - (b_r3_0*l14_0_19) - (b_r5_0*l14_0_21) - (b_r7_0*l14_0_20));
     const S d_L_tau__2__a_wz = l14_0_2;
     const S d_L_tau__2__b_wz = l14_0_15;
-    // apply[0] (fixed.yaml:38)
+    // apply[0] (fixed.yaml:39)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l16_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l16_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l16_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l16_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (fixed.yaml:39)
+    // apply[1] (fixed.yaml:40)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l18_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (fixed.yaml:37), shared subexpressions
+    // apply (fixed.yaml:38), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -1263,21 +1263,21 @@ struct Fixed_Pair_Kernel {
     const S o153 = (d_L_f__1__b_wz*h);
     const S o154 = ((d_L_f__1__b_dtz*o8) + o153);
     const S o155 = (d_L_f__2__b_dtz*o8);
-    // g_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // g_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[0] = o19;
     out[1] = o28;
     out[2] = o35;
     out[3] = ((-(L_f__1*o37)) + (L_f__2*o36) - L_tau__0 + (o1*o41) + (o2*o42) + (o20*o38) + (o21*o38) + (o24*o47) + (o27*o48) + (o29*o36) + (o3*o43) + (o30*o36) + (o32*o49) + (o34*o50) + (o44*o5) + (o45*o6) + (o46*o7));
     out[4] = ((L_f__0*o37) - (L_f__2*o51) - L_tau__1 + (o0*o37) + (o1*o54) + (o13*o60) + (o18*o61) + (o2*o55) + (o29*o52) + (o3*o56) + (o30*o52) + (o32*o62) + (o34*o63) + (o37*o4) + (o5*o57) + (o58*o6) + (o59*o7));
     out[5] = ((-(L_f__0*o36)) + (L_f__1*o51) - L_tau__2 + (o0*o64) + (o1*o65) + (o13*o71) + (o18*o72) + (o2*o66) + (o20*o51) + (o21*o51) + (o24*o73) + (o27*o74) + (o3*o67) + (o4*o64) + (o5*o68) + (o6*o69) + (o7*o70));
-    // g_b from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // g_b from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[6] = (-o19);
     out[7] = (-o28);
     out[8] = (-o35);
     out[9] = ((L_f__1*o75) - (L_f__2*o76) + L_tau__0 + (o1*o78) + (o2*o79) + (o20*o75) + (o21*o75) + (o24*o86) + (o27*o87) + (o29*o77) + (o3*o80) + (o30*o77) + (o32*o88) + (o34*o89) + (o5*o83) + (o6*o84) + (o7*o85));
     out[10] = ((-(L_f__0*o75)) + (L_f__2*o90) + L_tau__1 + (o0*o91) + (o1*o92) + (o100*o18) + (o101*o32) + (o102*o34) + (o13*o99) + (o2*o93) + (o29*o90) + (o3*o94) + (o30*o90) + (o4*o91) + (o5*o96) + (o6*o97) + (o7*o98));
     out[11] = ((L_f__0*o76) - (L_f__1*o90) + L_tau__2 + (o0*o76) + (o1*o104) + (o103*o20) + (o103*o21) + (o105*o2) + (o106*o3) + (o107*o5) + (o108*o6) + (o109*o7) + (o110*o13) + (o111*o18) + (o112*o24) + (o113*o27) + (o4*o76));
-    // K_aa from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // K_aa from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[12] = o115;
     out[13] = S(0);
     out[14] = S(0);
@@ -1314,7 +1314,7 @@ struct Fixed_Pair_Kernel {
     out[45] = ((o132*o38) + (o43*o8));
     out[46] = ((o130*o37) + (o56*o8));
     out[47] = ((h*((d_L_f__0__a_wz*o64) + (d_L_f__1__a_wz*o51) - d_L_tau__2__a_wz)) + (o67*o8));
-    // K_ab from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // K_ab from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[48] = o136;
     out[49] = S(0);
     out[50] = S(0);
@@ -1351,7 +1351,7 @@ struct Fixed_Pair_Kernel {
     out[81] = ((o153*o38) + (o46*o8));
     out[82] = ((o151*o37) + (o59*o8));
     out[83] = ((h*((d_L_f__0__b_wz*o64) + (d_L_f__1__b_wz*o51) - d_L_tau__2__b_wz)) + (o70*o8));
-    // K_ba from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // K_ba from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[84] = (-o115);
     out[85] = S(0);
     out[86] = S(0);
@@ -1388,7 +1388,7 @@ struct Fixed_Pair_Kernel {
     out[117] = ((o132*o75) + (o8*o80));
     out[118] = ((o130*o91) + (o8*o94));
     out[119] = ((h*((d_L_f__0__a_wz*o76) + (d_L_f__1__a_wz*o103) + d_L_tau__2__a_wz)) + (o106*o8));
-    // K_bb from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // K_bb from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[120] = (-o136);
     out[121] = S(0);
     out[122] = S(0);
@@ -1501,7 +1501,7 @@ struct Fixed_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[59];
     [[maybe_unused]] const S g_joint_hertz = in[60];
     [[maybe_unused]] const S g_joint_damping_ratio = in[61];
-    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:24), let pb (fixed.yaml:25), let na (fixed.yaml:27), let nb (fixed.yaml:28), let ua (fixed.yaml:29), let ub (fixed.yaml:30), let ta (fixed.yaml:33), let tb (fixed.yaml:34)
+    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:25), let pb (fixed.yaml:26), let na (fixed.yaml:28), let nb (fixed.yaml:29), let ua (fixed.yaml:30), let ub (fixed.yaml:31), let ta (fixed.yaml:34), let tb (fixed.yaml:35)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -1566,65 +1566,65 @@ struct Fixed_Pair_Kernel {
     const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
     const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
     const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
-    // let omega (fixed.yaml:20)
+    // let omega (fixed.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (fixed.yaml:21)
+    // let zeta (fixed.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (fixed.yaml:22)
+    // let m (fixed.yaml:23)
     const S L_m = held_in ? held_in[0] : S(max(a_m, b_m));
     if (held_out) held_out[0] = L_m;
-    // let im (fixed.yaml:23)
+    // let im (fixed.yaml:24)
     const S L_im = held_in ? held_in[1] : S(max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz))));
     if (held_out) held_out[1] = L_im;
-    // let pa (fixed.yaml:24)
+    // let pa (fixed.yaml:25)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (fixed.yaml:25)
+    // let pb (fixed.yaml:26)
     const S L_pb__0 = (b_px + b_r1_0);
     const S L_pb__1 = (b_py + b_r1_1);
     const S L_pb__2 = (b_pz + b_r1_2);
-    // let f (fixed.yaml:26)
+    // let f (fixed.yaml:27)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
     const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)));
     const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)));
     const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)));
-    // let na (fixed.yaml:27)
+    // let na (fixed.yaml:28)
     const S L_na__0 = a_r2_0;
     const S L_na__1 = a_r2_1;
     const S L_na__2 = a_r2_2;
-    // let nb (fixed.yaml:28)
+    // let nb (fixed.yaml:29)
     const S L_nb__0 = b_r3_0;
     const S L_nb__1 = b_r3_1;
     const S L_nb__2 = b_r3_2;
-    // let ua (fixed.yaml:29)
+    // let ua (fixed.yaml:30)
     const S L_ua__0 = a_r4_0;
     const S L_ua__1 = a_r4_1;
     const S L_ua__2 = a_r4_2;
-    // let ub (fixed.yaml:30)
+    // let ub (fixed.yaml:31)
     const S L_ub__0 = b_r5_0;
     const S L_ub__1 = b_r5_1;
     const S L_ub__2 = b_r5_2;
-    // let ta (fixed.yaml:33)
+    // let ta (fixed.yaml:34)
     const S L_ta__0 = a_r6_0;
     const S L_ta__1 = a_r6_1;
     const S L_ta__2 = a_r6_2;
-    // let tb (fixed.yaml:34)
+    // let tb (fixed.yaml:35)
     const S L_tb__0 = b_r7_0;
     const S L_tb__1 = b_r7_1;
     const S L_tb__2 = b_r7_2;
-    // let wrel (fixed.yaml:35)
+    // let wrel (fixed.yaml:36)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (fixed.yaml:36)
+    // let tau (fixed.yaml:37)
     const S l14_0_0 = (S(0.5)*L_im*(L_omega*L_omega));
     const S l14_0_1 = (S(2)*L_im*L_omega*L_zeta);
     const S L_tau__0 = ((-(L_wrel__0*l14_0_1)) - (l14_0_0*((L_na__1*L_nb__2) - (L_na__2*L_nb__1) + (L_ta__1*L_tb__2) - (L_ta__2*L_tb__1) + (L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))));
     const S L_tau__1 = ((-(L_wrel__1*l14_0_1)) - (l14_0_0*((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0) - (L_ta__0*L_tb__2) + (L_ta__2*L_tb__0) - (L_ua__0*L_ub__2) + (L_ua__2*L_ub__0))));
     const S L_tau__2 = ((-(L_wrel__2*l14_0_1)) - (l14_0_0*((L_na__0*L_nb__1) - (L_na__1*L_nb__0) + (L_ta__0*L_tb__1) - (L_ta__1*L_tb__0) + (L_ua__0*L_ub__1) - (L_ua__1*L_ub__0))));
-    // apply[0] (fixed.yaml:38)
+    // apply[0] (fixed.yaml:39)
     const S T0_arm__0 = held_in ? held_in[2] : S((L_pa__0 - a_px));
     if (held_out) held_out[2] = T0_arm__0;
     const S T0_arm__1 = held_in ? held_in[3] : S((L_pa__1 - a_py));
@@ -1634,7 +1634,7 @@ struct Fixed_Pair_Kernel {
     const S l16_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     const S T1_turn = held_in ? held_in[5] : S((S(1) - (S(1)/((((h*h*h*h)*l16_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l16_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l16_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[5] = T1_turn;
-    // apply[1] (fixed.yaml:39)
+    // apply[1] (fixed.yaml:40)
     const S T2_arm__0 = held_in ? held_in[6] : S((L_pb__0 - b_px));
     if (held_out) held_out[6] = T2_arm__0;
     const S T2_arm__1 = held_in ? held_in[7] : S((L_pb__1 - b_py));
@@ -1644,21 +1644,21 @@ struct Fixed_Pair_Kernel {
     const S l18_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     const S T3_turn = held_in ? held_in[9] : S((S(1) - (S(1)/((((h*h*h*h)*l18_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l18_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
     if (held_out) held_out[9] = T3_turn;
-    // apply (fixed.yaml:37), shared subexpressions
+    // apply (fixed.yaml:38), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
     const S o3 = (T2_arm__2 + (T3_turn*(L_pb__2 - T2_arm__2 - b_pz)));
     const S o4 = (T2_arm__1 + (T3_turn*(L_pb__1 - T2_arm__1 - b_py)));
     const S o5 = (T2_arm__0 + (T3_turn*(L_pb__0 - T2_arm__0 - b_px)));
-    // F_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // F_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (fixed.yaml:39), apply[3] (fixed.yaml:41)
+    // F_b from apply[1] (fixed.yaml:40), apply[3] (fixed.yaml:42)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -1783,7 +1783,7 @@ struct Fixed_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[39];
     [[maybe_unused]] const S g_joint_hertz = in[40];
     [[maybe_unused]] const S g_joint_damping_ratio = in[41];
-    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:24), let na (fixed.yaml:27), let ua (fixed.yaml:29), let ta (fixed.yaml:33)
+    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:25), let na (fixed.yaml:28), let ua (fixed.yaml:30), let ta (fixed.yaml:34)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -1816,26 +1816,26 @@ struct Fixed_World_Kernel {
     const S a_r3_0 = ((p0_17*p0_8) + (p0_18*p0_2) + (p0_19*p0_5));
     const S a_r3_1 = ((p0_11*p0_19) + (p0_13*p0_17) + (p0_18*p0_9));
     const S a_r3_2 = ((p0_14*p0_18) + (p0_15*p0_19) + (p0_16*p0_17));
-    // let omega (fixed.yaml:20)
+    // let omega (fixed.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (fixed.yaml:21)
+    // let zeta (fixed.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (fixed.yaml:22)
+    // let m (fixed.yaml:23)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (fixed.yaml:23)
+    // let im (fixed.yaml:24)
     [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let pa (fixed.yaml:24)
+    // let pa (fixed.yaml:25)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (fixed.yaml:25)
+    // let pb (fixed.yaml:26)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (fixed.yaml:26)
+    // let f (fixed.yaml:27)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
     const S l6_0_2 = (-l6_0_0);
@@ -1870,44 +1870,44 @@ struct Fixed_World_Kernel {
     const S d_L_f__2__a_vz = l6_0_5;
     const S d_L_f__2__a_wx = (-l6_0_7);
     const S d_L_f__2__a_wy = l6_0_9;
-    // let na (fixed.yaml:27)
+    // let na (fixed.yaml:28)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (fixed.yaml:28)
+    // let nb (fixed.yaml:29)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (fixed.yaml:29)
+    // let ua (fixed.yaml:30)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (fixed.yaml:30)
+    // let ub (fixed.yaml:31)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (fixed.yaml:33)
+    // let ta (fixed.yaml:34)
     const S L_ta__0 = a_r3_0;
     const S d_L_ta__0__a_dtz = (-a_r3_1);
     const S L_ta__1 = a_r3_1;
     const S d_L_ta__1__a_dtx = (-a_r3_2);
     const S L_ta__2 = a_r3_2;
     const S d_L_ta__2__a_dty = (-a_r3_0);
-    // let tb (fixed.yaml:34)
+    // let tb (fixed.yaml:35)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (fixed.yaml:35)
+    // let wrel (fixed.yaml:36)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (fixed.yaml:36)
+    // let tau (fixed.yaml:37)
     const S l14_0_0 = (L_omega*L_omega);
     const S l14_0_1 = (S(0.5)*L_im*l14_0_0);
     const S l14_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -1935,13 +1935,13 @@ struct Fixed_World_Kernel {
     const S d_L_tau__2__a_dty = ((-(a_r1_2*l14_0_3)) - (a_r2_2*l14_0_5) - (a_r3_2*l14_0_4));
     const S d_L_tau__2__a_dtz = ((a_r1_0*l14_0_9) + (a_r2_0*l14_0_11) + (a_r3_0*l14_0_10) - (d_L_na__0__a_dtz*l14_0_3) - (d_L_ta__0__a_dtz*l14_0_4) - (d_L_ua__0__a_dtz*l14_0_5));
     const S d_L_tau__2__a_wz = l14_0_2;
-    // apply[0] (fixed.yaml:38)
+    // apply[0] (fixed.yaml:39)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l16_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l16_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l16_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l16_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (fixed.yaml:37), shared subexpressions
+    // apply (fixed.yaml:38), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -1953,14 +1953,14 @@ struct Fixed_World_Kernel {
     const S o8 = (T1_turn*d_L_pa__2__a_dty);
     const S o9 = (T1_turn*a_r0_2);
     const S o10 = (L_f__2*T1_turn);
-    // F_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // F_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // dF_a/ddelta_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // dF_a/ddelta_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[6] = d_L_f__0__a_dx;
     out[7] = S(0);
     out[8] = S(0);
@@ -1997,7 +1997,7 @@ struct Fixed_World_Kernel {
     out[39] = ((a_r0_0*o10) + (d_L_f__1__a_dtz*o4) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[40] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o5) - (d_L_pa__0__a_dtz*o10) - d_L_tau__1__a_dtz);
     out[41] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o3) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/du_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // dF_a/du_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[42] = d_L_f__0__a_vx;
     out[43] = S(0);
     out[44] = S(0);
@@ -2090,7 +2090,7 @@ struct Fixed_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[39];
     [[maybe_unused]] const S g_joint_hertz = in[40];
     [[maybe_unused]] const S g_joint_damping_ratio = in[41];
-    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:24), let na (fixed.yaml:27), let ua (fixed.yaml:29), let ta (fixed.yaml:33)
+    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:25), let na (fixed.yaml:28), let ua (fixed.yaml:30), let ta (fixed.yaml:34)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2123,26 +2123,26 @@ struct Fixed_World_Kernel {
     const S a_r3_0 = ((p0_17*p0_8) + (p0_18*p0_2) + (p0_19*p0_5));
     const S a_r3_1 = ((p0_11*p0_19) + (p0_13*p0_17) + (p0_18*p0_9));
     const S a_r3_2 = ((p0_14*p0_18) + (p0_15*p0_19) + (p0_16*p0_17));
-    // let omega (fixed.yaml:20)
+    // let omega (fixed.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (fixed.yaml:21)
+    // let zeta (fixed.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (fixed.yaml:22)
+    // let m (fixed.yaml:23)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (fixed.yaml:23)
+    // let im (fixed.yaml:24)
     [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let pa (fixed.yaml:24)
+    // let pa (fixed.yaml:25)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (fixed.yaml:25)
+    // let pb (fixed.yaml:26)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (fixed.yaml:26)
+    // let f (fixed.yaml:27)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
     const S l6_0_2 = (-l6_0_0);
@@ -2177,44 +2177,44 @@ struct Fixed_World_Kernel {
     const S d_L_f__2__a_vz = l6_0_5;
     const S d_L_f__2__a_wx = (-l6_0_7);
     const S d_L_f__2__a_wy = l6_0_9;
-    // let na (fixed.yaml:27)
+    // let na (fixed.yaml:28)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (fixed.yaml:28)
+    // let nb (fixed.yaml:29)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (fixed.yaml:29)
+    // let ua (fixed.yaml:30)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (fixed.yaml:30)
+    // let ub (fixed.yaml:31)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (fixed.yaml:33)
+    // let ta (fixed.yaml:34)
     const S L_ta__0 = a_r3_0;
     const S d_L_ta__0__a_dtz = (-a_r3_1);
     const S L_ta__1 = a_r3_1;
     const S d_L_ta__1__a_dtx = (-a_r3_2);
     const S L_ta__2 = a_r3_2;
     const S d_L_ta__2__a_dty = (-a_r3_0);
-    // let tb (fixed.yaml:34)
+    // let tb (fixed.yaml:35)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (fixed.yaml:35)
+    // let wrel (fixed.yaml:36)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (fixed.yaml:36)
+    // let tau (fixed.yaml:37)
     const S l14_0_0 = (L_omega*L_omega);
     const S l14_0_1 = (S(0.5)*L_im*l14_0_0);
     const S l14_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -2242,13 +2242,13 @@ struct Fixed_World_Kernel {
     const S d_L_tau__2__a_dty = ((-(a_r1_2*l14_0_3)) - (a_r2_2*l14_0_5) - (a_r3_2*l14_0_4));
     const S d_L_tau__2__a_dtz = ((a_r1_0*l14_0_9) + (a_r2_0*l14_0_11) + (a_r3_0*l14_0_10) - (d_L_na__0__a_dtz*l14_0_3) - (d_L_ta__0__a_dtz*l14_0_4) - (d_L_ua__0__a_dtz*l14_0_5));
     const S d_L_tau__2__a_wz = l14_0_2;
-    // apply[0] (fixed.yaml:38)
+    // apply[0] (fixed.yaml:39)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l16_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l16_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l16_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l16_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (fixed.yaml:37), shared subexpressions
+    // apply (fixed.yaml:38), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -2299,14 +2299,14 @@ struct Fixed_World_Kernel {
     const S o47 = (d_L_f__2__a_wy*h);
     const S o48 = (d_L_f__0__a_wz*h);
     const S o49 = (d_L_f__1__a_wz*h);
-    // g_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // g_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o1) + (d_L_f__0__a_dty*o2) + (d_L_f__0__a_dtz*o3) + o0 + (o5*o9));
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o1) + (d_L_f__1__a_dty*o2) + (d_L_f__1__a_dtz*o3) + o10 + (o11*o13));
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o1) + (d_L_f__2__a_dty*o2) + (d_L_f__2__a_dtz*o3) + o14 + (o15*o16));
     out[3] = ((-(L_f__1*o18)) + (L_f__2*o17) - L_tau__0 + (o1*o22) + (o10*o19) + (o13*o25) + (o14*o17) + (o16*o26) + (o2*o23) + (o24*o3));
     out[4] = ((L_f__0*o18) - (L_f__2*o27) - L_tau__1 + (o0*o18) + (o1*o30) + (o14*o28) + (o16*o34) + (o2*o31) + (o3*o32) + (o33*o9));
     out[5] = ((-(L_f__0*o17)) + (L_f__1*o27) - L_tau__2 + (o0*o35) + (o1*o36) + (o10*o27) + (o13*o40) + (o2*o37) + (o3*o38) + (o39*o9));
-    // K_aa from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // K_aa from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[6] = (o41 + o5);
     out[7] = S(0);
     out[8] = S(0);
@@ -2399,7 +2399,7 @@ struct Fixed_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[39];
     [[maybe_unused]] const S g_joint_hertz = in[40];
     [[maybe_unused]] const S g_joint_damping_ratio = in[41];
-    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:24), let na (fixed.yaml:27), let ua (fixed.yaml:29), let ta (fixed.yaml:33)
+    // body-frame quantities rotated to world, first used by let pa (fixed.yaml:25), let na (fixed.yaml:28), let ua (fixed.yaml:30), let ta (fixed.yaml:34)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2432,65 +2432,65 @@ struct Fixed_World_Kernel {
     const S a_r3_0 = ((p0_17*p0_8) + (p0_18*p0_2) + (p0_19*p0_5));
     const S a_r3_1 = ((p0_11*p0_19) + (p0_13*p0_17) + (p0_18*p0_9));
     const S a_r3_2 = ((p0_14*p0_18) + (p0_15*p0_19) + (p0_16*p0_17));
-    // let omega (fixed.yaml:20)
+    // let omega (fixed.yaml:21)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (fixed.yaml:21)
+    // let zeta (fixed.yaml:22)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (fixed.yaml:22)
+    // let m (fixed.yaml:23)
     const S L_m = held_in ? held_in[0] : S(max(S(0), a_m));
     if (held_out) held_out[0] = L_m;
-    // let im (fixed.yaml:23)
+    // let im (fixed.yaml:24)
     const S L_im = held_in ? held_in[1] : S(max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz))));
     if (held_out) held_out[1] = L_im;
-    // let pa (fixed.yaml:24)
+    // let pa (fixed.yaml:25)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (fixed.yaml:25)
+    // let pb (fixed.yaml:26)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (fixed.yaml:26)
+    // let f (fixed.yaml:27)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
     const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)));
     const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)));
     const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
-    // let na (fixed.yaml:27)
+    // let na (fixed.yaml:28)
     const S L_na__0 = a_r1_0;
     const S L_na__1 = a_r1_1;
     const S L_na__2 = a_r1_2;
-    // let nb (fixed.yaml:28)
+    // let nb (fixed.yaml:29)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (fixed.yaml:29)
+    // let ua (fixed.yaml:30)
     const S L_ua__0 = a_r2_0;
     const S L_ua__1 = a_r2_1;
     const S L_ua__2 = a_r2_2;
-    // let ub (fixed.yaml:30)
+    // let ub (fixed.yaml:31)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (fixed.yaml:33)
+    // let ta (fixed.yaml:34)
     const S L_ta__0 = a_r3_0;
     const S L_ta__1 = a_r3_1;
     const S L_ta__2 = a_r3_2;
-    // let tb (fixed.yaml:34)
+    // let tb (fixed.yaml:35)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (fixed.yaml:35)
+    // let wrel (fixed.yaml:36)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (fixed.yaml:36)
+    // let tau (fixed.yaml:37)
     const S l14_0_0 = (S(0.5)*L_im*(L_omega*L_omega));
     const S l14_0_1 = (S(2)*L_im*L_omega*L_zeta);
     const S L_tau__0 = ((-(L_wrel__0*l14_0_1)) - (l14_0_0*((L_na__1*L_nb__2) - (L_na__2*L_nb__1) + (L_ta__1*L_tb__2) - (L_ta__2*L_tb__1) + (L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))));
     const S L_tau__1 = ((-(L_wrel__1*l14_0_1)) - (l14_0_0*((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0) - (L_ta__0*L_tb__2) + (L_ta__2*L_tb__0) - (L_ua__0*L_ub__2) + (L_ua__2*L_ub__0))));
     const S L_tau__2 = ((-(L_wrel__2*l14_0_1)) - (l14_0_0*((L_na__0*L_nb__1) - (L_na__1*L_nb__0) + (L_ta__0*L_tb__1) - (L_ta__1*L_tb__0) + (L_ua__0*L_ub__1) - (L_ua__1*L_ub__0))));
-    // apply[0] (fixed.yaml:38)
+    // apply[0] (fixed.yaml:39)
     const S T0_arm__0 = held_in ? held_in[2] : S((L_pa__0 - a_px));
     if (held_out) held_out[2] = T0_arm__0;
     const S T0_arm__1 = held_in ? held_in[3] : S((L_pa__1 - a_py));
@@ -2500,11 +2500,11 @@ struct Fixed_World_Kernel {
     const S l16_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     const S T1_turn = held_in ? held_in[5] : S((S(1) - (S(1)/((((h*h*h*h)*l16_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l16_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l16_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[5] = T1_turn;
-    // apply (fixed.yaml:37), shared subexpressions
+    // apply (fixed.yaml:38), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
-    // F_a from apply[0] (fixed.yaml:38), apply[2] (fixed.yaml:40)
+    // F_a from apply[0] (fixed.yaml:39), apply[2] (fixed.yaml:41)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

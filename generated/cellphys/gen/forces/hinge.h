@@ -184,7 +184,7 @@ struct Hinge_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[66];
     [[maybe_unused]] const S g_joint_hertz = in[67];
     [[maybe_unused]] const S g_joint_damping_ratio = in[68];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:32), let pb (hinge.yaml:33), let na (hinge.yaml:35), let nb (hinge.yaml:36), let ua (hinge.yaml:44), let ub (hinge.yaml:45), let ia (hinge.yaml:57), let ib (hinge.yaml:58)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:45), let ub (hinge.yaml:46), let ia (hinge.yaml:58), let ib (hinge.yaml:59)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -261,29 +261,29 @@ struct Hinge_Pair_Kernel {
     const S b_Iw7_01 = ((p0_26*p0_42) + (p0_28*p0_40) + (p0_30*p0_41));
     const S b_Iw7_02 = ((p0_31*p0_42) + (p0_32*p0_40) + (p0_33*p0_41));
     const S b_Iw7_12 = ((p0_31*p0_44) + (p0_32*p0_45) + (p0_33*p0_43));
-    // let omega (hinge.yaml:27)
+    // let omega (hinge.yaml:28)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (hinge.yaml:28)
+    // let zeta (hinge.yaml:29)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (hinge.yaml:30)
+    // let m (hinge.yaml:31)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (hinge.yaml:31)
+    // let im (hinge.yaml:32)
     [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let pa (hinge.yaml:32)
+    // let pa (hinge.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (hinge.yaml:33)
+    // let pb (hinge.yaml:34)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let f (hinge.yaml:34)
+    // let f (hinge.yaml:35)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (b_r1_2*b_wy);
     const S l6_0_2 = (b_r1_1*b_wz);
@@ -350,25 +350,25 @@ struct Hinge_Pair_Kernel {
     const S d_L_f__2__b_vz = l6_0_3;
     const S d_L_f__2__b_wx = l6_0_14;
     const S d_L_f__2__b_wy = (-l6_0_20);
-    // let na (hinge.yaml:35)
+    // let na (hinge.yaml:36)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (hinge.yaml:36)
+    // let nb (hinge.yaml:37)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let wrel (hinge.yaml:37)
+    // let wrel (hinge.yaml:38)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let rate (hinge.yaml:38)
+    // let rate (hinge.yaml:39)
     const S L_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r2_1));
     const S d_L_rate__a_dty = ((L_wrel__0*a_r2_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -376,11 +376,11 @@ struct Hinge_Pair_Kernel {
     const S d_L_rate__a_wx = (-L_na__0);
     const S d_L_rate__a_wy = (-L_na__1);
     const S d_L_rate__a_wz = (-L_na__2);
-    // let kr (hinge.yaml:39)
+    // let kr (hinge.yaml:40)
     const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (hinge.yaml:40)
+    // let cr (hinge.yaml:41)
     const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let align (hinge.yaml:43)
+    // let align (hinge.yaml:44)
     const S l13_0_0 = (L_cr*L_na__0);
     const S l13_0_1 = (L_kr*L_nb__1);
     const S l13_0_2 = (L_kr*L_nb__2);
@@ -434,21 +434,21 @@ struct Hinge_Pair_Kernel {
     const S d_L_align__2__b_wx = l13_0_8;
     const S d_L_align__2__b_wy = l13_0_12;
     const S d_L_align__2__b_wz = ((L_cr*(L_na__2*L_na__2)) + l13_0_6);
-    // let ua (hinge.yaml:44)
+    // let ua (hinge.yaml:45)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (hinge.yaml:45)
+    // let ub (hinge.yaml:46)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let angle (hinge.yaml:46)
+    // let angle (hinge.yaml:47)
     const S l16_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
     const S l16_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
     const S l16_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
@@ -473,11 +473,11 @@ struct Hinge_Pair_Kernel {
     const S d_L_angle__b_dtx = ((b_r5_1*l16_0_14) + (d_L_ub__1__b_dtx*l16_0_15));
     const S d_L_angle__b_dty = ((b_r5_2*l16_0_16) + (d_L_ub__2__b_dty*l16_0_14));
     const S d_L_angle__b_dtz = ((b_r5_0*l16_0_15) + (d_L_ub__0__b_dtz*l16_0_16));
-    // let limited (hinge.yaml:49)
+    // let limited (hinge.yaml:50)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:50)
+    // let over_hi (hinge.yaml:51)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:51)
+    // let over_lo (hinge.yaml:52)
     const S L_over_lo = ((-L_angle) + p_lower);
     const S d_L_over_lo__a_dtx = (-d_L_angle__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_angle__a_dty);
@@ -485,7 +485,7 @@ struct Hinge_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_angle__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_angle__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_angle__b_dtz);
-    // let stop_hi (hinge.yaml:52)
+    // let stop_hi (hinge.yaml:53)
     const S l20_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
     const auto l20_0_1 = (l20_0_0 > S(0));
     const auto l20_0_2 = (L_over_hi > S(0));
@@ -505,7 +505,7 @@ struct Hinge_Pair_Kernel {
     const S d_L_stop_hi__b_wx = (L_na__0*l20_0_5);
     const S d_L_stop_hi__b_wy = (L_na__1*l20_0_5);
     const S d_L_stop_hi__b_wz = (L_na__2*l20_0_5);
-    // let stop_lo (hinge.yaml:53)
+    // let stop_lo (hinge.yaml:54)
     const S l21_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
     const S l21_0_1 = (-l21_0_0);
     const auto l21_0_2 = (l21_0_0 < S(0));
@@ -527,13 +527,13 @@ struct Hinge_Pair_Kernel {
     const S d_L_stop_lo__b_wx = (L_na__0*l21_0_7);
     const S d_L_stop_lo__b_wy = (L_na__1*l21_0_7);
     const S d_L_stop_lo__b_wz = (L_na__2*l21_0_7);
-    // let ia (hinge.yaml:57)
+    // let ia (hinge.yaml:58)
     [[maybe_unused]] const S L_ia = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
-    // let ib (hinge.yaml:58)
+    // let ib (hinge.yaml:59)
     [[maybe_unused]] const S L_ib = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
-    // let iz (hinge.yaml:59)
+    // let iz (hinge.yaml:60)
     [[maybe_unused]] const S L_iz = select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia);
-    // let err (hinge.yaml:60)
+    // let err (hinge.yaml:61)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -544,11 +544,11 @@ struct Hinge_Pair_Kernel {
     const S d_L_err__b_wx = (-L_na__0);
     const S d_L_err__b_wy = (-L_na__1);
     const S d_L_err__b_wz = (-L_na__2);
-    // let fast (hinge.yaml:61)
+    // let fast (hinge.yaml:62)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0));
-    // let sgn (hinge.yaml:62)
+    // let sgn (hinge.yaml:63)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (hinge.yaml:63)
+    // let motor (hinge.yaml:64)
     const S l28_0_0 = (L_iz*L_omega*(S(1) - L_fast));
     const auto l28_0_1 = (p_motor_torque > S(0));
     const S l28_0_2 = select(l28_0_1, l28_0_0, S(0));
@@ -562,7 +562,7 @@ struct Hinge_Pair_Kernel {
     const S d_L_motor__b_wx = (d_L_err__b_wx*l28_0_2);
     const S d_L_motor__b_wy = (d_L_err__b_wy*l28_0_2);
     const S d_L_motor__b_wz = (d_L_err__b_wz*l28_0_2);
-    // let spring (hinge.yaml:64)
+    // let spring (hinge.yaml:65)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
     const S d_L_spring__a_dtx = ((-(d_L_angle__a_dtx*p_spring_stiffness)) - (d_L_rate__a_dtx*p_spring_damping));
     const S d_L_spring__a_dty = ((-(d_L_angle__a_dty*p_spring_stiffness)) - (d_L_rate__a_dty*p_spring_damping));
@@ -576,7 +576,7 @@ struct Hinge_Pair_Kernel {
     const S d_L_spring__b_wx = (-(L_na__0*p_spring_damping));
     const S d_L_spring__b_wy = (-(L_na__1*p_spring_damping));
     const S d_L_spring__b_wz = (-(L_na__2*p_spring_damping));
-    // let tau (hinge.yaml:65)
+    // let tau (hinge.yaml:66)
     const S l30_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l30_0_1 = (L_limited*L_na__0);
     const S l30_0_2 = (L_limited*L_na__1);
@@ -620,19 +620,19 @@ struct Hinge_Pair_Kernel {
     const S d_L_tau__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_align__2__b_wx - (d_L_stop_hi__b_wx*l30_0_3) + (d_L_stop_lo__b_wx*l30_0_3));
     const S d_L_tau__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_align__2__b_wy - (d_L_stop_hi__b_wy*l30_0_3) + (d_L_stop_lo__b_wy*l30_0_3));
     const S d_L_tau__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_align__2__b_wz - (d_L_stop_hi__b_wz*l30_0_3) + (d_L_stop_lo__b_wz*l30_0_3));
-    // apply[0] (hinge.yaml:67)
+    // apply[0] (hinge.yaml:68)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l32_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l32_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l32_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l32_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (hinge.yaml:68)
+    // apply[1] (hinge.yaml:69)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l34_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l34_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l34_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l34_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (hinge.yaml:66), shared subexpressions
+    // apply (hinge.yaml:67), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -655,21 +655,21 @@ struct Hinge_Pair_Kernel {
     const S o19 = (T3_turn*d_L_pb__2__b_dty);
     const S o20 = (T3_turn*b_r1_2);
     const S o21 = (L_f__2*T3_turn);
-    // F_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // F_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // F_b from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4) + L_tau__0);
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5) + L_tau__1);
     out[11] = ((L_f__0*o4) - (L_f__1*o5) + L_tau__2);
-    // dF_a/ddelta_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // dF_a/ddelta_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[12] = d_L_f__0__a_dx;
     out[13] = S(0);
     out[14] = S(0);
@@ -706,7 +706,7 @@ struct Hinge_Pair_Kernel {
     out[45] = ((a_r0_0*o13) + (d_L_f__1__a_dtz*o7) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[46] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o8) - (d_L_pa__0__a_dtz*o13) - d_L_tau__1__a_dtz);
     out[47] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o6) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/ddelta_b from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // dF_a/ddelta_b from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[48] = d_L_f__0__b_dx;
     out[49] = S(0);
     out[50] = S(0);
@@ -743,7 +743,7 @@ struct Hinge_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o7) + (d_L_f__2__b_dtz*o1) - d_L_tau__0__b_dtz);
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o8) - d_L_tau__1__b_dtz);
     out[83] = ((d_L_f__0__b_dtz*o6) + (d_L_f__1__b_dtz*o2) - d_L_tau__2__b_dtz);
-    // dF_a/du_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // dF_a/du_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[84] = d_L_f__0__a_vx;
     out[85] = S(0);
     out[86] = S(0);
@@ -780,7 +780,7 @@ struct Hinge_Pair_Kernel {
     out[117] = ((d_L_f__1__a_wz*o7) - d_L_tau__0__a_wz);
     out[118] = ((d_L_f__0__a_wz*o0) - d_L_tau__1__a_wz);
     out[119] = ((d_L_f__0__a_wz*o6) + (d_L_f__1__a_wz*o2) - d_L_tau__2__a_wz);
-    // dF_a/du_b from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // dF_a/du_b from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[120] = d_L_f__0__b_vx;
     out[121] = S(0);
     out[122] = S(0);
@@ -817,7 +817,7 @@ struct Hinge_Pair_Kernel {
     out[153] = ((d_L_f__1__b_wz*o7) - d_L_tau__0__b_wz);
     out[154] = ((d_L_f__0__b_wz*o0) - d_L_tau__1__b_wz);
     out[155] = ((d_L_f__0__b_wz*o6) + (d_L_f__1__b_wz*o2) - d_L_tau__2__b_wz);
-    // dF_b/ddelta_a from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // dF_b/ddelta_a from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = S(0);
     out[158] = S(0);
@@ -854,7 +854,7 @@ struct Hinge_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o16) + d_L_tau__0__a_dtz);
     out[190] = ((d_L_f__0__a_dtz*o14) + (d_L_f__2__a_dtz*o5) + d_L_tau__1__a_dtz);
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o15) + d_L_tau__2__a_dtz);
-    // dF_b/ddelta_b from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // dF_b/ddelta_b from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[192] = (-d_L_f__0__b_dx);
     out[193] = S(0);
     out[194] = S(0);
@@ -891,7 +891,7 @@ struct Hinge_Pair_Kernel {
     out[225] = ((-(b_r1_0*o21)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o16) + d_L_tau__0__b_dtz);
     out[226] = ((d_L_f__0__b_dtz*o14) + (d_L_f__2__b_dtz*o5) + (d_L_pb__0__b_dtz*o21) + d_L_tau__1__b_dtz);
     out[227] = ((L_f__0*T3_turn*b_r1_0) - (L_f__1*T3_turn*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o15) + d_L_tau__2__b_dtz);
-    // dF_b/du_a from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // dF_b/du_a from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = S(0);
     out[230] = S(0);
@@ -928,7 +928,7 @@ struct Hinge_Pair_Kernel {
     out[261] = ((d_L_f__1__a_wz*o3) + d_L_tau__0__a_wz);
     out[262] = ((d_L_f__0__a_wz*o14) + d_L_tau__1__a_wz);
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o15) + d_L_tau__2__a_wz);
-    // dF_b/du_b from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // dF_b/du_b from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[264] = (-d_L_f__0__b_vx);
     out[265] = S(0);
     out[266] = S(0);
@@ -1051,7 +1051,7 @@ struct Hinge_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[66];
     [[maybe_unused]] const S g_joint_hertz = in[67];
     [[maybe_unused]] const S g_joint_damping_ratio = in[68];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:32), let pb (hinge.yaml:33), let na (hinge.yaml:35), let nb (hinge.yaml:36), let ua (hinge.yaml:44), let ub (hinge.yaml:45), let ia (hinge.yaml:57), let ib (hinge.yaml:58)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:45), let ub (hinge.yaml:46), let ia (hinge.yaml:58), let ib (hinge.yaml:59)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -1128,29 +1128,29 @@ struct Hinge_Pair_Kernel {
     const S b_Iw7_01 = ((p0_26*p0_42) + (p0_28*p0_40) + (p0_30*p0_41));
     const S b_Iw7_02 = ((p0_31*p0_42) + (p0_32*p0_40) + (p0_33*p0_41));
     const S b_Iw7_12 = ((p0_31*p0_44) + (p0_32*p0_45) + (p0_33*p0_43));
-    // let omega (hinge.yaml:27)
+    // let omega (hinge.yaml:28)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (hinge.yaml:28)
+    // let zeta (hinge.yaml:29)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (hinge.yaml:30)
+    // let m (hinge.yaml:31)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (hinge.yaml:31)
+    // let im (hinge.yaml:32)
     [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let pa (hinge.yaml:32)
+    // let pa (hinge.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (hinge.yaml:33)
+    // let pb (hinge.yaml:34)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let f (hinge.yaml:34)
+    // let f (hinge.yaml:35)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (b_r1_2*b_wy);
     const S l6_0_2 = (b_r1_1*b_wz);
@@ -1217,25 +1217,25 @@ struct Hinge_Pair_Kernel {
     const S d_L_f__2__b_vz = l6_0_3;
     const S d_L_f__2__b_wx = l6_0_14;
     const S d_L_f__2__b_wy = (-l6_0_20);
-    // let na (hinge.yaml:35)
+    // let na (hinge.yaml:36)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (hinge.yaml:36)
+    // let nb (hinge.yaml:37)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let wrel (hinge.yaml:37)
+    // let wrel (hinge.yaml:38)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let rate (hinge.yaml:38)
+    // let rate (hinge.yaml:39)
     const S L_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r2_1));
     const S d_L_rate__a_dty = ((L_wrel__0*a_r2_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -1243,11 +1243,11 @@ struct Hinge_Pair_Kernel {
     const S d_L_rate__a_wx = (-L_na__0);
     const S d_L_rate__a_wy = (-L_na__1);
     const S d_L_rate__a_wz = (-L_na__2);
-    // let kr (hinge.yaml:39)
+    // let kr (hinge.yaml:40)
     const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (hinge.yaml:40)
+    // let cr (hinge.yaml:41)
     const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let align (hinge.yaml:43)
+    // let align (hinge.yaml:44)
     const S l13_0_0 = (L_cr*L_na__0);
     const S l13_0_1 = (L_kr*L_nb__1);
     const S l13_0_2 = (L_kr*L_nb__2);
@@ -1301,21 +1301,21 @@ struct Hinge_Pair_Kernel {
     const S d_L_align__2__b_wx = l13_0_8;
     const S d_L_align__2__b_wy = l13_0_12;
     const S d_L_align__2__b_wz = ((L_cr*(L_na__2*L_na__2)) + l13_0_6);
-    // let ua (hinge.yaml:44)
+    // let ua (hinge.yaml:45)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (hinge.yaml:45)
+    // let ub (hinge.yaml:46)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let angle (hinge.yaml:46)
+    // let angle (hinge.yaml:47)
     const S l16_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
     const S l16_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
     const S l16_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
@@ -1340,11 +1340,11 @@ struct Hinge_Pair_Kernel {
     const S d_L_angle__b_dtx = ((b_r5_1*l16_0_14) + (d_L_ub__1__b_dtx*l16_0_15));
     const S d_L_angle__b_dty = ((b_r5_2*l16_0_16) + (d_L_ub__2__b_dty*l16_0_14));
     const S d_L_angle__b_dtz = ((b_r5_0*l16_0_15) + (d_L_ub__0__b_dtz*l16_0_16));
-    // let limited (hinge.yaml:49)
+    // let limited (hinge.yaml:50)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:50)
+    // let over_hi (hinge.yaml:51)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:51)
+    // let over_lo (hinge.yaml:52)
     const S L_over_lo = ((-L_angle) + p_lower);
     const S d_L_over_lo__a_dtx = (-d_L_angle__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_angle__a_dty);
@@ -1352,7 +1352,7 @@ struct Hinge_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_angle__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_angle__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_angle__b_dtz);
-    // let stop_hi (hinge.yaml:52)
+    // let stop_hi (hinge.yaml:53)
     const S l20_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
     const auto l20_0_1 = (l20_0_0 > S(0));
     const auto l20_0_2 = (L_over_hi > S(0));
@@ -1372,7 +1372,7 @@ struct Hinge_Pair_Kernel {
     const S d_L_stop_hi__b_wx = (L_na__0*l20_0_5);
     const S d_L_stop_hi__b_wy = (L_na__1*l20_0_5);
     const S d_L_stop_hi__b_wz = (L_na__2*l20_0_5);
-    // let stop_lo (hinge.yaml:53)
+    // let stop_lo (hinge.yaml:54)
     const S l21_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
     const S l21_0_1 = (-l21_0_0);
     const auto l21_0_2 = (l21_0_0 < S(0));
@@ -1394,13 +1394,13 @@ struct Hinge_Pair_Kernel {
     const S d_L_stop_lo__b_wx = (L_na__0*l21_0_7);
     const S d_L_stop_lo__b_wy = (L_na__1*l21_0_7);
     const S d_L_stop_lo__b_wz = (L_na__2*l21_0_7);
-    // let ia (hinge.yaml:57)
+    // let ia (hinge.yaml:58)
     [[maybe_unused]] const S L_ia = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
-    // let ib (hinge.yaml:58)
+    // let ib (hinge.yaml:59)
     [[maybe_unused]] const S L_ib = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
-    // let iz (hinge.yaml:59)
+    // let iz (hinge.yaml:60)
     [[maybe_unused]] const S L_iz = select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia);
-    // let err (hinge.yaml:60)
+    // let err (hinge.yaml:61)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -1411,11 +1411,11 @@ struct Hinge_Pair_Kernel {
     const S d_L_err__b_wx = (-L_na__0);
     const S d_L_err__b_wy = (-L_na__1);
     const S d_L_err__b_wz = (-L_na__2);
-    // let fast (hinge.yaml:61)
+    // let fast (hinge.yaml:62)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0));
-    // let sgn (hinge.yaml:62)
+    // let sgn (hinge.yaml:63)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (hinge.yaml:63)
+    // let motor (hinge.yaml:64)
     const S l28_0_0 = (L_iz*L_omega*(S(1) - L_fast));
     const auto l28_0_1 = (p_motor_torque > S(0));
     const S l28_0_2 = select(l28_0_1, l28_0_0, S(0));
@@ -1429,7 +1429,7 @@ struct Hinge_Pair_Kernel {
     const S d_L_motor__b_wx = (d_L_err__b_wx*l28_0_2);
     const S d_L_motor__b_wy = (d_L_err__b_wy*l28_0_2);
     const S d_L_motor__b_wz = (d_L_err__b_wz*l28_0_2);
-    // let spring (hinge.yaml:64)
+    // let spring (hinge.yaml:65)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
     const S d_L_spring__a_dtx = ((-(d_L_angle__a_dtx*p_spring_stiffness)) - (d_L_rate__a_dtx*p_spring_damping));
     const S d_L_spring__a_dty = ((-(d_L_angle__a_dty*p_spring_stiffness)) - (d_L_rate__a_dty*p_spring_damping));
@@ -1443,7 +1443,7 @@ struct Hinge_Pair_Kernel {
     const S d_L_spring__b_wx = (-(L_na__0*p_spring_damping));
     const S d_L_spring__b_wy = (-(L_na__1*p_spring_damping));
     const S d_L_spring__b_wz = (-(L_na__2*p_spring_damping));
-    // let tau (hinge.yaml:65)
+    // let tau (hinge.yaml:66)
     const S l30_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l30_0_1 = (L_limited*L_na__0);
     const S l30_0_2 = (L_limited*L_na__1);
@@ -1487,19 +1487,19 @@ struct Hinge_Pair_Kernel {
     const S d_L_tau__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_align__2__b_wx - (d_L_stop_hi__b_wx*l30_0_3) + (d_L_stop_lo__b_wx*l30_0_3));
     const S d_L_tau__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_align__2__b_wy - (d_L_stop_hi__b_wy*l30_0_3) + (d_L_stop_lo__b_wy*l30_0_3));
     const S d_L_tau__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_align__2__b_wz - (d_L_stop_hi__b_wz*l30_0_3) + (d_L_stop_lo__b_wz*l30_0_3));
-    // apply[0] (hinge.yaml:67)
+    // apply[0] (hinge.yaml:68)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l32_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l32_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l32_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l32_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (hinge.yaml:68)
+    // apply[1] (hinge.yaml:69)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
     const S l34_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l34_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l34_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l34_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (hinge.yaml:66), shared subexpressions
+    // apply (hinge.yaml:67), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -1644,21 +1644,21 @@ struct Hinge_Pair_Kernel {
     const S o141 = ((d_L_f__0__b_dtz*o8) + (d_L_f__0__b_wz*h));
     const S o142 = ((d_L_f__1__b_dtz*o8) + (d_L_f__1__b_wz*h));
     const S o143 = (d_L_f__2__b_dtz*o8);
-    // g_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // g_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[0] = o19;
     out[1] = o28;
     out[2] = o35;
     out[3] = ((-(L_f__1*o37)) + (L_f__2*o36) - L_tau__0 + (o1*o41) + (o2*o42) + (o20*o38) + (o21*o38) + (o24*o47) + (o27*o48) + (o29*o36) + (o3*o43) + (o30*o36) + (o32*o49) + (o34*o50) + (o44*o5) + (o45*o6) + (o46*o7));
     out[4] = ((L_f__0*o37) - (L_f__2*o51) - L_tau__1 + (o0*o37) + (o1*o54) + (o13*o60) + (o18*o61) + (o2*o55) + (o29*o52) + (o3*o56) + (o30*o52) + (o32*o62) + (o34*o63) + (o37*o4) + (o5*o57) + (o58*o6) + (o59*o7));
     out[5] = ((-(L_f__0*o36)) + (L_f__1*o51) - L_tau__2 + (o0*o64) + (o1*o65) + (o13*o71) + (o18*o72) + (o2*o66) + (o20*o51) + (o21*o51) + (o24*o73) + (o27*o74) + (o3*o67) + (o4*o64) + (o5*o68) + (o6*o69) + (o7*o70));
-    // g_b from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // g_b from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[6] = (-o19);
     out[7] = (-o28);
     out[8] = (-o35);
     out[9] = ((L_f__1*o75) - (L_f__2*o76) + L_tau__0 + (o1*o78) + (o2*o79) + (o20*o75) + (o21*o75) + (o24*o86) + (o27*o87) + (o29*o77) + (o3*o80) + (o30*o77) + (o32*o88) + (o34*o89) + (o5*o83) + (o6*o84) + (o7*o85));
     out[10] = ((-(L_f__0*o75)) + (L_f__2*o90) + L_tau__1 + (o0*o91) + (o1*o92) + (o100*o18) + (o101*o32) + (o102*o34) + (o13*o99) + (o2*o93) + (o29*o90) + (o3*o94) + (o30*o90) + (o4*o91) + (o5*o96) + (o6*o97) + (o7*o98));
     out[11] = ((L_f__0*o76) - (L_f__1*o90) + L_tau__2 + (o0*o76) + (o1*o104) + (o103*o20) + (o103*o21) + (o105*o2) + (o106*o3) + (o107*o5) + (o108*o6) + (o109*o7) + (o110*o13) + (o111*o18) + (o112*o24) + (o113*o27) + (o4*o76));
-    // K_aa from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // K_aa from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[12] = o115;
     out[13] = S(0);
     out[14] = S(0);
@@ -1695,7 +1695,7 @@ struct Hinge_Pair_Kernel {
     out[45] = ((h*((d_L_f__1__a_wz*o38) - d_L_tau__0__a_wz)) + (o43*o8));
     out[46] = ((h*((d_L_f__0__a_wz*o37) - d_L_tau__1__a_wz)) + (o56*o8));
     out[47] = ((h*((d_L_f__0__a_wz*o64) + (d_L_f__1__a_wz*o51) - d_L_tau__2__a_wz)) + (o67*o8));
-    // K_ab from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // K_ab from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[48] = o130;
     out[49] = S(0);
     out[50] = S(0);
@@ -1732,7 +1732,7 @@ struct Hinge_Pair_Kernel {
     out[81] = ((h*((d_L_f__1__b_wz*o38) - d_L_tau__0__b_wz)) + (o46*o8));
     out[82] = ((h*((d_L_f__0__b_wz*o37) - d_L_tau__1__b_wz)) + (o59*o8));
     out[83] = ((h*((d_L_f__0__b_wz*o64) + (d_L_f__1__b_wz*o51) - d_L_tau__2__b_wz)) + (o70*o8));
-    // K_ba from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // K_ba from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[84] = (-o115);
     out[85] = S(0);
     out[86] = S(0);
@@ -1769,7 +1769,7 @@ struct Hinge_Pair_Kernel {
     out[117] = ((h*((d_L_f__1__a_wz*o75) + d_L_tau__0__a_wz)) + (o8*o80));
     out[118] = ((h*((d_L_f__0__a_wz*o91) + d_L_tau__1__a_wz)) + (o8*o94));
     out[119] = ((h*((d_L_f__0__a_wz*o76) + (d_L_f__1__a_wz*o103) + d_L_tau__2__a_wz)) + (o106*o8));
-    // K_bb from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // K_bb from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[120] = (-o130);
     out[121] = S(0);
     out[122] = S(0);
@@ -1889,7 +1889,7 @@ struct Hinge_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[66];
     [[maybe_unused]] const S g_joint_hertz = in[67];
     [[maybe_unused]] const S g_joint_damping_ratio = in[68];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:32), let pb (hinge.yaml:33), let na (hinge.yaml:35), let nb (hinge.yaml:36), let ua (hinge.yaml:44), let ub (hinge.yaml:45), let ia (hinge.yaml:57), let ib (hinge.yaml:58)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:45), let ub (hinge.yaml:46), let ia (hinge.yaml:58), let ib (hinge.yaml:59)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -1966,102 +1966,102 @@ struct Hinge_Pair_Kernel {
     const S b_Iw7_01 = ((p0_26*p0_42) + (p0_28*p0_40) + (p0_30*p0_41));
     const S b_Iw7_02 = ((p0_31*p0_42) + (p0_32*p0_40) + (p0_33*p0_41));
     const S b_Iw7_12 = ((p0_31*p0_44) + (p0_32*p0_45) + (p0_33*p0_43));
-    // let omega (hinge.yaml:27)
+    // let omega (hinge.yaml:28)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (hinge.yaml:28)
+    // let zeta (hinge.yaml:29)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (hinge.yaml:30)
+    // let m (hinge.yaml:31)
     const S L_m = held_in ? held_in[0] : S(max(a_m, b_m));
     if (held_out) held_out[0] = L_m;
-    // let im (hinge.yaml:31)
+    // let im (hinge.yaml:32)
     const S L_im = held_in ? held_in[1] : S(max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz))));
     if (held_out) held_out[1] = L_im;
-    // let pa (hinge.yaml:32)
+    // let pa (hinge.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (hinge.yaml:33)
+    // let pb (hinge.yaml:34)
     const S L_pb__0 = (b_px + b_r1_0);
     const S L_pb__1 = (b_py + b_r1_1);
     const S L_pb__2 = (b_pz + b_r1_2);
-    // let f (hinge.yaml:34)
+    // let f (hinge.yaml:35)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
     const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)));
     const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)));
     const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)));
-    // let na (hinge.yaml:35)
+    // let na (hinge.yaml:36)
     const S L_na__0 = a_r2_0;
     const S L_na__1 = a_r2_1;
     const S L_na__2 = a_r2_2;
-    // let nb (hinge.yaml:36)
+    // let nb (hinge.yaml:37)
     const S L_nb__0 = b_r3_0;
     const S L_nb__1 = b_r3_1;
     const S L_nb__2 = b_r3_2;
-    // let wrel (hinge.yaml:37)
+    // let wrel (hinge.yaml:38)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let rate (hinge.yaml:38)
+    // let rate (hinge.yaml:39)
     const S L_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
-    // let kr (hinge.yaml:39)
+    // let kr (hinge.yaml:40)
     const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (hinge.yaml:40)
+    // let cr (hinge.yaml:41)
     const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let align (hinge.yaml:43)
+    // let align (hinge.yaml:44)
     const S L_align__0 = ((-(L_cr*((-(L_na__0*L_rate)) + L_wrel__0))) - (L_kr*((L_na__1*L_nb__2) - (L_na__2*L_nb__1))));
     const S L_align__1 = ((-(L_cr*((-(L_na__1*L_rate)) + L_wrel__1))) - (L_kr*((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0))));
     const S L_align__2 = ((-(L_cr*((-(L_na__2*L_rate)) + L_wrel__2))) - (L_kr*((L_na__0*L_nb__1) - (L_na__1*L_nb__0))));
-    // let ua (hinge.yaml:44)
+    // let ua (hinge.yaml:45)
     const S L_ua__0 = a_r4_0;
     const S L_ua__1 = a_r4_1;
     const S L_ua__2 = a_r4_2;
-    // let ub (hinge.yaml:45)
+    // let ub (hinge.yaml:46)
     const S L_ub__0 = b_r5_0;
     const S L_ub__1 = b_r5_1;
     const S L_ub__2 = b_r5_2;
-    // let angle (hinge.yaml:46)
+    // let angle (hinge.yaml:47)
     const S L_angle = angle_of(((L_na__0*((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))) + (L_na__1*((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0))) + (L_na__2*((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0)))), ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2)));
-    // let limited (hinge.yaml:49)
+    // let limited (hinge.yaml:50)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:50)
+    // let over_hi (hinge.yaml:51)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:51)
+    // let over_lo (hinge.yaml:52)
     const S L_over_lo = ((-L_angle) + p_lower);
-    // let stop_hi (hinge.yaml:52)
+    // let stop_hi (hinge.yaml:53)
     const S l20_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
     const S L_stop_hi = select((L_over_hi > S(0)), select((l20_0_0 > S(0)), l20_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l20_0_0, S(0)));
-    // let stop_lo (hinge.yaml:53)
+    // let stop_lo (hinge.yaml:54)
     const S l21_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
     const S l21_0_1 = (-l21_0_0);
     const S L_stop_lo = select((L_over_lo > S(0)), select((l21_0_0 < S(0)), l21_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l21_0_1, S(0)));
-    // let ia (hinge.yaml:57)
+    // let ia (hinge.yaml:58)
     const S L_ia = held_in ? held_in[2] : S(((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22)))));
     if (held_out) held_out[2] = L_ia;
-    // let ib (hinge.yaml:58)
+    // let ib (hinge.yaml:59)
     const S L_ib = held_in ? held_in[3] : S(((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22)))));
     if (held_out) held_out[3] = L_ib;
-    // let iz (hinge.yaml:59)
+    // let iz (hinge.yaml:60)
     const S L_iz = held_in ? held_in[4] : S(select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia));
     if (held_out) held_out[4] = L_iz;
-    // let err (hinge.yaml:60)
+    // let err (hinge.yaml:61)
     const S L_err = ((-L_rate) + p_motor_speed);
-    // let fast (hinge.yaml:61)
+    // let fast (hinge.yaml:62)
     const S L_fast = held_in ? held_in[5] : S(select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0)));
     if (held_out) held_out[5] = L_fast;
-    // let sgn (hinge.yaml:62)
+    // let sgn (hinge.yaml:63)
     const S L_sgn = held_in ? held_in[6] : S(select((L_err > S(0)), S(1), S(-1)));
     if (held_out) held_out[6] = L_sgn;
-    // let motor (hinge.yaml:63)
+    // let motor (hinge.yaml:64)
     const S L_motor = select((p_motor_torque > S(0)), ((L_err*L_iz*L_omega*(S(1) - L_fast)) + (L_fast*L_sgn*p_motor_torque)), S(0));
-    // let spring (hinge.yaml:64)
+    // let spring (hinge.yaml:65)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
-    // let tau (hinge.yaml:65)
+    // let tau (hinge.yaml:66)
     const S l30_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S L_tau__0 = (L_align__0 + (L_na__0*l30_0_0));
     const S L_tau__1 = (L_align__1 + (L_na__1*l30_0_0));
     const S L_tau__2 = (L_align__2 + (L_na__2*l30_0_0));
-    // apply[0] (hinge.yaml:67)
+    // apply[0] (hinge.yaml:68)
     const S T0_arm__0 = held_in ? held_in[7] : S((L_pa__0 - a_px));
     if (held_out) held_out[7] = T0_arm__0;
     const S T0_arm__1 = held_in ? held_in[8] : S((L_pa__1 - a_py));
@@ -2071,7 +2071,7 @@ struct Hinge_Pair_Kernel {
     const S l32_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     const S T1_turn = held_in ? held_in[10] : S((S(1) - (S(1)/((((h*h*h*h)*l32_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l32_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l32_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[10] = T1_turn;
-    // apply[1] (hinge.yaml:68)
+    // apply[1] (hinge.yaml:69)
     const S T2_arm__0 = held_in ? held_in[11] : S((L_pb__0 - b_px));
     if (held_out) held_out[11] = T2_arm__0;
     const S T2_arm__1 = held_in ? held_in[12] : S((L_pb__1 - b_py));
@@ -2081,21 +2081,21 @@ struct Hinge_Pair_Kernel {
     const S l34_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
     const S T3_turn = held_in ? held_in[14] : S((S(1) - (S(1)/((((h*h*h*h)*l34_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l34_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l34_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
     if (held_out) held_out[14] = T3_turn;
-    // apply (hinge.yaml:66), shared subexpressions
+    // apply (hinge.yaml:67), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
     const S o3 = (T2_arm__2 + (T3_turn*(L_pb__2 - T2_arm__2 - b_pz)));
     const S o4 = (T2_arm__1 + (T3_turn*(L_pb__1 - T2_arm__1 - b_py)));
     const S o5 = (T2_arm__0 + (T3_turn*(L_pb__0 - T2_arm__0 - b_px)));
-    // F_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // F_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (hinge.yaml:68), apply[3] (hinge.yaml:70)
+    // F_b from apply[1] (hinge.yaml:69), apply[3] (hinge.yaml:71)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -2234,7 +2234,7 @@ struct Hinge_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[46];
     [[maybe_unused]] const S g_joint_hertz = in[47];
     [[maybe_unused]] const S g_joint_damping_ratio = in[48];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:32), let na (hinge.yaml:35), let ua (hinge.yaml:44), let ia (hinge.yaml:57)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:45), let ia (hinge.yaml:58)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2273,26 +2273,26 @@ struct Hinge_World_Kernel {
     const S a_Iw3_01 = ((p0_11*p0_17) + (p0_13*p0_18) + (p0_19*p0_9));
     const S a_Iw3_02 = ((p0_14*p0_19) + (p0_15*p0_17) + (p0_16*p0_18));
     const S a_Iw3_12 = ((p0_14*p0_21) + (p0_15*p0_22) + (p0_16*p0_20));
-    // let omega (hinge.yaml:27)
+    // let omega (hinge.yaml:28)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (hinge.yaml:28)
+    // let zeta (hinge.yaml:29)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (hinge.yaml:30)
+    // let m (hinge.yaml:31)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (hinge.yaml:31)
+    // let im (hinge.yaml:32)
     [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let pa (hinge.yaml:32)
+    // let pa (hinge.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (hinge.yaml:33)
+    // let pb (hinge.yaml:34)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (hinge.yaml:34)
+    // let f (hinge.yaml:35)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
     const S l6_0_2 = (-l6_0_0);
@@ -2327,22 +2327,22 @@ struct Hinge_World_Kernel {
     const S d_L_f__2__a_vz = l6_0_5;
     const S d_L_f__2__a_wx = (-l6_0_7);
     const S d_L_f__2__a_wy = l6_0_9;
-    // let na (hinge.yaml:35)
+    // let na (hinge.yaml:36)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (hinge.yaml:36)
+    // let nb (hinge.yaml:37)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let wrel (hinge.yaml:37)
+    // let wrel (hinge.yaml:38)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let rate (hinge.yaml:38)
+    // let rate (hinge.yaml:39)
     const S L_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r1_1));
     const S d_L_rate__a_dty = ((L_wrel__0*a_r1_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -2350,11 +2350,11 @@ struct Hinge_World_Kernel {
     const S d_L_rate__a_wx = (-L_na__0);
     const S d_L_rate__a_wy = (-L_na__1);
     const S d_L_rate__a_wz = (-L_na__2);
-    // let kr (hinge.yaml:39)
+    // let kr (hinge.yaml:40)
     const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (hinge.yaml:40)
+    // let cr (hinge.yaml:41)
     const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let align (hinge.yaml:43)
+    // let align (hinge.yaml:44)
     const S l13_0_0 = (L_cr*L_na__0);
     const S l13_0_1 = (L_kr*L_nb__1);
     const S l13_0_2 = (L_kr*L_nb__2);
@@ -2383,18 +2383,18 @@ struct Hinge_World_Kernel {
     const S d_L_align__2__a_wx = (d_L_rate__a_wx*l13_0_6);
     const S d_L_align__2__a_wy = (d_L_rate__a_wy*l13_0_6);
     const S d_L_align__2__a_wz = (L_cr + (d_L_rate__a_wz*l13_0_6));
-    // let ua (hinge.yaml:44)
+    // let ua (hinge.yaml:45)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (hinge.yaml:45)
+    // let ub (hinge.yaml:46)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let angle (hinge.yaml:46)
+    // let angle (hinge.yaml:47)
     const S l16_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
     const S l16_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
     const S l16_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
@@ -2413,16 +2413,16 @@ struct Hinge_World_Kernel {
     const S d_L_angle__a_dtx = ((a_r1_1*l16_0_10) + (a_r2_1*l16_0_8) + (d_L_na__1__a_dtx*l16_0_11) + (d_L_ua__1__a_dtx*l16_0_9));
     const S d_L_angle__a_dty = ((a_r1_2*l16_0_13) + (a_r2_2*l16_0_12) + (d_L_na__2__a_dty*l16_0_10) + (d_L_ua__2__a_dty*l16_0_8));
     const S d_L_angle__a_dtz = ((a_r1_0*l16_0_11) + (a_r2_0*l16_0_9) + (d_L_na__0__a_dtz*l16_0_13) + (d_L_ua__0__a_dtz*l16_0_12));
-    // let limited (hinge.yaml:49)
+    // let limited (hinge.yaml:50)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:50)
+    // let over_hi (hinge.yaml:51)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:51)
+    // let over_lo (hinge.yaml:52)
     const S L_over_lo = ((-L_angle) + p_lower);
     const S d_L_over_lo__a_dtx = (-d_L_angle__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_angle__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_angle__a_dtz);
-    // let stop_hi (hinge.yaml:52)
+    // let stop_hi (hinge.yaml:53)
     const S l20_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
     const auto l20_0_1 = (l20_0_0 > S(0));
     const auto l20_0_2 = (L_over_hi > S(0));
@@ -2436,7 +2436,7 @@ struct Hinge_World_Kernel {
     const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l20_0_5);
     const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l20_0_5);
     const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l20_0_5);
-    // let stop_lo (hinge.yaml:53)
+    // let stop_lo (hinge.yaml:54)
     const S l21_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
     const S l21_0_1 = (-l21_0_0);
     const auto l21_0_2 = (l21_0_0 < S(0));
@@ -2452,13 +2452,13 @@ struct Hinge_World_Kernel {
     const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l21_0_7);
     const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l21_0_7);
     const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l21_0_7);
-    // let ia (hinge.yaml:57)
+    // let ia (hinge.yaml:58)
     [[maybe_unused]] const S L_ia = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
-    // let ib (hinge.yaml:58)
+    // let ib (hinge.yaml:59)
     [[maybe_unused]] const S L_ib = S(0);
-    // let iz (hinge.yaml:59)
+    // let iz (hinge.yaml:60)
     [[maybe_unused]] const S L_iz = select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia);
-    // let err (hinge.yaml:60)
+    // let err (hinge.yaml:61)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -2466,11 +2466,11 @@ struct Hinge_World_Kernel {
     const S d_L_err__a_wx = (-d_L_rate__a_wx);
     const S d_L_err__a_wy = (-d_L_rate__a_wy);
     const S d_L_err__a_wz = (-d_L_rate__a_wz);
-    // let fast (hinge.yaml:61)
+    // let fast (hinge.yaml:62)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0));
-    // let sgn (hinge.yaml:62)
+    // let sgn (hinge.yaml:63)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (hinge.yaml:63)
+    // let motor (hinge.yaml:64)
     const S l28_0_0 = (L_iz*L_omega*(S(1) - L_fast));
     const auto l28_0_1 = (p_motor_torque > S(0));
     const S l28_0_2 = select(l28_0_1, l28_0_0, S(0));
@@ -2481,7 +2481,7 @@ struct Hinge_World_Kernel {
     const S d_L_motor__a_wx = (d_L_err__a_wx*l28_0_2);
     const S d_L_motor__a_wy = (d_L_err__a_wy*l28_0_2);
     const S d_L_motor__a_wz = (d_L_err__a_wz*l28_0_2);
-    // let spring (hinge.yaml:64)
+    // let spring (hinge.yaml:65)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
     const S d_L_spring__a_dtx = ((-(d_L_angle__a_dtx*p_spring_stiffness)) - (d_L_rate__a_dtx*p_spring_damping));
     const S d_L_spring__a_dty = ((-(d_L_angle__a_dty*p_spring_stiffness)) - (d_L_rate__a_dty*p_spring_damping));
@@ -2489,7 +2489,7 @@ struct Hinge_World_Kernel {
     const S d_L_spring__a_wx = (-(d_L_rate__a_wx*p_spring_damping));
     const S d_L_spring__a_wy = (-(d_L_rate__a_wy*p_spring_damping));
     const S d_L_spring__a_wz = (-(d_L_rate__a_wz*p_spring_damping));
-    // let tau (hinge.yaml:65)
+    // let tau (hinge.yaml:66)
     const S l30_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l30_0_1 = (L_limited*L_na__0);
     const S l30_0_2 = (L_limited*L_na__1);
@@ -2515,13 +2515,13 @@ struct Hinge_World_Kernel {
     const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l30_0_3) + (d_L_stop_lo__a_wx*l30_0_3));
     const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l30_0_3) + (d_L_stop_lo__a_wy*l30_0_3));
     const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l30_0_3) + (d_L_stop_lo__a_wz*l30_0_3));
-    // apply[0] (hinge.yaml:67)
+    // apply[0] (hinge.yaml:68)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l32_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l32_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l32_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l32_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (hinge.yaml:66), shared subexpressions
+    // apply (hinge.yaml:67), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -2533,14 +2533,14 @@ struct Hinge_World_Kernel {
     const S o8 = (T1_turn*d_L_pa__2__a_dty);
     const S o9 = (T1_turn*a_r0_2);
     const S o10 = (L_f__2*T1_turn);
-    // F_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // F_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // dF_a/ddelta_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // dF_a/ddelta_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[6] = d_L_f__0__a_dx;
     out[7] = S(0);
     out[8] = S(0);
@@ -2577,7 +2577,7 @@ struct Hinge_World_Kernel {
     out[39] = ((a_r0_0*o10) + (d_L_f__1__a_dtz*o4) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[40] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o5) - (d_L_pa__0__a_dtz*o10) - d_L_tau__1__a_dtz);
     out[41] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o3) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/du_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // dF_a/du_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[42] = d_L_f__0__a_vx;
     out[43] = S(0);
     out[44] = S(0);
@@ -2677,7 +2677,7 @@ struct Hinge_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[46];
     [[maybe_unused]] const S g_joint_hertz = in[47];
     [[maybe_unused]] const S g_joint_damping_ratio = in[48];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:32), let na (hinge.yaml:35), let ua (hinge.yaml:44), let ia (hinge.yaml:57)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:45), let ia (hinge.yaml:58)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2716,26 +2716,26 @@ struct Hinge_World_Kernel {
     const S a_Iw3_01 = ((p0_11*p0_17) + (p0_13*p0_18) + (p0_19*p0_9));
     const S a_Iw3_02 = ((p0_14*p0_19) + (p0_15*p0_17) + (p0_16*p0_18));
     const S a_Iw3_12 = ((p0_14*p0_21) + (p0_15*p0_22) + (p0_16*p0_20));
-    // let omega (hinge.yaml:27)
+    // let omega (hinge.yaml:28)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (hinge.yaml:28)
+    // let zeta (hinge.yaml:29)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (hinge.yaml:30)
+    // let m (hinge.yaml:31)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (hinge.yaml:31)
+    // let im (hinge.yaml:32)
     [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let pa (hinge.yaml:32)
+    // let pa (hinge.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (hinge.yaml:33)
+    // let pb (hinge.yaml:34)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (hinge.yaml:34)
+    // let f (hinge.yaml:35)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
     const S l6_0_2 = (-l6_0_0);
@@ -2770,22 +2770,22 @@ struct Hinge_World_Kernel {
     const S d_L_f__2__a_vz = l6_0_5;
     const S d_L_f__2__a_wx = (-l6_0_7);
     const S d_L_f__2__a_wy = l6_0_9;
-    // let na (hinge.yaml:35)
+    // let na (hinge.yaml:36)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (hinge.yaml:36)
+    // let nb (hinge.yaml:37)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let wrel (hinge.yaml:37)
+    // let wrel (hinge.yaml:38)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let rate (hinge.yaml:38)
+    // let rate (hinge.yaml:39)
     const S L_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r1_1));
     const S d_L_rate__a_dty = ((L_wrel__0*a_r1_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -2793,11 +2793,11 @@ struct Hinge_World_Kernel {
     const S d_L_rate__a_wx = (-L_na__0);
     const S d_L_rate__a_wy = (-L_na__1);
     const S d_L_rate__a_wz = (-L_na__2);
-    // let kr (hinge.yaml:39)
+    // let kr (hinge.yaml:40)
     const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (hinge.yaml:40)
+    // let cr (hinge.yaml:41)
     const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let align (hinge.yaml:43)
+    // let align (hinge.yaml:44)
     const S l13_0_0 = (L_cr*L_na__0);
     const S l13_0_1 = (L_kr*L_nb__1);
     const S l13_0_2 = (L_kr*L_nb__2);
@@ -2826,18 +2826,18 @@ struct Hinge_World_Kernel {
     const S d_L_align__2__a_wx = (d_L_rate__a_wx*l13_0_6);
     const S d_L_align__2__a_wy = (d_L_rate__a_wy*l13_0_6);
     const S d_L_align__2__a_wz = (L_cr + (d_L_rate__a_wz*l13_0_6));
-    // let ua (hinge.yaml:44)
+    // let ua (hinge.yaml:45)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (hinge.yaml:45)
+    // let ub (hinge.yaml:46)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let angle (hinge.yaml:46)
+    // let angle (hinge.yaml:47)
     const S l16_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
     const S l16_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
     const S l16_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
@@ -2856,16 +2856,16 @@ struct Hinge_World_Kernel {
     const S d_L_angle__a_dtx = ((a_r1_1*l16_0_10) + (a_r2_1*l16_0_8) + (d_L_na__1__a_dtx*l16_0_11) + (d_L_ua__1__a_dtx*l16_0_9));
     const S d_L_angle__a_dty = ((a_r1_2*l16_0_13) + (a_r2_2*l16_0_12) + (d_L_na__2__a_dty*l16_0_10) + (d_L_ua__2__a_dty*l16_0_8));
     const S d_L_angle__a_dtz = ((a_r1_0*l16_0_11) + (a_r2_0*l16_0_9) + (d_L_na__0__a_dtz*l16_0_13) + (d_L_ua__0__a_dtz*l16_0_12));
-    // let limited (hinge.yaml:49)
+    // let limited (hinge.yaml:50)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:50)
+    // let over_hi (hinge.yaml:51)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:51)
+    // let over_lo (hinge.yaml:52)
     const S L_over_lo = ((-L_angle) + p_lower);
     const S d_L_over_lo__a_dtx = (-d_L_angle__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_angle__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_angle__a_dtz);
-    // let stop_hi (hinge.yaml:52)
+    // let stop_hi (hinge.yaml:53)
     const S l20_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
     const auto l20_0_1 = (l20_0_0 > S(0));
     const auto l20_0_2 = (L_over_hi > S(0));
@@ -2879,7 +2879,7 @@ struct Hinge_World_Kernel {
     const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l20_0_5);
     const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l20_0_5);
     const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l20_0_5);
-    // let stop_lo (hinge.yaml:53)
+    // let stop_lo (hinge.yaml:54)
     const S l21_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
     const S l21_0_1 = (-l21_0_0);
     const auto l21_0_2 = (l21_0_0 < S(0));
@@ -2895,13 +2895,13 @@ struct Hinge_World_Kernel {
     const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l21_0_7);
     const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l21_0_7);
     const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l21_0_7);
-    // let ia (hinge.yaml:57)
+    // let ia (hinge.yaml:58)
     [[maybe_unused]] const S L_ia = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
-    // let ib (hinge.yaml:58)
+    // let ib (hinge.yaml:59)
     [[maybe_unused]] const S L_ib = S(0);
-    // let iz (hinge.yaml:59)
+    // let iz (hinge.yaml:60)
     [[maybe_unused]] const S L_iz = select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia);
-    // let err (hinge.yaml:60)
+    // let err (hinge.yaml:61)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -2909,11 +2909,11 @@ struct Hinge_World_Kernel {
     const S d_L_err__a_wx = (-d_L_rate__a_wx);
     const S d_L_err__a_wy = (-d_L_rate__a_wy);
     const S d_L_err__a_wz = (-d_L_rate__a_wz);
-    // let fast (hinge.yaml:61)
+    // let fast (hinge.yaml:62)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0));
-    // let sgn (hinge.yaml:62)
+    // let sgn (hinge.yaml:63)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (hinge.yaml:63)
+    // let motor (hinge.yaml:64)
     const S l28_0_0 = (L_iz*L_omega*(S(1) - L_fast));
     const auto l28_0_1 = (p_motor_torque > S(0));
     const S l28_0_2 = select(l28_0_1, l28_0_0, S(0));
@@ -2924,7 +2924,7 @@ struct Hinge_World_Kernel {
     const S d_L_motor__a_wx = (d_L_err__a_wx*l28_0_2);
     const S d_L_motor__a_wy = (d_L_err__a_wy*l28_0_2);
     const S d_L_motor__a_wz = (d_L_err__a_wz*l28_0_2);
-    // let spring (hinge.yaml:64)
+    // let spring (hinge.yaml:65)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
     const S d_L_spring__a_dtx = ((-(d_L_angle__a_dtx*p_spring_stiffness)) - (d_L_rate__a_dtx*p_spring_damping));
     const S d_L_spring__a_dty = ((-(d_L_angle__a_dty*p_spring_stiffness)) - (d_L_rate__a_dty*p_spring_damping));
@@ -2932,7 +2932,7 @@ struct Hinge_World_Kernel {
     const S d_L_spring__a_wx = (-(d_L_rate__a_wx*p_spring_damping));
     const S d_L_spring__a_wy = (-(d_L_rate__a_wy*p_spring_damping));
     const S d_L_spring__a_wz = (-(d_L_rate__a_wz*p_spring_damping));
-    // let tau (hinge.yaml:65)
+    // let tau (hinge.yaml:66)
     const S l30_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l30_0_1 = (L_limited*L_na__0);
     const S l30_0_2 = (L_limited*L_na__1);
@@ -2958,13 +2958,13 @@ struct Hinge_World_Kernel {
     const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l30_0_3) + (d_L_stop_lo__a_wx*l30_0_3));
     const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l30_0_3) + (d_L_stop_lo__a_wy*l30_0_3));
     const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l30_0_3) + (d_L_stop_lo__a_wz*l30_0_3));
-    // apply[0] (hinge.yaml:67)
+    // apply[0] (hinge.yaml:68)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
     const S l32_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l32_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l32_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l32_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (hinge.yaml:66), shared subexpressions
+    // apply (hinge.yaml:67), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -3009,14 +3009,14 @@ struct Hinge_World_Kernel {
     const S o41 = (d_L_f__0__a_vx*h);
     const S o42 = (d_L_f__1__a_vy*h);
     const S o43 = (d_L_f__2__a_vz*h);
-    // g_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // g_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o1) + (d_L_f__0__a_dty*o2) + (d_L_f__0__a_dtz*o3) + o0 + (o5*o9));
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o1) + (d_L_f__1__a_dty*o2) + (d_L_f__1__a_dtz*o3) + o10 + (o11*o13));
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o1) + (d_L_f__2__a_dty*o2) + (d_L_f__2__a_dtz*o3) + o14 + (o15*o16));
     out[3] = ((-(L_f__1*o18)) + (L_f__2*o17) - L_tau__0 + (o1*o22) + (o10*o19) + (o13*o25) + (o14*o17) + (o16*o26) + (o2*o23) + (o24*o3));
     out[4] = ((L_f__0*o18) - (L_f__2*o27) - L_tau__1 + (o0*o18) + (o1*o30) + (o14*o28) + (o16*o34) + (o2*o31) + (o3*o32) + (o33*o9));
     out[5] = ((-(L_f__0*o17)) + (L_f__1*o27) - L_tau__2 + (o0*o35) + (o1*o36) + (o10*o27) + (o13*o40) + (o2*o37) + (o3*o38) + (o39*o9));
-    // K_aa from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // K_aa from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[6] = (o41 + o5);
     out[7] = S(0);
     out[8] = S(0);
@@ -3116,7 +3116,7 @@ struct Hinge_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[46];
     [[maybe_unused]] const S g_joint_hertz = in[47];
     [[maybe_unused]] const S g_joint_damping_ratio = in[48];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:32), let na (hinge.yaml:35), let ua (hinge.yaml:44), let ia (hinge.yaml:57)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:45), let ia (hinge.yaml:58)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3155,102 +3155,102 @@ struct Hinge_World_Kernel {
     const S a_Iw3_01 = ((p0_11*p0_17) + (p0_13*p0_18) + (p0_19*p0_9));
     const S a_Iw3_02 = ((p0_14*p0_19) + (p0_15*p0_17) + (p0_16*p0_18));
     const S a_Iw3_12 = ((p0_14*p0_21) + (p0_15*p0_22) + (p0_16*p0_20));
-    // let omega (hinge.yaml:27)
+    // let omega (hinge.yaml:28)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
-    // let zeta (hinge.yaml:28)
+    // let zeta (hinge.yaml:29)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
-    // let m (hinge.yaml:30)
+    // let m (hinge.yaml:31)
     const S L_m = held_in ? held_in[0] : S(max(S(0), a_m));
     if (held_out) held_out[0] = L_m;
-    // let im (hinge.yaml:31)
+    // let im (hinge.yaml:32)
     const S L_im = held_in ? held_in[1] : S(max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz))));
     if (held_out) held_out[1] = L_im;
-    // let pa (hinge.yaml:32)
+    // let pa (hinge.yaml:33)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (hinge.yaml:33)
+    // let pb (hinge.yaml:34)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (hinge.yaml:34)
+    // let f (hinge.yaml:35)
     const S l6_0_0 = (L_m*(L_omega*L_omega));
     const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
     const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)));
     const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)));
     const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
-    // let na (hinge.yaml:35)
+    // let na (hinge.yaml:36)
     const S L_na__0 = a_r1_0;
     const S L_na__1 = a_r1_1;
     const S L_na__2 = a_r1_2;
-    // let nb (hinge.yaml:36)
+    // let nb (hinge.yaml:37)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let wrel (hinge.yaml:37)
+    // let wrel (hinge.yaml:38)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let rate (hinge.yaml:38)
+    // let rate (hinge.yaml:39)
     const S L_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
-    // let kr (hinge.yaml:39)
+    // let kr (hinge.yaml:40)
     const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (hinge.yaml:40)
+    // let cr (hinge.yaml:41)
     const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let align (hinge.yaml:43)
+    // let align (hinge.yaml:44)
     const S L_align__0 = ((-(L_cr*((-(L_na__0*L_rate)) + L_wrel__0))) - (L_kr*((L_na__1*L_nb__2) - (L_na__2*L_nb__1))));
     const S L_align__1 = ((-(L_cr*((-(L_na__1*L_rate)) + L_wrel__1))) - (L_kr*((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0))));
     const S L_align__2 = ((-(L_cr*((-(L_na__2*L_rate)) + L_wrel__2))) - (L_kr*((L_na__0*L_nb__1) - (L_na__1*L_nb__0))));
-    // let ua (hinge.yaml:44)
+    // let ua (hinge.yaml:45)
     const S L_ua__0 = a_r2_0;
     const S L_ua__1 = a_r2_1;
     const S L_ua__2 = a_r2_2;
-    // let ub (hinge.yaml:45)
+    // let ub (hinge.yaml:46)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let angle (hinge.yaml:46)
+    // let angle (hinge.yaml:47)
     const S L_angle = angle_of(((L_na__0*((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))) + (L_na__1*((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0))) + (L_na__2*((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0)))), ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2)));
-    // let limited (hinge.yaml:49)
+    // let limited (hinge.yaml:50)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:50)
+    // let over_hi (hinge.yaml:51)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:51)
+    // let over_lo (hinge.yaml:52)
     const S L_over_lo = ((-L_angle) + p_lower);
-    // let stop_hi (hinge.yaml:52)
+    // let stop_hi (hinge.yaml:53)
     const S l20_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
     const S L_stop_hi = select((L_over_hi > S(0)), select((l20_0_0 > S(0)), l20_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l20_0_0, S(0)));
-    // let stop_lo (hinge.yaml:53)
+    // let stop_lo (hinge.yaml:54)
     const S l21_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
     const S l21_0_1 = (-l21_0_0);
     const S L_stop_lo = select((L_over_lo > S(0)), select((l21_0_0 < S(0)), l21_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l21_0_1, S(0)));
-    // let ia (hinge.yaml:57)
+    // let ia (hinge.yaml:58)
     const S L_ia = held_in ? held_in[2] : S(((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22)))));
     if (held_out) held_out[2] = L_ia;
-    // let ib (hinge.yaml:58)
+    // let ib (hinge.yaml:59)
     const S L_ib = held_in ? held_in[3] : S(S(0));
     if (held_out) held_out[3] = L_ib;
-    // let iz (hinge.yaml:59)
+    // let iz (hinge.yaml:60)
     const S L_iz = held_in ? held_in[4] : S(select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia));
     if (held_out) held_out[4] = L_iz;
-    // let err (hinge.yaml:60)
+    // let err (hinge.yaml:61)
     const S L_err = ((-L_rate) + p_motor_speed);
-    // let fast (hinge.yaml:61)
+    // let fast (hinge.yaml:62)
     const S L_fast = held_in ? held_in[5] : S(select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0)));
     if (held_out) held_out[5] = L_fast;
-    // let sgn (hinge.yaml:62)
+    // let sgn (hinge.yaml:63)
     const S L_sgn = held_in ? held_in[6] : S(select((L_err > S(0)), S(1), S(-1)));
     if (held_out) held_out[6] = L_sgn;
-    // let motor (hinge.yaml:63)
+    // let motor (hinge.yaml:64)
     const S L_motor = select((p_motor_torque > S(0)), ((L_err*L_iz*L_omega*(S(1) - L_fast)) + (L_fast*L_sgn*p_motor_torque)), S(0));
-    // let spring (hinge.yaml:64)
+    // let spring (hinge.yaml:65)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
-    // let tau (hinge.yaml:65)
+    // let tau (hinge.yaml:66)
     const S l30_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S L_tau__0 = (L_align__0 + (L_na__0*l30_0_0));
     const S L_tau__1 = (L_align__1 + (L_na__1*l30_0_0));
     const S L_tau__2 = (L_align__2 + (L_na__2*l30_0_0));
-    // apply[0] (hinge.yaml:67)
+    // apply[0] (hinge.yaml:68)
     const S T0_arm__0 = held_in ? held_in[7] : S((L_pa__0 - a_px));
     if (held_out) held_out[7] = T0_arm__0;
     const S T0_arm__1 = held_in ? held_in[8] : S((L_pa__1 - a_py));
@@ -3260,11 +3260,11 @@ struct Hinge_World_Kernel {
     const S l32_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
     const S T1_turn = held_in ? held_in[10] : S((S(1) - (S(1)/((((h*h*h*h)*l32_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l32_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l32_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
     if (held_out) held_out[10] = T1_turn;
-    // apply (hinge.yaml:66), shared subexpressions
+    // apply (hinge.yaml:67), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
-    // F_a from apply[0] (hinge.yaml:67), apply[2] (hinge.yaml:69)
+    // F_a from apply[0] (hinge.yaml:68), apply[2] (hinge.yaml:70)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

@@ -679,7 +679,11 @@ void joint_reference(const Case<K>& c, const std::string& name, std::vector<doub
     return body == 1 && !kPair<K> ? t : Vec3((body ? B : A).R * t);
   };
   const Vec3 ta = third(0, "axis_a", "ref_a"), tb = third(1, "axis_b", "ref_b");
-  const Vec3 lock = -kr / 2 * (na.cross(nb) + ua.cross(ub) + ta.cross(tb)) - cr * wrel;
+  // A slider's lock is tuned to a's moment about b's point, where the force across its axis acts.
+  const double il = name == "slider"
+                        ? std::max(A.Iw.trace() / 2 + ma * (pb - A.x).squaredNorm(), kPair<K> ? B.Iw.trace() / 2 : 0.0)
+                        : im;
+  const Vec3 lock = -il * omega * omega / 2 * (na.cross(nb) + ua.cross(ub) + ta.cross(tb)) - 2 * zeta * il * omega * wrel;
   if (name == "fixed") {
     put_pair(k * (pb - pa) + cc * vrel);
     put_torque(lock);

@@ -204,6 +204,85 @@ TEST(Hinge, LimitStopsTheSwingWithoutPassingThrough) {
   }
 }
 
+// A bar swinging on a world hinge from 30-90 degrees: its period against the physical
+// pendulum's closed form, T = 4 sqrt(I / (m g d)) K(sin(theta0 / 2)) (I about the hinge, d the
+// centre's distance from it, K the complete elliptic integral of the first kind), and its
+// energy after 5 s; bars of 0.5-2 m and 1-50 kg.
+TEST(Hinge, PendulumKeepsThePhysicalPendulumsPeriodAndItsEnergy) {
+  struct Case {
+    double length, mass, angle_deg;
+  };
+  for (const Case c : {Case{1.0, 2.0, 60}, Case{0.5, 1.0, 30}, Case{2.0, 50.0, 90}, Case{1.0, 10.0, 45}}) {
+    SCOPED_TRACE(std::to_string(c.length) + " m, " + std::to_string(c.mass) + " kg, " + std::to_string(c.angle_deg) + " deg");
+    World w(joint_settings());
+    HingedBar p{c.length, c.mass, c.angle_deg * kPi / 180, {}};
+    p.build(w);
+    const Eigen::Matrix3d I = p.bar.inertia_body();  // about the centre: the hinge is body y
+    const double d = c.length / 2, I_hinge = I(1, 1) + c.mass * d * d;
+    // K(k) by the arithmetic-geometric mean: pi / (2 agm(1, sqrt(1 - k^2)))
+    const double k = std::sin(c.angle_deg * kPi / 360);
+    double a = 1, b = std::sqrt(1 - k * k);
+    for (int i = 0; i < 30; ++i) {
+      const double m = (a + b) / 2;
+      b = std::sqrt(a * b), a = m;
+    }
+    const double period = 4 * std::sqrt(I_hinge / (c.mass * kG * d)) * (kPi / (2 * a));
+    const auto energy = [&] { return kinetic_energy(w, p.bar) + c.mass * kG * w.state(p.bar.id).position[2]; };
+    const double e0 = energy(), floor = c.mass * kG * (kPivot.z() - d);
+    std::vector<double> crossings;  // downward through the bottom, swinging towards -x
+    double before = p.swing(w);
+    for (int i = 1; i <= 5 * kHz; ++i) {
+      w.step();
+      const double now = p.swing(w);
+      if (before > 0 && now <= 0) crossings.push_back((i - 1 + before / (before - now)) / kHz);
+      before = now;
+    }
+    ASSERT_GE(crossings.size(), 2u);
+    const double measured = (crossings.back() - crossings.front()) / double(crossings.size() - 1);
+    const double kept = (energy() - floor) / (e0 - floor);
+    const std::string tag = "hinge_pendulum_" + std::to_string(int(100 * c.length)) + "cm_" +
+                            std::to_string(int(c.angle_deg)) + "deg_";
+    record(tag + "period_rel_err", measured / period - 1);
+    record(tag + "energy_5s", kept);
+    EXPECT_NEAR(measured / period, 1.0, 0.01);
+    EXPECT_GT(kept, 0.95);
+    EXPECT_LT(kept, 1.05);
+  }
+}
+
+// ---- slider ------------------------------------------------------------------------------------
+
+// A carriage on a world slider along a 20-60 degree incline, no friction: it slides at
+// g sin(angle), travel g sin(angle) t^2 / 2 after 1 s (the step's own sum: h^2 g sin n (n + 1) / 2),
+// and stays on the rail 1.7-4.2 m down it (the world's point held on the carriage's line acts at
+// the end of a lever that grows with the travel).
+TEST(Slider, SlidesDownItsInclineAtGravitysShare) {
+  for (const double angle_deg : {20.0, 35.0, 60.0}) {
+    for (const double mass : {0.5, 20.0}) {
+      SCOPED_TRACE(std::to_string(angle_deg) + " deg, " + std::to_string(mass) + " kg");
+      World w(joint_settings());
+      const double angle = angle_deg * kPi / 180;
+      const Vec3 down(std::cos(angle), 0, -std::sin(angle));  // the rail, downhill
+      const Quat q(Eigen::AngleAxisd(angle, Vec3::UnitY()));   // body x onto the rail
+      const Box cart = add_box(w, Vec3(0.2, 0.1, 0.05), mass, kPivot, q);
+      w.add_force("slider", cart.id, ppe::kWorldBody,
+                  {{"point_a", {0, 0, 0}}, {"point_b", f3(kPivot)}, {"axis_a", {1, 0, 0}}, {"axis_b", f3(down)},
+                   {"ref_a", {0, 1, 0}}, {"ref_b", {0, 1, 0}}});
+      const int n = kHz;
+      for (int i = 0; i < n; ++i) w.step();
+      const double h = 1.0 / kHz, along = kG * std::sin(angle);
+      const double want = h * h * along * n * (n + 1) / 2;
+      const Vec3 moved = position(w.state(cart.id)) - kPivot;
+      const double travel = moved.dot(down), off = (moved - travel * down).norm();
+      const std::string tag = "slider_incline_" + std::to_string(int(angle_deg)) + "deg_" + std::to_string(int(mass * 10)) + "hg_";
+      record(tag + "rel_err", travel / want - 1);
+      record(tag + "off_rail_m", off);
+      EXPECT_NEAR(travel / want, 1.0, 0.01);
+      EXPECT_LT(off, 1e-3) << "off the rail";
+    }
+  }
+}
+
 // ---- fixed -------------------------------------------------------------------------------------
 
 // A beam welded at one end to the world holds out level under its weight. The soft weld bends

@@ -10,7 +10,7 @@ namespace cellphys::gen {
 
 /// slider (pair): F for 2 bodies and 8 Jacobian block(s).
 /// out = [F_a (6), F_b (6), dF_a/ddelta_a (36), dF_a/ddelta_b (36), dF_a/du_a (36), dF_a/du_b (36), dF_b/ddelta_a (36), dF_b/ddelta_b (36), dF_b/du_a (36), dF_b/du_b (36)]
-/// Total ops: 2353
+/// Total ops: 2366
 struct Slider_Pair_Kernel {
   using Instance = Slider_Force;
   static constexpr ForceType kType = ForceType::slider;
@@ -19,7 +19,7 @@ struct Slider_Pair_Kernel {
   static constexpr int kInputs = 63;
   static constexpr int kNumBlocks = 8;
   static constexpr int kOutputs = 300;
-  static constexpr int kOps = 2353;
+  static constexpr int kOps = 2366;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_ddelta, 0, 1},
@@ -172,40 +172,40 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let pb (slider.yaml:34), let na (slider.yaml:35), let nb (slider.yaml:36), let ua (slider.yaml:37), let ub (slider.yaml:38), let ta (slider.yaml:39), let tb (slider.yaml:40)
-    const S p0_0 = (S(2)*(a_qy*a_qy));
-    const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
+    // body-frame quantities rotated to world, first used by let im (slider.yaml:34), let pa (slider.yaml:37), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
+    const S p0_0 = (S(2)*(b_qy*b_qy));
+    const S p0_1 = ((S(2)*(b_qz*b_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
-    const S p0_3 = (S(2)*a_qw);
-    const S p0_4 = (a_qz*p0_3);
-    const S p0_5 = ((S(2)*a_qx*a_qy) - p0_4);
-    const S p0_6 = (a_qy*p0_3);
-    const S p0_7 = (S(2)*a_qx);
-    const S p0_8 = ((a_qz*p0_7) + p0_6);
-    const S p0_9 = ((a_qy*p0_7) + p0_4);
-    const S p0_10 = (S(2)*(a_qx*a_qx));
+    const S p0_3 = (S(2)*b_qw);
+    const S p0_4 = (b_qz*p0_3);
+    const S p0_5 = ((S(2)*b_qx*b_qy) - p0_4);
+    const S p0_6 = (b_qy*p0_3);
+    const S p0_7 = (S(2)*b_qx);
+    const S p0_8 = ((b_qz*p0_7) + p0_6);
+    const S p0_9 = ((b_qy*p0_7) + p0_4);
+    const S p0_10 = (S(2)*(b_qx*b_qx));
     const S p0_11 = ((-p0_1) - p0_10);
-    const S p0_12 = (a_qx*p0_3);
-    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
-    const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
-    const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
+    const S p0_12 = (b_qx*p0_3);
+    const S p0_13 = ((S(2)*b_qy*b_qz) - p0_12);
+    const S p0_14 = ((S(2)*b_qx*b_qz) - p0_6);
+    const S p0_15 = ((S(2)*b_qy*b_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
-    const S p0_17 = (S(2)*(b_qy*b_qy));
-    const S p0_18 = ((S(2)*(b_qz*b_qz)) - S(1));
+    const S p0_17 = (S(2)*(a_qy*a_qy));
+    const S p0_18 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_19 = ((-p0_17) - p0_18);
-    const S p0_20 = (S(2)*b_qw);
-    const S p0_21 = (b_qz*p0_20);
-    const S p0_22 = ((S(2)*b_qx*b_qy) - p0_21);
-    const S p0_23 = (b_qy*p0_20);
-    const S p0_24 = (S(2)*b_qx);
-    const S p0_25 = ((b_qz*p0_24) + p0_23);
-    const S p0_26 = ((b_qy*p0_24) + p0_21);
-    const S p0_27 = (S(2)*(b_qx*b_qx));
+    const S p0_20 = (S(2)*a_qw);
+    const S p0_21 = (a_qz*p0_20);
+    const S p0_22 = ((S(2)*a_qx*a_qy) - p0_21);
+    const S p0_23 = (a_qy*p0_20);
+    const S p0_24 = (S(2)*a_qx);
+    const S p0_25 = ((a_qz*p0_24) + p0_23);
+    const S p0_26 = ((a_qy*p0_24) + p0_21);
+    const S p0_27 = (S(2)*(a_qx*a_qx));
     const S p0_28 = ((-p0_18) - p0_27);
-    const S p0_29 = (b_qx*p0_20);
-    const S p0_30 = ((S(2)*b_qy*b_qz) - p0_29);
-    const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
-    const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
+    const S p0_29 = (a_qx*p0_20);
+    const S p0_30 = ((S(2)*a_qy*a_qz) - p0_29);
+    const S p0_31 = ((S(2)*a_qx*a_qz) - p0_23);
+    const S p0_32 = ((S(2)*a_qy*a_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
     const S p0_34 = ((p_axis_a__0*p_ref_a__1) - (p_axis_a__1*p_ref_a__0));
     const S p0_35 = ((p_axis_a__1*p_ref_a__2) - (p_axis_a__2*p_ref_a__1));
@@ -213,103 +213,103 @@ struct Slider_Pair_Kernel {
     const S p0_37 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
     const S p0_38 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S p0_39 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
-    const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
-    const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
-    const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
-    const S b_r1_0 = ((p0_19*p_point_b__0) + (p0_22*p_point_b__1) + (p0_25*p_point_b__2));
-    const S b_r1_1 = ((p0_26*p_point_b__0) + (p0_28*p_point_b__1) + (p0_30*p_point_b__2));
-    const S b_r1_2 = ((p0_31*p_point_b__0) + (p0_32*p_point_b__1) + (p0_33*p_point_b__2));
-    const S a_r2_0 = ((p0_2*p_axis_a__0) + (p0_5*p_axis_a__1) + (p0_8*p_axis_a__2));
-    const S a_r2_1 = ((p0_11*p_axis_a__1) + (p0_13*p_axis_a__2) + (p0_9*p_axis_a__0));
-    const S a_r2_2 = ((p0_14*p_axis_a__0) + (p0_15*p_axis_a__1) + (p0_16*p_axis_a__2));
-    const S b_r3_0 = ((p0_19*p_axis_b__0) + (p0_22*p_axis_b__1) + (p0_25*p_axis_b__2));
-    const S b_r3_1 = ((p0_26*p_axis_b__0) + (p0_28*p_axis_b__1) + (p0_30*p_axis_b__2));
-    const S b_r3_2 = ((p0_31*p_axis_b__0) + (p0_32*p_axis_b__1) + (p0_33*p_axis_b__2));
-    const S a_r4_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
-    const S a_r4_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
-    const S a_r4_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
-    const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
-    const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
-    const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
-    const S a_r6_0 = ((p0_2*p0_35) + (p0_34*p0_8) + (p0_36*p0_5));
-    const S a_r6_1 = ((p0_11*p0_36) + (p0_13*p0_34) + (p0_35*p0_9));
-    const S a_r6_2 = ((p0_14*p0_35) + (p0_15*p0_36) + (p0_16*p0_34));
-    const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
-    const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
-    const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
+    const S b_r0_0 = ((p0_2*p_point_b__0) + (p0_5*p_point_b__1) + (p0_8*p_point_b__2));
+    const S b_r0_1 = ((p0_11*p_point_b__1) + (p0_13*p_point_b__2) + (p0_9*p_point_b__0));
+    const S b_r0_2 = ((p0_14*p_point_b__0) + (p0_15*p_point_b__1) + (p0_16*p_point_b__2));
+    const S a_r1_0 = ((p0_19*p_point_a__0) + (p0_22*p_point_a__1) + (p0_25*p_point_a__2));
+    const S a_r1_1 = ((p0_26*p_point_a__0) + (p0_28*p_point_a__1) + (p0_30*p_point_a__2));
+    const S a_r1_2 = ((p0_31*p_point_a__0) + (p0_32*p_point_a__1) + (p0_33*p_point_a__2));
+    const S a_r2_0 = ((p0_19*p_axis_a__0) + (p0_22*p_axis_a__1) + (p0_25*p_axis_a__2));
+    const S a_r2_1 = ((p0_26*p_axis_a__0) + (p0_28*p_axis_a__1) + (p0_30*p_axis_a__2));
+    const S a_r2_2 = ((p0_31*p_axis_a__0) + (p0_32*p_axis_a__1) + (p0_33*p_axis_a__2));
+    const S b_r3_0 = ((p0_2*p_axis_b__0) + (p0_5*p_axis_b__1) + (p0_8*p_axis_b__2));
+    const S b_r3_1 = ((p0_11*p_axis_b__1) + (p0_13*p_axis_b__2) + (p0_9*p_axis_b__0));
+    const S b_r3_2 = ((p0_14*p_axis_b__0) + (p0_15*p_axis_b__1) + (p0_16*p_axis_b__2));
+    const S a_r4_0 = ((p0_19*p_ref_a__0) + (p0_22*p_ref_a__1) + (p0_25*p_ref_a__2));
+    const S a_r4_1 = ((p0_26*p_ref_a__0) + (p0_28*p_ref_a__1) + (p0_30*p_ref_a__2));
+    const S a_r4_2 = ((p0_31*p_ref_a__0) + (p0_32*p_ref_a__1) + (p0_33*p_ref_a__2));
+    const S b_r5_0 = ((p0_2*p_ref_b__0) + (p0_5*p_ref_b__1) + (p0_8*p_ref_b__2));
+    const S b_r5_1 = ((p0_11*p_ref_b__1) + (p0_13*p_ref_b__2) + (p0_9*p_ref_b__0));
+    const S b_r5_2 = ((p0_14*p_ref_b__0) + (p0_15*p_ref_b__1) + (p0_16*p_ref_b__2));
+    const S a_r6_0 = ((p0_19*p0_35) + (p0_22*p0_36) + (p0_25*p0_34));
+    const S a_r6_1 = ((p0_26*p0_35) + (p0_28*p0_36) + (p0_30*p0_34));
+    const S a_r6_2 = ((p0_31*p0_35) + (p0_32*p0_36) + (p0_33*p0_34));
+    const S b_r7_0 = ((p0_2*p0_38) + (p0_37*p0_8) + (p0_39*p0_5));
+    const S b_r7_1 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
+    const S b_r7_2 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
     // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (slider.yaml:30)
-    [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let k (slider.yaml:31)
+    // let im (slider.yaml:34)
+    [[maybe_unused]] const S L_im = max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + b_px + b_r0_0)*((-a_px) + b_px + b_r0_0)) + (((-a_py) + b_py + b_r0_1)*((-a_py) + b_py + b_r0_1)) + (((-a_pz) + b_pz + b_r0_2)*((-a_pz) + b_pz + b_r0_2))))));
+    // let k (slider.yaml:35)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:32)
+    // let c (slider.yaml:36)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:33)
-    const S L_pa__0 = (a_px + a_r0_0);
-    const S d_L_pa__0__a_dtz = (-a_r0_1);
-    const S L_pa__1 = (a_py + a_r0_1);
-    const S d_L_pa__1__a_dtx = (-a_r0_2);
-    const S L_pa__2 = (a_pz + a_r0_2);
-    const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:34)
-    const S L_pb__0 = (b_px + b_r1_0);
-    const S d_L_pb__0__b_dtz = (-b_r1_1);
-    const S L_pb__1 = (b_py + b_r1_1);
-    const S d_L_pb__1__b_dtx = (-b_r1_2);
-    const S L_pb__2 = (b_pz + b_r1_2);
-    const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let na (slider.yaml:35)
+    // let pa (slider.yaml:37)
+    const S L_pa__0 = (a_px + a_r1_0);
+    const S d_L_pa__0__a_dtz = (-a_r1_1);
+    const S L_pa__1 = (a_py + a_r1_1);
+    const S d_L_pa__1__a_dtx = (-a_r1_2);
+    const S L_pa__2 = (a_pz + a_r1_2);
+    const S d_L_pa__2__a_dty = (-a_r1_0);
+    // let pb (slider.yaml:38)
+    const S L_pb__0 = (b_px + b_r0_0);
+    const S d_L_pb__0__b_dtz = (-b_r0_1);
+    const S L_pb__1 = (b_py + b_r0_1);
+    const S d_L_pb__1__b_dtx = (-b_r0_2);
+    const S L_pb__2 = (b_pz + b_r0_2);
+    const S d_L_pb__2__b_dty = (-b_r0_0);
+    // let na (slider.yaml:39)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (slider.yaml:36)
+    // let nb (slider.yaml:40)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let ua (slider.yaml:37)
+    // let ua (slider.yaml:41)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (slider.yaml:38)
+    // let ub (slider.yaml:42)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let ta (slider.yaml:39)
+    // let ta (slider.yaml:43)
     const S L_ta__0 = a_r6_0;
     const S d_L_ta__0__a_dtz = (-a_r6_1);
     const S L_ta__1 = a_r6_1;
     const S d_L_ta__1__a_dtx = (-a_r6_2);
     const S L_ta__2 = a_r6_2;
     const S d_L_ta__2__a_dty = (-a_r6_0);
-    // let tb (slider.yaml:40)
+    // let tb (slider.yaml:44)
     const S L_tb__0 = b_r7_0;
     const S d_L_tb__0__b_dtz = (-b_r7_1);
     const S L_tb__1 = b_r7_1;
     const S d_L_tb__1__b_dtx = (-b_r7_2);
     const S L_tb__2 = b_r7_2;
     const S d_L_tb__2__b_dty = (-b_r7_0);
-    // let wrel (slider.yaml:41)
+    // let wrel (slider.yaml:45)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (slider.yaml:42)
+    // let tau (slider.yaml:46)
     const S l15_0_0 = (L_omega*L_omega);
     const S l15_0_1 = (S(0.5)*L_im*l15_0_0);
     const S l15_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -359,17 +359,17 @@ struct Slider_Pair_Kernel {
     const S d_L_tau__2__b_dtz = ((S(0.5)*L_im*L_na__1*d_L_nb__0__b_dtz*l15_0_0) + (S(0.5)*L_im*L_ta__1*d_L_tb__0__b_dtz*l15_0_0) + (S(0.5)*L_im*L_ua__1*d_L_ub__0__b_dtz*l15_0_0) - (b_r3_0*l15_0_19) - (b_r5_0*l15_0_21) - (b_r7_0*l15_0_20));
     const S d_L_tau__2__a_wz = l15_0_2;
     const S d_L_tau__2__b_wz = l15_0_15;
-    // let d (slider.yaml:43)
+    // let d (slider.yaml:47)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
-    const S d_L_d__0__a_dty = (-a_r0_2);
+    const S d_L_d__0__a_dty = (-a_r1_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S d_L_d__1__a_dtx = (-d_L_pa__1__a_dtx);
-    const S d_L_d__1__a_dtz = (-a_r0_0);
+    const S d_L_d__1__a_dtz = (-a_r1_0);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    const S d_L_d__2__a_dtx = (-a_r0_1);
+    const S d_L_d__2__a_dtx = (-a_r1_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let travel (slider.yaml:44)
+    // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     const S d_L_travel__a_dx = (-L_na__0);
     const S d_L_travel__a_dy = (-L_na__1);
@@ -377,27 +377,27 @@ struct Slider_Pair_Kernel {
     const S d_L_travel__a_dtx = ((L_d__1*d_L_na__1__a_dtx) + (L_d__2*a_r2_1) + (L_na__1*d_L_d__1__a_dtx) + (L_na__2*d_L_d__2__a_dtx));
     const S d_L_travel__a_dty = ((L_d__0*a_r2_2) + (L_d__2*d_L_na__2__a_dty) + (L_na__0*d_L_d__0__a_dty) + (L_na__2*d_L_d__2__a_dty));
     const S d_L_travel__a_dtz = ((L_d__0*d_L_na__0__a_dtz) + (L_d__1*a_r2_0) + (L_na__0*d_L_d__0__a_dtz) + (L_na__1*d_L_d__1__a_dtz));
-    const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r1_1));
-    const S d_L_travel__b_dty = ((L_na__0*b_r1_2) + (L_na__2*d_L_pb__2__b_dty));
-    const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r1_0));
-    // let vrel (slider.yaml:45)
-    const S l18_0_0 = (a_r0_1*a_wz);
-    const S l18_0_1 = (b_r1_2*b_wy);
-    const S l18_0_2 = (a_r0_2*a_wy);
-    const S l18_0_3 = (-(b_r1_1*b_wz));
-    const S l18_0_4 = (a_r0_1*a_wy);
-    const S l18_0_5 = (a_r0_2*a_wz);
-    const S l18_0_6 = (a_r0_0*a_wy);
-    const S l18_0_7 = (a_r0_0*a_wz);
-    const S l18_0_8 = (b_r1_1*b_wy);
-    const S l18_0_9 = (b_r1_2*b_wz);
-    const S l18_0_10 = (-(b_r1_0*b_wy));
-    const S l18_0_11 = (-(b_r1_0*b_wz));
-    const S l18_0_12 = (b_r1_2*b_wx);
-    const S l18_0_13 = (a_r0_1*a_wx);
-    const S l18_0_14 = (a_r0_0*a_wx);
-    const S l18_0_15 = (b_r1_1*b_wx);
-    const S l18_0_16 = (b_r1_0*b_wx);
+    const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r0_1));
+    const S d_L_travel__b_dty = ((L_na__0*b_r0_2) + (L_na__2*d_L_pb__2__b_dty));
+    const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r0_0));
+    // let vrel (slider.yaml:49)
+    const S l18_0_0 = (a_r1_1*a_wz);
+    const S l18_0_1 = (b_r0_2*b_wy);
+    const S l18_0_2 = (a_r1_2*a_wy);
+    const S l18_0_3 = (-(b_r0_1*b_wz));
+    const S l18_0_4 = (a_r1_1*a_wy);
+    const S l18_0_5 = (a_r1_2*a_wz);
+    const S l18_0_6 = (a_r1_0*a_wy);
+    const S l18_0_7 = (a_r1_0*a_wz);
+    const S l18_0_8 = (b_r0_1*b_wy);
+    const S l18_0_9 = (b_r0_2*b_wz);
+    const S l18_0_10 = (-(b_r0_0*b_wy));
+    const S l18_0_11 = (-(b_r0_0*b_wz));
+    const S l18_0_12 = (b_r0_2*b_wx);
+    const S l18_0_13 = (a_r1_1*a_wx);
+    const S l18_0_14 = (a_r1_0*a_wx);
+    const S l18_0_15 = (b_r0_1*b_wx);
+    const S l18_0_16 = (b_r0_0*b_wx);
     const S L_vrel__0 = ((-a_vx) + b_vx + l18_0_0 + l18_0_1 - l18_0_2 + l18_0_3);
     const S d_L_vrel__0__a_dtx = ((-l18_0_4) - l18_0_5);
     const S d_L_vrel__0__a_dty = l18_0_6;
@@ -405,27 +405,27 @@ struct Slider_Pair_Kernel {
     const S d_L_vrel__0__b_dtx = (l18_0_8 + l18_0_9);
     const S d_L_vrel__0__b_dty = l18_0_10;
     const S d_L_vrel__0__b_dtz = l18_0_11;
-    const S d_L_vrel__0__a_wy = (-a_r0_2);
-    const S d_L_vrel__0__b_wz = (-b_r1_1);
-    const S L_vrel__1 = ((a_r0_2*a_wx) - a_vy + b_vy - l18_0_11 - l18_0_12 - l18_0_7);
+    const S d_L_vrel__0__a_wy = (-a_r1_2);
+    const S d_L_vrel__0__b_wz = (-b_r0_1);
+    const S L_vrel__1 = ((a_r1_2*a_wx) - a_vy + b_vy - l18_0_11 - l18_0_12 - l18_0_7);
     const S d_L_vrel__1__a_dtx = l18_0_13;
     const S d_L_vrel__1__a_dty = ((-l18_0_14) - l18_0_5);
     const S d_L_vrel__1__a_dtz = l18_0_0;
     const S d_L_vrel__1__b_dtx = (-l18_0_15);
     const S d_L_vrel__1__b_dty = (l18_0_16 + l18_0_9);
     const S d_L_vrel__1__b_dtz = l18_0_3;
-    const S d_L_vrel__1__a_wz = (-a_r0_0);
-    const S d_L_vrel__1__b_wx = (-b_r1_2);
+    const S d_L_vrel__1__a_wz = (-a_r1_0);
+    const S d_L_vrel__1__b_wx = (-b_r0_2);
     const S L_vrel__2 = ((-a_vz) + b_vz + l18_0_10 - l18_0_13 + l18_0_15 + l18_0_6);
-    const S d_L_vrel__2__a_dtx = (a_r0_2*a_wx);
+    const S d_L_vrel__2__a_dtx = (a_r1_2*a_wx);
     const S d_L_vrel__2__a_dty = l18_0_2;
     const S d_L_vrel__2__a_dtz = ((-l18_0_14) - l18_0_4);
     const S d_L_vrel__2__b_dtx = (-l18_0_12);
     const S d_L_vrel__2__b_dty = (-l18_0_1);
     const S d_L_vrel__2__b_dtz = (l18_0_16 + l18_0_8);
-    const S d_L_vrel__2__a_wx = (-a_r0_1);
-    const S d_L_vrel__2__b_wy = (-b_r1_0);
-    // let rate (slider.yaml:46)
+    const S d_L_vrel__2__a_wx = (-a_r1_1);
+    const S d_L_vrel__2__b_wy = (-b_r0_0);
+    // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r2_1));
     const S d_L_rate__a_dty = ((L_na__0*d_L_vrel__0__a_dty) + (L_na__1*d_L_vrel__1__a_dty) + (L_na__2*d_L_vrel__2__a_dty) + (L_vrel__0*a_r2_2) + (L_vrel__2*d_L_na__2__a_dty));
@@ -436,13 +436,13 @@ struct Slider_Pair_Kernel {
     const S d_L_rate__a_vx = (-L_na__0);
     const S d_L_rate__a_vy = (-L_na__1);
     const S d_L_rate__a_vz = (-L_na__2);
-    const S d_L_rate__a_wx = ((L_na__1*a_r0_2) + (L_na__2*d_L_vrel__2__a_wx));
-    const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r0_0));
-    const S d_L_rate__a_wz = ((L_na__0*a_r0_1) + (L_na__1*d_L_vrel__1__a_wz));
-    const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r1_1));
-    const S d_L_rate__b_wy = ((L_na__0*b_r1_2) + (L_na__2*d_L_vrel__2__b_wy));
-    const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r1_0));
-    // let across (slider.yaml:48)
+    const S d_L_rate__a_wx = ((L_na__1*a_r1_2) + (L_na__2*d_L_vrel__2__a_wx));
+    const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r1_0));
+    const S d_L_rate__a_wz = ((L_na__0*a_r1_1) + (L_na__1*d_L_vrel__1__a_wz));
+    const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r0_1));
+    const S d_L_rate__b_wy = ((L_na__0*b_r0_2) + (L_na__2*d_L_vrel__2__b_wy));
+    const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r0_0));
+    // let across (slider.yaml:52)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
     const S l20_0_2 = ((L_c*L_rate) + (L_k*L_travel));
@@ -472,19 +472,19 @@ struct Slider_Pair_Kernel {
     const S d_L_across__0__b_dy = l20_0_5;
     const S d_L_across__0__b_dz = l20_0_6;
     const S d_L_across__0__b_dtx = ((-(L_c*d_L_vrel__0__b_dtx)) + (d_L_rate__b_dtx*l20_0_1) + (d_L_travel__b_dtx*l20_0_0));
-    const S d_L_across__0__b_dty = ((-(L_c*d_L_vrel__0__b_dty)) - (L_k*b_r1_2) + (d_L_rate__b_dty*l20_0_1) + (d_L_travel__b_dty*l20_0_0));
+    const S d_L_across__0__b_dty = ((-(L_c*d_L_vrel__0__b_dty)) - (L_k*b_r0_2) + (d_L_rate__b_dty*l20_0_1) + (d_L_travel__b_dty*l20_0_0));
     const S d_L_across__0__b_dtz = ((-(L_c*d_L_vrel__0__b_dtz)) - (L_k*d_L_pb__0__b_dtz) + (d_L_rate__b_dtz*l20_0_1) + (d_L_travel__b_dtz*l20_0_0));
     const S d_L_across__0__a_vx = (L_c + (d_L_rate__a_vx*l20_0_1));
     const S d_L_across__0__a_vy = (d_L_rate__a_vy*l20_0_1);
     const S d_L_across__0__a_vz = (d_L_rate__a_vz*l20_0_1);
     const S d_L_across__0__a_wx = (d_L_rate__a_wx*l20_0_1);
     const S d_L_across__0__a_wy = ((-(L_c*d_L_vrel__0__a_wy)) + (d_L_rate__a_wy*l20_0_1));
-    const S d_L_across__0__a_wz = ((-(L_c*a_r0_1)) + (d_L_rate__a_wz*l20_0_1));
+    const S d_L_across__0__a_wz = ((-(L_c*a_r1_1)) + (d_L_rate__a_wz*l20_0_1));
     const S d_L_across__0__b_vx = ((L_c*l20_0_4) + l20_0_7);
     const S d_L_across__0__b_vy = l20_0_8;
     const S d_L_across__0__b_vz = l20_0_9;
     const S d_L_across__0__b_wx = (d_L_rate__b_wx*l20_0_1);
-    const S d_L_across__0__b_wy = ((-(L_c*b_r1_2)) + (d_L_rate__b_wy*l20_0_1));
+    const S d_L_across__0__b_wy = ((-(L_c*b_r0_2)) + (d_L_rate__b_wy*l20_0_1));
     const S d_L_across__0__b_wz = ((-(L_c*d_L_vrel__0__b_wz)) + (d_L_rate__b_wz*l20_0_1));
     const S L_across__1 = ((-(L_c*((-(L_na__1*L_rate)) + L_vrel__1))) - (L_k*(L_d__1 - (L_na__1*L_travel))));
     const S d_L_across__1__a_dx = (d_L_travel__a_dx*l20_0_10);
@@ -498,11 +498,11 @@ struct Slider_Pair_Kernel {
     const S d_L_across__1__b_dz = l20_0_13;
     const S d_L_across__1__b_dtx = ((-(L_c*d_L_vrel__1__b_dtx)) - (L_k*d_L_pb__1__b_dtx) + (d_L_rate__b_dtx*l20_0_11) + (d_L_travel__b_dtx*l20_0_10));
     const S d_L_across__1__b_dty = ((-(L_c*d_L_vrel__1__b_dty)) + (d_L_rate__b_dty*l20_0_11) + (d_L_travel__b_dty*l20_0_10));
-    const S d_L_across__1__b_dtz = ((-(L_c*d_L_vrel__1__b_dtz)) - (L_k*b_r1_0) + (d_L_rate__b_dtz*l20_0_11) + (d_L_travel__b_dtz*l20_0_10));
+    const S d_L_across__1__b_dtz = ((-(L_c*d_L_vrel__1__b_dtz)) - (L_k*b_r0_0) + (d_L_rate__b_dtz*l20_0_11) + (d_L_travel__b_dtz*l20_0_10));
     const S d_L_across__1__a_vx = (d_L_rate__a_vx*l20_0_11);
     const S d_L_across__1__a_vy = (L_c + (d_L_rate__a_vy*l20_0_11));
     const S d_L_across__1__a_vz = (d_L_rate__a_vz*l20_0_11);
-    const S d_L_across__1__a_wx = ((-(L_c*a_r0_2)) + (d_L_rate__a_wx*l20_0_11));
+    const S d_L_across__1__a_wx = ((-(L_c*a_r1_2)) + (d_L_rate__a_wx*l20_0_11));
     const S d_L_across__1__a_wy = (d_L_rate__a_wy*l20_0_11);
     const S d_L_across__1__a_wz = ((-(L_c*d_L_vrel__1__a_wz)) + (d_L_rate__a_wz*l20_0_11));
     const S d_L_across__1__b_vx = l20_0_8;
@@ -510,7 +510,7 @@ struct Slider_Pair_Kernel {
     const S d_L_across__1__b_vz = l20_0_14;
     const S d_L_across__1__b_wx = ((-(L_c*d_L_vrel__1__b_wx)) + (d_L_rate__b_wx*l20_0_11));
     const S d_L_across__1__b_wy = (d_L_rate__b_wy*l20_0_11);
-    const S d_L_across__1__b_wz = ((-(L_c*b_r1_0)) + (d_L_rate__b_wz*l20_0_11));
+    const S d_L_across__1__b_wz = ((-(L_c*b_r0_0)) + (d_L_rate__b_wz*l20_0_11));
     const S L_across__2 = ((-(L_c*((-(L_na__2*L_rate)) + L_vrel__2))) - (L_k*(L_d__2 - (L_na__2*L_travel))));
     const S d_L_across__2__a_dx = (d_L_travel__a_dx*l20_0_15);
     const S d_L_across__2__a_dy = (d_L_travel__a_dy*l20_0_15);
@@ -521,26 +521,26 @@ struct Slider_Pair_Kernel {
     const S d_L_across__2__b_dx = l20_0_6;
     const S d_L_across__2__b_dy = l20_0_13;
     const S d_L_across__2__b_dz = ((L_k*l20_0_17) + l20_0_3);
-    const S d_L_across__2__b_dtx = ((-(L_c*d_L_vrel__2__b_dtx)) - (L_k*b_r1_1) + (d_L_rate__b_dtx*l20_0_16) + (d_L_travel__b_dtx*l20_0_15));
+    const S d_L_across__2__b_dtx = ((-(L_c*d_L_vrel__2__b_dtx)) - (L_k*b_r0_1) + (d_L_rate__b_dtx*l20_0_16) + (d_L_travel__b_dtx*l20_0_15));
     const S d_L_across__2__b_dty = ((-(L_c*d_L_vrel__2__b_dty)) - (L_k*d_L_pb__2__b_dty) + (d_L_rate__b_dty*l20_0_16) + (d_L_travel__b_dty*l20_0_15));
     const S d_L_across__2__b_dtz = ((-(L_c*d_L_vrel__2__b_dtz)) + (d_L_rate__b_dtz*l20_0_16) + (d_L_travel__b_dtz*l20_0_15));
     const S d_L_across__2__a_vx = (d_L_rate__a_vx*l20_0_16);
     const S d_L_across__2__a_vy = (d_L_rate__a_vy*l20_0_16);
     const S d_L_across__2__a_vz = (L_c + (d_L_rate__a_vz*l20_0_16));
     const S d_L_across__2__a_wx = ((-(L_c*d_L_vrel__2__a_wx)) + (d_L_rate__a_wx*l20_0_16));
-    const S d_L_across__2__a_wy = ((-(L_c*a_r0_0)) + (d_L_rate__a_wy*l20_0_16));
+    const S d_L_across__2__a_wy = ((-(L_c*a_r1_0)) + (d_L_rate__a_wy*l20_0_16));
     const S d_L_across__2__a_wz = (d_L_rate__a_wz*l20_0_16);
     const S d_L_across__2__b_vx = l20_0_9;
     const S d_L_across__2__b_vy = l20_0_14;
     const S d_L_across__2__b_vz = ((L_c*l20_0_17) + l20_0_7);
-    const S d_L_across__2__b_wx = ((-(L_c*b_r1_1)) + (d_L_rate__b_wx*l20_0_16));
+    const S d_L_across__2__b_wx = ((-(L_c*b_r0_1)) + (d_L_rate__b_wx*l20_0_16));
     const S d_L_across__2__b_wy = ((-(L_c*d_L_vrel__2__b_wy)) + (d_L_rate__b_wy*l20_0_16));
     const S d_L_across__2__b_wz = (d_L_rate__b_wz*l20_0_16);
-    // let limited (slider.yaml:49)
+    // let limited (slider.yaml:53)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:50)
+    // let over_hi (slider.yaml:54)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:51)
+    // let over_lo (slider.yaml:55)
     const S L_over_lo = ((-L_travel) + p_lower);
     const S d_L_over_lo__a_dx = (-d_L_travel__a_dx);
     const S d_L_over_lo__a_dy = (-d_L_travel__a_dy);
@@ -554,7 +554,7 @@ struct Slider_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_travel__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_travel__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_travel__b_dtz);
-    // let stop_hi (slider.yaml:52)
+    // let stop_hi (slider.yaml:56)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const auto l24_0_1 = (l24_0_0 > S(0));
     const auto l24_0_2 = (L_over_hi > S(0));
@@ -586,7 +586,7 @@ struct Slider_Pair_Kernel {
     const S d_L_stop_hi__b_wx = (d_L_rate__b_wx*l24_0_5);
     const S d_L_stop_hi__b_wy = (d_L_rate__b_wy*l24_0_5);
     const S d_L_stop_hi__b_wz = (d_L_rate__b_wz*l24_0_5);
-    // let stop_lo (slider.yaml:53)
+    // let stop_lo (slider.yaml:57)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const auto l25_0_2 = (l25_0_0 < S(0));
@@ -620,9 +620,9 @@ struct Slider_Pair_Kernel {
     const S d_L_stop_lo__b_wx = (d_L_rate__b_wx*l25_0_7);
     const S d_L_stop_lo__b_wy = (d_L_rate__b_wy*l25_0_7);
     const S d_L_stop_lo__b_wz = (d_L_rate__b_wz*l25_0_7);
-    // let mz (slider.yaml:55)
+    // let mz (slider.yaml:59)
     [[maybe_unused]] const S L_mz = select((b_m > S(0)), (a_m*b_m/(max(S(1e-30), (a_m + b_m)))), a_m);
-    // let err (slider.yaml:56)
+    // let err (slider.yaml:60)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -642,11 +642,11 @@ struct Slider_Pair_Kernel {
     const S d_L_err__b_wx = (-d_L_rate__b_wx);
     const S d_L_err__b_wy = (-d_L_rate__b_wy);
     const S d_L_err__b_wz = (-d_L_rate__b_wz);
-    // let fast (slider.yaml:57)
+    // let fast (slider.yaml:61)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0));
-    // let sgn (slider.yaml:58)
+    // let sgn (slider.yaml:62)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (slider.yaml:59)
+    // let motor (slider.yaml:63)
     const S l30_0_0 = (L_mz*L_omega*(S(1) - L_fast));
     const auto l30_0_1 = (p_motor_force > S(0));
     const S l30_0_2 = select(l30_0_1, l30_0_0, S(0));
@@ -669,7 +669,7 @@ struct Slider_Pair_Kernel {
     const S d_L_motor__b_wx = (d_L_err__b_wx*l30_0_2);
     const S d_L_motor__b_wy = (d_L_err__b_wy*l30_0_2);
     const S d_L_motor__b_wz = (d_L_err__b_wz*l30_0_2);
-    // let spring (slider.yaml:60)
+    // let spring (slider.yaml:64)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
     const S d_L_spring__a_dx = (-(d_L_travel__a_dx*p_spring_stiffness));
     const S d_L_spring__a_dy = (-(d_L_travel__a_dy*p_spring_stiffness));
@@ -695,7 +695,7 @@ struct Slider_Pair_Kernel {
     const S d_L_spring__b_wx = (-(d_L_rate__b_wx*p_spring_damping));
     const S d_L_spring__b_wy = (-(d_L_rate__b_wy*p_spring_damping));
     const S d_L_spring__b_wz = (-(d_L_rate__b_wz*p_spring_damping));
-    // let fb (slider.yaml:61)
+    // let fb (slider.yaml:65)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l32_0_1 = (L_limited*L_na__0);
     const S l32_0_2 = (L_limited*L_na__1);
@@ -775,7 +775,7 @@ struct Slider_Pair_Kernel {
     const S d_L_fb__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_across__2__b_wx - (d_L_stop_hi__b_wx*l32_0_3) + (d_L_stop_lo__b_wx*l32_0_3));
     const S d_L_fb__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_across__2__b_wy - (d_L_stop_hi__b_wy*l32_0_3) + (d_L_stop_lo__b_wy*l32_0_3));
     const S d_L_fb__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_across__2__b_wz - (d_L_stop_hi__b_wz*l32_0_3) + (d_L_stop_lo__b_wz*l32_0_3));
-    // apply (slider.yaml:62), shared subexpressions
+    // apply (slider.yaml:66), shared subexpressions
     const S o0 = (-L_fb__0);
     const S o1 = (-L_fb__1);
     const S o2 = (-L_fb__2);
@@ -788,36 +788,36 @@ struct Slider_Pair_Kernel {
     const S o9 = (-o3);
     const S o10 = (-o4);
     const S o11 = (-o5);
-    const S o12 = (L_fb__1*b_r1_1);
+    const S o12 = (L_fb__1*b_r0_1);
     const S o13 = (L_fb__2*d_L_pb__1__b_dtx);
-    const S o14 = ((L_fb__0*b_r1_1) + d_L_tau__1__b_dtx);
+    const S o14 = ((L_fb__0*b_r0_1) + d_L_tau__1__b_dtx);
     const S o15 = (L_fb__0*d_L_pb__1__b_dtx);
     const S o16 = (L_fb__1*d_L_pb__2__b_dty);
-    const S o17 = (L_fb__2*b_r1_2);
+    const S o17 = (L_fb__2*b_r0_2);
     const S o18 = (L_fb__0*d_L_pb__2__b_dty);
-    const S o19 = ((L_fb__1*b_r1_2) + d_L_tau__2__b_dty);
-    const S o20 = ((L_fb__2*b_r1_0) + d_L_tau__0__b_dtz);
+    const S o19 = ((L_fb__1*b_r0_2) + d_L_tau__2__b_dty);
+    const S o20 = ((L_fb__2*b_r0_0) + d_L_tau__0__b_dtz);
     const S o21 = (L_fb__2*d_L_pb__0__b_dtz);
-    const S o22 = (L_fb__0*b_r1_0);
+    const S o22 = (L_fb__0*b_r0_0);
     const S o23 = (L_fb__1*d_L_pb__0__b_dtz);
     const S o24 = (-o7);
     const S o25 = (-o8);
     const S o26 = (-o6);
-    // F_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // F_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[0] = o0;
     out[1] = o1;
     out[2] = o2;
     out[3] = ((L_fb__1*o4) - (L_fb__2*o3) - L_tau__0);
     out[4] = ((-(L_fb__0*o4)) + (L_fb__2*o5) - L_tau__1);
     out[5] = ((L_fb__0*o3) - (L_fb__1*o5) - L_tau__2);
-    // F_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // F_b from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[6] = L_fb__0;
     out[7] = L_fb__1;
     out[8] = L_fb__2;
     out[9] = ((-(L_fb__1*o7)) + (L_fb__2*o6) + L_tau__0);
     out[10] = ((L_fb__0*o7) - (L_fb__2*o8) + L_tau__1);
     out[11] = ((-(L_fb__0*o6)) + (L_fb__1*o8) + L_tau__2);
-    // dF_a/ddelta_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // dF_a/ddelta_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[12] = (-d_L_fb__0__a_dx);
     out[13] = (-d_L_fb__1__a_dx);
     out[14] = (-d_L_fb__2__a_dx);
@@ -854,7 +854,7 @@ struct Slider_Pair_Kernel {
     out[45] = ((d_L_fb__1__a_dtz*o4) + (d_L_fb__2__a_dtz*o9) - d_L_tau__0__a_dtz);
     out[46] = ((d_L_fb__0__a_dtz*o10) + (d_L_fb__2__a_dtz*o5) - d_L_tau__1__a_dtz);
     out[47] = ((d_L_fb__0__a_dtz*o3) + (d_L_fb__1__a_dtz*o11) - d_L_tau__2__a_dtz);
-    // dF_a/ddelta_b from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // dF_a/ddelta_b from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[48] = (-d_L_fb__0__b_dx);
     out[49] = (-d_L_fb__1__b_dx);
     out[50] = (-d_L_fb__2__b_dx);
@@ -891,7 +891,7 @@ struct Slider_Pair_Kernel {
     out[81] = ((d_L_fb__1__b_dtz*o4) + (d_L_fb__2__b_dtz*o9) - o20);
     out[82] = ((d_L_fb__0__b_dtz*o10) + (d_L_fb__2__b_dtz*o5) - d_L_tau__1__b_dtz + o21);
     out[83] = ((d_L_fb__0__b_dtz*o3) + (d_L_fb__1__b_dtz*o11) - d_L_tau__2__b_dtz + o22 - o23);
-    // dF_a/du_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // dF_a/du_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[84] = (-d_L_fb__0__a_vx);
     out[85] = (-d_L_fb__1__a_vx);
     out[86] = (-d_L_fb__2__a_vx);
@@ -928,7 +928,7 @@ struct Slider_Pair_Kernel {
     out[117] = ((d_L_fb__1__a_wz*o4) + (d_L_fb__2__a_wz*o9));
     out[118] = ((d_L_fb__0__a_wz*o10) + (d_L_fb__2__a_wz*o5));
     out[119] = ((d_L_fb__0__a_wz*o3) + (d_L_fb__1__a_wz*o11) - d_L_tau__2__a_wz);
-    // dF_a/du_b from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // dF_a/du_b from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[120] = (-d_L_fb__0__b_vx);
     out[121] = (-d_L_fb__1__b_vx);
     out[122] = (-d_L_fb__2__b_vx);
@@ -965,7 +965,7 @@ struct Slider_Pair_Kernel {
     out[153] = ((d_L_fb__1__b_wz*o4) + (d_L_fb__2__b_wz*o9));
     out[154] = ((d_L_fb__0__b_wz*o10) + (d_L_fb__2__b_wz*o5));
     out[155] = ((d_L_fb__0__b_wz*o3) + (d_L_fb__1__b_wz*o11) - d_L_tau__2__b_wz);
-    // dF_b/ddelta_a from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // dF_b/ddelta_a from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[156] = d_L_fb__0__a_dx;
     out[157] = d_L_fb__1__a_dx;
     out[158] = d_L_fb__2__a_dx;
@@ -1002,7 +1002,7 @@ struct Slider_Pair_Kernel {
     out[189] = ((d_L_fb__1__a_dtz*o24) + (d_L_fb__2__a_dtz*o6) + d_L_tau__0__a_dtz);
     out[190] = ((d_L_fb__0__a_dtz*o7) + (d_L_fb__2__a_dtz*o25) + d_L_tau__1__a_dtz);
     out[191] = ((d_L_fb__0__a_dtz*o26) + (d_L_fb__1__a_dtz*o8) + d_L_tau__2__a_dtz);
-    // dF_b/ddelta_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // dF_b/ddelta_b from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[192] = d_L_fb__0__b_dx;
     out[193] = d_L_fb__1__b_dx;
     out[194] = d_L_fb__2__b_dx;
@@ -1039,7 +1039,7 @@ struct Slider_Pair_Kernel {
     out[225] = ((d_L_fb__1__b_dtz*o24) + (d_L_fb__2__b_dtz*o6) + o20);
     out[226] = ((d_L_fb__0__b_dtz*o7) + (d_L_fb__2__b_dtz*o25) + d_L_tau__1__b_dtz - o21);
     out[227] = ((d_L_fb__0__b_dtz*o26) + (d_L_fb__1__b_dtz*o8) + d_L_tau__2__b_dtz - o22 + o23);
-    // dF_b/du_a from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // dF_b/du_a from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[228] = d_L_fb__0__a_vx;
     out[229] = d_L_fb__1__a_vx;
     out[230] = d_L_fb__2__a_vx;
@@ -1076,7 +1076,7 @@ struct Slider_Pair_Kernel {
     out[261] = ((d_L_fb__1__a_wz*o24) + (d_L_fb__2__a_wz*o6));
     out[262] = ((d_L_fb__0__a_wz*o7) + (d_L_fb__2__a_wz*o25));
     out[263] = ((d_L_fb__0__a_wz*o26) + (d_L_fb__1__a_wz*o8) + d_L_tau__2__a_wz);
-    // dF_b/du_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // dF_b/du_b from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[264] = d_L_fb__0__b_vx;
     out[265] = d_L_fb__1__b_vx;
     out[266] = d_L_fb__2__b_vx;
@@ -1117,7 +1117,7 @@ struct Slider_Pair_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2873
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2886
   static constexpr int kNumImplicitBlocks = 4;
   static constexpr int kImplicitOutputs = 156;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -1193,40 +1193,40 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let pb (slider.yaml:34), let na (slider.yaml:35), let nb (slider.yaml:36), let ua (slider.yaml:37), let ub (slider.yaml:38), let ta (slider.yaml:39), let tb (slider.yaml:40)
-    const S p0_0 = (S(2)*(a_qy*a_qy));
-    const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
+    // body-frame quantities rotated to world, first used by let im (slider.yaml:34), let pa (slider.yaml:37), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
+    const S p0_0 = (S(2)*(b_qy*b_qy));
+    const S p0_1 = ((S(2)*(b_qz*b_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
-    const S p0_3 = (S(2)*a_qw);
-    const S p0_4 = (a_qz*p0_3);
-    const S p0_5 = ((S(2)*a_qx*a_qy) - p0_4);
-    const S p0_6 = (a_qy*p0_3);
-    const S p0_7 = (S(2)*a_qx);
-    const S p0_8 = ((a_qz*p0_7) + p0_6);
-    const S p0_9 = ((a_qy*p0_7) + p0_4);
-    const S p0_10 = (S(2)*(a_qx*a_qx));
+    const S p0_3 = (S(2)*b_qw);
+    const S p0_4 = (b_qz*p0_3);
+    const S p0_5 = ((S(2)*b_qx*b_qy) - p0_4);
+    const S p0_6 = (b_qy*p0_3);
+    const S p0_7 = (S(2)*b_qx);
+    const S p0_8 = ((b_qz*p0_7) + p0_6);
+    const S p0_9 = ((b_qy*p0_7) + p0_4);
+    const S p0_10 = (S(2)*(b_qx*b_qx));
     const S p0_11 = ((-p0_1) - p0_10);
-    const S p0_12 = (a_qx*p0_3);
-    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
-    const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
-    const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
+    const S p0_12 = (b_qx*p0_3);
+    const S p0_13 = ((S(2)*b_qy*b_qz) - p0_12);
+    const S p0_14 = ((S(2)*b_qx*b_qz) - p0_6);
+    const S p0_15 = ((S(2)*b_qy*b_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
-    const S p0_17 = (S(2)*(b_qy*b_qy));
-    const S p0_18 = ((S(2)*(b_qz*b_qz)) - S(1));
+    const S p0_17 = (S(2)*(a_qy*a_qy));
+    const S p0_18 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_19 = ((-p0_17) - p0_18);
-    const S p0_20 = (S(2)*b_qw);
-    const S p0_21 = (b_qz*p0_20);
-    const S p0_22 = ((S(2)*b_qx*b_qy) - p0_21);
-    const S p0_23 = (b_qy*p0_20);
-    const S p0_24 = (S(2)*b_qx);
-    const S p0_25 = ((b_qz*p0_24) + p0_23);
-    const S p0_26 = ((b_qy*p0_24) + p0_21);
-    const S p0_27 = (S(2)*(b_qx*b_qx));
+    const S p0_20 = (S(2)*a_qw);
+    const S p0_21 = (a_qz*p0_20);
+    const S p0_22 = ((S(2)*a_qx*a_qy) - p0_21);
+    const S p0_23 = (a_qy*p0_20);
+    const S p0_24 = (S(2)*a_qx);
+    const S p0_25 = ((a_qz*p0_24) + p0_23);
+    const S p0_26 = ((a_qy*p0_24) + p0_21);
+    const S p0_27 = (S(2)*(a_qx*a_qx));
     const S p0_28 = ((-p0_18) - p0_27);
-    const S p0_29 = (b_qx*p0_20);
-    const S p0_30 = ((S(2)*b_qy*b_qz) - p0_29);
-    const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
-    const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
+    const S p0_29 = (a_qx*p0_20);
+    const S p0_30 = ((S(2)*a_qy*a_qz) - p0_29);
+    const S p0_31 = ((S(2)*a_qx*a_qz) - p0_23);
+    const S p0_32 = ((S(2)*a_qy*a_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
     const S p0_34 = ((p_axis_a__0*p_ref_a__1) - (p_axis_a__1*p_ref_a__0));
     const S p0_35 = ((p_axis_a__1*p_ref_a__2) - (p_axis_a__2*p_ref_a__1));
@@ -1234,103 +1234,103 @@ struct Slider_Pair_Kernel {
     const S p0_37 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
     const S p0_38 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S p0_39 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
-    const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
-    const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
-    const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
-    const S b_r1_0 = ((p0_19*p_point_b__0) + (p0_22*p_point_b__1) + (p0_25*p_point_b__2));
-    const S b_r1_1 = ((p0_26*p_point_b__0) + (p0_28*p_point_b__1) + (p0_30*p_point_b__2));
-    const S b_r1_2 = ((p0_31*p_point_b__0) + (p0_32*p_point_b__1) + (p0_33*p_point_b__2));
-    const S a_r2_0 = ((p0_2*p_axis_a__0) + (p0_5*p_axis_a__1) + (p0_8*p_axis_a__2));
-    const S a_r2_1 = ((p0_11*p_axis_a__1) + (p0_13*p_axis_a__2) + (p0_9*p_axis_a__0));
-    const S a_r2_2 = ((p0_14*p_axis_a__0) + (p0_15*p_axis_a__1) + (p0_16*p_axis_a__2));
-    const S b_r3_0 = ((p0_19*p_axis_b__0) + (p0_22*p_axis_b__1) + (p0_25*p_axis_b__2));
-    const S b_r3_1 = ((p0_26*p_axis_b__0) + (p0_28*p_axis_b__1) + (p0_30*p_axis_b__2));
-    const S b_r3_2 = ((p0_31*p_axis_b__0) + (p0_32*p_axis_b__1) + (p0_33*p_axis_b__2));
-    const S a_r4_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
-    const S a_r4_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
-    const S a_r4_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
-    const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
-    const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
-    const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
-    const S a_r6_0 = ((p0_2*p0_35) + (p0_34*p0_8) + (p0_36*p0_5));
-    const S a_r6_1 = ((p0_11*p0_36) + (p0_13*p0_34) + (p0_35*p0_9));
-    const S a_r6_2 = ((p0_14*p0_35) + (p0_15*p0_36) + (p0_16*p0_34));
-    const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
-    const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
-    const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
+    const S b_r0_0 = ((p0_2*p_point_b__0) + (p0_5*p_point_b__1) + (p0_8*p_point_b__2));
+    const S b_r0_1 = ((p0_11*p_point_b__1) + (p0_13*p_point_b__2) + (p0_9*p_point_b__0));
+    const S b_r0_2 = ((p0_14*p_point_b__0) + (p0_15*p_point_b__1) + (p0_16*p_point_b__2));
+    const S a_r1_0 = ((p0_19*p_point_a__0) + (p0_22*p_point_a__1) + (p0_25*p_point_a__2));
+    const S a_r1_1 = ((p0_26*p_point_a__0) + (p0_28*p_point_a__1) + (p0_30*p_point_a__2));
+    const S a_r1_2 = ((p0_31*p_point_a__0) + (p0_32*p_point_a__1) + (p0_33*p_point_a__2));
+    const S a_r2_0 = ((p0_19*p_axis_a__0) + (p0_22*p_axis_a__1) + (p0_25*p_axis_a__2));
+    const S a_r2_1 = ((p0_26*p_axis_a__0) + (p0_28*p_axis_a__1) + (p0_30*p_axis_a__2));
+    const S a_r2_2 = ((p0_31*p_axis_a__0) + (p0_32*p_axis_a__1) + (p0_33*p_axis_a__2));
+    const S b_r3_0 = ((p0_2*p_axis_b__0) + (p0_5*p_axis_b__1) + (p0_8*p_axis_b__2));
+    const S b_r3_1 = ((p0_11*p_axis_b__1) + (p0_13*p_axis_b__2) + (p0_9*p_axis_b__0));
+    const S b_r3_2 = ((p0_14*p_axis_b__0) + (p0_15*p_axis_b__1) + (p0_16*p_axis_b__2));
+    const S a_r4_0 = ((p0_19*p_ref_a__0) + (p0_22*p_ref_a__1) + (p0_25*p_ref_a__2));
+    const S a_r4_1 = ((p0_26*p_ref_a__0) + (p0_28*p_ref_a__1) + (p0_30*p_ref_a__2));
+    const S a_r4_2 = ((p0_31*p_ref_a__0) + (p0_32*p_ref_a__1) + (p0_33*p_ref_a__2));
+    const S b_r5_0 = ((p0_2*p_ref_b__0) + (p0_5*p_ref_b__1) + (p0_8*p_ref_b__2));
+    const S b_r5_1 = ((p0_11*p_ref_b__1) + (p0_13*p_ref_b__2) + (p0_9*p_ref_b__0));
+    const S b_r5_2 = ((p0_14*p_ref_b__0) + (p0_15*p_ref_b__1) + (p0_16*p_ref_b__2));
+    const S a_r6_0 = ((p0_19*p0_35) + (p0_22*p0_36) + (p0_25*p0_34));
+    const S a_r6_1 = ((p0_26*p0_35) + (p0_28*p0_36) + (p0_30*p0_34));
+    const S a_r6_2 = ((p0_31*p0_35) + (p0_32*p0_36) + (p0_33*p0_34));
+    const S b_r7_0 = ((p0_2*p0_38) + (p0_37*p0_8) + (p0_39*p0_5));
+    const S b_r7_1 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
+    const S b_r7_2 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
     // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (slider.yaml:30)
-    [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let k (slider.yaml:31)
+    // let im (slider.yaml:34)
+    [[maybe_unused]] const S L_im = max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + b_px + b_r0_0)*((-a_px) + b_px + b_r0_0)) + (((-a_py) + b_py + b_r0_1)*((-a_py) + b_py + b_r0_1)) + (((-a_pz) + b_pz + b_r0_2)*((-a_pz) + b_pz + b_r0_2))))));
+    // let k (slider.yaml:35)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:32)
+    // let c (slider.yaml:36)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:33)
-    const S L_pa__0 = (a_px + a_r0_0);
-    const S d_L_pa__0__a_dtz = (-a_r0_1);
-    const S L_pa__1 = (a_py + a_r0_1);
-    const S d_L_pa__1__a_dtx = (-a_r0_2);
-    const S L_pa__2 = (a_pz + a_r0_2);
-    const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:34)
-    const S L_pb__0 = (b_px + b_r1_0);
-    const S d_L_pb__0__b_dtz = (-b_r1_1);
-    const S L_pb__1 = (b_py + b_r1_1);
-    const S d_L_pb__1__b_dtx = (-b_r1_2);
-    const S L_pb__2 = (b_pz + b_r1_2);
-    const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let na (slider.yaml:35)
+    // let pa (slider.yaml:37)
+    const S L_pa__0 = (a_px + a_r1_0);
+    const S d_L_pa__0__a_dtz = (-a_r1_1);
+    const S L_pa__1 = (a_py + a_r1_1);
+    const S d_L_pa__1__a_dtx = (-a_r1_2);
+    const S L_pa__2 = (a_pz + a_r1_2);
+    const S d_L_pa__2__a_dty = (-a_r1_0);
+    // let pb (slider.yaml:38)
+    const S L_pb__0 = (b_px + b_r0_0);
+    const S d_L_pb__0__b_dtz = (-b_r0_1);
+    const S L_pb__1 = (b_py + b_r0_1);
+    const S d_L_pb__1__b_dtx = (-b_r0_2);
+    const S L_pb__2 = (b_pz + b_r0_2);
+    const S d_L_pb__2__b_dty = (-b_r0_0);
+    // let na (slider.yaml:39)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (slider.yaml:36)
+    // let nb (slider.yaml:40)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let ua (slider.yaml:37)
+    // let ua (slider.yaml:41)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (slider.yaml:38)
+    // let ub (slider.yaml:42)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let ta (slider.yaml:39)
+    // let ta (slider.yaml:43)
     const S L_ta__0 = a_r6_0;
     const S d_L_ta__0__a_dtz = (-a_r6_1);
     const S L_ta__1 = a_r6_1;
     const S d_L_ta__1__a_dtx = (-a_r6_2);
     const S L_ta__2 = a_r6_2;
     const S d_L_ta__2__a_dty = (-a_r6_0);
-    // let tb (slider.yaml:40)
+    // let tb (slider.yaml:44)
     const S L_tb__0 = b_r7_0;
     const S d_L_tb__0__b_dtz = (-b_r7_1);
     const S L_tb__1 = b_r7_1;
     const S d_L_tb__1__b_dtx = (-b_r7_2);
     const S L_tb__2 = b_r7_2;
     const S d_L_tb__2__b_dty = (-b_r7_0);
-    // let wrel (slider.yaml:41)
+    // let wrel (slider.yaml:45)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (slider.yaml:42)
+    // let tau (slider.yaml:46)
     const S l15_0_0 = (L_omega*L_omega);
     const S l15_0_1 = (S(0.5)*L_im*l15_0_0);
     const S l15_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -1380,17 +1380,17 @@ struct Slider_Pair_Kernel {
     const S d_L_tau__2__b_dtz = ((S(0.5)*L_im*L_na__1*d_L_nb__0__b_dtz*l15_0_0) + (S(0.5)*L_im*L_ta__1*d_L_tb__0__b_dtz*l15_0_0) + (S(0.5)*L_im*L_ua__1*d_L_ub__0__b_dtz*l15_0_0) - (b_r3_0*l15_0_19) - (b_r5_0*l15_0_21) - (b_r7_0*l15_0_20));
     const S d_L_tau__2__a_wz = l15_0_2;
     const S d_L_tau__2__b_wz = l15_0_15;
-    // let d (slider.yaml:43)
+    // let d (slider.yaml:47)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
-    const S d_L_d__0__a_dty = (-a_r0_2);
+    const S d_L_d__0__a_dty = (-a_r1_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S d_L_d__1__a_dtx = (-d_L_pa__1__a_dtx);
-    const S d_L_d__1__a_dtz = (-a_r0_0);
+    const S d_L_d__1__a_dtz = (-a_r1_0);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    const S d_L_d__2__a_dtx = (-a_r0_1);
+    const S d_L_d__2__a_dtx = (-a_r1_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let travel (slider.yaml:44)
+    // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     const S d_L_travel__a_dx = (-L_na__0);
     const S d_L_travel__a_dy = (-L_na__1);
@@ -1398,27 +1398,27 @@ struct Slider_Pair_Kernel {
     const S d_L_travel__a_dtx = ((L_d__1*d_L_na__1__a_dtx) + (L_d__2*a_r2_1) + (L_na__1*d_L_d__1__a_dtx) + (L_na__2*d_L_d__2__a_dtx));
     const S d_L_travel__a_dty = ((L_d__0*a_r2_2) + (L_d__2*d_L_na__2__a_dty) + (L_na__0*d_L_d__0__a_dty) + (L_na__2*d_L_d__2__a_dty));
     const S d_L_travel__a_dtz = ((L_d__0*d_L_na__0__a_dtz) + (L_d__1*a_r2_0) + (L_na__0*d_L_d__0__a_dtz) + (L_na__1*d_L_d__1__a_dtz));
-    const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r1_1));
-    const S d_L_travel__b_dty = ((L_na__0*b_r1_2) + (L_na__2*d_L_pb__2__b_dty));
-    const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r1_0));
-    // let vrel (slider.yaml:45)
-    const S l18_0_0 = (a_r0_1*a_wz);
-    const S l18_0_1 = (b_r1_2*b_wy);
-    const S l18_0_2 = (a_r0_2*a_wy);
-    const S l18_0_3 = (-(b_r1_1*b_wz));
-    const S l18_0_4 = (a_r0_1*a_wy);
-    const S l18_0_5 = (a_r0_2*a_wz);
-    const S l18_0_6 = (a_r0_0*a_wy);
-    const S l18_0_7 = (a_r0_0*a_wz);
-    const S l18_0_8 = (b_r1_1*b_wy);
-    const S l18_0_9 = (b_r1_2*b_wz);
-    const S l18_0_10 = (-(b_r1_0*b_wy));
-    const S l18_0_11 = (-(b_r1_0*b_wz));
-    const S l18_0_12 = (b_r1_2*b_wx);
-    const S l18_0_13 = (a_r0_1*a_wx);
-    const S l18_0_14 = (a_r0_0*a_wx);
-    const S l18_0_15 = (b_r1_1*b_wx);
-    const S l18_0_16 = (b_r1_0*b_wx);
+    const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r0_1));
+    const S d_L_travel__b_dty = ((L_na__0*b_r0_2) + (L_na__2*d_L_pb__2__b_dty));
+    const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r0_0));
+    // let vrel (slider.yaml:49)
+    const S l18_0_0 = (a_r1_1*a_wz);
+    const S l18_0_1 = (b_r0_2*b_wy);
+    const S l18_0_2 = (a_r1_2*a_wy);
+    const S l18_0_3 = (-(b_r0_1*b_wz));
+    const S l18_0_4 = (a_r1_1*a_wy);
+    const S l18_0_5 = (a_r1_2*a_wz);
+    const S l18_0_6 = (a_r1_0*a_wy);
+    const S l18_0_7 = (a_r1_0*a_wz);
+    const S l18_0_8 = (b_r0_1*b_wy);
+    const S l18_0_9 = (b_r0_2*b_wz);
+    const S l18_0_10 = (-(b_r0_0*b_wy));
+    const S l18_0_11 = (-(b_r0_0*b_wz));
+    const S l18_0_12 = (b_r0_2*b_wx);
+    const S l18_0_13 = (a_r1_1*a_wx);
+    const S l18_0_14 = (a_r1_0*a_wx);
+    const S l18_0_15 = (b_r0_1*b_wx);
+    const S l18_0_16 = (b_r0_0*b_wx);
     const S L_vrel__0 = ((-a_vx) + b_vx + l18_0_0 + l18_0_1 - l18_0_2 + l18_0_3);
     const S d_L_vrel__0__a_dtx = ((-l18_0_4) - l18_0_5);
     const S d_L_vrel__0__a_dty = l18_0_6;
@@ -1426,27 +1426,27 @@ struct Slider_Pair_Kernel {
     const S d_L_vrel__0__b_dtx = (l18_0_8 + l18_0_9);
     const S d_L_vrel__0__b_dty = l18_0_10;
     const S d_L_vrel__0__b_dtz = l18_0_11;
-    const S d_L_vrel__0__a_wy = (-a_r0_2);
-    const S d_L_vrel__0__b_wz = (-b_r1_1);
-    const S L_vrel__1 = ((a_r0_2*a_wx) - a_vy + b_vy - l18_0_11 - l18_0_12 - l18_0_7);
+    const S d_L_vrel__0__a_wy = (-a_r1_2);
+    const S d_L_vrel__0__b_wz = (-b_r0_1);
+    const S L_vrel__1 = ((a_r1_2*a_wx) - a_vy + b_vy - l18_0_11 - l18_0_12 - l18_0_7);
     const S d_L_vrel__1__a_dtx = l18_0_13;
     const S d_L_vrel__1__a_dty = ((-l18_0_14) - l18_0_5);
     const S d_L_vrel__1__a_dtz = l18_0_0;
     const S d_L_vrel__1__b_dtx = (-l18_0_15);
     const S d_L_vrel__1__b_dty = (l18_0_16 + l18_0_9);
     const S d_L_vrel__1__b_dtz = l18_0_3;
-    const S d_L_vrel__1__a_wz = (-a_r0_0);
-    const S d_L_vrel__1__b_wx = (-b_r1_2);
+    const S d_L_vrel__1__a_wz = (-a_r1_0);
+    const S d_L_vrel__1__b_wx = (-b_r0_2);
     const S L_vrel__2 = ((-a_vz) + b_vz + l18_0_10 - l18_0_13 + l18_0_15 + l18_0_6);
-    const S d_L_vrel__2__a_dtx = (a_r0_2*a_wx);
+    const S d_L_vrel__2__a_dtx = (a_r1_2*a_wx);
     const S d_L_vrel__2__a_dty = l18_0_2;
     const S d_L_vrel__2__a_dtz = ((-l18_0_14) - l18_0_4);
     const S d_L_vrel__2__b_dtx = (-l18_0_12);
     const S d_L_vrel__2__b_dty = (-l18_0_1);
     const S d_L_vrel__2__b_dtz = (l18_0_16 + l18_0_8);
-    const S d_L_vrel__2__a_wx = (-a_r0_1);
-    const S d_L_vrel__2__b_wy = (-b_r1_0);
-    // let rate (slider.yaml:46)
+    const S d_L_vrel__2__a_wx = (-a_r1_1);
+    const S d_L_vrel__2__b_wy = (-b_r0_0);
+    // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r2_1));
     const S d_L_rate__a_dty = ((L_na__0*d_L_vrel__0__a_dty) + (L_na__1*d_L_vrel__1__a_dty) + (L_na__2*d_L_vrel__2__a_dty) + (L_vrel__0*a_r2_2) + (L_vrel__2*d_L_na__2__a_dty));
@@ -1457,13 +1457,13 @@ struct Slider_Pair_Kernel {
     const S d_L_rate__a_vx = (-L_na__0);
     const S d_L_rate__a_vy = (-L_na__1);
     const S d_L_rate__a_vz = (-L_na__2);
-    const S d_L_rate__a_wx = ((L_na__1*a_r0_2) + (L_na__2*d_L_vrel__2__a_wx));
-    const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r0_0));
-    const S d_L_rate__a_wz = ((L_na__0*a_r0_1) + (L_na__1*d_L_vrel__1__a_wz));
-    const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r1_1));
-    const S d_L_rate__b_wy = ((L_na__0*b_r1_2) + (L_na__2*d_L_vrel__2__b_wy));
-    const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r1_0));
-    // let across (slider.yaml:48)
+    const S d_L_rate__a_wx = ((L_na__1*a_r1_2) + (L_na__2*d_L_vrel__2__a_wx));
+    const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r1_0));
+    const S d_L_rate__a_wz = ((L_na__0*a_r1_1) + (L_na__1*d_L_vrel__1__a_wz));
+    const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r0_1));
+    const S d_L_rate__b_wy = ((L_na__0*b_r0_2) + (L_na__2*d_L_vrel__2__b_wy));
+    const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r0_0));
+    // let across (slider.yaml:52)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
     const S l20_0_2 = ((L_c*L_rate) + (L_k*L_travel));
@@ -1493,19 +1493,19 @@ struct Slider_Pair_Kernel {
     const S d_L_across__0__b_dy = l20_0_5;
     const S d_L_across__0__b_dz = l20_0_6;
     const S d_L_across__0__b_dtx = ((-(L_c*d_L_vrel__0__b_dtx)) + (d_L_rate__b_dtx*l20_0_1) + (d_L_travel__b_dtx*l20_0_0));
-    const S d_L_across__0__b_dty = ((-(L_c*d_L_vrel__0__b_dty)) - (L_k*b_r1_2) + (d_L_rate__b_dty*l20_0_1) + (d_L_travel__b_dty*l20_0_0));
+    const S d_L_across__0__b_dty = ((-(L_c*d_L_vrel__0__b_dty)) - (L_k*b_r0_2) + (d_L_rate__b_dty*l20_0_1) + (d_L_travel__b_dty*l20_0_0));
     const S d_L_across__0__b_dtz = ((-(L_c*d_L_vrel__0__b_dtz)) - (L_k*d_L_pb__0__b_dtz) + (d_L_rate__b_dtz*l20_0_1) + (d_L_travel__b_dtz*l20_0_0));
     const S d_L_across__0__a_vx = (L_c + (d_L_rate__a_vx*l20_0_1));
     const S d_L_across__0__a_vy = (d_L_rate__a_vy*l20_0_1);
     const S d_L_across__0__a_vz = (d_L_rate__a_vz*l20_0_1);
     const S d_L_across__0__a_wx = (d_L_rate__a_wx*l20_0_1);
     const S d_L_across__0__a_wy = ((-(L_c*d_L_vrel__0__a_wy)) + (d_L_rate__a_wy*l20_0_1));
-    const S d_L_across__0__a_wz = ((-(L_c*a_r0_1)) + (d_L_rate__a_wz*l20_0_1));
+    const S d_L_across__0__a_wz = ((-(L_c*a_r1_1)) + (d_L_rate__a_wz*l20_0_1));
     const S d_L_across__0__b_vx = ((L_c*l20_0_4) + l20_0_7);
     const S d_L_across__0__b_vy = l20_0_8;
     const S d_L_across__0__b_vz = l20_0_9;
     const S d_L_across__0__b_wx = (d_L_rate__b_wx*l20_0_1);
-    const S d_L_across__0__b_wy = ((-(L_c*b_r1_2)) + (d_L_rate__b_wy*l20_0_1));
+    const S d_L_across__0__b_wy = ((-(L_c*b_r0_2)) + (d_L_rate__b_wy*l20_0_1));
     const S d_L_across__0__b_wz = ((-(L_c*d_L_vrel__0__b_wz)) + (d_L_rate__b_wz*l20_0_1));
     const S L_across__1 = ((-(L_c*((-(L_na__1*L_rate)) + L_vrel__1))) - (L_k*(L_d__1 - (L_na__1*L_travel))));
     const S d_L_across__1__a_dx = (d_L_travel__a_dx*l20_0_10);
@@ -1519,11 +1519,11 @@ struct Slider_Pair_Kernel {
     const S d_L_across__1__b_dz = l20_0_13;
     const S d_L_across__1__b_dtx = ((-(L_c*d_L_vrel__1__b_dtx)) - (L_k*d_L_pb__1__b_dtx) + (d_L_rate__b_dtx*l20_0_11) + (d_L_travel__b_dtx*l20_0_10));
     const S d_L_across__1__b_dty = ((-(L_c*d_L_vrel__1__b_dty)) + (d_L_rate__b_dty*l20_0_11) + (d_L_travel__b_dty*l20_0_10));
-    const S d_L_across__1__b_dtz = ((-(L_c*d_L_vrel__1__b_dtz)) - (L_k*b_r1_0) + (d_L_rate__b_dtz*l20_0_11) + (d_L_travel__b_dtz*l20_0_10));
+    const S d_L_across__1__b_dtz = ((-(L_c*d_L_vrel__1__b_dtz)) - (L_k*b_r0_0) + (d_L_rate__b_dtz*l20_0_11) + (d_L_travel__b_dtz*l20_0_10));
     const S d_L_across__1__a_vx = (d_L_rate__a_vx*l20_0_11);
     const S d_L_across__1__a_vy = (L_c + (d_L_rate__a_vy*l20_0_11));
     const S d_L_across__1__a_vz = (d_L_rate__a_vz*l20_0_11);
-    const S d_L_across__1__a_wx = ((-(L_c*a_r0_2)) + (d_L_rate__a_wx*l20_0_11));
+    const S d_L_across__1__a_wx = ((-(L_c*a_r1_2)) + (d_L_rate__a_wx*l20_0_11));
     const S d_L_across__1__a_wy = (d_L_rate__a_wy*l20_0_11);
     const S d_L_across__1__a_wz = ((-(L_c*d_L_vrel__1__a_wz)) + (d_L_rate__a_wz*l20_0_11));
     const S d_L_across__1__b_vx = l20_0_8;
@@ -1531,7 +1531,7 @@ struct Slider_Pair_Kernel {
     const S d_L_across__1__b_vz = l20_0_14;
     const S d_L_across__1__b_wx = ((-(L_c*d_L_vrel__1__b_wx)) + (d_L_rate__b_wx*l20_0_11));
     const S d_L_across__1__b_wy = (d_L_rate__b_wy*l20_0_11);
-    const S d_L_across__1__b_wz = ((-(L_c*b_r1_0)) + (d_L_rate__b_wz*l20_0_11));
+    const S d_L_across__1__b_wz = ((-(L_c*b_r0_0)) + (d_L_rate__b_wz*l20_0_11));
     const S L_across__2 = ((-(L_c*((-(L_na__2*L_rate)) + L_vrel__2))) - (L_k*(L_d__2 - (L_na__2*L_travel))));
     const S d_L_across__2__a_dx = (d_L_travel__a_dx*l20_0_15);
     const S d_L_across__2__a_dy = (d_L_travel__a_dy*l20_0_15);
@@ -1542,26 +1542,26 @@ struct Slider_Pair_Kernel {
     const S d_L_across__2__b_dx = l20_0_6;
     const S d_L_across__2__b_dy = l20_0_13;
     const S d_L_across__2__b_dz = ((L_k*l20_0_17) + l20_0_3);
-    const S d_L_across__2__b_dtx = ((-(L_c*d_L_vrel__2__b_dtx)) - (L_k*b_r1_1) + (d_L_rate__b_dtx*l20_0_16) + (d_L_travel__b_dtx*l20_0_15));
+    const S d_L_across__2__b_dtx = ((-(L_c*d_L_vrel__2__b_dtx)) - (L_k*b_r0_1) + (d_L_rate__b_dtx*l20_0_16) + (d_L_travel__b_dtx*l20_0_15));
     const S d_L_across__2__b_dty = ((-(L_c*d_L_vrel__2__b_dty)) - (L_k*d_L_pb__2__b_dty) + (d_L_rate__b_dty*l20_0_16) + (d_L_travel__b_dty*l20_0_15));
     const S d_L_across__2__b_dtz = ((-(L_c*d_L_vrel__2__b_dtz)) + (d_L_rate__b_dtz*l20_0_16) + (d_L_travel__b_dtz*l20_0_15));
     const S d_L_across__2__a_vx = (d_L_rate__a_vx*l20_0_16);
     const S d_L_across__2__a_vy = (d_L_rate__a_vy*l20_0_16);
     const S d_L_across__2__a_vz = (L_c + (d_L_rate__a_vz*l20_0_16));
     const S d_L_across__2__a_wx = ((-(L_c*d_L_vrel__2__a_wx)) + (d_L_rate__a_wx*l20_0_16));
-    const S d_L_across__2__a_wy = ((-(L_c*a_r0_0)) + (d_L_rate__a_wy*l20_0_16));
+    const S d_L_across__2__a_wy = ((-(L_c*a_r1_0)) + (d_L_rate__a_wy*l20_0_16));
     const S d_L_across__2__a_wz = (d_L_rate__a_wz*l20_0_16);
     const S d_L_across__2__b_vx = l20_0_9;
     const S d_L_across__2__b_vy = l20_0_14;
     const S d_L_across__2__b_vz = ((L_c*l20_0_17) + l20_0_7);
-    const S d_L_across__2__b_wx = ((-(L_c*b_r1_1)) + (d_L_rate__b_wx*l20_0_16));
+    const S d_L_across__2__b_wx = ((-(L_c*b_r0_1)) + (d_L_rate__b_wx*l20_0_16));
     const S d_L_across__2__b_wy = ((-(L_c*d_L_vrel__2__b_wy)) + (d_L_rate__b_wy*l20_0_16));
     const S d_L_across__2__b_wz = (d_L_rate__b_wz*l20_0_16);
-    // let limited (slider.yaml:49)
+    // let limited (slider.yaml:53)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:50)
+    // let over_hi (slider.yaml:54)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:51)
+    // let over_lo (slider.yaml:55)
     const S L_over_lo = ((-L_travel) + p_lower);
     const S d_L_over_lo__a_dx = (-d_L_travel__a_dx);
     const S d_L_over_lo__a_dy = (-d_L_travel__a_dy);
@@ -1575,7 +1575,7 @@ struct Slider_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_travel__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_travel__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_travel__b_dtz);
-    // let stop_hi (slider.yaml:52)
+    // let stop_hi (slider.yaml:56)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const auto l24_0_1 = (l24_0_0 > S(0));
     const auto l24_0_2 = (L_over_hi > S(0));
@@ -1607,7 +1607,7 @@ struct Slider_Pair_Kernel {
     const S d_L_stop_hi__b_wx = (d_L_rate__b_wx*l24_0_5);
     const S d_L_stop_hi__b_wy = (d_L_rate__b_wy*l24_0_5);
     const S d_L_stop_hi__b_wz = (d_L_rate__b_wz*l24_0_5);
-    // let stop_lo (slider.yaml:53)
+    // let stop_lo (slider.yaml:57)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const auto l25_0_2 = (l25_0_0 < S(0));
@@ -1641,9 +1641,9 @@ struct Slider_Pair_Kernel {
     const S d_L_stop_lo__b_wx = (d_L_rate__b_wx*l25_0_7);
     const S d_L_stop_lo__b_wy = (d_L_rate__b_wy*l25_0_7);
     const S d_L_stop_lo__b_wz = (d_L_rate__b_wz*l25_0_7);
-    // let mz (slider.yaml:55)
+    // let mz (slider.yaml:59)
     [[maybe_unused]] const S L_mz = select((b_m > S(0)), (a_m*b_m/(max(S(1e-30), (a_m + b_m)))), a_m);
-    // let err (slider.yaml:56)
+    // let err (slider.yaml:60)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -1663,11 +1663,11 @@ struct Slider_Pair_Kernel {
     const S d_L_err__b_wx = (-d_L_rate__b_wx);
     const S d_L_err__b_wy = (-d_L_rate__b_wy);
     const S d_L_err__b_wz = (-d_L_rate__b_wz);
-    // let fast (slider.yaml:57)
+    // let fast (slider.yaml:61)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0));
-    // let sgn (slider.yaml:58)
+    // let sgn (slider.yaml:62)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (slider.yaml:59)
+    // let motor (slider.yaml:63)
     const S l30_0_0 = (L_mz*L_omega*(S(1) - L_fast));
     const auto l30_0_1 = (p_motor_force > S(0));
     const S l30_0_2 = select(l30_0_1, l30_0_0, S(0));
@@ -1690,7 +1690,7 @@ struct Slider_Pair_Kernel {
     const S d_L_motor__b_wx = (d_L_err__b_wx*l30_0_2);
     const S d_L_motor__b_wy = (d_L_err__b_wy*l30_0_2);
     const S d_L_motor__b_wz = (d_L_err__b_wz*l30_0_2);
-    // let spring (slider.yaml:60)
+    // let spring (slider.yaml:64)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
     const S d_L_spring__a_dx = (-(d_L_travel__a_dx*p_spring_stiffness));
     const S d_L_spring__a_dy = (-(d_L_travel__a_dy*p_spring_stiffness));
@@ -1716,7 +1716,7 @@ struct Slider_Pair_Kernel {
     const S d_L_spring__b_wx = (-(d_L_rate__b_wx*p_spring_damping));
     const S d_L_spring__b_wy = (-(d_L_rate__b_wy*p_spring_damping));
     const S d_L_spring__b_wz = (-(d_L_rate__b_wz*p_spring_damping));
-    // let fb (slider.yaml:61)
+    // let fb (slider.yaml:65)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l32_0_1 = (L_limited*L_na__0);
     const S l32_0_2 = (L_limited*L_na__1);
@@ -1796,7 +1796,7 @@ struct Slider_Pair_Kernel {
     const S d_L_fb__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_across__2__b_wx - (d_L_stop_hi__b_wx*l32_0_3) + (d_L_stop_lo__b_wx*l32_0_3));
     const S d_L_fb__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_across__2__b_wy - (d_L_stop_hi__b_wy*l32_0_3) + (d_L_stop_lo__b_wy*l32_0_3));
     const S d_L_fb__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_across__2__b_wz - (d_L_stop_hi__b_wz*l32_0_3) + (d_L_stop_lo__b_wz*l32_0_3));
-    // apply (slider.yaml:62), shared subexpressions
+    // apply (slider.yaml:66), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -1826,12 +1826,12 @@ struct Slider_Pair_Kernel {
     const S o26 = (-L_fb__2);
     const S o27 = ((d_L_fb__1__b_dy*o15) + (d_L_fb__2__b_dy*o17) + o26);
     const S o28 = (L_fb__1 + (d_L_fb__1__b_dz*o15) + (d_L_fb__2__b_dz*o17));
-    const S o29 = (L_fb__1*b_r1_1);
+    const S o29 = (L_fb__1*b_r0_1);
     const S o30 = (L_fb__2*d_L_pb__1__b_dtx);
     const S o31 = ((d_L_fb__1__b_dtx*o15) + (d_L_fb__2__b_dtx*o17) - d_L_tau__0__b_dtx + o29 - o30);
     const S o32 = (L_fb__1*d_L_pb__2__b_dty);
     const S o33 = ((d_L_fb__1__b_dty*o15) + (d_L_fb__2__b_dty*o17) - d_L_tau__0__b_dty + o32);
-    const S o34 = ((L_fb__2*b_r1_0) + d_L_tau__0__b_dtz);
+    const S o34 = ((L_fb__2*b_r0_0) + d_L_tau__0__b_dtz);
     const S o35 = ((d_L_fb__1__b_dtz*o15) + (d_L_fb__2__b_dtz*o17) - o34);
     const S o36 = (L_pb__0 - a_px);
     const S o37 = (-o15);
@@ -1845,9 +1845,9 @@ struct Slider_Pair_Kernel {
     const S o45 = ((d_L_fb__0__b_dy*o37) + (d_L_fb__2__b_dy*o36));
     const S o46 = (-L_fb__0);
     const S o47 = ((d_L_fb__0__b_dz*o37) + (d_L_fb__2__b_dz*o36) + o46);
-    const S o48 = ((L_fb__0*b_r1_1) + d_L_tau__1__b_dtx);
+    const S o48 = ((L_fb__0*b_r0_1) + d_L_tau__1__b_dtx);
     const S o49 = ((d_L_fb__0__b_dtx*o37) + (d_L_fb__2__b_dtx*o36) - o48);
-    const S o50 = (L_fb__2*b_r1_2);
+    const S o50 = (L_fb__2*b_r0_2);
     const S o51 = (L_fb__0*d_L_pb__2__b_dty);
     const S o52 = ((d_L_fb__0__b_dty*o37) + (d_L_fb__2__b_dty*o36) - d_L_tau__1__b_dty + o50 - o51);
     const S o53 = (L_fb__2*d_L_pb__0__b_dtz);
@@ -1864,9 +1864,9 @@ struct Slider_Pair_Kernel {
     const S o64 = ((d_L_fb__0__b_dz*o16) + (d_L_fb__1__b_dz*o55));
     const S o65 = (L_fb__0*d_L_pb__1__b_dtx);
     const S o66 = ((d_L_fb__0__b_dtx*o16) + (d_L_fb__1__b_dtx*o55) - d_L_tau__2__b_dtx + o65);
-    const S o67 = ((L_fb__1*b_r1_2) + d_L_tau__2__b_dty);
+    const S o67 = ((L_fb__1*b_r0_2) + d_L_tau__2__b_dty);
     const S o68 = ((d_L_fb__0__b_dty*o16) + (d_L_fb__1__b_dty*o55) - o67);
-    const S o69 = (L_fb__0*b_r1_0);
+    const S o69 = (L_fb__0*b_r0_0);
     const S o70 = (L_fb__1*d_L_pb__0__b_dtz);
     const S o71 = ((d_L_fb__0__b_dtz*o16) + (d_L_fb__1__b_dtz*o55) - d_L_tau__2__b_dtz + o69 - o70);
     const S o72 = (L_pb__1 - b_py);
@@ -1948,21 +1948,21 @@ struct Slider_Pair_Kernel {
     const S o148 = ((d_L_fb__0__b_dtz*o114) + (d_L_fb__0__b_wz*h));
     const S o149 = ((d_L_fb__1__b_dtz*o114) + (d_L_fb__1__b_wz*h));
     const S o150 = ((d_L_fb__2__b_dtz*o114) + (d_L_fb__2__b_wz*h));
-    // g_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // g_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[0] = (-o12);
     out[1] = (-o13);
     out[2] = (-o14);
     out[3] = ((L_fb__1*o15) - (L_fb__2*o16) - L_tau__0 + (o0*o18) + (o1*o19) + (o10*o33) + (o11*o35) + (o2*o21) + (o22*o3) + (o23*o4) + (o24*o5) + (o25*o6) + (o27*o7) + (o28*o8) + (o31*o9));
     out[4] = ((-(L_fb__0*o15)) + (L_fb__2*o36) - L_tau__1 + (o0*o38) + (o1*o39) + (o10*o52) + (o11*o54) + (o2*o40) + (o3*o41) + (o4*o42) + (o43*o5) + (o44*o6) + (o45*o7) + (o47*o8) + (o49*o9));
     out[5] = ((L_fb__0*o16) - (L_fb__1*o36) - L_tau__2 + (o0*o56) + (o1*o57) + (o10*o68) + (o11*o71) + (o2*o58) + (o3*o59) + (o4*o60) + (o5*o61) + (o6*o62) + (o63*o7) + (o64*o8) + (o66*o9));
-    // g_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // g_b from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[6] = o12;
     out[7] = o13;
     out[8] = o14;
     out[9] = ((-(L_fb__1*o73)) + (L_fb__2*o72) + L_tau__0 + (o0*o75) + (o1*o76) + (o10*o85) + (o11*o86) + (o2*o77) + (o3*o78) + (o4*o79) + (o5*o80) + (o6*o81) + (o7*o82) + (o8*o83) + (o84*o9));
     out[10] = ((L_fb__0*o73) - (L_fb__2*o87) + L_tau__1 + (o0*o89) + (o1*o90) + (o10*o99) + (o100*o11) + (o2*o91) + (o3*o92) + (o4*o93) + (o5*o94) + (o6*o95) + (o7*o96) + (o8*o97) + (o9*o98));
     out[11] = ((-(L_fb__0*o72)) + (L_fb__1*o87) + L_tau__2 + (o0*o102) + (o1*o103) + (o10*o112) + (o104*o2) + (o105*o3) + (o106*o4) + (o107*o5) + (o108*o6) + (o109*o7) + (o11*o113) + (o110*o8) + (o111*o9));
-    // K_aa from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // K_aa from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[12] = (-o115);
     out[13] = (-o116);
     out[14] = (-o117);
@@ -1999,7 +1999,7 @@ struct Slider_Pair_Kernel {
     out[45] = ((h*((d_L_fb__1__a_wz*o15) + (d_L_fb__2__a_wz*o17))) + (o114*o24));
     out[46] = ((h*((d_L_fb__0__a_wz*o37) + (d_L_fb__2__a_wz*o36))) + (o114*o43));
     out[47] = ((h*((d_L_fb__0__a_wz*o16) + (d_L_fb__1__a_wz*o55) - d_L_tau__2__a_wz)) + (o114*o61));
-    // K_ab from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // K_ab from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[48] = (-o133);
     out[49] = (-o134);
     out[50] = (-o135);
@@ -2036,7 +2036,7 @@ struct Slider_Pair_Kernel {
     out[81] = ((h*((d_L_fb__1__b_wz*o15) + (d_L_fb__2__b_wz*o17))) + (o114*o35));
     out[82] = ((h*((d_L_fb__0__b_wz*o37) + (d_L_fb__2__b_wz*o36))) + (o114*o54));
     out[83] = ((h*((d_L_fb__0__b_wz*o16) + (d_L_fb__1__b_wz*o55) - d_L_tau__2__b_wz)) + (o114*o71));
-    // K_ba from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // K_ba from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[84] = o115;
     out[85] = o116;
     out[86] = o117;
@@ -2073,7 +2073,7 @@ struct Slider_Pair_Kernel {
     out[117] = ((h*((d_L_fb__1__a_wz*o74) + (d_L_fb__2__a_wz*o72))) + (o114*o80));
     out[118] = ((h*((d_L_fb__0__a_wz*o73) + (d_L_fb__2__a_wz*o88))) + (o114*o94));
     out[119] = ((h*((d_L_fb__0__a_wz*o101) + (d_L_fb__1__a_wz*o87) + d_L_tau__2__a_wz)) + (o107*o114));
-    // K_bb from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // K_bb from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[120] = o133;
     out[121] = o134;
     out[122] = o135;
@@ -2119,7 +2119,7 @@ struct Slider_Pair_Kernel {
   static constexpr int kJointArm[2] = { -1, -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 438
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 451
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -2187,40 +2187,40 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let pb (slider.yaml:34), let na (slider.yaml:35), let nb (slider.yaml:36), let ua (slider.yaml:37), let ub (slider.yaml:38), let ta (slider.yaml:39), let tb (slider.yaml:40)
-    const S p0_0 = (S(2)*(a_qy*a_qy));
-    const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
+    // body-frame quantities rotated to world, first used by let im (slider.yaml:34), let pa (slider.yaml:37), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
+    const S p0_0 = (S(2)*(b_qy*b_qy));
+    const S p0_1 = ((S(2)*(b_qz*b_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
-    const S p0_3 = (S(2)*a_qw);
-    const S p0_4 = (a_qz*p0_3);
-    const S p0_5 = ((S(2)*a_qx*a_qy) - p0_4);
-    const S p0_6 = (a_qy*p0_3);
-    const S p0_7 = (S(2)*a_qx);
-    const S p0_8 = ((a_qz*p0_7) + p0_6);
-    const S p0_9 = ((a_qy*p0_7) + p0_4);
-    const S p0_10 = (S(2)*(a_qx*a_qx));
+    const S p0_3 = (S(2)*b_qw);
+    const S p0_4 = (b_qz*p0_3);
+    const S p0_5 = ((S(2)*b_qx*b_qy) - p0_4);
+    const S p0_6 = (b_qy*p0_3);
+    const S p0_7 = (S(2)*b_qx);
+    const S p0_8 = ((b_qz*p0_7) + p0_6);
+    const S p0_9 = ((b_qy*p0_7) + p0_4);
+    const S p0_10 = (S(2)*(b_qx*b_qx));
     const S p0_11 = ((-p0_1) - p0_10);
-    const S p0_12 = (a_qx*p0_3);
-    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
-    const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
-    const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
+    const S p0_12 = (b_qx*p0_3);
+    const S p0_13 = ((S(2)*b_qy*b_qz) - p0_12);
+    const S p0_14 = ((S(2)*b_qx*b_qz) - p0_6);
+    const S p0_15 = ((S(2)*b_qy*b_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
-    const S p0_17 = (S(2)*(b_qy*b_qy));
-    const S p0_18 = ((S(2)*(b_qz*b_qz)) - S(1));
+    const S p0_17 = (S(2)*(a_qy*a_qy));
+    const S p0_18 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_19 = ((-p0_17) - p0_18);
-    const S p0_20 = (S(2)*b_qw);
-    const S p0_21 = (b_qz*p0_20);
-    const S p0_22 = ((S(2)*b_qx*b_qy) - p0_21);
-    const S p0_23 = (b_qy*p0_20);
-    const S p0_24 = (S(2)*b_qx);
-    const S p0_25 = ((b_qz*p0_24) + p0_23);
-    const S p0_26 = ((b_qy*p0_24) + p0_21);
-    const S p0_27 = (S(2)*(b_qx*b_qx));
+    const S p0_20 = (S(2)*a_qw);
+    const S p0_21 = (a_qz*p0_20);
+    const S p0_22 = ((S(2)*a_qx*a_qy) - p0_21);
+    const S p0_23 = (a_qy*p0_20);
+    const S p0_24 = (S(2)*a_qx);
+    const S p0_25 = ((a_qz*p0_24) + p0_23);
+    const S p0_26 = ((a_qy*p0_24) + p0_21);
+    const S p0_27 = (S(2)*(a_qx*a_qx));
     const S p0_28 = ((-p0_18) - p0_27);
-    const S p0_29 = (b_qx*p0_20);
-    const S p0_30 = ((S(2)*b_qy*b_qz) - p0_29);
-    const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
-    const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
+    const S p0_29 = (a_qx*p0_20);
+    const S p0_30 = ((S(2)*a_qy*a_qz) - p0_29);
+    const S p0_31 = ((S(2)*a_qx*a_qz) - p0_23);
+    const S p0_32 = ((S(2)*a_qy*a_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
     const S p0_34 = ((p_axis_a__0*p_ref_a__1) - (p_axis_a__1*p_ref_a__0));
     const S p0_35 = ((p_axis_a__1*p_ref_a__2) - (p_axis_a__2*p_ref_a__1));
@@ -2228,30 +2228,30 @@ struct Slider_Pair_Kernel {
     const S p0_37 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
     const S p0_38 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S p0_39 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
-    const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
-    const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
-    const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
-    const S b_r1_0 = ((p0_19*p_point_b__0) + (p0_22*p_point_b__1) + (p0_25*p_point_b__2));
-    const S b_r1_1 = ((p0_26*p_point_b__0) + (p0_28*p_point_b__1) + (p0_30*p_point_b__2));
-    const S b_r1_2 = ((p0_31*p_point_b__0) + (p0_32*p_point_b__1) + (p0_33*p_point_b__2));
-    const S a_r2_0 = ((p0_2*p_axis_a__0) + (p0_5*p_axis_a__1) + (p0_8*p_axis_a__2));
-    const S a_r2_1 = ((p0_11*p_axis_a__1) + (p0_13*p_axis_a__2) + (p0_9*p_axis_a__0));
-    const S a_r2_2 = ((p0_14*p_axis_a__0) + (p0_15*p_axis_a__1) + (p0_16*p_axis_a__2));
-    const S b_r3_0 = ((p0_19*p_axis_b__0) + (p0_22*p_axis_b__1) + (p0_25*p_axis_b__2));
-    const S b_r3_1 = ((p0_26*p_axis_b__0) + (p0_28*p_axis_b__1) + (p0_30*p_axis_b__2));
-    const S b_r3_2 = ((p0_31*p_axis_b__0) + (p0_32*p_axis_b__1) + (p0_33*p_axis_b__2));
-    const S a_r4_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
-    const S a_r4_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
-    const S a_r4_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
-    const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
-    const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
-    const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
-    const S a_r6_0 = ((p0_2*p0_35) + (p0_34*p0_8) + (p0_36*p0_5));
-    const S a_r6_1 = ((p0_11*p0_36) + (p0_13*p0_34) + (p0_35*p0_9));
-    const S a_r6_2 = ((p0_14*p0_35) + (p0_15*p0_36) + (p0_16*p0_34));
-    const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
-    const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
-    const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
+    const S b_r0_0 = ((p0_2*p_point_b__0) + (p0_5*p_point_b__1) + (p0_8*p_point_b__2));
+    const S b_r0_1 = ((p0_11*p_point_b__1) + (p0_13*p_point_b__2) + (p0_9*p_point_b__0));
+    const S b_r0_2 = ((p0_14*p_point_b__0) + (p0_15*p_point_b__1) + (p0_16*p_point_b__2));
+    const S a_r1_0 = ((p0_19*p_point_a__0) + (p0_22*p_point_a__1) + (p0_25*p_point_a__2));
+    const S a_r1_1 = ((p0_26*p_point_a__0) + (p0_28*p_point_a__1) + (p0_30*p_point_a__2));
+    const S a_r1_2 = ((p0_31*p_point_a__0) + (p0_32*p_point_a__1) + (p0_33*p_point_a__2));
+    const S a_r2_0 = ((p0_19*p_axis_a__0) + (p0_22*p_axis_a__1) + (p0_25*p_axis_a__2));
+    const S a_r2_1 = ((p0_26*p_axis_a__0) + (p0_28*p_axis_a__1) + (p0_30*p_axis_a__2));
+    const S a_r2_2 = ((p0_31*p_axis_a__0) + (p0_32*p_axis_a__1) + (p0_33*p_axis_a__2));
+    const S b_r3_0 = ((p0_2*p_axis_b__0) + (p0_5*p_axis_b__1) + (p0_8*p_axis_b__2));
+    const S b_r3_1 = ((p0_11*p_axis_b__1) + (p0_13*p_axis_b__2) + (p0_9*p_axis_b__0));
+    const S b_r3_2 = ((p0_14*p_axis_b__0) + (p0_15*p_axis_b__1) + (p0_16*p_axis_b__2));
+    const S a_r4_0 = ((p0_19*p_ref_a__0) + (p0_22*p_ref_a__1) + (p0_25*p_ref_a__2));
+    const S a_r4_1 = ((p0_26*p_ref_a__0) + (p0_28*p_ref_a__1) + (p0_30*p_ref_a__2));
+    const S a_r4_2 = ((p0_31*p_ref_a__0) + (p0_32*p_ref_a__1) + (p0_33*p_ref_a__2));
+    const S b_r5_0 = ((p0_2*p_ref_b__0) + (p0_5*p_ref_b__1) + (p0_8*p_ref_b__2));
+    const S b_r5_1 = ((p0_11*p_ref_b__1) + (p0_13*p_ref_b__2) + (p0_9*p_ref_b__0));
+    const S b_r5_2 = ((p0_14*p_ref_b__0) + (p0_15*p_ref_b__1) + (p0_16*p_ref_b__2));
+    const S a_r6_0 = ((p0_19*p0_35) + (p0_22*p0_36) + (p0_25*p0_34));
+    const S a_r6_1 = ((p0_26*p0_35) + (p0_28*p0_36) + (p0_30*p0_34));
+    const S a_r6_2 = ((p0_31*p0_35) + (p0_32*p0_36) + (p0_33*p0_34));
+    const S b_r7_0 = ((p0_2*p0_38) + (p0_37*p0_8) + (p0_39*p0_5));
+    const S b_r7_1 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
+    const S b_r7_2 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
     // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (slider.yaml:28)
@@ -2259,119 +2259,119 @@ struct Slider_Pair_Kernel {
     // let m (slider.yaml:29)
     const S L_m = held_in ? held_in[0] : S(max(a_m, b_m));
     if (held_out) held_out[0] = L_m;
-    // let im (slider.yaml:30)
-    const S L_im = held_in ? held_in[1] : S(max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz))));
+    // let im (slider.yaml:34)
+    const S L_im = held_in ? held_in[1] : S(max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + b_px + b_r0_0)*((-a_px) + b_px + b_r0_0)) + (((-a_py) + b_py + b_r0_1)*((-a_py) + b_py + b_r0_1)) + (((-a_pz) + b_pz + b_r0_2)*((-a_pz) + b_pz + b_r0_2)))))));
     if (held_out) held_out[1] = L_im;
-    // let k (slider.yaml:31)
+    // let k (slider.yaml:35)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:32)
+    // let c (slider.yaml:36)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:33)
-    const S L_pa__0 = (a_px + a_r0_0);
-    const S L_pa__1 = (a_py + a_r0_1);
-    const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (slider.yaml:34)
-    const S L_pb__0 = (b_px + b_r1_0);
-    const S L_pb__1 = (b_py + b_r1_1);
-    const S L_pb__2 = (b_pz + b_r1_2);
-    // let na (slider.yaml:35)
+    // let pa (slider.yaml:37)
+    const S L_pa__0 = (a_px + a_r1_0);
+    const S L_pa__1 = (a_py + a_r1_1);
+    const S L_pa__2 = (a_pz + a_r1_2);
+    // let pb (slider.yaml:38)
+    const S L_pb__0 = (b_px + b_r0_0);
+    const S L_pb__1 = (b_py + b_r0_1);
+    const S L_pb__2 = (b_pz + b_r0_2);
+    // let na (slider.yaml:39)
     const S L_na__0 = a_r2_0;
     const S L_na__1 = a_r2_1;
     const S L_na__2 = a_r2_2;
-    // let nb (slider.yaml:36)
+    // let nb (slider.yaml:40)
     const S L_nb__0 = b_r3_0;
     const S L_nb__1 = b_r3_1;
     const S L_nb__2 = b_r3_2;
-    // let ua (slider.yaml:37)
+    // let ua (slider.yaml:41)
     const S L_ua__0 = a_r4_0;
     const S L_ua__1 = a_r4_1;
     const S L_ua__2 = a_r4_2;
-    // let ub (slider.yaml:38)
+    // let ub (slider.yaml:42)
     const S L_ub__0 = b_r5_0;
     const S L_ub__1 = b_r5_1;
     const S L_ub__2 = b_r5_2;
-    // let ta (slider.yaml:39)
+    // let ta (slider.yaml:43)
     const S L_ta__0 = a_r6_0;
     const S L_ta__1 = a_r6_1;
     const S L_ta__2 = a_r6_2;
-    // let tb (slider.yaml:40)
+    // let tb (slider.yaml:44)
     const S L_tb__0 = b_r7_0;
     const S L_tb__1 = b_r7_1;
     const S L_tb__2 = b_r7_2;
-    // let wrel (slider.yaml:41)
+    // let wrel (slider.yaml:45)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let tau (slider.yaml:42)
+    // let tau (slider.yaml:46)
     const S l15_0_0 = (S(0.5)*L_im*(L_omega*L_omega));
     const S l15_0_1 = (S(2)*L_im*L_omega*L_zeta);
     const S L_tau__0 = ((-(L_wrel__0*l15_0_1)) - (l15_0_0*((L_na__1*L_nb__2) - (L_na__2*L_nb__1) + (L_ta__1*L_tb__2) - (L_ta__2*L_tb__1) + (L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))));
     const S L_tau__1 = ((-(L_wrel__1*l15_0_1)) - (l15_0_0*((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0) - (L_ta__0*L_tb__2) + (L_ta__2*L_tb__0) - (L_ua__0*L_ub__2) + (L_ua__2*L_ub__0))));
     const S L_tau__2 = ((-(L_wrel__2*l15_0_1)) - (l15_0_0*((L_na__0*L_nb__1) - (L_na__1*L_nb__0) + (L_ta__0*L_tb__1) - (L_ta__1*L_tb__0) + (L_ua__0*L_ub__1) - (L_ua__1*L_ub__0))));
-    // let d (slider.yaml:43)
+    // let d (slider.yaml:47)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    // let travel (slider.yaml:44)
+    // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
-    // let vrel (slider.yaml:45)
-    const S L_vrel__0 = ((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx);
-    const S L_vrel__1 = ((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy);
-    const S L_vrel__2 = ((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz);
-    // let rate (slider.yaml:46)
+    // let vrel (slider.yaml:49)
+    const S L_vrel__0 = ((a_r1_1*a_wz) - (a_r1_2*a_wy) - a_vx - (b_r0_1*b_wz) + (b_r0_2*b_wy) + b_vx);
+    const S L_vrel__1 = ((-(a_r1_0*a_wz)) + (a_r1_2*a_wx) - a_vy + (b_r0_0*b_wz) - (b_r0_2*b_wx) + b_vy);
+    const S L_vrel__2 = ((a_r1_0*a_wy) - (a_r1_1*a_wx) - a_vz - (b_r0_0*b_wy) + (b_r0_1*b_wx) + b_vz);
+    // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
-    // let across (slider.yaml:48)
+    // let across (slider.yaml:52)
     const S L_across__0 = ((-(L_c*((-(L_na__0*L_rate)) + L_vrel__0))) - (L_k*(L_d__0 - (L_na__0*L_travel))));
     const S L_across__1 = ((-(L_c*((-(L_na__1*L_rate)) + L_vrel__1))) - (L_k*(L_d__1 - (L_na__1*L_travel))));
     const S L_across__2 = ((-(L_c*((-(L_na__2*L_rate)) + L_vrel__2))) - (L_k*(L_d__2 - (L_na__2*L_travel))));
-    // let limited (slider.yaml:49)
+    // let limited (slider.yaml:53)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:50)
+    // let over_hi (slider.yaml:54)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:51)
+    // let over_lo (slider.yaml:55)
     const S L_over_lo = ((-L_travel) + p_lower);
-    // let stop_hi (slider.yaml:52)
+    // let stop_hi (slider.yaml:56)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const S L_stop_hi = select((L_over_hi > S(0)), select((l24_0_0 > S(0)), l24_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l24_0_0, S(0)));
-    // let stop_lo (slider.yaml:53)
+    // let stop_lo (slider.yaml:57)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const S L_stop_lo = select((L_over_lo > S(0)), select((l25_0_0 < S(0)), l25_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l25_0_1, S(0)));
-    // let mz (slider.yaml:55)
+    // let mz (slider.yaml:59)
     const S L_mz = held_in ? held_in[2] : S(select((b_m > S(0)), (a_m*b_m/(max(S(1e-30), (a_m + b_m)))), a_m));
     if (held_out) held_out[2] = L_mz;
-    // let err (slider.yaml:56)
+    // let err (slider.yaml:60)
     const S L_err = ((-L_rate) + p_motor_speed);
-    // let fast (slider.yaml:57)
+    // let fast (slider.yaml:61)
     const S L_fast = held_in ? held_in[3] : S(select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0)));
     if (held_out) held_out[3] = L_fast;
-    // let sgn (slider.yaml:58)
+    // let sgn (slider.yaml:62)
     const S L_sgn = held_in ? held_in[4] : S(select((L_err > S(0)), S(1), S(-1)));
     if (held_out) held_out[4] = L_sgn;
-    // let motor (slider.yaml:59)
+    // let motor (slider.yaml:63)
     const S L_motor = select((p_motor_force > S(0)), ((L_err*L_mz*L_omega*(S(1) - L_fast)) + (L_fast*L_sgn*p_motor_force)), S(0));
-    // let spring (slider.yaml:60)
+    // let spring (slider.yaml:64)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
-    // let fb (slider.yaml:61)
+    // let fb (slider.yaml:65)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S L_fb__0 = (L_across__0 + (L_na__0*l32_0_0));
     const S L_fb__1 = (L_across__1 + (L_na__1*l32_0_0));
     const S L_fb__2 = (L_across__2 + (L_na__2*l32_0_0));
-    // apply (slider.yaml:62), shared subexpressions
+    // apply (slider.yaml:66), shared subexpressions
     const S o0 = (L_pb__1 - a_py);
     const S o1 = (L_pb__2 - a_pz);
     const S o2 = (L_pb__0 - a_px);
     const S o3 = (L_pb__1 - b_py);
     const S o4 = (L_pb__2 - b_pz);
     const S o5 = (L_pb__0 - b_px);
-    // F_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // F_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[0] = (-L_fb__0);
     out[1] = (-L_fb__1);
     out[2] = (-L_fb__2);
     out[3] = ((L_fb__1*o1) - (L_fb__2*o0) - L_tau__0);
     out[4] = ((-(L_fb__0*o1)) + (L_fb__2*o2) - L_tau__1);
     out[5] = ((L_fb__0*o0) - (L_fb__1*o2) - L_tau__2);
-    // F_b from apply[1] (slider.yaml:64), apply[3] (slider.yaml:66)
+    // F_b from apply[1] (slider.yaml:68), apply[3] (slider.yaml:70)
     out[6] = L_fb__0;
     out[7] = L_fb__1;
     out[8] = L_fb__2;
@@ -2383,7 +2383,7 @@ struct Slider_Pair_Kernel {
 
 /// slider (world): F for 1 body and 2 Jacobian block(s).
 /// out = [F_a (6), dF_a/ddelta_a (36), dF_a/du_a (36)]
-/// Total ops: 1165
+/// Total ops: 1175
 struct Slider_World_Kernel {
   using Instance = Slider_Force;
   static constexpr ForceType kType = ForceType::slider;
@@ -2392,7 +2392,7 @@ struct Slider_World_Kernel {
   static constexpr int kInputs = 46;
   static constexpr int kNumBlocks = 2;
   static constexpr int kOutputs = 78;
-  static constexpr int kOps = 1165;
+  static constexpr int kOps = 1175;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_du, 0, 0},
@@ -2504,7 +2504,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let na (slider.yaml:35), let ua (slider.yaml:37), let ta (slider.yaml:39)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:37), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2543,61 +2543,61 @@ struct Slider_World_Kernel {
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (slider.yaml:30)
-    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let k (slider.yaml:31)
+    // let im (slider.yaml:34)
+    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + p_point_b__0)*((-a_px) + p_point_b__0)) + (((-a_py) + p_point_b__1)*((-a_py) + p_point_b__1)) + (((-a_pz) + p_point_b__2)*((-a_pz) + p_point_b__2))))));
+    // let k (slider.yaml:35)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:32)
+    // let c (slider.yaml:36)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:33)
+    // let pa (slider.yaml:37)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:34)
+    // let pb (slider.yaml:38)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let na (slider.yaml:35)
+    // let na (slider.yaml:39)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (slider.yaml:36)
+    // let nb (slider.yaml:40)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (slider.yaml:37)
+    // let ua (slider.yaml:41)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (slider.yaml:38)
+    // let ub (slider.yaml:42)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (slider.yaml:39)
+    // let ta (slider.yaml:43)
     const S L_ta__0 = a_r3_0;
     const S d_L_ta__0__a_dtz = (-a_r3_1);
     const S L_ta__1 = a_r3_1;
     const S d_L_ta__1__a_dtx = (-a_r3_2);
     const S L_ta__2 = a_r3_2;
     const S d_L_ta__2__a_dty = (-a_r3_0);
-    // let tb (slider.yaml:40)
+    // let tb (slider.yaml:44)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (slider.yaml:41)
+    // let wrel (slider.yaml:45)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (slider.yaml:42)
+    // let tau (slider.yaml:46)
     const S l15_0_0 = (L_omega*L_omega);
     const S l15_0_1 = (S(0.5)*L_im*l15_0_0);
     const S l15_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -2625,7 +2625,7 @@ struct Slider_World_Kernel {
     const S d_L_tau__2__a_dty = ((-(a_r1_2*l15_0_3)) - (a_r2_2*l15_0_5) - (a_r3_2*l15_0_4));
     const S d_L_tau__2__a_dtz = ((a_r1_0*l15_0_9) + (a_r2_0*l15_0_11) + (a_r3_0*l15_0_10) - (d_L_na__0__a_dtz*l15_0_3) - (d_L_ta__0__a_dtz*l15_0_4) - (d_L_ua__0__a_dtz*l15_0_5));
     const S d_L_tau__2__a_wz = l15_0_2;
-    // let d (slider.yaml:43)
+    // let d (slider.yaml:47)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -2635,7 +2635,7 @@ struct Slider_World_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let travel (slider.yaml:44)
+    // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     const S d_L_travel__a_dx = (-L_na__0);
     const S d_L_travel__a_dy = (-L_na__1);
@@ -2643,7 +2643,7 @@ struct Slider_World_Kernel {
     const S d_L_travel__a_dtx = ((L_d__1*d_L_na__1__a_dtx) + (L_d__2*a_r1_1) + (L_na__1*d_L_d__1__a_dtx) + (L_na__2*d_L_d__2__a_dtx));
     const S d_L_travel__a_dty = ((L_d__0*a_r1_2) + (L_d__2*d_L_na__2__a_dty) + (L_na__0*d_L_d__0__a_dty) + (L_na__2*d_L_d__2__a_dty));
     const S d_L_travel__a_dtz = ((L_d__0*d_L_na__0__a_dtz) + (L_d__1*a_r1_0) + (L_na__0*d_L_d__0__a_dtz) + (L_na__1*d_L_d__1__a_dtz));
-    // let vrel (slider.yaml:45)
+    // let vrel (slider.yaml:49)
     const S l18_0_0 = (a_r0_2*a_wy);
     const S l18_0_1 = (a_r0_1*a_wy);
     const S l18_0_2 = (a_r0_2*a_wz);
@@ -2665,7 +2665,7 @@ struct Slider_World_Kernel {
     const S d_L_vrel__2__a_dty = l18_0_0;
     const S d_L_vrel__2__a_dtz = ((-l18_0_1) - l18_0_5);
     const S d_L_vrel__2__a_wx = (-a_r0_1);
-    // let rate (slider.yaml:46)
+    // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r1_1));
     const S d_L_rate__a_dty = ((L_na__0*d_L_vrel__0__a_dty) + (L_na__1*d_L_vrel__1__a_dty) + (L_na__2*d_L_vrel__2__a_dty) + (L_vrel__0*a_r1_2) + (L_vrel__2*d_L_na__2__a_dty));
@@ -2676,7 +2676,7 @@ struct Slider_World_Kernel {
     const S d_L_rate__a_wx = ((L_na__1*a_r0_2) + (L_na__2*d_L_vrel__2__a_wx));
     const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r0_0));
     const S d_L_rate__a_wz = ((L_na__0*a_r0_1) + (L_na__1*d_L_vrel__1__a_wz));
-    // let across (slider.yaml:48)
+    // let across (slider.yaml:52)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
     const S l20_0_2 = ((L_c*L_rate) + (L_k*L_travel));
@@ -2723,11 +2723,11 @@ struct Slider_World_Kernel {
     const S d_L_across__2__a_wx = ((-(L_c*d_L_vrel__2__a_wx)) + (d_L_rate__a_wx*l20_0_6));
     const S d_L_across__2__a_wy = ((-(L_c*a_r0_0)) + (d_L_rate__a_wy*l20_0_6));
     const S d_L_across__2__a_wz = (d_L_rate__a_wz*l20_0_6);
-    // let limited (slider.yaml:49)
+    // let limited (slider.yaml:53)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:50)
+    // let over_hi (slider.yaml:54)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:51)
+    // let over_lo (slider.yaml:55)
     const S L_over_lo = ((-L_travel) + p_lower);
     const S d_L_over_lo__a_dx = (-d_L_travel__a_dx);
     const S d_L_over_lo__a_dy = (-d_L_travel__a_dy);
@@ -2735,7 +2735,7 @@ struct Slider_World_Kernel {
     const S d_L_over_lo__a_dtx = (-d_L_travel__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_travel__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_travel__a_dtz);
-    // let stop_hi (slider.yaml:52)
+    // let stop_hi (slider.yaml:56)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const auto l24_0_1 = (l24_0_0 > S(0));
     const auto l24_0_2 = (L_over_hi > S(0));
@@ -2755,7 +2755,7 @@ struct Slider_World_Kernel {
     const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l24_0_5);
     const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l24_0_5);
     const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l24_0_5);
-    // let stop_lo (slider.yaml:53)
+    // let stop_lo (slider.yaml:57)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const auto l25_0_2 = (l25_0_0 < S(0));
@@ -2777,9 +2777,9 @@ struct Slider_World_Kernel {
     const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l25_0_7);
     const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l25_0_7);
     const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l25_0_7);
-    // let mz (slider.yaml:55)
+    // let mz (slider.yaml:59)
     [[maybe_unused]] const S L_mz = a_m;
-    // let err (slider.yaml:56)
+    // let err (slider.yaml:60)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -2790,11 +2790,11 @@ struct Slider_World_Kernel {
     const S d_L_err__a_wx = (-d_L_rate__a_wx);
     const S d_L_err__a_wy = (-d_L_rate__a_wy);
     const S d_L_err__a_wz = (-d_L_rate__a_wz);
-    // let fast (slider.yaml:57)
+    // let fast (slider.yaml:61)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0));
-    // let sgn (slider.yaml:58)
+    // let sgn (slider.yaml:62)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (slider.yaml:59)
+    // let motor (slider.yaml:63)
     const S l30_0_0 = (L_mz*L_omega*(S(1) - L_fast));
     const auto l30_0_1 = (p_motor_force > S(0));
     const S l30_0_2 = select(l30_0_1, l30_0_0, S(0));
@@ -2808,7 +2808,7 @@ struct Slider_World_Kernel {
     const S d_L_motor__a_wx = (d_L_err__a_wx*l30_0_2);
     const S d_L_motor__a_wy = (d_L_err__a_wy*l30_0_2);
     const S d_L_motor__a_wz = (d_L_err__a_wz*l30_0_2);
-    // let spring (slider.yaml:60)
+    // let spring (slider.yaml:64)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
     const S d_L_spring__a_dx = (-(d_L_travel__a_dx*p_spring_stiffness));
     const S d_L_spring__a_dy = (-(d_L_travel__a_dy*p_spring_stiffness));
@@ -2822,7 +2822,7 @@ struct Slider_World_Kernel {
     const S d_L_spring__a_wx = (-(d_L_rate__a_wx*p_spring_damping));
     const S d_L_spring__a_wy = (-(d_L_rate__a_wy*p_spring_damping));
     const S d_L_spring__a_wz = (-(d_L_rate__a_wz*p_spring_damping));
-    // let fb (slider.yaml:61)
+    // let fb (slider.yaml:65)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l32_0_1 = (L_limited*L_na__0);
     const S l32_0_2 = (L_limited*L_na__1);
@@ -2866,7 +2866,7 @@ struct Slider_World_Kernel {
     const S d_L_fb__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_across__2__a_wx - (d_L_stop_hi__a_wx*l32_0_3) + (d_L_stop_lo__a_wx*l32_0_3));
     const S d_L_fb__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_across__2__a_wy - (d_L_stop_hi__a_wy*l32_0_3) + (d_L_stop_lo__a_wy*l32_0_3));
     const S d_L_fb__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_across__2__a_wz - (d_L_stop_hi__a_wz*l32_0_3) + (d_L_stop_lo__a_wz*l32_0_3));
-    // apply (slider.yaml:62), shared subexpressions
+    // apply (slider.yaml:66), shared subexpressions
     const S o0 = (-L_fb__0);
     const S o1 = (-L_fb__1);
     const S o2 = (-L_fb__2);
@@ -2876,14 +2876,14 @@ struct Slider_World_Kernel {
     const S o6 = (-o3);
     const S o7 = (-o4);
     const S o8 = (-o5);
-    // F_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // F_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[0] = o0;
     out[1] = o1;
     out[2] = o2;
     out[3] = ((L_fb__1*o4) - (L_fb__2*o3) - L_tau__0);
     out[4] = ((-(L_fb__0*o4)) + (L_fb__2*o5) - L_tau__1);
     out[5] = ((L_fb__0*o3) - (L_fb__1*o5) - L_tau__2);
-    // dF_a/ddelta_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // dF_a/ddelta_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[6] = (-d_L_fb__0__a_dx);
     out[7] = (-d_L_fb__1__a_dx);
     out[8] = (-d_L_fb__2__a_dx);
@@ -2920,7 +2920,7 @@ struct Slider_World_Kernel {
     out[39] = ((d_L_fb__1__a_dtz*o4) + (d_L_fb__2__a_dtz*o6) - d_L_tau__0__a_dtz);
     out[40] = ((d_L_fb__0__a_dtz*o7) + (d_L_fb__2__a_dtz*o5) - d_L_tau__1__a_dtz);
     out[41] = ((d_L_fb__0__a_dtz*o3) + (d_L_fb__1__a_dtz*o8) - d_L_tau__2__a_dtz);
-    // dF_a/du_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // dF_a/du_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[42] = (-d_L_fb__0__a_vx);
     out[43] = (-d_L_fb__1__a_vx);
     out[44] = (-d_L_fb__2__a_vx);
@@ -2961,7 +2961,7 @@ struct Slider_World_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1334
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1344
   static constexpr int kNumImplicitBlocks = 1;
   static constexpr int kImplicitOutputs = 42;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -3017,7 +3017,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let na (slider.yaml:35), let ua (slider.yaml:37), let ta (slider.yaml:39)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:37), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3056,61 +3056,61 @@ struct Slider_World_Kernel {
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (slider.yaml:30)
-    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let k (slider.yaml:31)
+    // let im (slider.yaml:34)
+    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + p_point_b__0)*((-a_px) + p_point_b__0)) + (((-a_py) + p_point_b__1)*((-a_py) + p_point_b__1)) + (((-a_pz) + p_point_b__2)*((-a_pz) + p_point_b__2))))));
+    // let k (slider.yaml:35)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:32)
+    // let c (slider.yaml:36)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:33)
+    // let pa (slider.yaml:37)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:34)
+    // let pb (slider.yaml:38)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let na (slider.yaml:35)
+    // let na (slider.yaml:39)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (slider.yaml:36)
+    // let nb (slider.yaml:40)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (slider.yaml:37)
+    // let ua (slider.yaml:41)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (slider.yaml:38)
+    // let ub (slider.yaml:42)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (slider.yaml:39)
+    // let ta (slider.yaml:43)
     const S L_ta__0 = a_r3_0;
     const S d_L_ta__0__a_dtz = (-a_r3_1);
     const S L_ta__1 = a_r3_1;
     const S d_L_ta__1__a_dtx = (-a_r3_2);
     const S L_ta__2 = a_r3_2;
     const S d_L_ta__2__a_dty = (-a_r3_0);
-    // let tb (slider.yaml:40)
+    // let tb (slider.yaml:44)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (slider.yaml:41)
+    // let wrel (slider.yaml:45)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (slider.yaml:42)
+    // let tau (slider.yaml:46)
     const S l15_0_0 = (L_omega*L_omega);
     const S l15_0_1 = (S(0.5)*L_im*l15_0_0);
     const S l15_0_2 = (S(2)*L_im*L_omega*L_zeta);
@@ -3138,7 +3138,7 @@ struct Slider_World_Kernel {
     const S d_L_tau__2__a_dty = ((-(a_r1_2*l15_0_3)) - (a_r2_2*l15_0_5) - (a_r3_2*l15_0_4));
     const S d_L_tau__2__a_dtz = ((a_r1_0*l15_0_9) + (a_r2_0*l15_0_11) + (a_r3_0*l15_0_10) - (d_L_na__0__a_dtz*l15_0_3) - (d_L_ta__0__a_dtz*l15_0_4) - (d_L_ua__0__a_dtz*l15_0_5));
     const S d_L_tau__2__a_wz = l15_0_2;
-    // let d (slider.yaml:43)
+    // let d (slider.yaml:47)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
@@ -3148,7 +3148,7 @@ struct Slider_World_Kernel {
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
     const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
-    // let travel (slider.yaml:44)
+    // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     const S d_L_travel__a_dx = (-L_na__0);
     const S d_L_travel__a_dy = (-L_na__1);
@@ -3156,7 +3156,7 @@ struct Slider_World_Kernel {
     const S d_L_travel__a_dtx = ((L_d__1*d_L_na__1__a_dtx) + (L_d__2*a_r1_1) + (L_na__1*d_L_d__1__a_dtx) + (L_na__2*d_L_d__2__a_dtx));
     const S d_L_travel__a_dty = ((L_d__0*a_r1_2) + (L_d__2*d_L_na__2__a_dty) + (L_na__0*d_L_d__0__a_dty) + (L_na__2*d_L_d__2__a_dty));
     const S d_L_travel__a_dtz = ((L_d__0*d_L_na__0__a_dtz) + (L_d__1*a_r1_0) + (L_na__0*d_L_d__0__a_dtz) + (L_na__1*d_L_d__1__a_dtz));
-    // let vrel (slider.yaml:45)
+    // let vrel (slider.yaml:49)
     const S l18_0_0 = (a_r0_2*a_wy);
     const S l18_0_1 = (a_r0_1*a_wy);
     const S l18_0_2 = (a_r0_2*a_wz);
@@ -3178,7 +3178,7 @@ struct Slider_World_Kernel {
     const S d_L_vrel__2__a_dty = l18_0_0;
     const S d_L_vrel__2__a_dtz = ((-l18_0_1) - l18_0_5);
     const S d_L_vrel__2__a_wx = (-a_r0_1);
-    // let rate (slider.yaml:46)
+    // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r1_1));
     const S d_L_rate__a_dty = ((L_na__0*d_L_vrel__0__a_dty) + (L_na__1*d_L_vrel__1__a_dty) + (L_na__2*d_L_vrel__2__a_dty) + (L_vrel__0*a_r1_2) + (L_vrel__2*d_L_na__2__a_dty));
@@ -3189,7 +3189,7 @@ struct Slider_World_Kernel {
     const S d_L_rate__a_wx = ((L_na__1*a_r0_2) + (L_na__2*d_L_vrel__2__a_wx));
     const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r0_0));
     const S d_L_rate__a_wz = ((L_na__0*a_r0_1) + (L_na__1*d_L_vrel__1__a_wz));
-    // let across (slider.yaml:48)
+    // let across (slider.yaml:52)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
     const S l20_0_2 = ((L_c*L_rate) + (L_k*L_travel));
@@ -3236,11 +3236,11 @@ struct Slider_World_Kernel {
     const S d_L_across__2__a_wx = ((-(L_c*d_L_vrel__2__a_wx)) + (d_L_rate__a_wx*l20_0_6));
     const S d_L_across__2__a_wy = ((-(L_c*a_r0_0)) + (d_L_rate__a_wy*l20_0_6));
     const S d_L_across__2__a_wz = (d_L_rate__a_wz*l20_0_6);
-    // let limited (slider.yaml:49)
+    // let limited (slider.yaml:53)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:50)
+    // let over_hi (slider.yaml:54)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:51)
+    // let over_lo (slider.yaml:55)
     const S L_over_lo = ((-L_travel) + p_lower);
     const S d_L_over_lo__a_dx = (-d_L_travel__a_dx);
     const S d_L_over_lo__a_dy = (-d_L_travel__a_dy);
@@ -3248,7 +3248,7 @@ struct Slider_World_Kernel {
     const S d_L_over_lo__a_dtx = (-d_L_travel__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_travel__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_travel__a_dtz);
-    // let stop_hi (slider.yaml:52)
+    // let stop_hi (slider.yaml:56)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const auto l24_0_1 = (l24_0_0 > S(0));
     const auto l24_0_2 = (L_over_hi > S(0));
@@ -3268,7 +3268,7 @@ struct Slider_World_Kernel {
     const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l24_0_5);
     const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l24_0_5);
     const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l24_0_5);
-    // let stop_lo (slider.yaml:53)
+    // let stop_lo (slider.yaml:57)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const auto l25_0_2 = (l25_0_0 < S(0));
@@ -3290,9 +3290,9 @@ struct Slider_World_Kernel {
     const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l25_0_7);
     const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l25_0_7);
     const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l25_0_7);
-    // let mz (slider.yaml:55)
+    // let mz (slider.yaml:59)
     [[maybe_unused]] const S L_mz = a_m;
-    // let err (slider.yaml:56)
+    // let err (slider.yaml:60)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -3303,11 +3303,11 @@ struct Slider_World_Kernel {
     const S d_L_err__a_wx = (-d_L_rate__a_wx);
     const S d_L_err__a_wy = (-d_L_rate__a_wy);
     const S d_L_err__a_wz = (-d_L_rate__a_wz);
-    // let fast (slider.yaml:57)
+    // let fast (slider.yaml:61)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0));
-    // let sgn (slider.yaml:58)
+    // let sgn (slider.yaml:62)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (slider.yaml:59)
+    // let motor (slider.yaml:63)
     const S l30_0_0 = (L_mz*L_omega*(S(1) - L_fast));
     const auto l30_0_1 = (p_motor_force > S(0));
     const S l30_0_2 = select(l30_0_1, l30_0_0, S(0));
@@ -3321,7 +3321,7 @@ struct Slider_World_Kernel {
     const S d_L_motor__a_wx = (d_L_err__a_wx*l30_0_2);
     const S d_L_motor__a_wy = (d_L_err__a_wy*l30_0_2);
     const S d_L_motor__a_wz = (d_L_err__a_wz*l30_0_2);
-    // let spring (slider.yaml:60)
+    // let spring (slider.yaml:64)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
     const S d_L_spring__a_dx = (-(d_L_travel__a_dx*p_spring_stiffness));
     const S d_L_spring__a_dy = (-(d_L_travel__a_dy*p_spring_stiffness));
@@ -3335,7 +3335,7 @@ struct Slider_World_Kernel {
     const S d_L_spring__a_wx = (-(d_L_rate__a_wx*p_spring_damping));
     const S d_L_spring__a_wy = (-(d_L_rate__a_wy*p_spring_damping));
     const S d_L_spring__a_wz = (-(d_L_rate__a_wz*p_spring_damping));
-    // let fb (slider.yaml:61)
+    // let fb (slider.yaml:65)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S l32_0_1 = (L_limited*L_na__0);
     const S l32_0_2 = (L_limited*L_na__1);
@@ -3379,7 +3379,7 @@ struct Slider_World_Kernel {
     const S d_L_fb__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_across__2__a_wx - (d_L_stop_hi__a_wx*l32_0_3) + (d_L_stop_lo__a_wx*l32_0_3));
     const S d_L_fb__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_across__2__a_wy - (d_L_stop_hi__a_wy*l32_0_3) + (d_L_stop_lo__a_wy*l32_0_3));
     const S d_L_fb__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_across__2__a_wz - (d_L_stop_hi__a_wz*l32_0_3) + (d_L_stop_lo__a_wz*l32_0_3));
-    // apply (slider.yaml:62), shared subexpressions
+    // apply (slider.yaml:66), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -3411,14 +3411,14 @@ struct Slider_World_Kernel {
     const S o28 = ((d_L_fb__0__a_dty*o7) + (d_L_fb__1__a_dty*o23) - d_L_tau__2__a_dty);
     const S o29 = ((d_L_fb__0__a_dtz*o7) + (d_L_fb__1__a_dtz*o23) - d_L_tau__2__a_dtz);
     const S o30 = (h*h);
-    // g_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // g_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[0] = ((-L_fb__0) - (d_L_fb__0__a_dtx*o3) - (d_L_fb__0__a_dty*o4) - (d_L_fb__0__a_dtz*o5) - (d_L_fb__0__a_dx*o0) - (d_L_fb__0__a_dy*o1) - (d_L_fb__0__a_dz*o2));
     out[1] = ((-L_fb__1) - (d_L_fb__1__a_dtx*o3) - (d_L_fb__1__a_dty*o4) - (d_L_fb__1__a_dtz*o5) - (d_L_fb__1__a_dx*o0) - (d_L_fb__1__a_dy*o1) - (d_L_fb__1__a_dz*o2));
     out[2] = ((-L_fb__2) - (d_L_fb__2__a_dtx*o3) - (d_L_fb__2__a_dty*o4) - (d_L_fb__2__a_dtz*o5) - (d_L_fb__2__a_dx*o0) - (d_L_fb__2__a_dy*o1) - (d_L_fb__2__a_dz*o2));
     out[3] = ((L_fb__1*o6) - (L_fb__2*o7) - L_tau__0 + (o0*o9) + (o1*o10) + (o11*o2) + (o12*o3) + (o13*o4) + (o14*o5));
     out[4] = ((-(L_fb__0*o6)) + (L_fb__2*o15) - L_tau__1 + (o0*o17) + (o1*o18) + (o19*o2) + (o20*o3) + (o21*o4) + (o22*o5));
     out[5] = ((L_fb__0*o7) - (L_fb__1*o15) - L_tau__2 + (o0*o24) + (o1*o25) + (o2*o26) + (o27*o3) + (o28*o4) + (o29*o5));
-    // K_aa from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // K_aa from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[6] = ((-(d_L_fb__0__a_dx*o30)) - (d_L_fb__0__a_vx*h));
     out[7] = ((-(d_L_fb__1__a_dx*o30)) - (d_L_fb__1__a_vx*h));
     out[8] = ((-(d_L_fb__2__a_dx*o30)) - (d_L_fb__2__a_vx*h));
@@ -3464,7 +3464,7 @@ struct Slider_World_Kernel {
   static constexpr int kJointArm[1] = { -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 301
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 311
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -3515,7 +3515,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:33), let na (slider.yaml:35), let ua (slider.yaml:37), let ta (slider.yaml:39)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:37), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3555,109 +3555,109 @@ struct Slider_World_Kernel {
     // let m (slider.yaml:29)
     const S L_m = held_in ? held_in[0] : S(max(S(0), a_m));
     if (held_out) held_out[0] = L_m;
-    // let im (slider.yaml:30)
-    const S L_im = held_in ? held_in[1] : S(max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz))));
+    // let im (slider.yaml:34)
+    const S L_im = held_in ? held_in[1] : S(max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + p_point_b__0)*((-a_px) + p_point_b__0)) + (((-a_py) + p_point_b__1)*((-a_py) + p_point_b__1)) + (((-a_pz) + p_point_b__2)*((-a_pz) + p_point_b__2)))))));
     if (held_out) held_out[1] = L_im;
-    // let k (slider.yaml:31)
+    // let k (slider.yaml:35)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:32)
+    // let c (slider.yaml:36)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:33)
+    // let pa (slider.yaml:37)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (slider.yaml:34)
+    // let pb (slider.yaml:38)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let na (slider.yaml:35)
+    // let na (slider.yaml:39)
     const S L_na__0 = a_r1_0;
     const S L_na__1 = a_r1_1;
     const S L_na__2 = a_r1_2;
-    // let nb (slider.yaml:36)
+    // let nb (slider.yaml:40)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (slider.yaml:37)
+    // let ua (slider.yaml:41)
     const S L_ua__0 = a_r2_0;
     const S L_ua__1 = a_r2_1;
     const S L_ua__2 = a_r2_2;
-    // let ub (slider.yaml:38)
+    // let ub (slider.yaml:42)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let ta (slider.yaml:39)
+    // let ta (slider.yaml:43)
     const S L_ta__0 = a_r3_0;
     const S L_ta__1 = a_r3_1;
     const S L_ta__2 = a_r3_2;
-    // let tb (slider.yaml:40)
+    // let tb (slider.yaml:44)
     const S L_tb__0 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S L_tb__1 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
     const S L_tb__2 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
-    // let wrel (slider.yaml:41)
+    // let wrel (slider.yaml:45)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let tau (slider.yaml:42)
+    // let tau (slider.yaml:46)
     const S l15_0_0 = (S(0.5)*L_im*(L_omega*L_omega));
     const S l15_0_1 = (S(2)*L_im*L_omega*L_zeta);
     const S L_tau__0 = ((-(L_wrel__0*l15_0_1)) - (l15_0_0*((L_na__1*L_nb__2) - (L_na__2*L_nb__1) + (L_ta__1*L_tb__2) - (L_ta__2*L_tb__1) + (L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))));
     const S L_tau__1 = ((-(L_wrel__1*l15_0_1)) - (l15_0_0*((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0) - (L_ta__0*L_tb__2) + (L_ta__2*L_tb__0) - (L_ua__0*L_ub__2) + (L_ua__2*L_ub__0))));
     const S L_tau__2 = ((-(L_wrel__2*l15_0_1)) - (l15_0_0*((L_na__0*L_nb__1) - (L_na__1*L_nb__0) + (L_ta__0*L_tb__1) - (L_ta__1*L_tb__0) + (L_ua__0*L_ub__1) - (L_ua__1*L_ub__0))));
-    // let d (slider.yaml:43)
+    // let d (slider.yaml:47)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    // let travel (slider.yaml:44)
+    // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
-    // let vrel (slider.yaml:45)
+    // let vrel (slider.yaml:49)
     const S L_vrel__0 = ((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx);
     const S L_vrel__1 = ((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy);
     const S L_vrel__2 = ((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz);
-    // let rate (slider.yaml:46)
+    // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
-    // let across (slider.yaml:48)
+    // let across (slider.yaml:52)
     const S L_across__0 = ((-(L_c*((-(L_na__0*L_rate)) + L_vrel__0))) - (L_k*(L_d__0 - (L_na__0*L_travel))));
     const S L_across__1 = ((-(L_c*((-(L_na__1*L_rate)) + L_vrel__1))) - (L_k*(L_d__1 - (L_na__1*L_travel))));
     const S L_across__2 = ((-(L_c*((-(L_na__2*L_rate)) + L_vrel__2))) - (L_k*(L_d__2 - (L_na__2*L_travel))));
-    // let limited (slider.yaml:49)
+    // let limited (slider.yaml:53)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (slider.yaml:50)
+    // let over_hi (slider.yaml:54)
     const S L_over_hi = (L_travel - p_upper);
-    // let over_lo (slider.yaml:51)
+    // let over_lo (slider.yaml:55)
     const S L_over_lo = ((-L_travel) + p_lower);
-    // let stop_hi (slider.yaml:52)
+    // let stop_hi (slider.yaml:56)
     const S l24_0_0 = ((L_c*L_rate) + (L_k*L_over_hi));
     const S L_stop_hi = select((L_over_hi > S(0)), select((l24_0_0 > S(0)), l24_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l24_0_0, S(0)));
-    // let stop_lo (slider.yaml:53)
+    // let stop_lo (slider.yaml:57)
     const S l25_0_0 = ((L_c*L_rate) - (L_k*L_over_lo));
     const S l25_0_1 = (-l25_0_0);
     const S L_stop_lo = select((L_over_lo > S(0)), select((l25_0_0 < S(0)), l25_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l25_0_1, S(0)));
-    // let mz (slider.yaml:55)
+    // let mz (slider.yaml:59)
     const S L_mz = held_in ? held_in[2] : S(a_m);
     if (held_out) held_out[2] = L_mz;
-    // let err (slider.yaml:56)
+    // let err (slider.yaml:60)
     const S L_err = ((-L_rate) + p_motor_speed);
-    // let fast (slider.yaml:57)
+    // let fast (slider.yaml:61)
     const S L_fast = held_in ? held_in[3] : S(select(((h*p_motor_force) < (L_mz*abs(L_err))), S(1), S(0)));
     if (held_out) held_out[3] = L_fast;
-    // let sgn (slider.yaml:58)
+    // let sgn (slider.yaml:62)
     const S L_sgn = held_in ? held_in[4] : S(select((L_err > S(0)), S(1), S(-1)));
     if (held_out) held_out[4] = L_sgn;
-    // let motor (slider.yaml:59)
+    // let motor (slider.yaml:63)
     const S L_motor = select((p_motor_force > S(0)), ((L_err*L_mz*L_omega*(S(1) - L_fast)) + (L_fast*L_sgn*p_motor_force)), S(0));
-    // let spring (slider.yaml:60)
+    // let spring (slider.yaml:64)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_travel - p_spring_travel)));
-    // let fb (slider.yaml:61)
+    // let fb (slider.yaml:65)
     const S l32_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
     const S L_fb__0 = (L_across__0 + (L_na__0*l32_0_0));
     const S L_fb__1 = (L_across__1 + (L_na__1*l32_0_0));
     const S L_fb__2 = (L_across__2 + (L_na__2*l32_0_0));
-    // apply (slider.yaml:62), shared subexpressions
+    // apply (slider.yaml:66), shared subexpressions
     const S o0 = (L_pb__1 - a_py);
     const S o1 = (L_pb__2 - a_pz);
     const S o2 = (L_pb__0 - a_px);
-    // F_a from apply[0] (slider.yaml:63), apply[2] (slider.yaml:65)
+    // F_a from apply[0] (slider.yaml:67), apply[2] (slider.yaml:69)
     out[0] = (-L_fb__0);
     out[1] = (-L_fb__1);
     out[2] = (-L_fb__2);

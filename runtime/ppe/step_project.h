@@ -16,7 +16,7 @@ namespace cellphys::ppe {
 
 /// Moves the awake bodies of joints opened wider than s.joint_projection (0: off) until every
 /// one is within it or kProjectionPasses passes are done, in force order (the same bits on any
-/// machine). Counts the joints moved in st.projected_joints.
+/// machine). Counts the joints the first pass moved in st.projected_joints.
 void project_joints(const WorldSettings& s, const std::vector<WorldForce>& forces, std::vector<WorldBody>& bodies,
                     StepStats& st);
 

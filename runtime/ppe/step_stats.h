@@ -60,7 +60,7 @@ struct StepStats {
   uint32_t solver_iterations = 0, solves = 0, step_halvings = 0, failed_islands = 0, substeps = 0;
   uint32_t woken = 0, fell_asleep = 0;
   uint32_t pushed_bodies = 0;  // moved out of deep overlap by the push stage
-  uint32_t projected_joints = 0;  // joints moved back within joint.projection after the solve
+  uint32_t projected_joints = 0;  // joints moved back within joint.projection after the solve (first pass)
   size_t local_store_peak_bytes = 0;
   // Islands whose result came back unsound (size, checksum, header, or refused by a node
   // that was sent a sound image) and were recomputed on this process.

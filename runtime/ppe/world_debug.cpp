@@ -12,8 +12,8 @@ namespace cellphys::ppe {
 
 namespace {
 
-// The velocity at world point p of body id after the step (zero for static geometry), and its
-// centre of mass where the step began: the implicit step moves it by h v.
+// The velocity after the step of body id's material point at world point p (zero for static
+// geometry), its lever taken from the body's centre where the step began (the step moved it by h v).
 void point_velocity(const std::vector<WorldBody>& bodies, uint32_t id, const float p[3], double h, double out[3]) {
   out[0] = out[1] = out[2] = 0;
   if (id == kWorldBody || id >= bodies.size() || bodies[id].is_static) return;

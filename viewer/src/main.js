@@ -648,8 +648,6 @@ window.__viewer = {
   debugKept: () => state.debugs.size,
   // The page's own cost: ms per tick taken in and per render call (the last 600), draw calls a frame.
   cost: () => ({ tick: [...cost.tick], render: [...cost.render], drawCalls: renderer.gl.info.render.calls }),
-  // Summed up force of the shown debug message's contacts on body id (N; the normal points from a to b).
-  contactLift: (id) => (state.debug ? state.debug.contacts.reduce((s, c) => s + (c.a === id ? -c.normal[2] : c.b === id ? c.normal[2] : 0) * c.force, 0) : null),
   cutLines: () => overlay.cutCount,
   frameEpochs: () => state.model?.entries?.map((e) => e.epoch) ?? null,
   contactMarkers: () => overlay.contactCount,

@@ -725,14 +725,19 @@ TEST(Server, AClientThatStopsReadingIsDroppedAndTheTickHolds) {
 #endif
 }
 
-// `cellphys replay FILE [args]`: its exit code, and its standard output and error in `out`.
-int replay(const fs::path& file, std::string& out, const std::string& args = "") {
-  const std::string cmd = "'" + kExe + "' replay '" + file.string() + "' " + args + " 2>&1";
+// `cellphys ARGS` (a shell command line): its exit code, and its standard output and error in `out`.
+int run_cellphys(const std::string& args, std::string& out) {
+  const std::string cmd = "'" + kExe + "' " + args + " 2>&1";
   FILE* pipe = popen(cmd.c_str(), "r");
   char buf[4096];
   while (size_t n = fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
   const int st = pclose(pipe);
   return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+// `cellphys replay FILE [args]`.
+int replay(const fs::path& file, std::string& out, const std::string& args = "") {
+  return run_cellphys("replay '" + file.string() + "' " + args, out);
 }
 
 // A recording's records (server/recording.h), to read and rewrite files as other versions or
@@ -1037,14 +1042,12 @@ TEST(Server, RecordingKeepsTheDebugMessagesReplayMakesAgain) {
   EXPECT_NE(out.find("the frame at step " + std::to_string(bad_step) + " differs from the recorded one: debug of"),
             std::string::npos) << out;
 
-  const std::string cmd = "'" + kExe + "' serve pile65 --port 0 --record '" + (dir / "x.rec").string() +
-                          "' --record-frames off --record-debug on 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
   out.clear();
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
-  const int st = pclose(pipe);
-  EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << out;
+  EXPECT_EQ(run_cellphys("serve pile65 --port 0 --record '" + (dir / "x.rec").string() +
+                             "' --record-frames off --record-debug on",
+                         out),
+            2)
+      << out;
   EXPECT_NE(out.find("--record-debug on keeps a debug message with each recorded frame: it needs --record-frames on"),
             std::string::npos) << out;
   EXPECT_FALSE(fs::exists(dir / "x.rec"));
@@ -1052,7 +1055,7 @@ TEST(Server, RecordingKeepsTheDebugMessagesReplayMakesAgain) {
 }
 
 // set_speed (revision 5): the room steps at that pace against real time, each step of the
-// world's dt; a speed out of range, or not a number, is refused by field; pause still holds.
+// world's dt; a speed out of range, or not a number, is refused by field.
 TEST(Server, SetSpeedPacesTheTicks) {
   ServeProcess s = serve({"pile65"});
   ServerClient c(s.port(), "pile65", s.token());
@@ -1220,13 +1223,13 @@ TEST(DebugMessage, ContactForcesAreTheMomentumTheStepGave) {
       if (gained > 3 * m * g * h) ++landings[i];
     }
   }
+  cellphys::server::DebugMessage rest;
+  const std::vector<unsigned char> bytes = cellphys::server::encode_debug(w, 0);
+  ASSERT_EQ(cellphys::server::decode_debug(bytes.data(), bytes.size(), rest), "");
   for (size_t i = 0; i < ids.size(); ++i) {
     EXPECT_GE(landings[i], 1) << "body " << i << " never landed hard";
     double up_force = 0;  // at rest: the weight
-    cellphys::server::DebugMessage d;
-    const std::vector<unsigned char> bytes = cellphys::server::encode_debug(w, 0);
-    ASSERT_EQ(cellphys::server::decode_debug(bytes.data(), bytes.size(), d), "");
-    for (const p::DebugContact& k : d.contacts)
+    for (const p::DebugContact& k : rest.contacts)
       if (k.a == ids[i]) up_force += k.force * -k.normal[2];
     EXPECT_NEAR(up_force, drops[i].mass * g, 0.01 * drops[i].mass * g) << "body " << i;
   }

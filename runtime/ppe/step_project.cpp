@@ -19,11 +19,7 @@ struct HeldPoints {
 
 HeldPoints held_points(gen::ForceType t) {
   const gen::ForceInfo& info = gen::kForceTable[static_cast<size_t>(t)];
-  HeldPoints h;
-  if (!info.joint || info.held_a < 0) return h;
-  h.a = info.held_a;
-  h.b = info.held_b;
-  return h;
+  return {info.held_a, info.held_b};
 }
 
 Vec3d read_vec3(const std::vector<unsigned char>& inst, int32_t at) {

@@ -10,7 +10,7 @@ namespace cellphys::gen {
 
 /// slider (pair): F for 2 bodies and 8 Jacobian block(s).
 /// out = [F_a (6), F_b (6), dF_a/ddelta_a (36), dF_a/ddelta_b (36), dF_a/du_a (36), dF_a/du_b (36), dF_b/ddelta_a (36), dF_b/ddelta_b (36), dF_b/du_a (36), dF_b/du_b (36)]
-/// Total ops: 2366
+/// Total ops: 2363
 struct Slider_Pair_Kernel {
   using Instance = Slider_Force;
   static constexpr ForceType kType = ForceType::slider;
@@ -19,7 +19,7 @@ struct Slider_Pair_Kernel {
   static constexpr int kInputs = 63;
   static constexpr int kNumBlocks = 8;
   static constexpr int kOutputs = 300;
-  static constexpr int kOps = 2366;
+  static constexpr int kOps = 2363;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_ddelta, 0, 1},
@@ -172,40 +172,40 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let im (slider.yaml:34), let pa (slider.yaml:37), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
-    const S p0_0 = (S(2)*(b_qy*b_qy));
-    const S p0_1 = ((S(2)*(b_qz*b_qz)) - S(1));
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let pb (slider.yaml:33), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
+    const S p0_0 = (S(2)*(a_qy*a_qy));
+    const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
-    const S p0_3 = (S(2)*b_qw);
-    const S p0_4 = (b_qz*p0_3);
-    const S p0_5 = ((S(2)*b_qx*b_qy) - p0_4);
-    const S p0_6 = (b_qy*p0_3);
-    const S p0_7 = (S(2)*b_qx);
-    const S p0_8 = ((b_qz*p0_7) + p0_6);
-    const S p0_9 = ((b_qy*p0_7) + p0_4);
-    const S p0_10 = (S(2)*(b_qx*b_qx));
+    const S p0_3 = (S(2)*a_qw);
+    const S p0_4 = (a_qz*p0_3);
+    const S p0_5 = ((S(2)*a_qx*a_qy) - p0_4);
+    const S p0_6 = (a_qy*p0_3);
+    const S p0_7 = (S(2)*a_qx);
+    const S p0_8 = ((a_qz*p0_7) + p0_6);
+    const S p0_9 = ((a_qy*p0_7) + p0_4);
+    const S p0_10 = (S(2)*(a_qx*a_qx));
     const S p0_11 = ((-p0_1) - p0_10);
-    const S p0_12 = (b_qx*p0_3);
-    const S p0_13 = ((S(2)*b_qy*b_qz) - p0_12);
-    const S p0_14 = ((S(2)*b_qx*b_qz) - p0_6);
-    const S p0_15 = ((S(2)*b_qy*b_qz) + p0_12);
+    const S p0_12 = (a_qx*p0_3);
+    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
+    const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
+    const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
-    const S p0_17 = (S(2)*(a_qy*a_qy));
-    const S p0_18 = ((S(2)*(a_qz*a_qz)) - S(1));
+    const S p0_17 = (S(2)*(b_qy*b_qy));
+    const S p0_18 = ((S(2)*(b_qz*b_qz)) - S(1));
     const S p0_19 = ((-p0_17) - p0_18);
-    const S p0_20 = (S(2)*a_qw);
-    const S p0_21 = (a_qz*p0_20);
-    const S p0_22 = ((S(2)*a_qx*a_qy) - p0_21);
-    const S p0_23 = (a_qy*p0_20);
-    const S p0_24 = (S(2)*a_qx);
-    const S p0_25 = ((a_qz*p0_24) + p0_23);
-    const S p0_26 = ((a_qy*p0_24) + p0_21);
-    const S p0_27 = (S(2)*(a_qx*a_qx));
+    const S p0_20 = (S(2)*b_qw);
+    const S p0_21 = (b_qz*p0_20);
+    const S p0_22 = ((S(2)*b_qx*b_qy) - p0_21);
+    const S p0_23 = (b_qy*p0_20);
+    const S p0_24 = (S(2)*b_qx);
+    const S p0_25 = ((b_qz*p0_24) + p0_23);
+    const S p0_26 = ((b_qy*p0_24) + p0_21);
+    const S p0_27 = (S(2)*(b_qx*b_qx));
     const S p0_28 = ((-p0_18) - p0_27);
-    const S p0_29 = (a_qx*p0_20);
-    const S p0_30 = ((S(2)*a_qy*a_qz) - p0_29);
-    const S p0_31 = ((S(2)*a_qx*a_qz) - p0_23);
-    const S p0_32 = ((S(2)*a_qy*a_qz) + p0_29);
+    const S p0_29 = (b_qx*p0_20);
+    const S p0_30 = ((S(2)*b_qy*b_qz) - p0_29);
+    const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
+    const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
     const S p0_34 = ((p_axis_a__0*p_ref_a__1) - (p_axis_a__1*p_ref_a__0));
     const S p0_35 = ((p_axis_a__1*p_ref_a__2) - (p_axis_a__2*p_ref_a__1));
@@ -213,56 +213,56 @@ struct Slider_Pair_Kernel {
     const S p0_37 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
     const S p0_38 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S p0_39 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
-    const S b_r0_0 = ((p0_2*p_point_b__0) + (p0_5*p_point_b__1) + (p0_8*p_point_b__2));
-    const S b_r0_1 = ((p0_11*p_point_b__1) + (p0_13*p_point_b__2) + (p0_9*p_point_b__0));
-    const S b_r0_2 = ((p0_14*p_point_b__0) + (p0_15*p_point_b__1) + (p0_16*p_point_b__2));
-    const S a_r1_0 = ((p0_19*p_point_a__0) + (p0_22*p_point_a__1) + (p0_25*p_point_a__2));
-    const S a_r1_1 = ((p0_26*p_point_a__0) + (p0_28*p_point_a__1) + (p0_30*p_point_a__2));
-    const S a_r1_2 = ((p0_31*p_point_a__0) + (p0_32*p_point_a__1) + (p0_33*p_point_a__2));
-    const S a_r2_0 = ((p0_19*p_axis_a__0) + (p0_22*p_axis_a__1) + (p0_25*p_axis_a__2));
-    const S a_r2_1 = ((p0_26*p_axis_a__0) + (p0_28*p_axis_a__1) + (p0_30*p_axis_a__2));
-    const S a_r2_2 = ((p0_31*p_axis_a__0) + (p0_32*p_axis_a__1) + (p0_33*p_axis_a__2));
-    const S b_r3_0 = ((p0_2*p_axis_b__0) + (p0_5*p_axis_b__1) + (p0_8*p_axis_b__2));
-    const S b_r3_1 = ((p0_11*p_axis_b__1) + (p0_13*p_axis_b__2) + (p0_9*p_axis_b__0));
-    const S b_r3_2 = ((p0_14*p_axis_b__0) + (p0_15*p_axis_b__1) + (p0_16*p_axis_b__2));
-    const S a_r4_0 = ((p0_19*p_ref_a__0) + (p0_22*p_ref_a__1) + (p0_25*p_ref_a__2));
-    const S a_r4_1 = ((p0_26*p_ref_a__0) + (p0_28*p_ref_a__1) + (p0_30*p_ref_a__2));
-    const S a_r4_2 = ((p0_31*p_ref_a__0) + (p0_32*p_ref_a__1) + (p0_33*p_ref_a__2));
-    const S b_r5_0 = ((p0_2*p_ref_b__0) + (p0_5*p_ref_b__1) + (p0_8*p_ref_b__2));
-    const S b_r5_1 = ((p0_11*p_ref_b__1) + (p0_13*p_ref_b__2) + (p0_9*p_ref_b__0));
-    const S b_r5_2 = ((p0_14*p_ref_b__0) + (p0_15*p_ref_b__1) + (p0_16*p_ref_b__2));
-    const S a_r6_0 = ((p0_19*p0_35) + (p0_22*p0_36) + (p0_25*p0_34));
-    const S a_r6_1 = ((p0_26*p0_35) + (p0_28*p0_36) + (p0_30*p0_34));
-    const S a_r6_2 = ((p0_31*p0_35) + (p0_32*p0_36) + (p0_33*p0_34));
-    const S b_r7_0 = ((p0_2*p0_38) + (p0_37*p0_8) + (p0_39*p0_5));
-    const S b_r7_1 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
-    const S b_r7_2 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
+    const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
+    const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
+    const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
+    const S b_r1_0 = ((p0_19*p_point_b__0) + (p0_22*p_point_b__1) + (p0_25*p_point_b__2));
+    const S b_r1_1 = ((p0_26*p_point_b__0) + (p0_28*p_point_b__1) + (p0_30*p_point_b__2));
+    const S b_r1_2 = ((p0_31*p_point_b__0) + (p0_32*p_point_b__1) + (p0_33*p_point_b__2));
+    const S a_r2_0 = ((p0_2*p_axis_a__0) + (p0_5*p_axis_a__1) + (p0_8*p_axis_a__2));
+    const S a_r2_1 = ((p0_11*p_axis_a__1) + (p0_13*p_axis_a__2) + (p0_9*p_axis_a__0));
+    const S a_r2_2 = ((p0_14*p_axis_a__0) + (p0_15*p_axis_a__1) + (p0_16*p_axis_a__2));
+    const S b_r3_0 = ((p0_19*p_axis_b__0) + (p0_22*p_axis_b__1) + (p0_25*p_axis_b__2));
+    const S b_r3_1 = ((p0_26*p_axis_b__0) + (p0_28*p_axis_b__1) + (p0_30*p_axis_b__2));
+    const S b_r3_2 = ((p0_31*p_axis_b__0) + (p0_32*p_axis_b__1) + (p0_33*p_axis_b__2));
+    const S a_r4_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
+    const S a_r4_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
+    const S a_r4_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
+    const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
+    const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
+    const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
+    const S a_r6_0 = ((p0_2*p0_35) + (p0_34*p0_8) + (p0_36*p0_5));
+    const S a_r6_1 = ((p0_11*p0_36) + (p0_13*p0_34) + (p0_35*p0_9));
+    const S a_r6_2 = ((p0_14*p0_35) + (p0_15*p0_36) + (p0_16*p0_34));
+    const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
+    const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
+    const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
     // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (slider.yaml:34)
-    [[maybe_unused]] const S L_im = max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + b_px + b_r0_0)*((-a_px) + b_px + b_r0_0)) + (((-a_py) + b_py + b_r0_1)*((-a_py) + b_py + b_r0_1)) + (((-a_pz) + b_pz + b_r0_2)*((-a_pz) + b_pz + b_r0_2))))));
-    // let k (slider.yaml:35)
+    // let k (slider.yaml:30)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:36)
+    // let c (slider.yaml:31)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:37)
-    const S L_pa__0 = (a_px + a_r1_0);
-    const S d_L_pa__0__a_dtz = (-a_r1_1);
-    const S L_pa__1 = (a_py + a_r1_1);
-    const S d_L_pa__1__a_dtx = (-a_r1_2);
-    const S L_pa__2 = (a_pz + a_r1_2);
-    const S d_L_pa__2__a_dty = (-a_r1_0);
-    // let pb (slider.yaml:38)
-    const S L_pb__0 = (b_px + b_r0_0);
-    const S d_L_pb__0__b_dtz = (-b_r0_1);
-    const S L_pb__1 = (b_py + b_r0_1);
-    const S d_L_pb__1__b_dtx = (-b_r0_2);
-    const S L_pb__2 = (b_pz + b_r0_2);
-    const S d_L_pb__2__b_dty = (-b_r0_0);
+    // let pa (slider.yaml:32)
+    const S L_pa__0 = (a_px + a_r0_0);
+    const S d_L_pa__0__a_dtz = (-a_r0_1);
+    const S L_pa__1 = (a_py + a_r0_1);
+    const S d_L_pa__1__a_dtx = (-a_r0_2);
+    const S L_pa__2 = (a_pz + a_r0_2);
+    const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (slider.yaml:33)
+    const S L_pb__0 = (b_px + b_r1_0);
+    const S d_L_pb__0__b_dtz = (-b_r1_1);
+    const S L_pb__1 = (b_py + b_r1_1);
+    const S d_L_pb__1__b_dtx = (-b_r1_2);
+    const S L_pb__2 = (b_pz + b_r1_2);
+    const S d_L_pb__2__b_dty = (-b_r1_0);
+    // let im (slider.yaml:38)
+    [[maybe_unused]] const S L_im = max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*(((L_pb__0 - a_px)*(L_pb__0 - a_px)) + ((L_pb__1 - a_py)*(L_pb__1 - a_py)) + ((L_pb__2 - a_pz)*(L_pb__2 - a_pz))))));
     // let na (slider.yaml:39)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
@@ -361,13 +361,13 @@ struct Slider_Pair_Kernel {
     const S d_L_tau__2__b_wz = l15_0_15;
     // let d (slider.yaml:47)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
-    const S d_L_d__0__a_dty = (-a_r1_2);
+    const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S d_L_d__1__a_dtx = (-d_L_pa__1__a_dtx);
-    const S d_L_d__1__a_dtz = (-a_r1_0);
+    const S d_L_d__1__a_dtz = (-a_r0_0);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    const S d_L_d__2__a_dtx = (-a_r1_1);
+    const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
     // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
@@ -377,27 +377,27 @@ struct Slider_Pair_Kernel {
     const S d_L_travel__a_dtx = ((L_d__1*d_L_na__1__a_dtx) + (L_d__2*a_r2_1) + (L_na__1*d_L_d__1__a_dtx) + (L_na__2*d_L_d__2__a_dtx));
     const S d_L_travel__a_dty = ((L_d__0*a_r2_2) + (L_d__2*d_L_na__2__a_dty) + (L_na__0*d_L_d__0__a_dty) + (L_na__2*d_L_d__2__a_dty));
     const S d_L_travel__a_dtz = ((L_d__0*d_L_na__0__a_dtz) + (L_d__1*a_r2_0) + (L_na__0*d_L_d__0__a_dtz) + (L_na__1*d_L_d__1__a_dtz));
-    const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r0_1));
-    const S d_L_travel__b_dty = ((L_na__0*b_r0_2) + (L_na__2*d_L_pb__2__b_dty));
-    const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r0_0));
+    const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r1_1));
+    const S d_L_travel__b_dty = ((L_na__0*b_r1_2) + (L_na__2*d_L_pb__2__b_dty));
+    const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r1_0));
     // let vrel (slider.yaml:49)
-    const S l18_0_0 = (a_r1_1*a_wz);
-    const S l18_0_1 = (b_r0_2*b_wy);
-    const S l18_0_2 = (a_r1_2*a_wy);
-    const S l18_0_3 = (-(b_r0_1*b_wz));
-    const S l18_0_4 = (a_r1_1*a_wy);
-    const S l18_0_5 = (a_r1_2*a_wz);
-    const S l18_0_6 = (a_r1_0*a_wy);
-    const S l18_0_7 = (a_r1_0*a_wz);
-    const S l18_0_8 = (b_r0_1*b_wy);
-    const S l18_0_9 = (b_r0_2*b_wz);
-    const S l18_0_10 = (-(b_r0_0*b_wy));
-    const S l18_0_11 = (-(b_r0_0*b_wz));
-    const S l18_0_12 = (b_r0_2*b_wx);
-    const S l18_0_13 = (a_r1_1*a_wx);
-    const S l18_0_14 = (a_r1_0*a_wx);
-    const S l18_0_15 = (b_r0_1*b_wx);
-    const S l18_0_16 = (b_r0_0*b_wx);
+    const S l18_0_0 = (a_r0_1*a_wz);
+    const S l18_0_1 = (b_r1_2*b_wy);
+    const S l18_0_2 = (a_r0_2*a_wy);
+    const S l18_0_3 = (-(b_r1_1*b_wz));
+    const S l18_0_4 = (a_r0_1*a_wy);
+    const S l18_0_5 = (a_r0_2*a_wz);
+    const S l18_0_6 = (a_r0_0*a_wy);
+    const S l18_0_7 = (a_r0_0*a_wz);
+    const S l18_0_8 = (b_r1_1*b_wy);
+    const S l18_0_9 = (b_r1_2*b_wz);
+    const S l18_0_10 = (-(b_r1_0*b_wy));
+    const S l18_0_11 = (-(b_r1_0*b_wz));
+    const S l18_0_12 = (b_r1_2*b_wx);
+    const S l18_0_13 = (a_r0_1*a_wx);
+    const S l18_0_14 = (a_r0_0*a_wx);
+    const S l18_0_15 = (b_r1_1*b_wx);
+    const S l18_0_16 = (b_r1_0*b_wx);
     const S L_vrel__0 = ((-a_vx) + b_vx + l18_0_0 + l18_0_1 - l18_0_2 + l18_0_3);
     const S d_L_vrel__0__a_dtx = ((-l18_0_4) - l18_0_5);
     const S d_L_vrel__0__a_dty = l18_0_6;
@@ -405,26 +405,26 @@ struct Slider_Pair_Kernel {
     const S d_L_vrel__0__b_dtx = (l18_0_8 + l18_0_9);
     const S d_L_vrel__0__b_dty = l18_0_10;
     const S d_L_vrel__0__b_dtz = l18_0_11;
-    const S d_L_vrel__0__a_wy = (-a_r1_2);
-    const S d_L_vrel__0__b_wz = (-b_r0_1);
-    const S L_vrel__1 = ((a_r1_2*a_wx) - a_vy + b_vy - l18_0_11 - l18_0_12 - l18_0_7);
+    const S d_L_vrel__0__a_wy = (-a_r0_2);
+    const S d_L_vrel__0__b_wz = (-b_r1_1);
+    const S L_vrel__1 = ((a_r0_2*a_wx) - a_vy + b_vy - l18_0_11 - l18_0_12 - l18_0_7);
     const S d_L_vrel__1__a_dtx = l18_0_13;
     const S d_L_vrel__1__a_dty = ((-l18_0_14) - l18_0_5);
     const S d_L_vrel__1__a_dtz = l18_0_0;
     const S d_L_vrel__1__b_dtx = (-l18_0_15);
     const S d_L_vrel__1__b_dty = (l18_0_16 + l18_0_9);
     const S d_L_vrel__1__b_dtz = l18_0_3;
-    const S d_L_vrel__1__a_wz = (-a_r1_0);
-    const S d_L_vrel__1__b_wx = (-b_r0_2);
+    const S d_L_vrel__1__a_wz = (-a_r0_0);
+    const S d_L_vrel__1__b_wx = (-b_r1_2);
     const S L_vrel__2 = ((-a_vz) + b_vz + l18_0_10 - l18_0_13 + l18_0_15 + l18_0_6);
-    const S d_L_vrel__2__a_dtx = (a_r1_2*a_wx);
+    const S d_L_vrel__2__a_dtx = (a_r0_2*a_wx);
     const S d_L_vrel__2__a_dty = l18_0_2;
     const S d_L_vrel__2__a_dtz = ((-l18_0_14) - l18_0_4);
     const S d_L_vrel__2__b_dtx = (-l18_0_12);
     const S d_L_vrel__2__b_dty = (-l18_0_1);
     const S d_L_vrel__2__b_dtz = (l18_0_16 + l18_0_8);
-    const S d_L_vrel__2__a_wx = (-a_r1_1);
-    const S d_L_vrel__2__b_wy = (-b_r0_0);
+    const S d_L_vrel__2__a_wx = (-a_r0_1);
+    const S d_L_vrel__2__b_wy = (-b_r1_0);
     // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r2_1));
@@ -436,12 +436,12 @@ struct Slider_Pair_Kernel {
     const S d_L_rate__a_vx = (-L_na__0);
     const S d_L_rate__a_vy = (-L_na__1);
     const S d_L_rate__a_vz = (-L_na__2);
-    const S d_L_rate__a_wx = ((L_na__1*a_r1_2) + (L_na__2*d_L_vrel__2__a_wx));
-    const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r1_0));
-    const S d_L_rate__a_wz = ((L_na__0*a_r1_1) + (L_na__1*d_L_vrel__1__a_wz));
-    const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r0_1));
-    const S d_L_rate__b_wy = ((L_na__0*b_r0_2) + (L_na__2*d_L_vrel__2__b_wy));
-    const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r0_0));
+    const S d_L_rate__a_wx = ((L_na__1*a_r0_2) + (L_na__2*d_L_vrel__2__a_wx));
+    const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r0_0));
+    const S d_L_rate__a_wz = ((L_na__0*a_r0_1) + (L_na__1*d_L_vrel__1__a_wz));
+    const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r1_1));
+    const S d_L_rate__b_wy = ((L_na__0*b_r1_2) + (L_na__2*d_L_vrel__2__b_wy));
+    const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r1_0));
     // let across (slider.yaml:52)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
@@ -472,19 +472,19 @@ struct Slider_Pair_Kernel {
     const S d_L_across__0__b_dy = l20_0_5;
     const S d_L_across__0__b_dz = l20_0_6;
     const S d_L_across__0__b_dtx = ((-(L_c*d_L_vrel__0__b_dtx)) + (d_L_rate__b_dtx*l20_0_1) + (d_L_travel__b_dtx*l20_0_0));
-    const S d_L_across__0__b_dty = ((-(L_c*d_L_vrel__0__b_dty)) - (L_k*b_r0_2) + (d_L_rate__b_dty*l20_0_1) + (d_L_travel__b_dty*l20_0_0));
+    const S d_L_across__0__b_dty = ((-(L_c*d_L_vrel__0__b_dty)) - (L_k*b_r1_2) + (d_L_rate__b_dty*l20_0_1) + (d_L_travel__b_dty*l20_0_0));
     const S d_L_across__0__b_dtz = ((-(L_c*d_L_vrel__0__b_dtz)) - (L_k*d_L_pb__0__b_dtz) + (d_L_rate__b_dtz*l20_0_1) + (d_L_travel__b_dtz*l20_0_0));
     const S d_L_across__0__a_vx = (L_c + (d_L_rate__a_vx*l20_0_1));
     const S d_L_across__0__a_vy = (d_L_rate__a_vy*l20_0_1);
     const S d_L_across__0__a_vz = (d_L_rate__a_vz*l20_0_1);
     const S d_L_across__0__a_wx = (d_L_rate__a_wx*l20_0_1);
     const S d_L_across__0__a_wy = ((-(L_c*d_L_vrel__0__a_wy)) + (d_L_rate__a_wy*l20_0_1));
-    const S d_L_across__0__a_wz = ((-(L_c*a_r1_1)) + (d_L_rate__a_wz*l20_0_1));
+    const S d_L_across__0__a_wz = ((-(L_c*a_r0_1)) + (d_L_rate__a_wz*l20_0_1));
     const S d_L_across__0__b_vx = ((L_c*l20_0_4) + l20_0_7);
     const S d_L_across__0__b_vy = l20_0_8;
     const S d_L_across__0__b_vz = l20_0_9;
     const S d_L_across__0__b_wx = (d_L_rate__b_wx*l20_0_1);
-    const S d_L_across__0__b_wy = ((-(L_c*b_r0_2)) + (d_L_rate__b_wy*l20_0_1));
+    const S d_L_across__0__b_wy = ((-(L_c*b_r1_2)) + (d_L_rate__b_wy*l20_0_1));
     const S d_L_across__0__b_wz = ((-(L_c*d_L_vrel__0__b_wz)) + (d_L_rate__b_wz*l20_0_1));
     const S L_across__1 = ((-(L_c*((-(L_na__1*L_rate)) + L_vrel__1))) - (L_k*(L_d__1 - (L_na__1*L_travel))));
     const S d_L_across__1__a_dx = (d_L_travel__a_dx*l20_0_10);
@@ -498,11 +498,11 @@ struct Slider_Pair_Kernel {
     const S d_L_across__1__b_dz = l20_0_13;
     const S d_L_across__1__b_dtx = ((-(L_c*d_L_vrel__1__b_dtx)) - (L_k*d_L_pb__1__b_dtx) + (d_L_rate__b_dtx*l20_0_11) + (d_L_travel__b_dtx*l20_0_10));
     const S d_L_across__1__b_dty = ((-(L_c*d_L_vrel__1__b_dty)) + (d_L_rate__b_dty*l20_0_11) + (d_L_travel__b_dty*l20_0_10));
-    const S d_L_across__1__b_dtz = ((-(L_c*d_L_vrel__1__b_dtz)) - (L_k*b_r0_0) + (d_L_rate__b_dtz*l20_0_11) + (d_L_travel__b_dtz*l20_0_10));
+    const S d_L_across__1__b_dtz = ((-(L_c*d_L_vrel__1__b_dtz)) - (L_k*b_r1_0) + (d_L_rate__b_dtz*l20_0_11) + (d_L_travel__b_dtz*l20_0_10));
     const S d_L_across__1__a_vx = (d_L_rate__a_vx*l20_0_11);
     const S d_L_across__1__a_vy = (L_c + (d_L_rate__a_vy*l20_0_11));
     const S d_L_across__1__a_vz = (d_L_rate__a_vz*l20_0_11);
-    const S d_L_across__1__a_wx = ((-(L_c*a_r1_2)) + (d_L_rate__a_wx*l20_0_11));
+    const S d_L_across__1__a_wx = ((-(L_c*a_r0_2)) + (d_L_rate__a_wx*l20_0_11));
     const S d_L_across__1__a_wy = (d_L_rate__a_wy*l20_0_11);
     const S d_L_across__1__a_wz = ((-(L_c*d_L_vrel__1__a_wz)) + (d_L_rate__a_wz*l20_0_11));
     const S d_L_across__1__b_vx = l20_0_8;
@@ -510,7 +510,7 @@ struct Slider_Pair_Kernel {
     const S d_L_across__1__b_vz = l20_0_14;
     const S d_L_across__1__b_wx = ((-(L_c*d_L_vrel__1__b_wx)) + (d_L_rate__b_wx*l20_0_11));
     const S d_L_across__1__b_wy = (d_L_rate__b_wy*l20_0_11);
-    const S d_L_across__1__b_wz = ((-(L_c*b_r0_0)) + (d_L_rate__b_wz*l20_0_11));
+    const S d_L_across__1__b_wz = ((-(L_c*b_r1_0)) + (d_L_rate__b_wz*l20_0_11));
     const S L_across__2 = ((-(L_c*((-(L_na__2*L_rate)) + L_vrel__2))) - (L_k*(L_d__2 - (L_na__2*L_travel))));
     const S d_L_across__2__a_dx = (d_L_travel__a_dx*l20_0_15);
     const S d_L_across__2__a_dy = (d_L_travel__a_dy*l20_0_15);
@@ -521,19 +521,19 @@ struct Slider_Pair_Kernel {
     const S d_L_across__2__b_dx = l20_0_6;
     const S d_L_across__2__b_dy = l20_0_13;
     const S d_L_across__2__b_dz = ((L_k*l20_0_17) + l20_0_3);
-    const S d_L_across__2__b_dtx = ((-(L_c*d_L_vrel__2__b_dtx)) - (L_k*b_r0_1) + (d_L_rate__b_dtx*l20_0_16) + (d_L_travel__b_dtx*l20_0_15));
+    const S d_L_across__2__b_dtx = ((-(L_c*d_L_vrel__2__b_dtx)) - (L_k*b_r1_1) + (d_L_rate__b_dtx*l20_0_16) + (d_L_travel__b_dtx*l20_0_15));
     const S d_L_across__2__b_dty = ((-(L_c*d_L_vrel__2__b_dty)) - (L_k*d_L_pb__2__b_dty) + (d_L_rate__b_dty*l20_0_16) + (d_L_travel__b_dty*l20_0_15));
     const S d_L_across__2__b_dtz = ((-(L_c*d_L_vrel__2__b_dtz)) + (d_L_rate__b_dtz*l20_0_16) + (d_L_travel__b_dtz*l20_0_15));
     const S d_L_across__2__a_vx = (d_L_rate__a_vx*l20_0_16);
     const S d_L_across__2__a_vy = (d_L_rate__a_vy*l20_0_16);
     const S d_L_across__2__a_vz = (L_c + (d_L_rate__a_vz*l20_0_16));
     const S d_L_across__2__a_wx = ((-(L_c*d_L_vrel__2__a_wx)) + (d_L_rate__a_wx*l20_0_16));
-    const S d_L_across__2__a_wy = ((-(L_c*a_r1_0)) + (d_L_rate__a_wy*l20_0_16));
+    const S d_L_across__2__a_wy = ((-(L_c*a_r0_0)) + (d_L_rate__a_wy*l20_0_16));
     const S d_L_across__2__a_wz = (d_L_rate__a_wz*l20_0_16);
     const S d_L_across__2__b_vx = l20_0_9;
     const S d_L_across__2__b_vy = l20_0_14;
     const S d_L_across__2__b_vz = ((L_c*l20_0_17) + l20_0_7);
-    const S d_L_across__2__b_wx = ((-(L_c*b_r0_1)) + (d_L_rate__b_wx*l20_0_16));
+    const S d_L_across__2__b_wx = ((-(L_c*b_r1_1)) + (d_L_rate__b_wx*l20_0_16));
     const S d_L_across__2__b_wy = ((-(L_c*d_L_vrel__2__b_wy)) + (d_L_rate__b_wy*l20_0_16));
     const S d_L_across__2__b_wz = (d_L_rate__b_wz*l20_0_16);
     // let limited (slider.yaml:53)
@@ -788,17 +788,17 @@ struct Slider_Pair_Kernel {
     const S o9 = (-o3);
     const S o10 = (-o4);
     const S o11 = (-o5);
-    const S o12 = (L_fb__1*b_r0_1);
+    const S o12 = (L_fb__1*b_r1_1);
     const S o13 = (L_fb__2*d_L_pb__1__b_dtx);
-    const S o14 = ((L_fb__0*b_r0_1) + d_L_tau__1__b_dtx);
+    const S o14 = ((L_fb__0*b_r1_1) + d_L_tau__1__b_dtx);
     const S o15 = (L_fb__0*d_L_pb__1__b_dtx);
     const S o16 = (L_fb__1*d_L_pb__2__b_dty);
-    const S o17 = (L_fb__2*b_r0_2);
+    const S o17 = (L_fb__2*b_r1_2);
     const S o18 = (L_fb__0*d_L_pb__2__b_dty);
-    const S o19 = ((L_fb__1*b_r0_2) + d_L_tau__2__b_dty);
-    const S o20 = ((L_fb__2*b_r0_0) + d_L_tau__0__b_dtz);
+    const S o19 = ((L_fb__1*b_r1_2) + d_L_tau__2__b_dty);
+    const S o20 = ((L_fb__2*b_r1_0) + d_L_tau__0__b_dtz);
     const S o21 = (L_fb__2*d_L_pb__0__b_dtz);
-    const S o22 = (L_fb__0*b_r0_0);
+    const S o22 = (L_fb__0*b_r1_0);
     const S o23 = (L_fb__1*d_L_pb__0__b_dtz);
     const S o24 = (-o7);
     const S o25 = (-o8);
@@ -1117,7 +1117,7 @@ struct Slider_Pair_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2886
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2883
   static constexpr int kNumImplicitBlocks = 4;
   static constexpr int kImplicitOutputs = 156;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -1193,40 +1193,40 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let im (slider.yaml:34), let pa (slider.yaml:37), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
-    const S p0_0 = (S(2)*(b_qy*b_qy));
-    const S p0_1 = ((S(2)*(b_qz*b_qz)) - S(1));
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let pb (slider.yaml:33), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
+    const S p0_0 = (S(2)*(a_qy*a_qy));
+    const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
-    const S p0_3 = (S(2)*b_qw);
-    const S p0_4 = (b_qz*p0_3);
-    const S p0_5 = ((S(2)*b_qx*b_qy) - p0_4);
-    const S p0_6 = (b_qy*p0_3);
-    const S p0_7 = (S(2)*b_qx);
-    const S p0_8 = ((b_qz*p0_7) + p0_6);
-    const S p0_9 = ((b_qy*p0_7) + p0_4);
-    const S p0_10 = (S(2)*(b_qx*b_qx));
+    const S p0_3 = (S(2)*a_qw);
+    const S p0_4 = (a_qz*p0_3);
+    const S p0_5 = ((S(2)*a_qx*a_qy) - p0_4);
+    const S p0_6 = (a_qy*p0_3);
+    const S p0_7 = (S(2)*a_qx);
+    const S p0_8 = ((a_qz*p0_7) + p0_6);
+    const S p0_9 = ((a_qy*p0_7) + p0_4);
+    const S p0_10 = (S(2)*(a_qx*a_qx));
     const S p0_11 = ((-p0_1) - p0_10);
-    const S p0_12 = (b_qx*p0_3);
-    const S p0_13 = ((S(2)*b_qy*b_qz) - p0_12);
-    const S p0_14 = ((S(2)*b_qx*b_qz) - p0_6);
-    const S p0_15 = ((S(2)*b_qy*b_qz) + p0_12);
+    const S p0_12 = (a_qx*p0_3);
+    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
+    const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
+    const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
-    const S p0_17 = (S(2)*(a_qy*a_qy));
-    const S p0_18 = ((S(2)*(a_qz*a_qz)) - S(1));
+    const S p0_17 = (S(2)*(b_qy*b_qy));
+    const S p0_18 = ((S(2)*(b_qz*b_qz)) - S(1));
     const S p0_19 = ((-p0_17) - p0_18);
-    const S p0_20 = (S(2)*a_qw);
-    const S p0_21 = (a_qz*p0_20);
-    const S p0_22 = ((S(2)*a_qx*a_qy) - p0_21);
-    const S p0_23 = (a_qy*p0_20);
-    const S p0_24 = (S(2)*a_qx);
-    const S p0_25 = ((a_qz*p0_24) + p0_23);
-    const S p0_26 = ((a_qy*p0_24) + p0_21);
-    const S p0_27 = (S(2)*(a_qx*a_qx));
+    const S p0_20 = (S(2)*b_qw);
+    const S p0_21 = (b_qz*p0_20);
+    const S p0_22 = ((S(2)*b_qx*b_qy) - p0_21);
+    const S p0_23 = (b_qy*p0_20);
+    const S p0_24 = (S(2)*b_qx);
+    const S p0_25 = ((b_qz*p0_24) + p0_23);
+    const S p0_26 = ((b_qy*p0_24) + p0_21);
+    const S p0_27 = (S(2)*(b_qx*b_qx));
     const S p0_28 = ((-p0_18) - p0_27);
-    const S p0_29 = (a_qx*p0_20);
-    const S p0_30 = ((S(2)*a_qy*a_qz) - p0_29);
-    const S p0_31 = ((S(2)*a_qx*a_qz) - p0_23);
-    const S p0_32 = ((S(2)*a_qy*a_qz) + p0_29);
+    const S p0_29 = (b_qx*p0_20);
+    const S p0_30 = ((S(2)*b_qy*b_qz) - p0_29);
+    const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
+    const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
     const S p0_34 = ((p_axis_a__0*p_ref_a__1) - (p_axis_a__1*p_ref_a__0));
     const S p0_35 = ((p_axis_a__1*p_ref_a__2) - (p_axis_a__2*p_ref_a__1));
@@ -1234,56 +1234,56 @@ struct Slider_Pair_Kernel {
     const S p0_37 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
     const S p0_38 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S p0_39 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
-    const S b_r0_0 = ((p0_2*p_point_b__0) + (p0_5*p_point_b__1) + (p0_8*p_point_b__2));
-    const S b_r0_1 = ((p0_11*p_point_b__1) + (p0_13*p_point_b__2) + (p0_9*p_point_b__0));
-    const S b_r0_2 = ((p0_14*p_point_b__0) + (p0_15*p_point_b__1) + (p0_16*p_point_b__2));
-    const S a_r1_0 = ((p0_19*p_point_a__0) + (p0_22*p_point_a__1) + (p0_25*p_point_a__2));
-    const S a_r1_1 = ((p0_26*p_point_a__0) + (p0_28*p_point_a__1) + (p0_30*p_point_a__2));
-    const S a_r1_2 = ((p0_31*p_point_a__0) + (p0_32*p_point_a__1) + (p0_33*p_point_a__2));
-    const S a_r2_0 = ((p0_19*p_axis_a__0) + (p0_22*p_axis_a__1) + (p0_25*p_axis_a__2));
-    const S a_r2_1 = ((p0_26*p_axis_a__0) + (p0_28*p_axis_a__1) + (p0_30*p_axis_a__2));
-    const S a_r2_2 = ((p0_31*p_axis_a__0) + (p0_32*p_axis_a__1) + (p0_33*p_axis_a__2));
-    const S b_r3_0 = ((p0_2*p_axis_b__0) + (p0_5*p_axis_b__1) + (p0_8*p_axis_b__2));
-    const S b_r3_1 = ((p0_11*p_axis_b__1) + (p0_13*p_axis_b__2) + (p0_9*p_axis_b__0));
-    const S b_r3_2 = ((p0_14*p_axis_b__0) + (p0_15*p_axis_b__1) + (p0_16*p_axis_b__2));
-    const S a_r4_0 = ((p0_19*p_ref_a__0) + (p0_22*p_ref_a__1) + (p0_25*p_ref_a__2));
-    const S a_r4_1 = ((p0_26*p_ref_a__0) + (p0_28*p_ref_a__1) + (p0_30*p_ref_a__2));
-    const S a_r4_2 = ((p0_31*p_ref_a__0) + (p0_32*p_ref_a__1) + (p0_33*p_ref_a__2));
-    const S b_r5_0 = ((p0_2*p_ref_b__0) + (p0_5*p_ref_b__1) + (p0_8*p_ref_b__2));
-    const S b_r5_1 = ((p0_11*p_ref_b__1) + (p0_13*p_ref_b__2) + (p0_9*p_ref_b__0));
-    const S b_r5_2 = ((p0_14*p_ref_b__0) + (p0_15*p_ref_b__1) + (p0_16*p_ref_b__2));
-    const S a_r6_0 = ((p0_19*p0_35) + (p0_22*p0_36) + (p0_25*p0_34));
-    const S a_r6_1 = ((p0_26*p0_35) + (p0_28*p0_36) + (p0_30*p0_34));
-    const S a_r6_2 = ((p0_31*p0_35) + (p0_32*p0_36) + (p0_33*p0_34));
-    const S b_r7_0 = ((p0_2*p0_38) + (p0_37*p0_8) + (p0_39*p0_5));
-    const S b_r7_1 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
-    const S b_r7_2 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
+    const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
+    const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
+    const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
+    const S b_r1_0 = ((p0_19*p_point_b__0) + (p0_22*p_point_b__1) + (p0_25*p_point_b__2));
+    const S b_r1_1 = ((p0_26*p_point_b__0) + (p0_28*p_point_b__1) + (p0_30*p_point_b__2));
+    const S b_r1_2 = ((p0_31*p_point_b__0) + (p0_32*p_point_b__1) + (p0_33*p_point_b__2));
+    const S a_r2_0 = ((p0_2*p_axis_a__0) + (p0_5*p_axis_a__1) + (p0_8*p_axis_a__2));
+    const S a_r2_1 = ((p0_11*p_axis_a__1) + (p0_13*p_axis_a__2) + (p0_9*p_axis_a__0));
+    const S a_r2_2 = ((p0_14*p_axis_a__0) + (p0_15*p_axis_a__1) + (p0_16*p_axis_a__2));
+    const S b_r3_0 = ((p0_19*p_axis_b__0) + (p0_22*p_axis_b__1) + (p0_25*p_axis_b__2));
+    const S b_r3_1 = ((p0_26*p_axis_b__0) + (p0_28*p_axis_b__1) + (p0_30*p_axis_b__2));
+    const S b_r3_2 = ((p0_31*p_axis_b__0) + (p0_32*p_axis_b__1) + (p0_33*p_axis_b__2));
+    const S a_r4_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
+    const S a_r4_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
+    const S a_r4_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
+    const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
+    const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
+    const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
+    const S a_r6_0 = ((p0_2*p0_35) + (p0_34*p0_8) + (p0_36*p0_5));
+    const S a_r6_1 = ((p0_11*p0_36) + (p0_13*p0_34) + (p0_35*p0_9));
+    const S a_r6_2 = ((p0_14*p0_35) + (p0_15*p0_36) + (p0_16*p0_34));
+    const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
+    const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
+    const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
     // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (slider.yaml:28)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (slider.yaml:34)
-    [[maybe_unused]] const S L_im = max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + b_px + b_r0_0)*((-a_px) + b_px + b_r0_0)) + (((-a_py) + b_py + b_r0_1)*((-a_py) + b_py + b_r0_1)) + (((-a_pz) + b_pz + b_r0_2)*((-a_pz) + b_pz + b_r0_2))))));
-    // let k (slider.yaml:35)
+    // let k (slider.yaml:30)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:36)
+    // let c (slider.yaml:31)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:37)
-    const S L_pa__0 = (a_px + a_r1_0);
-    const S d_L_pa__0__a_dtz = (-a_r1_1);
-    const S L_pa__1 = (a_py + a_r1_1);
-    const S d_L_pa__1__a_dtx = (-a_r1_2);
-    const S L_pa__2 = (a_pz + a_r1_2);
-    const S d_L_pa__2__a_dty = (-a_r1_0);
-    // let pb (slider.yaml:38)
-    const S L_pb__0 = (b_px + b_r0_0);
-    const S d_L_pb__0__b_dtz = (-b_r0_1);
-    const S L_pb__1 = (b_py + b_r0_1);
-    const S d_L_pb__1__b_dtx = (-b_r0_2);
-    const S L_pb__2 = (b_pz + b_r0_2);
-    const S d_L_pb__2__b_dty = (-b_r0_0);
+    // let pa (slider.yaml:32)
+    const S L_pa__0 = (a_px + a_r0_0);
+    const S d_L_pa__0__a_dtz = (-a_r0_1);
+    const S L_pa__1 = (a_py + a_r0_1);
+    const S d_L_pa__1__a_dtx = (-a_r0_2);
+    const S L_pa__2 = (a_pz + a_r0_2);
+    const S d_L_pa__2__a_dty = (-a_r0_0);
+    // let pb (slider.yaml:33)
+    const S L_pb__0 = (b_px + b_r1_0);
+    const S d_L_pb__0__b_dtz = (-b_r1_1);
+    const S L_pb__1 = (b_py + b_r1_1);
+    const S d_L_pb__1__b_dtx = (-b_r1_2);
+    const S L_pb__2 = (b_pz + b_r1_2);
+    const S d_L_pb__2__b_dty = (-b_r1_0);
+    // let im (slider.yaml:38)
+    [[maybe_unused]] const S L_im = max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*(((L_pb__0 - a_px)*(L_pb__0 - a_px)) + ((L_pb__1 - a_py)*(L_pb__1 - a_py)) + ((L_pb__2 - a_pz)*(L_pb__2 - a_pz))))));
     // let na (slider.yaml:39)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
@@ -1382,13 +1382,13 @@ struct Slider_Pair_Kernel {
     const S d_L_tau__2__b_wz = l15_0_15;
     // let d (slider.yaml:47)
     const S L_d__0 = ((-L_pa__0) + L_pb__0);
-    const S d_L_d__0__a_dty = (-a_r1_2);
+    const S d_L_d__0__a_dty = (-a_r0_2);
     const S d_L_d__0__a_dtz = (-d_L_pa__0__a_dtz);
     const S L_d__1 = ((-L_pa__1) + L_pb__1);
     const S d_L_d__1__a_dtx = (-d_L_pa__1__a_dtx);
-    const S d_L_d__1__a_dtz = (-a_r1_0);
+    const S d_L_d__1__a_dtz = (-a_r0_0);
     const S L_d__2 = ((-L_pa__2) + L_pb__2);
-    const S d_L_d__2__a_dtx = (-a_r1_1);
+    const S d_L_d__2__a_dtx = (-a_r0_1);
     const S d_L_d__2__a_dty = (-d_L_pa__2__a_dty);
     // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
@@ -1398,27 +1398,27 @@ struct Slider_Pair_Kernel {
     const S d_L_travel__a_dtx = ((L_d__1*d_L_na__1__a_dtx) + (L_d__2*a_r2_1) + (L_na__1*d_L_d__1__a_dtx) + (L_na__2*d_L_d__2__a_dtx));
     const S d_L_travel__a_dty = ((L_d__0*a_r2_2) + (L_d__2*d_L_na__2__a_dty) + (L_na__0*d_L_d__0__a_dty) + (L_na__2*d_L_d__2__a_dty));
     const S d_L_travel__a_dtz = ((L_d__0*d_L_na__0__a_dtz) + (L_d__1*a_r2_0) + (L_na__0*d_L_d__0__a_dtz) + (L_na__1*d_L_d__1__a_dtz));
-    const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r0_1));
-    const S d_L_travel__b_dty = ((L_na__0*b_r0_2) + (L_na__2*d_L_pb__2__b_dty));
-    const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r0_0));
+    const S d_L_travel__b_dtx = ((L_na__1*d_L_pb__1__b_dtx) + (L_na__2*b_r1_1));
+    const S d_L_travel__b_dty = ((L_na__0*b_r1_2) + (L_na__2*d_L_pb__2__b_dty));
+    const S d_L_travel__b_dtz = ((L_na__0*d_L_pb__0__b_dtz) + (L_na__1*b_r1_0));
     // let vrel (slider.yaml:49)
-    const S l18_0_0 = (a_r1_1*a_wz);
-    const S l18_0_1 = (b_r0_2*b_wy);
-    const S l18_0_2 = (a_r1_2*a_wy);
-    const S l18_0_3 = (-(b_r0_1*b_wz));
-    const S l18_0_4 = (a_r1_1*a_wy);
-    const S l18_0_5 = (a_r1_2*a_wz);
-    const S l18_0_6 = (a_r1_0*a_wy);
-    const S l18_0_7 = (a_r1_0*a_wz);
-    const S l18_0_8 = (b_r0_1*b_wy);
-    const S l18_0_9 = (b_r0_2*b_wz);
-    const S l18_0_10 = (-(b_r0_0*b_wy));
-    const S l18_0_11 = (-(b_r0_0*b_wz));
-    const S l18_0_12 = (b_r0_2*b_wx);
-    const S l18_0_13 = (a_r1_1*a_wx);
-    const S l18_0_14 = (a_r1_0*a_wx);
-    const S l18_0_15 = (b_r0_1*b_wx);
-    const S l18_0_16 = (b_r0_0*b_wx);
+    const S l18_0_0 = (a_r0_1*a_wz);
+    const S l18_0_1 = (b_r1_2*b_wy);
+    const S l18_0_2 = (a_r0_2*a_wy);
+    const S l18_0_3 = (-(b_r1_1*b_wz));
+    const S l18_0_4 = (a_r0_1*a_wy);
+    const S l18_0_5 = (a_r0_2*a_wz);
+    const S l18_0_6 = (a_r0_0*a_wy);
+    const S l18_0_7 = (a_r0_0*a_wz);
+    const S l18_0_8 = (b_r1_1*b_wy);
+    const S l18_0_9 = (b_r1_2*b_wz);
+    const S l18_0_10 = (-(b_r1_0*b_wy));
+    const S l18_0_11 = (-(b_r1_0*b_wz));
+    const S l18_0_12 = (b_r1_2*b_wx);
+    const S l18_0_13 = (a_r0_1*a_wx);
+    const S l18_0_14 = (a_r0_0*a_wx);
+    const S l18_0_15 = (b_r1_1*b_wx);
+    const S l18_0_16 = (b_r1_0*b_wx);
     const S L_vrel__0 = ((-a_vx) + b_vx + l18_0_0 + l18_0_1 - l18_0_2 + l18_0_3);
     const S d_L_vrel__0__a_dtx = ((-l18_0_4) - l18_0_5);
     const S d_L_vrel__0__a_dty = l18_0_6;
@@ -1426,26 +1426,26 @@ struct Slider_Pair_Kernel {
     const S d_L_vrel__0__b_dtx = (l18_0_8 + l18_0_9);
     const S d_L_vrel__0__b_dty = l18_0_10;
     const S d_L_vrel__0__b_dtz = l18_0_11;
-    const S d_L_vrel__0__a_wy = (-a_r1_2);
-    const S d_L_vrel__0__b_wz = (-b_r0_1);
-    const S L_vrel__1 = ((a_r1_2*a_wx) - a_vy + b_vy - l18_0_11 - l18_0_12 - l18_0_7);
+    const S d_L_vrel__0__a_wy = (-a_r0_2);
+    const S d_L_vrel__0__b_wz = (-b_r1_1);
+    const S L_vrel__1 = ((a_r0_2*a_wx) - a_vy + b_vy - l18_0_11 - l18_0_12 - l18_0_7);
     const S d_L_vrel__1__a_dtx = l18_0_13;
     const S d_L_vrel__1__a_dty = ((-l18_0_14) - l18_0_5);
     const S d_L_vrel__1__a_dtz = l18_0_0;
     const S d_L_vrel__1__b_dtx = (-l18_0_15);
     const S d_L_vrel__1__b_dty = (l18_0_16 + l18_0_9);
     const S d_L_vrel__1__b_dtz = l18_0_3;
-    const S d_L_vrel__1__a_wz = (-a_r1_0);
-    const S d_L_vrel__1__b_wx = (-b_r0_2);
+    const S d_L_vrel__1__a_wz = (-a_r0_0);
+    const S d_L_vrel__1__b_wx = (-b_r1_2);
     const S L_vrel__2 = ((-a_vz) + b_vz + l18_0_10 - l18_0_13 + l18_0_15 + l18_0_6);
-    const S d_L_vrel__2__a_dtx = (a_r1_2*a_wx);
+    const S d_L_vrel__2__a_dtx = (a_r0_2*a_wx);
     const S d_L_vrel__2__a_dty = l18_0_2;
     const S d_L_vrel__2__a_dtz = ((-l18_0_14) - l18_0_4);
     const S d_L_vrel__2__b_dtx = (-l18_0_12);
     const S d_L_vrel__2__b_dty = (-l18_0_1);
     const S d_L_vrel__2__b_dtz = (l18_0_16 + l18_0_8);
-    const S d_L_vrel__2__a_wx = (-a_r1_1);
-    const S d_L_vrel__2__b_wy = (-b_r0_0);
+    const S d_L_vrel__2__a_wx = (-a_r0_1);
+    const S d_L_vrel__2__b_wy = (-b_r1_0);
     // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     const S d_L_rate__a_dtx = ((L_na__0*d_L_vrel__0__a_dtx) + (L_na__1*d_L_vrel__1__a_dtx) + (L_na__2*d_L_vrel__2__a_dtx) + (L_vrel__1*d_L_na__1__a_dtx) + (L_vrel__2*a_r2_1));
@@ -1457,12 +1457,12 @@ struct Slider_Pair_Kernel {
     const S d_L_rate__a_vx = (-L_na__0);
     const S d_L_rate__a_vy = (-L_na__1);
     const S d_L_rate__a_vz = (-L_na__2);
-    const S d_L_rate__a_wx = ((L_na__1*a_r1_2) + (L_na__2*d_L_vrel__2__a_wx));
-    const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r1_0));
-    const S d_L_rate__a_wz = ((L_na__0*a_r1_1) + (L_na__1*d_L_vrel__1__a_wz));
-    const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r0_1));
-    const S d_L_rate__b_wy = ((L_na__0*b_r0_2) + (L_na__2*d_L_vrel__2__b_wy));
-    const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r0_0));
+    const S d_L_rate__a_wx = ((L_na__1*a_r0_2) + (L_na__2*d_L_vrel__2__a_wx));
+    const S d_L_rate__a_wy = ((L_na__0*d_L_vrel__0__a_wy) + (L_na__2*a_r0_0));
+    const S d_L_rate__a_wz = ((L_na__0*a_r0_1) + (L_na__1*d_L_vrel__1__a_wz));
+    const S d_L_rate__b_wx = ((L_na__1*d_L_vrel__1__b_wx) + (L_na__2*b_r1_1));
+    const S d_L_rate__b_wy = ((L_na__0*b_r1_2) + (L_na__2*d_L_vrel__2__b_wy));
+    const S d_L_rate__b_wz = ((L_na__0*d_L_vrel__0__b_wz) + (L_na__1*b_r1_0));
     // let across (slider.yaml:52)
     const S l20_0_0 = (L_k*L_na__0);
     const S l20_0_1 = (L_c*L_na__0);
@@ -1493,19 +1493,19 @@ struct Slider_Pair_Kernel {
     const S d_L_across__0__b_dy = l20_0_5;
     const S d_L_across__0__b_dz = l20_0_6;
     const S d_L_across__0__b_dtx = ((-(L_c*d_L_vrel__0__b_dtx)) + (d_L_rate__b_dtx*l20_0_1) + (d_L_travel__b_dtx*l20_0_0));
-    const S d_L_across__0__b_dty = ((-(L_c*d_L_vrel__0__b_dty)) - (L_k*b_r0_2) + (d_L_rate__b_dty*l20_0_1) + (d_L_travel__b_dty*l20_0_0));
+    const S d_L_across__0__b_dty = ((-(L_c*d_L_vrel__0__b_dty)) - (L_k*b_r1_2) + (d_L_rate__b_dty*l20_0_1) + (d_L_travel__b_dty*l20_0_0));
     const S d_L_across__0__b_dtz = ((-(L_c*d_L_vrel__0__b_dtz)) - (L_k*d_L_pb__0__b_dtz) + (d_L_rate__b_dtz*l20_0_1) + (d_L_travel__b_dtz*l20_0_0));
     const S d_L_across__0__a_vx = (L_c + (d_L_rate__a_vx*l20_0_1));
     const S d_L_across__0__a_vy = (d_L_rate__a_vy*l20_0_1);
     const S d_L_across__0__a_vz = (d_L_rate__a_vz*l20_0_1);
     const S d_L_across__0__a_wx = (d_L_rate__a_wx*l20_0_1);
     const S d_L_across__0__a_wy = ((-(L_c*d_L_vrel__0__a_wy)) + (d_L_rate__a_wy*l20_0_1));
-    const S d_L_across__0__a_wz = ((-(L_c*a_r1_1)) + (d_L_rate__a_wz*l20_0_1));
+    const S d_L_across__0__a_wz = ((-(L_c*a_r0_1)) + (d_L_rate__a_wz*l20_0_1));
     const S d_L_across__0__b_vx = ((L_c*l20_0_4) + l20_0_7);
     const S d_L_across__0__b_vy = l20_0_8;
     const S d_L_across__0__b_vz = l20_0_9;
     const S d_L_across__0__b_wx = (d_L_rate__b_wx*l20_0_1);
-    const S d_L_across__0__b_wy = ((-(L_c*b_r0_2)) + (d_L_rate__b_wy*l20_0_1));
+    const S d_L_across__0__b_wy = ((-(L_c*b_r1_2)) + (d_L_rate__b_wy*l20_0_1));
     const S d_L_across__0__b_wz = ((-(L_c*d_L_vrel__0__b_wz)) + (d_L_rate__b_wz*l20_0_1));
     const S L_across__1 = ((-(L_c*((-(L_na__1*L_rate)) + L_vrel__1))) - (L_k*(L_d__1 - (L_na__1*L_travel))));
     const S d_L_across__1__a_dx = (d_L_travel__a_dx*l20_0_10);
@@ -1519,11 +1519,11 @@ struct Slider_Pair_Kernel {
     const S d_L_across__1__b_dz = l20_0_13;
     const S d_L_across__1__b_dtx = ((-(L_c*d_L_vrel__1__b_dtx)) - (L_k*d_L_pb__1__b_dtx) + (d_L_rate__b_dtx*l20_0_11) + (d_L_travel__b_dtx*l20_0_10));
     const S d_L_across__1__b_dty = ((-(L_c*d_L_vrel__1__b_dty)) + (d_L_rate__b_dty*l20_0_11) + (d_L_travel__b_dty*l20_0_10));
-    const S d_L_across__1__b_dtz = ((-(L_c*d_L_vrel__1__b_dtz)) - (L_k*b_r0_0) + (d_L_rate__b_dtz*l20_0_11) + (d_L_travel__b_dtz*l20_0_10));
+    const S d_L_across__1__b_dtz = ((-(L_c*d_L_vrel__1__b_dtz)) - (L_k*b_r1_0) + (d_L_rate__b_dtz*l20_0_11) + (d_L_travel__b_dtz*l20_0_10));
     const S d_L_across__1__a_vx = (d_L_rate__a_vx*l20_0_11);
     const S d_L_across__1__a_vy = (L_c + (d_L_rate__a_vy*l20_0_11));
     const S d_L_across__1__a_vz = (d_L_rate__a_vz*l20_0_11);
-    const S d_L_across__1__a_wx = ((-(L_c*a_r1_2)) + (d_L_rate__a_wx*l20_0_11));
+    const S d_L_across__1__a_wx = ((-(L_c*a_r0_2)) + (d_L_rate__a_wx*l20_0_11));
     const S d_L_across__1__a_wy = (d_L_rate__a_wy*l20_0_11);
     const S d_L_across__1__a_wz = ((-(L_c*d_L_vrel__1__a_wz)) + (d_L_rate__a_wz*l20_0_11));
     const S d_L_across__1__b_vx = l20_0_8;
@@ -1531,7 +1531,7 @@ struct Slider_Pair_Kernel {
     const S d_L_across__1__b_vz = l20_0_14;
     const S d_L_across__1__b_wx = ((-(L_c*d_L_vrel__1__b_wx)) + (d_L_rate__b_wx*l20_0_11));
     const S d_L_across__1__b_wy = (d_L_rate__b_wy*l20_0_11);
-    const S d_L_across__1__b_wz = ((-(L_c*b_r0_0)) + (d_L_rate__b_wz*l20_0_11));
+    const S d_L_across__1__b_wz = ((-(L_c*b_r1_0)) + (d_L_rate__b_wz*l20_0_11));
     const S L_across__2 = ((-(L_c*((-(L_na__2*L_rate)) + L_vrel__2))) - (L_k*(L_d__2 - (L_na__2*L_travel))));
     const S d_L_across__2__a_dx = (d_L_travel__a_dx*l20_0_15);
     const S d_L_across__2__a_dy = (d_L_travel__a_dy*l20_0_15);
@@ -1542,19 +1542,19 @@ struct Slider_Pair_Kernel {
     const S d_L_across__2__b_dx = l20_0_6;
     const S d_L_across__2__b_dy = l20_0_13;
     const S d_L_across__2__b_dz = ((L_k*l20_0_17) + l20_0_3);
-    const S d_L_across__2__b_dtx = ((-(L_c*d_L_vrel__2__b_dtx)) - (L_k*b_r0_1) + (d_L_rate__b_dtx*l20_0_16) + (d_L_travel__b_dtx*l20_0_15));
+    const S d_L_across__2__b_dtx = ((-(L_c*d_L_vrel__2__b_dtx)) - (L_k*b_r1_1) + (d_L_rate__b_dtx*l20_0_16) + (d_L_travel__b_dtx*l20_0_15));
     const S d_L_across__2__b_dty = ((-(L_c*d_L_vrel__2__b_dty)) - (L_k*d_L_pb__2__b_dty) + (d_L_rate__b_dty*l20_0_16) + (d_L_travel__b_dty*l20_0_15));
     const S d_L_across__2__b_dtz = ((-(L_c*d_L_vrel__2__b_dtz)) + (d_L_rate__b_dtz*l20_0_16) + (d_L_travel__b_dtz*l20_0_15));
     const S d_L_across__2__a_vx = (d_L_rate__a_vx*l20_0_16);
     const S d_L_across__2__a_vy = (d_L_rate__a_vy*l20_0_16);
     const S d_L_across__2__a_vz = (L_c + (d_L_rate__a_vz*l20_0_16));
     const S d_L_across__2__a_wx = ((-(L_c*d_L_vrel__2__a_wx)) + (d_L_rate__a_wx*l20_0_16));
-    const S d_L_across__2__a_wy = ((-(L_c*a_r1_0)) + (d_L_rate__a_wy*l20_0_16));
+    const S d_L_across__2__a_wy = ((-(L_c*a_r0_0)) + (d_L_rate__a_wy*l20_0_16));
     const S d_L_across__2__a_wz = (d_L_rate__a_wz*l20_0_16);
     const S d_L_across__2__b_vx = l20_0_9;
     const S d_L_across__2__b_vy = l20_0_14;
     const S d_L_across__2__b_vz = ((L_c*l20_0_17) + l20_0_7);
-    const S d_L_across__2__b_wx = ((-(L_c*b_r0_1)) + (d_L_rate__b_wx*l20_0_16));
+    const S d_L_across__2__b_wx = ((-(L_c*b_r1_1)) + (d_L_rate__b_wx*l20_0_16));
     const S d_L_across__2__b_wy = ((-(L_c*d_L_vrel__2__b_wy)) + (d_L_rate__b_wy*l20_0_16));
     const S d_L_across__2__b_wz = (d_L_rate__b_wz*l20_0_16);
     // let limited (slider.yaml:53)
@@ -1826,12 +1826,12 @@ struct Slider_Pair_Kernel {
     const S o26 = (-L_fb__2);
     const S o27 = ((d_L_fb__1__b_dy*o15) + (d_L_fb__2__b_dy*o17) + o26);
     const S o28 = (L_fb__1 + (d_L_fb__1__b_dz*o15) + (d_L_fb__2__b_dz*o17));
-    const S o29 = (L_fb__1*b_r0_1);
+    const S o29 = (L_fb__1*b_r1_1);
     const S o30 = (L_fb__2*d_L_pb__1__b_dtx);
     const S o31 = ((d_L_fb__1__b_dtx*o15) + (d_L_fb__2__b_dtx*o17) - d_L_tau__0__b_dtx + o29 - o30);
     const S o32 = (L_fb__1*d_L_pb__2__b_dty);
     const S o33 = ((d_L_fb__1__b_dty*o15) + (d_L_fb__2__b_dty*o17) - d_L_tau__0__b_dty + o32);
-    const S o34 = ((L_fb__2*b_r0_0) + d_L_tau__0__b_dtz);
+    const S o34 = ((L_fb__2*b_r1_0) + d_L_tau__0__b_dtz);
     const S o35 = ((d_L_fb__1__b_dtz*o15) + (d_L_fb__2__b_dtz*o17) - o34);
     const S o36 = (L_pb__0 - a_px);
     const S o37 = (-o15);
@@ -1845,9 +1845,9 @@ struct Slider_Pair_Kernel {
     const S o45 = ((d_L_fb__0__b_dy*o37) + (d_L_fb__2__b_dy*o36));
     const S o46 = (-L_fb__0);
     const S o47 = ((d_L_fb__0__b_dz*o37) + (d_L_fb__2__b_dz*o36) + o46);
-    const S o48 = ((L_fb__0*b_r0_1) + d_L_tau__1__b_dtx);
+    const S o48 = ((L_fb__0*b_r1_1) + d_L_tau__1__b_dtx);
     const S o49 = ((d_L_fb__0__b_dtx*o37) + (d_L_fb__2__b_dtx*o36) - o48);
-    const S o50 = (L_fb__2*b_r0_2);
+    const S o50 = (L_fb__2*b_r1_2);
     const S o51 = (L_fb__0*d_L_pb__2__b_dty);
     const S o52 = ((d_L_fb__0__b_dty*o37) + (d_L_fb__2__b_dty*o36) - d_L_tau__1__b_dty + o50 - o51);
     const S o53 = (L_fb__2*d_L_pb__0__b_dtz);
@@ -1864,9 +1864,9 @@ struct Slider_Pair_Kernel {
     const S o64 = ((d_L_fb__0__b_dz*o16) + (d_L_fb__1__b_dz*o55));
     const S o65 = (L_fb__0*d_L_pb__1__b_dtx);
     const S o66 = ((d_L_fb__0__b_dtx*o16) + (d_L_fb__1__b_dtx*o55) - d_L_tau__2__b_dtx + o65);
-    const S o67 = ((L_fb__1*b_r0_2) + d_L_tau__2__b_dty);
+    const S o67 = ((L_fb__1*b_r1_2) + d_L_tau__2__b_dty);
     const S o68 = ((d_L_fb__0__b_dty*o16) + (d_L_fb__1__b_dty*o55) - o67);
-    const S o69 = (L_fb__0*b_r0_0);
+    const S o69 = (L_fb__0*b_r1_0);
     const S o70 = (L_fb__1*d_L_pb__0__b_dtz);
     const S o71 = ((d_L_fb__0__b_dtz*o16) + (d_L_fb__1__b_dtz*o55) - d_L_tau__2__b_dtz + o69 - o70);
     const S o72 = (L_pb__1 - b_py);
@@ -2119,7 +2119,7 @@ struct Slider_Pair_Kernel {
   static constexpr int kJointArm[2] = { -1, -1 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 451
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 448
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -2187,40 +2187,40 @@ struct Slider_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[60];
     [[maybe_unused]] const S g_joint_hertz = in[61];
     [[maybe_unused]] const S g_joint_damping_ratio = in[62];
-    // body-frame quantities rotated to world, first used by let im (slider.yaml:34), let pa (slider.yaml:37), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
-    const S p0_0 = (S(2)*(b_qy*b_qy));
-    const S p0_1 = ((S(2)*(b_qz*b_qz)) - S(1));
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let pb (slider.yaml:33), let na (slider.yaml:39), let nb (slider.yaml:40), let ua (slider.yaml:41), let ub (slider.yaml:42), let ta (slider.yaml:43), let tb (slider.yaml:44)
+    const S p0_0 = (S(2)*(a_qy*a_qy));
+    const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
-    const S p0_3 = (S(2)*b_qw);
-    const S p0_4 = (b_qz*p0_3);
-    const S p0_5 = ((S(2)*b_qx*b_qy) - p0_4);
-    const S p0_6 = (b_qy*p0_3);
-    const S p0_7 = (S(2)*b_qx);
-    const S p0_8 = ((b_qz*p0_7) + p0_6);
-    const S p0_9 = ((b_qy*p0_7) + p0_4);
-    const S p0_10 = (S(2)*(b_qx*b_qx));
+    const S p0_3 = (S(2)*a_qw);
+    const S p0_4 = (a_qz*p0_3);
+    const S p0_5 = ((S(2)*a_qx*a_qy) - p0_4);
+    const S p0_6 = (a_qy*p0_3);
+    const S p0_7 = (S(2)*a_qx);
+    const S p0_8 = ((a_qz*p0_7) + p0_6);
+    const S p0_9 = ((a_qy*p0_7) + p0_4);
+    const S p0_10 = (S(2)*(a_qx*a_qx));
     const S p0_11 = ((-p0_1) - p0_10);
-    const S p0_12 = (b_qx*p0_3);
-    const S p0_13 = ((S(2)*b_qy*b_qz) - p0_12);
-    const S p0_14 = ((S(2)*b_qx*b_qz) - p0_6);
-    const S p0_15 = ((S(2)*b_qy*b_qz) + p0_12);
+    const S p0_12 = (a_qx*p0_3);
+    const S p0_13 = ((S(2)*a_qy*a_qz) - p0_12);
+    const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
+    const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
-    const S p0_17 = (S(2)*(a_qy*a_qy));
-    const S p0_18 = ((S(2)*(a_qz*a_qz)) - S(1));
+    const S p0_17 = (S(2)*(b_qy*b_qy));
+    const S p0_18 = ((S(2)*(b_qz*b_qz)) - S(1));
     const S p0_19 = ((-p0_17) - p0_18);
-    const S p0_20 = (S(2)*a_qw);
-    const S p0_21 = (a_qz*p0_20);
-    const S p0_22 = ((S(2)*a_qx*a_qy) - p0_21);
-    const S p0_23 = (a_qy*p0_20);
-    const S p0_24 = (S(2)*a_qx);
-    const S p0_25 = ((a_qz*p0_24) + p0_23);
-    const S p0_26 = ((a_qy*p0_24) + p0_21);
-    const S p0_27 = (S(2)*(a_qx*a_qx));
+    const S p0_20 = (S(2)*b_qw);
+    const S p0_21 = (b_qz*p0_20);
+    const S p0_22 = ((S(2)*b_qx*b_qy) - p0_21);
+    const S p0_23 = (b_qy*p0_20);
+    const S p0_24 = (S(2)*b_qx);
+    const S p0_25 = ((b_qz*p0_24) + p0_23);
+    const S p0_26 = ((b_qy*p0_24) + p0_21);
+    const S p0_27 = (S(2)*(b_qx*b_qx));
     const S p0_28 = ((-p0_18) - p0_27);
-    const S p0_29 = (a_qx*p0_20);
-    const S p0_30 = ((S(2)*a_qy*a_qz) - p0_29);
-    const S p0_31 = ((S(2)*a_qx*a_qz) - p0_23);
-    const S p0_32 = ((S(2)*a_qy*a_qz) + p0_29);
+    const S p0_29 = (b_qx*p0_20);
+    const S p0_30 = ((S(2)*b_qy*b_qz) - p0_29);
+    const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
+    const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
     const S p0_34 = ((p_axis_a__0*p_ref_a__1) - (p_axis_a__1*p_ref_a__0));
     const S p0_35 = ((p_axis_a__1*p_ref_a__2) - (p_axis_a__2*p_ref_a__1));
@@ -2228,30 +2228,30 @@ struct Slider_Pair_Kernel {
     const S p0_37 = ((p_axis_b__0*p_ref_b__1) - (p_axis_b__1*p_ref_b__0));
     const S p0_38 = ((p_axis_b__1*p_ref_b__2) - (p_axis_b__2*p_ref_b__1));
     const S p0_39 = ((-(p_axis_b__0*p_ref_b__2)) + (p_axis_b__2*p_ref_b__0));
-    const S b_r0_0 = ((p0_2*p_point_b__0) + (p0_5*p_point_b__1) + (p0_8*p_point_b__2));
-    const S b_r0_1 = ((p0_11*p_point_b__1) + (p0_13*p_point_b__2) + (p0_9*p_point_b__0));
-    const S b_r0_2 = ((p0_14*p_point_b__0) + (p0_15*p_point_b__1) + (p0_16*p_point_b__2));
-    const S a_r1_0 = ((p0_19*p_point_a__0) + (p0_22*p_point_a__1) + (p0_25*p_point_a__2));
-    const S a_r1_1 = ((p0_26*p_point_a__0) + (p0_28*p_point_a__1) + (p0_30*p_point_a__2));
-    const S a_r1_2 = ((p0_31*p_point_a__0) + (p0_32*p_point_a__1) + (p0_33*p_point_a__2));
-    const S a_r2_0 = ((p0_19*p_axis_a__0) + (p0_22*p_axis_a__1) + (p0_25*p_axis_a__2));
-    const S a_r2_1 = ((p0_26*p_axis_a__0) + (p0_28*p_axis_a__1) + (p0_30*p_axis_a__2));
-    const S a_r2_2 = ((p0_31*p_axis_a__0) + (p0_32*p_axis_a__1) + (p0_33*p_axis_a__2));
-    const S b_r3_0 = ((p0_2*p_axis_b__0) + (p0_5*p_axis_b__1) + (p0_8*p_axis_b__2));
-    const S b_r3_1 = ((p0_11*p_axis_b__1) + (p0_13*p_axis_b__2) + (p0_9*p_axis_b__0));
-    const S b_r3_2 = ((p0_14*p_axis_b__0) + (p0_15*p_axis_b__1) + (p0_16*p_axis_b__2));
-    const S a_r4_0 = ((p0_19*p_ref_a__0) + (p0_22*p_ref_a__1) + (p0_25*p_ref_a__2));
-    const S a_r4_1 = ((p0_26*p_ref_a__0) + (p0_28*p_ref_a__1) + (p0_30*p_ref_a__2));
-    const S a_r4_2 = ((p0_31*p_ref_a__0) + (p0_32*p_ref_a__1) + (p0_33*p_ref_a__2));
-    const S b_r5_0 = ((p0_2*p_ref_b__0) + (p0_5*p_ref_b__1) + (p0_8*p_ref_b__2));
-    const S b_r5_1 = ((p0_11*p_ref_b__1) + (p0_13*p_ref_b__2) + (p0_9*p_ref_b__0));
-    const S b_r5_2 = ((p0_14*p_ref_b__0) + (p0_15*p_ref_b__1) + (p0_16*p_ref_b__2));
-    const S a_r6_0 = ((p0_19*p0_35) + (p0_22*p0_36) + (p0_25*p0_34));
-    const S a_r6_1 = ((p0_26*p0_35) + (p0_28*p0_36) + (p0_30*p0_34));
-    const S a_r6_2 = ((p0_31*p0_35) + (p0_32*p0_36) + (p0_33*p0_34));
-    const S b_r7_0 = ((p0_2*p0_38) + (p0_37*p0_8) + (p0_39*p0_5));
-    const S b_r7_1 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
-    const S b_r7_2 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
+    const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
+    const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
+    const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
+    const S b_r1_0 = ((p0_19*p_point_b__0) + (p0_22*p_point_b__1) + (p0_25*p_point_b__2));
+    const S b_r1_1 = ((p0_26*p_point_b__0) + (p0_28*p_point_b__1) + (p0_30*p_point_b__2));
+    const S b_r1_2 = ((p0_31*p_point_b__0) + (p0_32*p_point_b__1) + (p0_33*p_point_b__2));
+    const S a_r2_0 = ((p0_2*p_axis_a__0) + (p0_5*p_axis_a__1) + (p0_8*p_axis_a__2));
+    const S a_r2_1 = ((p0_11*p_axis_a__1) + (p0_13*p_axis_a__2) + (p0_9*p_axis_a__0));
+    const S a_r2_2 = ((p0_14*p_axis_a__0) + (p0_15*p_axis_a__1) + (p0_16*p_axis_a__2));
+    const S b_r3_0 = ((p0_19*p_axis_b__0) + (p0_22*p_axis_b__1) + (p0_25*p_axis_b__2));
+    const S b_r3_1 = ((p0_26*p_axis_b__0) + (p0_28*p_axis_b__1) + (p0_30*p_axis_b__2));
+    const S b_r3_2 = ((p0_31*p_axis_b__0) + (p0_32*p_axis_b__1) + (p0_33*p_axis_b__2));
+    const S a_r4_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
+    const S a_r4_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
+    const S a_r4_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
+    const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
+    const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
+    const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
+    const S a_r6_0 = ((p0_2*p0_35) + (p0_34*p0_8) + (p0_36*p0_5));
+    const S a_r6_1 = ((p0_11*p0_36) + (p0_13*p0_34) + (p0_35*p0_9));
+    const S a_r6_2 = ((p0_14*p0_35) + (p0_15*p0_36) + (p0_16*p0_34));
+    const S b_r7_0 = ((p0_19*p0_38) + (p0_22*p0_39) + (p0_25*p0_37));
+    const S b_r7_1 = ((p0_26*p0_38) + (p0_28*p0_39) + (p0_30*p0_37));
+    const S b_r7_2 = ((p0_31*p0_38) + (p0_32*p0_39) + (p0_33*p0_37));
     // let omega (slider.yaml:27)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (slider.yaml:28)
@@ -2259,21 +2259,21 @@ struct Slider_Pair_Kernel {
     // let m (slider.yaml:29)
     const S L_m = held_in ? held_in[0] : S(max(a_m, b_m));
     if (held_out) held_out[0] = L_m;
-    // let im (slider.yaml:34)
-    const S L_im = held_in ? held_in[1] : S(max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + b_px + b_r0_0)*((-a_px) + b_px + b_r0_0)) + (((-a_py) + b_py + b_r0_1)*((-a_py) + b_py + b_r0_1)) + (((-a_pz) + b_pz + b_r0_2)*((-a_pz) + b_pz + b_r0_2)))))));
-    if (held_out) held_out[1] = L_im;
-    // let k (slider.yaml:35)
+    // let k (slider.yaml:30)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:36)
+    // let c (slider.yaml:31)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:37)
-    const S L_pa__0 = (a_px + a_r1_0);
-    const S L_pa__1 = (a_py + a_r1_1);
-    const S L_pa__2 = (a_pz + a_r1_2);
-    // let pb (slider.yaml:38)
-    const S L_pb__0 = (b_px + b_r0_0);
-    const S L_pb__1 = (b_py + b_r0_1);
-    const S L_pb__2 = (b_pz + b_r0_2);
+    // let pa (slider.yaml:32)
+    const S L_pa__0 = (a_px + a_r0_0);
+    const S L_pa__1 = (a_py + a_r0_1);
+    const S L_pa__2 = (a_pz + a_r0_2);
+    // let pb (slider.yaml:33)
+    const S L_pb__0 = (b_px + b_r1_0);
+    const S L_pb__1 = (b_py + b_r1_1);
+    const S L_pb__2 = (b_pz + b_r1_2);
+    // let im (slider.yaml:38)
+    const S L_im = held_in ? held_in[1] : S(max(((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*(((L_pb__0 - a_px)*(L_pb__0 - a_px)) + ((L_pb__1 - a_py)*(L_pb__1 - a_py)) + ((L_pb__2 - a_pz)*(L_pb__2 - a_pz)))))));
+    if (held_out) held_out[1] = L_im;
     // let na (slider.yaml:39)
     const S L_na__0 = a_r2_0;
     const S L_na__1 = a_r2_1;
@@ -2315,9 +2315,9 @@ struct Slider_Pair_Kernel {
     // let travel (slider.yaml:48)
     const S L_travel = ((L_d__0*L_na__0) + (L_d__1*L_na__1) + (L_d__2*L_na__2));
     // let vrel (slider.yaml:49)
-    const S L_vrel__0 = ((a_r1_1*a_wz) - (a_r1_2*a_wy) - a_vx - (b_r0_1*b_wz) + (b_r0_2*b_wy) + b_vx);
-    const S L_vrel__1 = ((-(a_r1_0*a_wz)) + (a_r1_2*a_wx) - a_vy + (b_r0_0*b_wz) - (b_r0_2*b_wx) + b_vy);
-    const S L_vrel__2 = ((a_r1_0*a_wy) - (a_r1_1*a_wx) - a_vz - (b_r0_0*b_wy) + (b_r0_1*b_wx) + b_vz);
+    const S L_vrel__0 = ((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx);
+    const S L_vrel__1 = ((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy);
+    const S L_vrel__2 = ((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz);
     // let rate (slider.yaml:50)
     const S L_rate = ((L_na__0*L_vrel__0) + (L_na__1*L_vrel__1) + (L_na__2*L_vrel__2));
     // let across (slider.yaml:52)
@@ -2504,7 +2504,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:37), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2543,23 +2543,23 @@ struct Slider_World_Kernel {
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (slider.yaml:34)
-    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + p_point_b__0)*((-a_px) + p_point_b__0)) + (((-a_py) + p_point_b__1)*((-a_py) + p_point_b__1)) + (((-a_pz) + p_point_b__2)*((-a_pz) + p_point_b__2))))));
-    // let k (slider.yaml:35)
+    // let k (slider.yaml:30)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:36)
+    // let c (slider.yaml:31)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:37)
+    // let pa (slider.yaml:32)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:38)
+    // let pb (slider.yaml:33)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let im (slider.yaml:38)
+    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*(((L_pb__0 - a_px)*(L_pb__0 - a_px)) + ((L_pb__1 - a_py)*(L_pb__1 - a_py)) + ((L_pb__2 - a_pz)*(L_pb__2 - a_pz))))));
     // let na (slider.yaml:39)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
@@ -3017,7 +3017,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:37), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3056,23 +3056,23 @@ struct Slider_World_Kernel {
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (slider.yaml:29)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (slider.yaml:34)
-    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + p_point_b__0)*((-a_px) + p_point_b__0)) + (((-a_py) + p_point_b__1)*((-a_py) + p_point_b__1)) + (((-a_pz) + p_point_b__2)*((-a_pz) + p_point_b__2))))));
-    // let k (slider.yaml:35)
+    // let k (slider.yaml:30)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:36)
+    // let c (slider.yaml:31)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:37)
+    // let pa (slider.yaml:32)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (slider.yaml:38)
+    // let pb (slider.yaml:33)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let im (slider.yaml:38)
+    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*(((L_pb__0 - a_px)*(L_pb__0 - a_px)) + ((L_pb__1 - a_py)*(L_pb__1 - a_py)) + ((L_pb__2 - a_pz)*(L_pb__2 - a_pz))))));
     // let na (slider.yaml:39)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
@@ -3515,7 +3515,7 @@ struct Slider_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[43];
     [[maybe_unused]] const S g_joint_hertz = in[44];
     [[maybe_unused]] const S g_joint_damping_ratio = in[45];
-    // body-frame quantities rotated to world, first used by let pa (slider.yaml:37), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
+    // body-frame quantities rotated to world, first used by let pa (slider.yaml:32), let na (slider.yaml:39), let ua (slider.yaml:41), let ta (slider.yaml:43)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3555,21 +3555,21 @@ struct Slider_World_Kernel {
     // let m (slider.yaml:29)
     const S L_m = held_in ? held_in[0] : S(max(S(0), a_m));
     if (held_out) held_out[0] = L_m;
-    // let im (slider.yaml:34)
-    const S L_im = held_in ? held_in[1] : S(max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*((((-a_px) + p_point_b__0)*((-a_px) + p_point_b__0)) + (((-a_py) + p_point_b__1)*((-a_py) + p_point_b__1)) + (((-a_pz) + p_point_b__2)*((-a_pz) + p_point_b__2)))))));
-    if (held_out) held_out[1] = L_im;
-    // let k (slider.yaml:35)
+    // let k (slider.yaml:30)
     const S L_k = (L_m*(L_omega*L_omega));
-    // let c (slider.yaml:36)
+    // let c (slider.yaml:31)
     const S L_c = (S(2)*L_m*L_omega*L_zeta);
-    // let pa (slider.yaml:37)
+    // let pa (slider.yaml:32)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (slider.yaml:38)
+    // let pb (slider.yaml:33)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
+    // let im (slider.yaml:38)
+    const S L_im = held_in ? held_in[1] : S(max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz) + (a_m*(((L_pb__0 - a_px)*(L_pb__0 - a_px)) + ((L_pb__1 - a_py)*(L_pb__1 - a_py)) + ((L_pb__2 - a_pz)*(L_pb__2 - a_pz)))))));
+    if (held_out) held_out[1] = L_im;
     // let na (slider.yaml:39)
     const S L_na__0 = a_r1_0;
     const S L_na__1 = a_r1_1;

@@ -566,7 +566,7 @@ try {
           `epoch ${epoch}: the scrubbed frame draws every body at replay's position for that step`,
           `step ${step}: ${want.size} bodies replayed, ${shown.instances} drawn, ${wrong.length} differ${wrong.length ? ` (body ${wrong[0]}: ${JSON.stringify(shown.drawn[ids.indexOf(wrong[0])])} vs ${JSON.stringify(want.get(wrong[0]))})` : ''}`);
   }
-  // Recorded with --record-debug on: a scrubbed frame's overlays and pick panel are its own step's.
+  // Recorded with --record-debug on: a scrubbed frame's contact overlay is its own step's.
   await vpage.click('#ov-contacts');
   const recDebug = await vpage.evaluate(() => {
     const v = window.__viewer, s = document.getElementById('scrub');

@@ -15,6 +15,7 @@ from .structs import layout, unknown_keys
 
 KINDS = ("global", "unary", "binary")
 PARAM_TYPES = ("f32", "vec3")
+FIELD_TYPES_OF = {"f32": ("f32",), "vec3": ("vec3", "vec3p")}  # the struct fields a param of each type may name
 TOP_KEYS = {"name", "kind", "doc", "symmetric", "world_anchor", "joint", "holds_points", "instance", "params", "globals",
             "let", "apply"}
 PARAM_KEYS = {"type", "min", "greater_than", "doc"}
@@ -162,7 +163,7 @@ def _instance_struct(path, d, name, kind, params, structs):
             raise DescriptorError(path, "instance", f"no struct descriptor named {d['instance']!r}")
         for p in params:
             f = s.field(p.name)
-            if f is None or f.type != p.type or f.count != 1:
+            if f is None or f.type not in FIELD_TYPES_OF[p.type] or f.count != 1:
                 raise DescriptorError(path, f"params.{p.name}",
                                       f"struct {s.name} has no field {p.name!r} of type {p.type}")
         for b in body_fields:

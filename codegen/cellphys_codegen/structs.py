@@ -8,11 +8,14 @@ from .errors import DescriptorError
 
 # type -> (bytes, alignment, C element type, stored floats, logical floats)
 # vec3/quat/mat33 rows are stored as 4 floats so one row is one 128-bit register (the reference design's padding).
+# vec3p is a vec3 stored as its 3 floats: for a record its kernels read lane by lane, where a padding
+# lane would grow it by its alignment (the contact's friction anchor beside its hold).
 TYPES = {
     "f32": (4, 4, "float", 1, 1),
     "i32": (4, 4, "int32_t", 1, 1),
     "u32": (4, 4, "uint32_t", 1, 1),
     "vec3": (16, 16, "float", 4, 3),
+    "vec3p": (12, 4, "float", 3, 3),
     "quat": (16, 16, "float", 4, 4),
     "vec4": (16, 16, "float", 4, 4),
     "sym33": (24, 4, "float", 6, 6),

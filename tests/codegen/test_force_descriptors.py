@@ -75,6 +75,7 @@ class GoodForceTests(unittest.TestCase):
         self.assertIn("struct Contact_Pair_Kernel {", kernel)
         self.assertIn("struct Contact_World_Kernel {", kernel)
         self.assertIn("using Instance = Contact_Force;", kernel)
+        self.assertIn("= f.anchor[2];", kernel)  # the vec3 param read from its 3-float (vec3p) field
 
     def test_greater_than_is_an_exclusive_lower_bound(self):
         # min: v >= bound; greater_than: v > bound (a divisor, say); both reach the force table
@@ -307,6 +308,12 @@ class MalformedForceTests(DescriptorErrorAssertions, unittest.TestCase):
     def test_instance_field_of_another_type(self):
         text = "name: probe_force\nkind: binary\ninstance: Contact_Force\nparams:\n  normal: {type: f32}\napply: ['force(a, a.x)']\n"
         self.check(text, "params.normal", r"struct Contact_Force has no field 'normal' of type f32")
+
+    def test_instance_field_vec3p_takes_a_vec3_param_only(self):
+        # Contact_Force's anchor is a vec3p: a vec3 param may name it, an f32 param may not
+        text = ("name: probe_force\nkind: binary\ninstance: Contact_Force\nparams:\n  anchor: {type: f32}\n"
+                "apply: ['force(a, anchor * a.x)']\n")
+        self.check(text, "params.anchor", r"struct Contact_Force has no field 'anchor' of type f32")
 
     def test_instance_lacking_body_fields(self):
         # Probe has no body_a; Tether_Like has body_a but no body_b for a binary force

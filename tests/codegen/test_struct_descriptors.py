@@ -35,6 +35,22 @@ class StructLayoutTests(unittest.TestCase):
         self.assertEqual(s.size, 80)  # 44 + 24 = 68, padded to 16
         self.assertEqual(s.paddings, [(4, 12), (68, 12)])
 
+    def test_vec3p_is_three_floats_with_no_padding_lane(self):
+        d = temp_dir(self)
+        p = write(d, "s.yaml", """\
+            name: Sample
+            align: 16
+            fields:
+              - {name: normal, type: vec3}
+              - {name: anchor, type: vec3p}
+              - {name: hold, type: f32}
+        """)
+        s = load_struct(p)
+        self.assertEqual([(f.name, f.offset, f.size) for f in s.fields],
+                         [("normal", 0, 16), ("anchor", 16, 12), ("hold", 28, 4)])
+        self.assertEqual(s.size, 32)  # a padded vec3 there would make it 48
+        self.assertEqual(s.paddings, [])
+
     def test_probe_set_generates_its_struct(self):
         sb = Sandbox(temp_dir(self))
         files = sb.render()

@@ -355,7 +355,7 @@ template <class K> ContactRef contact_ref(const Case<K>& c) {
   r.k = k_fixed > 0 ? k_fixed : mass * omega * omega;
   r.c = c_fixed > 0 ? c_fixed : 2 * global(c, "contact_damping_ratio") * mass * omega;
   r.slop = global(c, "contact_slop");
-  r.hold = global(c, "contact_hold_depth");
+  r.hold = *param(c, "hold");
   r.rest = global(c, "contact_rest_speed");
   const double mu = *param(c, "friction"), slip = global(c, "slip_velocity");
   Vec3 vel[2];
@@ -444,13 +444,16 @@ Case<K> random_case(Rng& rng) {
       *param(c, "sticking") = rng.uni(0, 1) < 0.5 ? 0 : 1;
       // gravity's fall onto the contact in a step: none (a wall) to 0.3 m/s
       *param(c, "fall") = rng.uni(0, 1) < 0.25 ? 0 : -rng.uni(0, 0.3);
+      // the depth its spring acts on: the world's hold depth, or the deeper one of two bodies
+      // joints join
+      *param(c, "hold") = rng.uni(0, 1) < 0.5 ? global(c, "contact_hold_depth") : 0.01;
       if (rng.uni(0, 1) < 0.25) *global_at(c, "contact_stiffness") = 1e5 * rng.uni(0.5, 2);
       if (rng.uni(0, 1) < 0.25) *global_at(c, "contact_damping") = 1e3 * rng.uni(0.5, 2);
       if (rng.uni(0, 1) < 0.75) {
         // Overlapping, once the bodies' motion since the reference pose is counted, by less
         // than the hold depth or more (the spring then holds that), well clear of the kinks at
         // 0, at the hold depth and of positive_part so central differences stay on one branch.
-        const double hold = global(c, "contact_hold_depth");
+        const double hold = *param(c, "hold");
         const double depth = rng.uni(0, 1) < 0.5 ? rng.uni(0.1, 0.9) * hold : rng.uni(1.1, 10) * hold;
         *param(c, "penetration") += depth - contact_ref(c).depth;
         const ContactRef r = contact_ref(c);

@@ -12,6 +12,7 @@
 #include "runtime/ppe/world.h"
 #include "runtime/scene/scene.h"
 #include "runtime/spu/island_image.h"
+#include "testing/ragdoll.h"
 #include "testing/scenes.h"
 
 namespace {
@@ -207,7 +208,7 @@ struct Layout {
   std::vector<size_t> group_contacts; // each group's contact count
   size_t free = 0;                    // the free slot count
   size_t pairs = 0;                   // the contact memory's pair count; the first pair after it
-  static constexpr size_t kBodyBytes = 136, kContactBytes = 64;
+  static constexpr size_t kBodyBytes = 136, kContactBytes = 72;
   size_t body(uint32_t i) const { return bodies + 4 + i * kBodyBytes; }
 };
 
@@ -368,6 +369,10 @@ TEST(Snapshot, RecordsWrittenWrongAreRefusedByFieldAndTheWorldKept) {
        "sleeping group 0, contact 0: point[1] is not finite"},
       {"kept contact normal not unit", [&](auto& b) { put_at(b, contact0 + 20, 0.0f), put_at(b, contact0 + 24, 0.0f), put_at(b, contact0 + 28, 0.0f); },
        "sleeping group 0, contact 0: normal is not a unit vector (norm 0)"},
+      {"kept contact holding at no depth", [&](auto& b) { put_at(b, contact0 + 64, 0.0f); },
+       "sleeping group 0, contact 0: hold is not above 0 (0)"},
+      {"kept contact that gravity opens", [&](auto& b) { put_at(b, contact0 + 68, 0.5f); },
+       "sleeping group 0, contact 0: fall is above 0 (0.5)"},
       {"kept contact on a missing body", [&](auto& b) { put_at<uint32_t>(b, contact0, 40); },
        "sleeping group 0, contact 0: body a is body 40, which does not exist"},
       {"contact count past the file", [&](auto& b) { put_at<uint32_t>(b, l.group_contacts[0], 1u << 24); },
@@ -478,4 +483,23 @@ TEST(Snapshot, Version7WithoutJointProjectionRestoresUnprojected) {
   EXPECT_EQ(old->step().projected_joints, 0u);
   EXPECT_EQ(w.step().projected_joints, 1u);
   expect_missing(b, "joint.projection", 8);
+}
+
+// Version 8 had no contact.joined_hold_depth: such a world restores with contact.hold_depth's
+// value there, so every contact holds as it did; a version-9 snapshot keeps the setting, and one
+// without it is refused.
+TEST(Snapshot, Version8WithoutJoinedHoldDepthHoldsEveryContactAtTheHoldDepth) {
+  World w;
+  cellphys::testing::ground_plane(w, 0.6f);
+  const float up[4] = {1, 0, 0, 0}, at[3] = {0, 0, 1.2f};
+  cellphys::testing::add_ragdoll(w, 1.8f, 70.0f, at, up);
+  for (int i = 0; i < 30; ++i) w.step();
+  const std::vector<unsigned char> now = w.snapshot();
+  EXPECT_EQ(World::restore(now.data(), now.size())->settings().contact_joined_hold_depth,
+            w.settings().contact_joined_hold_depth);
+  ASSERT_NE(w.settings().contact_joined_hold_depth, w.settings().globals.contact_hold_depth);
+  std::vector<unsigned char> b = without_setting(now, "contact.joined_hold_depth", 4, 8);
+  auto old = World::restore(b.data(), b.size());
+  EXPECT_EQ(old->settings().contact_joined_hold_depth, w.settings().globals.contact_hold_depth);
+  expect_missing(b, "contact.joined_hold_depth", 9);
 }

@@ -39,6 +39,8 @@ struct WorldContact {
   float load = 0.0f;         // what it carries, as a mass (kg), from the pair's memory
   float anchor[3] = {};      // friction strain at the start of the step (m, world frame)
   float sticking = 1.0f;     // 1: friction holds it to its anchor; 0: it slides
+  float hold = 0.0f;         // deepest overlap its spring acts on (m), set by collide (joint_groups.h)
+  float fall = 0.0f;         // how far gravity closes it in a step (m/s, 0 or less), set with hold
 };
 
 struct SleepGroup {

@@ -64,10 +64,13 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
     share[i] = std::fabs(along);
     support[top] += share[i];
   }
-  // A body no contact holds up hands its weight down its joints: a car's chassis to its wheels,
-  // a raised arm to the shoulder. Each joint to a dynamic body below it takes an equal share;
-  // a joint to the world or a static body holds it all. Without this a wheel's contact was tuned
-  // to the wheel alone, and a 1600 kg car sank through the ground at 0.3 m/s.
+  // A body hands its weight down its joints too: a car's chassis to its wheels, a raised arm to
+  // the shoulder. Each joint to a dynamic body below it takes a share, as a contact straight
+  // under it would; a joint to the world or a static body holds it all. Without this a wheel's
+  // contact was tuned to the wheel alone, and a 1600 kg car sank through the ground at 0.3 m/s;
+  // with joints taking a share only from a body no contact held up, a ragdoll's chest lying on
+  // its own forearm left its upper arm's ground contact tuned to the arm, which sank past its
+  // hold every step, the push stage lifting the ragdoll back: it never slept.
   auto height = [&](uint32_t i) { return -dot(Vec3d::load(bodies[i].state.position), down); };
   std::vector<std::pair<uint32_t, uint32_t>>& joints = sc.joints;
   std::vector<uint8_t>& held = sc.held;
@@ -87,12 +90,17 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   // Only a body that rests on its joints, not one falling on them: a ragdoll falling feet first
   // handed its whole weight to the foot that touched, whose contact, tuned to it, threw the
   // foot and opened its joints by 70 cm. Resting is slower along gravity than a few steps of fall.
+  // A body that contacts hold up hands weight only to a joint whose lower body something holds
+  // up in turn (the ground under a ragdoll's arm), not along a chain hanging free: a welded
+  // frame falling through the air, its arm resting on its other arm.
   const double falling = kRestingSteps * gn * s.dt;
+  auto carries = [&](const std::pair<uint32_t, uint32_t>& j) {
+    return !held[j.first] && std::fabs(dot(Vec3d::load(bodies[j.first].state.velocity), down)) <= falling &&
+           (support[j.first] <= 0 || support[j.second] > 0 || held[j.second]);
+  };
   std::vector<uint32_t>& below = sc.below;
   for (const auto& j : joints)
-    if (support[j.first] <= 0 && !held[j.first] &&
-        std::fabs(dot(Vec3d::load(bodies[j.first].state.velocity), down)) <= falling)
-      ++below[j.first];
+    if (carries(j)) ++below[j.first];
   // Top to bottom: a body's weight, with what rests on it, splits over its supports.
   // (std::sort with the index as the tie-break: the order of a stable sort, with no buffer)
   std::vector<uint32_t>& order = sc.order;
@@ -120,14 +128,15 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   const double to_load = gn / (omega * omega * s.contact_load_depth);  // weight (kg) -> load mass
   for (uint32_t top : order) {
     weight[top] += bodies[top].mass;
+    const double supports = support[top] + below[top];
     if (below[top] > 0) {
       const auto from = std::lower_bound(joints.begin(), joints.end(), std::make_pair(top, uint32_t(0)));
-      for (auto j = from; j != joints.end() && j->first == top; ++j) weight[j->second] += weight[top] / below[top];
-      continue;
+      for (auto j = from; j != joints.end() && j->first == top; ++j)
+        if (carries(*j)) weight[j->second] += weight[top] / supports;
     }
     for (size_t k = first_of[top]; k < first_of[top] + count[top]; ++k) {
       const size_t i = by_upper[k];
-      const double carried = weight[top] * share[i] / support[top];
+      const double carried = weight[top] * share[i] / supports;
       WorldContact& c = contacts[i];
       c.load = float(carried * to_load);
       const uint32_t below = c.a == top ? c.b : c.a;

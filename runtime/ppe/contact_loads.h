@@ -34,8 +34,8 @@ struct LoadScratch {
 };
 
 /// Sets each contact's load: the mass whose soft spring, at the contact frequency, sinks by
-/// contact_load_depth under the weight the contact carries (0 without gravity). A body no contact
-/// holds up hands its weight down its joints to the bodies below it.
+/// contact_load_depth under the weight the contact carries (0 without gravity). A resting body's
+/// weight splits over its contacts below it and its joints to bodies below it.
 void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces, const WorldSettings& s,
                  std::vector<WorldContact>& contacts, LoadScratch& scratch);
 

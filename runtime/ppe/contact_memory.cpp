@@ -105,9 +105,9 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       // the tangential force, in units of depth: the anchor spring's and its damper's
       total_strain = total_strain + strain[i] + vt * (cd / k);
       // the normal force, in units of depth, as the descriptor has it: overlapping, the
-      // spring's (on at most the hold depth; deeper overlap is pushed out) and the damper's
+      // spring's (on at most its hold; deeper overlap is pushed out) and the damper's
       // while it closes; at a gap, the damper toward the speed that meets the surface
-      const double pen = c.point.penetration, held = std::min(pen, double(s.globals.contact_hold_depth));
+      const double pen = c.point.penetration, held = std::min(pen, double(c.hold));
       const double normal = pen > 0 ? held - cd / k * vn : (cd / k + s.dt) * (pen / s.dt - vn);
       total_depth += std::max(normal, 0.0);
     }

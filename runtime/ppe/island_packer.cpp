@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstring>
 
-#include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/world.h"
 #include "runtime/spu/workspace.h"
 
@@ -34,7 +33,7 @@ constexpr int32_t kOutside = -2;  // as the kernel's validation calls a body tha
 
 int32_t local_of(const std::vector<int32_t>& local, uint32_t id) { return id == kWorldBody ? -1 : local[id]; }
 
-Contact_Force contact_instance(const WorldContact& c, const WorldSettings& s, int32_t a, int32_t b) {
+Contact_Force contact_instance(const WorldContact& c, int32_t a, int32_t b) {
   Contact_Force_Fields f;
   std::copy(c.point.point, c.point.point + 3, f.point);
   std::copy(c.point.normal, c.point.normal + 3, f.normal);
@@ -44,7 +43,8 @@ Contact_Force contact_instance(const WorldContact& c, const WorldSettings& s, in
   f.mass = c.mass;
   f.load = c.load;
   f.sticking = c.sticking;
-  f.fall = gravity_fall(c.point.normal, c.b == kWorldBody, s);
+  f.fall = c.fall;
+  f.hold = c.hold;
   f.body_a = a;
   f.body_b = b;
   Contact_Force packed;
@@ -142,7 +142,7 @@ void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& s
   });
   for (uint32_t c : cs) {
     const WorldContact& wc = pc.contacts[c];
-    ib.add(ForceType::contact, contact_instance(wc, s, local_of(local, wc.a), local_of(local, wc.b)));
+    ib.add(ForceType::contact, contact_instance(wc, local_of(local, wc.a), local_of(local, wc.b)));
   }
   for (uint32_t fid : isl.forces) {
     const WorldForce& f = pc.forces[fid];

@@ -23,7 +23,7 @@ struct SettingsShape {
   uint32_t max_halvings;
   bool sleeping;
   int workers;
-  float contact_margin, contact_load_depth, joint_projection;
+  float contact_margin, contact_load_depth, contact_joined_hold_depth, joint_projection;
   size_t local_store_bytes, whole_island_bytes;
   uint32_t decouple_sweeps;
   float decouple_tolerance, region_min[3], region_max[3], sleep_linear, sleep_angular, sleep_time;
@@ -71,6 +71,10 @@ std::vector<Setting> world_settings() {
       CELLPHYS_SETTING(contact_load_depth, "contact.load_depth", above(0),
                        "a contact is stiffened to sink no deeper than this under the weight resting on it, so a light "
                        "body holds a heavy one (m)"),
+      CELLPHYS_SETTING(contact_joined_hold_depth, "contact.joined_hold_depth", above(0),
+                       "deepest overlap (m) the spring of a contact between two bodies joints join (directly or "
+                       "through others) acts on: the push stage moves such bodies as one and cannot part them, so "
+                       "this spring must push a limb out of its own torso (contact.hold_depth for the rest)"),
       CELLPHYS_SETTING(joint_projection, "joint.projection", at_least(0),
                        "a joint whose points a step leaves further apart than this is moved back to it, without "
                        "changing a velocity (m; 0: never)"),

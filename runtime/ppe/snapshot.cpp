@@ -15,7 +15,13 @@
 //           (f32 4 bytes, vec3 12, u32 and i32 4, size 8, boolean 1, integrator and solver u32),
 //           each as u32 length + bytes: matched by name, so a build with other forces refuses
 //           a setting it lacks, or lacks one it has, by name; before version 7 there was no
-//           whole_island_bytes, and such a world restores with 0 (big islands split, as then)
+//           whole_island_bytes, and such a world restores with 0 (big islands split, as then);
+//           before version 9 no contact.joined_hold_depth, and such a world restores with
+//           contact.hold_depth's value, its sleeping contacts held at it (every contact's spring as
+//           then; a gap between two bodies joints join is no longer taken to close by gravity's
+//           fall, docs/joints.md)
+//   sleeping contact: u32 a, b | f32 point[3], normal[3] | f32 penetration, friction, mass, load |
+//           f32 anchor[3] | f32 sticking | version 9 on: f32 hold, fall
 //   body (136 bytes): u8 alive, static, awake, flags (1: sensor; version 4: 0) | u32 shape | f32 scale, mass | f32 inertia[6],
 //           inverse inertia[6] | position[3], orientation[4], velocity[3], angular velocity[3] |
 //           f32 friction, linear and angular damping, sleep timer | i32 sleeping group
@@ -28,6 +34,7 @@
 #include <string>
 #include <type_traits>
 
+#include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/settings.h"
 #include "runtime/ppe/snapshot_checks.h"
 #include "runtime/ppe/world_impl.h"
@@ -37,13 +44,13 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 8;
+constexpr uint32_t kVersion = 9;
 constexpr uint32_t kOldestVersion = 4;  // without the event memory
 constexpr size_t kHeaderBytes = 32;
 // The fewest bytes of each record, so that a count the rest of the file cannot hold is refused
 // before anything is allocated for it.
 constexpr size_t kBodyBytes = 4 + 4 + 4 + 4 + 4 * 6 + 4 * 6 + 4 * 13 + 4 * 4 + 4;
-constexpr size_t kContactBytes = 4 + 4 + 4 * 3 + 4 * 3 + 4 * 4 + 4 * 3 + 4;
+constexpr size_t kContactBytes = 4 + 4 + 4 * 3 + 4 * 3 + 4 * 4 + 4 * 3 + 4;  // version 9 on: 8 more (hold, fall)
 constexpr size_t kForceBytes = 1 + 4 + 4 + 4 + 4;   // with an empty name and instance
 constexpr size_t kGroupBytes = 4 + 4;               // no bodies, no contacts
 constexpr size_t kPairBytes = 8 + 4 + 4 + 4;        // no anchors
@@ -191,6 +198,10 @@ WorldSettings get_settings(Reader& r, uint32_t version) {
     }
     if (version < 8 && table[i].path == "joint.projection") {
       s.joint_projection = 0;  // a world saved before joints were projected steps on without
+      continue;
+    }
+    if (version < 9 && table[i].path == "contact.joined_hold_depth") {
+      s.contact_joined_hold_depth = s.globals.contact_hold_depth;  // every contact held as then
       continue;
     }
     throw WorldError("snapshot: setting '" + table[i].path + "' is missing");
@@ -397,6 +408,8 @@ void put_contact(Writer& w, const WorldContact& c) {
   w.put(c.load);
   w.put_floats(c.anchor, 3);
   w.put(c.sticking);
+  w.put(c.hold);
+  w.put(c.fall);
 }
 
 void put_anchor(Writer& w, const ContactMemory::Anchor& a) {
@@ -411,7 +424,7 @@ ContactMemory::Anchor get_anchor(Reader& r) {
   return a;
 }
 
-WorldContact get_contact(Reader& r) {
+WorldContact get_contact(Reader& r, uint32_t version, const WorldSettings& s) {
   WorldContact c;
   c.a = r.get<uint32_t>("contact");
   c.b = r.get<uint32_t>("contact");
@@ -423,6 +436,8 @@ WorldContact get_contact(Reader& r) {
   c.load = r.get<float>("contact");
   r.get_floats(c.anchor, 3, "contact");
   c.sticking = r.get<float>("contact");
+  c.hold = version < 9 ? s.globals.contact_hold_depth : r.get<float>("contact");
+  c.fall = version < 9 ? gravity_fall(c.point.normal, c.b == kWorldBody, s) : r.get<float>("contact");
   return c;
 }
 
@@ -572,7 +587,7 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     w.sleeping.groups[g].bodies = r.get_u32s("sleeping group");
     const uint32_t nc = r.count("sleeping contacts", kContactBytes);
     for (uint32_t c = 0; c < nc; ++c) {
-      w.sleeping.groups[g].contacts.push_back(get_contact(r));
+      w.sleeping.groups[g].contacts.push_back(get_contact(r, version, settings));
       check_snapshot_contact(w.bodies, w.sleeping.groups[g].contacts.back(), g, c);
     }
   }

@@ -138,6 +138,10 @@ void check_snapshot_contact(const std::vector<WorldBody>& bodies, const WorldCon
   finite(who, "anchor", c.anchor, 3);
   at_least_zero(who, "sticking", c.sticking);
   if (c.sticking > 1.0f) refuse(who, "sticking is over 1 (" + num(c.sticking) + ")");
+  finite(who, "hold", &c.hold, 1);
+  if (!(c.hold > 0.0f)) refuse(who, "hold is not above 0 (" + num(c.hold) + ")");
+  finite(who, "fall", &c.fall, 1);
+  if (c.fall > 0.0f) refuse(who, "fall is above 0 (" + num(c.fall) + ")");
 }
 
 void check_snapshot_pair(const std::vector<WorldBody>& bodies, uint64_t key, const ContactMemory::Pair& p) {

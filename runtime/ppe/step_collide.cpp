@@ -201,6 +201,8 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
   }
   StageTimer t(st.times.narrow_ms);
   narrow_phase(bodies, shapes, settings, pool, scratch, contacts, st);
+  scratch.groups.build(bodies, forces);
+  set_contact_hold_and_fall(settings, scratch.groups, contacts);
   carry_loads(bodies, forces, settings, contacts, scratch.loads);
   scratch.woken.clear();
   for (uint32_t i : changes.changed)

@@ -11,6 +11,7 @@
 #include "runtime/ppe/broad_phase.h"
 #include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/contact_memory.h"
+#include "runtime/ppe/joint_groups.h"
 #include "runtime/ppe/step_events.h"
 #include "runtime/ppe/step_stats.h"
 #include "runtime/ppe/worker_pool.h"
@@ -58,11 +59,12 @@ struct CollideScratch {
   std::vector<TouchedPair> touched;                   // the pairs with contacts, for the events
   std::vector<std::pair<uint32_t, uint32_t>> sensed;  // (sensor, visitor) overlapping
   LoadScratch loads;
+  JointGroups groups;
 };
 
 /// The step's contact points in `contacts` (replaced): the dynamic body first, normals from a
 /// to b, b = kWorldBody for static geometry, each with its mass and friction strain from the
-/// pair's memory (then updated). Two bodies a joint joins (a force whose descriptor says
+/// pair's memory (then updated), and its hold (joint_groups.h). Two bodies a joint joins (a force whose descriptor says
 /// `joint: true`) do not collide: a ragdoll's limbs overlap at their joints by design. A pair with
 /// a sensor gives no contacts: it is in scratch.sensed while the two overlap. Times
 /// broad, mid and narrow phase (with the recall). The narrow phase finds the pairs' manifolds

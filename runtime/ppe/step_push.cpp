@@ -26,9 +26,9 @@ constexpr double kUpCosine = 0.5;
 void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& forces, std::vector<WorldBody>& bodies,
                        std::vector<WorldContact>& contacts, ContactMemory& memory, PushScratch& p, StepStats& st) {
   StageTimer timer(st.times.push_ms);
-  const double hold = s.globals.contact_hold_depth, budget = double(s.globals.contact_push_speed) * s.dt;
+  const double budget = double(s.globals.contact_push_speed) * s.dt;
   if (budget <= 0) return;
-  if (std::none_of(contacts.begin(), contacts.end(), [&](const WorldContact& c) { return c.point.penetration > hold; }))
+  if (std::none_of(contacts.begin(), contacts.end(), [&](const WorldContact& c) { return c.point.penetration > c.hold; }))
     return;
   const uint32_t n = static_cast<uint32_t>(bodies.size());
   auto movable = [&](uint32_t b) { return b != kWorldBody && !bodies[b].is_static && bodies[b].awake; };
@@ -73,8 +73,8 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
 
   // Bodies joints join, directly or through others, move as one here, so a contact between two
   // of them (a ragdoll's leg on its other leg) cannot be pushed out: left in, it lifted the
-  // whole ragdoll again each sweep, 30 cm a step while it fell at 10 m/s. The contact's spring
-  // and the joints' limits hold such an overlap.
+  // whole ragdoll again each sweep, 30 cm a step while it fell at 10 m/s. The contact's spring,
+  // which acts deeper there (joint_groups.h), and the joints' limits hold such an overlap.
   p.group.resize(n);
   for (uint32_t i = 0; i < n; ++i) p.group[i] = i;
   for (uint32_t i = 0; i < n; ++i) {
@@ -92,7 +92,7 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
   std::vector<uint8_t> seen(n, 0);
   p.members.clear();
   for (const WorldContact& c : contacts) {
-    if (c.point.penetration <= hold || joined(c)) continue;
+    if (c.point.penetration <= c.hold || joined(c)) continue;
     for (uint32_t root : {c.a, c.b}) {
       if (!movable(root) || seen[root]) continue;
       seen[root] = 1;
@@ -137,12 +137,12 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
     return std::min(level(contacts[x].a), level(contacts[x].b)) < std::min(level(contacts[y].a), level(contacts[y].b));
   });
 
-  // Each contact asks to separate by its excess over the hold depth, at most the step's budget;
-  // a shallower one only that it gets no deeper than the hold depth.
+  // Each contact asks to separate by its excess over its hold, at most the step's budget; a
+  // shallower one only that it gets no deeper than its hold.
   p.target.resize(p.order.size());
   for (size_t i = 0; i < p.order.size(); ++i) {
     const WorldContact& c = contacts[p.order[i]];
-    p.target[i] = joined(c) ? -INFINITY : float(std::min(double(c.point.penetration) - hold, budget));
+    p.target[i] = joined(c) ? -INFINITY : float(std::min(double(c.point.penetration) - c.hold, budget));
   }
   // Joined bodies move as one rigid group: its displacement is kept at its lowest id, its mass is
   // theirs summed, and a joint to what cannot move pins it all. (Sharing each joint's difference
@@ -163,7 +163,7 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
   };
   const Vec3d g = Vec3d::load(s.globals.gravity);
   const Vec3d up = norm(g) > 0 ? g * (-1.0 / norm(g)) : Vec3d{0, 0, 0};
-  const double tolerance = 1e-3 * hold;
+  const double tolerance = 1e-3 * s.globals.contact_hold_depth;
   for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
     double worst = 0;
     for (size_t i = 0; i < p.order.size(); ++i) {
@@ -199,12 +199,12 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
     const Vec3d mid = (da + db) * 0.5;  // the point sits between the surfaces
     float* x = c.point.point;
     x[0] = float(x[0] + mid.x), x[1] = float(x[1] + mid.y), x[2] = float(x[2] + mid.z);
-    // A contact of a pushed pile that the push leaves a gap wider than the hold depth, or overlap
+    // A contact of a pushed pile that the push leaves a gap wider than its hold, or overlap
     // it could not reach, carries no load this step: loaded, it would drive the bodies together,
     // or throw them. A narrower gap keeps its load: a car's wheels, lifted with their chassis as
     // one until the deepest touched the hold depth, left the others a millimetre off the ground,
     // and unloaded they held the 1600 kg chassis on their own 15 kg: the car sank at 0.09 m/s.
-    if (c.point.penetration < -hold || c.point.penetration > 2 * hold) c.load = 0;
+    if (c.point.penetration < -c.hold || c.point.penetration > 2 * c.hold) c.load = 0;
     const WorldContact* before = i > 0 ? &contacts[p.order[i - 1]] : nullptr;
     if (before && before->a == c.a && before->b == c.b) continue;
     const float fa[3] = {float(da.x), float(da.y), float(da.z)}, fb[3] = {float(db.x), float(db.y), float(db.z)};

@@ -1,10 +1,11 @@
-// Stage 3 of the step: overlap deeper than contact_hold_depth (bodies spawned or teleported
+// Stage 3 of the step: overlap deeper than a contact's hold (bodies spawned or teleported
 // into each other) is moved out before the islands are built, by moving the awake bodies apart
 // along the contact normals; velocities are untouched, so a pile spawned into itself unfolds
 // without being thrown. (Box2D's soft step separates with a bias velocity its relax pass then
 // removes; Bullet's split impulse moves positions apart the same way.) The contact spring acts
-// on the hold depth only. Done here, on the whole connected pile, rather than per island in
-// the kernel: a decoupled part cannot move its ghosts, and a column must lift as one.
+// on its hold only (contact_hold_depth; deeper between bodies joints join, joint_groups.h).
+// Done here, on the whole connected pile, rather than per island in the kernel: a decoupled
+// part cannot move its ghosts, and a column must lift as one.
 #pragma once
 #include <cstdint>
 #include <vector>

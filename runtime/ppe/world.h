@@ -58,6 +58,7 @@ struct WorldSettings {
   int workers = 1;
   float contact_margin = 0.001f;
   float contact_load_depth = 1e-4f;
+  float contact_joined_hold_depth = 0.01f;
   float joint_projection = 0.005f;
   size_t local_store_bytes = spu::LocalStore::kDefaultCapacity;
   size_t whole_island_bytes = spu::LocalStore::kMaxCapacity;

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <map>
 
-#include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/world_impl.h"
 
 namespace cellphys::ppe {
@@ -43,11 +42,11 @@ float step_normal_force(const WorldContact& c, const std::vector<WorldBody>& bod
   const double m = std::max(c.load, c.mass);
   const double k = g.contact_stiffness > 0 ? double(g.contact_stiffness) : m * omega * omega;
   const double damp = g.contact_damping > 0 ? double(g.contact_damping) : 2 * double(g.contact_damping_ratio) * m * omega;
-  const double pen = c.point.penetration, fall = gravity_fall(n, c.b == kWorldBody, s);
+  const double pen = c.point.penetration, fall = c.fall;
   const double end_depth = pen - h * (vn + fall);  // the overlap at the step's end, with gravity's fall
   if (pen > 0) {
-    // Deeper than the hold depth the spring is flat (the push stage takes the rest).
-    const double held = pen > g.contact_hold_depth ? double(g.contact_hold_depth) : pen - h * vn;
+    // Deeper than its hold the spring is flat (the push stage takes the rest).
+    const double held = pen > c.hold ? double(c.hold) : pen - h * vn;
     const double pushed = k * held - damp * vn;
     return static_cast<float>(end_depth > 0 ? pushed : std::max(0.0, pushed));
   }

@@ -13,13 +13,14 @@ namespace cellphys::gen {
 struct alignas(16) Contact_Force {
   float point[4];  ///< @0: vec3 (padded). contact point, world frame (m)
   float normal[4];  ///< @16: vec3 (padded). unit normal, world frame, pointing from body a to body b
-  float anchor[4];  ///< @32: vec3 (padded). tangential offset (m, world frame) of b's friction anchor from a's at the start of the step
-  float penetration;  ///< @48: f32. depth of overlap along the normal (m), positive when touching
-  float friction;  ///< @52: f32. friction coefficient of the pair (geometric mean of the bodies')
-  float mass;  ///< @56: f32. the contact's effective mass along its normal (kg)
-  float load;  ///< @60: f32. the load the contact carries, as a mass (kg): its stiffness follows the larger of the two
-  float sticking;  ///< @64: f32. 1: friction holds the contact to its anchor; 0: it slides
-  float fall;  ///< @68: f32. how much gravity alone closes the contact in the step (m/s along the normal, 0 or less)
+  float anchor[3];  ///< @32: vec3p. tangential offset (m, world frame) of b's friction anchor from a's at the start of the step
+  float penetration;  ///< @44: f32. depth of overlap along the normal (m), positive when touching
+  float friction;  ///< @48: f32. friction coefficient of the pair (geometric mean of the bodies')
+  float mass;  ///< @52: f32. the contact's effective mass along its normal (kg)
+  float load;  ///< @56: f32. the load the contact carries, as a mass (kg): its stiffness follows the larger of the two
+  float sticking;  ///< @60: f32. 1: friction holds the contact to its anchor; 0: it slides
+  float fall;  ///< @64: f32. how much gravity alone closes the contact in the step (m/s along the normal, 0 or less)
+  float hold;  ///< @68: f32. deepest overlap the spring acts on (m); deeper is the push stage's, or held at this
   int32_t body_a;  ///< @72: i32. island index of body a
   int32_t body_b;  ///< @76: i32. island index of body b, or -1 for static geometry
 };
@@ -28,12 +29,13 @@ static_assert(alignof(Contact_Force) == 16, "Contact_Force: alignment differs fr
 static_assert(offsetof(Contact_Force, point) == 0, "Contact_Force.point: offset differs");
 static_assert(offsetof(Contact_Force, normal) == 16, "Contact_Force.normal: offset differs");
 static_assert(offsetof(Contact_Force, anchor) == 32, "Contact_Force.anchor: offset differs");
-static_assert(offsetof(Contact_Force, penetration) == 48, "Contact_Force.penetration: offset differs");
-static_assert(offsetof(Contact_Force, friction) == 52, "Contact_Force.friction: offset differs");
-static_assert(offsetof(Contact_Force, mass) == 56, "Contact_Force.mass: offset differs");
-static_assert(offsetof(Contact_Force, load) == 60, "Contact_Force.load: offset differs");
-static_assert(offsetof(Contact_Force, sticking) == 64, "Contact_Force.sticking: offset differs");
-static_assert(offsetof(Contact_Force, fall) == 68, "Contact_Force.fall: offset differs");
+static_assert(offsetof(Contact_Force, penetration) == 44, "Contact_Force.penetration: offset differs");
+static_assert(offsetof(Contact_Force, friction) == 48, "Contact_Force.friction: offset differs");
+static_assert(offsetof(Contact_Force, mass) == 52, "Contact_Force.mass: offset differs");
+static_assert(offsetof(Contact_Force, load) == 56, "Contact_Force.load: offset differs");
+static_assert(offsetof(Contact_Force, sticking) == 60, "Contact_Force.sticking: offset differs");
+static_assert(offsetof(Contact_Force, fall) == 64, "Contact_Force.fall: offset differs");
+static_assert(offsetof(Contact_Force, hold) == 68, "Contact_Force.hold: offset differs");
 static_assert(offsetof(Contact_Force, body_a) == 72, "Contact_Force.body_a: offset differs");
 static_assert(offsetof(Contact_Force, body_b) == 76, "Contact_Force.body_b: offset differs");
 
@@ -48,6 +50,7 @@ struct Contact_Force_Fields {
   float load = 0;
   float sticking = 0;
   float fall = 0;
+  float hold = 0;
   int32_t body_a = 0;
   int32_t body_b = 0;
 };
@@ -69,6 +72,7 @@ inline void pack(const Contact_Force_Fields& in, Contact_Force& out) {
   out.load = in.load;
   out.sticking = in.sticking;
   out.fall = in.fall;
+  out.hold = in.hold;
   out.body_a = in.body_a;
   out.body_b = in.body_b;
 }
@@ -89,6 +93,7 @@ inline void unpack(const Contact_Force& in, Contact_Force_Fields& out) {
   out.load = in.load;
   out.sticking = in.sticking;
   out.fall = in.fall;
+  out.hold = in.hold;
   out.body_a = in.body_a;
   out.body_b = in.body_b;
 }
@@ -1946,7 +1951,7 @@ struct alignas(16) Island_Params {
   float contact_stiffness;  ///< @32: f32. fixed normal stiffness (N/m) instead of the soft one; 0: soft
   float contact_damping;  ///< @36: f32. fixed normal damping (N s/m) instead of the soft one; 0: soft
   float contact_push_speed;  ///< @40: f32. speed (m/s) at which overlap deeper than contact_hold_depth is pushed out, moving the bodies apart without giving them that speed
-  float contact_hold_depth;  ///< @44: f32. deepest overlap (m) the contact spring acts on: deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
+  float contact_hold_depth;  ///< @44: f32. deepest overlap (m) a contact's spring acts on (its hold): deeper overlap (a spawn, a teleport) is pushed out, so the spring's push-out speed stays under hertz pi / ratio times this (0.047 m/s)
   float slip_velocity;  ///< @48: f32. speed below which sliding Coulomb friction is regularised (m/s); a sliding contact creeps at about this before it sticks
   float contact_slop;  ///< @52: f32. gap (m) beyond the bodies' reach in the step at which collision still reports a point, and the widest gap that carries a load; whether a gap contact acts is the step's own (its closing speed and gravity's fall)
   float contact_rest_speed;  ///< @56: f32. opening speed (m/s) below which a touching contact still acts: resting supports settle at mm/s
@@ -2040,7 +2045,7 @@ struct StructInfo {
 
 /// Every layout, with the sizes the compiler gave them.
 inline constexpr StructInfo kStructTable[] = {
-    {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 68},
+    {"Contact_Force", sizeof(Contact_Force), alignof(Contact_Force), 72},
     {"Island_Header", sizeof(Island_Header), alignof(Island_Header), 52},
     {"Island_Result", sizeof(Island_Result), alignof(Island_Result), 48},
     {"Island_Section", sizeof(Island_Section), alignof(Island_Section), 16},

@@ -95,11 +95,11 @@ struct Contact_Pair_Kernel {
     in[52 * stride] = f.load;
     in[53 * stride] = f.fall;
     in[54 * stride] = f.sticking;
-    in[55 * stride] = g.contact_hertz;
-    in[56 * stride] = g.contact_damping_ratio;
-    in[57 * stride] = g.contact_stiffness;
-    in[58 * stride] = g.contact_damping;
-    in[59 * stride] = g.contact_hold_depth;
+    in[55 * stride] = f.hold;
+    in[56 * stride] = g.contact_hertz;
+    in[57 * stride] = g.contact_damping_ratio;
+    in[58 * stride] = g.contact_stiffness;
+    in[59 * stride] = g.contact_damping;
     in[60 * stride] = g.slip_velocity;
     in[61 * stride] = g.contact_rest_speed;
   }
@@ -163,14 +163,14 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S p_load = in[52];
     [[maybe_unused]] const S p_fall = in[53];
     [[maybe_unused]] const S p_sticking = in[54];
-    [[maybe_unused]] const S g_contact_hertz = in[55];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[56];
-    [[maybe_unused]] const S g_contact_stiffness = in[57];
-    [[maybe_unused]] const S g_contact_damping = in[58];
-    [[maybe_unused]] const S g_contact_hold_depth = in[59];
+    [[maybe_unused]] const S p_hold = in[55];
+    [[maybe_unused]] const S g_contact_hertz = in[56];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[57];
+    [[maybe_unused]] const S g_contact_stiffness = in[58];
+    [[maybe_unused]] const S g_contact_damping = in[59];
     [[maybe_unused]] const S g_slip_velocity = in[60];
     [[maybe_unused]] const S g_contact_rest_speed = in[61];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32), let rb (contact.yaml:33)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:33), let rb (contact.yaml:34)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -224,15 +224,15 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
-    // let ra (contact.yaml:32)
+    // let ra (contact.yaml:33)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
-    // let rb (contact.yaml:33)
+    // let rb (contact.yaml:34)
     [[maybe_unused]] const S L_rb__0 = b_o1_0;
     [[maybe_unused]] const S L_rb__1 = b_o1_1;
     [[maybe_unused]] const S L_rb__2 = b_o1_2;
-    // let moved (contact.yaml:36)
+    // let moved (contact.yaml:37)
     const S l2_0_0 = (-b_o1_0);
     const S l2_0_1 = (-b_o1_1);
     const S l2_0_2 = (-b_o1_2);
@@ -245,7 +245,7 @@ struct Contact_Pair_Kernel {
     const S L_moved__2 = ((-a_o0_2) - a_pz + b_pz - l2_0_2);
     const S d_L_moved__2__a_dtx = (-a_o0_1);
     const S d_L_moved__2__b_dty = l2_0_0;
-    // let depth (contact.yaml:37)
+    // let depth (contact.yaml:38)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
     const S d_L_depth__a_dtx = ((-(a_o0_2*p_normal__1)) - (d_L_moved__2__a_dtx*p_normal__2));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) - (d_L_moved__0__a_dty*p_normal__0));
@@ -256,7 +256,7 @@ struct Contact_Pair_Kernel {
     const S d_L_depth__b_dtx = ((-(b_o1_1*p_normal__2)) - (d_L_moved__1__b_dtx*p_normal__1));
     const S d_L_depth__b_dty = ((-(b_o1_2*p_normal__0)) - (d_L_moved__2__b_dty*p_normal__2));
     const S d_L_depth__b_dtz = ((-(b_o1_0*p_normal__1)) - (d_L_moved__0__b_dtz*p_normal__0));
-    // let vrel (contact.yaml:38)
+    // let vrel (contact.yaml:39)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S d_L_vrel__0__b_wz = (-L_rb__1);
@@ -266,7 +266,7 @@ struct Contact_Pair_Kernel {
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
     const S d_L_vrel__2__b_wy = (-L_rb__0);
-    // let vn (contact.yaml:39)
+    // let vn (contact.yaml:40)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -277,18 +277,18 @@ struct Contact_Pair_Kernel {
     const S d_L_vn__b_wx = ((L_rb__1*p_normal__2) + (d_L_vrel__1__b_wx*p_normal__1));
     const S d_L_vn__b_wy = ((L_rb__2*p_normal__0) + (d_L_vrel__2__b_wy*p_normal__2));
     const S d_L_vn__b_wz = ((L_rb__0*p_normal__1) + (d_L_vrel__0__b_wz*p_normal__0));
-    // let omega (contact.yaml:42)
+    // let omega (contact.yaml:43)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:46)
+    // let m (contact.yaml:47)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:47)
+    // let k (contact.yaml:48)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:48)
+    // let c (contact.yaml:49)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:52)
-    const auto l10_0_0 = (L_depth > g_contact_hold_depth);
+    // let held (contact.yaml:55)
+    const auto l10_0_0 = (L_depth > p_hold);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
-    const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
+    const S L_held = select(l10_0_0, p_hold, L_depth);
     const S d_L_held__a_dx = (l10_0_1*p_normal__0);
     const S d_L_held__a_dy = (l10_0_1*p_normal__1);
     const S d_L_held__a_dz = (l10_0_1*p_normal__2);
@@ -301,11 +301,11 @@ struct Contact_Pair_Kernel {
     const S d_L_held__b_dtx = (d_L_depth__b_dtx*l10_0_1);
     const S d_L_held__b_dty = (d_L_depth__b_dty*l10_0_1);
     const S d_L_held__b_dtz = (d_L_depth__b_dtz*l10_0_1);
-    // let closing (contact.yaml:62)
+    // let closing (contact.yaml:65)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
-    // let stays (contact.yaml:66)
+    // let stays (contact.yaml:69)
     const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
-    // let pushed (contact.yaml:67)
+    // let pushed (contact.yaml:70)
     const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
     const S d_L_pushed__a_dx = (L_k*d_L_held__a_dx);
     const S d_L_pushed__a_dy = (L_k*d_L_held__a_dy);
@@ -331,7 +331,7 @@ struct Contact_Pair_Kernel {
     const S d_L_pushed__b_wx = (-(L_c*d_L_vn__b_wx));
     const S d_L_pushed__b_wy = (-(L_c*d_L_vn__b_wy));
     const S d_L_pushed__b_wz = (-(L_c*d_L_vn__b_wz));
-    // let fn (contact.yaml:68)
+    // let fn (contact.yaml:71)
     const auto l14_0_0 = (L_stays > S(0));
     const auto l14_0_1 = (L_pushed > S(0));
     const auto l14_0_2 = (L_depth > S(0));
@@ -363,7 +363,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fn__b_wx = ((d_L_pushed__b_wx*l14_0_4) + (d_L_vn__b_wx*l14_0_5));
     const S d_L_fn__b_wy = ((d_L_pushed__b_wy*l14_0_4) + (d_L_vn__b_wy*l14_0_5));
     const S d_L_fn__b_wz = ((d_L_pushed__b_wz*l14_0_4) + (d_L_vn__b_wz*l14_0_5));
-    // let vt (contact.yaml:69)
+    // let vt (contact.yaml:72)
     const S l15_0_0 = (-(p_normal__0*p_normal__1));
     const S l15_0_1 = (-(p_normal__0*p_normal__2));
     const S l15_0_2 = (-(p_normal__1*p_normal__2));
@@ -406,7 +406,7 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__2__b_wx = (L_rb__1 - (d_L_vn__b_wx*p_normal__2));
     const S d_L_vt__2__b_wy = ((-(d_L_vn__b_wy*p_normal__2)) + d_L_vrel__2__b_wy);
     const S d_L_vt__2__b_wz = (-(d_L_vn__b_wz*p_normal__2));
-    // let strain (contact.yaml:74)
+    // let strain (contact.yaml:77)
     const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S l16_0_1 = ((p_normal__0*p_normal__0) - S(1));
     const S l16_0_2 = (p_normal__0*p_normal__1);
@@ -459,7 +459,7 @@ struct Contact_Pair_Kernel {
     const S d_L_strain__2__b_dtx = ((b_o1_1*l16_0_12) - (d_L_moved__1__b_dtx*l16_0_8));
     const S d_L_strain__2__b_dty = ((-(b_o1_2*l16_0_3)) + (d_L_moved__2__b_dty*l16_0_12));
     const S d_L_strain__2__b_dtz = ((-(b_o1_0*l16_0_8)) - (d_L_moved__0__b_dtz*l16_0_3));
-    // let fs (contact.yaml:75)
+    // let fs (contact.yaml:78)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -535,7 +535,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fs__2__b_wx = (-(L_c*d_L_vt__2__b_wx));
     const S d_L_fs__2__b_wy = (-(L_c*d_L_vt__2__b_wy));
     const S d_L_fs__2__b_wz = (-(L_c*d_L_vt__2__b_wz));
-    // let fmax (contact.yaml:76)
+    // let fmax (contact.yaml:79)
     const auto l18_0_0 = (L_fn > S(0));
     const S l18_0_1 = (p_friction*select(l18_0_0, S(1), S(0)));
     const S L_fmax = (p_friction*select(l18_0_0, L_fn, S(0)));
@@ -563,16 +563,16 @@ struct Contact_Pair_Kernel {
     const S d_L_fmax__b_wx = (d_L_fn__b_wx*l18_0_1);
     const S d_L_fmax__b_wy = (d_L_fn__b_wy*l18_0_1);
     const S d_L_fmax__b_wz = (d_L_fn__b_wz*l18_0_1);
-    // let slip (contact.yaml:82)
+    // let slip (contact.yaml:85)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:83)
+    // let dir (contact.yaml:86)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
-    // let fast (contact.yaml:84)
+    // let fast (contact.yaml:87)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:85)
+    // let across (contact.yaml:88)
     const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
     const S l22_0_2 = (L_dir__0*L_dir__1);
@@ -619,7 +619,7 @@ struct Contact_Pair_Kernel {
     const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l22_0_3)) - (d_L_vt__1__b_wx*l22_0_5) + (d_L_vt__2__b_wx*l22_0_6));
     const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l22_0_3)) - (d_L_vt__1__b_wy*l22_0_5) + (d_L_vt__2__b_wy*l22_0_6));
     const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l22_0_3)) - (d_L_vt__1__b_wz*l22_0_5) + (d_L_vt__2__b_wz*l22_0_6));
-    // let sliding (contact.yaml:86)
+    // let sliding (contact.yaml:89)
     const S l23_0_0 = (S(1)/(L_slip));
     const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
     const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
@@ -705,9 +705,9 @@ struct Contact_Pair_Kernel {
     const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_9) - (d_L_vt__2__b_wx*l23_0_5));
     const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_9) - (d_L_vt__2__b_wy*l23_0_5));
     const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_9) - (d_L_vt__2__b_wz*l23_0_5));
-    // let holds (contact.yaml:89)
+    // let holds (contact.yaml:92)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:90)
+    // let ft (contact.yaml:93)
     const S l25_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
     const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
@@ -784,7 +784,7 @@ struct Contact_Pair_Kernel {
     const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l25_0_0));
     const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l25_0_0));
     const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l25_0_0));
-    // let f (contact.yaml:91)
+    // let f (contact.yaml:94)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -860,21 +860,21 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // F_a from apply[0] (contact.yaml:93)
+    // F_a from apply[0] (contact.yaml:96)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:94)
+    // F_b from apply[1] (contact.yaml:97)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:93)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:96)
     out[12] = (-d_L_f__0__a_dx);
     out[13] = (-d_L_f__1__a_dx);
     out[14] = (-d_L_f__2__a_dx);
@@ -911,7 +911,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[46] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[47] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/ddelta_b from apply[0] (contact.yaml:93)
+    // dF_a/ddelta_b from apply[0] (contact.yaml:96)
     out[48] = (-d_L_f__0__b_dx);
     out[49] = (-d_L_f__1__b_dx);
     out[50] = (-d_L_f__2__b_dx);
@@ -948,7 +948,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((-(L_ra__1*d_L_f__2__b_dtz)) + (L_ra__2*d_L_f__1__b_dtz));
     out[82] = ((L_ra__0*d_L_f__2__b_dtz) - (L_ra__2*d_L_f__0__b_dtz));
     out[83] = ((-(L_ra__0*d_L_f__1__b_dtz)) + (L_ra__1*d_L_f__0__b_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:93)
+    // dF_a/du_a from apply[0] (contact.yaml:96)
     out[84] = (-d_L_f__0__a_vx);
     out[85] = (-d_L_f__1__a_vx);
     out[86] = (-d_L_f__2__a_vx);
@@ -985,7 +985,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz));
     out[118] = ((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz));
     out[119] = ((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz));
-    // dF_a/du_b from apply[0] (contact.yaml:93)
+    // dF_a/du_b from apply[0] (contact.yaml:96)
     out[120] = (-d_L_f__0__b_vx);
     out[121] = (-d_L_f__1__b_vx);
     out[122] = (-d_L_f__2__b_vx);
@@ -1022,7 +1022,7 @@ struct Contact_Pair_Kernel {
     out[153] = ((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz));
     out[154] = ((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz));
     out[155] = ((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz));
-    // dF_b/ddelta_a from apply[1] (contact.yaml:94)
+    // dF_b/ddelta_a from apply[1] (contact.yaml:97)
     out[156] = d_L_f__0__a_dx;
     out[157] = d_L_f__1__a_dx;
     out[158] = d_L_f__2__a_dx;
@@ -1059,7 +1059,7 @@ struct Contact_Pair_Kernel {
     out[189] = ((L_rb__1*d_L_f__2__a_dtz) - (L_rb__2*d_L_f__1__a_dtz));
     out[190] = ((-(L_rb__0*d_L_f__2__a_dtz)) + (L_rb__2*d_L_f__0__a_dtz));
     out[191] = ((L_rb__0*d_L_f__1__a_dtz) - (L_rb__1*d_L_f__0__a_dtz));
-    // dF_b/ddelta_b from apply[1] (contact.yaml:94)
+    // dF_b/ddelta_b from apply[1] (contact.yaml:97)
     out[192] = d_L_f__0__b_dx;
     out[193] = d_L_f__1__b_dx;
     out[194] = d_L_f__2__b_dx;
@@ -1096,7 +1096,7 @@ struct Contact_Pair_Kernel {
     out[225] = ((L_rb__1*d_L_f__2__b_dtz) - (L_rb__2*d_L_f__1__b_dtz));
     out[226] = ((-(L_rb__0*d_L_f__2__b_dtz)) + (L_rb__2*d_L_f__0__b_dtz));
     out[227] = ((L_rb__0*d_L_f__1__b_dtz) - (L_rb__1*d_L_f__0__b_dtz));
-    // dF_b/du_a from apply[1] (contact.yaml:94)
+    // dF_b/du_a from apply[1] (contact.yaml:97)
     out[228] = d_L_f__0__a_vx;
     out[229] = d_L_f__1__a_vx;
     out[230] = d_L_f__2__a_vx;
@@ -1133,7 +1133,7 @@ struct Contact_Pair_Kernel {
     out[261] = ((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz));
     out[262] = ((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz));
     out[263] = ((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz));
-    // dF_b/du_b from apply[1] (contact.yaml:94)
+    // dF_b/du_b from apply[1] (contact.yaml:97)
     out[264] = d_L_f__0__b_vx;
     out[265] = d_L_f__1__b_vx;
     out[266] = d_L_f__2__b_vx;
@@ -1242,14 +1242,14 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S p_load = in[52];
     [[maybe_unused]] const S p_fall = in[53];
     [[maybe_unused]] const S p_sticking = in[54];
-    [[maybe_unused]] const S g_contact_hertz = in[55];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[56];
-    [[maybe_unused]] const S g_contact_stiffness = in[57];
-    [[maybe_unused]] const S g_contact_damping = in[58];
-    [[maybe_unused]] const S g_contact_hold_depth = in[59];
+    [[maybe_unused]] const S p_hold = in[55];
+    [[maybe_unused]] const S g_contact_hertz = in[56];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[57];
+    [[maybe_unused]] const S g_contact_stiffness = in[58];
+    [[maybe_unused]] const S g_contact_damping = in[59];
     [[maybe_unused]] const S g_slip_velocity = in[60];
     [[maybe_unused]] const S g_contact_rest_speed = in[61];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32), let rb (contact.yaml:33)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:33), let rb (contact.yaml:34)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -1303,15 +1303,15 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
-    // let ra (contact.yaml:32)
+    // let ra (contact.yaml:33)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
-    // let rb (contact.yaml:33)
+    // let rb (contact.yaml:34)
     [[maybe_unused]] const S L_rb__0 = b_o1_0;
     [[maybe_unused]] const S L_rb__1 = b_o1_1;
     [[maybe_unused]] const S L_rb__2 = b_o1_2;
-    // let moved (contact.yaml:36)
+    // let moved (contact.yaml:37)
     const S l2_0_0 = (-b_o1_0);
     const S l2_0_1 = (-b_o1_1);
     const S l2_0_2 = (-b_o1_2);
@@ -1324,7 +1324,7 @@ struct Contact_Pair_Kernel {
     const S L_moved__2 = ((-a_o0_2) - a_pz + b_pz - l2_0_2);
     const S d_L_moved__2__a_dtx = (-a_o0_1);
     const S d_L_moved__2__b_dty = l2_0_0;
-    // let depth (contact.yaml:37)
+    // let depth (contact.yaml:38)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
     const S d_L_depth__a_dtx = ((-(a_o0_2*p_normal__1)) - (d_L_moved__2__a_dtx*p_normal__2));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) - (d_L_moved__0__a_dty*p_normal__0));
@@ -1335,7 +1335,7 @@ struct Contact_Pair_Kernel {
     const S d_L_depth__b_dtx = ((-(b_o1_1*p_normal__2)) - (d_L_moved__1__b_dtx*p_normal__1));
     const S d_L_depth__b_dty = ((-(b_o1_2*p_normal__0)) - (d_L_moved__2__b_dty*p_normal__2));
     const S d_L_depth__b_dtz = ((-(b_o1_0*p_normal__1)) - (d_L_moved__0__b_dtz*p_normal__0));
-    // let vrel (contact.yaml:38)
+    // let vrel (contact.yaml:39)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S d_L_vrel__0__b_wz = (-L_rb__1);
@@ -1345,7 +1345,7 @@ struct Contact_Pair_Kernel {
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
     const S d_L_vrel__2__b_wy = (-L_rb__0);
-    // let vn (contact.yaml:39)
+    // let vn (contact.yaml:40)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -1356,18 +1356,18 @@ struct Contact_Pair_Kernel {
     const S d_L_vn__b_wx = ((L_rb__1*p_normal__2) + (d_L_vrel__1__b_wx*p_normal__1));
     const S d_L_vn__b_wy = ((L_rb__2*p_normal__0) + (d_L_vrel__2__b_wy*p_normal__2));
     const S d_L_vn__b_wz = ((L_rb__0*p_normal__1) + (d_L_vrel__0__b_wz*p_normal__0));
-    // let omega (contact.yaml:42)
+    // let omega (contact.yaml:43)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:46)
+    // let m (contact.yaml:47)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:47)
+    // let k (contact.yaml:48)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:48)
+    // let c (contact.yaml:49)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:52)
-    const auto l10_0_0 = (L_depth > g_contact_hold_depth);
+    // let held (contact.yaml:55)
+    const auto l10_0_0 = (L_depth > p_hold);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
-    const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
+    const S L_held = select(l10_0_0, p_hold, L_depth);
     const S d_L_held__a_dx = (l10_0_1*p_normal__0);
     const S d_L_held__a_dy = (l10_0_1*p_normal__1);
     const S d_L_held__a_dz = (l10_0_1*p_normal__2);
@@ -1380,11 +1380,11 @@ struct Contact_Pair_Kernel {
     const S d_L_held__b_dtx = (d_L_depth__b_dtx*l10_0_1);
     const S d_L_held__b_dty = (d_L_depth__b_dty*l10_0_1);
     const S d_L_held__b_dtz = (d_L_depth__b_dtz*l10_0_1);
-    // let closing (contact.yaml:62)
+    // let closing (contact.yaml:65)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
-    // let stays (contact.yaml:66)
+    // let stays (contact.yaml:69)
     const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
-    // let pushed (contact.yaml:67)
+    // let pushed (contact.yaml:70)
     const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
     const S d_L_pushed__a_dx = (L_k*d_L_held__a_dx);
     const S d_L_pushed__a_dy = (L_k*d_L_held__a_dy);
@@ -1410,7 +1410,7 @@ struct Contact_Pair_Kernel {
     const S d_L_pushed__b_wx = (-(L_c*d_L_vn__b_wx));
     const S d_L_pushed__b_wy = (-(L_c*d_L_vn__b_wy));
     const S d_L_pushed__b_wz = (-(L_c*d_L_vn__b_wz));
-    // let fn (contact.yaml:68)
+    // let fn (contact.yaml:71)
     const auto l14_0_0 = (L_stays > S(0));
     const auto l14_0_1 = (L_pushed > S(0));
     const auto l14_0_2 = (L_depth > S(0));
@@ -1442,7 +1442,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fn__b_wx = ((d_L_pushed__b_wx*l14_0_4) + (d_L_vn__b_wx*l14_0_5));
     const S d_L_fn__b_wy = ((d_L_pushed__b_wy*l14_0_4) + (d_L_vn__b_wy*l14_0_5));
     const S d_L_fn__b_wz = ((d_L_pushed__b_wz*l14_0_4) + (d_L_vn__b_wz*l14_0_5));
-    // let vt (contact.yaml:69)
+    // let vt (contact.yaml:72)
     const S l15_0_0 = (-(p_normal__0*p_normal__1));
     const S l15_0_1 = (-(p_normal__0*p_normal__2));
     const S l15_0_2 = (-(p_normal__1*p_normal__2));
@@ -1485,7 +1485,7 @@ struct Contact_Pair_Kernel {
     const S d_L_vt__2__b_wx = (L_rb__1 - (d_L_vn__b_wx*p_normal__2));
     const S d_L_vt__2__b_wy = ((-(d_L_vn__b_wy*p_normal__2)) + d_L_vrel__2__b_wy);
     const S d_L_vt__2__b_wz = (-(d_L_vn__b_wz*p_normal__2));
-    // let strain (contact.yaml:74)
+    // let strain (contact.yaml:77)
     const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S l16_0_1 = ((p_normal__0*p_normal__0) - S(1));
     const S l16_0_2 = (p_normal__0*p_normal__1);
@@ -1538,7 +1538,7 @@ struct Contact_Pair_Kernel {
     const S d_L_strain__2__b_dtx = ((b_o1_1*l16_0_12) - (d_L_moved__1__b_dtx*l16_0_8));
     const S d_L_strain__2__b_dty = ((-(b_o1_2*l16_0_3)) + (d_L_moved__2__b_dty*l16_0_12));
     const S d_L_strain__2__b_dtz = ((-(b_o1_0*l16_0_8)) - (d_L_moved__0__b_dtz*l16_0_3));
-    // let fs (contact.yaml:75)
+    // let fs (contact.yaml:78)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -1614,7 +1614,7 @@ struct Contact_Pair_Kernel {
     const S d_L_fs__2__b_wx = (-(L_c*d_L_vt__2__b_wx));
     const S d_L_fs__2__b_wy = (-(L_c*d_L_vt__2__b_wy));
     const S d_L_fs__2__b_wz = (-(L_c*d_L_vt__2__b_wz));
-    // let fmax (contact.yaml:76)
+    // let fmax (contact.yaml:79)
     const auto l18_0_0 = (L_fn > S(0));
     const S l18_0_1 = (p_friction*select(l18_0_0, S(1), S(0)));
     const S L_fmax = (p_friction*select(l18_0_0, L_fn, S(0)));
@@ -1642,16 +1642,16 @@ struct Contact_Pair_Kernel {
     const S d_L_fmax__b_wx = (d_L_fn__b_wx*l18_0_1);
     const S d_L_fmax__b_wy = (d_L_fn__b_wy*l18_0_1);
     const S d_L_fmax__b_wz = (d_L_fn__b_wz*l18_0_1);
-    // let slip (contact.yaml:82)
+    // let slip (contact.yaml:85)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:83)
+    // let dir (contact.yaml:86)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
-    // let fast (contact.yaml:84)
+    // let fast (contact.yaml:87)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:85)
+    // let across (contact.yaml:88)
     const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
     const S l22_0_2 = (L_dir__0*L_dir__1);
@@ -1698,7 +1698,7 @@ struct Contact_Pair_Kernel {
     const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l22_0_3)) - (d_L_vt__1__b_wx*l22_0_5) + (d_L_vt__2__b_wx*l22_0_6));
     const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l22_0_3)) - (d_L_vt__1__b_wy*l22_0_5) + (d_L_vt__2__b_wy*l22_0_6));
     const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l22_0_3)) - (d_L_vt__1__b_wz*l22_0_5) + (d_L_vt__2__b_wz*l22_0_6));
-    // let sliding (contact.yaml:86)
+    // let sliding (contact.yaml:89)
     const S l23_0_0 = (S(1)/(L_slip));
     const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
     const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
@@ -1784,9 +1784,9 @@ struct Contact_Pair_Kernel {
     const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_9) - (d_L_vt__2__b_wx*l23_0_5));
     const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_9) - (d_L_vt__2__b_wy*l23_0_5));
     const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_9) - (d_L_vt__2__b_wz*l23_0_5));
-    // let holds (contact.yaml:89)
+    // let holds (contact.yaml:92)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:90)
+    // let ft (contact.yaml:93)
     const S l25_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
     const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
@@ -1863,7 +1863,7 @@ struct Contact_Pair_Kernel {
     const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l25_0_0));
     const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l25_0_0));
     const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l25_0_0));
-    // let f (contact.yaml:91)
+    // let f (contact.yaml:94)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -1939,7 +1939,7 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // apply (contact.yaml:92), shared subexpressions
+    // apply (contact.yaml:95), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -2064,21 +2064,21 @@ struct Contact_Pair_Kernel {
     const S o121 = ((d_L_f__0__b_dtz*o87) + (d_L_f__0__b_wz*h));
     const S o122 = ((d_L_f__1__b_dtz*o87) + (d_L_f__1__b_wz*h));
     const S o123 = ((d_L_f__2__b_dtz*o87) + (d_L_f__2__b_wz*h));
-    // g_a from apply[0] (contact.yaml:93)
+    // g_a from apply[0] (contact.yaml:96)
     out[0] = (-o12);
     out[1] = (-o13);
     out[2] = (-o14);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o15) + (o1*o16) + (o10*o25) + (o11*o26) + (o17*o2) + (o18*o3) + (o19*o4) + (o20*o5) + (o21*o6) + (o22*o7) + (o23*o8) + (o24*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o27) + (o1*o28) + (o10*o37) + (o11*o38) + (o2*o29) + (o3*o30) + (o31*o4) + (o32*o5) + (o33*o6) + (o34*o7) + (o35*o8) + (o36*o9));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o39) + (o1*o40) + (o10*o49) + (o11*o50) + (o2*o41) + (o3*o42) + (o4*o43) + (o44*o5) + (o45*o6) + (o46*o7) + (o47*o8) + (o48*o9));
-    // g_b from apply[1] (contact.yaml:94)
+    // g_b from apply[1] (contact.yaml:97)
     out[6] = o12;
     out[7] = o13;
     out[8] = o14;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1) + (o0*o51) + (o1*o52) + (o10*o61) + (o11*o62) + (o2*o53) + (o3*o54) + (o4*o55) + (o5*o56) + (o57*o6) + (o58*o7) + (o59*o8) + (o60*o9));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0) + (o0*o63) + (o1*o64) + (o10*o73) + (o11*o74) + (o2*o65) + (o3*o66) + (o4*o67) + (o5*o68) + (o6*o69) + (o7*o70) + (o71*o8) + (o72*o9));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0) + (o0*o75) + (o1*o76) + (o10*o85) + (o11*o86) + (o2*o77) + (o3*o78) + (o4*o79) + (o5*o80) + (o6*o81) + (o7*o82) + (o8*o83) + (o84*o9));
-    // K_aa from apply[0] (contact.yaml:93)
+    // K_aa from apply[0] (contact.yaml:96)
     out[12] = (-o88);
     out[13] = (-o89);
     out[14] = (-o90);
@@ -2115,7 +2115,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((h*((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz))) + (o20*o87));
     out[46] = ((h*((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz))) + (o32*o87));
     out[47] = ((h*((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz))) + (o44*o87));
-    // K_ab from apply[0] (contact.yaml:93)
+    // K_ab from apply[0] (contact.yaml:96)
     out[48] = (-o106);
     out[49] = (-o107);
     out[50] = (-o108);
@@ -2152,7 +2152,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((h*((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz))) + (o26*o87));
     out[82] = ((h*((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz))) + (o38*o87));
     out[83] = ((h*((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz))) + (o50*o87));
-    // K_ba from apply[1] (contact.yaml:94)
+    // K_ba from apply[1] (contact.yaml:97)
     out[84] = o88;
     out[85] = o89;
     out[86] = o90;
@@ -2189,7 +2189,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((h*((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz))) + (o56*o87));
     out[118] = ((h*((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz))) + (o68*o87));
     out[119] = ((h*((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz))) + (o80*o87));
-    // K_bb from apply[1] (contact.yaml:94)
+    // K_bb from apply[1] (contact.yaml:97)
     out[120] = o106;
     out[121] = o107;
     out[122] = o108;
@@ -2295,14 +2295,14 @@ struct Contact_Pair_Kernel {
     [[maybe_unused]] const S p_load = in[52];
     [[maybe_unused]] const S p_fall = in[53];
     [[maybe_unused]] const S p_sticking = in[54];
-    [[maybe_unused]] const S g_contact_hertz = in[55];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[56];
-    [[maybe_unused]] const S g_contact_stiffness = in[57];
-    [[maybe_unused]] const S g_contact_damping = in[58];
-    [[maybe_unused]] const S g_contact_hold_depth = in[59];
+    [[maybe_unused]] const S p_hold = in[55];
+    [[maybe_unused]] const S g_contact_hertz = in[56];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[57];
+    [[maybe_unused]] const S g_contact_stiffness = in[58];
+    [[maybe_unused]] const S g_contact_damping = in[59];
     [[maybe_unused]] const S g_slip_velocity = in[60];
     [[maybe_unused]] const S g_contact_rest_speed = in[61];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32), let rb (contact.yaml:33)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:33), let rb (contact.yaml:34)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = (-p_point__0);
@@ -2356,69 +2356,69 @@ struct Contact_Pair_Kernel {
     const S b_o1_0 = ((p0_36*((S(2)*b_qx*b_qy) - p0_26)) + (p0_41*((b_qz*p0_38) + p0_37)) + (p0_44*((-p0_42) - p0_43)));
     const S b_o1_1 = ((p0_36*((-p0_43) - p0_46)) + (p0_41*((S(2)*b_qy*b_qz) - p0_45)) + (p0_44*((b_qy*p0_38) + p0_26)));
     const S b_o1_2 = ((p0_36*((S(2)*b_qy*b_qz) + p0_45)) + (p0_41*((-p0_42) - p0_46 + S(1))) + (p0_44*((S(2)*b_qx*b_qz) - p0_37)));
-    // let ra (contact.yaml:32)
+    // let ra (contact.yaml:33)
     const S L_ra__0 = held_in ? held_in[0] : S(a_o0_0);
     if (held_out) held_out[0] = L_ra__0;
     const S L_ra__1 = held_in ? held_in[1] : S(a_o0_1);
     if (held_out) held_out[1] = L_ra__1;
     const S L_ra__2 = held_in ? held_in[2] : S(a_o0_2);
     if (held_out) held_out[2] = L_ra__2;
-    // let rb (contact.yaml:33)
+    // let rb (contact.yaml:34)
     const S L_rb__0 = held_in ? held_in[3] : S(b_o1_0);
     if (held_out) held_out[3] = L_rb__0;
     const S L_rb__1 = held_in ? held_in[4] : S(b_o1_1);
     if (held_out) held_out[4] = L_rb__1;
     const S L_rb__2 = held_in ? held_in[5] : S(b_o1_2);
     if (held_out) held_out[5] = L_rb__2;
-    // let moved (contact.yaml:36)
+    // let moved (contact.yaml:37)
     const S L_moved__0 = ((-a_o0_0) - a_px + b_o1_0 + b_px);
     const S L_moved__1 = ((-a_o0_1) - a_py + b_o1_1 + b_py);
     const S L_moved__2 = ((-a_o0_2) - a_pz + b_o1_2 + b_pz);
-    // let depth (contact.yaml:37)
+    // let depth (contact.yaml:38)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
-    // let vrel (contact.yaml:38)
+    // let vrel (contact.yaml:39)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - (L_rb__1*b_wz) + (L_rb__2*b_wy) - a_vx + b_vx);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) + (L_rb__0*b_wz) - (L_rb__2*b_wx) - a_vy + b_vy);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - (L_rb__0*b_wy) + (L_rb__1*b_wx) - a_vz + b_vz);
-    // let vn (contact.yaml:39)
+    // let vn (contact.yaml:40)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
-    // let omega (contact.yaml:42)
+    // let omega (contact.yaml:43)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:46)
+    // let m (contact.yaml:47)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:47)
+    // let k (contact.yaml:48)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:48)
+    // let c (contact.yaml:49)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:52)
-    const S L_held = select((L_depth > g_contact_hold_depth), g_contact_hold_depth, L_depth);
-    // let closing (contact.yaml:62)
+    // let held (contact.yaml:55)
+    const S L_held = select((L_depth > p_hold), p_hold, L_depth);
+    // let closing (contact.yaml:65)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
-    // let stays (contact.yaml:66)
+    // let stays (contact.yaml:69)
     const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
-    // let pushed (contact.yaml:67)
+    // let pushed (contact.yaml:70)
     const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
-    // let fn (contact.yaml:68)
+    // let fn (contact.yaml:71)
     const S L_fn = select((L_depth > S(0)), select((L_stays > S(0)), L_pushed, select((L_pushed > S(0)), L_pushed, S(0))), (L_closing*(L_c + (L_k*h))*((-L_vn) + (p_penetration/(h)))));
-    // let vt (contact.yaml:69)
+    // let vt (contact.yaml:72)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S L_vt__1 = ((-(L_vn*p_normal__1)) + L_vrel__1);
     const S L_vt__2 = ((-(L_vn*p_normal__2)) + L_vrel__2);
-    // let strain (contact.yaml:74)
+    // let strain (contact.yaml:77)
     const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S L_strain__0 = (L_moved__0 - (l16_0_0*p_normal__0) + p_anchor__0);
     const S L_strain__1 = (L_moved__1 - (l16_0_0*p_normal__1) + p_anchor__1);
     const S L_strain__2 = (L_moved__2 - (l16_0_0*p_normal__2) + p_anchor__2);
-    // let fs (contact.yaml:75)
+    // let fs (contact.yaml:78)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S L_fs__1 = ((-(L_c*L_vt__1)) - (L_k*L_strain__1));
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
-    // let fmax (contact.yaml:76)
+    // let fmax (contact.yaml:79)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:82)
+    // let slip (contact.yaml:85)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let dir (contact.yaml:83)
+    // let dir (contact.yaml:86)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l20_0_0));
     if (held_out) held_out[7] = L_dir__0;
@@ -2426,38 +2426,38 @@ struct Contact_Pair_Kernel {
     if (held_out) held_out[8] = L_dir__1;
     const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l20_0_0));
     if (held_out) held_out[9] = L_dir__2;
-    // let fast (contact.yaml:84)
+    // let fast (contact.yaml:87)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:85)
+    // let across (contact.yaml:88)
     const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
     const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
     const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
-    // let sliding (contact.yaml:86)
+    // let sliding (contact.yaml:89)
     const S l23_0_0 = (S(1)/(L_slip));
     const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
     const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1))));
     const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1))));
     const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1))));
-    // let holds (contact.yaml:89)
+    // let holds (contact.yaml:92)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:90)
+    // let ft (contact.yaml:93)
     const S l25_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
     const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
     const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
-    // let f (contact.yaml:91)
+    // let f (contact.yaml:94)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:93)
+    // F_a from apply[0] (contact.yaml:96)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:94)
+    // F_b from apply[1] (contact.yaml:97)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
@@ -2527,11 +2527,11 @@ struct Contact_World_Kernel {
     in[32 * stride] = f.load;
     in[33 * stride] = f.fall;
     in[34 * stride] = f.sticking;
-    in[35 * stride] = g.contact_hertz;
-    in[36 * stride] = g.contact_damping_ratio;
-    in[37 * stride] = g.contact_stiffness;
-    in[38 * stride] = g.contact_damping;
-    in[39 * stride] = g.contact_hold_depth;
+    in[35 * stride] = f.hold;
+    in[36 * stride] = g.contact_hertz;
+    in[37 * stride] = g.contact_damping_ratio;
+    in[38 * stride] = g.contact_stiffness;
+    in[39 * stride] = g.contact_damping;
     in[40 * stride] = g.slip_velocity;
     in[41 * stride] = g.contact_rest_speed;
   }
@@ -2575,14 +2575,14 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S p_load = in[32];
     [[maybe_unused]] const S p_fall = in[33];
     [[maybe_unused]] const S p_sticking = in[34];
-    [[maybe_unused]] const S g_contact_hertz = in[35];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[36];
-    [[maybe_unused]] const S g_contact_stiffness = in[37];
-    [[maybe_unused]] const S g_contact_damping = in[38];
-    [[maybe_unused]] const S g_contact_hold_depth = in[39];
+    [[maybe_unused]] const S p_hold = in[35];
+    [[maybe_unused]] const S g_contact_hertz = in[36];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[37];
+    [[maybe_unused]] const S g_contact_stiffness = in[38];
+    [[maybe_unused]] const S g_contact_damping = in[39];
     [[maybe_unused]] const S g_slip_velocity = in[40];
     [[maybe_unused]] const S g_contact_rest_speed = in[41];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:33)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -2608,34 +2608,34 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
-    // let ra (contact.yaml:32)
+    // let ra (contact.yaml:33)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
-    // let rb (contact.yaml:33)
+    // let rb (contact.yaml:34)
     [[maybe_unused]] const S L_rb__0 = S(0);
     [[maybe_unused]] const S L_rb__1 = S(0);
     [[maybe_unused]] const S L_rb__2 = S(0);
-    // let moved (contact.yaml:36)
+    // let moved (contact.yaml:37)
     const S L_moved__0 = ((-a_o0_0) - a_px + p_point__0);
     const S d_L_moved__0__a_dty = (-a_o0_2);
     const S L_moved__1 = ((-a_o0_1) - a_py + p_point__1);
     const S d_L_moved__1__a_dtz = (-a_o0_0);
     const S L_moved__2 = ((-a_o0_2) - a_pz + p_point__2);
     const S d_L_moved__2__a_dtx = (-a_o0_1);
-    // let depth (contact.yaml:37)
+    // let depth (contact.yaml:38)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
     const S d_L_depth__a_dtx = ((-(a_o0_2*p_normal__1)) - (d_L_moved__2__a_dtx*p_normal__2));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) - (d_L_moved__0__a_dty*p_normal__0));
     const S d_L_depth__a_dtz = ((-(a_o0_1*p_normal__0)) - (d_L_moved__1__a_dtz*p_normal__1));
-    // let vrel (contact.yaml:38)
+    // let vrel (contact.yaml:39)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S d_L_vrel__1__a_wz = (-L_ra__0);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
-    // let vn (contact.yaml:39)
+    // let vn (contact.yaml:40)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -2643,29 +2643,29 @@ struct Contact_World_Kernel {
     const S d_L_vn__a_wx = ((L_ra__2*p_normal__1) + (d_L_vrel__2__a_wx*p_normal__2));
     const S d_L_vn__a_wy = ((L_ra__0*p_normal__2) + (d_L_vrel__0__a_wy*p_normal__0));
     const S d_L_vn__a_wz = ((L_ra__1*p_normal__0) + (d_L_vrel__1__a_wz*p_normal__1));
-    // let omega (contact.yaml:42)
+    // let omega (contact.yaml:43)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:46)
+    // let m (contact.yaml:47)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:47)
+    // let k (contact.yaml:48)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:48)
+    // let c (contact.yaml:49)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:52)
-    const auto l10_0_0 = (L_depth > g_contact_hold_depth);
+    // let held (contact.yaml:55)
+    const auto l10_0_0 = (L_depth > p_hold);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
-    const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
+    const S L_held = select(l10_0_0, p_hold, L_depth);
     const S d_L_held__a_dx = (l10_0_1*p_normal__0);
     const S d_L_held__a_dy = (l10_0_1*p_normal__1);
     const S d_L_held__a_dz = (l10_0_1*p_normal__2);
     const S d_L_held__a_dtx = (d_L_depth__a_dtx*l10_0_1);
     const S d_L_held__a_dty = (d_L_depth__a_dty*l10_0_1);
     const S d_L_held__a_dtz = (d_L_depth__a_dtz*l10_0_1);
-    // let closing (contact.yaml:62)
+    // let closing (contact.yaml:65)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
-    // let stays (contact.yaml:66)
+    // let stays (contact.yaml:69)
     const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
-    // let pushed (contact.yaml:67)
+    // let pushed (contact.yaml:70)
     const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
     const S d_L_pushed__a_dx = (L_k*d_L_held__a_dx);
     const S d_L_pushed__a_dy = (L_k*d_L_held__a_dy);
@@ -2679,7 +2679,7 @@ struct Contact_World_Kernel {
     const S d_L_pushed__a_wx = (-(L_c*d_L_vn__a_wx));
     const S d_L_pushed__a_wy = (-(L_c*d_L_vn__a_wy));
     const S d_L_pushed__a_wz = (-(L_c*d_L_vn__a_wz));
-    // let fn (contact.yaml:68)
+    // let fn (contact.yaml:71)
     const auto l14_0_0 = (L_stays > S(0));
     const auto l14_0_1 = (L_pushed > S(0));
     const auto l14_0_2 = (L_depth > S(0));
@@ -2699,7 +2699,7 @@ struct Contact_World_Kernel {
     const S d_L_fn__a_wx = ((d_L_pushed__a_wx*l14_0_4) + (d_L_vn__a_wx*l14_0_5));
     const S d_L_fn__a_wy = ((d_L_pushed__a_wy*l14_0_4) + (d_L_vn__a_wy*l14_0_5));
     const S d_L_fn__a_wz = ((d_L_pushed__a_wz*l14_0_4) + (d_L_vn__a_wz*l14_0_5));
-    // let vt (contact.yaml:69)
+    // let vt (contact.yaml:72)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -2721,7 +2721,7 @@ struct Contact_World_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
-    // let strain (contact.yaml:74)
+    // let strain (contact.yaml:77)
     const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S l16_0_1 = ((p_normal__0*p_normal__0) - S(1));
     const S l16_0_2 = (p_normal__0*p_normal__1);
@@ -2753,7 +2753,7 @@ struct Contact_World_Kernel {
     const S d_L_strain__2__a_dtx = ((-(a_o0_2*l16_0_6)) + (d_L_moved__2__a_dtx*l16_0_9));
     const S d_L_strain__2__a_dty = ((a_o0_0*l16_0_9) - (d_L_moved__0__a_dty*l16_0_3));
     const S d_L_strain__2__a_dtz = ((-(a_o0_1*l16_0_3)) - (d_L_moved__1__a_dtz*l16_0_6));
-    // let fs (contact.yaml:75)
+    // let fs (contact.yaml:78)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -2793,7 +2793,7 @@ struct Contact_World_Kernel {
     const S d_L_fs__2__a_wx = (-(L_c*d_L_vt__2__a_wx));
     const S d_L_fs__2__a_wy = (-(L_c*d_L_vt__2__a_wy));
     const S d_L_fs__2__a_wz = (-(L_c*d_L_vt__2__a_wz));
-    // let fmax (contact.yaml:76)
+    // let fmax (contact.yaml:79)
     const auto l18_0_0 = (L_fn > S(0));
     const S l18_0_1 = (p_friction*select(l18_0_0, S(1), S(0)));
     const S L_fmax = (p_friction*select(l18_0_0, L_fn, S(0)));
@@ -2809,16 +2809,16 @@ struct Contact_World_Kernel {
     const S d_L_fmax__a_wx = (d_L_fn__a_wx*l18_0_1);
     const S d_L_fmax__a_wy = (d_L_fn__a_wy*l18_0_1);
     const S d_L_fmax__a_wz = (d_L_fn__a_wz*l18_0_1);
-    // let slip (contact.yaml:82)
+    // let slip (contact.yaml:85)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:83)
+    // let dir (contact.yaml:86)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
-    // let fast (contact.yaml:84)
+    // let fast (contact.yaml:87)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:85)
+    // let across (contact.yaml:88)
     const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
     const S l22_0_2 = (L_dir__0*L_dir__1);
@@ -2847,7 +2847,7 @@ struct Contact_World_Kernel {
     const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
     const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
     const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
-    // let sliding (contact.yaml:86)
+    // let sliding (contact.yaml:89)
     const S l23_0_0 = (S(1)/(L_slip));
     const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
     const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
@@ -2897,9 +2897,9 @@ struct Contact_World_Kernel {
     const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
     const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
     const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
-    // let holds (contact.yaml:89)
+    // let holds (contact.yaml:92)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:90)
+    // let ft (contact.yaml:93)
     const S l25_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
     const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
@@ -2940,7 +2940,7 @@ struct Contact_World_Kernel {
     const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
     const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
     const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
-    // let f (contact.yaml:91)
+    // let f (contact.yaml:94)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -2980,14 +2980,14 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // F_a from apply[0] (contact.yaml:93)
+    // F_a from apply[0] (contact.yaml:96)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:93)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:96)
     out[6] = (-d_L_f__0__a_dx);
     out[7] = (-d_L_f__1__a_dx);
     out[8] = (-d_L_f__2__a_dx);
@@ -3024,7 +3024,7 @@ struct Contact_World_Kernel {
     out[39] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[40] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[41] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:93)
+    // dF_a/du_a from apply[0] (contact.yaml:96)
     out[42] = (-d_L_f__0__a_vx);
     out[43] = (-d_L_f__1__a_vx);
     out[44] = (-d_L_f__2__a_vx);
@@ -3110,14 +3110,14 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S p_load = in[32];
     [[maybe_unused]] const S p_fall = in[33];
     [[maybe_unused]] const S p_sticking = in[34];
-    [[maybe_unused]] const S g_contact_hertz = in[35];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[36];
-    [[maybe_unused]] const S g_contact_stiffness = in[37];
-    [[maybe_unused]] const S g_contact_damping = in[38];
-    [[maybe_unused]] const S g_contact_hold_depth = in[39];
+    [[maybe_unused]] const S p_hold = in[35];
+    [[maybe_unused]] const S g_contact_hertz = in[36];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[37];
+    [[maybe_unused]] const S g_contact_stiffness = in[38];
+    [[maybe_unused]] const S g_contact_damping = in[39];
     [[maybe_unused]] const S g_slip_velocity = in[40];
     [[maybe_unused]] const S g_contact_rest_speed = in[41];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:33)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -3143,34 +3143,34 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
-    // let ra (contact.yaml:32)
+    // let ra (contact.yaml:33)
     [[maybe_unused]] const S L_ra__0 = a_o0_0;
     [[maybe_unused]] const S L_ra__1 = a_o0_1;
     [[maybe_unused]] const S L_ra__2 = a_o0_2;
-    // let rb (contact.yaml:33)
+    // let rb (contact.yaml:34)
     [[maybe_unused]] const S L_rb__0 = S(0);
     [[maybe_unused]] const S L_rb__1 = S(0);
     [[maybe_unused]] const S L_rb__2 = S(0);
-    // let moved (contact.yaml:36)
+    // let moved (contact.yaml:37)
     const S L_moved__0 = ((-a_o0_0) - a_px + p_point__0);
     const S d_L_moved__0__a_dty = (-a_o0_2);
     const S L_moved__1 = ((-a_o0_1) - a_py + p_point__1);
     const S d_L_moved__1__a_dtz = (-a_o0_0);
     const S L_moved__2 = ((-a_o0_2) - a_pz + p_point__2);
     const S d_L_moved__2__a_dtx = (-a_o0_1);
-    // let depth (contact.yaml:37)
+    // let depth (contact.yaml:38)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
     const S d_L_depth__a_dtx = ((-(a_o0_2*p_normal__1)) - (d_L_moved__2__a_dtx*p_normal__2));
     const S d_L_depth__a_dty = ((-(a_o0_0*p_normal__2)) - (d_L_moved__0__a_dty*p_normal__0));
     const S d_L_depth__a_dtz = ((-(a_o0_1*p_normal__0)) - (d_L_moved__1__a_dtz*p_normal__1));
-    // let vrel (contact.yaml:38)
+    // let vrel (contact.yaml:39)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S d_L_vrel__0__a_wy = (-L_ra__2);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S d_L_vrel__1__a_wz = (-L_ra__0);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
     const S d_L_vrel__2__a_wx = (-L_ra__1);
-    // let vn (contact.yaml:39)
+    // let vn (contact.yaml:40)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
     const S d_L_vn__a_vx = (-p_normal__0);
     const S d_L_vn__a_vy = (-p_normal__1);
@@ -3178,29 +3178,29 @@ struct Contact_World_Kernel {
     const S d_L_vn__a_wx = ((L_ra__2*p_normal__1) + (d_L_vrel__2__a_wx*p_normal__2));
     const S d_L_vn__a_wy = ((L_ra__0*p_normal__2) + (d_L_vrel__0__a_wy*p_normal__0));
     const S d_L_vn__a_wz = ((L_ra__1*p_normal__0) + (d_L_vrel__1__a_wz*p_normal__1));
-    // let omega (contact.yaml:42)
+    // let omega (contact.yaml:43)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:46)
+    // let m (contact.yaml:47)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:47)
+    // let k (contact.yaml:48)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:48)
+    // let c (contact.yaml:49)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:52)
-    const auto l10_0_0 = (L_depth > g_contact_hold_depth);
+    // let held (contact.yaml:55)
+    const auto l10_0_0 = (L_depth > p_hold);
     const S l10_0_1 = select(l10_0_0, S(0), S(1));
-    const S L_held = select(l10_0_0, g_contact_hold_depth, L_depth);
+    const S L_held = select(l10_0_0, p_hold, L_depth);
     const S d_L_held__a_dx = (l10_0_1*p_normal__0);
     const S d_L_held__a_dy = (l10_0_1*p_normal__1);
     const S d_L_held__a_dz = (l10_0_1*p_normal__2);
     const S d_L_held__a_dtx = (d_L_depth__a_dtx*l10_0_1);
     const S d_L_held__a_dty = (d_L_depth__a_dty*l10_0_1);
     const S d_L_held__a_dtz = (d_L_depth__a_dtz*l10_0_1);
-    // let closing (contact.yaml:62)
+    // let closing (contact.yaml:65)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
-    // let stays (contact.yaml:66)
+    // let stays (contact.yaml:69)
     const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
-    // let pushed (contact.yaml:67)
+    // let pushed (contact.yaml:70)
     const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
     const S d_L_pushed__a_dx = (L_k*d_L_held__a_dx);
     const S d_L_pushed__a_dy = (L_k*d_L_held__a_dy);
@@ -3214,7 +3214,7 @@ struct Contact_World_Kernel {
     const S d_L_pushed__a_wx = (-(L_c*d_L_vn__a_wx));
     const S d_L_pushed__a_wy = (-(L_c*d_L_vn__a_wy));
     const S d_L_pushed__a_wz = (-(L_c*d_L_vn__a_wz));
-    // let fn (contact.yaml:68)
+    // let fn (contact.yaml:71)
     const auto l14_0_0 = (L_stays > S(0));
     const auto l14_0_1 = (L_pushed > S(0));
     const auto l14_0_2 = (L_depth > S(0));
@@ -3234,7 +3234,7 @@ struct Contact_World_Kernel {
     const S d_L_fn__a_wx = ((d_L_pushed__a_wx*l14_0_4) + (d_L_vn__a_wx*l14_0_5));
     const S d_L_fn__a_wy = ((d_L_pushed__a_wy*l14_0_4) + (d_L_vn__a_wy*l14_0_5));
     const S d_L_fn__a_wz = ((d_L_pushed__a_wz*l14_0_4) + (d_L_vn__a_wz*l14_0_5));
-    // let vt (contact.yaml:69)
+    // let vt (contact.yaml:72)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S d_L_vt__0__a_vx = ((-(d_L_vn__a_vx*p_normal__0)) - S(1));
     const S d_L_vt__0__a_vy = (-(d_L_vn__a_vy*p_normal__0));
@@ -3256,7 +3256,7 @@ struct Contact_World_Kernel {
     const S d_L_vt__2__a_wx = ((-(d_L_vn__a_wx*p_normal__2)) + d_L_vrel__2__a_wx);
     const S d_L_vt__2__a_wy = (L_ra__0 - (d_L_vn__a_wy*p_normal__2));
     const S d_L_vt__2__a_wz = (-(d_L_vn__a_wz*p_normal__2));
-    // let strain (contact.yaml:74)
+    // let strain (contact.yaml:77)
     const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S l16_0_1 = ((p_normal__0*p_normal__0) - S(1));
     const S l16_0_2 = (p_normal__0*p_normal__1);
@@ -3288,7 +3288,7 @@ struct Contact_World_Kernel {
     const S d_L_strain__2__a_dtx = ((-(a_o0_2*l16_0_6)) + (d_L_moved__2__a_dtx*l16_0_9));
     const S d_L_strain__2__a_dty = ((a_o0_0*l16_0_9) - (d_L_moved__0__a_dty*l16_0_3));
     const S d_L_strain__2__a_dtz = ((-(a_o0_1*l16_0_3)) - (d_L_moved__1__a_dtz*l16_0_6));
-    // let fs (contact.yaml:75)
+    // let fs (contact.yaml:78)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S d_L_fs__0__a_dx = (-(L_k*d_L_strain__0__a_dx));
     const S d_L_fs__0__a_dy = (-(L_k*d_L_strain__0__a_dy));
@@ -3328,7 +3328,7 @@ struct Contact_World_Kernel {
     const S d_L_fs__2__a_wx = (-(L_c*d_L_vt__2__a_wx));
     const S d_L_fs__2__a_wy = (-(L_c*d_L_vt__2__a_wy));
     const S d_L_fs__2__a_wz = (-(L_c*d_L_vt__2__a_wz));
-    // let fmax (contact.yaml:76)
+    // let fmax (contact.yaml:79)
     const auto l18_0_0 = (L_fn > S(0));
     const S l18_0_1 = (p_friction*select(l18_0_0, S(1), S(0)));
     const S L_fmax = (p_friction*select(l18_0_0, L_fn, S(0)));
@@ -3344,16 +3344,16 @@ struct Contact_World_Kernel {
     const S d_L_fmax__a_wx = (d_L_fn__a_wx*l18_0_1);
     const S d_L_fmax__a_wy = (d_L_fn__a_wy*l18_0_1);
     const S d_L_fmax__a_wz = (d_L_fn__a_wz*l18_0_1);
-    // let slip (contact.yaml:82)
+    // let slip (contact.yaml:85)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:83)
+    // let dir (contact.yaml:86)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
-    // let fast (contact.yaml:84)
+    // let fast (contact.yaml:87)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:85)
+    // let across (contact.yaml:88)
     const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
     const S l22_0_2 = (L_dir__0*L_dir__1);
@@ -3382,7 +3382,7 @@ struct Contact_World_Kernel {
     const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
     const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
     const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
-    // let sliding (contact.yaml:86)
+    // let sliding (contact.yaml:89)
     const S l23_0_0 = (S(1)/(L_slip));
     const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
     const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
@@ -3432,9 +3432,9 @@ struct Contact_World_Kernel {
     const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
     const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
     const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
-    // let holds (contact.yaml:89)
+    // let holds (contact.yaml:92)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:90)
+    // let ft (contact.yaml:93)
     const S l25_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
     const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
@@ -3475,7 +3475,7 @@ struct Contact_World_Kernel {
     const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
     const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
     const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
-    // let f (contact.yaml:91)
+    // let f (contact.yaml:94)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -3515,7 +3515,7 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // apply (contact.yaml:92), shared subexpressions
+    // apply (contact.yaml:95), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -3541,14 +3541,14 @@ struct Contact_World_Kernel {
     const S o22 = ((-(L_ra__0*d_L_f__1__a_dty)) + (L_ra__1*d_L_f__0__a_dty));
     const S o23 = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
     const S o24 = (h*h);
-    // g_a from apply[0] (contact.yaml:93)
+    // g_a from apply[0] (contact.yaml:96)
     out[0] = ((-L_f__0) - (d_L_f__0__a_dtx*o3) - (d_L_f__0__a_dty*o4) - (d_L_f__0__a_dtz*o5) - (d_L_f__0__a_dx*o0) - (d_L_f__0__a_dy*o1) - (d_L_f__0__a_dz*o2));
     out[1] = ((-L_f__1) - (d_L_f__1__a_dtx*o3) - (d_L_f__1__a_dty*o4) - (d_L_f__1__a_dtz*o5) - (d_L_f__1__a_dx*o0) - (d_L_f__1__a_dy*o1) - (d_L_f__1__a_dz*o2));
     out[2] = ((-L_f__2) - (d_L_f__2__a_dtx*o3) - (d_L_f__2__a_dty*o4) - (d_L_f__2__a_dtz*o5) - (d_L_f__2__a_dx*o0) - (d_L_f__2__a_dy*o1) - (d_L_f__2__a_dz*o2));
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o6) + (o1*o7) + (o10*o4) + (o11*o5) + (o2*o8) + (o3*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o12) + (o1*o13) + (o14*o2) + (o15*o3) + (o16*o4) + (o17*o5));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o18) + (o1*o19) + (o2*o20) + (o21*o3) + (o22*o4) + (o23*o5));
-    // K_aa from apply[0] (contact.yaml:93)
+    // K_aa from apply[0] (contact.yaml:96)
     out[6] = ((-(d_L_f__0__a_dx*o24)) - (d_L_f__0__a_vx*h));
     out[7] = ((-(d_L_f__1__a_dx*o24)) - (d_L_f__1__a_vx*h));
     out[8] = ((-(d_L_f__2__a_dx*o24)) - (d_L_f__2__a_vx*h));
@@ -3634,14 +3634,14 @@ struct Contact_World_Kernel {
     [[maybe_unused]] const S p_load = in[32];
     [[maybe_unused]] const S p_fall = in[33];
     [[maybe_unused]] const S p_sticking = in[34];
-    [[maybe_unused]] const S g_contact_hertz = in[35];
-    [[maybe_unused]] const S g_contact_damping_ratio = in[36];
-    [[maybe_unused]] const S g_contact_stiffness = in[37];
-    [[maybe_unused]] const S g_contact_damping = in[38];
-    [[maybe_unused]] const S g_contact_hold_depth = in[39];
+    [[maybe_unused]] const S p_hold = in[35];
+    [[maybe_unused]] const S g_contact_hertz = in[36];
+    [[maybe_unused]] const S g_contact_damping_ratio = in[37];
+    [[maybe_unused]] const S g_contact_stiffness = in[38];
+    [[maybe_unused]] const S g_contact_damping = in[39];
     [[maybe_unused]] const S g_slip_velocity = in[40];
     [[maybe_unused]] const S g_contact_rest_speed = in[41];
-    // body-frame quantities rotated to world, first used by let ra (contact.yaml:32)
+    // body-frame quantities rotated to world, first used by let ra (contact.yaml:33)
     const S p0_0 = (S(2)*a_qw);
     const S p0_1 = (a_qz*p0_0);
     const S p0_2 = ((-a_rpx) + p_point__0);
@@ -3667,69 +3667,69 @@ struct Contact_World_Kernel {
     const S a_o0_0 = ((p0_11*((S(2)*a_qx*a_qy) - p0_1)) + (p0_16*((a_qz*p0_13) + p0_12)) + (p0_19*((-p0_17) - p0_18)));
     const S a_o0_1 = ((p0_11*((-p0_18) - p0_21)) + (p0_16*((S(2)*a_qy*a_qz) - p0_20)) + (p0_19*((a_qy*p0_13) + p0_1)));
     const S a_o0_2 = ((p0_11*((S(2)*a_qy*a_qz) + p0_20)) + (p0_16*((-p0_17) - p0_21 + S(1))) + (p0_19*((S(2)*a_qx*a_qz) - p0_12)));
-    // let ra (contact.yaml:32)
+    // let ra (contact.yaml:33)
     const S L_ra__0 = held_in ? held_in[0] : S(a_o0_0);
     if (held_out) held_out[0] = L_ra__0;
     const S L_ra__1 = held_in ? held_in[1] : S(a_o0_1);
     if (held_out) held_out[1] = L_ra__1;
     const S L_ra__2 = held_in ? held_in[2] : S(a_o0_2);
     if (held_out) held_out[2] = L_ra__2;
-    // let rb (contact.yaml:33)
+    // let rb (contact.yaml:34)
     const S L_rb__0 = held_in ? held_in[3] : S(S(0));
     if (held_out) held_out[3] = L_rb__0;
     const S L_rb__1 = held_in ? held_in[4] : S(S(0));
     if (held_out) held_out[4] = L_rb__1;
     const S L_rb__2 = held_in ? held_in[5] : S(S(0));
     if (held_out) held_out[5] = L_rb__2;
-    // let moved (contact.yaml:36)
+    // let moved (contact.yaml:37)
     const S L_moved__0 = ((-a_o0_0) - a_px + p_point__0);
     const S L_moved__1 = ((-a_o0_1) - a_py + p_point__1);
     const S L_moved__2 = ((-a_o0_2) - a_pz + p_point__2);
-    // let depth (contact.yaml:37)
+    // let depth (contact.yaml:38)
     const S L_depth = ((-(L_moved__0*p_normal__0)) - (L_moved__1*p_normal__1) - (L_moved__2*p_normal__2) + p_penetration);
-    // let vrel (contact.yaml:38)
+    // let vrel (contact.yaml:39)
     const S L_vrel__0 = ((L_ra__1*a_wz) - (L_ra__2*a_wy) - a_vx);
     const S L_vrel__1 = ((-(L_ra__0*a_wz)) + (L_ra__2*a_wx) - a_vy);
     const S L_vrel__2 = ((L_ra__0*a_wy) - (L_ra__1*a_wx) - a_vz);
-    // let vn (contact.yaml:39)
+    // let vn (contact.yaml:40)
     const S L_vn = ((L_vrel__0*p_normal__0) + (L_vrel__1*p_normal__1) + (L_vrel__2*p_normal__2));
-    // let omega (contact.yaml:42)
+    // let omega (contact.yaml:43)
     const S L_omega = (S(6.283185307179586)*g_contact_hertz);
-    // let m (contact.yaml:46)
+    // let m (contact.yaml:47)
     const S L_m = select((p_load > p_mass), p_load, p_mass);
-    // let k (contact.yaml:47)
+    // let k (contact.yaml:48)
     const S L_k = select((g_contact_stiffness > S(0)), g_contact_stiffness, (L_m*(L_omega*L_omega)));
-    // let c (contact.yaml:48)
+    // let c (contact.yaml:49)
     const S L_c = select((g_contact_damping > S(0)), g_contact_damping, (S(2)*L_m*L_omega*g_contact_damping_ratio));
-    // let held (contact.yaml:52)
-    const S L_held = select((L_depth > g_contact_hold_depth), g_contact_hold_depth, L_depth);
-    // let closing (contact.yaml:62)
+    // let held (contact.yaml:55)
+    const S L_held = select((L_depth > p_hold), p_hold, L_depth);
+    // let closing (contact.yaml:65)
     const S L_closing = select((L_vn <= g_contact_rest_speed), select(((L_depth - (h*(L_vn + p_fall))) >= S(0)), S(1), S(0)), S(0));
-    // let stays (contact.yaml:66)
+    // let stays (contact.yaml:69)
     const S L_stays = select(((L_depth - (h*(L_vn + p_fall))) > S(0)), S(1), S(0));
-    // let pushed (contact.yaml:67)
+    // let pushed (contact.yaml:70)
     const S L_pushed = ((-(L_c*L_vn)) + (L_held*L_k));
-    // let fn (contact.yaml:68)
+    // let fn (contact.yaml:71)
     const S L_fn = select((L_depth > S(0)), select((L_stays > S(0)), L_pushed, select((L_pushed > S(0)), L_pushed, S(0))), (L_closing*(L_c + (L_k*h))*((-L_vn) + (p_penetration/(h)))));
-    // let vt (contact.yaml:69)
+    // let vt (contact.yaml:72)
     const S L_vt__0 = ((-(L_vn*p_normal__0)) + L_vrel__0);
     const S L_vt__1 = ((-(L_vn*p_normal__1)) + L_vrel__1);
     const S L_vt__2 = ((-(L_vn*p_normal__2)) + L_vrel__2);
-    // let strain (contact.yaml:74)
+    // let strain (contact.yaml:77)
     const S l16_0_0 = ((L_moved__0*p_normal__0) + (L_moved__1*p_normal__1) + (L_moved__2*p_normal__2));
     const S L_strain__0 = (L_moved__0 - (l16_0_0*p_normal__0) + p_anchor__0);
     const S L_strain__1 = (L_moved__1 - (l16_0_0*p_normal__1) + p_anchor__1);
     const S L_strain__2 = (L_moved__2 - (l16_0_0*p_normal__2) + p_anchor__2);
-    // let fs (contact.yaml:75)
+    // let fs (contact.yaml:78)
     const S L_fs__0 = ((-(L_c*L_vt__0)) - (L_k*L_strain__0));
     const S L_fs__1 = ((-(L_c*L_vt__1)) - (L_k*L_strain__1));
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
-    // let fmax (contact.yaml:76)
+    // let fmax (contact.yaml:79)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:82)
+    // let slip (contact.yaml:85)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let dir (contact.yaml:83)
+    // let dir (contact.yaml:86)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l20_0_0));
     if (held_out) held_out[7] = L_dir__0;
@@ -3737,31 +3737,31 @@ struct Contact_World_Kernel {
     if (held_out) held_out[8] = L_dir__1;
     const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l20_0_0));
     if (held_out) held_out[9] = L_dir__2;
-    // let fast (contact.yaml:84)
+    // let fast (contact.yaml:87)
     const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:85)
+    // let across (contact.yaml:88)
     const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
     const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
     const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
     const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
-    // let sliding (contact.yaml:86)
+    // let sliding (contact.yaml:89)
     const S l23_0_0 = (S(1)/(L_slip));
     const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
     const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1))));
     const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1))));
     const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1))));
-    // let holds (contact.yaml:89)
+    // let holds (contact.yaml:92)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:90)
+    // let ft (contact.yaml:93)
     const S l25_0_0 = (S(1) - L_holds);
     const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
     const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
     const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
-    // let f (contact.yaml:91)
+    // let f (contact.yaml:94)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:93)
+    // F_a from apply[0] (contact.yaml:96)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);

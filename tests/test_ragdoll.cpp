@@ -179,3 +179,38 @@ TEST(Ragdoll, JoinedPartsDoNotCollide) {
 }
 
 }  // namespace
+
+// Beyond the three drops above: ragdolls of 1.3-2.2 m and 30-150 kg dropped on their side and
+// tipped forward 0.3-2.5 rad, each from two starts, should all come to rest within 8 s with no
+// limb sunk in another. Open (docs/joints.md, "Found and open"): 5 of the 48 fail, four dropped
+// on their side ending with a forearm 6-11 cm inside the torso (its joints' limits hold it
+// there against the contact's 1 cm spring), one still moving at 0.03 m/s. Disabled until that
+// is fixed; run it with --gtest_also_run_disabled_tests.
+TEST(Ragdoll, DISABLED_ManySizesAndTurnsComeToRest) {
+  const double sizes[][2] = {{1.3, 30}, {1.5, 45}, {1.7, 60}, {1.9, 90}, {2.1, 140}, {2.2, 150}};
+  const Quat turns[] = {Quat(Eigen::AngleAxisd(1.5, Vec3::UnitY())), Quat(Eigen::AngleAxisd(0.3, Vec3::UnitX())),
+                        Quat(Eigen::AngleAxisd(1.2, Vec3::UnitX())), Quat(Eigen::AngleAxisd(2.5, Vec3::UnitX()))};
+  double slowest = 0, deepest = 0;
+  for (const auto& size : sizes)
+    for (size_t t = 0; t < std::size(turns); ++t)
+      for (const float nudge : {0.0001f, 0.00052f}) {
+        SCOPED_TRACE(std::to_string(size[0]) + " m, " + std::to_string(size[1]) + " kg, turn " + std::to_string(t) +
+                     ", nudged " + std::to_string(nudge));
+        ppe::World w;
+        cellphys::testing::ground_plane(w, 0.6f);
+        const Quat& q = turns[t];
+        const float turn[4] = {float(q.w()), float(q.x()), float(q.y()), float(q.z())};
+        const float pelvis[3] = {nudge, 0, float(size[0] * 0.55 + 0.2) + nudge};
+        const std::vector<Ragdoll> dolls = {
+            cellphys::testing::add_ragdoll(w, float(size[0]), float(size[1]), pelvis, turn)};
+        const Outcome o = run(w, dolls, 8.0);
+        slowest = std::max(slowest, o.max_speed_end);
+        deepest = std::max(deepest, o.self_overlap_end);
+        EXPECT_EQ(o.failed, 0u);
+        EXPECT_LT(o.gap, 0.01);
+        EXPECT_LT(o.max_speed_end, 0.01);
+        EXPECT_LT(o.self_overlap_end, 0.01);
+      }
+  record("ragdoll_many_fastest_at_8s", slowest);
+  record("ragdoll_many_self_overlap_at_8s_m", deepest);
+}

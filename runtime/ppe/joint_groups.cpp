@@ -1,6 +1,11 @@
 #include "runtime/ppe/joint_groups.h"
 
+#include <algorithm>
+
 #include "cellphys/gen/force_table.h"
+#include "runtime/base/mat3.h"
+#include "runtime/base/quat.h"
+#include "runtime/ppe/body_maths.h"
 #include "runtime/ppe/contact_loads.h"
 
 namespace cellphys::ppe {
@@ -31,6 +36,21 @@ void set_contact_hold_and_fall(const WorldSettings& s, const JointGroups& groups
     const bool joined = groups.joined(c.a, c.b);
     c.hold = joined ? s.contact_joined_hold_depth : s.globals.contact_hold_depth;
     c.fall = joined ? 0.0f : gravity_fall(c.point.normal, c.b == kWorldBody, s);
+  }
+}
+
+void load_joined_contacts(const std::vector<WorldBody>& bodies, const JointGroups& groups,
+                          std::vector<WorldContact>& contacts) {
+  if (groups.empty()) return;
+  auto own_mass = [&](uint32_t id, const Vec3d& p, const Vec3d& n) {
+    const WorldBody& b = bodies[id];
+    const Mat3d Iinv = rotate_sym(quat_to_matrix(Quatd::load(b.state.orientation)), b.inverse_inertia);
+    return 1.0 / inverse_mass_along(1.0 / b.mass, Iinv, Vec3d::load(b.state.position), p, n);
+  };
+  for (WorldContact& c : contacts) {
+    if (!groups.joined(c.a, c.b)) continue;
+    const Vec3d p = Vec3d::load(c.point.point), n = Vec3d::load(c.point.normal);
+    c.load = float(std::max({double(c.load), own_mass(c.a, p, n), own_mass(c.b, p, n)}));
   }
 }
 

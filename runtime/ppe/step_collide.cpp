@@ -204,6 +204,7 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
   scratch.groups.build(bodies, forces);
   set_contact_hold_and_fall(settings, scratch.groups, contacts);
   carry_loads(bodies, forces, settings, contacts, scratch.loads);
+  load_joined_contacts(bodies, scratch.groups, contacts);
   scratch.woken.clear();
   for (uint32_t i : changes.changed)
     if (bodies[i].alive && !bodies[i].is_static && bodies[i].awake) scratch.woken.push_back(i);

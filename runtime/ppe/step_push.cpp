@@ -204,7 +204,9 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
     // or throw them. A narrower gap keeps its load: a car's wheels, lifted with their chassis as
     // one until the deepest touched the hold depth, left the others a millimetre off the ground,
     // and unloaded they held the 1600 kg chassis on their own 15 kg: the car sank at 0.09 m/s.
-    if (c.point.penetration < -c.hold || c.point.penetration > 2 * c.hold) c.load = 0;
+    // A contact inside a joined group keeps its load however deep: the push cannot reach it, and
+    // unloaded (tuned to a forearm's mass) it let a landing chest sink 9 cm into the forearm.
+    if (!joined(c) && (c.point.penetration < -c.hold || c.point.penetration > 2 * c.hold)) c.load = 0;
     const WorldContact* before = i > 0 ? &contacts[p.order[i - 1]] : nullptr;
     if (before && before->a == c.a && before->b == c.b) continue;
     const float fa[3] = {float(da.x), float(da.y), float(da.z)}, fb[3] = {float(db.x), float(db.y), float(db.z)};

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -212,4 +213,41 @@ TEST(Ragdoll, ManySizesAndTurnsComeToRest) {
       }
   record("ragdoll_many_fastest_at_8s", slowest);
   record("ragdoll_many_self_overlap_at_8s_m", deepest);
+}
+
+// Random drops (1.1-2.3 m, 20-160 kg, turned up to 3 rad about a random axis, up to 30 cm higher,
+// nudged up to 1 mm), 1,200 of them, each asserted as above. Open (docs/joints.md, "Found and
+// open"): 40 fail, a head rocking on the ground, a joint left open on a hard landing, or the push
+// stage lifting a ragdoll every step. Disabled until those are fixed; a soak of about 10 s: run it
+// with --gtest_also_run_disabled_tests --gtest_filter=*RandomDrops*.
+TEST(Ragdoll, DISABLED_RandomDropsComeToRest) {
+  int failed = 0, drops = 0;
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (int i = 0; i < 300; ++i, ++drops) {
+      const double height = 1.1 + 1.2 * u(rng), mass = 20 + 140 * u(rng) * height / 2.3;
+      Vec3 axis(u(rng) - 0.5, u(rng) - 0.5, 0.3 * (u(rng) - 0.5));
+      axis.normalize();
+      const double angle = 3.0 * u(rng);
+      const float nudge = float(0.001 * u(rng));
+      const double lift = 0.3 * u(rng);
+      SCOPED_TRACE("seed " + std::to_string(seed) + " drop " + std::to_string(i) + ": " + std::to_string(height) +
+                   " m, " + std::to_string(mass) + " kg");
+      ppe::World w;
+      cellphys::testing::ground_plane(w, 0.6f);
+      const Quat q(Eigen::AngleAxisd(angle, axis));
+      const float turn[4] = {float(q.w()), float(q.x()), float(q.y()), float(q.z())};
+      const float pelvis[3] = {nudge, 0, float(height * 0.55 + 0.2 + lift) + nudge};
+      const std::vector<Ragdoll> dolls = {cellphys::testing::add_ragdoll(w, float(height), float(mass), pelvis, turn)};
+      const Outcome o = run(w, dolls, 8.0);
+      const bool ok = o.failed == 0 && o.gap < 0.01 && o.past < 3 * kPi / 180 && o.max_speed_end < 0.01 &&
+                      o.self_overlap_end < 0.01;
+      failed += ok ? 0 : 1;
+      EXPECT_TRUE(ok) << "failed islands " << o.failed << ", joint gap " << o.gap << " m, past limits " << o.past
+                      << " rad, speed at 8 s " << o.max_speed_end << " m/s, overlap " << o.self_overlap_end << " m";
+    }
+  }
+  record("ragdoll_random_drops_failed", failed);
+  record("ragdoll_random_drops", drops);
 }

@@ -155,6 +155,13 @@ void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, co
       failed[k] = 1;
       for (uint32_t i : islands[k].bodies) bodies[i] = start[i];
     }
+  for (size_t k = 0; k < islands.size(); ++k)
+    if (failed[k])
+      for (uint32_t i : islands[k].bodies) {
+        BodyState& b = bodies[i].state;
+        std::fill(std::begin(b.velocity), std::end(b.velocity), 0.0f);
+        std::fill(std::begin(b.angular_velocity), std::end(b.angular_velocity), 0.0f);
+      }
 }
 
 }  // namespace cellphys::ppe

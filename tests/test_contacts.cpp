@@ -309,6 +309,33 @@ TEST(Contacts, BodiesJointsJoinAreNotPushedApartByTheirOwnOverlap) {
   }
 }
 
+// A gap that something else holds open is not pulled shut. A box welded to the world half a
+// millimetre above the ground: a gap contact's landing damper takes gravity to close such a gap
+// within the step, and once the step has shown that the box does not fall (contact_memory.h,
+// note_held_gaps), it no longer does, so nothing pulls the box down against its weld.
+TEST(Contacts, AGapSomethingHoldsOpenIsNotPulledShut) {
+  for (const float mass : {1.0f, 100.0f}) {
+    SCOPED_TRACE(std::to_string(mass) + " kg");
+    World w;
+    add_ground(w);
+    const float half[3] = {0.3f, 0.2f, 0.1f}, p[3] = {0, 0, 0.1f + 0.0005f};
+    const ppe::BodyId box = place_box(w, half, mass, p).id;
+    w.add_force("fixed", box, ppe::kWorldBody,
+                {{"point_a", {0, 0, 0}}, {"point_b", {p[0], p[1], p[2]}}, {"axis_a", {1, 0, 0}}, {"axis_b", {1, 0, 0}},
+                 {"ref_a", {0, 1, 0}}, {"ref_b", {0, 1, 0}}});
+    double sag = 0, pull = 0;
+    for (int n = 1; n <= kHz; ++n) {
+      w.step();
+      if (n < 2) continue;  // the first step takes the box to fall: nothing has shown it held
+      for (const ppe::DebugContact& c : w.debug_contacts()) pull = std::max(pull, double(-c.force));
+      if (n > kHz / 2) sag = std::max(sag, double(p[2] - w.state(box).position[2]));
+    }
+    EXPECT_LE(pull, 0.0) << "N";
+    // settled, its weld's own sag under its weight, g / (2 pi joint.hertz)^2 = 0.07 mm, and no more
+    EXPECT_LT(sag, 1.5 * kG / std::pow(2 * kPi * w.settings().globals.joint_hertz, 2)) << "m";
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Static friction: at rest on a slope below the friction angle, a box stays where it is
 

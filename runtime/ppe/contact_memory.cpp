@@ -71,6 +71,7 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     Vec3d strain[spu::kMaxManifoldPoints];
     Vec3d total_strain{0, 0, 0};
     double total_depth = 0, fastest = 0, k_per_mass = 0, damping_per_k = 0;
+    Vec3d drift{0, 0, 0};
     const size_t count = std::min(end - first, size_t(spu::kMaxManifoldPoints));
     for (size_t i = 0; i < count; ++i) {
       WorldContact& c = contacts[first + i];
@@ -102,6 +103,7 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
       const double vn = dot(vrel, n);
       const Vec3d vt = vrel - n * vn;
       fastest = std::max(fastest, norm(vt));
+      drift = drift + vt * (1.0 / double(count));
       // the tangential force, in units of depth: the anchor spring's and its damper's
       total_strain = total_strain + strain[i] + vt * (cd / k);
       // the normal force, in units of depth, as the descriptor has it: overlapping, the
@@ -119,15 +121,21 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     // slip slows to what friction stops within a step (h mu k/m depth) and within half the
     // cone (the damper brings a slip v to rest over v c/k of strain); a slip that grows, down a
     // slope steeper than the friction angle, goes on; a slip as slow as the regularisation's (a
-    // box creeping on a slope it should hold) sticks.
+    // box creeping on a slope it should hold) sticks. A sliding pair whose slip turned back since
+    // the last step sticks too: friction alone never reverses a slip, so its constant force
+    // overshot one that it stopped within the step. (Judged by the normal's effective mass, a
+    // sphere's slip, which friction turns through 2/7 of that mass, reversed every step: a
+    // ragdoll's head held against the ground by its neck rocked at 4 cm/s for ever.)
     const double mu = contacts[first].friction, depth = total_depth / double(count);
     const bool stoppable = fastest <= s.dt * mu * k_per_mass * depth && fastest * damping_per_k <= 0.5 * mu * depth;
     bool sliding;
     if (!old) sliding = !stoppable;
+    else if (old->sliding && dot(drift, Vec3d::load(old->drift)) < 0) sliding = false;
     else if (old->sliding) sliding = !(stoppable && (fastest <= old->slip || fastest <= s.globals.slip_velocity));
     else sliding = norm(total_strain) > mu * total_depth || !stoppable;
     now.sliding = sliding;
     now.slip = float(fastest);
+    put3(now.drift, drift);
     for (size_t i = 0; i < count; ++i) {
       WorldContact& c = contacts[first + i];
       ContactMemory::Anchor& an = now.anchors[now.count++];
@@ -139,6 +147,7 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
         an = old->anchors[matched[i]];
       }
       c.sticking = sliding ? 0.0f : 1.0f;
+      if (matched[i] >= 0 && (old->held_gaps >> matched[i] & 1u)) c.fall = 0.0f;
       put3(c.anchor, strain[i]);
     }
     now.seen = memory.step + 1;
@@ -160,6 +169,28 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     else memory.pairs.erase(it);
   }
   memory.dormant.add(resting);
+}
+
+void note_held_gaps(const std::vector<WorldBody>& bodies, const WorldSettings& s,
+                    const std::vector<WorldContact>& contacts, ContactMemory& memory) {
+  for (size_t first = 0, end; first < contacts.size(); first = end) {
+    const uint32_t a = contacts[first].a, b = contacts[first].b;
+    for (end = first; end < contacts.size() && contacts[end].a == a && contacts[end].b == b; ++end) {
+    }
+    uint32_t held = 0;
+    const size_t count = std::min(end - first, size_t(spu::kMaxManifoldPoints));
+    for (size_t i = 0; i < count; ++i) {
+      const WorldContact& c = contacts[first + i];
+      if (c.point.penetration >= 0) continue;
+      const Vec3d p = Vec3d::load(c.point.point), n = Vec3d::load(c.point.normal);
+      const double vn = dot(velocity_at(bodies, b, p) - velocity_at(bodies, a, p), n);
+      // held: resting on something else, neither closing within the step nor approaching
+      // faster than a resting contact settles (a body falling from afar is not held)
+      if (vn > c.point.penetration / s.dt && vn > -s.globals.contact_rest_speed) held |= 1u << i;
+    }
+    const auto found = memory.pairs.find(pair_key(a, b));
+    if (found != memory.pairs.end()) found->second.held_gaps = held;
+  }
 }
 
 void move_anchors(const std::vector<WorldBody>& bodies, ContactMemory& memory, uint32_t a, uint32_t b,

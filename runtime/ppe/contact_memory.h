@@ -24,7 +24,11 @@ struct ContactMemory {
     uint64_t seen = 0;  // the recall that last found it touching
     uint32_t sliding = 0;
     float slip = 0.0f;
+    float drift[3] = {};  // the mean tangential velocity of b against a over its points (world)
     uint32_t count = 0;
+    // Bit i: point i was a gap its bodies did not close at the speed that meets it by the step's
+    // end (note_held_gaps): something else held them apart, not gravity closing it.
+    uint32_t held_gaps = 0;
     Anchor anchors[spu::kMaxManifoldPoints];
   };
   std::unordered_map<uint64_t, Pair> pairs;  // by pair_key(a, b)
@@ -46,6 +50,15 @@ inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | 
 /// `all`: every pair may have changed (a restored world).
 void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, const std::vector<uint32_t>& woken,
                      bool all, ContactMemory& memory, std::vector<WorldContact>& contacts);
+
+/// After the step: which of each pair's gaps its bodies left open, approaching slower than the
+/// gap over a step (or opening). Gravity is not taken to close such a gap in the next step
+/// (its `fall` is 0 there): what held the bodies apart holds them still, and a landing damper
+/// that took gravity's fall pulled them together instead: a ragdoll whose pelvis hovers half a
+/// millimetre above the ground, held by its hips, was pulled down at 3 cm/s every step, pressed
+/// its other parts past their hold, and was pushed back up for ever.
+void note_held_gaps(const std::vector<WorldBody>& bodies, const WorldSettings& s,
+                    const std::vector<WorldContact>& contacts, ContactMemory& memory);
 
 /// The push stage moved a by `da` and b by `db` (world frame): the pair's anchors follow the
 /// middle of the two, as its points do, so that moving bodies out of overlap strains no friction.

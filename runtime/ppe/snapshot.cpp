@@ -3,7 +3,9 @@
 //   header  "CELLSNAP" | u32 version | u32 header bytes (32) | u64 payload bytes |
 //           u32 checksum of the payload (spu::checksum) | u32 zero
 //   payload settings | step counter | shapes | bodies | forces | sleeping groups | free groups |
-//           contact memory (pairs in key order: key, sliding, slip, anchors) |
+//           contact memory (pairs in key order: key, sliding, slip, version 10 on: drift[3],
+//           held gaps, then anchors; before version 10 a pair restores with no drift and no
+//           held gaps, so its first step decides as a world without them did) |
 //           event memory (touching pairs, sensor overlaps: u32 count + sorted u64 keys each;
 //           version 5 on: a version-4 snapshot restores with none, so its first step reports
 //           the touches it has as begun)
@@ -44,7 +46,7 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kVersion = 9;
+constexpr uint32_t kVersion = 10;
 constexpr uint32_t kOldestVersion = 4;  // without the event memory
 constexpr size_t kHeaderBytes = 32;
 // The fewest bytes of each record, so that a count the rest of the file cannot hold is refused
@@ -53,7 +55,7 @@ constexpr size_t kBodyBytes = 4 + 4 + 4 + 4 + 4 * 6 + 4 * 6 + 4 * 13 + 4 * 4 + 4
 constexpr size_t kContactBytes = 4 + 4 + 4 * 3 + 4 * 3 + 4 * 4 + 4 * 3 + 4;  // version 9 on: 8 more (hold, fall)
 constexpr size_t kForceBytes = 1 + 4 + 4 + 4 + 4;   // with an empty name and instance
 constexpr size_t kGroupBytes = 4 + 4;               // no bodies, no contacts
-constexpr size_t kPairBytes = 8 + 4 + 4 + 4;        // no anchors
+constexpr size_t kPairBytes = 8 + 4 + 4 + 4;        // no anchors (version 10 on: 16 more, drift and held gaps)
 constexpr size_t kShapeBytes = 4 + 4;               // a sphere
 constexpr size_t kSettingBytes = 4 + 4;             // an empty name and value
 
@@ -493,6 +495,8 @@ std::vector<unsigned char> World::snapshot() const {
     p.put(key);
     p.put(pair.sliding);
     p.put(pair.slip);
+    for (float d : pair.drift) p.put(d);
+    p.put(pair.held_gaps);
     p.put(pair.count);
     for (uint32_t k = 0; k < pair.count; ++k) put_anchor(p, pair.anchors[k]);
   }
@@ -600,6 +604,10 @@ std::unique_ptr<World> World::restore(const unsigned char* bytes, size_t size) {
     ContactMemory::Pair pair;
     pair.sliding = r.get<uint32_t>("contact memory");
     pair.slip = r.get<float>("contact memory");
+    if (version >= 10) {
+      for (float& d : pair.drift) d = r.get<float>("contact memory");
+      pair.held_gaps = r.get<uint32_t>("contact memory");
+    }
     pair.count = r.get<uint32_t>("contact memory");
     if (pair.count > spu::kMaxManifoldPoints) check_snapshot_pair(w.bodies, key, pair);  // refuses it by name
     for (uint32_t a = 0; a < pair.count; ++a) pair.anchors[a] = get_anchor(r);

@@ -154,6 +154,9 @@ void check_snapshot_pair(const std::vector<WorldBody>& bodies, uint64_t key, con
     refuse(who, std::to_string(p.count) + " anchors, more than a manifold's " + std::to_string(spu::kMaxManifoldPoints));
   if (p.sliding > 1) refuse(who, "sliding is " + std::to_string(p.sliding) + ", not 0 or 1");
   at_least_zero(who, "slip", p.slip);
+  finite(who, "drift", p.drift, 3);
+  if (p.held_gaps >> p.count)
+    refuse(who, "held gaps " + std::to_string(p.held_gaps) + " name a point past its " + std::to_string(p.count));
   for (uint32_t k = 0; k < p.count; ++k) {
     finite(who, "anchor on a", p.anchors[k].on_a, 3);
     finite(who, "anchor on b", p.anchors[k].on_b, 3);

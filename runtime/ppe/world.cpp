@@ -226,6 +226,7 @@ const StepStats& World::step() {
     {
       StageTimer t(st.times.integrate_ms);  // the end of integration: joints opened too far
       project_joints(settings_, w.forces, w.bodies, st);
+      note_held_gaps(w.bodies, settings_, w.contacts, w.contact_memory);
     }
     const std::vector<uint8_t>& failed = w.failed;
     sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 7

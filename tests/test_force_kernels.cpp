@@ -697,12 +697,20 @@ void joint_reference(const Case<K>& c, const std::string& name, std::vector<doub
     // the swing: the angle between the twist axes, opened by b turning about na x nb
     const double sn = std::sqrt(nb.cross(na).squaredNorm() + 1e-12), swing = std::atan2(sn, na.dot(nb));
     const Vec3 e = na.cross(nb) / sn;
-    const double cone = p("cone_angle") > 0 ? stop(swing - p("cone_angle"), wrel.dot(e), kr, cr) : 0.0;
+    // each limit tuned to the two moments about its axis in series, at most sixteen times the
+    // lighter's and at most the heavier's
+    auto stop_inertia = [&](const Vec3& axis) {
+      const double ia = axis.dot(A.Iw * axis), ib = kPair<K> ? axis.dot(B.Iw * axis) : 0.0;
+      return ib > 0 ? std::min(std::max(ia, ib), 16 * ia * ib / (ia + ib)) : ia;
+    };
+    const double isw = stop_inertia(e), ksw = isw * omega * omega, csw = 2 * zeta * isw * omega;
+    const double cone = p("cone_angle") > 0 ? stop(swing - p("cone_angle"), wrel.dot(e), ksw, csw) : 0.0;
     // the twist: ref_b turned back by the shortest rotation taking nb onto na (Eigen's), from ref_a
     const Vec3 ubs = Eigen::Quaterniond::FromTwoVectors(nb, na) * ub;
     const double twist = std::atan2(ua.cross(ubs).dot(na), ua.dot(ubs)), rate = wrel.dot(na);
+    const double itw = stop_inertia(na), ktw = itw * omega * omega, ctw = 2 * zeta * itw * omega;
     const double lim = p("twist_lower") < p("twist_upper")
-                           ? stop(p("twist_lower") - twist, -rate, kr, cr) - stop(twist - p("twist_upper"), rate, kr, cr)
+                           ? stop(p("twist_lower") - twist, -rate, ktw, ctw) - stop(twist - p("twist_upper"), rate, ktw, ctw)
                            : 0.0;
     const Vec3 spring = -p("spring_stiffness") * (swing * e + twist * na) - p("spring_damping") * wrel;
     put_torque(-cone * e + lim * na + spring);

@@ -10,7 +10,7 @@ namespace cellphys::gen {
 
 /// cone_twist (pair): F for 2 bodies and 8 Jacobian block(s).
 /// out = [F_a (6), F_b (6), dF_a/ddelta_a (36), dF_a/ddelta_b (36), dF_a/du_a (36), dF_a/du_b (36), dF_b/ddelta_a (36), dF_b/ddelta_b (36), dF_b/du_a (36), dF_b/du_b (36)]
-/// Total ops: 2113
+/// Total ops: 2353
 struct Cone_Twist_Pair_Kernel {
   using Instance = Cone_Twist_Force;
   static constexpr ForceType kType = ForceType::cone_twist;
@@ -19,7 +19,7 @@ struct Cone_Twist_Pair_Kernel {
   static constexpr int kInputs = 67;
   static constexpr int kNumBlocks = 8;
   static constexpr int kOutputs = 300;
-  static constexpr int kOps = 2113;
+  static constexpr int kOps = 2353;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_ddelta, 0, 1},
@@ -180,7 +180,7 @@ struct Cone_Twist_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[64];
     [[maybe_unused]] const S g_joint_hertz = in[65];
     [[maybe_unused]] const S g_joint_damping_ratio = in[66];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:30), let pb (cone_twist.yaml:31), let na (cone_twist.yaml:33), let nb (cone_twist.yaml:34), let ua (cone_twist.yaml:35), let ub (cone_twist.yaml:36)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let swa (cone_twist.yaml:53), let swb (cone_twist.yaml:54)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -215,6 +215,18 @@ struct Cone_Twist_Pair_Kernel {
     const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
     const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
+    const S p0_34 = ((a_Ixy*p0_2) + (a_Iyy*p0_5) + (a_Iyz*p0_8));
+    const S p0_35 = ((a_Ixz*p0_2) + (a_Iyz*p0_5) + (a_Izz*p0_8));
+    const S p0_36 = ((a_Ixx*p0_2) + (a_Ixy*p0_5) + (a_Ixz*p0_8));
+    const S p0_37 = ((a_Ixz*p0_9) + (a_Iyz*p0_11) + (a_Izz*p0_13));
+    const S p0_38 = ((a_Ixx*p0_9) + (a_Ixy*p0_11) + (a_Ixz*p0_13));
+    const S p0_39 = ((a_Ixy*p0_9) + (a_Iyy*p0_11) + (a_Iyz*p0_13));
+    const S p0_40 = ((b_Ixy*p0_19) + (b_Iyy*p0_22) + (b_Iyz*p0_25));
+    const S p0_41 = ((b_Ixz*p0_19) + (b_Iyz*p0_22) + (b_Izz*p0_25));
+    const S p0_42 = ((b_Ixx*p0_19) + (b_Ixy*p0_22) + (b_Ixz*p0_25));
+    const S p0_43 = ((b_Ixz*p0_26) + (b_Iyz*p0_28) + (b_Izz*p0_30));
+    const S p0_44 = ((b_Ixx*p0_26) + (b_Ixy*p0_28) + (b_Ixz*p0_30));
+    const S p0_45 = ((b_Ixy*p0_26) + (b_Iyy*p0_28) + (b_Iyz*p0_30));
     const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
     const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
     const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
@@ -233,132 +245,138 @@ struct Cone_Twist_Pair_Kernel {
     const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
     const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
     const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
+    const S a_Iw6_00 = ((p0_2*p0_36) + (p0_34*p0_5) + (p0_35*p0_8));
+    const S a_Iw6_11 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
+    const S a_Iw6_22 = ((p0_14*((a_Ixx*p0_14) + (a_Ixy*p0_15) + (a_Ixz*p0_16))) + (p0_15*((a_Ixy*p0_14) + (a_Iyy*p0_15) + (a_Iyz*p0_16))) + (p0_16*((a_Ixz*p0_14) + (a_Iyz*p0_15) + (a_Izz*p0_16))));
+    const S a_Iw6_01 = ((p0_11*p0_34) + (p0_13*p0_35) + (p0_36*p0_9));
+    const S a_Iw6_02 = ((p0_14*p0_36) + (p0_15*p0_34) + (p0_16*p0_35));
+    const S a_Iw6_12 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
+    const S b_Iw7_00 = ((p0_19*p0_42) + (p0_22*p0_40) + (p0_25*p0_41));
+    const S b_Iw7_11 = ((p0_26*p0_44) + (p0_28*p0_45) + (p0_30*p0_43));
+    const S b_Iw7_22 = ((p0_31*((b_Ixx*p0_31) + (b_Ixy*p0_32) + (b_Ixz*p0_33))) + (p0_32*((b_Ixy*p0_31) + (b_Iyy*p0_32) + (b_Iyz*p0_33))) + (p0_33*((b_Ixz*p0_31) + (b_Iyz*p0_32) + (b_Izz*p0_33))));
+    const S b_Iw7_01 = ((p0_26*p0_42) + (p0_28*p0_40) + (p0_30*p0_41));
+    const S b_Iw7_02 = ((p0_31*p0_42) + (p0_32*p0_40) + (p0_33*p0_41));
+    const S b_Iw7_12 = ((p0_31*p0_44) + (p0_32*p0_45) + (p0_33*p0_43));
     // let omega (cone_twist.yaml:26)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (cone_twist.yaml:27)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (cone_twist.yaml:28)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (cone_twist.yaml:29)
-    [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let pa (cone_twist.yaml:30)
+    // let pa (cone_twist.yaml:29)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (cone_twist.yaml:31)
+    // let pb (cone_twist.yaml:30)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let f (cone_twist.yaml:32)
-    const S l6_0_0 = (L_m*(L_omega*L_omega));
-    const S l6_0_1 = (b_r1_2*b_wy);
-    const S l6_0_2 = (b_r1_1*b_wz);
-    const S l6_0_3 = (S(2)*L_m*L_omega*L_zeta);
-    const S l6_0_4 = (-l6_0_0);
-    const S l6_0_5 = (a_r0_1*a_wy);
-    const S l6_0_6 = (a_r0_2*a_wz);
-    const S l6_0_7 = (b_r1_1*b_wy);
-    const S l6_0_8 = (b_r1_2*b_wz);
-    const S l6_0_9 = (b_r1_0*b_wy);
-    const S l6_0_10 = (-l6_0_3);
-    const S l6_0_11 = (a_r0_2*l6_0_3);
-    const S l6_0_12 = (a_r0_1*l6_0_3);
-    const S l6_0_13 = (b_r1_2*l6_0_3);
-    const S l6_0_14 = (b_r1_1*l6_0_3);
-    const S l6_0_15 = (b_r1_2*b_wx);
-    const S l6_0_16 = (a_r0_0*a_wx);
-    const S l6_0_17 = (b_r1_1*b_wx);
-    const S l6_0_18 = (b_r1_0*b_wx);
-    const S l6_0_19 = (a_r0_0*l6_0_3);
-    const S l6_0_20 = (b_r1_0*l6_0_3);
-    const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_3*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx + b_vx + l6_0_1 - l6_0_2)));
-    const S d_L_f__0__a_dx = l6_0_4;
-    const S d_L_f__0__a_dtx = (l6_0_3*((-l6_0_5) - l6_0_6));
-    const S d_L_f__0__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wy) - (a_r0_2*l6_0_0));
-    const S d_L_f__0__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wz) - (d_L_pa__0__a_dtz*l6_0_0));
-    const S d_L_f__0__b_dx = l6_0_0;
-    const S d_L_f__0__b_dtx = (l6_0_3*(l6_0_7 + l6_0_8));
-    const S d_L_f__0__b_dty = ((b_r1_2*l6_0_0) - (l6_0_3*l6_0_9));
-    const S d_L_f__0__b_dtz = ((-(b_r1_0*b_wz*l6_0_3)) + (d_L_pb__0__b_dtz*l6_0_0));
-    const S d_L_f__0__a_vx = l6_0_10;
-    const S d_L_f__0__a_wy = (-l6_0_11);
-    const S d_L_f__0__a_wz = l6_0_12;
-    const S d_L_f__0__b_vx = l6_0_3;
-    const S d_L_f__0__b_wy = l6_0_13;
-    const S d_L_f__0__b_wz = (-l6_0_14);
-    const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_3*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) + b_vy - l6_0_15)));
-    const S d_L_f__1__a_dy = l6_0_4;
-    const S d_L_f__1__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wx) - (d_L_pa__1__a_dtx*l6_0_0));
-    const S d_L_f__1__a_dty = (l6_0_3*((-l6_0_16) - l6_0_6));
-    const S d_L_f__1__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wz) - (a_r0_0*l6_0_0));
-    const S d_L_f__1__b_dy = l6_0_0;
-    const S d_L_f__1__b_dtx = ((d_L_pb__1__b_dtx*l6_0_0) - (l6_0_17*l6_0_3));
-    const S d_L_f__1__b_dty = (l6_0_3*(l6_0_18 + l6_0_8));
-    const S d_L_f__1__b_dtz = ((b_r1_0*l6_0_0) - (l6_0_2*l6_0_3));
-    const S d_L_f__1__a_vy = l6_0_10;
-    const S d_L_f__1__a_wx = l6_0_11;
-    const S d_L_f__1__a_wz = (-l6_0_19);
-    const S d_L_f__1__b_vy = l6_0_3;
-    const S d_L_f__1__b_wx = (-l6_0_13);
-    const S d_L_f__1__b_wz = l6_0_20;
-    const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_3*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz + b_vz + l6_0_17 - l6_0_9)));
-    const S d_L_f__2__a_dz = l6_0_4;
-    const S d_L_f__2__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wx) - (a_r0_1*l6_0_0));
-    const S d_L_f__2__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wy) - (d_L_pa__2__a_dty*l6_0_0));
-    const S d_L_f__2__a_dtz = (l6_0_3*((-l6_0_16) - l6_0_5));
-    const S d_L_f__2__b_dz = l6_0_0;
-    const S d_L_f__2__b_dtx = ((b_r1_1*l6_0_0) - (l6_0_15*l6_0_3));
-    const S d_L_f__2__b_dty = ((d_L_pb__2__b_dty*l6_0_0) - (l6_0_1*l6_0_3));
-    const S d_L_f__2__b_dtz = (l6_0_3*(l6_0_18 + l6_0_7));
-    const S d_L_f__2__a_vz = l6_0_10;
-    const S d_L_f__2__a_wx = (-l6_0_12);
-    const S d_L_f__2__a_wy = l6_0_19;
-    const S d_L_f__2__b_vz = l6_0_3;
-    const S d_L_f__2__b_wx = l6_0_14;
-    const S d_L_f__2__b_wy = (-l6_0_20);
-    // let na (cone_twist.yaml:33)
+    // let f (cone_twist.yaml:31)
+    const S l5_0_0 = (L_m*(L_omega*L_omega));
+    const S l5_0_1 = (b_r1_2*b_wy);
+    const S l5_0_2 = (b_r1_1*b_wz);
+    const S l5_0_3 = (S(2)*L_m*L_omega*L_zeta);
+    const S l5_0_4 = (-l5_0_0);
+    const S l5_0_5 = (a_r0_1*a_wy);
+    const S l5_0_6 = (a_r0_2*a_wz);
+    const S l5_0_7 = (b_r1_1*b_wy);
+    const S l5_0_8 = (b_r1_2*b_wz);
+    const S l5_0_9 = (b_r1_0*b_wy);
+    const S l5_0_10 = (-l5_0_3);
+    const S l5_0_11 = (a_r0_2*l5_0_3);
+    const S l5_0_12 = (a_r0_1*l5_0_3);
+    const S l5_0_13 = (b_r1_2*l5_0_3);
+    const S l5_0_14 = (b_r1_1*l5_0_3);
+    const S l5_0_15 = (b_r1_2*b_wx);
+    const S l5_0_16 = (a_r0_0*a_wx);
+    const S l5_0_17 = (b_r1_1*b_wx);
+    const S l5_0_18 = (b_r1_0*b_wx);
+    const S l5_0_19 = (a_r0_0*l5_0_3);
+    const S l5_0_20 = (b_r1_0*l5_0_3);
+    const S L_f__0 = ((l5_0_0*((-L_pa__0) + L_pb__0)) + (l5_0_3*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx + b_vx + l5_0_1 - l5_0_2)));
+    const S d_L_f__0__a_dx = l5_0_4;
+    const S d_L_f__0__a_dtx = (l5_0_3*((-l5_0_5) - l5_0_6));
+    const S d_L_f__0__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wy) - (a_r0_2*l5_0_0));
+    const S d_L_f__0__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wz) - (d_L_pa__0__a_dtz*l5_0_0));
+    const S d_L_f__0__b_dx = l5_0_0;
+    const S d_L_f__0__b_dtx = (l5_0_3*(l5_0_7 + l5_0_8));
+    const S d_L_f__0__b_dty = ((b_r1_2*l5_0_0) - (l5_0_3*l5_0_9));
+    const S d_L_f__0__b_dtz = ((-(b_r1_0*b_wz*l5_0_3)) + (d_L_pb__0__b_dtz*l5_0_0));
+    const S d_L_f__0__a_vx = l5_0_10;
+    const S d_L_f__0__a_wy = (-l5_0_11);
+    const S d_L_f__0__a_wz = l5_0_12;
+    const S d_L_f__0__b_vx = l5_0_3;
+    const S d_L_f__0__b_wy = l5_0_13;
+    const S d_L_f__0__b_wz = (-l5_0_14);
+    const S L_f__1 = ((l5_0_0*((-L_pa__1) + L_pb__1)) + (l5_0_3*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) + b_vy - l5_0_15)));
+    const S d_L_f__1__a_dy = l5_0_4;
+    const S d_L_f__1__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wx) - (d_L_pa__1__a_dtx*l5_0_0));
+    const S d_L_f__1__a_dty = (l5_0_3*((-l5_0_16) - l5_0_6));
+    const S d_L_f__1__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wz) - (a_r0_0*l5_0_0));
+    const S d_L_f__1__b_dy = l5_0_0;
+    const S d_L_f__1__b_dtx = ((d_L_pb__1__b_dtx*l5_0_0) - (l5_0_17*l5_0_3));
+    const S d_L_f__1__b_dty = (l5_0_3*(l5_0_18 + l5_0_8));
+    const S d_L_f__1__b_dtz = ((b_r1_0*l5_0_0) - (l5_0_2*l5_0_3));
+    const S d_L_f__1__a_vy = l5_0_10;
+    const S d_L_f__1__a_wx = l5_0_11;
+    const S d_L_f__1__a_wz = (-l5_0_19);
+    const S d_L_f__1__b_vy = l5_0_3;
+    const S d_L_f__1__b_wx = (-l5_0_13);
+    const S d_L_f__1__b_wz = l5_0_20;
+    const S L_f__2 = ((l5_0_0*((-L_pa__2) + L_pb__2)) + (l5_0_3*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz + b_vz + l5_0_17 - l5_0_9)));
+    const S d_L_f__2__a_dz = l5_0_4;
+    const S d_L_f__2__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wx) - (a_r0_1*l5_0_0));
+    const S d_L_f__2__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wy) - (d_L_pa__2__a_dty*l5_0_0));
+    const S d_L_f__2__a_dtz = (l5_0_3*((-l5_0_16) - l5_0_5));
+    const S d_L_f__2__b_dz = l5_0_0;
+    const S d_L_f__2__b_dtx = ((b_r1_1*l5_0_0) - (l5_0_15*l5_0_3));
+    const S d_L_f__2__b_dty = ((d_L_pb__2__b_dty*l5_0_0) - (l5_0_1*l5_0_3));
+    const S d_L_f__2__b_dtz = (l5_0_3*(l5_0_18 + l5_0_7));
+    const S d_L_f__2__a_vz = l5_0_10;
+    const S d_L_f__2__a_wx = (-l5_0_12);
+    const S d_L_f__2__a_wy = l5_0_19;
+    const S d_L_f__2__b_vz = l5_0_3;
+    const S d_L_f__2__b_wx = l5_0_14;
+    const S d_L_f__2__b_wy = (-l5_0_20);
+    // let na (cone_twist.yaml:32)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (cone_twist.yaml:34)
+    // let nb (cone_twist.yaml:33)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let ua (cone_twist.yaml:35)
+    // let ua (cone_twist.yaml:34)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (cone_twist.yaml:36)
+    // let ub (cone_twist.yaml:35)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let wrel (cone_twist.yaml:37)
+    // let wrel (cone_twist.yaml:36)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let kr (cone_twist.yaml:38)
-    const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (cone_twist.yaml:39)
-    const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let cs (cone_twist.yaml:42)
+    // let cs (cone_twist.yaml:39)
     const S L_cs = ((L_na__0*L_nb__0) + (L_na__1*L_nb__1) + (L_na__2*L_nb__2));
     const S d_L_cs__a_dtx = ((L_nb__1*d_L_na__1__a_dtx) + (L_nb__2*a_r2_1));
     const S d_L_cs__a_dty = ((L_nb__0*a_r2_2) + (L_nb__2*d_L_na__2__a_dty));
@@ -366,7 +384,7 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_cs__b_dtx = ((L_na__1*d_L_nb__1__b_dtx) + (L_na__2*b_r3_1));
     const S d_L_cs__b_dty = ((L_na__0*b_r3_2) + (L_na__2*d_L_nb__2__b_dty));
     const S d_L_cs__b_dtz = ((L_na__0*d_L_nb__0__b_dtz) + (L_na__1*b_r3_0));
-    // let k (cone_twist.yaml:43)
+    // let k (cone_twist.yaml:40)
     const S L_k__0 = ((-(L_na__1*L_nb__2)) + (L_na__2*L_nb__1));
     const S d_L_k__0__a_dtx = ((L_nb__1*a_r2_1) - (L_nb__2*d_L_na__1__a_dtx));
     const S d_L_k__0__a_dty = (L_nb__1*d_L_na__2__a_dty);
@@ -388,58 +406,58 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_k__2__b_dtx = (-(L_na__0*d_L_nb__1__b_dtx));
     const S d_L_k__2__b_dty = (L_na__1*b_r3_2);
     const S d_L_k__2__b_dtz = ((-(L_na__0*b_r3_0)) + (L_na__1*d_L_nb__0__b_dtz));
-    // let sn (cone_twist.yaml:44)
-    const S l16_0_0 = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
-    const S l16_0_1 = (S(1)/(l16_0_0));
-    const S l16_0_2 = (L_k__0*l16_0_1);
-    const S l16_0_3 = (L_k__1*l16_0_1);
-    const S l16_0_4 = (L_k__2*l16_0_1);
-    const S L_sn = l16_0_0;
-    const S d_L_sn__a_dtx = ((d_L_k__0__a_dtx*l16_0_2) + (d_L_k__1__a_dtx*l16_0_3) + (d_L_k__2__a_dtx*l16_0_4));
-    const S d_L_sn__a_dty = ((d_L_k__0__a_dty*l16_0_2) + (d_L_k__1__a_dty*l16_0_3) + (d_L_k__2__a_dty*l16_0_4));
-    const S d_L_sn__a_dtz = ((d_L_k__0__a_dtz*l16_0_2) + (d_L_k__1__a_dtz*l16_0_3) + (d_L_k__2__a_dtz*l16_0_4));
-    const S d_L_sn__b_dtx = ((d_L_k__0__b_dtx*l16_0_2) + (d_L_k__1__b_dtx*l16_0_3) + (d_L_k__2__b_dtx*l16_0_4));
-    const S d_L_sn__b_dty = ((d_L_k__0__b_dty*l16_0_2) + (d_L_k__1__b_dty*l16_0_3) + (d_L_k__2__b_dty*l16_0_4));
-    const S d_L_sn__b_dtz = ((d_L_k__0__b_dtz*l16_0_2) + (d_L_k__1__b_dtz*l16_0_3) + (d_L_k__2__b_dtz*l16_0_4));
-    // let swing (cone_twist.yaml:45)
-    const S l17_0_0 = (S(1)/(((L_cs*L_cs) + (L_sn*L_sn))));
-    const S l17_0_1 = (L_cs*l17_0_0);
-    const S l17_0_2 = (L_sn*l17_0_0);
+    // let sn (cone_twist.yaml:41)
+    const S l13_0_0 = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
+    const S l13_0_1 = (S(1)/(l13_0_0));
+    const S l13_0_2 = (L_k__0*l13_0_1);
+    const S l13_0_3 = (L_k__1*l13_0_1);
+    const S l13_0_4 = (L_k__2*l13_0_1);
+    const S L_sn = l13_0_0;
+    const S d_L_sn__a_dtx = ((d_L_k__0__a_dtx*l13_0_2) + (d_L_k__1__a_dtx*l13_0_3) + (d_L_k__2__a_dtx*l13_0_4));
+    const S d_L_sn__a_dty = ((d_L_k__0__a_dty*l13_0_2) + (d_L_k__1__a_dty*l13_0_3) + (d_L_k__2__a_dty*l13_0_4));
+    const S d_L_sn__a_dtz = ((d_L_k__0__a_dtz*l13_0_2) + (d_L_k__1__a_dtz*l13_0_3) + (d_L_k__2__a_dtz*l13_0_4));
+    const S d_L_sn__b_dtx = ((d_L_k__0__b_dtx*l13_0_2) + (d_L_k__1__b_dtx*l13_0_3) + (d_L_k__2__b_dtx*l13_0_4));
+    const S d_L_sn__b_dty = ((d_L_k__0__b_dty*l13_0_2) + (d_L_k__1__b_dty*l13_0_3) + (d_L_k__2__b_dty*l13_0_4));
+    const S d_L_sn__b_dtz = ((d_L_k__0__b_dtz*l13_0_2) + (d_L_k__1__b_dtz*l13_0_3) + (d_L_k__2__b_dtz*l13_0_4));
+    // let swing (cone_twist.yaml:42)
+    const S l14_0_0 = (S(1)/(((L_cs*L_cs) + (L_sn*L_sn))));
+    const S l14_0_1 = (L_cs*l14_0_0);
+    const S l14_0_2 = (L_sn*l14_0_0);
     const S L_swing = angle_of(L_sn, L_cs);
-    const S d_L_swing__a_dtx = ((-(d_L_cs__a_dtx*l17_0_2)) + (d_L_sn__a_dtx*l17_0_1));
-    const S d_L_swing__a_dty = ((-(d_L_cs__a_dty*l17_0_2)) + (d_L_sn__a_dty*l17_0_1));
-    const S d_L_swing__a_dtz = ((-(d_L_cs__a_dtz*l17_0_2)) + (d_L_sn__a_dtz*l17_0_1));
-    const S d_L_swing__b_dtx = ((-(d_L_cs__b_dtx*l17_0_2)) + (d_L_sn__b_dtx*l17_0_1));
-    const S d_L_swing__b_dty = ((-(d_L_cs__b_dty*l17_0_2)) + (d_L_sn__b_dty*l17_0_1));
-    const S d_L_swing__b_dtz = ((-(d_L_cs__b_dtz*l17_0_2)) + (d_L_sn__b_dtz*l17_0_1));
-    // let e (cone_twist.yaml:46)
-    const S l18_0_0 = (S(1)/(L_sn));
-    const S l18_0_1 = (S(1)/(L_sn*L_sn));
-    const S l18_0_2 = (L_k__0*l18_0_1);
-    const S l18_0_3 = (L_k__1*l18_0_1);
-    const S l18_0_4 = (L_k__2*l18_0_1);
-    const S L_e__0 = (-(L_k__0*l18_0_0));
-    const S d_L_e__0__a_dtx = ((-(d_L_k__0__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_2));
-    const S d_L_e__0__a_dty = ((-(d_L_k__0__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_2));
-    const S d_L_e__0__a_dtz = ((-(d_L_k__0__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_2));
-    const S d_L_e__0__b_dtx = ((-(d_L_k__0__b_dtx*l18_0_0)) + (d_L_sn__b_dtx*l18_0_2));
-    const S d_L_e__0__b_dty = ((-(d_L_k__0__b_dty*l18_0_0)) + (d_L_sn__b_dty*l18_0_2));
-    const S d_L_e__0__b_dtz = ((-(d_L_k__0__b_dtz*l18_0_0)) + (d_L_sn__b_dtz*l18_0_2));
-    const S L_e__1 = (-(L_k__1*l18_0_0));
-    const S d_L_e__1__a_dtx = ((-(d_L_k__1__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_3));
-    const S d_L_e__1__a_dty = ((-(d_L_k__1__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_3));
-    const S d_L_e__1__a_dtz = ((-(d_L_k__1__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_3));
-    const S d_L_e__1__b_dtx = ((-(d_L_k__1__b_dtx*l18_0_0)) + (d_L_sn__b_dtx*l18_0_3));
-    const S d_L_e__1__b_dty = ((-(d_L_k__1__b_dty*l18_0_0)) + (d_L_sn__b_dty*l18_0_3));
-    const S d_L_e__1__b_dtz = ((-(d_L_k__1__b_dtz*l18_0_0)) + (d_L_sn__b_dtz*l18_0_3));
-    const S L_e__2 = (-(L_k__2*l18_0_0));
-    const S d_L_e__2__a_dtx = ((-(d_L_k__2__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_4));
-    const S d_L_e__2__a_dty = ((-(d_L_k__2__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_4));
-    const S d_L_e__2__a_dtz = ((-(d_L_k__2__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_4));
-    const S d_L_e__2__b_dtx = ((-(d_L_k__2__b_dtx*l18_0_0)) + (d_L_sn__b_dtx*l18_0_4));
-    const S d_L_e__2__b_dty = ((-(d_L_k__2__b_dty*l18_0_0)) + (d_L_sn__b_dty*l18_0_4));
-    const S d_L_e__2__b_dtz = ((-(d_L_k__2__b_dtz*l18_0_0)) + (d_L_sn__b_dtz*l18_0_4));
-    // let swing_rate (cone_twist.yaml:47)
+    const S d_L_swing__a_dtx = ((-(d_L_cs__a_dtx*l14_0_2)) + (d_L_sn__a_dtx*l14_0_1));
+    const S d_L_swing__a_dty = ((-(d_L_cs__a_dty*l14_0_2)) + (d_L_sn__a_dty*l14_0_1));
+    const S d_L_swing__a_dtz = ((-(d_L_cs__a_dtz*l14_0_2)) + (d_L_sn__a_dtz*l14_0_1));
+    const S d_L_swing__b_dtx = ((-(d_L_cs__b_dtx*l14_0_2)) + (d_L_sn__b_dtx*l14_0_1));
+    const S d_L_swing__b_dty = ((-(d_L_cs__b_dty*l14_0_2)) + (d_L_sn__b_dty*l14_0_1));
+    const S d_L_swing__b_dtz = ((-(d_L_cs__b_dtz*l14_0_2)) + (d_L_sn__b_dtz*l14_0_1));
+    // let e (cone_twist.yaml:43)
+    const S l15_0_0 = (S(1)/(L_sn));
+    const S l15_0_1 = (S(1)/(L_sn*L_sn));
+    const S l15_0_2 = (L_k__0*l15_0_1);
+    const S l15_0_3 = (L_k__1*l15_0_1);
+    const S l15_0_4 = (L_k__2*l15_0_1);
+    const S L_e__0 = (-(L_k__0*l15_0_0));
+    const S d_L_e__0__a_dtx = ((-(d_L_k__0__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_2));
+    const S d_L_e__0__a_dty = ((-(d_L_k__0__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_2));
+    const S d_L_e__0__a_dtz = ((-(d_L_k__0__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_2));
+    const S d_L_e__0__b_dtx = ((-(d_L_k__0__b_dtx*l15_0_0)) + (d_L_sn__b_dtx*l15_0_2));
+    const S d_L_e__0__b_dty = ((-(d_L_k__0__b_dty*l15_0_0)) + (d_L_sn__b_dty*l15_0_2));
+    const S d_L_e__0__b_dtz = ((-(d_L_k__0__b_dtz*l15_0_0)) + (d_L_sn__b_dtz*l15_0_2));
+    const S L_e__1 = (-(L_k__1*l15_0_0));
+    const S d_L_e__1__a_dtx = ((-(d_L_k__1__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_3));
+    const S d_L_e__1__a_dty = ((-(d_L_k__1__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_3));
+    const S d_L_e__1__a_dtz = ((-(d_L_k__1__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_3));
+    const S d_L_e__1__b_dtx = ((-(d_L_k__1__b_dtx*l15_0_0)) + (d_L_sn__b_dtx*l15_0_3));
+    const S d_L_e__1__b_dty = ((-(d_L_k__1__b_dty*l15_0_0)) + (d_L_sn__b_dty*l15_0_3));
+    const S d_L_e__1__b_dtz = ((-(d_L_k__1__b_dtz*l15_0_0)) + (d_L_sn__b_dtz*l15_0_3));
+    const S L_e__2 = (-(L_k__2*l15_0_0));
+    const S d_L_e__2__a_dtx = ((-(d_L_k__2__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_4));
+    const S d_L_e__2__a_dty = ((-(d_L_k__2__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_4));
+    const S d_L_e__2__a_dtz = ((-(d_L_k__2__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_4));
+    const S d_L_e__2__b_dtx = ((-(d_L_k__2__b_dtx*l15_0_0)) + (d_L_sn__b_dtx*l15_0_4));
+    const S d_L_e__2__b_dty = ((-(d_L_k__2__b_dty*l15_0_0)) + (d_L_sn__b_dty*l15_0_4));
+    const S d_L_e__2__b_dtz = ((-(d_L_k__2__b_dtz*l15_0_0)) + (d_L_sn__b_dtz*l15_0_4));
+    // let swing_rate (cone_twist.yaml:44)
     const S L_swing_rate = ((L_e__0*L_wrel__0) + (L_e__1*L_wrel__1) + (L_e__2*L_wrel__2));
     const S d_L_swing_rate__a_dtx = ((L_wrel__0*d_L_e__0__a_dtx) + (L_wrel__1*d_L_e__1__a_dtx) + (L_wrel__2*d_L_e__2__a_dtx));
     const S d_L_swing_rate__a_dty = ((L_wrel__0*d_L_e__0__a_dty) + (L_wrel__1*d_L_e__1__a_dty) + (L_wrel__2*d_L_e__2__a_dty));
@@ -450,118 +468,128 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_swing_rate__a_wx = (-L_e__0);
     const S d_L_swing_rate__a_wy = (-L_e__1);
     const S d_L_swing_rate__a_wz = (-L_e__2);
-    // let over_cone (cone_twist.yaml:48)
+    // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let stop_cone (cone_twist.yaml:49)
-    const S l21_0_0 = ((L_cr*L_swing_rate) + (L_kr*L_over_cone));
-    const auto l21_0_1 = (l21_0_0 > S(0));
-    const auto l21_0_2 = (L_over_cone > S(0));
-    const auto l21_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
-    const auto l21_0_4 = (p_cone_angle > S(0));
-    const S l21_0_5 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_kr, S(0)), select(l21_0_3, L_kr, S(0))), S(0));
-    const S l21_0_6 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_cr, S(0)), select(l21_0_3, L_cr, S(0))), S(0));
-    const S L_stop_cone = select(l21_0_4, select(l21_0_2, select(l21_0_1, l21_0_0, S(0)), select(l21_0_3, l21_0_0, S(0))), S(0));
-    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l21_0_5) + (d_L_swing_rate__a_dtx*l21_0_6));
-    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l21_0_5) + (d_L_swing_rate__a_dty*l21_0_6));
-    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l21_0_5) + (d_L_swing_rate__a_dtz*l21_0_6));
-    const S d_L_stop_cone__b_dtx = ((d_L_swing__b_dtx*l21_0_5) + (d_L_swing_rate__b_dtx*l21_0_6));
-    const S d_L_stop_cone__b_dty = ((d_L_swing__b_dty*l21_0_5) + (d_L_swing_rate__b_dty*l21_0_6));
-    const S d_L_stop_cone__b_dtz = ((d_L_swing__b_dtz*l21_0_5) + (d_L_swing_rate__b_dtz*l21_0_6));
-    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l21_0_6);
-    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l21_0_6);
-    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l21_0_6);
-    const S d_L_stop_cone__b_wx = (L_e__0*l21_0_6);
-    const S d_L_stop_cone__b_wy = (L_e__1*l21_0_6);
-    const S d_L_stop_cone__b_wz = (L_e__2*l21_0_6);
-    // let ubs (cone_twist.yaml:52)
-    const S l22_0_0 = (L_k__1*L_ub__2);
-    const S l22_0_1 = (L_k__2*L_ub__1);
-    const S l22_0_2 = max(S(1e-06), (L_cs + S(1)));
-    const S l22_0_3 = (S(1)/(l22_0_2));
-    const S l22_0_4 = (L_k__0*L_ub__0);
-    const S l22_0_5 = (L_k__1*L_ub__1);
-    const S l22_0_6 = (L_k__2*L_ub__2);
-    const S l22_0_7 = (l22_0_4 + l22_0_5 + l22_0_6);
-    const S l22_0_8 = (l22_0_3*l22_0_7);
-    const S l22_0_9 = (-L_ub__0);
-    const S l22_0_10 = (l22_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l22_0_2*l22_0_2)));
-    const S l22_0_11 = ((-(L_k__0*l22_0_10)) - l22_0_9);
-    const S l22_0_12 = ((l22_0_3*l22_0_4) + l22_0_8);
-    const S l22_0_13 = (L_k__0*L_ub__1);
-    const S l22_0_14 = (L_ub__2 + (l22_0_13*l22_0_3));
-    const S l22_0_15 = (-L_ub__1);
-    const S l22_0_16 = (L_k__0*L_ub__2);
-    const S l22_0_17 = (l22_0_15 + (l22_0_16*l22_0_3));
-    const S l22_0_18 = (L_k__0*l22_0_3);
-    const S l22_0_19 = (L_k__2*l22_0_18);
-    const S l22_0_20 = (L_k__1 + l22_0_19);
-    const S l22_0_21 = (L_k__1*l22_0_18);
-    const S l22_0_22 = ((-L_k__2) + l22_0_21);
-    const S l22_0_23 = (L_cs + ((L_k__0*L_k__0)*l22_0_3));
-    const S l22_0_24 = (L_k__2*L_ub__0);
-    const S l22_0_25 = ((-(L_k__1*l22_0_10)) - l22_0_15);
-    const S l22_0_26 = (-L_ub__2);
-    const S l22_0_27 = (L_k__1*L_ub__0);
-    const S l22_0_28 = (l22_0_26 + (l22_0_27*l22_0_3));
-    const S l22_0_29 = ((l22_0_3*l22_0_5) + l22_0_8);
-    const S l22_0_30 = (L_ub__0 + (l22_0_0*l22_0_3));
-    const S l22_0_31 = ((-L_k__0) + (L_k__1*L_k__2*l22_0_3));
-    const S l22_0_32 = (L_cs + ((L_k__1*L_k__1)*l22_0_3));
-    const S l22_0_33 = (L_k__2 + l22_0_21);
-    const S l22_0_34 = ((-(L_k__2*l22_0_10)) - l22_0_26);
-    const S l22_0_35 = (L_ub__1 + (l22_0_24*l22_0_3));
-    const S l22_0_36 = ((l22_0_1*l22_0_3) + l22_0_9);
-    const S l22_0_37 = ((l22_0_3*l22_0_6) + l22_0_8);
-    const S l22_0_38 = (L_cs + ((L_k__2*L_k__2)*l22_0_3));
-    const S l22_0_39 = (L_k__0 + (L_k__1*L_k__2*l22_0_3));
-    const S l22_0_40 = ((-L_k__1) + l22_0_19);
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_8) + l22_0_0 - l22_0_1);
-    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l22_0_11) + (d_L_k__0__a_dtx*l22_0_12) + (d_L_k__1__a_dtx*l22_0_14) + (d_L_k__2__a_dtx*l22_0_17));
-    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l22_0_11) + (d_L_k__0__a_dty*l22_0_12) + (d_L_k__1__a_dty*l22_0_14) + (d_L_k__2__a_dty*l22_0_17));
-    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l22_0_11) + (d_L_k__0__a_dtz*l22_0_12) + (d_L_k__1__a_dtz*l22_0_14) + (d_L_k__2__a_dtz*l22_0_17));
-    const S d_L_ubs__0__b_dtx = ((b_r5_1*l22_0_20) + (d_L_cs__b_dtx*l22_0_11) + (d_L_k__0__b_dtx*l22_0_12) + (d_L_k__1__b_dtx*l22_0_14) + (d_L_k__2__b_dtx*l22_0_17) + (d_L_ub__1__b_dtx*l22_0_22));
-    const S d_L_ubs__0__b_dty = ((b_r5_2*l22_0_23) + (d_L_cs__b_dty*l22_0_11) + (d_L_k__0__b_dty*l22_0_12) + (d_L_k__1__b_dty*l22_0_14) + (d_L_k__2__b_dty*l22_0_17) + (d_L_ub__2__b_dty*l22_0_20));
-    const S d_L_ubs__0__b_dtz = ((b_r5_0*l22_0_22) + (d_L_cs__b_dtz*l22_0_11) + (d_L_k__0__b_dtz*l22_0_12) + (d_L_k__1__b_dtz*l22_0_14) + (d_L_k__2__b_dtz*l22_0_17) + (d_L_ub__0__b_dtz*l22_0_23));
-    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l22_0_8) - l22_0_16 + l22_0_24);
-    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l22_0_25) + (d_L_k__0__a_dtx*l22_0_28) + (d_L_k__1__a_dtx*l22_0_29) + (d_L_k__2__a_dtx*l22_0_30));
-    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l22_0_25) + (d_L_k__0__a_dty*l22_0_28) + (d_L_k__1__a_dty*l22_0_29) + (d_L_k__2__a_dty*l22_0_30));
-    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l22_0_25) + (d_L_k__0__a_dtz*l22_0_28) + (d_L_k__1__a_dtz*l22_0_29) + (d_L_k__2__a_dtz*l22_0_30));
-    const S d_L_ubs__1__b_dtx = ((b_r5_1*l22_0_31) + (d_L_cs__b_dtx*l22_0_25) + (d_L_k__0__b_dtx*l22_0_28) + (d_L_k__1__b_dtx*l22_0_29) + (d_L_k__2__b_dtx*l22_0_30) + (d_L_ub__1__b_dtx*l22_0_32));
-    const S d_L_ubs__1__b_dty = ((b_r5_2*l22_0_33) + (d_L_cs__b_dty*l22_0_25) + (d_L_k__0__b_dty*l22_0_28) + (d_L_k__1__b_dty*l22_0_29) + (d_L_k__2__b_dty*l22_0_30) + (d_L_ub__2__b_dty*l22_0_31));
-    const S d_L_ubs__1__b_dtz = ((b_r5_0*l22_0_32) + (d_L_cs__b_dtz*l22_0_25) + (d_L_k__0__b_dtz*l22_0_28) + (d_L_k__1__b_dtz*l22_0_29) + (d_L_k__2__b_dtz*l22_0_30) + (d_L_ub__0__b_dtz*l22_0_33));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l22_0_8) + l22_0_13 - l22_0_27);
-    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l22_0_34) + (d_L_k__0__a_dtx*l22_0_35) + (d_L_k__1__a_dtx*l22_0_36) + (d_L_k__2__a_dtx*l22_0_37));
-    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l22_0_34) + (d_L_k__0__a_dty*l22_0_35) + (d_L_k__1__a_dty*l22_0_36) + (d_L_k__2__a_dty*l22_0_37));
-    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l22_0_34) + (d_L_k__0__a_dtz*l22_0_35) + (d_L_k__1__a_dtz*l22_0_36) + (d_L_k__2__a_dtz*l22_0_37));
-    const S d_L_ubs__2__b_dtx = ((b_r5_1*l22_0_38) + (d_L_cs__b_dtx*l22_0_34) + (d_L_k__0__b_dtx*l22_0_35) + (d_L_k__1__b_dtx*l22_0_36) + (d_L_k__2__b_dtx*l22_0_37) + (d_L_ub__1__b_dtx*l22_0_39));
-    const S d_L_ubs__2__b_dty = ((b_r5_2*l22_0_40) + (d_L_cs__b_dty*l22_0_34) + (d_L_k__0__b_dty*l22_0_35) + (d_L_k__1__b_dty*l22_0_36) + (d_L_k__2__b_dty*l22_0_37) + (d_L_ub__2__b_dty*l22_0_38));
-    const S d_L_ubs__2__b_dtz = ((b_r5_0*l22_0_39) + (d_L_cs__b_dtz*l22_0_34) + (d_L_k__0__b_dtz*l22_0_35) + (d_L_k__1__b_dtz*l22_0_36) + (d_L_k__2__b_dtz*l22_0_37) + (d_L_ub__0__b_dtz*l22_0_40));
-    // let twist (cone_twist.yaml:53)
-    const S l23_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
-    const S l23_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
-    const S l23_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
-    const S l23_0_3 = ((L_na__0*l23_0_0) + (L_na__1*l23_0_1) + (L_na__2*l23_0_2));
-    const S l23_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
-    const S l23_0_5 = (S(1)/(((l23_0_3*l23_0_3) + (l23_0_4*l23_0_4))));
-    const S l23_0_6 = (-(l23_0_3*l23_0_5));
-    const S l23_0_7 = (l23_0_4*l23_0_5);
-    const S l23_0_8 = ((L_ubs__2*l23_0_6) + (l23_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
-    const S l23_0_9 = ((L_ubs__1*l23_0_6) + (l23_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
-    const S l23_0_10 = ((L_ua__0*l23_0_6) + (l23_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S l23_0_11 = ((L_ua__1*l23_0_6) + (l23_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l23_0_12 = ((L_ua__2*l23_0_6) + (l23_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l23_0_13 = (l23_0_2*l23_0_7);
-    const S l23_0_14 = (l23_0_1*l23_0_7);
-    const S l23_0_15 = ((L_ubs__0*l23_0_6) + (l23_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
-    const S l23_0_16 = (l23_0_0*l23_0_7);
-    const S L_twist = angle_of(l23_0_3, l23_0_4);
-    const S d_L_twist__a_dtx = ((a_r2_1*l23_0_13) + (a_r4_1*l23_0_8) + (d_L_na__1__a_dtx*l23_0_14) + (d_L_ua__1__a_dtx*l23_0_9) + (d_L_ubs__0__a_dtx*l23_0_10) + (d_L_ubs__1__a_dtx*l23_0_11) + (d_L_ubs__2__a_dtx*l23_0_12));
-    const S d_L_twist__a_dty = ((a_r2_2*l23_0_16) + (a_r4_2*l23_0_15) + (d_L_na__2__a_dty*l23_0_13) + (d_L_ua__2__a_dty*l23_0_8) + (d_L_ubs__0__a_dty*l23_0_10) + (d_L_ubs__1__a_dty*l23_0_11) + (d_L_ubs__2__a_dty*l23_0_12));
-    const S d_L_twist__a_dtz = ((a_r2_0*l23_0_14) + (a_r4_0*l23_0_9) + (d_L_na__0__a_dtz*l23_0_16) + (d_L_ua__0__a_dtz*l23_0_15) + (d_L_ubs__0__a_dtz*l23_0_10) + (d_L_ubs__1__a_dtz*l23_0_11) + (d_L_ubs__2__a_dtz*l23_0_12));
-    const S d_L_twist__b_dtx = ((d_L_ubs__0__b_dtx*l23_0_10) + (d_L_ubs__1__b_dtx*l23_0_11) + (d_L_ubs__2__b_dtx*l23_0_12));
-    const S d_L_twist__b_dty = ((d_L_ubs__0__b_dty*l23_0_10) + (d_L_ubs__1__b_dty*l23_0_11) + (d_L_ubs__2__b_dty*l23_0_12));
-    const S d_L_twist__b_dtz = ((d_L_ubs__0__b_dtz*l23_0_10) + (d_L_ubs__1__b_dtz*l23_0_11) + (d_L_ubs__2__b_dtz*l23_0_12));
-    // let twist_rate (cone_twist.yaml:54)
+    // let swa (cone_twist.yaml:53)
+    [[maybe_unused]] const S L_swa = ((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22))));
+    // let swb (cone_twist.yaml:54)
+    [[maybe_unused]] const S L_swb = ((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22))));
+    // let isw (cone_twist.yaml:55)
+    [[maybe_unused]] const S L_isw = select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa);
+    // let ksw (cone_twist.yaml:56)
+    const S L_ksw = (L_isw*(L_omega*L_omega));
+    // let csw (cone_twist.yaml:57)
+    const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
+    // let stop_cone (cone_twist.yaml:58)
+    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const auto l23_0_1 = (l23_0_0 > S(0));
+    const auto l23_0_2 = (L_over_cone > S(0));
+    const auto l23_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
+    const auto l23_0_4 = (p_cone_angle > S(0));
+    const S l23_0_5 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_ksw, S(0)), select(l23_0_3, L_ksw, S(0))), S(0));
+    const S l23_0_6 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_csw, S(0)), select(l23_0_3, L_csw, S(0))), S(0));
+    const S L_stop_cone = select(l23_0_4, select(l23_0_2, select(l23_0_1, l23_0_0, S(0)), select(l23_0_3, l23_0_0, S(0))), S(0));
+    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l23_0_5) + (d_L_swing_rate__a_dtx*l23_0_6));
+    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l23_0_5) + (d_L_swing_rate__a_dty*l23_0_6));
+    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l23_0_5) + (d_L_swing_rate__a_dtz*l23_0_6));
+    const S d_L_stop_cone__b_dtx = ((d_L_swing__b_dtx*l23_0_5) + (d_L_swing_rate__b_dtx*l23_0_6));
+    const S d_L_stop_cone__b_dty = ((d_L_swing__b_dty*l23_0_5) + (d_L_swing_rate__b_dty*l23_0_6));
+    const S d_L_stop_cone__b_dtz = ((d_L_swing__b_dtz*l23_0_5) + (d_L_swing_rate__b_dtz*l23_0_6));
+    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l23_0_6);
+    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l23_0_6);
+    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l23_0_6);
+    const S d_L_stop_cone__b_wx = (L_e__0*l23_0_6);
+    const S d_L_stop_cone__b_wy = (L_e__1*l23_0_6);
+    const S d_L_stop_cone__b_wz = (L_e__2*l23_0_6);
+    // let ubs (cone_twist.yaml:61)
+    const S l24_0_0 = (L_k__1*L_ub__2);
+    const S l24_0_1 = (L_k__2*L_ub__1);
+    const S l24_0_2 = max(S(1e-06), (L_cs + S(1)));
+    const S l24_0_3 = (S(1)/(l24_0_2));
+    const S l24_0_4 = (L_k__0*L_ub__0);
+    const S l24_0_5 = (L_k__1*L_ub__1);
+    const S l24_0_6 = (L_k__2*L_ub__2);
+    const S l24_0_7 = (l24_0_4 + l24_0_5 + l24_0_6);
+    const S l24_0_8 = (l24_0_3*l24_0_7);
+    const S l24_0_9 = (-L_ub__0);
+    const S l24_0_10 = (l24_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l24_0_2*l24_0_2)));
+    const S l24_0_11 = ((-(L_k__0*l24_0_10)) - l24_0_9);
+    const S l24_0_12 = ((l24_0_3*l24_0_4) + l24_0_8);
+    const S l24_0_13 = (L_k__0*L_ub__1);
+    const S l24_0_14 = (L_ub__2 + (l24_0_13*l24_0_3));
+    const S l24_0_15 = (-L_ub__1);
+    const S l24_0_16 = (L_k__0*L_ub__2);
+    const S l24_0_17 = (l24_0_15 + (l24_0_16*l24_0_3));
+    const S l24_0_18 = (L_k__0*l24_0_3);
+    const S l24_0_19 = (L_k__2*l24_0_18);
+    const S l24_0_20 = (L_k__1 + l24_0_19);
+    const S l24_0_21 = (L_k__1*l24_0_18);
+    const S l24_0_22 = ((-L_k__2) + l24_0_21);
+    const S l24_0_23 = (L_cs + ((L_k__0*L_k__0)*l24_0_3));
+    const S l24_0_24 = (L_k__2*L_ub__0);
+    const S l24_0_25 = ((-(L_k__1*l24_0_10)) - l24_0_15);
+    const S l24_0_26 = (-L_ub__2);
+    const S l24_0_27 = (L_k__1*L_ub__0);
+    const S l24_0_28 = (l24_0_26 + (l24_0_27*l24_0_3));
+    const S l24_0_29 = ((l24_0_3*l24_0_5) + l24_0_8);
+    const S l24_0_30 = (L_ub__0 + (l24_0_0*l24_0_3));
+    const S l24_0_31 = ((-L_k__0) + (L_k__1*L_k__2*l24_0_3));
+    const S l24_0_32 = (L_cs + ((L_k__1*L_k__1)*l24_0_3));
+    const S l24_0_33 = (L_k__2 + l24_0_21);
+    const S l24_0_34 = ((-(L_k__2*l24_0_10)) - l24_0_26);
+    const S l24_0_35 = (L_ub__1 + (l24_0_24*l24_0_3));
+    const S l24_0_36 = ((l24_0_1*l24_0_3) + l24_0_9);
+    const S l24_0_37 = ((l24_0_3*l24_0_6) + l24_0_8);
+    const S l24_0_38 = (L_cs + ((L_k__2*L_k__2)*l24_0_3));
+    const S l24_0_39 = (L_k__0 + (L_k__1*L_k__2*l24_0_3));
+    const S l24_0_40 = ((-L_k__1) + l24_0_19);
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_8) + l24_0_0 - l24_0_1);
+    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l24_0_11) + (d_L_k__0__a_dtx*l24_0_12) + (d_L_k__1__a_dtx*l24_0_14) + (d_L_k__2__a_dtx*l24_0_17));
+    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l24_0_11) + (d_L_k__0__a_dty*l24_0_12) + (d_L_k__1__a_dty*l24_0_14) + (d_L_k__2__a_dty*l24_0_17));
+    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l24_0_11) + (d_L_k__0__a_dtz*l24_0_12) + (d_L_k__1__a_dtz*l24_0_14) + (d_L_k__2__a_dtz*l24_0_17));
+    const S d_L_ubs__0__b_dtx = ((b_r5_1*l24_0_20) + (d_L_cs__b_dtx*l24_0_11) + (d_L_k__0__b_dtx*l24_0_12) + (d_L_k__1__b_dtx*l24_0_14) + (d_L_k__2__b_dtx*l24_0_17) + (d_L_ub__1__b_dtx*l24_0_22));
+    const S d_L_ubs__0__b_dty = ((b_r5_2*l24_0_23) + (d_L_cs__b_dty*l24_0_11) + (d_L_k__0__b_dty*l24_0_12) + (d_L_k__1__b_dty*l24_0_14) + (d_L_k__2__b_dty*l24_0_17) + (d_L_ub__2__b_dty*l24_0_20));
+    const S d_L_ubs__0__b_dtz = ((b_r5_0*l24_0_22) + (d_L_cs__b_dtz*l24_0_11) + (d_L_k__0__b_dtz*l24_0_12) + (d_L_k__1__b_dtz*l24_0_14) + (d_L_k__2__b_dtz*l24_0_17) + (d_L_ub__0__b_dtz*l24_0_23));
+    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l24_0_8) - l24_0_16 + l24_0_24);
+    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l24_0_25) + (d_L_k__0__a_dtx*l24_0_28) + (d_L_k__1__a_dtx*l24_0_29) + (d_L_k__2__a_dtx*l24_0_30));
+    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l24_0_25) + (d_L_k__0__a_dty*l24_0_28) + (d_L_k__1__a_dty*l24_0_29) + (d_L_k__2__a_dty*l24_0_30));
+    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l24_0_25) + (d_L_k__0__a_dtz*l24_0_28) + (d_L_k__1__a_dtz*l24_0_29) + (d_L_k__2__a_dtz*l24_0_30));
+    const S d_L_ubs__1__b_dtx = ((b_r5_1*l24_0_31) + (d_L_cs__b_dtx*l24_0_25) + (d_L_k__0__b_dtx*l24_0_28) + (d_L_k__1__b_dtx*l24_0_29) + (d_L_k__2__b_dtx*l24_0_30) + (d_L_ub__1__b_dtx*l24_0_32));
+    const S d_L_ubs__1__b_dty = ((b_r5_2*l24_0_33) + (d_L_cs__b_dty*l24_0_25) + (d_L_k__0__b_dty*l24_0_28) + (d_L_k__1__b_dty*l24_0_29) + (d_L_k__2__b_dty*l24_0_30) + (d_L_ub__2__b_dty*l24_0_31));
+    const S d_L_ubs__1__b_dtz = ((b_r5_0*l24_0_32) + (d_L_cs__b_dtz*l24_0_25) + (d_L_k__0__b_dtz*l24_0_28) + (d_L_k__1__b_dtz*l24_0_29) + (d_L_k__2__b_dtz*l24_0_30) + (d_L_ub__0__b_dtz*l24_0_33));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l24_0_8) + l24_0_13 - l24_0_27);
+    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l24_0_34) + (d_L_k__0__a_dtx*l24_0_35) + (d_L_k__1__a_dtx*l24_0_36) + (d_L_k__2__a_dtx*l24_0_37));
+    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l24_0_34) + (d_L_k__0__a_dty*l24_0_35) + (d_L_k__1__a_dty*l24_0_36) + (d_L_k__2__a_dty*l24_0_37));
+    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l24_0_34) + (d_L_k__0__a_dtz*l24_0_35) + (d_L_k__1__a_dtz*l24_0_36) + (d_L_k__2__a_dtz*l24_0_37));
+    const S d_L_ubs__2__b_dtx = ((b_r5_1*l24_0_38) + (d_L_cs__b_dtx*l24_0_34) + (d_L_k__0__b_dtx*l24_0_35) + (d_L_k__1__b_dtx*l24_0_36) + (d_L_k__2__b_dtx*l24_0_37) + (d_L_ub__1__b_dtx*l24_0_39));
+    const S d_L_ubs__2__b_dty = ((b_r5_2*l24_0_40) + (d_L_cs__b_dty*l24_0_34) + (d_L_k__0__b_dty*l24_0_35) + (d_L_k__1__b_dty*l24_0_36) + (d_L_k__2__b_dty*l24_0_37) + (d_L_ub__2__b_dty*l24_0_38));
+    const S d_L_ubs__2__b_dtz = ((b_r5_0*l24_0_39) + (d_L_cs__b_dtz*l24_0_34) + (d_L_k__0__b_dtz*l24_0_35) + (d_L_k__1__b_dtz*l24_0_36) + (d_L_k__2__b_dtz*l24_0_37) + (d_L_ub__0__b_dtz*l24_0_40));
+    // let twist (cone_twist.yaml:62)
+    const S l25_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
+    const S l25_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
+    const S l25_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
+    const S l25_0_3 = ((L_na__0*l25_0_0) + (L_na__1*l25_0_1) + (L_na__2*l25_0_2));
+    const S l25_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
+    const S l25_0_5 = (S(1)/(((l25_0_3*l25_0_3) + (l25_0_4*l25_0_4))));
+    const S l25_0_6 = (-(l25_0_3*l25_0_5));
+    const S l25_0_7 = (l25_0_4*l25_0_5);
+    const S l25_0_8 = ((L_ubs__2*l25_0_6) + (l25_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
+    const S l25_0_9 = ((L_ubs__1*l25_0_6) + (l25_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
+    const S l25_0_10 = ((L_ua__0*l25_0_6) + (l25_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S l25_0_11 = ((L_ua__1*l25_0_6) + (l25_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l25_0_12 = ((L_ua__2*l25_0_6) + (l25_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l25_0_13 = (l25_0_2*l25_0_7);
+    const S l25_0_14 = (l25_0_1*l25_0_7);
+    const S l25_0_15 = ((L_ubs__0*l25_0_6) + (l25_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
+    const S l25_0_16 = (l25_0_0*l25_0_7);
+    const S L_twist = angle_of(l25_0_3, l25_0_4);
+    const S d_L_twist__a_dtx = ((a_r2_1*l25_0_13) + (a_r4_1*l25_0_8) + (d_L_na__1__a_dtx*l25_0_14) + (d_L_ua__1__a_dtx*l25_0_9) + (d_L_ubs__0__a_dtx*l25_0_10) + (d_L_ubs__1__a_dtx*l25_0_11) + (d_L_ubs__2__a_dtx*l25_0_12));
+    const S d_L_twist__a_dty = ((a_r2_2*l25_0_16) + (a_r4_2*l25_0_15) + (d_L_na__2__a_dty*l25_0_13) + (d_L_ua__2__a_dty*l25_0_8) + (d_L_ubs__0__a_dty*l25_0_10) + (d_L_ubs__1__a_dty*l25_0_11) + (d_L_ubs__2__a_dty*l25_0_12));
+    const S d_L_twist__a_dtz = ((a_r2_0*l25_0_14) + (a_r4_0*l25_0_9) + (d_L_na__0__a_dtz*l25_0_16) + (d_L_ua__0__a_dtz*l25_0_15) + (d_L_ubs__0__a_dtz*l25_0_10) + (d_L_ubs__1__a_dtz*l25_0_11) + (d_L_ubs__2__a_dtz*l25_0_12));
+    const S d_L_twist__b_dtx = ((d_L_ubs__0__b_dtx*l25_0_10) + (d_L_ubs__1__b_dtx*l25_0_11) + (d_L_ubs__2__b_dtx*l25_0_12));
+    const S d_L_twist__b_dty = ((d_L_ubs__0__b_dty*l25_0_10) + (d_L_ubs__1__b_dty*l25_0_11) + (d_L_ubs__2__b_dty*l25_0_12));
+    const S d_L_twist__b_dtz = ((d_L_ubs__0__b_dtz*l25_0_10) + (d_L_ubs__1__b_dtz*l25_0_11) + (d_L_ubs__2__b_dtz*l25_0_12));
+    // let twist_rate (cone_twist.yaml:63)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_twist_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r2_1));
     const S d_L_twist_rate__a_dty = ((L_wrel__0*a_r2_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -569,11 +597,11 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_twist_rate__a_wx = (-L_na__0);
     const S d_L_twist_rate__a_wy = (-L_na__1);
     const S d_L_twist_rate__a_wz = (-L_na__2);
-    // let limited (cone_twist.yaml:55)
+    // let limited (cone_twist.yaml:64)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:56)
+    // let over_hi (cone_twist.yaml:65)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:57)
+    // let over_lo (cone_twist.yaml:66)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
     const S d_L_over_lo__a_dtx = (-d_L_twist__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_twist__a_dty);
@@ -581,141 +609,151 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_twist__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_twist__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_twist__b_dtz);
-    // let stop_hi (cone_twist.yaml:58)
-    const S l28_0_0 = ((L_cr*L_twist_rate) + (L_kr*L_over_hi));
-    const auto l28_0_1 = (l28_0_0 > S(0));
-    const auto l28_0_2 = (L_over_hi > S(0));
-    const auto l28_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
-    const S l28_0_4 = select(l28_0_2, select(l28_0_1, L_kr, S(0)), select(l28_0_3, L_kr, S(0)));
-    const S l28_0_5 = select(l28_0_2, select(l28_0_1, L_cr, S(0)), select(l28_0_3, L_cr, S(0)));
-    const S L_stop_hi = select(l28_0_2, select(l28_0_1, l28_0_0, S(0)), select(l28_0_3, l28_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l28_0_4) + (d_L_twist_rate__a_dtx*l28_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l28_0_4) + (d_L_twist_rate__a_dty*l28_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l28_0_4) + (d_L_twist_rate__a_dtz*l28_0_5));
-    const S d_L_stop_hi__b_dtx = (d_L_twist__b_dtx*l28_0_4);
-    const S d_L_stop_hi__b_dty = (d_L_twist__b_dty*l28_0_4);
-    const S d_L_stop_hi__b_dtz = (d_L_twist__b_dtz*l28_0_4);
-    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l28_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l28_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l28_0_5);
-    const S d_L_stop_hi__b_wx = (L_na__0*l28_0_5);
-    const S d_L_stop_hi__b_wy = (L_na__1*l28_0_5);
-    const S d_L_stop_hi__b_wz = (L_na__2*l28_0_5);
-    // let stop_lo (cone_twist.yaml:59)
-    const S l29_0_0 = ((L_cr*L_twist_rate) - (L_kr*L_over_lo));
-    const S l29_0_1 = (-l29_0_0);
-    const auto l29_0_2 = (l29_0_0 < S(0));
-    const auto l29_0_3 = (L_over_lo > S(0));
-    const auto l29_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
-    const S l29_0_5 = select(l29_0_3, select(l29_0_2, L_kr, S(0)), select(l29_0_4, L_kr, S(0)));
-    const S l29_0_6 = (-L_cr);
-    const S l29_0_7 = select(l29_0_3, select(l29_0_2, l29_0_6, S(0)), select(l29_0_4, l29_0_6, S(0)));
-    const S L_stop_lo = select(l29_0_3, select(l29_0_2, l29_0_1, S(0)), select(l29_0_4, l29_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l29_0_5) + (d_L_twist_rate__a_dtx*l29_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l29_0_5) + (d_L_twist_rate__a_dty*l29_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l29_0_5) + (d_L_twist_rate__a_dtz*l29_0_7));
-    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l29_0_5);
-    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l29_0_5);
-    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l29_0_5);
-    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l29_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l29_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l29_0_7);
-    const S d_L_stop_lo__b_wx = (L_na__0*l29_0_7);
-    const S d_L_stop_lo__b_wy = (L_na__1*l29_0_7);
-    const S d_L_stop_lo__b_wz = (L_na__2*l29_0_7);
-    // let spring (cone_twist.yaml:60)
-    const S l30_0_0 = (L_e__0*p_spring_stiffness);
-    const S l30_0_1 = (L_na__0*p_spring_stiffness);
-    const S l30_0_2 = (L_swing*p_spring_stiffness);
-    const S l30_0_3 = (L_twist*p_spring_stiffness);
-    const S l30_0_4 = (-p_spring_damping);
-    const S l30_0_5 = (L_e__1*p_spring_stiffness);
-    const S l30_0_6 = (L_na__1*p_spring_stiffness);
-    const S l30_0_7 = (L_e__2*p_spring_stiffness);
-    const S l30_0_8 = (L_na__2*p_spring_stiffness);
+    // let twa (cone_twist.yaml:67)
+    [[maybe_unused]] const S L_twa = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
+    // let twb (cone_twist.yaml:68)
+    [[maybe_unused]] const S L_twb = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
+    // let itw (cone_twist.yaml:69)
+    [[maybe_unused]] const S L_itw = select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa);
+    // let ktw (cone_twist.yaml:70)
+    const S L_ktw = (L_itw*(L_omega*L_omega));
+    // let ctw (cone_twist.yaml:71)
+    const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
+    // let stop_hi (cone_twist.yaml:72)
+    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const auto l35_0_1 = (l35_0_0 > S(0));
+    const auto l35_0_2 = (L_over_hi > S(0));
+    const auto l35_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
+    const S l35_0_4 = select(l35_0_2, select(l35_0_1, L_ktw, S(0)), select(l35_0_3, L_ktw, S(0)));
+    const S l35_0_5 = select(l35_0_2, select(l35_0_1, L_ctw, S(0)), select(l35_0_3, L_ctw, S(0)));
+    const S L_stop_hi = select(l35_0_2, select(l35_0_1, l35_0_0, S(0)), select(l35_0_3, l35_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l35_0_4) + (d_L_twist_rate__a_dtx*l35_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l35_0_4) + (d_L_twist_rate__a_dty*l35_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l35_0_4) + (d_L_twist_rate__a_dtz*l35_0_5));
+    const S d_L_stop_hi__b_dtx = (d_L_twist__b_dtx*l35_0_4);
+    const S d_L_stop_hi__b_dty = (d_L_twist__b_dty*l35_0_4);
+    const S d_L_stop_hi__b_dtz = (d_L_twist__b_dtz*l35_0_4);
+    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l35_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l35_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l35_0_5);
+    const S d_L_stop_hi__b_wx = (L_na__0*l35_0_5);
+    const S d_L_stop_hi__b_wy = (L_na__1*l35_0_5);
+    const S d_L_stop_hi__b_wz = (L_na__2*l35_0_5);
+    // let stop_lo (cone_twist.yaml:73)
+    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l36_0_1 = (-l36_0_0);
+    const auto l36_0_2 = (l36_0_0 < S(0));
+    const auto l36_0_3 = (L_over_lo > S(0));
+    const auto l36_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
+    const S l36_0_5 = select(l36_0_3, select(l36_0_2, L_ktw, S(0)), select(l36_0_4, L_ktw, S(0)));
+    const S l36_0_6 = (-L_ctw);
+    const S l36_0_7 = select(l36_0_3, select(l36_0_2, l36_0_6, S(0)), select(l36_0_4, l36_0_6, S(0)));
+    const S L_stop_lo = select(l36_0_3, select(l36_0_2, l36_0_1, S(0)), select(l36_0_4, l36_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l36_0_5) + (d_L_twist_rate__a_dtx*l36_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l36_0_5) + (d_L_twist_rate__a_dty*l36_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l36_0_5) + (d_L_twist_rate__a_dtz*l36_0_7));
+    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l36_0_5);
+    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l36_0_5);
+    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l36_0_5);
+    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l36_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l36_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l36_0_7);
+    const S d_L_stop_lo__b_wx = (L_na__0*l36_0_7);
+    const S d_L_stop_lo__b_wy = (L_na__1*l36_0_7);
+    const S d_L_stop_lo__b_wz = (L_na__2*l36_0_7);
+    // let spring (cone_twist.yaml:74)
+    const S l37_0_0 = (L_e__0*p_spring_stiffness);
+    const S l37_0_1 = (L_na__0*p_spring_stiffness);
+    const S l37_0_2 = (L_swing*p_spring_stiffness);
+    const S l37_0_3 = (L_twist*p_spring_stiffness);
+    const S l37_0_4 = (-p_spring_damping);
+    const S l37_0_5 = (L_e__1*p_spring_stiffness);
+    const S l37_0_6 = (L_na__1*p_spring_stiffness);
+    const S l37_0_7 = (L_e__2*p_spring_stiffness);
+    const S l37_0_8 = (L_na__2*p_spring_stiffness);
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
-    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l30_0_2)) - (d_L_swing__a_dtx*l30_0_0) - (d_L_twist__a_dtx*l30_0_1));
-    const S d_L_spring__0__a_dty = ((-(a_r2_2*l30_0_3)) - (d_L_e__0__a_dty*l30_0_2) - (d_L_swing__a_dty*l30_0_0) - (d_L_twist__a_dty*l30_0_1));
-    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l30_0_2)) - (d_L_na__0__a_dtz*l30_0_3) - (d_L_swing__a_dtz*l30_0_0) - (d_L_twist__a_dtz*l30_0_1));
-    const S d_L_spring__0__b_dtx = ((-(d_L_e__0__b_dtx*l30_0_2)) - (d_L_swing__b_dtx*l30_0_0) - (d_L_twist__b_dtx*l30_0_1));
-    const S d_L_spring__0__b_dty = ((-(d_L_e__0__b_dty*l30_0_2)) - (d_L_swing__b_dty*l30_0_0) - (d_L_twist__b_dty*l30_0_1));
-    const S d_L_spring__0__b_dtz = ((-(d_L_e__0__b_dtz*l30_0_2)) - (d_L_swing__b_dtz*l30_0_0) - (d_L_twist__b_dtz*l30_0_1));
-    const S d_L_spring__0__b_wx = l30_0_4;
+    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l37_0_2)) - (d_L_swing__a_dtx*l37_0_0) - (d_L_twist__a_dtx*l37_0_1));
+    const S d_L_spring__0__a_dty = ((-(a_r2_2*l37_0_3)) - (d_L_e__0__a_dty*l37_0_2) - (d_L_swing__a_dty*l37_0_0) - (d_L_twist__a_dty*l37_0_1));
+    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l37_0_2)) - (d_L_na__0__a_dtz*l37_0_3) - (d_L_swing__a_dtz*l37_0_0) - (d_L_twist__a_dtz*l37_0_1));
+    const S d_L_spring__0__b_dtx = ((-(d_L_e__0__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_0) - (d_L_twist__b_dtx*l37_0_1));
+    const S d_L_spring__0__b_dty = ((-(d_L_e__0__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_0) - (d_L_twist__b_dty*l37_0_1));
+    const S d_L_spring__0__b_dtz = ((-(d_L_e__0__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_0) - (d_L_twist__b_dtz*l37_0_1));
+    const S d_L_spring__0__b_wx = l37_0_4;
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
-    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l30_0_2)) - (d_L_na__1__a_dtx*l30_0_3) - (d_L_swing__a_dtx*l30_0_5) - (d_L_twist__a_dtx*l30_0_6));
-    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l30_0_2)) - (d_L_swing__a_dty*l30_0_5) - (d_L_twist__a_dty*l30_0_6));
-    const S d_L_spring__1__a_dtz = ((-(a_r2_0*l30_0_3)) - (d_L_e__1__a_dtz*l30_0_2) - (d_L_swing__a_dtz*l30_0_5) - (d_L_twist__a_dtz*l30_0_6));
-    const S d_L_spring__1__b_dtx = ((-(d_L_e__1__b_dtx*l30_0_2)) - (d_L_swing__b_dtx*l30_0_5) - (d_L_twist__b_dtx*l30_0_6));
-    const S d_L_spring__1__b_dty = ((-(d_L_e__1__b_dty*l30_0_2)) - (d_L_swing__b_dty*l30_0_5) - (d_L_twist__b_dty*l30_0_6));
-    const S d_L_spring__1__b_dtz = ((-(d_L_e__1__b_dtz*l30_0_2)) - (d_L_swing__b_dtz*l30_0_5) - (d_L_twist__b_dtz*l30_0_6));
-    const S d_L_spring__1__b_wy = l30_0_4;
+    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l37_0_2)) - (d_L_na__1__a_dtx*l37_0_3) - (d_L_swing__a_dtx*l37_0_5) - (d_L_twist__a_dtx*l37_0_6));
+    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l37_0_2)) - (d_L_swing__a_dty*l37_0_5) - (d_L_twist__a_dty*l37_0_6));
+    const S d_L_spring__1__a_dtz = ((-(a_r2_0*l37_0_3)) - (d_L_e__1__a_dtz*l37_0_2) - (d_L_swing__a_dtz*l37_0_5) - (d_L_twist__a_dtz*l37_0_6));
+    const S d_L_spring__1__b_dtx = ((-(d_L_e__1__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_5) - (d_L_twist__b_dtx*l37_0_6));
+    const S d_L_spring__1__b_dty = ((-(d_L_e__1__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_5) - (d_L_twist__b_dty*l37_0_6));
+    const S d_L_spring__1__b_dtz = ((-(d_L_e__1__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_5) - (d_L_twist__b_dtz*l37_0_6));
+    const S d_L_spring__1__b_wy = l37_0_4;
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    const S d_L_spring__2__a_dtx = ((-(a_r2_1*l30_0_3)) - (d_L_e__2__a_dtx*l30_0_2) - (d_L_swing__a_dtx*l30_0_7) - (d_L_twist__a_dtx*l30_0_8));
-    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l30_0_2)) - (d_L_na__2__a_dty*l30_0_3) - (d_L_swing__a_dty*l30_0_7) - (d_L_twist__a_dty*l30_0_8));
-    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l30_0_2)) - (d_L_swing__a_dtz*l30_0_7) - (d_L_twist__a_dtz*l30_0_8));
-    const S d_L_spring__2__b_dtx = ((-(d_L_e__2__b_dtx*l30_0_2)) - (d_L_swing__b_dtx*l30_0_7) - (d_L_twist__b_dtx*l30_0_8));
-    const S d_L_spring__2__b_dty = ((-(d_L_e__2__b_dty*l30_0_2)) - (d_L_swing__b_dty*l30_0_7) - (d_L_twist__b_dty*l30_0_8));
-    const S d_L_spring__2__b_dtz = ((-(d_L_e__2__b_dtz*l30_0_2)) - (d_L_swing__b_dtz*l30_0_7) - (d_L_twist__b_dtz*l30_0_8));
-    const S d_L_spring__2__b_wz = l30_0_4;
-    // let tau (cone_twist.yaml:61)
-    const S l31_0_0 = ((-L_stop_hi) + L_stop_lo);
-    const S l31_0_1 = (L_limited*L_na__0);
-    const S l31_0_2 = (-p_spring_damping);
-    const S l31_0_3 = (L_limited*l31_0_0);
-    const S l31_0_4 = (L_limited*L_na__1);
-    const S l31_0_5 = (L_limited*L_na__2);
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l31_0_0*l31_0_1));
-    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l31_0_1));
-    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r2_2*l31_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l31_0_1));
-    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l31_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l31_0_1));
-    const S d_L_tau__0__b_dtx = ((-(L_e__0*d_L_stop_cone__b_dtx)) + (L_limited*L_na__0*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__0__b_dtx) + d_L_spring__0__b_dtx - (d_L_stop_hi__b_dtx*l31_0_1));
-    const S d_L_tau__0__b_dty = ((-(L_e__0*d_L_stop_cone__b_dty)) + (L_limited*L_na__0*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__0__b_dty) + d_L_spring__0__b_dty - (d_L_stop_hi__b_dty*l31_0_1));
-    const S d_L_tau__0__b_dtz = ((-(L_e__0*d_L_stop_cone__b_dtz)) + (L_limited*L_na__0*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__0__b_dtz) + d_L_spring__0__b_dtz - (d_L_stop_hi__b_dtz*l31_0_1));
-    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_1) - l31_0_2);
-    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_1));
-    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_1));
-    const S d_L_tau__0__b_wx = ((-(L_e__0*d_L_stop_cone__b_wx)) + (L_limited*L_na__0*d_L_stop_lo__b_wx) + d_L_spring__0__b_wx - (d_L_stop_hi__b_wx*l31_0_1));
-    const S d_L_tau__0__b_wy = ((-(L_e__0*d_L_stop_cone__b_wy)) + (L_limited*L_na__0*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l31_0_1));
-    const S d_L_tau__0__b_wz = ((-(L_e__0*d_L_stop_cone__b_wz)) + (L_limited*L_na__0*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l31_0_1));
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l31_0_3) + L_spring__1);
-    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l31_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l31_0_4));
-    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l31_0_4));
-    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r2_0*l31_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l31_0_4));
-    const S d_L_tau__1__b_dtx = ((-(L_e__1*d_L_stop_cone__b_dtx)) + (L_limited*L_na__1*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__1__b_dtx) + d_L_spring__1__b_dtx - (d_L_stop_hi__b_dtx*l31_0_4));
-    const S d_L_tau__1__b_dty = ((-(L_e__1*d_L_stop_cone__b_dty)) + (L_limited*L_na__1*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__1__b_dty) + d_L_spring__1__b_dty - (d_L_stop_hi__b_dty*l31_0_4));
-    const S d_L_tau__1__b_dtz = ((-(L_e__1*d_L_stop_cone__b_dtz)) + (L_limited*L_na__1*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__1__b_dtz) + d_L_spring__1__b_dtz - (d_L_stop_hi__b_dtz*l31_0_4));
-    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_4));
-    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_4) - l31_0_2);
-    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_4));
-    const S d_L_tau__1__b_wx = ((-(L_e__1*d_L_stop_cone__b_wx)) + (L_limited*L_na__1*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l31_0_4));
-    const S d_L_tau__1__b_wy = ((-(L_e__1*d_L_stop_cone__b_wy)) + (L_limited*L_na__1*d_L_stop_lo__b_wy) + d_L_spring__1__b_wy - (d_L_stop_hi__b_wy*l31_0_4));
-    const S d_L_tau__1__b_wz = ((-(L_e__1*d_L_stop_cone__b_wz)) + (L_limited*L_na__1*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l31_0_4));
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l31_0_3) + L_spring__2);
-    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r2_1*l31_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l31_0_5));
-    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l31_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l31_0_5));
-    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l31_0_5));
-    const S d_L_tau__2__b_dtx = ((-(L_e__2*d_L_stop_cone__b_dtx)) + (L_limited*L_na__2*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__2__b_dtx) + d_L_spring__2__b_dtx - (d_L_stop_hi__b_dtx*l31_0_5));
-    const S d_L_tau__2__b_dty = ((-(L_e__2*d_L_stop_cone__b_dty)) + (L_limited*L_na__2*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__2__b_dty) + d_L_spring__2__b_dty - (d_L_stop_hi__b_dty*l31_0_5));
-    const S d_L_tau__2__b_dtz = ((-(L_e__2*d_L_stop_cone__b_dtz)) + (L_limited*L_na__2*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__2__b_dtz) + d_L_spring__2__b_dtz - (d_L_stop_hi__b_dtz*l31_0_5));
-    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_5));
-    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_5));
-    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_5) - l31_0_2);
-    const S d_L_tau__2__b_wx = ((-(L_e__2*d_L_stop_cone__b_wx)) + (L_limited*L_na__2*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l31_0_5));
-    const S d_L_tau__2__b_wy = ((-(L_e__2*d_L_stop_cone__b_wy)) + (L_limited*L_na__2*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l31_0_5));
-    const S d_L_tau__2__b_wz = ((-(L_e__2*d_L_stop_cone__b_wz)) + (L_limited*L_na__2*d_L_stop_lo__b_wz) + d_L_spring__2__b_wz - (d_L_stop_hi__b_wz*l31_0_5));
-    // apply[0] (cone_twist.yaml:63)
+    const S d_L_spring__2__a_dtx = ((-(a_r2_1*l37_0_3)) - (d_L_e__2__a_dtx*l37_0_2) - (d_L_swing__a_dtx*l37_0_7) - (d_L_twist__a_dtx*l37_0_8));
+    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l37_0_2)) - (d_L_na__2__a_dty*l37_0_3) - (d_L_swing__a_dty*l37_0_7) - (d_L_twist__a_dty*l37_0_8));
+    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l37_0_2)) - (d_L_swing__a_dtz*l37_0_7) - (d_L_twist__a_dtz*l37_0_8));
+    const S d_L_spring__2__b_dtx = ((-(d_L_e__2__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_7) - (d_L_twist__b_dtx*l37_0_8));
+    const S d_L_spring__2__b_dty = ((-(d_L_e__2__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_7) - (d_L_twist__b_dty*l37_0_8));
+    const S d_L_spring__2__b_dtz = ((-(d_L_e__2__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_7) - (d_L_twist__b_dtz*l37_0_8));
+    const S d_L_spring__2__b_wz = l37_0_4;
+    // let tau (cone_twist.yaml:75)
+    const S l38_0_0 = ((-L_stop_hi) + L_stop_lo);
+    const S l38_0_1 = (L_limited*L_na__0);
+    const S l38_0_2 = (-p_spring_damping);
+    const S l38_0_3 = (L_limited*l38_0_0);
+    const S l38_0_4 = (L_limited*L_na__1);
+    const S l38_0_5 = (L_limited*L_na__2);
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l38_0_0*l38_0_1));
+    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l38_0_1));
+    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r2_2*l38_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l38_0_1));
+    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l38_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l38_0_1));
+    const S d_L_tau__0__b_dtx = ((-(L_e__0*d_L_stop_cone__b_dtx)) + (L_limited*L_na__0*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__0__b_dtx) + d_L_spring__0__b_dtx - (d_L_stop_hi__b_dtx*l38_0_1));
+    const S d_L_tau__0__b_dty = ((-(L_e__0*d_L_stop_cone__b_dty)) + (L_limited*L_na__0*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__0__b_dty) + d_L_spring__0__b_dty - (d_L_stop_hi__b_dty*l38_0_1));
+    const S d_L_tau__0__b_dtz = ((-(L_e__0*d_L_stop_cone__b_dtz)) + (L_limited*L_na__0*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__0__b_dtz) + d_L_spring__0__b_dtz - (d_L_stop_hi__b_dtz*l38_0_1));
+    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_1) - l38_0_2);
+    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_1));
+    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_1));
+    const S d_L_tau__0__b_wx = ((-(L_e__0*d_L_stop_cone__b_wx)) + (L_limited*L_na__0*d_L_stop_lo__b_wx) + d_L_spring__0__b_wx - (d_L_stop_hi__b_wx*l38_0_1));
+    const S d_L_tau__0__b_wy = ((-(L_e__0*d_L_stop_cone__b_wy)) + (L_limited*L_na__0*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l38_0_1));
+    const S d_L_tau__0__b_wz = ((-(L_e__0*d_L_stop_cone__b_wz)) + (L_limited*L_na__0*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l38_0_1));
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_3) + L_spring__1);
+    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l38_0_4));
+    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l38_0_4));
+    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r2_0*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l38_0_4));
+    const S d_L_tau__1__b_dtx = ((-(L_e__1*d_L_stop_cone__b_dtx)) + (L_limited*L_na__1*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__1__b_dtx) + d_L_spring__1__b_dtx - (d_L_stop_hi__b_dtx*l38_0_4));
+    const S d_L_tau__1__b_dty = ((-(L_e__1*d_L_stop_cone__b_dty)) + (L_limited*L_na__1*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__1__b_dty) + d_L_spring__1__b_dty - (d_L_stop_hi__b_dty*l38_0_4));
+    const S d_L_tau__1__b_dtz = ((-(L_e__1*d_L_stop_cone__b_dtz)) + (L_limited*L_na__1*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__1__b_dtz) + d_L_spring__1__b_dtz - (d_L_stop_hi__b_dtz*l38_0_4));
+    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_4));
+    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_4) - l38_0_2);
+    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_4));
+    const S d_L_tau__1__b_wx = ((-(L_e__1*d_L_stop_cone__b_wx)) + (L_limited*L_na__1*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l38_0_4));
+    const S d_L_tau__1__b_wy = ((-(L_e__1*d_L_stop_cone__b_wy)) + (L_limited*L_na__1*d_L_stop_lo__b_wy) + d_L_spring__1__b_wy - (d_L_stop_hi__b_wy*l38_0_4));
+    const S d_L_tau__1__b_wz = ((-(L_e__1*d_L_stop_cone__b_wz)) + (L_limited*L_na__1*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l38_0_4));
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_3) + L_spring__2);
+    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r2_1*l38_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l38_0_5));
+    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l38_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l38_0_5));
+    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l38_0_5));
+    const S d_L_tau__2__b_dtx = ((-(L_e__2*d_L_stop_cone__b_dtx)) + (L_limited*L_na__2*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__2__b_dtx) + d_L_spring__2__b_dtx - (d_L_stop_hi__b_dtx*l38_0_5));
+    const S d_L_tau__2__b_dty = ((-(L_e__2*d_L_stop_cone__b_dty)) + (L_limited*L_na__2*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__2__b_dty) + d_L_spring__2__b_dty - (d_L_stop_hi__b_dty*l38_0_5));
+    const S d_L_tau__2__b_dtz = ((-(L_e__2*d_L_stop_cone__b_dtz)) + (L_limited*L_na__2*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__2__b_dtz) + d_L_spring__2__b_dtz - (d_L_stop_hi__b_dtz*l38_0_5));
+    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_5));
+    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_5));
+    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_5) - l38_0_2);
+    const S d_L_tau__2__b_wx = ((-(L_e__2*d_L_stop_cone__b_wx)) + (L_limited*L_na__2*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l38_0_5));
+    const S d_L_tau__2__b_wy = ((-(L_e__2*d_L_stop_cone__b_wy)) + (L_limited*L_na__2*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l38_0_5));
+    const S d_L_tau__2__b_wz = ((-(L_e__2*d_L_stop_cone__b_wz)) + (L_limited*L_na__2*d_L_stop_lo__b_wz) + d_L_spring__2__b_wz - (d_L_stop_hi__b_wz*l38_0_5));
+    // apply[0] (cone_twist.yaml:77)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l33_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l33_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l33_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l33_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (cone_twist.yaml:64)
+    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply[1] (cone_twist.yaml:78)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
-    const S l35_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l35_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l35_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l35_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (cone_twist.yaml:62), shared subexpressions
+    const S l42_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
+    // apply (cone_twist.yaml:76), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -738,21 +776,21 @@ struct Cone_Twist_Pair_Kernel {
     const S o19 = (T3_turn*d_L_pb__2__b_dty);
     const S o20 = (T3_turn*b_r1_2);
     const S o21 = (L_f__2*T3_turn);
-    // F_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // F_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // F_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4) + L_tau__0);
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5) + L_tau__1);
     out[11] = ((L_f__0*o4) - (L_f__1*o5) + L_tau__2);
-    // dF_a/ddelta_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // dF_a/ddelta_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[12] = d_L_f__0__a_dx;
     out[13] = S(0);
     out[14] = S(0);
@@ -789,7 +827,7 @@ struct Cone_Twist_Pair_Kernel {
     out[45] = ((a_r0_0*o13) + (d_L_f__1__a_dtz*o7) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[46] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o8) - (d_L_pa__0__a_dtz*o13) - d_L_tau__1__a_dtz);
     out[47] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o6) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/ddelta_b from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // dF_a/ddelta_b from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[48] = d_L_f__0__b_dx;
     out[49] = S(0);
     out[50] = S(0);
@@ -826,7 +864,7 @@ struct Cone_Twist_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o7) + (d_L_f__2__b_dtz*o1) - d_L_tau__0__b_dtz);
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o8) - d_L_tau__1__b_dtz);
     out[83] = ((d_L_f__0__b_dtz*o6) + (d_L_f__1__b_dtz*o2) - d_L_tau__2__b_dtz);
-    // dF_a/du_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // dF_a/du_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[84] = d_L_f__0__a_vx;
     out[85] = S(0);
     out[86] = S(0);
@@ -863,7 +901,7 @@ struct Cone_Twist_Pair_Kernel {
     out[117] = ((d_L_f__1__a_wz*o7) - d_L_tau__0__a_wz);
     out[118] = ((d_L_f__0__a_wz*o0) - d_L_tau__1__a_wz);
     out[119] = ((d_L_f__0__a_wz*o6) + (d_L_f__1__a_wz*o2) - d_L_tau__2__a_wz);
-    // dF_a/du_b from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // dF_a/du_b from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[120] = d_L_f__0__b_vx;
     out[121] = S(0);
     out[122] = S(0);
@@ -900,7 +938,7 @@ struct Cone_Twist_Pair_Kernel {
     out[153] = ((d_L_f__1__b_wz*o7) - d_L_tau__0__b_wz);
     out[154] = ((d_L_f__0__b_wz*o0) - d_L_tau__1__b_wz);
     out[155] = ((d_L_f__0__b_wz*o6) + (d_L_f__1__b_wz*o2) - d_L_tau__2__b_wz);
-    // dF_b/ddelta_a from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // dF_b/ddelta_a from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = S(0);
     out[158] = S(0);
@@ -937,7 +975,7 @@ struct Cone_Twist_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o16) + d_L_tau__0__a_dtz);
     out[190] = ((d_L_f__0__a_dtz*o14) + (d_L_f__2__a_dtz*o5) + d_L_tau__1__a_dtz);
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o15) + d_L_tau__2__a_dtz);
-    // dF_b/ddelta_b from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // dF_b/ddelta_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[192] = (-d_L_f__0__b_dx);
     out[193] = S(0);
     out[194] = S(0);
@@ -974,7 +1012,7 @@ struct Cone_Twist_Pair_Kernel {
     out[225] = ((-(b_r1_0*o21)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o16) + d_L_tau__0__b_dtz);
     out[226] = ((d_L_f__0__b_dtz*o14) + (d_L_f__2__b_dtz*o5) + (d_L_pb__0__b_dtz*o21) + d_L_tau__1__b_dtz);
     out[227] = ((L_f__0*T3_turn*b_r1_0) - (L_f__1*T3_turn*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o15) + d_L_tau__2__b_dtz);
-    // dF_b/du_a from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // dF_b/du_a from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = S(0);
     out[230] = S(0);
@@ -1011,7 +1049,7 @@ struct Cone_Twist_Pair_Kernel {
     out[261] = ((d_L_f__1__a_wz*o3) + d_L_tau__0__a_wz);
     out[262] = ((d_L_f__0__a_wz*o14) + d_L_tau__1__a_wz);
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o15) + d_L_tau__2__a_wz);
-    // dF_b/du_b from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // dF_b/du_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[264] = (-d_L_f__0__b_vx);
     out[265] = S(0);
     out[266] = S(0);
@@ -1052,7 +1090,7 @@ struct Cone_Twist_Pair_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2568
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2808
   static constexpr int kNumImplicitBlocks = 4;
   static constexpr int kImplicitOutputs = 156;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -1132,7 +1170,7 @@ struct Cone_Twist_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[64];
     [[maybe_unused]] const S g_joint_hertz = in[65];
     [[maybe_unused]] const S g_joint_damping_ratio = in[66];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:30), let pb (cone_twist.yaml:31), let na (cone_twist.yaml:33), let nb (cone_twist.yaml:34), let ua (cone_twist.yaml:35), let ub (cone_twist.yaml:36)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let swa (cone_twist.yaml:53), let swb (cone_twist.yaml:54)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -1167,6 +1205,18 @@ struct Cone_Twist_Pair_Kernel {
     const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
     const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
+    const S p0_34 = ((a_Ixy*p0_2) + (a_Iyy*p0_5) + (a_Iyz*p0_8));
+    const S p0_35 = ((a_Ixz*p0_2) + (a_Iyz*p0_5) + (a_Izz*p0_8));
+    const S p0_36 = ((a_Ixx*p0_2) + (a_Ixy*p0_5) + (a_Ixz*p0_8));
+    const S p0_37 = ((a_Ixz*p0_9) + (a_Iyz*p0_11) + (a_Izz*p0_13));
+    const S p0_38 = ((a_Ixx*p0_9) + (a_Ixy*p0_11) + (a_Ixz*p0_13));
+    const S p0_39 = ((a_Ixy*p0_9) + (a_Iyy*p0_11) + (a_Iyz*p0_13));
+    const S p0_40 = ((b_Ixy*p0_19) + (b_Iyy*p0_22) + (b_Iyz*p0_25));
+    const S p0_41 = ((b_Ixz*p0_19) + (b_Iyz*p0_22) + (b_Izz*p0_25));
+    const S p0_42 = ((b_Ixx*p0_19) + (b_Ixy*p0_22) + (b_Ixz*p0_25));
+    const S p0_43 = ((b_Ixz*p0_26) + (b_Iyz*p0_28) + (b_Izz*p0_30));
+    const S p0_44 = ((b_Ixx*p0_26) + (b_Ixy*p0_28) + (b_Ixz*p0_30));
+    const S p0_45 = ((b_Ixy*p0_26) + (b_Iyy*p0_28) + (b_Iyz*p0_30));
     const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
     const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
     const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
@@ -1185,132 +1235,138 @@ struct Cone_Twist_Pair_Kernel {
     const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
     const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
     const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
+    const S a_Iw6_00 = ((p0_2*p0_36) + (p0_34*p0_5) + (p0_35*p0_8));
+    const S a_Iw6_11 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
+    const S a_Iw6_22 = ((p0_14*((a_Ixx*p0_14) + (a_Ixy*p0_15) + (a_Ixz*p0_16))) + (p0_15*((a_Ixy*p0_14) + (a_Iyy*p0_15) + (a_Iyz*p0_16))) + (p0_16*((a_Ixz*p0_14) + (a_Iyz*p0_15) + (a_Izz*p0_16))));
+    const S a_Iw6_01 = ((p0_11*p0_34) + (p0_13*p0_35) + (p0_36*p0_9));
+    const S a_Iw6_02 = ((p0_14*p0_36) + (p0_15*p0_34) + (p0_16*p0_35));
+    const S a_Iw6_12 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
+    const S b_Iw7_00 = ((p0_19*p0_42) + (p0_22*p0_40) + (p0_25*p0_41));
+    const S b_Iw7_11 = ((p0_26*p0_44) + (p0_28*p0_45) + (p0_30*p0_43));
+    const S b_Iw7_22 = ((p0_31*((b_Ixx*p0_31) + (b_Ixy*p0_32) + (b_Ixz*p0_33))) + (p0_32*((b_Ixy*p0_31) + (b_Iyy*p0_32) + (b_Iyz*p0_33))) + (p0_33*((b_Ixz*p0_31) + (b_Iyz*p0_32) + (b_Izz*p0_33))));
+    const S b_Iw7_01 = ((p0_26*p0_42) + (p0_28*p0_40) + (p0_30*p0_41));
+    const S b_Iw7_02 = ((p0_31*p0_42) + (p0_32*p0_40) + (p0_33*p0_41));
+    const S b_Iw7_12 = ((p0_31*p0_44) + (p0_32*p0_45) + (p0_33*p0_43));
     // let omega (cone_twist.yaml:26)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (cone_twist.yaml:27)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (cone_twist.yaml:28)
     [[maybe_unused]] const S L_m = max(a_m, b_m);
-    // let im (cone_twist.yaml:29)
-    [[maybe_unused]] const S L_im = max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz)));
-    // let pa (cone_twist.yaml:30)
+    // let pa (cone_twist.yaml:29)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (cone_twist.yaml:31)
+    // let pb (cone_twist.yaml:30)
     const S L_pb__0 = (b_px + b_r1_0);
     const S d_L_pb__0__b_dtz = (-b_r1_1);
     const S L_pb__1 = (b_py + b_r1_1);
     const S d_L_pb__1__b_dtx = (-b_r1_2);
     const S L_pb__2 = (b_pz + b_r1_2);
     const S d_L_pb__2__b_dty = (-b_r1_0);
-    // let f (cone_twist.yaml:32)
-    const S l6_0_0 = (L_m*(L_omega*L_omega));
-    const S l6_0_1 = (b_r1_2*b_wy);
-    const S l6_0_2 = (b_r1_1*b_wz);
-    const S l6_0_3 = (S(2)*L_m*L_omega*L_zeta);
-    const S l6_0_4 = (-l6_0_0);
-    const S l6_0_5 = (a_r0_1*a_wy);
-    const S l6_0_6 = (a_r0_2*a_wz);
-    const S l6_0_7 = (b_r1_1*b_wy);
-    const S l6_0_8 = (b_r1_2*b_wz);
-    const S l6_0_9 = (b_r1_0*b_wy);
-    const S l6_0_10 = (-l6_0_3);
-    const S l6_0_11 = (a_r0_2*l6_0_3);
-    const S l6_0_12 = (a_r0_1*l6_0_3);
-    const S l6_0_13 = (b_r1_2*l6_0_3);
-    const S l6_0_14 = (b_r1_1*l6_0_3);
-    const S l6_0_15 = (b_r1_2*b_wx);
-    const S l6_0_16 = (a_r0_0*a_wx);
-    const S l6_0_17 = (b_r1_1*b_wx);
-    const S l6_0_18 = (b_r1_0*b_wx);
-    const S l6_0_19 = (a_r0_0*l6_0_3);
-    const S l6_0_20 = (b_r1_0*l6_0_3);
-    const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_3*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx + b_vx + l6_0_1 - l6_0_2)));
-    const S d_L_f__0__a_dx = l6_0_4;
-    const S d_L_f__0__a_dtx = (l6_0_3*((-l6_0_5) - l6_0_6));
-    const S d_L_f__0__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wy) - (a_r0_2*l6_0_0));
-    const S d_L_f__0__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wz) - (d_L_pa__0__a_dtz*l6_0_0));
-    const S d_L_f__0__b_dx = l6_0_0;
-    const S d_L_f__0__b_dtx = (l6_0_3*(l6_0_7 + l6_0_8));
-    const S d_L_f__0__b_dty = ((b_r1_2*l6_0_0) - (l6_0_3*l6_0_9));
-    const S d_L_f__0__b_dtz = ((-(b_r1_0*b_wz*l6_0_3)) + (d_L_pb__0__b_dtz*l6_0_0));
-    const S d_L_f__0__a_vx = l6_0_10;
-    const S d_L_f__0__a_wy = (-l6_0_11);
-    const S d_L_f__0__a_wz = l6_0_12;
-    const S d_L_f__0__b_vx = l6_0_3;
-    const S d_L_f__0__b_wy = l6_0_13;
-    const S d_L_f__0__b_wz = (-l6_0_14);
-    const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_3*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) + b_vy - l6_0_15)));
-    const S d_L_f__1__a_dy = l6_0_4;
-    const S d_L_f__1__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wx) - (d_L_pa__1__a_dtx*l6_0_0));
-    const S d_L_f__1__a_dty = (l6_0_3*((-l6_0_16) - l6_0_6));
-    const S d_L_f__1__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wz) - (a_r0_0*l6_0_0));
-    const S d_L_f__1__b_dy = l6_0_0;
-    const S d_L_f__1__b_dtx = ((d_L_pb__1__b_dtx*l6_0_0) - (l6_0_17*l6_0_3));
-    const S d_L_f__1__b_dty = (l6_0_3*(l6_0_18 + l6_0_8));
-    const S d_L_f__1__b_dtz = ((b_r1_0*l6_0_0) - (l6_0_2*l6_0_3));
-    const S d_L_f__1__a_vy = l6_0_10;
-    const S d_L_f__1__a_wx = l6_0_11;
-    const S d_L_f__1__a_wz = (-l6_0_19);
-    const S d_L_f__1__b_vy = l6_0_3;
-    const S d_L_f__1__b_wx = (-l6_0_13);
-    const S d_L_f__1__b_wz = l6_0_20;
-    const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_3*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz + b_vz + l6_0_17 - l6_0_9)));
-    const S d_L_f__2__a_dz = l6_0_4;
-    const S d_L_f__2__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wx) - (a_r0_1*l6_0_0));
-    const S d_L_f__2__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wy) - (d_L_pa__2__a_dty*l6_0_0));
-    const S d_L_f__2__a_dtz = (l6_0_3*((-l6_0_16) - l6_0_5));
-    const S d_L_f__2__b_dz = l6_0_0;
-    const S d_L_f__2__b_dtx = ((b_r1_1*l6_0_0) - (l6_0_15*l6_0_3));
-    const S d_L_f__2__b_dty = ((d_L_pb__2__b_dty*l6_0_0) - (l6_0_1*l6_0_3));
-    const S d_L_f__2__b_dtz = (l6_0_3*(l6_0_18 + l6_0_7));
-    const S d_L_f__2__a_vz = l6_0_10;
-    const S d_L_f__2__a_wx = (-l6_0_12);
-    const S d_L_f__2__a_wy = l6_0_19;
-    const S d_L_f__2__b_vz = l6_0_3;
-    const S d_L_f__2__b_wx = l6_0_14;
-    const S d_L_f__2__b_wy = (-l6_0_20);
-    // let na (cone_twist.yaml:33)
+    // let f (cone_twist.yaml:31)
+    const S l5_0_0 = (L_m*(L_omega*L_omega));
+    const S l5_0_1 = (b_r1_2*b_wy);
+    const S l5_0_2 = (b_r1_1*b_wz);
+    const S l5_0_3 = (S(2)*L_m*L_omega*L_zeta);
+    const S l5_0_4 = (-l5_0_0);
+    const S l5_0_5 = (a_r0_1*a_wy);
+    const S l5_0_6 = (a_r0_2*a_wz);
+    const S l5_0_7 = (b_r1_1*b_wy);
+    const S l5_0_8 = (b_r1_2*b_wz);
+    const S l5_0_9 = (b_r1_0*b_wy);
+    const S l5_0_10 = (-l5_0_3);
+    const S l5_0_11 = (a_r0_2*l5_0_3);
+    const S l5_0_12 = (a_r0_1*l5_0_3);
+    const S l5_0_13 = (b_r1_2*l5_0_3);
+    const S l5_0_14 = (b_r1_1*l5_0_3);
+    const S l5_0_15 = (b_r1_2*b_wx);
+    const S l5_0_16 = (a_r0_0*a_wx);
+    const S l5_0_17 = (b_r1_1*b_wx);
+    const S l5_0_18 = (b_r1_0*b_wx);
+    const S l5_0_19 = (a_r0_0*l5_0_3);
+    const S l5_0_20 = (b_r1_0*l5_0_3);
+    const S L_f__0 = ((l5_0_0*((-L_pa__0) + L_pb__0)) + (l5_0_3*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx + b_vx + l5_0_1 - l5_0_2)));
+    const S d_L_f__0__a_dx = l5_0_4;
+    const S d_L_f__0__a_dtx = (l5_0_3*((-l5_0_5) - l5_0_6));
+    const S d_L_f__0__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wy) - (a_r0_2*l5_0_0));
+    const S d_L_f__0__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wz) - (d_L_pa__0__a_dtz*l5_0_0));
+    const S d_L_f__0__b_dx = l5_0_0;
+    const S d_L_f__0__b_dtx = (l5_0_3*(l5_0_7 + l5_0_8));
+    const S d_L_f__0__b_dty = ((b_r1_2*l5_0_0) - (l5_0_3*l5_0_9));
+    const S d_L_f__0__b_dtz = ((-(b_r1_0*b_wz*l5_0_3)) + (d_L_pb__0__b_dtz*l5_0_0));
+    const S d_L_f__0__a_vx = l5_0_10;
+    const S d_L_f__0__a_wy = (-l5_0_11);
+    const S d_L_f__0__a_wz = l5_0_12;
+    const S d_L_f__0__b_vx = l5_0_3;
+    const S d_L_f__0__b_wy = l5_0_13;
+    const S d_L_f__0__b_wz = (-l5_0_14);
+    const S L_f__1 = ((l5_0_0*((-L_pa__1) + L_pb__1)) + (l5_0_3*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) + b_vy - l5_0_15)));
+    const S d_L_f__1__a_dy = l5_0_4;
+    const S d_L_f__1__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wx) - (d_L_pa__1__a_dtx*l5_0_0));
+    const S d_L_f__1__a_dty = (l5_0_3*((-l5_0_16) - l5_0_6));
+    const S d_L_f__1__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wz) - (a_r0_0*l5_0_0));
+    const S d_L_f__1__b_dy = l5_0_0;
+    const S d_L_f__1__b_dtx = ((d_L_pb__1__b_dtx*l5_0_0) - (l5_0_17*l5_0_3));
+    const S d_L_f__1__b_dty = (l5_0_3*(l5_0_18 + l5_0_8));
+    const S d_L_f__1__b_dtz = ((b_r1_0*l5_0_0) - (l5_0_2*l5_0_3));
+    const S d_L_f__1__a_vy = l5_0_10;
+    const S d_L_f__1__a_wx = l5_0_11;
+    const S d_L_f__1__a_wz = (-l5_0_19);
+    const S d_L_f__1__b_vy = l5_0_3;
+    const S d_L_f__1__b_wx = (-l5_0_13);
+    const S d_L_f__1__b_wz = l5_0_20;
+    const S L_f__2 = ((l5_0_0*((-L_pa__2) + L_pb__2)) + (l5_0_3*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz + b_vz + l5_0_17 - l5_0_9)));
+    const S d_L_f__2__a_dz = l5_0_4;
+    const S d_L_f__2__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wx) - (a_r0_1*l5_0_0));
+    const S d_L_f__2__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wy) - (d_L_pa__2__a_dty*l5_0_0));
+    const S d_L_f__2__a_dtz = (l5_0_3*((-l5_0_16) - l5_0_5));
+    const S d_L_f__2__b_dz = l5_0_0;
+    const S d_L_f__2__b_dtx = ((b_r1_1*l5_0_0) - (l5_0_15*l5_0_3));
+    const S d_L_f__2__b_dty = ((d_L_pb__2__b_dty*l5_0_0) - (l5_0_1*l5_0_3));
+    const S d_L_f__2__b_dtz = (l5_0_3*(l5_0_18 + l5_0_7));
+    const S d_L_f__2__a_vz = l5_0_10;
+    const S d_L_f__2__a_wx = (-l5_0_12);
+    const S d_L_f__2__a_wy = l5_0_19;
+    const S d_L_f__2__b_vz = l5_0_3;
+    const S d_L_f__2__b_wx = l5_0_14;
+    const S d_L_f__2__b_wy = (-l5_0_20);
+    // let na (cone_twist.yaml:32)
     const S L_na__0 = a_r2_0;
     const S d_L_na__0__a_dtz = (-a_r2_1);
     const S L_na__1 = a_r2_1;
     const S d_L_na__1__a_dtx = (-a_r2_2);
     const S L_na__2 = a_r2_2;
     const S d_L_na__2__a_dty = (-a_r2_0);
-    // let nb (cone_twist.yaml:34)
+    // let nb (cone_twist.yaml:33)
     const S L_nb__0 = b_r3_0;
     const S d_L_nb__0__b_dtz = (-b_r3_1);
     const S L_nb__1 = b_r3_1;
     const S d_L_nb__1__b_dtx = (-b_r3_2);
     const S L_nb__2 = b_r3_2;
     const S d_L_nb__2__b_dty = (-b_r3_0);
-    // let ua (cone_twist.yaml:35)
+    // let ua (cone_twist.yaml:34)
     const S L_ua__0 = a_r4_0;
     const S d_L_ua__0__a_dtz = (-a_r4_1);
     const S L_ua__1 = a_r4_1;
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let ub (cone_twist.yaml:36)
+    // let ub (cone_twist.yaml:35)
     const S L_ub__0 = b_r5_0;
     const S d_L_ub__0__b_dtz = (-b_r5_1);
     const S L_ub__1 = b_r5_1;
     const S d_L_ub__1__b_dtx = (-b_r5_2);
     const S L_ub__2 = b_r5_2;
     const S d_L_ub__2__b_dty = (-b_r5_0);
-    // let wrel (cone_twist.yaml:37)
+    // let wrel (cone_twist.yaml:36)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let kr (cone_twist.yaml:38)
-    const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (cone_twist.yaml:39)
-    const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let cs (cone_twist.yaml:42)
+    // let cs (cone_twist.yaml:39)
     const S L_cs = ((L_na__0*L_nb__0) + (L_na__1*L_nb__1) + (L_na__2*L_nb__2));
     const S d_L_cs__a_dtx = ((L_nb__1*d_L_na__1__a_dtx) + (L_nb__2*a_r2_1));
     const S d_L_cs__a_dty = ((L_nb__0*a_r2_2) + (L_nb__2*d_L_na__2__a_dty));
@@ -1318,7 +1374,7 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_cs__b_dtx = ((L_na__1*d_L_nb__1__b_dtx) + (L_na__2*b_r3_1));
     const S d_L_cs__b_dty = ((L_na__0*b_r3_2) + (L_na__2*d_L_nb__2__b_dty));
     const S d_L_cs__b_dtz = ((L_na__0*d_L_nb__0__b_dtz) + (L_na__1*b_r3_0));
-    // let k (cone_twist.yaml:43)
+    // let k (cone_twist.yaml:40)
     const S L_k__0 = ((-(L_na__1*L_nb__2)) + (L_na__2*L_nb__1));
     const S d_L_k__0__a_dtx = ((L_nb__1*a_r2_1) - (L_nb__2*d_L_na__1__a_dtx));
     const S d_L_k__0__a_dty = (L_nb__1*d_L_na__2__a_dty);
@@ -1340,58 +1396,58 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_k__2__b_dtx = (-(L_na__0*d_L_nb__1__b_dtx));
     const S d_L_k__2__b_dty = (L_na__1*b_r3_2);
     const S d_L_k__2__b_dtz = ((-(L_na__0*b_r3_0)) + (L_na__1*d_L_nb__0__b_dtz));
-    // let sn (cone_twist.yaml:44)
-    const S l16_0_0 = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
-    const S l16_0_1 = (S(1)/(l16_0_0));
-    const S l16_0_2 = (L_k__0*l16_0_1);
-    const S l16_0_3 = (L_k__1*l16_0_1);
-    const S l16_0_4 = (L_k__2*l16_0_1);
-    const S L_sn = l16_0_0;
-    const S d_L_sn__a_dtx = ((d_L_k__0__a_dtx*l16_0_2) + (d_L_k__1__a_dtx*l16_0_3) + (d_L_k__2__a_dtx*l16_0_4));
-    const S d_L_sn__a_dty = ((d_L_k__0__a_dty*l16_0_2) + (d_L_k__1__a_dty*l16_0_3) + (d_L_k__2__a_dty*l16_0_4));
-    const S d_L_sn__a_dtz = ((d_L_k__0__a_dtz*l16_0_2) + (d_L_k__1__a_dtz*l16_0_3) + (d_L_k__2__a_dtz*l16_0_4));
-    const S d_L_sn__b_dtx = ((d_L_k__0__b_dtx*l16_0_2) + (d_L_k__1__b_dtx*l16_0_3) + (d_L_k__2__b_dtx*l16_0_4));
-    const S d_L_sn__b_dty = ((d_L_k__0__b_dty*l16_0_2) + (d_L_k__1__b_dty*l16_0_3) + (d_L_k__2__b_dty*l16_0_4));
-    const S d_L_sn__b_dtz = ((d_L_k__0__b_dtz*l16_0_2) + (d_L_k__1__b_dtz*l16_0_3) + (d_L_k__2__b_dtz*l16_0_4));
-    // let swing (cone_twist.yaml:45)
-    const S l17_0_0 = (S(1)/(((L_cs*L_cs) + (L_sn*L_sn))));
-    const S l17_0_1 = (L_cs*l17_0_0);
-    const S l17_0_2 = (L_sn*l17_0_0);
+    // let sn (cone_twist.yaml:41)
+    const S l13_0_0 = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
+    const S l13_0_1 = (S(1)/(l13_0_0));
+    const S l13_0_2 = (L_k__0*l13_0_1);
+    const S l13_0_3 = (L_k__1*l13_0_1);
+    const S l13_0_4 = (L_k__2*l13_0_1);
+    const S L_sn = l13_0_0;
+    const S d_L_sn__a_dtx = ((d_L_k__0__a_dtx*l13_0_2) + (d_L_k__1__a_dtx*l13_0_3) + (d_L_k__2__a_dtx*l13_0_4));
+    const S d_L_sn__a_dty = ((d_L_k__0__a_dty*l13_0_2) + (d_L_k__1__a_dty*l13_0_3) + (d_L_k__2__a_dty*l13_0_4));
+    const S d_L_sn__a_dtz = ((d_L_k__0__a_dtz*l13_0_2) + (d_L_k__1__a_dtz*l13_0_3) + (d_L_k__2__a_dtz*l13_0_4));
+    const S d_L_sn__b_dtx = ((d_L_k__0__b_dtx*l13_0_2) + (d_L_k__1__b_dtx*l13_0_3) + (d_L_k__2__b_dtx*l13_0_4));
+    const S d_L_sn__b_dty = ((d_L_k__0__b_dty*l13_0_2) + (d_L_k__1__b_dty*l13_0_3) + (d_L_k__2__b_dty*l13_0_4));
+    const S d_L_sn__b_dtz = ((d_L_k__0__b_dtz*l13_0_2) + (d_L_k__1__b_dtz*l13_0_3) + (d_L_k__2__b_dtz*l13_0_4));
+    // let swing (cone_twist.yaml:42)
+    const S l14_0_0 = (S(1)/(((L_cs*L_cs) + (L_sn*L_sn))));
+    const S l14_0_1 = (L_cs*l14_0_0);
+    const S l14_0_2 = (L_sn*l14_0_0);
     const S L_swing = angle_of(L_sn, L_cs);
-    const S d_L_swing__a_dtx = ((-(d_L_cs__a_dtx*l17_0_2)) + (d_L_sn__a_dtx*l17_0_1));
-    const S d_L_swing__a_dty = ((-(d_L_cs__a_dty*l17_0_2)) + (d_L_sn__a_dty*l17_0_1));
-    const S d_L_swing__a_dtz = ((-(d_L_cs__a_dtz*l17_0_2)) + (d_L_sn__a_dtz*l17_0_1));
-    const S d_L_swing__b_dtx = ((-(d_L_cs__b_dtx*l17_0_2)) + (d_L_sn__b_dtx*l17_0_1));
-    const S d_L_swing__b_dty = ((-(d_L_cs__b_dty*l17_0_2)) + (d_L_sn__b_dty*l17_0_1));
-    const S d_L_swing__b_dtz = ((-(d_L_cs__b_dtz*l17_0_2)) + (d_L_sn__b_dtz*l17_0_1));
-    // let e (cone_twist.yaml:46)
-    const S l18_0_0 = (S(1)/(L_sn));
-    const S l18_0_1 = (S(1)/(L_sn*L_sn));
-    const S l18_0_2 = (L_k__0*l18_0_1);
-    const S l18_0_3 = (L_k__1*l18_0_1);
-    const S l18_0_4 = (L_k__2*l18_0_1);
-    const S L_e__0 = (-(L_k__0*l18_0_0));
-    const S d_L_e__0__a_dtx = ((-(d_L_k__0__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_2));
-    const S d_L_e__0__a_dty = ((-(d_L_k__0__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_2));
-    const S d_L_e__0__a_dtz = ((-(d_L_k__0__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_2));
-    const S d_L_e__0__b_dtx = ((-(d_L_k__0__b_dtx*l18_0_0)) + (d_L_sn__b_dtx*l18_0_2));
-    const S d_L_e__0__b_dty = ((-(d_L_k__0__b_dty*l18_0_0)) + (d_L_sn__b_dty*l18_0_2));
-    const S d_L_e__0__b_dtz = ((-(d_L_k__0__b_dtz*l18_0_0)) + (d_L_sn__b_dtz*l18_0_2));
-    const S L_e__1 = (-(L_k__1*l18_0_0));
-    const S d_L_e__1__a_dtx = ((-(d_L_k__1__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_3));
-    const S d_L_e__1__a_dty = ((-(d_L_k__1__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_3));
-    const S d_L_e__1__a_dtz = ((-(d_L_k__1__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_3));
-    const S d_L_e__1__b_dtx = ((-(d_L_k__1__b_dtx*l18_0_0)) + (d_L_sn__b_dtx*l18_0_3));
-    const S d_L_e__1__b_dty = ((-(d_L_k__1__b_dty*l18_0_0)) + (d_L_sn__b_dty*l18_0_3));
-    const S d_L_e__1__b_dtz = ((-(d_L_k__1__b_dtz*l18_0_0)) + (d_L_sn__b_dtz*l18_0_3));
-    const S L_e__2 = (-(L_k__2*l18_0_0));
-    const S d_L_e__2__a_dtx = ((-(d_L_k__2__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_4));
-    const S d_L_e__2__a_dty = ((-(d_L_k__2__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_4));
-    const S d_L_e__2__a_dtz = ((-(d_L_k__2__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_4));
-    const S d_L_e__2__b_dtx = ((-(d_L_k__2__b_dtx*l18_0_0)) + (d_L_sn__b_dtx*l18_0_4));
-    const S d_L_e__2__b_dty = ((-(d_L_k__2__b_dty*l18_0_0)) + (d_L_sn__b_dty*l18_0_4));
-    const S d_L_e__2__b_dtz = ((-(d_L_k__2__b_dtz*l18_0_0)) + (d_L_sn__b_dtz*l18_0_4));
-    // let swing_rate (cone_twist.yaml:47)
+    const S d_L_swing__a_dtx = ((-(d_L_cs__a_dtx*l14_0_2)) + (d_L_sn__a_dtx*l14_0_1));
+    const S d_L_swing__a_dty = ((-(d_L_cs__a_dty*l14_0_2)) + (d_L_sn__a_dty*l14_0_1));
+    const S d_L_swing__a_dtz = ((-(d_L_cs__a_dtz*l14_0_2)) + (d_L_sn__a_dtz*l14_0_1));
+    const S d_L_swing__b_dtx = ((-(d_L_cs__b_dtx*l14_0_2)) + (d_L_sn__b_dtx*l14_0_1));
+    const S d_L_swing__b_dty = ((-(d_L_cs__b_dty*l14_0_2)) + (d_L_sn__b_dty*l14_0_1));
+    const S d_L_swing__b_dtz = ((-(d_L_cs__b_dtz*l14_0_2)) + (d_L_sn__b_dtz*l14_0_1));
+    // let e (cone_twist.yaml:43)
+    const S l15_0_0 = (S(1)/(L_sn));
+    const S l15_0_1 = (S(1)/(L_sn*L_sn));
+    const S l15_0_2 = (L_k__0*l15_0_1);
+    const S l15_0_3 = (L_k__1*l15_0_1);
+    const S l15_0_4 = (L_k__2*l15_0_1);
+    const S L_e__0 = (-(L_k__0*l15_0_0));
+    const S d_L_e__0__a_dtx = ((-(d_L_k__0__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_2));
+    const S d_L_e__0__a_dty = ((-(d_L_k__0__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_2));
+    const S d_L_e__0__a_dtz = ((-(d_L_k__0__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_2));
+    const S d_L_e__0__b_dtx = ((-(d_L_k__0__b_dtx*l15_0_0)) + (d_L_sn__b_dtx*l15_0_2));
+    const S d_L_e__0__b_dty = ((-(d_L_k__0__b_dty*l15_0_0)) + (d_L_sn__b_dty*l15_0_2));
+    const S d_L_e__0__b_dtz = ((-(d_L_k__0__b_dtz*l15_0_0)) + (d_L_sn__b_dtz*l15_0_2));
+    const S L_e__1 = (-(L_k__1*l15_0_0));
+    const S d_L_e__1__a_dtx = ((-(d_L_k__1__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_3));
+    const S d_L_e__1__a_dty = ((-(d_L_k__1__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_3));
+    const S d_L_e__1__a_dtz = ((-(d_L_k__1__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_3));
+    const S d_L_e__1__b_dtx = ((-(d_L_k__1__b_dtx*l15_0_0)) + (d_L_sn__b_dtx*l15_0_3));
+    const S d_L_e__1__b_dty = ((-(d_L_k__1__b_dty*l15_0_0)) + (d_L_sn__b_dty*l15_0_3));
+    const S d_L_e__1__b_dtz = ((-(d_L_k__1__b_dtz*l15_0_0)) + (d_L_sn__b_dtz*l15_0_3));
+    const S L_e__2 = (-(L_k__2*l15_0_0));
+    const S d_L_e__2__a_dtx = ((-(d_L_k__2__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_4));
+    const S d_L_e__2__a_dty = ((-(d_L_k__2__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_4));
+    const S d_L_e__2__a_dtz = ((-(d_L_k__2__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_4));
+    const S d_L_e__2__b_dtx = ((-(d_L_k__2__b_dtx*l15_0_0)) + (d_L_sn__b_dtx*l15_0_4));
+    const S d_L_e__2__b_dty = ((-(d_L_k__2__b_dty*l15_0_0)) + (d_L_sn__b_dty*l15_0_4));
+    const S d_L_e__2__b_dtz = ((-(d_L_k__2__b_dtz*l15_0_0)) + (d_L_sn__b_dtz*l15_0_4));
+    // let swing_rate (cone_twist.yaml:44)
     const S L_swing_rate = ((L_e__0*L_wrel__0) + (L_e__1*L_wrel__1) + (L_e__2*L_wrel__2));
     const S d_L_swing_rate__a_dtx = ((L_wrel__0*d_L_e__0__a_dtx) + (L_wrel__1*d_L_e__1__a_dtx) + (L_wrel__2*d_L_e__2__a_dtx));
     const S d_L_swing_rate__a_dty = ((L_wrel__0*d_L_e__0__a_dty) + (L_wrel__1*d_L_e__1__a_dty) + (L_wrel__2*d_L_e__2__a_dty));
@@ -1402,118 +1458,128 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_swing_rate__a_wx = (-L_e__0);
     const S d_L_swing_rate__a_wy = (-L_e__1);
     const S d_L_swing_rate__a_wz = (-L_e__2);
-    // let over_cone (cone_twist.yaml:48)
+    // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let stop_cone (cone_twist.yaml:49)
-    const S l21_0_0 = ((L_cr*L_swing_rate) + (L_kr*L_over_cone));
-    const auto l21_0_1 = (l21_0_0 > S(0));
-    const auto l21_0_2 = (L_over_cone > S(0));
-    const auto l21_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
-    const auto l21_0_4 = (p_cone_angle > S(0));
-    const S l21_0_5 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_kr, S(0)), select(l21_0_3, L_kr, S(0))), S(0));
-    const S l21_0_6 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_cr, S(0)), select(l21_0_3, L_cr, S(0))), S(0));
-    const S L_stop_cone = select(l21_0_4, select(l21_0_2, select(l21_0_1, l21_0_0, S(0)), select(l21_0_3, l21_0_0, S(0))), S(0));
-    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l21_0_5) + (d_L_swing_rate__a_dtx*l21_0_6));
-    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l21_0_5) + (d_L_swing_rate__a_dty*l21_0_6));
-    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l21_0_5) + (d_L_swing_rate__a_dtz*l21_0_6));
-    const S d_L_stop_cone__b_dtx = ((d_L_swing__b_dtx*l21_0_5) + (d_L_swing_rate__b_dtx*l21_0_6));
-    const S d_L_stop_cone__b_dty = ((d_L_swing__b_dty*l21_0_5) + (d_L_swing_rate__b_dty*l21_0_6));
-    const S d_L_stop_cone__b_dtz = ((d_L_swing__b_dtz*l21_0_5) + (d_L_swing_rate__b_dtz*l21_0_6));
-    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l21_0_6);
-    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l21_0_6);
-    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l21_0_6);
-    const S d_L_stop_cone__b_wx = (L_e__0*l21_0_6);
-    const S d_L_stop_cone__b_wy = (L_e__1*l21_0_6);
-    const S d_L_stop_cone__b_wz = (L_e__2*l21_0_6);
-    // let ubs (cone_twist.yaml:52)
-    const S l22_0_0 = (L_k__1*L_ub__2);
-    const S l22_0_1 = (L_k__2*L_ub__1);
-    const S l22_0_2 = max(S(1e-06), (L_cs + S(1)));
-    const S l22_0_3 = (S(1)/(l22_0_2));
-    const S l22_0_4 = (L_k__0*L_ub__0);
-    const S l22_0_5 = (L_k__1*L_ub__1);
-    const S l22_0_6 = (L_k__2*L_ub__2);
-    const S l22_0_7 = (l22_0_4 + l22_0_5 + l22_0_6);
-    const S l22_0_8 = (l22_0_3*l22_0_7);
-    const S l22_0_9 = (-L_ub__0);
-    const S l22_0_10 = (l22_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l22_0_2*l22_0_2)));
-    const S l22_0_11 = ((-(L_k__0*l22_0_10)) - l22_0_9);
-    const S l22_0_12 = ((l22_0_3*l22_0_4) + l22_0_8);
-    const S l22_0_13 = (L_k__0*L_ub__1);
-    const S l22_0_14 = (L_ub__2 + (l22_0_13*l22_0_3));
-    const S l22_0_15 = (-L_ub__1);
-    const S l22_0_16 = (L_k__0*L_ub__2);
-    const S l22_0_17 = (l22_0_15 + (l22_0_16*l22_0_3));
-    const S l22_0_18 = (L_k__0*l22_0_3);
-    const S l22_0_19 = (L_k__2*l22_0_18);
-    const S l22_0_20 = (L_k__1 + l22_0_19);
-    const S l22_0_21 = (L_k__1*l22_0_18);
-    const S l22_0_22 = ((-L_k__2) + l22_0_21);
-    const S l22_0_23 = (L_cs + ((L_k__0*L_k__0)*l22_0_3));
-    const S l22_0_24 = (L_k__2*L_ub__0);
-    const S l22_0_25 = ((-(L_k__1*l22_0_10)) - l22_0_15);
-    const S l22_0_26 = (-L_ub__2);
-    const S l22_0_27 = (L_k__1*L_ub__0);
-    const S l22_0_28 = (l22_0_26 + (l22_0_27*l22_0_3));
-    const S l22_0_29 = ((l22_0_3*l22_0_5) + l22_0_8);
-    const S l22_0_30 = (L_ub__0 + (l22_0_0*l22_0_3));
-    const S l22_0_31 = ((-L_k__0) + (L_k__1*L_k__2*l22_0_3));
-    const S l22_0_32 = (L_cs + ((L_k__1*L_k__1)*l22_0_3));
-    const S l22_0_33 = (L_k__2 + l22_0_21);
-    const S l22_0_34 = ((-(L_k__2*l22_0_10)) - l22_0_26);
-    const S l22_0_35 = (L_ub__1 + (l22_0_24*l22_0_3));
-    const S l22_0_36 = ((l22_0_1*l22_0_3) + l22_0_9);
-    const S l22_0_37 = ((l22_0_3*l22_0_6) + l22_0_8);
-    const S l22_0_38 = (L_cs + ((L_k__2*L_k__2)*l22_0_3));
-    const S l22_0_39 = (L_k__0 + (L_k__1*L_k__2*l22_0_3));
-    const S l22_0_40 = ((-L_k__1) + l22_0_19);
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_8) + l22_0_0 - l22_0_1);
-    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l22_0_11) + (d_L_k__0__a_dtx*l22_0_12) + (d_L_k__1__a_dtx*l22_0_14) + (d_L_k__2__a_dtx*l22_0_17));
-    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l22_0_11) + (d_L_k__0__a_dty*l22_0_12) + (d_L_k__1__a_dty*l22_0_14) + (d_L_k__2__a_dty*l22_0_17));
-    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l22_0_11) + (d_L_k__0__a_dtz*l22_0_12) + (d_L_k__1__a_dtz*l22_0_14) + (d_L_k__2__a_dtz*l22_0_17));
-    const S d_L_ubs__0__b_dtx = ((b_r5_1*l22_0_20) + (d_L_cs__b_dtx*l22_0_11) + (d_L_k__0__b_dtx*l22_0_12) + (d_L_k__1__b_dtx*l22_0_14) + (d_L_k__2__b_dtx*l22_0_17) + (d_L_ub__1__b_dtx*l22_0_22));
-    const S d_L_ubs__0__b_dty = ((b_r5_2*l22_0_23) + (d_L_cs__b_dty*l22_0_11) + (d_L_k__0__b_dty*l22_0_12) + (d_L_k__1__b_dty*l22_0_14) + (d_L_k__2__b_dty*l22_0_17) + (d_L_ub__2__b_dty*l22_0_20));
-    const S d_L_ubs__0__b_dtz = ((b_r5_0*l22_0_22) + (d_L_cs__b_dtz*l22_0_11) + (d_L_k__0__b_dtz*l22_0_12) + (d_L_k__1__b_dtz*l22_0_14) + (d_L_k__2__b_dtz*l22_0_17) + (d_L_ub__0__b_dtz*l22_0_23));
-    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l22_0_8) - l22_0_16 + l22_0_24);
-    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l22_0_25) + (d_L_k__0__a_dtx*l22_0_28) + (d_L_k__1__a_dtx*l22_0_29) + (d_L_k__2__a_dtx*l22_0_30));
-    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l22_0_25) + (d_L_k__0__a_dty*l22_0_28) + (d_L_k__1__a_dty*l22_0_29) + (d_L_k__2__a_dty*l22_0_30));
-    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l22_0_25) + (d_L_k__0__a_dtz*l22_0_28) + (d_L_k__1__a_dtz*l22_0_29) + (d_L_k__2__a_dtz*l22_0_30));
-    const S d_L_ubs__1__b_dtx = ((b_r5_1*l22_0_31) + (d_L_cs__b_dtx*l22_0_25) + (d_L_k__0__b_dtx*l22_0_28) + (d_L_k__1__b_dtx*l22_0_29) + (d_L_k__2__b_dtx*l22_0_30) + (d_L_ub__1__b_dtx*l22_0_32));
-    const S d_L_ubs__1__b_dty = ((b_r5_2*l22_0_33) + (d_L_cs__b_dty*l22_0_25) + (d_L_k__0__b_dty*l22_0_28) + (d_L_k__1__b_dty*l22_0_29) + (d_L_k__2__b_dty*l22_0_30) + (d_L_ub__2__b_dty*l22_0_31));
-    const S d_L_ubs__1__b_dtz = ((b_r5_0*l22_0_32) + (d_L_cs__b_dtz*l22_0_25) + (d_L_k__0__b_dtz*l22_0_28) + (d_L_k__1__b_dtz*l22_0_29) + (d_L_k__2__b_dtz*l22_0_30) + (d_L_ub__0__b_dtz*l22_0_33));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l22_0_8) + l22_0_13 - l22_0_27);
-    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l22_0_34) + (d_L_k__0__a_dtx*l22_0_35) + (d_L_k__1__a_dtx*l22_0_36) + (d_L_k__2__a_dtx*l22_0_37));
-    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l22_0_34) + (d_L_k__0__a_dty*l22_0_35) + (d_L_k__1__a_dty*l22_0_36) + (d_L_k__2__a_dty*l22_0_37));
-    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l22_0_34) + (d_L_k__0__a_dtz*l22_0_35) + (d_L_k__1__a_dtz*l22_0_36) + (d_L_k__2__a_dtz*l22_0_37));
-    const S d_L_ubs__2__b_dtx = ((b_r5_1*l22_0_38) + (d_L_cs__b_dtx*l22_0_34) + (d_L_k__0__b_dtx*l22_0_35) + (d_L_k__1__b_dtx*l22_0_36) + (d_L_k__2__b_dtx*l22_0_37) + (d_L_ub__1__b_dtx*l22_0_39));
-    const S d_L_ubs__2__b_dty = ((b_r5_2*l22_0_40) + (d_L_cs__b_dty*l22_0_34) + (d_L_k__0__b_dty*l22_0_35) + (d_L_k__1__b_dty*l22_0_36) + (d_L_k__2__b_dty*l22_0_37) + (d_L_ub__2__b_dty*l22_0_38));
-    const S d_L_ubs__2__b_dtz = ((b_r5_0*l22_0_39) + (d_L_cs__b_dtz*l22_0_34) + (d_L_k__0__b_dtz*l22_0_35) + (d_L_k__1__b_dtz*l22_0_36) + (d_L_k__2__b_dtz*l22_0_37) + (d_L_ub__0__b_dtz*l22_0_40));
-    // let twist (cone_twist.yaml:53)
-    const S l23_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
-    const S l23_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
-    const S l23_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
-    const S l23_0_3 = ((L_na__0*l23_0_0) + (L_na__1*l23_0_1) + (L_na__2*l23_0_2));
-    const S l23_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
-    const S l23_0_5 = (S(1)/(((l23_0_3*l23_0_3) + (l23_0_4*l23_0_4))));
-    const S l23_0_6 = (-(l23_0_3*l23_0_5));
-    const S l23_0_7 = (l23_0_4*l23_0_5);
-    const S l23_0_8 = ((L_ubs__2*l23_0_6) + (l23_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
-    const S l23_0_9 = ((L_ubs__1*l23_0_6) + (l23_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
-    const S l23_0_10 = ((L_ua__0*l23_0_6) + (l23_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S l23_0_11 = ((L_ua__1*l23_0_6) + (l23_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l23_0_12 = ((L_ua__2*l23_0_6) + (l23_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l23_0_13 = (l23_0_2*l23_0_7);
-    const S l23_0_14 = (l23_0_1*l23_0_7);
-    const S l23_0_15 = ((L_ubs__0*l23_0_6) + (l23_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
-    const S l23_0_16 = (l23_0_0*l23_0_7);
-    const S L_twist = angle_of(l23_0_3, l23_0_4);
-    const S d_L_twist__a_dtx = ((a_r2_1*l23_0_13) + (a_r4_1*l23_0_8) + (d_L_na__1__a_dtx*l23_0_14) + (d_L_ua__1__a_dtx*l23_0_9) + (d_L_ubs__0__a_dtx*l23_0_10) + (d_L_ubs__1__a_dtx*l23_0_11) + (d_L_ubs__2__a_dtx*l23_0_12));
-    const S d_L_twist__a_dty = ((a_r2_2*l23_0_16) + (a_r4_2*l23_0_15) + (d_L_na__2__a_dty*l23_0_13) + (d_L_ua__2__a_dty*l23_0_8) + (d_L_ubs__0__a_dty*l23_0_10) + (d_L_ubs__1__a_dty*l23_0_11) + (d_L_ubs__2__a_dty*l23_0_12));
-    const S d_L_twist__a_dtz = ((a_r2_0*l23_0_14) + (a_r4_0*l23_0_9) + (d_L_na__0__a_dtz*l23_0_16) + (d_L_ua__0__a_dtz*l23_0_15) + (d_L_ubs__0__a_dtz*l23_0_10) + (d_L_ubs__1__a_dtz*l23_0_11) + (d_L_ubs__2__a_dtz*l23_0_12));
-    const S d_L_twist__b_dtx = ((d_L_ubs__0__b_dtx*l23_0_10) + (d_L_ubs__1__b_dtx*l23_0_11) + (d_L_ubs__2__b_dtx*l23_0_12));
-    const S d_L_twist__b_dty = ((d_L_ubs__0__b_dty*l23_0_10) + (d_L_ubs__1__b_dty*l23_0_11) + (d_L_ubs__2__b_dty*l23_0_12));
-    const S d_L_twist__b_dtz = ((d_L_ubs__0__b_dtz*l23_0_10) + (d_L_ubs__1__b_dtz*l23_0_11) + (d_L_ubs__2__b_dtz*l23_0_12));
-    // let twist_rate (cone_twist.yaml:54)
+    // let swa (cone_twist.yaml:53)
+    [[maybe_unused]] const S L_swa = ((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22))));
+    // let swb (cone_twist.yaml:54)
+    [[maybe_unused]] const S L_swb = ((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22))));
+    // let isw (cone_twist.yaml:55)
+    [[maybe_unused]] const S L_isw = select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa);
+    // let ksw (cone_twist.yaml:56)
+    const S L_ksw = (L_isw*(L_omega*L_omega));
+    // let csw (cone_twist.yaml:57)
+    const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
+    // let stop_cone (cone_twist.yaml:58)
+    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const auto l23_0_1 = (l23_0_0 > S(0));
+    const auto l23_0_2 = (L_over_cone > S(0));
+    const auto l23_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
+    const auto l23_0_4 = (p_cone_angle > S(0));
+    const S l23_0_5 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_ksw, S(0)), select(l23_0_3, L_ksw, S(0))), S(0));
+    const S l23_0_6 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_csw, S(0)), select(l23_0_3, L_csw, S(0))), S(0));
+    const S L_stop_cone = select(l23_0_4, select(l23_0_2, select(l23_0_1, l23_0_0, S(0)), select(l23_0_3, l23_0_0, S(0))), S(0));
+    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l23_0_5) + (d_L_swing_rate__a_dtx*l23_0_6));
+    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l23_0_5) + (d_L_swing_rate__a_dty*l23_0_6));
+    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l23_0_5) + (d_L_swing_rate__a_dtz*l23_0_6));
+    const S d_L_stop_cone__b_dtx = ((d_L_swing__b_dtx*l23_0_5) + (d_L_swing_rate__b_dtx*l23_0_6));
+    const S d_L_stop_cone__b_dty = ((d_L_swing__b_dty*l23_0_5) + (d_L_swing_rate__b_dty*l23_0_6));
+    const S d_L_stop_cone__b_dtz = ((d_L_swing__b_dtz*l23_0_5) + (d_L_swing_rate__b_dtz*l23_0_6));
+    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l23_0_6);
+    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l23_0_6);
+    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l23_0_6);
+    const S d_L_stop_cone__b_wx = (L_e__0*l23_0_6);
+    const S d_L_stop_cone__b_wy = (L_e__1*l23_0_6);
+    const S d_L_stop_cone__b_wz = (L_e__2*l23_0_6);
+    // let ubs (cone_twist.yaml:61)
+    const S l24_0_0 = (L_k__1*L_ub__2);
+    const S l24_0_1 = (L_k__2*L_ub__1);
+    const S l24_0_2 = max(S(1e-06), (L_cs + S(1)));
+    const S l24_0_3 = (S(1)/(l24_0_2));
+    const S l24_0_4 = (L_k__0*L_ub__0);
+    const S l24_0_5 = (L_k__1*L_ub__1);
+    const S l24_0_6 = (L_k__2*L_ub__2);
+    const S l24_0_7 = (l24_0_4 + l24_0_5 + l24_0_6);
+    const S l24_0_8 = (l24_0_3*l24_0_7);
+    const S l24_0_9 = (-L_ub__0);
+    const S l24_0_10 = (l24_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l24_0_2*l24_0_2)));
+    const S l24_0_11 = ((-(L_k__0*l24_0_10)) - l24_0_9);
+    const S l24_0_12 = ((l24_0_3*l24_0_4) + l24_0_8);
+    const S l24_0_13 = (L_k__0*L_ub__1);
+    const S l24_0_14 = (L_ub__2 + (l24_0_13*l24_0_3));
+    const S l24_0_15 = (-L_ub__1);
+    const S l24_0_16 = (L_k__0*L_ub__2);
+    const S l24_0_17 = (l24_0_15 + (l24_0_16*l24_0_3));
+    const S l24_0_18 = (L_k__0*l24_0_3);
+    const S l24_0_19 = (L_k__2*l24_0_18);
+    const S l24_0_20 = (L_k__1 + l24_0_19);
+    const S l24_0_21 = (L_k__1*l24_0_18);
+    const S l24_0_22 = ((-L_k__2) + l24_0_21);
+    const S l24_0_23 = (L_cs + ((L_k__0*L_k__0)*l24_0_3));
+    const S l24_0_24 = (L_k__2*L_ub__0);
+    const S l24_0_25 = ((-(L_k__1*l24_0_10)) - l24_0_15);
+    const S l24_0_26 = (-L_ub__2);
+    const S l24_0_27 = (L_k__1*L_ub__0);
+    const S l24_0_28 = (l24_0_26 + (l24_0_27*l24_0_3));
+    const S l24_0_29 = ((l24_0_3*l24_0_5) + l24_0_8);
+    const S l24_0_30 = (L_ub__0 + (l24_0_0*l24_0_3));
+    const S l24_0_31 = ((-L_k__0) + (L_k__1*L_k__2*l24_0_3));
+    const S l24_0_32 = (L_cs + ((L_k__1*L_k__1)*l24_0_3));
+    const S l24_0_33 = (L_k__2 + l24_0_21);
+    const S l24_0_34 = ((-(L_k__2*l24_0_10)) - l24_0_26);
+    const S l24_0_35 = (L_ub__1 + (l24_0_24*l24_0_3));
+    const S l24_0_36 = ((l24_0_1*l24_0_3) + l24_0_9);
+    const S l24_0_37 = ((l24_0_3*l24_0_6) + l24_0_8);
+    const S l24_0_38 = (L_cs + ((L_k__2*L_k__2)*l24_0_3));
+    const S l24_0_39 = (L_k__0 + (L_k__1*L_k__2*l24_0_3));
+    const S l24_0_40 = ((-L_k__1) + l24_0_19);
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_8) + l24_0_0 - l24_0_1);
+    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l24_0_11) + (d_L_k__0__a_dtx*l24_0_12) + (d_L_k__1__a_dtx*l24_0_14) + (d_L_k__2__a_dtx*l24_0_17));
+    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l24_0_11) + (d_L_k__0__a_dty*l24_0_12) + (d_L_k__1__a_dty*l24_0_14) + (d_L_k__2__a_dty*l24_0_17));
+    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l24_0_11) + (d_L_k__0__a_dtz*l24_0_12) + (d_L_k__1__a_dtz*l24_0_14) + (d_L_k__2__a_dtz*l24_0_17));
+    const S d_L_ubs__0__b_dtx = ((b_r5_1*l24_0_20) + (d_L_cs__b_dtx*l24_0_11) + (d_L_k__0__b_dtx*l24_0_12) + (d_L_k__1__b_dtx*l24_0_14) + (d_L_k__2__b_dtx*l24_0_17) + (d_L_ub__1__b_dtx*l24_0_22));
+    const S d_L_ubs__0__b_dty = ((b_r5_2*l24_0_23) + (d_L_cs__b_dty*l24_0_11) + (d_L_k__0__b_dty*l24_0_12) + (d_L_k__1__b_dty*l24_0_14) + (d_L_k__2__b_dty*l24_0_17) + (d_L_ub__2__b_dty*l24_0_20));
+    const S d_L_ubs__0__b_dtz = ((b_r5_0*l24_0_22) + (d_L_cs__b_dtz*l24_0_11) + (d_L_k__0__b_dtz*l24_0_12) + (d_L_k__1__b_dtz*l24_0_14) + (d_L_k__2__b_dtz*l24_0_17) + (d_L_ub__0__b_dtz*l24_0_23));
+    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l24_0_8) - l24_0_16 + l24_0_24);
+    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l24_0_25) + (d_L_k__0__a_dtx*l24_0_28) + (d_L_k__1__a_dtx*l24_0_29) + (d_L_k__2__a_dtx*l24_0_30));
+    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l24_0_25) + (d_L_k__0__a_dty*l24_0_28) + (d_L_k__1__a_dty*l24_0_29) + (d_L_k__2__a_dty*l24_0_30));
+    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l24_0_25) + (d_L_k__0__a_dtz*l24_0_28) + (d_L_k__1__a_dtz*l24_0_29) + (d_L_k__2__a_dtz*l24_0_30));
+    const S d_L_ubs__1__b_dtx = ((b_r5_1*l24_0_31) + (d_L_cs__b_dtx*l24_0_25) + (d_L_k__0__b_dtx*l24_0_28) + (d_L_k__1__b_dtx*l24_0_29) + (d_L_k__2__b_dtx*l24_0_30) + (d_L_ub__1__b_dtx*l24_0_32));
+    const S d_L_ubs__1__b_dty = ((b_r5_2*l24_0_33) + (d_L_cs__b_dty*l24_0_25) + (d_L_k__0__b_dty*l24_0_28) + (d_L_k__1__b_dty*l24_0_29) + (d_L_k__2__b_dty*l24_0_30) + (d_L_ub__2__b_dty*l24_0_31));
+    const S d_L_ubs__1__b_dtz = ((b_r5_0*l24_0_32) + (d_L_cs__b_dtz*l24_0_25) + (d_L_k__0__b_dtz*l24_0_28) + (d_L_k__1__b_dtz*l24_0_29) + (d_L_k__2__b_dtz*l24_0_30) + (d_L_ub__0__b_dtz*l24_0_33));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l24_0_8) + l24_0_13 - l24_0_27);
+    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l24_0_34) + (d_L_k__0__a_dtx*l24_0_35) + (d_L_k__1__a_dtx*l24_0_36) + (d_L_k__2__a_dtx*l24_0_37));
+    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l24_0_34) + (d_L_k__0__a_dty*l24_0_35) + (d_L_k__1__a_dty*l24_0_36) + (d_L_k__2__a_dty*l24_0_37));
+    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l24_0_34) + (d_L_k__0__a_dtz*l24_0_35) + (d_L_k__1__a_dtz*l24_0_36) + (d_L_k__2__a_dtz*l24_0_37));
+    const S d_L_ubs__2__b_dtx = ((b_r5_1*l24_0_38) + (d_L_cs__b_dtx*l24_0_34) + (d_L_k__0__b_dtx*l24_0_35) + (d_L_k__1__b_dtx*l24_0_36) + (d_L_k__2__b_dtx*l24_0_37) + (d_L_ub__1__b_dtx*l24_0_39));
+    const S d_L_ubs__2__b_dty = ((b_r5_2*l24_0_40) + (d_L_cs__b_dty*l24_0_34) + (d_L_k__0__b_dty*l24_0_35) + (d_L_k__1__b_dty*l24_0_36) + (d_L_k__2__b_dty*l24_0_37) + (d_L_ub__2__b_dty*l24_0_38));
+    const S d_L_ubs__2__b_dtz = ((b_r5_0*l24_0_39) + (d_L_cs__b_dtz*l24_0_34) + (d_L_k__0__b_dtz*l24_0_35) + (d_L_k__1__b_dtz*l24_0_36) + (d_L_k__2__b_dtz*l24_0_37) + (d_L_ub__0__b_dtz*l24_0_40));
+    // let twist (cone_twist.yaml:62)
+    const S l25_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
+    const S l25_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
+    const S l25_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
+    const S l25_0_3 = ((L_na__0*l25_0_0) + (L_na__1*l25_0_1) + (L_na__2*l25_0_2));
+    const S l25_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
+    const S l25_0_5 = (S(1)/(((l25_0_3*l25_0_3) + (l25_0_4*l25_0_4))));
+    const S l25_0_6 = (-(l25_0_3*l25_0_5));
+    const S l25_0_7 = (l25_0_4*l25_0_5);
+    const S l25_0_8 = ((L_ubs__2*l25_0_6) + (l25_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
+    const S l25_0_9 = ((L_ubs__1*l25_0_6) + (l25_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
+    const S l25_0_10 = ((L_ua__0*l25_0_6) + (l25_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S l25_0_11 = ((L_ua__1*l25_0_6) + (l25_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l25_0_12 = ((L_ua__2*l25_0_6) + (l25_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l25_0_13 = (l25_0_2*l25_0_7);
+    const S l25_0_14 = (l25_0_1*l25_0_7);
+    const S l25_0_15 = ((L_ubs__0*l25_0_6) + (l25_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
+    const S l25_0_16 = (l25_0_0*l25_0_7);
+    const S L_twist = angle_of(l25_0_3, l25_0_4);
+    const S d_L_twist__a_dtx = ((a_r2_1*l25_0_13) + (a_r4_1*l25_0_8) + (d_L_na__1__a_dtx*l25_0_14) + (d_L_ua__1__a_dtx*l25_0_9) + (d_L_ubs__0__a_dtx*l25_0_10) + (d_L_ubs__1__a_dtx*l25_0_11) + (d_L_ubs__2__a_dtx*l25_0_12));
+    const S d_L_twist__a_dty = ((a_r2_2*l25_0_16) + (a_r4_2*l25_0_15) + (d_L_na__2__a_dty*l25_0_13) + (d_L_ua__2__a_dty*l25_0_8) + (d_L_ubs__0__a_dty*l25_0_10) + (d_L_ubs__1__a_dty*l25_0_11) + (d_L_ubs__2__a_dty*l25_0_12));
+    const S d_L_twist__a_dtz = ((a_r2_0*l25_0_14) + (a_r4_0*l25_0_9) + (d_L_na__0__a_dtz*l25_0_16) + (d_L_ua__0__a_dtz*l25_0_15) + (d_L_ubs__0__a_dtz*l25_0_10) + (d_L_ubs__1__a_dtz*l25_0_11) + (d_L_ubs__2__a_dtz*l25_0_12));
+    const S d_L_twist__b_dtx = ((d_L_ubs__0__b_dtx*l25_0_10) + (d_L_ubs__1__b_dtx*l25_0_11) + (d_L_ubs__2__b_dtx*l25_0_12));
+    const S d_L_twist__b_dty = ((d_L_ubs__0__b_dty*l25_0_10) + (d_L_ubs__1__b_dty*l25_0_11) + (d_L_ubs__2__b_dty*l25_0_12));
+    const S d_L_twist__b_dtz = ((d_L_ubs__0__b_dtz*l25_0_10) + (d_L_ubs__1__b_dtz*l25_0_11) + (d_L_ubs__2__b_dtz*l25_0_12));
+    // let twist_rate (cone_twist.yaml:63)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_twist_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r2_1));
     const S d_L_twist_rate__a_dty = ((L_wrel__0*a_r2_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -1521,11 +1587,11 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_twist_rate__a_wx = (-L_na__0);
     const S d_L_twist_rate__a_wy = (-L_na__1);
     const S d_L_twist_rate__a_wz = (-L_na__2);
-    // let limited (cone_twist.yaml:55)
+    // let limited (cone_twist.yaml:64)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:56)
+    // let over_hi (cone_twist.yaml:65)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:57)
+    // let over_lo (cone_twist.yaml:66)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
     const S d_L_over_lo__a_dtx = (-d_L_twist__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_twist__a_dty);
@@ -1533,141 +1599,151 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_twist__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_twist__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_twist__b_dtz);
-    // let stop_hi (cone_twist.yaml:58)
-    const S l28_0_0 = ((L_cr*L_twist_rate) + (L_kr*L_over_hi));
-    const auto l28_0_1 = (l28_0_0 > S(0));
-    const auto l28_0_2 = (L_over_hi > S(0));
-    const auto l28_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
-    const S l28_0_4 = select(l28_0_2, select(l28_0_1, L_kr, S(0)), select(l28_0_3, L_kr, S(0)));
-    const S l28_0_5 = select(l28_0_2, select(l28_0_1, L_cr, S(0)), select(l28_0_3, L_cr, S(0)));
-    const S L_stop_hi = select(l28_0_2, select(l28_0_1, l28_0_0, S(0)), select(l28_0_3, l28_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l28_0_4) + (d_L_twist_rate__a_dtx*l28_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l28_0_4) + (d_L_twist_rate__a_dty*l28_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l28_0_4) + (d_L_twist_rate__a_dtz*l28_0_5));
-    const S d_L_stop_hi__b_dtx = (d_L_twist__b_dtx*l28_0_4);
-    const S d_L_stop_hi__b_dty = (d_L_twist__b_dty*l28_0_4);
-    const S d_L_stop_hi__b_dtz = (d_L_twist__b_dtz*l28_0_4);
-    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l28_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l28_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l28_0_5);
-    const S d_L_stop_hi__b_wx = (L_na__0*l28_0_5);
-    const S d_L_stop_hi__b_wy = (L_na__1*l28_0_5);
-    const S d_L_stop_hi__b_wz = (L_na__2*l28_0_5);
-    // let stop_lo (cone_twist.yaml:59)
-    const S l29_0_0 = ((L_cr*L_twist_rate) - (L_kr*L_over_lo));
-    const S l29_0_1 = (-l29_0_0);
-    const auto l29_0_2 = (l29_0_0 < S(0));
-    const auto l29_0_3 = (L_over_lo > S(0));
-    const auto l29_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
-    const S l29_0_5 = select(l29_0_3, select(l29_0_2, L_kr, S(0)), select(l29_0_4, L_kr, S(0)));
-    const S l29_0_6 = (-L_cr);
-    const S l29_0_7 = select(l29_0_3, select(l29_0_2, l29_0_6, S(0)), select(l29_0_4, l29_0_6, S(0)));
-    const S L_stop_lo = select(l29_0_3, select(l29_0_2, l29_0_1, S(0)), select(l29_0_4, l29_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l29_0_5) + (d_L_twist_rate__a_dtx*l29_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l29_0_5) + (d_L_twist_rate__a_dty*l29_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l29_0_5) + (d_L_twist_rate__a_dtz*l29_0_7));
-    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l29_0_5);
-    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l29_0_5);
-    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l29_0_5);
-    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l29_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l29_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l29_0_7);
-    const S d_L_stop_lo__b_wx = (L_na__0*l29_0_7);
-    const S d_L_stop_lo__b_wy = (L_na__1*l29_0_7);
-    const S d_L_stop_lo__b_wz = (L_na__2*l29_0_7);
-    // let spring (cone_twist.yaml:60)
-    const S l30_0_0 = (L_e__0*p_spring_stiffness);
-    const S l30_0_1 = (L_na__0*p_spring_stiffness);
-    const S l30_0_2 = (L_swing*p_spring_stiffness);
-    const S l30_0_3 = (L_twist*p_spring_stiffness);
-    const S l30_0_4 = (-p_spring_damping);
-    const S l30_0_5 = (L_e__1*p_spring_stiffness);
-    const S l30_0_6 = (L_na__1*p_spring_stiffness);
-    const S l30_0_7 = (L_e__2*p_spring_stiffness);
-    const S l30_0_8 = (L_na__2*p_spring_stiffness);
+    // let twa (cone_twist.yaml:67)
+    [[maybe_unused]] const S L_twa = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
+    // let twb (cone_twist.yaml:68)
+    [[maybe_unused]] const S L_twb = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
+    // let itw (cone_twist.yaml:69)
+    [[maybe_unused]] const S L_itw = select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa);
+    // let ktw (cone_twist.yaml:70)
+    const S L_ktw = (L_itw*(L_omega*L_omega));
+    // let ctw (cone_twist.yaml:71)
+    const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
+    // let stop_hi (cone_twist.yaml:72)
+    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const auto l35_0_1 = (l35_0_0 > S(0));
+    const auto l35_0_2 = (L_over_hi > S(0));
+    const auto l35_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
+    const S l35_0_4 = select(l35_0_2, select(l35_0_1, L_ktw, S(0)), select(l35_0_3, L_ktw, S(0)));
+    const S l35_0_5 = select(l35_0_2, select(l35_0_1, L_ctw, S(0)), select(l35_0_3, L_ctw, S(0)));
+    const S L_stop_hi = select(l35_0_2, select(l35_0_1, l35_0_0, S(0)), select(l35_0_3, l35_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l35_0_4) + (d_L_twist_rate__a_dtx*l35_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l35_0_4) + (d_L_twist_rate__a_dty*l35_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l35_0_4) + (d_L_twist_rate__a_dtz*l35_0_5));
+    const S d_L_stop_hi__b_dtx = (d_L_twist__b_dtx*l35_0_4);
+    const S d_L_stop_hi__b_dty = (d_L_twist__b_dty*l35_0_4);
+    const S d_L_stop_hi__b_dtz = (d_L_twist__b_dtz*l35_0_4);
+    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l35_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l35_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l35_0_5);
+    const S d_L_stop_hi__b_wx = (L_na__0*l35_0_5);
+    const S d_L_stop_hi__b_wy = (L_na__1*l35_0_5);
+    const S d_L_stop_hi__b_wz = (L_na__2*l35_0_5);
+    // let stop_lo (cone_twist.yaml:73)
+    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l36_0_1 = (-l36_0_0);
+    const auto l36_0_2 = (l36_0_0 < S(0));
+    const auto l36_0_3 = (L_over_lo > S(0));
+    const auto l36_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
+    const S l36_0_5 = select(l36_0_3, select(l36_0_2, L_ktw, S(0)), select(l36_0_4, L_ktw, S(0)));
+    const S l36_0_6 = (-L_ctw);
+    const S l36_0_7 = select(l36_0_3, select(l36_0_2, l36_0_6, S(0)), select(l36_0_4, l36_0_6, S(0)));
+    const S L_stop_lo = select(l36_0_3, select(l36_0_2, l36_0_1, S(0)), select(l36_0_4, l36_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l36_0_5) + (d_L_twist_rate__a_dtx*l36_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l36_0_5) + (d_L_twist_rate__a_dty*l36_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l36_0_5) + (d_L_twist_rate__a_dtz*l36_0_7));
+    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l36_0_5);
+    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l36_0_5);
+    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l36_0_5);
+    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l36_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l36_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l36_0_7);
+    const S d_L_stop_lo__b_wx = (L_na__0*l36_0_7);
+    const S d_L_stop_lo__b_wy = (L_na__1*l36_0_7);
+    const S d_L_stop_lo__b_wz = (L_na__2*l36_0_7);
+    // let spring (cone_twist.yaml:74)
+    const S l37_0_0 = (L_e__0*p_spring_stiffness);
+    const S l37_0_1 = (L_na__0*p_spring_stiffness);
+    const S l37_0_2 = (L_swing*p_spring_stiffness);
+    const S l37_0_3 = (L_twist*p_spring_stiffness);
+    const S l37_0_4 = (-p_spring_damping);
+    const S l37_0_5 = (L_e__1*p_spring_stiffness);
+    const S l37_0_6 = (L_na__1*p_spring_stiffness);
+    const S l37_0_7 = (L_e__2*p_spring_stiffness);
+    const S l37_0_8 = (L_na__2*p_spring_stiffness);
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
-    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l30_0_2)) - (d_L_swing__a_dtx*l30_0_0) - (d_L_twist__a_dtx*l30_0_1));
-    const S d_L_spring__0__a_dty = ((-(a_r2_2*l30_0_3)) - (d_L_e__0__a_dty*l30_0_2) - (d_L_swing__a_dty*l30_0_0) - (d_L_twist__a_dty*l30_0_1));
-    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l30_0_2)) - (d_L_na__0__a_dtz*l30_0_3) - (d_L_swing__a_dtz*l30_0_0) - (d_L_twist__a_dtz*l30_0_1));
-    const S d_L_spring__0__b_dtx = ((-(d_L_e__0__b_dtx*l30_0_2)) - (d_L_swing__b_dtx*l30_0_0) - (d_L_twist__b_dtx*l30_0_1));
-    const S d_L_spring__0__b_dty = ((-(d_L_e__0__b_dty*l30_0_2)) - (d_L_swing__b_dty*l30_0_0) - (d_L_twist__b_dty*l30_0_1));
-    const S d_L_spring__0__b_dtz = ((-(d_L_e__0__b_dtz*l30_0_2)) - (d_L_swing__b_dtz*l30_0_0) - (d_L_twist__b_dtz*l30_0_1));
-    const S d_L_spring__0__b_wx = l30_0_4;
+    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l37_0_2)) - (d_L_swing__a_dtx*l37_0_0) - (d_L_twist__a_dtx*l37_0_1));
+    const S d_L_spring__0__a_dty = ((-(a_r2_2*l37_0_3)) - (d_L_e__0__a_dty*l37_0_2) - (d_L_swing__a_dty*l37_0_0) - (d_L_twist__a_dty*l37_0_1));
+    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l37_0_2)) - (d_L_na__0__a_dtz*l37_0_3) - (d_L_swing__a_dtz*l37_0_0) - (d_L_twist__a_dtz*l37_0_1));
+    const S d_L_spring__0__b_dtx = ((-(d_L_e__0__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_0) - (d_L_twist__b_dtx*l37_0_1));
+    const S d_L_spring__0__b_dty = ((-(d_L_e__0__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_0) - (d_L_twist__b_dty*l37_0_1));
+    const S d_L_spring__0__b_dtz = ((-(d_L_e__0__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_0) - (d_L_twist__b_dtz*l37_0_1));
+    const S d_L_spring__0__b_wx = l37_0_4;
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
-    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l30_0_2)) - (d_L_na__1__a_dtx*l30_0_3) - (d_L_swing__a_dtx*l30_0_5) - (d_L_twist__a_dtx*l30_0_6));
-    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l30_0_2)) - (d_L_swing__a_dty*l30_0_5) - (d_L_twist__a_dty*l30_0_6));
-    const S d_L_spring__1__a_dtz = ((-(a_r2_0*l30_0_3)) - (d_L_e__1__a_dtz*l30_0_2) - (d_L_swing__a_dtz*l30_0_5) - (d_L_twist__a_dtz*l30_0_6));
-    const S d_L_spring__1__b_dtx = ((-(d_L_e__1__b_dtx*l30_0_2)) - (d_L_swing__b_dtx*l30_0_5) - (d_L_twist__b_dtx*l30_0_6));
-    const S d_L_spring__1__b_dty = ((-(d_L_e__1__b_dty*l30_0_2)) - (d_L_swing__b_dty*l30_0_5) - (d_L_twist__b_dty*l30_0_6));
-    const S d_L_spring__1__b_dtz = ((-(d_L_e__1__b_dtz*l30_0_2)) - (d_L_swing__b_dtz*l30_0_5) - (d_L_twist__b_dtz*l30_0_6));
-    const S d_L_spring__1__b_wy = l30_0_4;
+    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l37_0_2)) - (d_L_na__1__a_dtx*l37_0_3) - (d_L_swing__a_dtx*l37_0_5) - (d_L_twist__a_dtx*l37_0_6));
+    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l37_0_2)) - (d_L_swing__a_dty*l37_0_5) - (d_L_twist__a_dty*l37_0_6));
+    const S d_L_spring__1__a_dtz = ((-(a_r2_0*l37_0_3)) - (d_L_e__1__a_dtz*l37_0_2) - (d_L_swing__a_dtz*l37_0_5) - (d_L_twist__a_dtz*l37_0_6));
+    const S d_L_spring__1__b_dtx = ((-(d_L_e__1__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_5) - (d_L_twist__b_dtx*l37_0_6));
+    const S d_L_spring__1__b_dty = ((-(d_L_e__1__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_5) - (d_L_twist__b_dty*l37_0_6));
+    const S d_L_spring__1__b_dtz = ((-(d_L_e__1__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_5) - (d_L_twist__b_dtz*l37_0_6));
+    const S d_L_spring__1__b_wy = l37_0_4;
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    const S d_L_spring__2__a_dtx = ((-(a_r2_1*l30_0_3)) - (d_L_e__2__a_dtx*l30_0_2) - (d_L_swing__a_dtx*l30_0_7) - (d_L_twist__a_dtx*l30_0_8));
-    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l30_0_2)) - (d_L_na__2__a_dty*l30_0_3) - (d_L_swing__a_dty*l30_0_7) - (d_L_twist__a_dty*l30_0_8));
-    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l30_0_2)) - (d_L_swing__a_dtz*l30_0_7) - (d_L_twist__a_dtz*l30_0_8));
-    const S d_L_spring__2__b_dtx = ((-(d_L_e__2__b_dtx*l30_0_2)) - (d_L_swing__b_dtx*l30_0_7) - (d_L_twist__b_dtx*l30_0_8));
-    const S d_L_spring__2__b_dty = ((-(d_L_e__2__b_dty*l30_0_2)) - (d_L_swing__b_dty*l30_0_7) - (d_L_twist__b_dty*l30_0_8));
-    const S d_L_spring__2__b_dtz = ((-(d_L_e__2__b_dtz*l30_0_2)) - (d_L_swing__b_dtz*l30_0_7) - (d_L_twist__b_dtz*l30_0_8));
-    const S d_L_spring__2__b_wz = l30_0_4;
-    // let tau (cone_twist.yaml:61)
-    const S l31_0_0 = ((-L_stop_hi) + L_stop_lo);
-    const S l31_0_1 = (L_limited*L_na__0);
-    const S l31_0_2 = (-p_spring_damping);
-    const S l31_0_3 = (L_limited*l31_0_0);
-    const S l31_0_4 = (L_limited*L_na__1);
-    const S l31_0_5 = (L_limited*L_na__2);
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l31_0_0*l31_0_1));
-    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l31_0_1));
-    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r2_2*l31_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l31_0_1));
-    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l31_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l31_0_1));
-    const S d_L_tau__0__b_dtx = ((-(L_e__0*d_L_stop_cone__b_dtx)) + (L_limited*L_na__0*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__0__b_dtx) + d_L_spring__0__b_dtx - (d_L_stop_hi__b_dtx*l31_0_1));
-    const S d_L_tau__0__b_dty = ((-(L_e__0*d_L_stop_cone__b_dty)) + (L_limited*L_na__0*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__0__b_dty) + d_L_spring__0__b_dty - (d_L_stop_hi__b_dty*l31_0_1));
-    const S d_L_tau__0__b_dtz = ((-(L_e__0*d_L_stop_cone__b_dtz)) + (L_limited*L_na__0*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__0__b_dtz) + d_L_spring__0__b_dtz - (d_L_stop_hi__b_dtz*l31_0_1));
-    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_1) - l31_0_2);
-    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_1));
-    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_1));
-    const S d_L_tau__0__b_wx = ((-(L_e__0*d_L_stop_cone__b_wx)) + (L_limited*L_na__0*d_L_stop_lo__b_wx) + d_L_spring__0__b_wx - (d_L_stop_hi__b_wx*l31_0_1));
-    const S d_L_tau__0__b_wy = ((-(L_e__0*d_L_stop_cone__b_wy)) + (L_limited*L_na__0*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l31_0_1));
-    const S d_L_tau__0__b_wz = ((-(L_e__0*d_L_stop_cone__b_wz)) + (L_limited*L_na__0*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l31_0_1));
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l31_0_3) + L_spring__1);
-    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l31_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l31_0_4));
-    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l31_0_4));
-    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r2_0*l31_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l31_0_4));
-    const S d_L_tau__1__b_dtx = ((-(L_e__1*d_L_stop_cone__b_dtx)) + (L_limited*L_na__1*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__1__b_dtx) + d_L_spring__1__b_dtx - (d_L_stop_hi__b_dtx*l31_0_4));
-    const S d_L_tau__1__b_dty = ((-(L_e__1*d_L_stop_cone__b_dty)) + (L_limited*L_na__1*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__1__b_dty) + d_L_spring__1__b_dty - (d_L_stop_hi__b_dty*l31_0_4));
-    const S d_L_tau__1__b_dtz = ((-(L_e__1*d_L_stop_cone__b_dtz)) + (L_limited*L_na__1*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__1__b_dtz) + d_L_spring__1__b_dtz - (d_L_stop_hi__b_dtz*l31_0_4));
-    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_4));
-    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_4) - l31_0_2);
-    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_4));
-    const S d_L_tau__1__b_wx = ((-(L_e__1*d_L_stop_cone__b_wx)) + (L_limited*L_na__1*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l31_0_4));
-    const S d_L_tau__1__b_wy = ((-(L_e__1*d_L_stop_cone__b_wy)) + (L_limited*L_na__1*d_L_stop_lo__b_wy) + d_L_spring__1__b_wy - (d_L_stop_hi__b_wy*l31_0_4));
-    const S d_L_tau__1__b_wz = ((-(L_e__1*d_L_stop_cone__b_wz)) + (L_limited*L_na__1*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l31_0_4));
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l31_0_3) + L_spring__2);
-    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r2_1*l31_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l31_0_5));
-    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l31_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l31_0_5));
-    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l31_0_5));
-    const S d_L_tau__2__b_dtx = ((-(L_e__2*d_L_stop_cone__b_dtx)) + (L_limited*L_na__2*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__2__b_dtx) + d_L_spring__2__b_dtx - (d_L_stop_hi__b_dtx*l31_0_5));
-    const S d_L_tau__2__b_dty = ((-(L_e__2*d_L_stop_cone__b_dty)) + (L_limited*L_na__2*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__2__b_dty) + d_L_spring__2__b_dty - (d_L_stop_hi__b_dty*l31_0_5));
-    const S d_L_tau__2__b_dtz = ((-(L_e__2*d_L_stop_cone__b_dtz)) + (L_limited*L_na__2*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__2__b_dtz) + d_L_spring__2__b_dtz - (d_L_stop_hi__b_dtz*l31_0_5));
-    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_5));
-    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_5));
-    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_5) - l31_0_2);
-    const S d_L_tau__2__b_wx = ((-(L_e__2*d_L_stop_cone__b_wx)) + (L_limited*L_na__2*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l31_0_5));
-    const S d_L_tau__2__b_wy = ((-(L_e__2*d_L_stop_cone__b_wy)) + (L_limited*L_na__2*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l31_0_5));
-    const S d_L_tau__2__b_wz = ((-(L_e__2*d_L_stop_cone__b_wz)) + (L_limited*L_na__2*d_L_stop_lo__b_wz) + d_L_spring__2__b_wz - (d_L_stop_hi__b_wz*l31_0_5));
-    // apply[0] (cone_twist.yaml:63)
+    const S d_L_spring__2__a_dtx = ((-(a_r2_1*l37_0_3)) - (d_L_e__2__a_dtx*l37_0_2) - (d_L_swing__a_dtx*l37_0_7) - (d_L_twist__a_dtx*l37_0_8));
+    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l37_0_2)) - (d_L_na__2__a_dty*l37_0_3) - (d_L_swing__a_dty*l37_0_7) - (d_L_twist__a_dty*l37_0_8));
+    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l37_0_2)) - (d_L_swing__a_dtz*l37_0_7) - (d_L_twist__a_dtz*l37_0_8));
+    const S d_L_spring__2__b_dtx = ((-(d_L_e__2__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_7) - (d_L_twist__b_dtx*l37_0_8));
+    const S d_L_spring__2__b_dty = ((-(d_L_e__2__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_7) - (d_L_twist__b_dty*l37_0_8));
+    const S d_L_spring__2__b_dtz = ((-(d_L_e__2__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_7) - (d_L_twist__b_dtz*l37_0_8));
+    const S d_L_spring__2__b_wz = l37_0_4;
+    // let tau (cone_twist.yaml:75)
+    const S l38_0_0 = ((-L_stop_hi) + L_stop_lo);
+    const S l38_0_1 = (L_limited*L_na__0);
+    const S l38_0_2 = (-p_spring_damping);
+    const S l38_0_3 = (L_limited*l38_0_0);
+    const S l38_0_4 = (L_limited*L_na__1);
+    const S l38_0_5 = (L_limited*L_na__2);
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l38_0_0*l38_0_1));
+    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l38_0_1));
+    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r2_2*l38_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l38_0_1));
+    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l38_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l38_0_1));
+    const S d_L_tau__0__b_dtx = ((-(L_e__0*d_L_stop_cone__b_dtx)) + (L_limited*L_na__0*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__0__b_dtx) + d_L_spring__0__b_dtx - (d_L_stop_hi__b_dtx*l38_0_1));
+    const S d_L_tau__0__b_dty = ((-(L_e__0*d_L_stop_cone__b_dty)) + (L_limited*L_na__0*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__0__b_dty) + d_L_spring__0__b_dty - (d_L_stop_hi__b_dty*l38_0_1));
+    const S d_L_tau__0__b_dtz = ((-(L_e__0*d_L_stop_cone__b_dtz)) + (L_limited*L_na__0*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__0__b_dtz) + d_L_spring__0__b_dtz - (d_L_stop_hi__b_dtz*l38_0_1));
+    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_1) - l38_0_2);
+    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_1));
+    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_1));
+    const S d_L_tau__0__b_wx = ((-(L_e__0*d_L_stop_cone__b_wx)) + (L_limited*L_na__0*d_L_stop_lo__b_wx) + d_L_spring__0__b_wx - (d_L_stop_hi__b_wx*l38_0_1));
+    const S d_L_tau__0__b_wy = ((-(L_e__0*d_L_stop_cone__b_wy)) + (L_limited*L_na__0*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l38_0_1));
+    const S d_L_tau__0__b_wz = ((-(L_e__0*d_L_stop_cone__b_wz)) + (L_limited*L_na__0*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l38_0_1));
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_3) + L_spring__1);
+    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l38_0_4));
+    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l38_0_4));
+    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r2_0*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l38_0_4));
+    const S d_L_tau__1__b_dtx = ((-(L_e__1*d_L_stop_cone__b_dtx)) + (L_limited*L_na__1*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__1__b_dtx) + d_L_spring__1__b_dtx - (d_L_stop_hi__b_dtx*l38_0_4));
+    const S d_L_tau__1__b_dty = ((-(L_e__1*d_L_stop_cone__b_dty)) + (L_limited*L_na__1*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__1__b_dty) + d_L_spring__1__b_dty - (d_L_stop_hi__b_dty*l38_0_4));
+    const S d_L_tau__1__b_dtz = ((-(L_e__1*d_L_stop_cone__b_dtz)) + (L_limited*L_na__1*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__1__b_dtz) + d_L_spring__1__b_dtz - (d_L_stop_hi__b_dtz*l38_0_4));
+    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_4));
+    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_4) - l38_0_2);
+    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_4));
+    const S d_L_tau__1__b_wx = ((-(L_e__1*d_L_stop_cone__b_wx)) + (L_limited*L_na__1*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l38_0_4));
+    const S d_L_tau__1__b_wy = ((-(L_e__1*d_L_stop_cone__b_wy)) + (L_limited*L_na__1*d_L_stop_lo__b_wy) + d_L_spring__1__b_wy - (d_L_stop_hi__b_wy*l38_0_4));
+    const S d_L_tau__1__b_wz = ((-(L_e__1*d_L_stop_cone__b_wz)) + (L_limited*L_na__1*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l38_0_4));
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_3) + L_spring__2);
+    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r2_1*l38_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l38_0_5));
+    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l38_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l38_0_5));
+    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l38_0_5));
+    const S d_L_tau__2__b_dtx = ((-(L_e__2*d_L_stop_cone__b_dtx)) + (L_limited*L_na__2*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__2__b_dtx) + d_L_spring__2__b_dtx - (d_L_stop_hi__b_dtx*l38_0_5));
+    const S d_L_tau__2__b_dty = ((-(L_e__2*d_L_stop_cone__b_dty)) + (L_limited*L_na__2*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__2__b_dty) + d_L_spring__2__b_dty - (d_L_stop_hi__b_dty*l38_0_5));
+    const S d_L_tau__2__b_dtz = ((-(L_e__2*d_L_stop_cone__b_dtz)) + (L_limited*L_na__2*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__2__b_dtz) + d_L_spring__2__b_dtz - (d_L_stop_hi__b_dtz*l38_0_5));
+    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_5));
+    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_5));
+    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_5) - l38_0_2);
+    const S d_L_tau__2__b_wx = ((-(L_e__2*d_L_stop_cone__b_wx)) + (L_limited*L_na__2*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l38_0_5));
+    const S d_L_tau__2__b_wy = ((-(L_e__2*d_L_stop_cone__b_wy)) + (L_limited*L_na__2*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l38_0_5));
+    const S d_L_tau__2__b_wz = ((-(L_e__2*d_L_stop_cone__b_wz)) + (L_limited*L_na__2*d_L_stop_lo__b_wz) + d_L_spring__2__b_wz - (d_L_stop_hi__b_wz*l38_0_5));
+    // apply[0] (cone_twist.yaml:77)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l33_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l33_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l33_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l33_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (cone_twist.yaml:64)
+    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply[1] (cone_twist.yaml:78)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
-    const S l35_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l35_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l35_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l35_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (cone_twist.yaml:62), shared subexpressions
+    const S l42_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
+    // apply (cone_twist.yaml:76), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -1812,21 +1888,21 @@ struct Cone_Twist_Pair_Kernel {
     const S o141 = ((d_L_f__0__b_dtz*o8) + (d_L_f__0__b_wz*h));
     const S o142 = ((d_L_f__1__b_dtz*o8) + (d_L_f__1__b_wz*h));
     const S o143 = (d_L_f__2__b_dtz*o8);
-    // g_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // g_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[0] = o19;
     out[1] = o28;
     out[2] = o35;
     out[3] = ((-(L_f__1*o37)) + (L_f__2*o36) - L_tau__0 + (o1*o41) + (o2*o42) + (o20*o38) + (o21*o38) + (o24*o47) + (o27*o48) + (o29*o36) + (o3*o43) + (o30*o36) + (o32*o49) + (o34*o50) + (o44*o5) + (o45*o6) + (o46*o7));
     out[4] = ((L_f__0*o37) - (L_f__2*o51) - L_tau__1 + (o0*o37) + (o1*o54) + (o13*o60) + (o18*o61) + (o2*o55) + (o29*o52) + (o3*o56) + (o30*o52) + (o32*o62) + (o34*o63) + (o37*o4) + (o5*o57) + (o58*o6) + (o59*o7));
     out[5] = ((-(L_f__0*o36)) + (L_f__1*o51) - L_tau__2 + (o0*o64) + (o1*o65) + (o13*o71) + (o18*o72) + (o2*o66) + (o20*o51) + (o21*o51) + (o24*o73) + (o27*o74) + (o3*o67) + (o4*o64) + (o5*o68) + (o6*o69) + (o7*o70));
-    // g_b from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // g_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[6] = (-o19);
     out[7] = (-o28);
     out[8] = (-o35);
     out[9] = ((L_f__1*o75) - (L_f__2*o76) + L_tau__0 + (o1*o78) + (o2*o79) + (o20*o75) + (o21*o75) + (o24*o86) + (o27*o87) + (o29*o77) + (o3*o80) + (o30*o77) + (o32*o88) + (o34*o89) + (o5*o83) + (o6*o84) + (o7*o85));
     out[10] = ((-(L_f__0*o75)) + (L_f__2*o90) + L_tau__1 + (o0*o91) + (o1*o92) + (o100*o18) + (o101*o32) + (o102*o34) + (o13*o99) + (o2*o93) + (o29*o90) + (o3*o94) + (o30*o90) + (o4*o91) + (o5*o96) + (o6*o97) + (o7*o98));
     out[11] = ((L_f__0*o76) - (L_f__1*o90) + L_tau__2 + (o0*o76) + (o1*o104) + (o103*o20) + (o103*o21) + (o105*o2) + (o106*o3) + (o107*o5) + (o108*o6) + (o109*o7) + (o110*o13) + (o111*o18) + (o112*o24) + (o113*o27) + (o4*o76));
-    // K_aa from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // K_aa from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[12] = o115;
     out[13] = S(0);
     out[14] = S(0);
@@ -1863,7 +1939,7 @@ struct Cone_Twist_Pair_Kernel {
     out[45] = ((h*((d_L_f__1__a_wz*o38) - d_L_tau__0__a_wz)) + (o43*o8));
     out[46] = ((h*((d_L_f__0__a_wz*o37) - d_L_tau__1__a_wz)) + (o56*o8));
     out[47] = ((h*((d_L_f__0__a_wz*o64) + (d_L_f__1__a_wz*o51) - d_L_tau__2__a_wz)) + (o67*o8));
-    // K_ab from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // K_ab from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[48] = o130;
     out[49] = S(0);
     out[50] = S(0);
@@ -1900,7 +1976,7 @@ struct Cone_Twist_Pair_Kernel {
     out[81] = ((h*((d_L_f__1__b_wz*o38) - d_L_tau__0__b_wz)) + (o46*o8));
     out[82] = ((h*((d_L_f__0__b_wz*o37) - d_L_tau__1__b_wz)) + (o59*o8));
     out[83] = ((h*((d_L_f__0__b_wz*o64) + (d_L_f__1__b_wz*o51) - d_L_tau__2__b_wz)) + (o70*o8));
-    // K_ba from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // K_ba from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[84] = (-o115);
     out[85] = S(0);
     out[86] = S(0);
@@ -1937,7 +2013,7 @@ struct Cone_Twist_Pair_Kernel {
     out[117] = ((h*((d_L_f__1__a_wz*o75) + d_L_tau__0__a_wz)) + (o8*o80));
     out[118] = ((h*((d_L_f__0__a_wz*o91) + d_L_tau__1__a_wz)) + (o8*o94));
     out[119] = ((h*((d_L_f__0__a_wz*o76) + (d_L_f__1__a_wz*o103) + d_L_tau__2__a_wz)) + (o106*o8));
-    // K_bb from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // K_bb from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[120] = (-o130);
     out[121] = S(0);
     out[122] = S(0);
@@ -1977,13 +2053,13 @@ struct Cone_Twist_Pair_Kernel {
   }
 
   /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
-  static constexpr int kHeld = 10;
+  static constexpr int kHeld = 15;
   /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
   /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
-  static constexpr int kJointArm[2] = { 2, 6 };
+  static constexpr int kJointArm[2] = { 7, 11 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 540
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 780
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -2055,7 +2131,7 @@ struct Cone_Twist_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[64];
     [[maybe_unused]] const S g_joint_hertz = in[65];
     [[maybe_unused]] const S g_joint_damping_ratio = in[66];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:30), let pb (cone_twist.yaml:31), let na (cone_twist.yaml:33), let nb (cone_twist.yaml:34), let ua (cone_twist.yaml:35), let ub (cone_twist.yaml:36)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let swa (cone_twist.yaml:53), let swb (cone_twist.yaml:54)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2090,6 +2166,18 @@ struct Cone_Twist_Pair_Kernel {
     const S p0_31 = ((S(2)*b_qx*b_qz) - p0_23);
     const S p0_32 = ((S(2)*b_qy*b_qz) + p0_29);
     const S p0_33 = ((-p0_17) - p0_27 + S(1));
+    const S p0_34 = ((a_Ixy*p0_2) + (a_Iyy*p0_5) + (a_Iyz*p0_8));
+    const S p0_35 = ((a_Ixz*p0_2) + (a_Iyz*p0_5) + (a_Izz*p0_8));
+    const S p0_36 = ((a_Ixx*p0_2) + (a_Ixy*p0_5) + (a_Ixz*p0_8));
+    const S p0_37 = ((a_Ixz*p0_9) + (a_Iyz*p0_11) + (a_Izz*p0_13));
+    const S p0_38 = ((a_Ixx*p0_9) + (a_Ixy*p0_11) + (a_Ixz*p0_13));
+    const S p0_39 = ((a_Ixy*p0_9) + (a_Iyy*p0_11) + (a_Iyz*p0_13));
+    const S p0_40 = ((b_Ixy*p0_19) + (b_Iyy*p0_22) + (b_Iyz*p0_25));
+    const S p0_41 = ((b_Ixz*p0_19) + (b_Iyz*p0_22) + (b_Izz*p0_25));
+    const S p0_42 = ((b_Ixx*p0_19) + (b_Ixy*p0_22) + (b_Ixz*p0_25));
+    const S p0_43 = ((b_Ixz*p0_26) + (b_Iyz*p0_28) + (b_Izz*p0_30));
+    const S p0_44 = ((b_Ixx*p0_26) + (b_Ixy*p0_28) + (b_Ixz*p0_30));
+    const S p0_45 = ((b_Ixy*p0_26) + (b_Iyy*p0_28) + (b_Iyz*p0_30));
     const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
     const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
     const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
@@ -2108,6 +2196,18 @@ struct Cone_Twist_Pair_Kernel {
     const S b_r5_0 = ((p0_19*p_ref_b__0) + (p0_22*p_ref_b__1) + (p0_25*p_ref_b__2));
     const S b_r5_1 = ((p0_26*p_ref_b__0) + (p0_28*p_ref_b__1) + (p0_30*p_ref_b__2));
     const S b_r5_2 = ((p0_31*p_ref_b__0) + (p0_32*p_ref_b__1) + (p0_33*p_ref_b__2));
+    const S a_Iw6_00 = ((p0_2*p0_36) + (p0_34*p0_5) + (p0_35*p0_8));
+    const S a_Iw6_11 = ((p0_11*p0_39) + (p0_13*p0_37) + (p0_38*p0_9));
+    const S a_Iw6_22 = ((p0_14*((a_Ixx*p0_14) + (a_Ixy*p0_15) + (a_Ixz*p0_16))) + (p0_15*((a_Ixy*p0_14) + (a_Iyy*p0_15) + (a_Iyz*p0_16))) + (p0_16*((a_Ixz*p0_14) + (a_Iyz*p0_15) + (a_Izz*p0_16))));
+    const S a_Iw6_01 = ((p0_11*p0_34) + (p0_13*p0_35) + (p0_36*p0_9));
+    const S a_Iw6_02 = ((p0_14*p0_36) + (p0_15*p0_34) + (p0_16*p0_35));
+    const S a_Iw6_12 = ((p0_14*p0_38) + (p0_15*p0_39) + (p0_16*p0_37));
+    const S b_Iw7_00 = ((p0_19*p0_42) + (p0_22*p0_40) + (p0_25*p0_41));
+    const S b_Iw7_11 = ((p0_26*p0_44) + (p0_28*p0_45) + (p0_30*p0_43));
+    const S b_Iw7_22 = ((p0_31*((b_Ixx*p0_31) + (b_Ixy*p0_32) + (b_Ixz*p0_33))) + (p0_32*((b_Ixy*p0_31) + (b_Iyy*p0_32) + (b_Iyz*p0_33))) + (p0_33*((b_Ixz*p0_31) + (b_Iyz*p0_32) + (b_Izz*p0_33))));
+    const S b_Iw7_01 = ((p0_26*p0_42) + (p0_28*p0_40) + (p0_30*p0_41));
+    const S b_Iw7_02 = ((p0_31*p0_42) + (p0_32*p0_40) + (p0_33*p0_41));
+    const S b_Iw7_12 = ((p0_31*p0_44) + (p0_32*p0_45) + (p0_33*p0_43));
     // let omega (cone_twist.yaml:26)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (cone_twist.yaml:27)
@@ -2115,135 +2215,154 @@ struct Cone_Twist_Pair_Kernel {
     // let m (cone_twist.yaml:28)
     const S L_m = held_in ? held_in[0] : S(max(a_m, b_m));
     if (held_out) held_out[0] = L_m;
-    // let im (cone_twist.yaml:29)
-    const S L_im = held_in ? held_in[1] : S(max(((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)), ((S(0.5)*b_Ixx) + (S(0.5)*b_Iyy) + (S(0.5)*b_Izz))));
-    if (held_out) held_out[1] = L_im;
-    // let pa (cone_twist.yaml:30)
+    // let pa (cone_twist.yaml:29)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (cone_twist.yaml:31)
+    // let pb (cone_twist.yaml:30)
     const S L_pb__0 = (b_px + b_r1_0);
     const S L_pb__1 = (b_py + b_r1_1);
     const S L_pb__2 = (b_pz + b_r1_2);
-    // let f (cone_twist.yaml:32)
-    const S l6_0_0 = (L_m*(L_omega*L_omega));
-    const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
-    const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)));
-    const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)));
-    const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)));
-    // let na (cone_twist.yaml:33)
+    // let f (cone_twist.yaml:31)
+    const S l5_0_0 = (L_m*(L_omega*L_omega));
+    const S l5_0_1 = (S(2)*L_m*L_omega*L_zeta);
+    const S L_f__0 = ((l5_0_0*((-L_pa__0) + L_pb__0)) + (l5_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx - (b_r1_1*b_wz) + (b_r1_2*b_wy) + b_vx)));
+    const S L_f__1 = ((l5_0_0*((-L_pa__1) + L_pb__1)) + (l5_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy + (b_r1_0*b_wz) - (b_r1_2*b_wx) + b_vy)));
+    const S L_f__2 = ((l5_0_0*((-L_pa__2) + L_pb__2)) + (l5_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz - (b_r1_0*b_wy) + (b_r1_1*b_wx) + b_vz)));
+    // let na (cone_twist.yaml:32)
     const S L_na__0 = a_r2_0;
     const S L_na__1 = a_r2_1;
     const S L_na__2 = a_r2_2;
-    // let nb (cone_twist.yaml:34)
+    // let nb (cone_twist.yaml:33)
     const S L_nb__0 = b_r3_0;
     const S L_nb__1 = b_r3_1;
     const S L_nb__2 = b_r3_2;
-    // let ua (cone_twist.yaml:35)
+    // let ua (cone_twist.yaml:34)
     const S L_ua__0 = a_r4_0;
     const S L_ua__1 = a_r4_1;
     const S L_ua__2 = a_r4_2;
-    // let ub (cone_twist.yaml:36)
+    // let ub (cone_twist.yaml:35)
     const S L_ub__0 = b_r5_0;
     const S L_ub__1 = b_r5_1;
     const S L_ub__2 = b_r5_2;
-    // let wrel (cone_twist.yaml:37)
+    // let wrel (cone_twist.yaml:36)
     const S L_wrel__0 = ((-a_wx) + b_wx);
     const S L_wrel__1 = ((-a_wy) + b_wy);
     const S L_wrel__2 = ((-a_wz) + b_wz);
-    // let kr (cone_twist.yaml:38)
-    const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (cone_twist.yaml:39)
-    const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let cs (cone_twist.yaml:42)
+    // let cs (cone_twist.yaml:39)
     const S L_cs = ((L_na__0*L_nb__0) + (L_na__1*L_nb__1) + (L_na__2*L_nb__2));
-    // let k (cone_twist.yaml:43)
+    // let k (cone_twist.yaml:40)
     const S L_k__0 = ((-(L_na__1*L_nb__2)) + (L_na__2*L_nb__1));
     const S L_k__1 = ((L_na__0*L_nb__2) - (L_na__2*L_nb__0));
     const S L_k__2 = ((-(L_na__0*L_nb__1)) + (L_na__1*L_nb__0));
-    // let sn (cone_twist.yaml:44)
+    // let sn (cone_twist.yaml:41)
     const S L_sn = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
-    // let swing (cone_twist.yaml:45)
+    // let swing (cone_twist.yaml:42)
     const S L_swing = angle_of(L_sn, L_cs);
-    // let e (cone_twist.yaml:46)
-    const S l18_0_0 = (S(1)/(L_sn));
-    const S L_e__0 = (-(L_k__0*l18_0_0));
-    const S L_e__1 = (-(L_k__1*l18_0_0));
-    const S L_e__2 = (-(L_k__2*l18_0_0));
-    // let swing_rate (cone_twist.yaml:47)
+    // let e (cone_twist.yaml:43)
+    const S l15_0_0 = (S(1)/(L_sn));
+    const S L_e__0 = (-(L_k__0*l15_0_0));
+    const S L_e__1 = (-(L_k__1*l15_0_0));
+    const S L_e__2 = (-(L_k__2*l15_0_0));
+    // let swing_rate (cone_twist.yaml:44)
     const S L_swing_rate = ((L_e__0*L_wrel__0) + (L_e__1*L_wrel__1) + (L_e__2*L_wrel__2));
-    // let over_cone (cone_twist.yaml:48)
+    // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let stop_cone (cone_twist.yaml:49)
-    const S l21_0_0 = ((L_cr*L_swing_rate) + (L_kr*L_over_cone));
-    const S L_stop_cone = select((p_cone_angle > S(0)), select((L_over_cone > S(0)), select((l21_0_0 > S(0)), l21_0_0, S(0)), select(((L_over_cone + (L_swing_rate*h)) > S(0)), l21_0_0, S(0))), S(0));
-    // let ubs (cone_twist.yaml:52)
-    const S l22_0_0 = (((L_k__0*L_ub__0) + (L_k__1*L_ub__1) + (L_k__2*L_ub__2))/(max(S(1e-06), (L_cs + S(1)))));
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_0) + (L_k__1*L_ub__2) - (L_k__2*L_ub__1));
-    const S L_ubs__1 = ((L_cs*L_ub__1) - (L_k__0*L_ub__2) + (L_k__1*l22_0_0) + (L_k__2*L_ub__0));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__0*L_ub__1) - (L_k__1*L_ub__0) + (L_k__2*l22_0_0));
-    // let twist (cone_twist.yaml:53)
+    // let swa (cone_twist.yaml:53)
+    const S L_swa = held_in ? held_in[1] : S(((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22)))));
+    if (held_out) held_out[1] = L_swa;
+    // let swb (cone_twist.yaml:54)
+    const S L_swb = held_in ? held_in[2] : S(((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22)))));
+    if (held_out) held_out[2] = L_swb;
+    // let isw (cone_twist.yaml:55)
+    const S L_isw = held_in ? held_in[3] : S(select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa));
+    if (held_out) held_out[3] = L_isw;
+    // let ksw (cone_twist.yaml:56)
+    const S L_ksw = (L_isw*(L_omega*L_omega));
+    // let csw (cone_twist.yaml:57)
+    const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
+    // let stop_cone (cone_twist.yaml:58)
+    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const S L_stop_cone = select((p_cone_angle > S(0)), select((L_over_cone > S(0)), select((l23_0_0 > S(0)), l23_0_0, S(0)), select(((L_over_cone + (L_swing_rate*h)) > S(0)), l23_0_0, S(0))), S(0));
+    // let ubs (cone_twist.yaml:61)
+    const S l24_0_0 = (((L_k__0*L_ub__0) + (L_k__1*L_ub__1) + (L_k__2*L_ub__2))/(max(S(1e-06), (L_cs + S(1)))));
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_0) + (L_k__1*L_ub__2) - (L_k__2*L_ub__1));
+    const S L_ubs__1 = ((L_cs*L_ub__1) - (L_k__0*L_ub__2) + (L_k__1*l24_0_0) + (L_k__2*L_ub__0));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__0*L_ub__1) - (L_k__1*L_ub__0) + (L_k__2*l24_0_0));
+    // let twist (cone_twist.yaml:62)
     const S L_twist = angle_of(((L_na__0*((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1))) + (L_na__1*((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0))) + (L_na__2*((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0)))), ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2)));
-    // let twist_rate (cone_twist.yaml:54)
+    // let twist_rate (cone_twist.yaml:63)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
-    // let limited (cone_twist.yaml:55)
+    // let limited (cone_twist.yaml:64)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:56)
+    // let over_hi (cone_twist.yaml:65)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:57)
+    // let over_lo (cone_twist.yaml:66)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
-    // let stop_hi (cone_twist.yaml:58)
-    const S l28_0_0 = ((L_cr*L_twist_rate) + (L_kr*L_over_hi));
-    const S L_stop_hi = select((L_over_hi > S(0)), select((l28_0_0 > S(0)), l28_0_0, S(0)), select(((L_over_hi + (L_twist_rate*h)) > S(0)), l28_0_0, S(0)));
-    // let stop_lo (cone_twist.yaml:59)
-    const S l29_0_0 = ((L_cr*L_twist_rate) - (L_kr*L_over_lo));
-    const S l29_0_1 = (-l29_0_0);
-    const S L_stop_lo = select((L_over_lo > S(0)), select((l29_0_0 < S(0)), l29_0_1, S(0)), select(((L_over_lo - (L_twist_rate*h)) > S(0)), l29_0_1, S(0)));
-    // let spring (cone_twist.yaml:60)
+    // let twa (cone_twist.yaml:67)
+    const S L_twa = held_in ? held_in[4] : S(((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22)))));
+    if (held_out) held_out[4] = L_twa;
+    // let twb (cone_twist.yaml:68)
+    const S L_twb = held_in ? held_in[5] : S(((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22)))));
+    if (held_out) held_out[5] = L_twb;
+    // let itw (cone_twist.yaml:69)
+    const S L_itw = held_in ? held_in[6] : S(select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa));
+    if (held_out) held_out[6] = L_itw;
+    // let ktw (cone_twist.yaml:70)
+    const S L_ktw = (L_itw*(L_omega*L_omega));
+    // let ctw (cone_twist.yaml:71)
+    const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
+    // let stop_hi (cone_twist.yaml:72)
+    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const S L_stop_hi = select((L_over_hi > S(0)), select((l35_0_0 > S(0)), l35_0_0, S(0)), select(((L_over_hi + (L_twist_rate*h)) > S(0)), l35_0_0, S(0)));
+    // let stop_lo (cone_twist.yaml:73)
+    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l36_0_1 = (-l36_0_0);
+    const S L_stop_lo = select((L_over_lo > S(0)), select((l36_0_0 < S(0)), l36_0_1, S(0)), select(((L_over_lo - (L_twist_rate*h)) > S(0)), l36_0_1, S(0)));
+    // let spring (cone_twist.yaml:74)
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    // let tau (cone_twist.yaml:61)
-    const S l31_0_0 = (L_limited*((-L_stop_hi) + L_stop_lo));
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + (L_na__0*l31_0_0) + L_spring__0);
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l31_0_0) + L_spring__1);
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l31_0_0) + L_spring__2);
-    // apply[0] (cone_twist.yaml:63)
-    const S T0_arm__0 = held_in ? held_in[2] : S((L_pa__0 - a_px));
-    if (held_out) held_out[2] = T0_arm__0;
-    const S T0_arm__1 = held_in ? held_in[3] : S((L_pa__1 - a_py));
-    if (held_out) held_out[3] = T0_arm__1;
-    const S T0_arm__2 = held_in ? held_in[4] : S((L_pa__2 - a_pz));
-    if (held_out) held_out[4] = T0_arm__2;
-    const S l33_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    const S T1_turn = held_in ? held_in[5] : S((S(1) - (S(1)/((((h*h*h*h)*l33_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l33_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l33_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[5] = T1_turn;
-    // apply[1] (cone_twist.yaml:64)
-    const S T2_arm__0 = held_in ? held_in[6] : S((L_pb__0 - b_px));
-    if (held_out) held_out[6] = T2_arm__0;
-    const S T2_arm__1 = held_in ? held_in[7] : S((L_pb__1 - b_py));
-    if (held_out) held_out[7] = T2_arm__1;
-    const S T2_arm__2 = held_in ? held_in[8] : S((L_pb__2 - b_pz));
-    if (held_out) held_out[8] = T2_arm__2;
-    const S l35_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    const S T3_turn = held_in ? held_in[9] : S((S(1) - (S(1)/((((h*h*h*h)*l35_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l35_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l35_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[9] = T3_turn;
-    // apply (cone_twist.yaml:62), shared subexpressions
+    // let tau (cone_twist.yaml:75)
+    const S l38_0_0 = (L_limited*((-L_stop_hi) + L_stop_lo));
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + (L_na__0*l38_0_0) + L_spring__0);
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_0) + L_spring__1);
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_0) + L_spring__2);
+    // apply[0] (cone_twist.yaml:77)
+    const S T0_arm__0 = held_in ? held_in[7] : S((L_pa__0 - a_px));
+    if (held_out) held_out[7] = T0_arm__0;
+    const S T0_arm__1 = held_in ? held_in[8] : S((L_pa__1 - a_py));
+    if (held_out) held_out[8] = T0_arm__1;
+    const S T0_arm__2 = held_in ? held_in[9] : S((L_pa__2 - a_pz));
+    if (held_out) held_out[9] = T0_arm__2;
+    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    const S T1_turn = held_in ? held_in[10] : S((S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[10] = T1_turn;
+    // apply[1] (cone_twist.yaml:78)
+    const S T2_arm__0 = held_in ? held_in[11] : S((L_pb__0 - b_px));
+    if (held_out) held_out[11] = T2_arm__0;
+    const S T2_arm__1 = held_in ? held_in[12] : S((L_pb__1 - b_py));
+    if (held_out) held_out[12] = T2_arm__1;
+    const S T2_arm__2 = held_in ? held_in[13] : S((L_pb__2 - b_pz));
+    if (held_out) held_out[13] = T2_arm__2;
+    const S l42_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    const S T3_turn = held_in ? held_in[14] : S((S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[14] = T3_turn;
+    // apply (cone_twist.yaml:76), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
     const S o3 = (T2_arm__2 + (T3_turn*(L_pb__2 - T2_arm__2 - b_pz)));
     const S o4 = (T2_arm__1 + (T3_turn*(L_pb__1 - T2_arm__1 - b_py)));
     const S o5 = (T2_arm__0 + (T3_turn*(L_pb__0 - T2_arm__0 - b_px)));
-    // F_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // F_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (cone_twist.yaml:64), apply[3] (cone_twist.yaml:66)
+    // F_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -2255,7 +2374,7 @@ struct Cone_Twist_Pair_Kernel {
 
 /// cone_twist (world): F for 1 body and 2 Jacobian block(s).
 /// out = [F_a (6), dF_a/ddelta_a (36), dF_a/du_a (36)]
-/// Total ops: 1144
+/// Total ops: 1274
 struct Cone_Twist_World_Kernel {
   using Instance = Cone_Twist_Force;
   static constexpr ForceType kType = ForceType::cone_twist;
@@ -2264,7 +2383,7 @@ struct Cone_Twist_World_Kernel {
   static constexpr int kInputs = 47;
   static constexpr int kNumBlocks = 2;
   static constexpr int kOutputs = 78;
-  static constexpr int kOps = 1144;
+  static constexpr int kOps = 1274;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_du, 0, 0},
@@ -2378,7 +2497,7 @@ struct Cone_Twist_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[44];
     [[maybe_unused]] const S g_joint_hertz = in[45];
     [[maybe_unused]] const S g_joint_damping_ratio = in[46];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:30), let na (cone_twist.yaml:33), let ua (cone_twist.yaml:35)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let swa (cone_twist.yaml:53)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2396,6 +2515,12 @@ struct Cone_Twist_World_Kernel {
     const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
     const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
+    const S p0_17 = ((a_Ixy*p0_2) + (a_Iyy*p0_5) + (a_Iyz*p0_8));
+    const S p0_18 = ((a_Ixz*p0_2) + (a_Iyz*p0_5) + (a_Izz*p0_8));
+    const S p0_19 = ((a_Ixx*p0_2) + (a_Ixy*p0_5) + (a_Ixz*p0_8));
+    const S p0_20 = ((a_Ixz*p0_9) + (a_Iyz*p0_11) + (a_Izz*p0_13));
+    const S p0_21 = ((a_Ixx*p0_9) + (a_Ixy*p0_11) + (a_Ixz*p0_13));
+    const S p0_22 = ((a_Ixy*p0_9) + (a_Iyy*p0_11) + (a_Iyz*p0_13));
     const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
     const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
     const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
@@ -2405,96 +2530,96 @@ struct Cone_Twist_World_Kernel {
     const S a_r2_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
     const S a_r2_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
     const S a_r2_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
+    const S a_Iw3_00 = ((p0_17*p0_5) + (p0_18*p0_8) + (p0_19*p0_2));
+    const S a_Iw3_11 = ((p0_11*p0_22) + (p0_13*p0_20) + (p0_21*p0_9));
+    const S a_Iw3_22 = ((p0_14*((a_Ixx*p0_14) + (a_Ixy*p0_15) + (a_Ixz*p0_16))) + (p0_15*((a_Ixy*p0_14) + (a_Iyy*p0_15) + (a_Iyz*p0_16))) + (p0_16*((a_Ixz*p0_14) + (a_Iyz*p0_15) + (a_Izz*p0_16))));
+    const S a_Iw3_01 = ((p0_11*p0_17) + (p0_13*p0_18) + (p0_19*p0_9));
+    const S a_Iw3_02 = ((p0_14*p0_19) + (p0_15*p0_17) + (p0_16*p0_18));
+    const S a_Iw3_12 = ((p0_14*p0_21) + (p0_15*p0_22) + (p0_16*p0_20));
     // let omega (cone_twist.yaml:26)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (cone_twist.yaml:27)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (cone_twist.yaml:28)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (cone_twist.yaml:29)
-    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let pa (cone_twist.yaml:30)
+    // let pa (cone_twist.yaml:29)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (cone_twist.yaml:31)
+    // let pb (cone_twist.yaml:30)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (cone_twist.yaml:32)
-    const S l6_0_0 = (L_m*(L_omega*L_omega));
-    const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
-    const S l6_0_2 = (-l6_0_0);
-    const S l6_0_3 = (a_r0_1*a_wy);
-    const S l6_0_4 = (a_r0_2*a_wz);
-    const S l6_0_5 = (-l6_0_1);
-    const S l6_0_6 = (a_r0_2*l6_0_1);
-    const S l6_0_7 = (a_r0_1*l6_0_1);
-    const S l6_0_8 = (a_r0_0*a_wx);
-    const S l6_0_9 = (a_r0_0*l6_0_1);
-    const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)));
-    const S d_L_f__0__a_dx = l6_0_2;
-    const S d_L_f__0__a_dtx = (l6_0_1*((-l6_0_3) - l6_0_4));
-    const S d_L_f__0__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wy) - (a_r0_2*l6_0_0));
-    const S d_L_f__0__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wz) - (d_L_pa__0__a_dtz*l6_0_0));
-    const S d_L_f__0__a_vx = l6_0_5;
-    const S d_L_f__0__a_wy = (-l6_0_6);
-    const S d_L_f__0__a_wz = l6_0_7;
-    const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)));
-    const S d_L_f__1__a_dy = l6_0_2;
-    const S d_L_f__1__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wx) - (d_L_pa__1__a_dtx*l6_0_0));
-    const S d_L_f__1__a_dty = (l6_0_1*((-l6_0_4) - l6_0_8));
-    const S d_L_f__1__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wz) - (a_r0_0*l6_0_0));
-    const S d_L_f__1__a_vy = l6_0_5;
-    const S d_L_f__1__a_wx = l6_0_6;
-    const S d_L_f__1__a_wz = (-l6_0_9);
-    const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
-    const S d_L_f__2__a_dz = l6_0_2;
-    const S d_L_f__2__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wx) - (a_r0_1*l6_0_0));
-    const S d_L_f__2__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wy) - (d_L_pa__2__a_dty*l6_0_0));
-    const S d_L_f__2__a_dtz = (l6_0_1*((-l6_0_3) - l6_0_8));
-    const S d_L_f__2__a_vz = l6_0_5;
-    const S d_L_f__2__a_wx = (-l6_0_7);
-    const S d_L_f__2__a_wy = l6_0_9;
-    // let na (cone_twist.yaml:33)
+    // let f (cone_twist.yaml:31)
+    const S l5_0_0 = (L_m*(L_omega*L_omega));
+    const S l5_0_1 = (S(2)*L_m*L_omega*L_zeta);
+    const S l5_0_2 = (-l5_0_0);
+    const S l5_0_3 = (a_r0_1*a_wy);
+    const S l5_0_4 = (a_r0_2*a_wz);
+    const S l5_0_5 = (-l5_0_1);
+    const S l5_0_6 = (a_r0_2*l5_0_1);
+    const S l5_0_7 = (a_r0_1*l5_0_1);
+    const S l5_0_8 = (a_r0_0*a_wx);
+    const S l5_0_9 = (a_r0_0*l5_0_1);
+    const S L_f__0 = ((l5_0_0*((-L_pa__0) + L_pb__0)) + (l5_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)));
+    const S d_L_f__0__a_dx = l5_0_2;
+    const S d_L_f__0__a_dtx = (l5_0_1*((-l5_0_3) - l5_0_4));
+    const S d_L_f__0__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wy) - (a_r0_2*l5_0_0));
+    const S d_L_f__0__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wz) - (d_L_pa__0__a_dtz*l5_0_0));
+    const S d_L_f__0__a_vx = l5_0_5;
+    const S d_L_f__0__a_wy = (-l5_0_6);
+    const S d_L_f__0__a_wz = l5_0_7;
+    const S L_f__1 = ((l5_0_0*((-L_pa__1) + L_pb__1)) + (l5_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)));
+    const S d_L_f__1__a_dy = l5_0_2;
+    const S d_L_f__1__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wx) - (d_L_pa__1__a_dtx*l5_0_0));
+    const S d_L_f__1__a_dty = (l5_0_1*((-l5_0_4) - l5_0_8));
+    const S d_L_f__1__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wz) - (a_r0_0*l5_0_0));
+    const S d_L_f__1__a_vy = l5_0_5;
+    const S d_L_f__1__a_wx = l5_0_6;
+    const S d_L_f__1__a_wz = (-l5_0_9);
+    const S L_f__2 = ((l5_0_0*((-L_pa__2) + L_pb__2)) + (l5_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
+    const S d_L_f__2__a_dz = l5_0_2;
+    const S d_L_f__2__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wx) - (a_r0_1*l5_0_0));
+    const S d_L_f__2__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wy) - (d_L_pa__2__a_dty*l5_0_0));
+    const S d_L_f__2__a_dtz = (l5_0_1*((-l5_0_3) - l5_0_8));
+    const S d_L_f__2__a_vz = l5_0_5;
+    const S d_L_f__2__a_wx = (-l5_0_7);
+    const S d_L_f__2__a_wy = l5_0_9;
+    // let na (cone_twist.yaml:32)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (cone_twist.yaml:34)
+    // let nb (cone_twist.yaml:33)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (cone_twist.yaml:35)
+    // let ua (cone_twist.yaml:34)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (cone_twist.yaml:36)
+    // let ub (cone_twist.yaml:35)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let wrel (cone_twist.yaml:37)
+    // let wrel (cone_twist.yaml:36)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let kr (cone_twist.yaml:38)
-    const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (cone_twist.yaml:39)
-    const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let cs (cone_twist.yaml:42)
+    // let cs (cone_twist.yaml:39)
     const S L_cs = ((L_na__0*L_nb__0) + (L_na__1*L_nb__1) + (L_na__2*L_nb__2));
     const S d_L_cs__a_dtx = ((L_nb__1*d_L_na__1__a_dtx) + (L_nb__2*a_r1_1));
     const S d_L_cs__a_dty = ((L_nb__0*a_r1_2) + (L_nb__2*d_L_na__2__a_dty));
     const S d_L_cs__a_dtz = ((L_nb__0*d_L_na__0__a_dtz) + (L_nb__1*a_r1_0));
-    // let k (cone_twist.yaml:43)
+    // let k (cone_twist.yaml:40)
     const S L_k__0 = ((-(L_na__1*L_nb__2)) + (L_na__2*L_nb__1));
     const S d_L_k__0__a_dtx = ((L_nb__1*a_r1_1) - (L_nb__2*d_L_na__1__a_dtx));
     const S d_L_k__0__a_dty = (L_nb__1*d_L_na__2__a_dty);
@@ -2507,43 +2632,43 @@ struct Cone_Twist_World_Kernel {
     const S d_L_k__2__a_dtx = (L_nb__0*d_L_na__1__a_dtx);
     const S d_L_k__2__a_dty = (-(L_nb__1*a_r1_2));
     const S d_L_k__2__a_dtz = ((L_nb__0*a_r1_0) - (L_nb__1*d_L_na__0__a_dtz));
-    // let sn (cone_twist.yaml:44)
-    const S l16_0_0 = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
-    const S l16_0_1 = (S(1)/(l16_0_0));
-    const S l16_0_2 = (L_k__0*l16_0_1);
-    const S l16_0_3 = (L_k__1*l16_0_1);
-    const S l16_0_4 = (L_k__2*l16_0_1);
-    const S L_sn = l16_0_0;
-    const S d_L_sn__a_dtx = ((d_L_k__0__a_dtx*l16_0_2) + (d_L_k__1__a_dtx*l16_0_3) + (d_L_k__2__a_dtx*l16_0_4));
-    const S d_L_sn__a_dty = ((d_L_k__0__a_dty*l16_0_2) + (d_L_k__1__a_dty*l16_0_3) + (d_L_k__2__a_dty*l16_0_4));
-    const S d_L_sn__a_dtz = ((d_L_k__0__a_dtz*l16_0_2) + (d_L_k__1__a_dtz*l16_0_3) + (d_L_k__2__a_dtz*l16_0_4));
-    // let swing (cone_twist.yaml:45)
-    const S l17_0_0 = (S(1)/(((L_cs*L_cs) + (L_sn*L_sn))));
-    const S l17_0_1 = (L_cs*l17_0_0);
-    const S l17_0_2 = (L_sn*l17_0_0);
+    // let sn (cone_twist.yaml:41)
+    const S l13_0_0 = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
+    const S l13_0_1 = (S(1)/(l13_0_0));
+    const S l13_0_2 = (L_k__0*l13_0_1);
+    const S l13_0_3 = (L_k__1*l13_0_1);
+    const S l13_0_4 = (L_k__2*l13_0_1);
+    const S L_sn = l13_0_0;
+    const S d_L_sn__a_dtx = ((d_L_k__0__a_dtx*l13_0_2) + (d_L_k__1__a_dtx*l13_0_3) + (d_L_k__2__a_dtx*l13_0_4));
+    const S d_L_sn__a_dty = ((d_L_k__0__a_dty*l13_0_2) + (d_L_k__1__a_dty*l13_0_3) + (d_L_k__2__a_dty*l13_0_4));
+    const S d_L_sn__a_dtz = ((d_L_k__0__a_dtz*l13_0_2) + (d_L_k__1__a_dtz*l13_0_3) + (d_L_k__2__a_dtz*l13_0_4));
+    // let swing (cone_twist.yaml:42)
+    const S l14_0_0 = (S(1)/(((L_cs*L_cs) + (L_sn*L_sn))));
+    const S l14_0_1 = (L_cs*l14_0_0);
+    const S l14_0_2 = (L_sn*l14_0_0);
     const S L_swing = angle_of(L_sn, L_cs);
-    const S d_L_swing__a_dtx = ((-(d_L_cs__a_dtx*l17_0_2)) + (d_L_sn__a_dtx*l17_0_1));
-    const S d_L_swing__a_dty = ((-(d_L_cs__a_dty*l17_0_2)) + (d_L_sn__a_dty*l17_0_1));
-    const S d_L_swing__a_dtz = ((-(d_L_cs__a_dtz*l17_0_2)) + (d_L_sn__a_dtz*l17_0_1));
-    // let e (cone_twist.yaml:46)
-    const S l18_0_0 = (S(1)/(L_sn));
-    const S l18_0_1 = (S(1)/(L_sn*L_sn));
-    const S l18_0_2 = (L_k__0*l18_0_1);
-    const S l18_0_3 = (L_k__1*l18_0_1);
-    const S l18_0_4 = (L_k__2*l18_0_1);
-    const S L_e__0 = (-(L_k__0*l18_0_0));
-    const S d_L_e__0__a_dtx = ((-(d_L_k__0__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_2));
-    const S d_L_e__0__a_dty = ((-(d_L_k__0__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_2));
-    const S d_L_e__0__a_dtz = ((-(d_L_k__0__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_2));
-    const S L_e__1 = (-(L_k__1*l18_0_0));
-    const S d_L_e__1__a_dtx = ((-(d_L_k__1__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_3));
-    const S d_L_e__1__a_dty = ((-(d_L_k__1__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_3));
-    const S d_L_e__1__a_dtz = ((-(d_L_k__1__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_3));
-    const S L_e__2 = (-(L_k__2*l18_0_0));
-    const S d_L_e__2__a_dtx = ((-(d_L_k__2__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_4));
-    const S d_L_e__2__a_dty = ((-(d_L_k__2__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_4));
-    const S d_L_e__2__a_dtz = ((-(d_L_k__2__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_4));
-    // let swing_rate (cone_twist.yaml:47)
+    const S d_L_swing__a_dtx = ((-(d_L_cs__a_dtx*l14_0_2)) + (d_L_sn__a_dtx*l14_0_1));
+    const S d_L_swing__a_dty = ((-(d_L_cs__a_dty*l14_0_2)) + (d_L_sn__a_dty*l14_0_1));
+    const S d_L_swing__a_dtz = ((-(d_L_cs__a_dtz*l14_0_2)) + (d_L_sn__a_dtz*l14_0_1));
+    // let e (cone_twist.yaml:43)
+    const S l15_0_0 = (S(1)/(L_sn));
+    const S l15_0_1 = (S(1)/(L_sn*L_sn));
+    const S l15_0_2 = (L_k__0*l15_0_1);
+    const S l15_0_3 = (L_k__1*l15_0_1);
+    const S l15_0_4 = (L_k__2*l15_0_1);
+    const S L_e__0 = (-(L_k__0*l15_0_0));
+    const S d_L_e__0__a_dtx = ((-(d_L_k__0__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_2));
+    const S d_L_e__0__a_dty = ((-(d_L_k__0__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_2));
+    const S d_L_e__0__a_dtz = ((-(d_L_k__0__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_2));
+    const S L_e__1 = (-(L_k__1*l15_0_0));
+    const S d_L_e__1__a_dtx = ((-(d_L_k__1__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_3));
+    const S d_L_e__1__a_dty = ((-(d_L_k__1__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_3));
+    const S d_L_e__1__a_dtz = ((-(d_L_k__1__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_3));
+    const S L_e__2 = (-(L_k__2*l15_0_0));
+    const S d_L_e__2__a_dtx = ((-(d_L_k__2__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_4));
+    const S d_L_e__2__a_dty = ((-(d_L_k__2__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_4));
+    const S d_L_e__2__a_dtz = ((-(d_L_k__2__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_4));
+    // let swing_rate (cone_twist.yaml:44)
     const S L_swing_rate = ((L_e__0*L_wrel__0) + (L_e__1*L_wrel__1) + (L_e__2*L_wrel__2));
     const S d_L_swing_rate__a_dtx = ((L_wrel__0*d_L_e__0__a_dtx) + (L_wrel__1*d_L_e__1__a_dtx) + (L_wrel__2*d_L_e__2__a_dtx));
     const S d_L_swing_rate__a_dty = ((L_wrel__0*d_L_e__0__a_dty) + (L_wrel__1*d_L_e__1__a_dty) + (L_wrel__2*d_L_e__2__a_dty));
@@ -2551,88 +2676,98 @@ struct Cone_Twist_World_Kernel {
     const S d_L_swing_rate__a_wx = (-L_e__0);
     const S d_L_swing_rate__a_wy = (-L_e__1);
     const S d_L_swing_rate__a_wz = (-L_e__2);
-    // let over_cone (cone_twist.yaml:48)
+    // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let stop_cone (cone_twist.yaml:49)
-    const S l21_0_0 = ((L_cr*L_swing_rate) + (L_kr*L_over_cone));
-    const auto l21_0_1 = (l21_0_0 > S(0));
-    const auto l21_0_2 = (L_over_cone > S(0));
-    const auto l21_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
-    const auto l21_0_4 = (p_cone_angle > S(0));
-    const S l21_0_5 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_kr, S(0)), select(l21_0_3, L_kr, S(0))), S(0));
-    const S l21_0_6 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_cr, S(0)), select(l21_0_3, L_cr, S(0))), S(0));
-    const S L_stop_cone = select(l21_0_4, select(l21_0_2, select(l21_0_1, l21_0_0, S(0)), select(l21_0_3, l21_0_0, S(0))), S(0));
-    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l21_0_5) + (d_L_swing_rate__a_dtx*l21_0_6));
-    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l21_0_5) + (d_L_swing_rate__a_dty*l21_0_6));
-    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l21_0_5) + (d_L_swing_rate__a_dtz*l21_0_6));
-    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l21_0_6);
-    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l21_0_6);
-    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l21_0_6);
-    // let ubs (cone_twist.yaml:52)
-    const S l22_0_0 = (L_k__1*L_ub__2);
-    const S l22_0_1 = (L_k__2*L_ub__1);
-    const S l22_0_2 = max(S(1e-06), (L_cs + S(1)));
-    const S l22_0_3 = (S(1)/(l22_0_2));
-    const S l22_0_4 = (L_k__0*L_ub__0);
-    const S l22_0_5 = (L_k__1*L_ub__1);
-    const S l22_0_6 = (L_k__2*L_ub__2);
-    const S l22_0_7 = (l22_0_4 + l22_0_5 + l22_0_6);
-    const S l22_0_8 = (l22_0_3*l22_0_7);
-    const S l22_0_9 = (-L_ub__0);
-    const S l22_0_10 = (l22_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l22_0_2*l22_0_2)));
-    const S l22_0_11 = ((-(L_k__0*l22_0_10)) - l22_0_9);
-    const S l22_0_12 = ((l22_0_3*l22_0_4) + l22_0_8);
-    const S l22_0_13 = (L_k__0*L_ub__1);
-    const S l22_0_14 = (L_ub__2 + (l22_0_13*l22_0_3));
-    const S l22_0_15 = (-L_ub__1);
-    const S l22_0_16 = (L_k__0*L_ub__2);
-    const S l22_0_17 = (l22_0_15 + (l22_0_16*l22_0_3));
-    const S l22_0_18 = (L_k__2*L_ub__0);
-    const S l22_0_19 = ((-(L_k__1*l22_0_10)) - l22_0_15);
-    const S l22_0_20 = (-L_ub__2);
-    const S l22_0_21 = (L_k__1*L_ub__0);
-    const S l22_0_22 = (l22_0_20 + (l22_0_21*l22_0_3));
-    const S l22_0_23 = ((l22_0_3*l22_0_5) + l22_0_8);
-    const S l22_0_24 = (L_ub__0 + (l22_0_0*l22_0_3));
-    const S l22_0_25 = ((-(L_k__2*l22_0_10)) - l22_0_20);
-    const S l22_0_26 = (L_ub__1 + (l22_0_18*l22_0_3));
-    const S l22_0_27 = ((l22_0_1*l22_0_3) + l22_0_9);
-    const S l22_0_28 = ((l22_0_3*l22_0_6) + l22_0_8);
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_8) + l22_0_0 - l22_0_1);
-    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l22_0_11) + (d_L_k__0__a_dtx*l22_0_12) + (d_L_k__1__a_dtx*l22_0_14) + (d_L_k__2__a_dtx*l22_0_17));
-    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l22_0_11) + (d_L_k__0__a_dty*l22_0_12) + (d_L_k__1__a_dty*l22_0_14) + (d_L_k__2__a_dty*l22_0_17));
-    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l22_0_11) + (d_L_k__0__a_dtz*l22_0_12) + (d_L_k__1__a_dtz*l22_0_14) + (d_L_k__2__a_dtz*l22_0_17));
-    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l22_0_8) - l22_0_16 + l22_0_18);
-    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l22_0_19) + (d_L_k__0__a_dtx*l22_0_22) + (d_L_k__1__a_dtx*l22_0_23) + (d_L_k__2__a_dtx*l22_0_24));
-    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l22_0_19) + (d_L_k__0__a_dty*l22_0_22) + (d_L_k__1__a_dty*l22_0_23) + (d_L_k__2__a_dty*l22_0_24));
-    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l22_0_19) + (d_L_k__0__a_dtz*l22_0_22) + (d_L_k__1__a_dtz*l22_0_23) + (d_L_k__2__a_dtz*l22_0_24));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l22_0_8) + l22_0_13 - l22_0_21);
-    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l22_0_25) + (d_L_k__0__a_dtx*l22_0_26) + (d_L_k__1__a_dtx*l22_0_27) + (d_L_k__2__a_dtx*l22_0_28));
-    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l22_0_25) + (d_L_k__0__a_dty*l22_0_26) + (d_L_k__1__a_dty*l22_0_27) + (d_L_k__2__a_dty*l22_0_28));
-    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l22_0_25) + (d_L_k__0__a_dtz*l22_0_26) + (d_L_k__1__a_dtz*l22_0_27) + (d_L_k__2__a_dtz*l22_0_28));
-    // let twist (cone_twist.yaml:53)
-    const S l23_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
-    const S l23_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
-    const S l23_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
-    const S l23_0_3 = ((L_na__0*l23_0_0) + (L_na__1*l23_0_1) + (L_na__2*l23_0_2));
-    const S l23_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
-    const S l23_0_5 = (S(1)/(((l23_0_3*l23_0_3) + (l23_0_4*l23_0_4))));
-    const S l23_0_6 = (-(l23_0_3*l23_0_5));
-    const S l23_0_7 = (l23_0_4*l23_0_5);
-    const S l23_0_8 = ((L_ubs__2*l23_0_6) + (l23_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
-    const S l23_0_9 = ((L_ubs__1*l23_0_6) + (l23_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
-    const S l23_0_10 = ((L_ua__0*l23_0_6) + (l23_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S l23_0_11 = ((L_ua__1*l23_0_6) + (l23_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l23_0_12 = ((L_ua__2*l23_0_6) + (l23_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l23_0_13 = (l23_0_2*l23_0_7);
-    const S l23_0_14 = (l23_0_1*l23_0_7);
-    const S l23_0_15 = ((L_ubs__0*l23_0_6) + (l23_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
-    const S l23_0_16 = (l23_0_0*l23_0_7);
-    const S L_twist = angle_of(l23_0_3, l23_0_4);
-    const S d_L_twist__a_dtx = ((a_r1_1*l23_0_13) + (a_r2_1*l23_0_8) + (d_L_na__1__a_dtx*l23_0_14) + (d_L_ua__1__a_dtx*l23_0_9) + (d_L_ubs__0__a_dtx*l23_0_10) + (d_L_ubs__1__a_dtx*l23_0_11) + (d_L_ubs__2__a_dtx*l23_0_12));
-    const S d_L_twist__a_dty = ((a_r1_2*l23_0_16) + (a_r2_2*l23_0_15) + (d_L_na__2__a_dty*l23_0_13) + (d_L_ua__2__a_dty*l23_0_8) + (d_L_ubs__0__a_dty*l23_0_10) + (d_L_ubs__1__a_dty*l23_0_11) + (d_L_ubs__2__a_dty*l23_0_12));
-    const S d_L_twist__a_dtz = ((a_r1_0*l23_0_14) + (a_r2_0*l23_0_9) + (d_L_na__0__a_dtz*l23_0_16) + (d_L_ua__0__a_dtz*l23_0_15) + (d_L_ubs__0__a_dtz*l23_0_10) + (d_L_ubs__1__a_dtz*l23_0_11) + (d_L_ubs__2__a_dtz*l23_0_12));
-    // let twist_rate (cone_twist.yaml:54)
+    // let swa (cone_twist.yaml:53)
+    [[maybe_unused]] const S L_swa = ((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22))));
+    // let swb (cone_twist.yaml:54)
+    [[maybe_unused]] const S L_swb = S(0);
+    // let isw (cone_twist.yaml:55)
+    [[maybe_unused]] const S L_isw = select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa);
+    // let ksw (cone_twist.yaml:56)
+    const S L_ksw = (L_isw*(L_omega*L_omega));
+    // let csw (cone_twist.yaml:57)
+    const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
+    // let stop_cone (cone_twist.yaml:58)
+    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const auto l23_0_1 = (l23_0_0 > S(0));
+    const auto l23_0_2 = (L_over_cone > S(0));
+    const auto l23_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
+    const auto l23_0_4 = (p_cone_angle > S(0));
+    const S l23_0_5 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_ksw, S(0)), select(l23_0_3, L_ksw, S(0))), S(0));
+    const S l23_0_6 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_csw, S(0)), select(l23_0_3, L_csw, S(0))), S(0));
+    const S L_stop_cone = select(l23_0_4, select(l23_0_2, select(l23_0_1, l23_0_0, S(0)), select(l23_0_3, l23_0_0, S(0))), S(0));
+    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l23_0_5) + (d_L_swing_rate__a_dtx*l23_0_6));
+    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l23_0_5) + (d_L_swing_rate__a_dty*l23_0_6));
+    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l23_0_5) + (d_L_swing_rate__a_dtz*l23_0_6));
+    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l23_0_6);
+    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l23_0_6);
+    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l23_0_6);
+    // let ubs (cone_twist.yaml:61)
+    const S l24_0_0 = (L_k__1*L_ub__2);
+    const S l24_0_1 = (L_k__2*L_ub__1);
+    const S l24_0_2 = max(S(1e-06), (L_cs + S(1)));
+    const S l24_0_3 = (S(1)/(l24_0_2));
+    const S l24_0_4 = (L_k__0*L_ub__0);
+    const S l24_0_5 = (L_k__1*L_ub__1);
+    const S l24_0_6 = (L_k__2*L_ub__2);
+    const S l24_0_7 = (l24_0_4 + l24_0_5 + l24_0_6);
+    const S l24_0_8 = (l24_0_3*l24_0_7);
+    const S l24_0_9 = (-L_ub__0);
+    const S l24_0_10 = (l24_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l24_0_2*l24_0_2)));
+    const S l24_0_11 = ((-(L_k__0*l24_0_10)) - l24_0_9);
+    const S l24_0_12 = ((l24_0_3*l24_0_4) + l24_0_8);
+    const S l24_0_13 = (L_k__0*L_ub__1);
+    const S l24_0_14 = (L_ub__2 + (l24_0_13*l24_0_3));
+    const S l24_0_15 = (-L_ub__1);
+    const S l24_0_16 = (L_k__0*L_ub__2);
+    const S l24_0_17 = (l24_0_15 + (l24_0_16*l24_0_3));
+    const S l24_0_18 = (L_k__2*L_ub__0);
+    const S l24_0_19 = ((-(L_k__1*l24_0_10)) - l24_0_15);
+    const S l24_0_20 = (-L_ub__2);
+    const S l24_0_21 = (L_k__1*L_ub__0);
+    const S l24_0_22 = (l24_0_20 + (l24_0_21*l24_0_3));
+    const S l24_0_23 = ((l24_0_3*l24_0_5) + l24_0_8);
+    const S l24_0_24 = (L_ub__0 + (l24_0_0*l24_0_3));
+    const S l24_0_25 = ((-(L_k__2*l24_0_10)) - l24_0_20);
+    const S l24_0_26 = (L_ub__1 + (l24_0_18*l24_0_3));
+    const S l24_0_27 = ((l24_0_1*l24_0_3) + l24_0_9);
+    const S l24_0_28 = ((l24_0_3*l24_0_6) + l24_0_8);
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_8) + l24_0_0 - l24_0_1);
+    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l24_0_11) + (d_L_k__0__a_dtx*l24_0_12) + (d_L_k__1__a_dtx*l24_0_14) + (d_L_k__2__a_dtx*l24_0_17));
+    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l24_0_11) + (d_L_k__0__a_dty*l24_0_12) + (d_L_k__1__a_dty*l24_0_14) + (d_L_k__2__a_dty*l24_0_17));
+    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l24_0_11) + (d_L_k__0__a_dtz*l24_0_12) + (d_L_k__1__a_dtz*l24_0_14) + (d_L_k__2__a_dtz*l24_0_17));
+    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l24_0_8) - l24_0_16 + l24_0_18);
+    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l24_0_19) + (d_L_k__0__a_dtx*l24_0_22) + (d_L_k__1__a_dtx*l24_0_23) + (d_L_k__2__a_dtx*l24_0_24));
+    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l24_0_19) + (d_L_k__0__a_dty*l24_0_22) + (d_L_k__1__a_dty*l24_0_23) + (d_L_k__2__a_dty*l24_0_24));
+    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l24_0_19) + (d_L_k__0__a_dtz*l24_0_22) + (d_L_k__1__a_dtz*l24_0_23) + (d_L_k__2__a_dtz*l24_0_24));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l24_0_8) + l24_0_13 - l24_0_21);
+    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l24_0_25) + (d_L_k__0__a_dtx*l24_0_26) + (d_L_k__1__a_dtx*l24_0_27) + (d_L_k__2__a_dtx*l24_0_28));
+    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l24_0_25) + (d_L_k__0__a_dty*l24_0_26) + (d_L_k__1__a_dty*l24_0_27) + (d_L_k__2__a_dty*l24_0_28));
+    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l24_0_25) + (d_L_k__0__a_dtz*l24_0_26) + (d_L_k__1__a_dtz*l24_0_27) + (d_L_k__2__a_dtz*l24_0_28));
+    // let twist (cone_twist.yaml:62)
+    const S l25_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
+    const S l25_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
+    const S l25_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
+    const S l25_0_3 = ((L_na__0*l25_0_0) + (L_na__1*l25_0_1) + (L_na__2*l25_0_2));
+    const S l25_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
+    const S l25_0_5 = (S(1)/(((l25_0_3*l25_0_3) + (l25_0_4*l25_0_4))));
+    const S l25_0_6 = (-(l25_0_3*l25_0_5));
+    const S l25_0_7 = (l25_0_4*l25_0_5);
+    const S l25_0_8 = ((L_ubs__2*l25_0_6) + (l25_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
+    const S l25_0_9 = ((L_ubs__1*l25_0_6) + (l25_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
+    const S l25_0_10 = ((L_ua__0*l25_0_6) + (l25_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S l25_0_11 = ((L_ua__1*l25_0_6) + (l25_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l25_0_12 = ((L_ua__2*l25_0_6) + (l25_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l25_0_13 = (l25_0_2*l25_0_7);
+    const S l25_0_14 = (l25_0_1*l25_0_7);
+    const S l25_0_15 = ((L_ubs__0*l25_0_6) + (l25_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
+    const S l25_0_16 = (l25_0_0*l25_0_7);
+    const S L_twist = angle_of(l25_0_3, l25_0_4);
+    const S d_L_twist__a_dtx = ((a_r1_1*l25_0_13) + (a_r2_1*l25_0_8) + (d_L_na__1__a_dtx*l25_0_14) + (d_L_ua__1__a_dtx*l25_0_9) + (d_L_ubs__0__a_dtx*l25_0_10) + (d_L_ubs__1__a_dtx*l25_0_11) + (d_L_ubs__2__a_dtx*l25_0_12));
+    const S d_L_twist__a_dty = ((a_r1_2*l25_0_16) + (a_r2_2*l25_0_15) + (d_L_na__2__a_dty*l25_0_13) + (d_L_ua__2__a_dty*l25_0_8) + (d_L_ubs__0__a_dty*l25_0_10) + (d_L_ubs__1__a_dty*l25_0_11) + (d_L_ubs__2__a_dty*l25_0_12));
+    const S d_L_twist__a_dtz = ((a_r1_0*l25_0_14) + (a_r2_0*l25_0_9) + (d_L_na__0__a_dtz*l25_0_16) + (d_L_ua__0__a_dtz*l25_0_15) + (d_L_ubs__0__a_dtz*l25_0_10) + (d_L_ubs__1__a_dtz*l25_0_11) + (d_L_ubs__2__a_dtz*l25_0_12));
+    // let twist_rate (cone_twist.yaml:63)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_twist_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r1_1));
     const S d_L_twist_rate__a_dty = ((L_wrel__0*a_r1_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -2640,101 +2775,111 @@ struct Cone_Twist_World_Kernel {
     const S d_L_twist_rate__a_wx = (-L_na__0);
     const S d_L_twist_rate__a_wy = (-L_na__1);
     const S d_L_twist_rate__a_wz = (-L_na__2);
-    // let limited (cone_twist.yaml:55)
+    // let limited (cone_twist.yaml:64)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:56)
+    // let over_hi (cone_twist.yaml:65)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:57)
+    // let over_lo (cone_twist.yaml:66)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
     const S d_L_over_lo__a_dtx = (-d_L_twist__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_twist__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_twist__a_dtz);
-    // let stop_hi (cone_twist.yaml:58)
-    const S l28_0_0 = ((L_cr*L_twist_rate) + (L_kr*L_over_hi));
-    const auto l28_0_1 = (l28_0_0 > S(0));
-    const auto l28_0_2 = (L_over_hi > S(0));
-    const auto l28_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
-    const S l28_0_4 = select(l28_0_2, select(l28_0_1, L_kr, S(0)), select(l28_0_3, L_kr, S(0)));
-    const S l28_0_5 = select(l28_0_2, select(l28_0_1, L_cr, S(0)), select(l28_0_3, L_cr, S(0)));
-    const S L_stop_hi = select(l28_0_2, select(l28_0_1, l28_0_0, S(0)), select(l28_0_3, l28_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l28_0_4) + (d_L_twist_rate__a_dtx*l28_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l28_0_4) + (d_L_twist_rate__a_dty*l28_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l28_0_4) + (d_L_twist_rate__a_dtz*l28_0_5));
-    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l28_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l28_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l28_0_5);
-    // let stop_lo (cone_twist.yaml:59)
-    const S l29_0_0 = ((L_cr*L_twist_rate) - (L_kr*L_over_lo));
-    const S l29_0_1 = (-l29_0_0);
-    const auto l29_0_2 = (l29_0_0 < S(0));
-    const auto l29_0_3 = (L_over_lo > S(0));
-    const auto l29_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
-    const S l29_0_5 = select(l29_0_3, select(l29_0_2, L_kr, S(0)), select(l29_0_4, L_kr, S(0)));
-    const S l29_0_6 = (-L_cr);
-    const S l29_0_7 = select(l29_0_3, select(l29_0_2, l29_0_6, S(0)), select(l29_0_4, l29_0_6, S(0)));
-    const S L_stop_lo = select(l29_0_3, select(l29_0_2, l29_0_1, S(0)), select(l29_0_4, l29_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l29_0_5) + (d_L_twist_rate__a_dtx*l29_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l29_0_5) + (d_L_twist_rate__a_dty*l29_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l29_0_5) + (d_L_twist_rate__a_dtz*l29_0_7));
-    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l29_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l29_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l29_0_7);
-    // let spring (cone_twist.yaml:60)
-    const S l30_0_0 = (L_e__0*p_spring_stiffness);
-    const S l30_0_1 = (L_na__0*p_spring_stiffness);
-    const S l30_0_2 = (L_swing*p_spring_stiffness);
-    const S l30_0_3 = (L_twist*p_spring_stiffness);
-    const S l30_0_4 = (L_e__1*p_spring_stiffness);
-    const S l30_0_5 = (L_na__1*p_spring_stiffness);
-    const S l30_0_6 = (L_e__2*p_spring_stiffness);
-    const S l30_0_7 = (L_na__2*p_spring_stiffness);
+    // let twa (cone_twist.yaml:67)
+    [[maybe_unused]] const S L_twa = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
+    // let twb (cone_twist.yaml:68)
+    [[maybe_unused]] const S L_twb = S(0);
+    // let itw (cone_twist.yaml:69)
+    [[maybe_unused]] const S L_itw = select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa);
+    // let ktw (cone_twist.yaml:70)
+    const S L_ktw = (L_itw*(L_omega*L_omega));
+    // let ctw (cone_twist.yaml:71)
+    const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
+    // let stop_hi (cone_twist.yaml:72)
+    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const auto l35_0_1 = (l35_0_0 > S(0));
+    const auto l35_0_2 = (L_over_hi > S(0));
+    const auto l35_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
+    const S l35_0_4 = select(l35_0_2, select(l35_0_1, L_ktw, S(0)), select(l35_0_3, L_ktw, S(0)));
+    const S l35_0_5 = select(l35_0_2, select(l35_0_1, L_ctw, S(0)), select(l35_0_3, L_ctw, S(0)));
+    const S L_stop_hi = select(l35_0_2, select(l35_0_1, l35_0_0, S(0)), select(l35_0_3, l35_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l35_0_4) + (d_L_twist_rate__a_dtx*l35_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l35_0_4) + (d_L_twist_rate__a_dty*l35_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l35_0_4) + (d_L_twist_rate__a_dtz*l35_0_5));
+    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l35_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l35_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l35_0_5);
+    // let stop_lo (cone_twist.yaml:73)
+    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l36_0_1 = (-l36_0_0);
+    const auto l36_0_2 = (l36_0_0 < S(0));
+    const auto l36_0_3 = (L_over_lo > S(0));
+    const auto l36_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
+    const S l36_0_5 = select(l36_0_3, select(l36_0_2, L_ktw, S(0)), select(l36_0_4, L_ktw, S(0)));
+    const S l36_0_6 = (-L_ctw);
+    const S l36_0_7 = select(l36_0_3, select(l36_0_2, l36_0_6, S(0)), select(l36_0_4, l36_0_6, S(0)));
+    const S L_stop_lo = select(l36_0_3, select(l36_0_2, l36_0_1, S(0)), select(l36_0_4, l36_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l36_0_5) + (d_L_twist_rate__a_dtx*l36_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l36_0_5) + (d_L_twist_rate__a_dty*l36_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l36_0_5) + (d_L_twist_rate__a_dtz*l36_0_7));
+    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l36_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l36_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l36_0_7);
+    // let spring (cone_twist.yaml:74)
+    const S l37_0_0 = (L_e__0*p_spring_stiffness);
+    const S l37_0_1 = (L_na__0*p_spring_stiffness);
+    const S l37_0_2 = (L_swing*p_spring_stiffness);
+    const S l37_0_3 = (L_twist*p_spring_stiffness);
+    const S l37_0_4 = (L_e__1*p_spring_stiffness);
+    const S l37_0_5 = (L_na__1*p_spring_stiffness);
+    const S l37_0_6 = (L_e__2*p_spring_stiffness);
+    const S l37_0_7 = (L_na__2*p_spring_stiffness);
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
-    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l30_0_2)) - (d_L_swing__a_dtx*l30_0_0) - (d_L_twist__a_dtx*l30_0_1));
-    const S d_L_spring__0__a_dty = ((-(a_r1_2*l30_0_3)) - (d_L_e__0__a_dty*l30_0_2) - (d_L_swing__a_dty*l30_0_0) - (d_L_twist__a_dty*l30_0_1));
-    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l30_0_2)) - (d_L_na__0__a_dtz*l30_0_3) - (d_L_swing__a_dtz*l30_0_0) - (d_L_twist__a_dtz*l30_0_1));
+    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l37_0_2)) - (d_L_swing__a_dtx*l37_0_0) - (d_L_twist__a_dtx*l37_0_1));
+    const S d_L_spring__0__a_dty = ((-(a_r1_2*l37_0_3)) - (d_L_e__0__a_dty*l37_0_2) - (d_L_swing__a_dty*l37_0_0) - (d_L_twist__a_dty*l37_0_1));
+    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l37_0_2)) - (d_L_na__0__a_dtz*l37_0_3) - (d_L_swing__a_dtz*l37_0_0) - (d_L_twist__a_dtz*l37_0_1));
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
-    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l30_0_2)) - (d_L_na__1__a_dtx*l30_0_3) - (d_L_swing__a_dtx*l30_0_4) - (d_L_twist__a_dtx*l30_0_5));
-    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l30_0_2)) - (d_L_swing__a_dty*l30_0_4) - (d_L_twist__a_dty*l30_0_5));
-    const S d_L_spring__1__a_dtz = ((-(a_r1_0*l30_0_3)) - (d_L_e__1__a_dtz*l30_0_2) - (d_L_swing__a_dtz*l30_0_4) - (d_L_twist__a_dtz*l30_0_5));
+    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l37_0_2)) - (d_L_na__1__a_dtx*l37_0_3) - (d_L_swing__a_dtx*l37_0_4) - (d_L_twist__a_dtx*l37_0_5));
+    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l37_0_2)) - (d_L_swing__a_dty*l37_0_4) - (d_L_twist__a_dty*l37_0_5));
+    const S d_L_spring__1__a_dtz = ((-(a_r1_0*l37_0_3)) - (d_L_e__1__a_dtz*l37_0_2) - (d_L_swing__a_dtz*l37_0_4) - (d_L_twist__a_dtz*l37_0_5));
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    const S d_L_spring__2__a_dtx = ((-(a_r1_1*l30_0_3)) - (d_L_e__2__a_dtx*l30_0_2) - (d_L_swing__a_dtx*l30_0_6) - (d_L_twist__a_dtx*l30_0_7));
-    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l30_0_2)) - (d_L_na__2__a_dty*l30_0_3) - (d_L_swing__a_dty*l30_0_6) - (d_L_twist__a_dty*l30_0_7));
-    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l30_0_2)) - (d_L_swing__a_dtz*l30_0_6) - (d_L_twist__a_dtz*l30_0_7));
-    // let tau (cone_twist.yaml:61)
-    const S l31_0_0 = ((-L_stop_hi) + L_stop_lo);
-    const S l31_0_1 = (L_limited*L_na__0);
-    const S l31_0_2 = (-p_spring_damping);
-    const S l31_0_3 = (L_limited*l31_0_0);
-    const S l31_0_4 = (L_limited*L_na__1);
-    const S l31_0_5 = (L_limited*L_na__2);
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l31_0_0*l31_0_1));
-    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l31_0_1));
-    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r1_2*l31_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l31_0_1));
-    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l31_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l31_0_1));
-    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_1) - l31_0_2);
-    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_1));
-    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_1));
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l31_0_3) + L_spring__1);
-    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l31_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l31_0_4));
-    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l31_0_4));
-    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r1_0*l31_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l31_0_4));
-    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_4));
-    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_4) - l31_0_2);
-    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_4));
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l31_0_3) + L_spring__2);
-    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r1_1*l31_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l31_0_5));
-    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l31_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l31_0_5));
-    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l31_0_5));
-    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_5));
-    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_5));
-    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_5) - l31_0_2);
-    // apply[0] (cone_twist.yaml:63)
+    const S d_L_spring__2__a_dtx = ((-(a_r1_1*l37_0_3)) - (d_L_e__2__a_dtx*l37_0_2) - (d_L_swing__a_dtx*l37_0_6) - (d_L_twist__a_dtx*l37_0_7));
+    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l37_0_2)) - (d_L_na__2__a_dty*l37_0_3) - (d_L_swing__a_dty*l37_0_6) - (d_L_twist__a_dty*l37_0_7));
+    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l37_0_2)) - (d_L_swing__a_dtz*l37_0_6) - (d_L_twist__a_dtz*l37_0_7));
+    // let tau (cone_twist.yaml:75)
+    const S l38_0_0 = ((-L_stop_hi) + L_stop_lo);
+    const S l38_0_1 = (L_limited*L_na__0);
+    const S l38_0_2 = (-p_spring_damping);
+    const S l38_0_3 = (L_limited*l38_0_0);
+    const S l38_0_4 = (L_limited*L_na__1);
+    const S l38_0_5 = (L_limited*L_na__2);
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l38_0_0*l38_0_1));
+    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l38_0_1));
+    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r1_2*l38_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l38_0_1));
+    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l38_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l38_0_1));
+    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_1) - l38_0_2);
+    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_1));
+    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_1));
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_3) + L_spring__1);
+    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l38_0_4));
+    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l38_0_4));
+    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r1_0*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l38_0_4));
+    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_4));
+    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_4) - l38_0_2);
+    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_4));
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_3) + L_spring__2);
+    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r1_1*l38_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l38_0_5));
+    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l38_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l38_0_5));
+    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l38_0_5));
+    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_5));
+    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_5));
+    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_5) - l38_0_2);
+    // apply[0] (cone_twist.yaml:77)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l33_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l33_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l33_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l33_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (cone_twist.yaml:62), shared subexpressions
+    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply (cone_twist.yaml:76), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -2746,14 +2891,14 @@ struct Cone_Twist_World_Kernel {
     const S o8 = (T1_turn*d_L_pa__2__a_dty);
     const S o9 = (T1_turn*a_r0_2);
     const S o10 = (L_f__2*T1_turn);
-    // F_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // F_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // dF_a/ddelta_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // dF_a/ddelta_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[6] = d_L_f__0__a_dx;
     out[7] = S(0);
     out[8] = S(0);
@@ -2790,7 +2935,7 @@ struct Cone_Twist_World_Kernel {
     out[39] = ((a_r0_0*o10) + (d_L_f__1__a_dtz*o4) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[40] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o5) - (d_L_pa__0__a_dtz*o10) - d_L_tau__1__a_dtz);
     out[41] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o3) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/du_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // dF_a/du_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[42] = d_L_f__0__a_vx;
     out[43] = S(0);
     out[44] = S(0);
@@ -2831,7 +2976,7 @@ struct Cone_Twist_World_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1306
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1436
   static constexpr int kNumImplicitBlocks = 1;
   static constexpr int kImplicitOutputs = 42;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -2888,7 +3033,7 @@ struct Cone_Twist_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[44];
     [[maybe_unused]] const S g_joint_hertz = in[45];
     [[maybe_unused]] const S g_joint_damping_ratio = in[46];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:30), let na (cone_twist.yaml:33), let ua (cone_twist.yaml:35)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let swa (cone_twist.yaml:53)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2906,6 +3051,12 @@ struct Cone_Twist_World_Kernel {
     const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
     const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
+    const S p0_17 = ((a_Ixy*p0_2) + (a_Iyy*p0_5) + (a_Iyz*p0_8));
+    const S p0_18 = ((a_Ixz*p0_2) + (a_Iyz*p0_5) + (a_Izz*p0_8));
+    const S p0_19 = ((a_Ixx*p0_2) + (a_Ixy*p0_5) + (a_Ixz*p0_8));
+    const S p0_20 = ((a_Ixz*p0_9) + (a_Iyz*p0_11) + (a_Izz*p0_13));
+    const S p0_21 = ((a_Ixx*p0_9) + (a_Ixy*p0_11) + (a_Ixz*p0_13));
+    const S p0_22 = ((a_Ixy*p0_9) + (a_Iyy*p0_11) + (a_Iyz*p0_13));
     const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
     const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
     const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
@@ -2915,96 +3066,96 @@ struct Cone_Twist_World_Kernel {
     const S a_r2_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
     const S a_r2_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
     const S a_r2_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
+    const S a_Iw3_00 = ((p0_17*p0_5) + (p0_18*p0_8) + (p0_19*p0_2));
+    const S a_Iw3_11 = ((p0_11*p0_22) + (p0_13*p0_20) + (p0_21*p0_9));
+    const S a_Iw3_22 = ((p0_14*((a_Ixx*p0_14) + (a_Ixy*p0_15) + (a_Ixz*p0_16))) + (p0_15*((a_Ixy*p0_14) + (a_Iyy*p0_15) + (a_Iyz*p0_16))) + (p0_16*((a_Ixz*p0_14) + (a_Iyz*p0_15) + (a_Izz*p0_16))));
+    const S a_Iw3_01 = ((p0_11*p0_17) + (p0_13*p0_18) + (p0_19*p0_9));
+    const S a_Iw3_02 = ((p0_14*p0_19) + (p0_15*p0_17) + (p0_16*p0_18));
+    const S a_Iw3_12 = ((p0_14*p0_21) + (p0_15*p0_22) + (p0_16*p0_20));
     // let omega (cone_twist.yaml:26)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (cone_twist.yaml:27)
     const S L_zeta = select((p_damping_ratio > S(0)), p_damping_ratio, g_joint_damping_ratio);
     // let m (cone_twist.yaml:28)
     [[maybe_unused]] const S L_m = max(S(0), a_m);
-    // let im (cone_twist.yaml:29)
-    [[maybe_unused]] const S L_im = max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz)));
-    // let pa (cone_twist.yaml:30)
+    // let pa (cone_twist.yaml:29)
     const S L_pa__0 = (a_px + a_r0_0);
     const S d_L_pa__0__a_dtz = (-a_r0_1);
     const S L_pa__1 = (a_py + a_r0_1);
     const S d_L_pa__1__a_dtx = (-a_r0_2);
     const S L_pa__2 = (a_pz + a_r0_2);
     const S d_L_pa__2__a_dty = (-a_r0_0);
-    // let pb (cone_twist.yaml:31)
+    // let pb (cone_twist.yaml:30)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (cone_twist.yaml:32)
-    const S l6_0_0 = (L_m*(L_omega*L_omega));
-    const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
-    const S l6_0_2 = (-l6_0_0);
-    const S l6_0_3 = (a_r0_1*a_wy);
-    const S l6_0_4 = (a_r0_2*a_wz);
-    const S l6_0_5 = (-l6_0_1);
-    const S l6_0_6 = (a_r0_2*l6_0_1);
-    const S l6_0_7 = (a_r0_1*l6_0_1);
-    const S l6_0_8 = (a_r0_0*a_wx);
-    const S l6_0_9 = (a_r0_0*l6_0_1);
-    const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)));
-    const S d_L_f__0__a_dx = l6_0_2;
-    const S d_L_f__0__a_dtx = (l6_0_1*((-l6_0_3) - l6_0_4));
-    const S d_L_f__0__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wy) - (a_r0_2*l6_0_0));
-    const S d_L_f__0__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wz) - (d_L_pa__0__a_dtz*l6_0_0));
-    const S d_L_f__0__a_vx = l6_0_5;
-    const S d_L_f__0__a_wy = (-l6_0_6);
-    const S d_L_f__0__a_wz = l6_0_7;
-    const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)));
-    const S d_L_f__1__a_dy = l6_0_2;
-    const S d_L_f__1__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wx) - (d_L_pa__1__a_dtx*l6_0_0));
-    const S d_L_f__1__a_dty = (l6_0_1*((-l6_0_4) - l6_0_8));
-    const S d_L_f__1__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wz) - (a_r0_0*l6_0_0));
-    const S d_L_f__1__a_vy = l6_0_5;
-    const S d_L_f__1__a_wx = l6_0_6;
-    const S d_L_f__1__a_wz = (-l6_0_9);
-    const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
-    const S d_L_f__2__a_dz = l6_0_2;
-    const S d_L_f__2__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wx) - (a_r0_1*l6_0_0));
-    const S d_L_f__2__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wy) - (d_L_pa__2__a_dty*l6_0_0));
-    const S d_L_f__2__a_dtz = (l6_0_1*((-l6_0_3) - l6_0_8));
-    const S d_L_f__2__a_vz = l6_0_5;
-    const S d_L_f__2__a_wx = (-l6_0_7);
-    const S d_L_f__2__a_wy = l6_0_9;
-    // let na (cone_twist.yaml:33)
+    // let f (cone_twist.yaml:31)
+    const S l5_0_0 = (L_m*(L_omega*L_omega));
+    const S l5_0_1 = (S(2)*L_m*L_omega*L_zeta);
+    const S l5_0_2 = (-l5_0_0);
+    const S l5_0_3 = (a_r0_1*a_wy);
+    const S l5_0_4 = (a_r0_2*a_wz);
+    const S l5_0_5 = (-l5_0_1);
+    const S l5_0_6 = (a_r0_2*l5_0_1);
+    const S l5_0_7 = (a_r0_1*l5_0_1);
+    const S l5_0_8 = (a_r0_0*a_wx);
+    const S l5_0_9 = (a_r0_0*l5_0_1);
+    const S L_f__0 = ((l5_0_0*((-L_pa__0) + L_pb__0)) + (l5_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)));
+    const S d_L_f__0__a_dx = l5_0_2;
+    const S d_L_f__0__a_dtx = (l5_0_1*((-l5_0_3) - l5_0_4));
+    const S d_L_f__0__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wy) - (a_r0_2*l5_0_0));
+    const S d_L_f__0__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_0*a_wz) - (d_L_pa__0__a_dtz*l5_0_0));
+    const S d_L_f__0__a_vx = l5_0_5;
+    const S d_L_f__0__a_wy = (-l5_0_6);
+    const S d_L_f__0__a_wz = l5_0_7;
+    const S L_f__1 = ((l5_0_0*((-L_pa__1) + L_pb__1)) + (l5_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)));
+    const S d_L_f__1__a_dy = l5_0_2;
+    const S d_L_f__1__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wx) - (d_L_pa__1__a_dtx*l5_0_0));
+    const S d_L_f__1__a_dty = (l5_0_1*((-l5_0_4) - l5_0_8));
+    const S d_L_f__1__a_dtz = ((S(2)*L_m*L_omega*L_zeta*a_r0_1*a_wz) - (a_r0_0*l5_0_0));
+    const S d_L_f__1__a_vy = l5_0_5;
+    const S d_L_f__1__a_wx = l5_0_6;
+    const S d_L_f__1__a_wz = (-l5_0_9);
+    const S L_f__2 = ((l5_0_0*((-L_pa__2) + L_pb__2)) + (l5_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
+    const S d_L_f__2__a_dz = l5_0_2;
+    const S d_L_f__2__a_dtx = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wx) - (a_r0_1*l5_0_0));
+    const S d_L_f__2__a_dty = ((S(2)*L_m*L_omega*L_zeta*a_r0_2*a_wy) - (d_L_pa__2__a_dty*l5_0_0));
+    const S d_L_f__2__a_dtz = (l5_0_1*((-l5_0_3) - l5_0_8));
+    const S d_L_f__2__a_vz = l5_0_5;
+    const S d_L_f__2__a_wx = (-l5_0_7);
+    const S d_L_f__2__a_wy = l5_0_9;
+    // let na (cone_twist.yaml:32)
     const S L_na__0 = a_r1_0;
     const S d_L_na__0__a_dtz = (-a_r1_1);
     const S L_na__1 = a_r1_1;
     const S d_L_na__1__a_dtx = (-a_r1_2);
     const S L_na__2 = a_r1_2;
     const S d_L_na__2__a_dty = (-a_r1_0);
-    // let nb (cone_twist.yaml:34)
+    // let nb (cone_twist.yaml:33)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (cone_twist.yaml:35)
+    // let ua (cone_twist.yaml:34)
     const S L_ua__0 = a_r2_0;
     const S d_L_ua__0__a_dtz = (-a_r2_1);
     const S L_ua__1 = a_r2_1;
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let ub (cone_twist.yaml:36)
+    // let ub (cone_twist.yaml:35)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let wrel (cone_twist.yaml:37)
+    // let wrel (cone_twist.yaml:36)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let kr (cone_twist.yaml:38)
-    const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (cone_twist.yaml:39)
-    const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let cs (cone_twist.yaml:42)
+    // let cs (cone_twist.yaml:39)
     const S L_cs = ((L_na__0*L_nb__0) + (L_na__1*L_nb__1) + (L_na__2*L_nb__2));
     const S d_L_cs__a_dtx = ((L_nb__1*d_L_na__1__a_dtx) + (L_nb__2*a_r1_1));
     const S d_L_cs__a_dty = ((L_nb__0*a_r1_2) + (L_nb__2*d_L_na__2__a_dty));
     const S d_L_cs__a_dtz = ((L_nb__0*d_L_na__0__a_dtz) + (L_nb__1*a_r1_0));
-    // let k (cone_twist.yaml:43)
+    // let k (cone_twist.yaml:40)
     const S L_k__0 = ((-(L_na__1*L_nb__2)) + (L_na__2*L_nb__1));
     const S d_L_k__0__a_dtx = ((L_nb__1*a_r1_1) - (L_nb__2*d_L_na__1__a_dtx));
     const S d_L_k__0__a_dty = (L_nb__1*d_L_na__2__a_dty);
@@ -3017,43 +3168,43 @@ struct Cone_Twist_World_Kernel {
     const S d_L_k__2__a_dtx = (L_nb__0*d_L_na__1__a_dtx);
     const S d_L_k__2__a_dty = (-(L_nb__1*a_r1_2));
     const S d_L_k__2__a_dtz = ((L_nb__0*a_r1_0) - (L_nb__1*d_L_na__0__a_dtz));
-    // let sn (cone_twist.yaml:44)
-    const S l16_0_0 = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
-    const S l16_0_1 = (S(1)/(l16_0_0));
-    const S l16_0_2 = (L_k__0*l16_0_1);
-    const S l16_0_3 = (L_k__1*l16_0_1);
-    const S l16_0_4 = (L_k__2*l16_0_1);
-    const S L_sn = l16_0_0;
-    const S d_L_sn__a_dtx = ((d_L_k__0__a_dtx*l16_0_2) + (d_L_k__1__a_dtx*l16_0_3) + (d_L_k__2__a_dtx*l16_0_4));
-    const S d_L_sn__a_dty = ((d_L_k__0__a_dty*l16_0_2) + (d_L_k__1__a_dty*l16_0_3) + (d_L_k__2__a_dty*l16_0_4));
-    const S d_L_sn__a_dtz = ((d_L_k__0__a_dtz*l16_0_2) + (d_L_k__1__a_dtz*l16_0_3) + (d_L_k__2__a_dtz*l16_0_4));
-    // let swing (cone_twist.yaml:45)
-    const S l17_0_0 = (S(1)/(((L_cs*L_cs) + (L_sn*L_sn))));
-    const S l17_0_1 = (L_cs*l17_0_0);
-    const S l17_0_2 = (L_sn*l17_0_0);
+    // let sn (cone_twist.yaml:41)
+    const S l13_0_0 = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
+    const S l13_0_1 = (S(1)/(l13_0_0));
+    const S l13_0_2 = (L_k__0*l13_0_1);
+    const S l13_0_3 = (L_k__1*l13_0_1);
+    const S l13_0_4 = (L_k__2*l13_0_1);
+    const S L_sn = l13_0_0;
+    const S d_L_sn__a_dtx = ((d_L_k__0__a_dtx*l13_0_2) + (d_L_k__1__a_dtx*l13_0_3) + (d_L_k__2__a_dtx*l13_0_4));
+    const S d_L_sn__a_dty = ((d_L_k__0__a_dty*l13_0_2) + (d_L_k__1__a_dty*l13_0_3) + (d_L_k__2__a_dty*l13_0_4));
+    const S d_L_sn__a_dtz = ((d_L_k__0__a_dtz*l13_0_2) + (d_L_k__1__a_dtz*l13_0_3) + (d_L_k__2__a_dtz*l13_0_4));
+    // let swing (cone_twist.yaml:42)
+    const S l14_0_0 = (S(1)/(((L_cs*L_cs) + (L_sn*L_sn))));
+    const S l14_0_1 = (L_cs*l14_0_0);
+    const S l14_0_2 = (L_sn*l14_0_0);
     const S L_swing = angle_of(L_sn, L_cs);
-    const S d_L_swing__a_dtx = ((-(d_L_cs__a_dtx*l17_0_2)) + (d_L_sn__a_dtx*l17_0_1));
-    const S d_L_swing__a_dty = ((-(d_L_cs__a_dty*l17_0_2)) + (d_L_sn__a_dty*l17_0_1));
-    const S d_L_swing__a_dtz = ((-(d_L_cs__a_dtz*l17_0_2)) + (d_L_sn__a_dtz*l17_0_1));
-    // let e (cone_twist.yaml:46)
-    const S l18_0_0 = (S(1)/(L_sn));
-    const S l18_0_1 = (S(1)/(L_sn*L_sn));
-    const S l18_0_2 = (L_k__0*l18_0_1);
-    const S l18_0_3 = (L_k__1*l18_0_1);
-    const S l18_0_4 = (L_k__2*l18_0_1);
-    const S L_e__0 = (-(L_k__0*l18_0_0));
-    const S d_L_e__0__a_dtx = ((-(d_L_k__0__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_2));
-    const S d_L_e__0__a_dty = ((-(d_L_k__0__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_2));
-    const S d_L_e__0__a_dtz = ((-(d_L_k__0__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_2));
-    const S L_e__1 = (-(L_k__1*l18_0_0));
-    const S d_L_e__1__a_dtx = ((-(d_L_k__1__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_3));
-    const S d_L_e__1__a_dty = ((-(d_L_k__1__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_3));
-    const S d_L_e__1__a_dtz = ((-(d_L_k__1__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_3));
-    const S L_e__2 = (-(L_k__2*l18_0_0));
-    const S d_L_e__2__a_dtx = ((-(d_L_k__2__a_dtx*l18_0_0)) + (d_L_sn__a_dtx*l18_0_4));
-    const S d_L_e__2__a_dty = ((-(d_L_k__2__a_dty*l18_0_0)) + (d_L_sn__a_dty*l18_0_4));
-    const S d_L_e__2__a_dtz = ((-(d_L_k__2__a_dtz*l18_0_0)) + (d_L_sn__a_dtz*l18_0_4));
-    // let swing_rate (cone_twist.yaml:47)
+    const S d_L_swing__a_dtx = ((-(d_L_cs__a_dtx*l14_0_2)) + (d_L_sn__a_dtx*l14_0_1));
+    const S d_L_swing__a_dty = ((-(d_L_cs__a_dty*l14_0_2)) + (d_L_sn__a_dty*l14_0_1));
+    const S d_L_swing__a_dtz = ((-(d_L_cs__a_dtz*l14_0_2)) + (d_L_sn__a_dtz*l14_0_1));
+    // let e (cone_twist.yaml:43)
+    const S l15_0_0 = (S(1)/(L_sn));
+    const S l15_0_1 = (S(1)/(L_sn*L_sn));
+    const S l15_0_2 = (L_k__0*l15_0_1);
+    const S l15_0_3 = (L_k__1*l15_0_1);
+    const S l15_0_4 = (L_k__2*l15_0_1);
+    const S L_e__0 = (-(L_k__0*l15_0_0));
+    const S d_L_e__0__a_dtx = ((-(d_L_k__0__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_2));
+    const S d_L_e__0__a_dty = ((-(d_L_k__0__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_2));
+    const S d_L_e__0__a_dtz = ((-(d_L_k__0__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_2));
+    const S L_e__1 = (-(L_k__1*l15_0_0));
+    const S d_L_e__1__a_dtx = ((-(d_L_k__1__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_3));
+    const S d_L_e__1__a_dty = ((-(d_L_k__1__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_3));
+    const S d_L_e__1__a_dtz = ((-(d_L_k__1__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_3));
+    const S L_e__2 = (-(L_k__2*l15_0_0));
+    const S d_L_e__2__a_dtx = ((-(d_L_k__2__a_dtx*l15_0_0)) + (d_L_sn__a_dtx*l15_0_4));
+    const S d_L_e__2__a_dty = ((-(d_L_k__2__a_dty*l15_0_0)) + (d_L_sn__a_dty*l15_0_4));
+    const S d_L_e__2__a_dtz = ((-(d_L_k__2__a_dtz*l15_0_0)) + (d_L_sn__a_dtz*l15_0_4));
+    // let swing_rate (cone_twist.yaml:44)
     const S L_swing_rate = ((L_e__0*L_wrel__0) + (L_e__1*L_wrel__1) + (L_e__2*L_wrel__2));
     const S d_L_swing_rate__a_dtx = ((L_wrel__0*d_L_e__0__a_dtx) + (L_wrel__1*d_L_e__1__a_dtx) + (L_wrel__2*d_L_e__2__a_dtx));
     const S d_L_swing_rate__a_dty = ((L_wrel__0*d_L_e__0__a_dty) + (L_wrel__1*d_L_e__1__a_dty) + (L_wrel__2*d_L_e__2__a_dty));
@@ -3061,88 +3212,98 @@ struct Cone_Twist_World_Kernel {
     const S d_L_swing_rate__a_wx = (-L_e__0);
     const S d_L_swing_rate__a_wy = (-L_e__1);
     const S d_L_swing_rate__a_wz = (-L_e__2);
-    // let over_cone (cone_twist.yaml:48)
+    // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let stop_cone (cone_twist.yaml:49)
-    const S l21_0_0 = ((L_cr*L_swing_rate) + (L_kr*L_over_cone));
-    const auto l21_0_1 = (l21_0_0 > S(0));
-    const auto l21_0_2 = (L_over_cone > S(0));
-    const auto l21_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
-    const auto l21_0_4 = (p_cone_angle > S(0));
-    const S l21_0_5 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_kr, S(0)), select(l21_0_3, L_kr, S(0))), S(0));
-    const S l21_0_6 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_cr, S(0)), select(l21_0_3, L_cr, S(0))), S(0));
-    const S L_stop_cone = select(l21_0_4, select(l21_0_2, select(l21_0_1, l21_0_0, S(0)), select(l21_0_3, l21_0_0, S(0))), S(0));
-    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l21_0_5) + (d_L_swing_rate__a_dtx*l21_0_6));
-    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l21_0_5) + (d_L_swing_rate__a_dty*l21_0_6));
-    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l21_0_5) + (d_L_swing_rate__a_dtz*l21_0_6));
-    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l21_0_6);
-    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l21_0_6);
-    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l21_0_6);
-    // let ubs (cone_twist.yaml:52)
-    const S l22_0_0 = (L_k__1*L_ub__2);
-    const S l22_0_1 = (L_k__2*L_ub__1);
-    const S l22_0_2 = max(S(1e-06), (L_cs + S(1)));
-    const S l22_0_3 = (S(1)/(l22_0_2));
-    const S l22_0_4 = (L_k__0*L_ub__0);
-    const S l22_0_5 = (L_k__1*L_ub__1);
-    const S l22_0_6 = (L_k__2*L_ub__2);
-    const S l22_0_7 = (l22_0_4 + l22_0_5 + l22_0_6);
-    const S l22_0_8 = (l22_0_3*l22_0_7);
-    const S l22_0_9 = (-L_ub__0);
-    const S l22_0_10 = (l22_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l22_0_2*l22_0_2)));
-    const S l22_0_11 = ((-(L_k__0*l22_0_10)) - l22_0_9);
-    const S l22_0_12 = ((l22_0_3*l22_0_4) + l22_0_8);
-    const S l22_0_13 = (L_k__0*L_ub__1);
-    const S l22_0_14 = (L_ub__2 + (l22_0_13*l22_0_3));
-    const S l22_0_15 = (-L_ub__1);
-    const S l22_0_16 = (L_k__0*L_ub__2);
-    const S l22_0_17 = (l22_0_15 + (l22_0_16*l22_0_3));
-    const S l22_0_18 = (L_k__2*L_ub__0);
-    const S l22_0_19 = ((-(L_k__1*l22_0_10)) - l22_0_15);
-    const S l22_0_20 = (-L_ub__2);
-    const S l22_0_21 = (L_k__1*L_ub__0);
-    const S l22_0_22 = (l22_0_20 + (l22_0_21*l22_0_3));
-    const S l22_0_23 = ((l22_0_3*l22_0_5) + l22_0_8);
-    const S l22_0_24 = (L_ub__0 + (l22_0_0*l22_0_3));
-    const S l22_0_25 = ((-(L_k__2*l22_0_10)) - l22_0_20);
-    const S l22_0_26 = (L_ub__1 + (l22_0_18*l22_0_3));
-    const S l22_0_27 = ((l22_0_1*l22_0_3) + l22_0_9);
-    const S l22_0_28 = ((l22_0_3*l22_0_6) + l22_0_8);
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_8) + l22_0_0 - l22_0_1);
-    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l22_0_11) + (d_L_k__0__a_dtx*l22_0_12) + (d_L_k__1__a_dtx*l22_0_14) + (d_L_k__2__a_dtx*l22_0_17));
-    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l22_0_11) + (d_L_k__0__a_dty*l22_0_12) + (d_L_k__1__a_dty*l22_0_14) + (d_L_k__2__a_dty*l22_0_17));
-    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l22_0_11) + (d_L_k__0__a_dtz*l22_0_12) + (d_L_k__1__a_dtz*l22_0_14) + (d_L_k__2__a_dtz*l22_0_17));
-    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l22_0_8) - l22_0_16 + l22_0_18);
-    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l22_0_19) + (d_L_k__0__a_dtx*l22_0_22) + (d_L_k__1__a_dtx*l22_0_23) + (d_L_k__2__a_dtx*l22_0_24));
-    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l22_0_19) + (d_L_k__0__a_dty*l22_0_22) + (d_L_k__1__a_dty*l22_0_23) + (d_L_k__2__a_dty*l22_0_24));
-    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l22_0_19) + (d_L_k__0__a_dtz*l22_0_22) + (d_L_k__1__a_dtz*l22_0_23) + (d_L_k__2__a_dtz*l22_0_24));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l22_0_8) + l22_0_13 - l22_0_21);
-    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l22_0_25) + (d_L_k__0__a_dtx*l22_0_26) + (d_L_k__1__a_dtx*l22_0_27) + (d_L_k__2__a_dtx*l22_0_28));
-    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l22_0_25) + (d_L_k__0__a_dty*l22_0_26) + (d_L_k__1__a_dty*l22_0_27) + (d_L_k__2__a_dty*l22_0_28));
-    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l22_0_25) + (d_L_k__0__a_dtz*l22_0_26) + (d_L_k__1__a_dtz*l22_0_27) + (d_L_k__2__a_dtz*l22_0_28));
-    // let twist (cone_twist.yaml:53)
-    const S l23_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
-    const S l23_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
-    const S l23_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
-    const S l23_0_3 = ((L_na__0*l23_0_0) + (L_na__1*l23_0_1) + (L_na__2*l23_0_2));
-    const S l23_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
-    const S l23_0_5 = (S(1)/(((l23_0_3*l23_0_3) + (l23_0_4*l23_0_4))));
-    const S l23_0_6 = (-(l23_0_3*l23_0_5));
-    const S l23_0_7 = (l23_0_4*l23_0_5);
-    const S l23_0_8 = ((L_ubs__2*l23_0_6) + (l23_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
-    const S l23_0_9 = ((L_ubs__1*l23_0_6) + (l23_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
-    const S l23_0_10 = ((L_ua__0*l23_0_6) + (l23_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S l23_0_11 = ((L_ua__1*l23_0_6) + (l23_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l23_0_12 = ((L_ua__2*l23_0_6) + (l23_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l23_0_13 = (l23_0_2*l23_0_7);
-    const S l23_0_14 = (l23_0_1*l23_0_7);
-    const S l23_0_15 = ((L_ubs__0*l23_0_6) + (l23_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
-    const S l23_0_16 = (l23_0_0*l23_0_7);
-    const S L_twist = angle_of(l23_0_3, l23_0_4);
-    const S d_L_twist__a_dtx = ((a_r1_1*l23_0_13) + (a_r2_1*l23_0_8) + (d_L_na__1__a_dtx*l23_0_14) + (d_L_ua__1__a_dtx*l23_0_9) + (d_L_ubs__0__a_dtx*l23_0_10) + (d_L_ubs__1__a_dtx*l23_0_11) + (d_L_ubs__2__a_dtx*l23_0_12));
-    const S d_L_twist__a_dty = ((a_r1_2*l23_0_16) + (a_r2_2*l23_0_15) + (d_L_na__2__a_dty*l23_0_13) + (d_L_ua__2__a_dty*l23_0_8) + (d_L_ubs__0__a_dty*l23_0_10) + (d_L_ubs__1__a_dty*l23_0_11) + (d_L_ubs__2__a_dty*l23_0_12));
-    const S d_L_twist__a_dtz = ((a_r1_0*l23_0_14) + (a_r2_0*l23_0_9) + (d_L_na__0__a_dtz*l23_0_16) + (d_L_ua__0__a_dtz*l23_0_15) + (d_L_ubs__0__a_dtz*l23_0_10) + (d_L_ubs__1__a_dtz*l23_0_11) + (d_L_ubs__2__a_dtz*l23_0_12));
-    // let twist_rate (cone_twist.yaml:54)
+    // let swa (cone_twist.yaml:53)
+    [[maybe_unused]] const S L_swa = ((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22))));
+    // let swb (cone_twist.yaml:54)
+    [[maybe_unused]] const S L_swb = S(0);
+    // let isw (cone_twist.yaml:55)
+    [[maybe_unused]] const S L_isw = select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa);
+    // let ksw (cone_twist.yaml:56)
+    const S L_ksw = (L_isw*(L_omega*L_omega));
+    // let csw (cone_twist.yaml:57)
+    const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
+    // let stop_cone (cone_twist.yaml:58)
+    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const auto l23_0_1 = (l23_0_0 > S(0));
+    const auto l23_0_2 = (L_over_cone > S(0));
+    const auto l23_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
+    const auto l23_0_4 = (p_cone_angle > S(0));
+    const S l23_0_5 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_ksw, S(0)), select(l23_0_3, L_ksw, S(0))), S(0));
+    const S l23_0_6 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_csw, S(0)), select(l23_0_3, L_csw, S(0))), S(0));
+    const S L_stop_cone = select(l23_0_4, select(l23_0_2, select(l23_0_1, l23_0_0, S(0)), select(l23_0_3, l23_0_0, S(0))), S(0));
+    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l23_0_5) + (d_L_swing_rate__a_dtx*l23_0_6));
+    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l23_0_5) + (d_L_swing_rate__a_dty*l23_0_6));
+    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l23_0_5) + (d_L_swing_rate__a_dtz*l23_0_6));
+    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l23_0_6);
+    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l23_0_6);
+    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l23_0_6);
+    // let ubs (cone_twist.yaml:61)
+    const S l24_0_0 = (L_k__1*L_ub__2);
+    const S l24_0_1 = (L_k__2*L_ub__1);
+    const S l24_0_2 = max(S(1e-06), (L_cs + S(1)));
+    const S l24_0_3 = (S(1)/(l24_0_2));
+    const S l24_0_4 = (L_k__0*L_ub__0);
+    const S l24_0_5 = (L_k__1*L_ub__1);
+    const S l24_0_6 = (L_k__2*L_ub__2);
+    const S l24_0_7 = (l24_0_4 + l24_0_5 + l24_0_6);
+    const S l24_0_8 = (l24_0_3*l24_0_7);
+    const S l24_0_9 = (-L_ub__0);
+    const S l24_0_10 = (l24_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l24_0_2*l24_0_2)));
+    const S l24_0_11 = ((-(L_k__0*l24_0_10)) - l24_0_9);
+    const S l24_0_12 = ((l24_0_3*l24_0_4) + l24_0_8);
+    const S l24_0_13 = (L_k__0*L_ub__1);
+    const S l24_0_14 = (L_ub__2 + (l24_0_13*l24_0_3));
+    const S l24_0_15 = (-L_ub__1);
+    const S l24_0_16 = (L_k__0*L_ub__2);
+    const S l24_0_17 = (l24_0_15 + (l24_0_16*l24_0_3));
+    const S l24_0_18 = (L_k__2*L_ub__0);
+    const S l24_0_19 = ((-(L_k__1*l24_0_10)) - l24_0_15);
+    const S l24_0_20 = (-L_ub__2);
+    const S l24_0_21 = (L_k__1*L_ub__0);
+    const S l24_0_22 = (l24_0_20 + (l24_0_21*l24_0_3));
+    const S l24_0_23 = ((l24_0_3*l24_0_5) + l24_0_8);
+    const S l24_0_24 = (L_ub__0 + (l24_0_0*l24_0_3));
+    const S l24_0_25 = ((-(L_k__2*l24_0_10)) - l24_0_20);
+    const S l24_0_26 = (L_ub__1 + (l24_0_18*l24_0_3));
+    const S l24_0_27 = ((l24_0_1*l24_0_3) + l24_0_9);
+    const S l24_0_28 = ((l24_0_3*l24_0_6) + l24_0_8);
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_8) + l24_0_0 - l24_0_1);
+    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l24_0_11) + (d_L_k__0__a_dtx*l24_0_12) + (d_L_k__1__a_dtx*l24_0_14) + (d_L_k__2__a_dtx*l24_0_17));
+    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l24_0_11) + (d_L_k__0__a_dty*l24_0_12) + (d_L_k__1__a_dty*l24_0_14) + (d_L_k__2__a_dty*l24_0_17));
+    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l24_0_11) + (d_L_k__0__a_dtz*l24_0_12) + (d_L_k__1__a_dtz*l24_0_14) + (d_L_k__2__a_dtz*l24_0_17));
+    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l24_0_8) - l24_0_16 + l24_0_18);
+    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l24_0_19) + (d_L_k__0__a_dtx*l24_0_22) + (d_L_k__1__a_dtx*l24_0_23) + (d_L_k__2__a_dtx*l24_0_24));
+    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l24_0_19) + (d_L_k__0__a_dty*l24_0_22) + (d_L_k__1__a_dty*l24_0_23) + (d_L_k__2__a_dty*l24_0_24));
+    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l24_0_19) + (d_L_k__0__a_dtz*l24_0_22) + (d_L_k__1__a_dtz*l24_0_23) + (d_L_k__2__a_dtz*l24_0_24));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l24_0_8) + l24_0_13 - l24_0_21);
+    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l24_0_25) + (d_L_k__0__a_dtx*l24_0_26) + (d_L_k__1__a_dtx*l24_0_27) + (d_L_k__2__a_dtx*l24_0_28));
+    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l24_0_25) + (d_L_k__0__a_dty*l24_0_26) + (d_L_k__1__a_dty*l24_0_27) + (d_L_k__2__a_dty*l24_0_28));
+    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l24_0_25) + (d_L_k__0__a_dtz*l24_0_26) + (d_L_k__1__a_dtz*l24_0_27) + (d_L_k__2__a_dtz*l24_0_28));
+    // let twist (cone_twist.yaml:62)
+    const S l25_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
+    const S l25_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
+    const S l25_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
+    const S l25_0_3 = ((L_na__0*l25_0_0) + (L_na__1*l25_0_1) + (L_na__2*l25_0_2));
+    const S l25_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
+    const S l25_0_5 = (S(1)/(((l25_0_3*l25_0_3) + (l25_0_4*l25_0_4))));
+    const S l25_0_6 = (-(l25_0_3*l25_0_5));
+    const S l25_0_7 = (l25_0_4*l25_0_5);
+    const S l25_0_8 = ((L_ubs__2*l25_0_6) + (l25_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
+    const S l25_0_9 = ((L_ubs__1*l25_0_6) + (l25_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
+    const S l25_0_10 = ((L_ua__0*l25_0_6) + (l25_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S l25_0_11 = ((L_ua__1*l25_0_6) + (l25_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l25_0_12 = ((L_ua__2*l25_0_6) + (l25_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l25_0_13 = (l25_0_2*l25_0_7);
+    const S l25_0_14 = (l25_0_1*l25_0_7);
+    const S l25_0_15 = ((L_ubs__0*l25_0_6) + (l25_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
+    const S l25_0_16 = (l25_0_0*l25_0_7);
+    const S L_twist = angle_of(l25_0_3, l25_0_4);
+    const S d_L_twist__a_dtx = ((a_r1_1*l25_0_13) + (a_r2_1*l25_0_8) + (d_L_na__1__a_dtx*l25_0_14) + (d_L_ua__1__a_dtx*l25_0_9) + (d_L_ubs__0__a_dtx*l25_0_10) + (d_L_ubs__1__a_dtx*l25_0_11) + (d_L_ubs__2__a_dtx*l25_0_12));
+    const S d_L_twist__a_dty = ((a_r1_2*l25_0_16) + (a_r2_2*l25_0_15) + (d_L_na__2__a_dty*l25_0_13) + (d_L_ua__2__a_dty*l25_0_8) + (d_L_ubs__0__a_dty*l25_0_10) + (d_L_ubs__1__a_dty*l25_0_11) + (d_L_ubs__2__a_dty*l25_0_12));
+    const S d_L_twist__a_dtz = ((a_r1_0*l25_0_14) + (a_r2_0*l25_0_9) + (d_L_na__0__a_dtz*l25_0_16) + (d_L_ua__0__a_dtz*l25_0_15) + (d_L_ubs__0__a_dtz*l25_0_10) + (d_L_ubs__1__a_dtz*l25_0_11) + (d_L_ubs__2__a_dtz*l25_0_12));
+    // let twist_rate (cone_twist.yaml:63)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_twist_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r1_1));
     const S d_L_twist_rate__a_dty = ((L_wrel__0*a_r1_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -3150,101 +3311,111 @@ struct Cone_Twist_World_Kernel {
     const S d_L_twist_rate__a_wx = (-L_na__0);
     const S d_L_twist_rate__a_wy = (-L_na__1);
     const S d_L_twist_rate__a_wz = (-L_na__2);
-    // let limited (cone_twist.yaml:55)
+    // let limited (cone_twist.yaml:64)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:56)
+    // let over_hi (cone_twist.yaml:65)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:57)
+    // let over_lo (cone_twist.yaml:66)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
     const S d_L_over_lo__a_dtx = (-d_L_twist__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_twist__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_twist__a_dtz);
-    // let stop_hi (cone_twist.yaml:58)
-    const S l28_0_0 = ((L_cr*L_twist_rate) + (L_kr*L_over_hi));
-    const auto l28_0_1 = (l28_0_0 > S(0));
-    const auto l28_0_2 = (L_over_hi > S(0));
-    const auto l28_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
-    const S l28_0_4 = select(l28_0_2, select(l28_0_1, L_kr, S(0)), select(l28_0_3, L_kr, S(0)));
-    const S l28_0_5 = select(l28_0_2, select(l28_0_1, L_cr, S(0)), select(l28_0_3, L_cr, S(0)));
-    const S L_stop_hi = select(l28_0_2, select(l28_0_1, l28_0_0, S(0)), select(l28_0_3, l28_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l28_0_4) + (d_L_twist_rate__a_dtx*l28_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l28_0_4) + (d_L_twist_rate__a_dty*l28_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l28_0_4) + (d_L_twist_rate__a_dtz*l28_0_5));
-    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l28_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l28_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l28_0_5);
-    // let stop_lo (cone_twist.yaml:59)
-    const S l29_0_0 = ((L_cr*L_twist_rate) - (L_kr*L_over_lo));
-    const S l29_0_1 = (-l29_0_0);
-    const auto l29_0_2 = (l29_0_0 < S(0));
-    const auto l29_0_3 = (L_over_lo > S(0));
-    const auto l29_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
-    const S l29_0_5 = select(l29_0_3, select(l29_0_2, L_kr, S(0)), select(l29_0_4, L_kr, S(0)));
-    const S l29_0_6 = (-L_cr);
-    const S l29_0_7 = select(l29_0_3, select(l29_0_2, l29_0_6, S(0)), select(l29_0_4, l29_0_6, S(0)));
-    const S L_stop_lo = select(l29_0_3, select(l29_0_2, l29_0_1, S(0)), select(l29_0_4, l29_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l29_0_5) + (d_L_twist_rate__a_dtx*l29_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l29_0_5) + (d_L_twist_rate__a_dty*l29_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l29_0_5) + (d_L_twist_rate__a_dtz*l29_0_7));
-    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l29_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l29_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l29_0_7);
-    // let spring (cone_twist.yaml:60)
-    const S l30_0_0 = (L_e__0*p_spring_stiffness);
-    const S l30_0_1 = (L_na__0*p_spring_stiffness);
-    const S l30_0_2 = (L_swing*p_spring_stiffness);
-    const S l30_0_3 = (L_twist*p_spring_stiffness);
-    const S l30_0_4 = (L_e__1*p_spring_stiffness);
-    const S l30_0_5 = (L_na__1*p_spring_stiffness);
-    const S l30_0_6 = (L_e__2*p_spring_stiffness);
-    const S l30_0_7 = (L_na__2*p_spring_stiffness);
+    // let twa (cone_twist.yaml:67)
+    [[maybe_unused]] const S L_twa = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
+    // let twb (cone_twist.yaml:68)
+    [[maybe_unused]] const S L_twb = S(0);
+    // let itw (cone_twist.yaml:69)
+    [[maybe_unused]] const S L_itw = select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa);
+    // let ktw (cone_twist.yaml:70)
+    const S L_ktw = (L_itw*(L_omega*L_omega));
+    // let ctw (cone_twist.yaml:71)
+    const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
+    // let stop_hi (cone_twist.yaml:72)
+    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const auto l35_0_1 = (l35_0_0 > S(0));
+    const auto l35_0_2 = (L_over_hi > S(0));
+    const auto l35_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
+    const S l35_0_4 = select(l35_0_2, select(l35_0_1, L_ktw, S(0)), select(l35_0_3, L_ktw, S(0)));
+    const S l35_0_5 = select(l35_0_2, select(l35_0_1, L_ctw, S(0)), select(l35_0_3, L_ctw, S(0)));
+    const S L_stop_hi = select(l35_0_2, select(l35_0_1, l35_0_0, S(0)), select(l35_0_3, l35_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l35_0_4) + (d_L_twist_rate__a_dtx*l35_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l35_0_4) + (d_L_twist_rate__a_dty*l35_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l35_0_4) + (d_L_twist_rate__a_dtz*l35_0_5));
+    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l35_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l35_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l35_0_5);
+    // let stop_lo (cone_twist.yaml:73)
+    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l36_0_1 = (-l36_0_0);
+    const auto l36_0_2 = (l36_0_0 < S(0));
+    const auto l36_0_3 = (L_over_lo > S(0));
+    const auto l36_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
+    const S l36_0_5 = select(l36_0_3, select(l36_0_2, L_ktw, S(0)), select(l36_0_4, L_ktw, S(0)));
+    const S l36_0_6 = (-L_ctw);
+    const S l36_0_7 = select(l36_0_3, select(l36_0_2, l36_0_6, S(0)), select(l36_0_4, l36_0_6, S(0)));
+    const S L_stop_lo = select(l36_0_3, select(l36_0_2, l36_0_1, S(0)), select(l36_0_4, l36_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l36_0_5) + (d_L_twist_rate__a_dtx*l36_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l36_0_5) + (d_L_twist_rate__a_dty*l36_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l36_0_5) + (d_L_twist_rate__a_dtz*l36_0_7));
+    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l36_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l36_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l36_0_7);
+    // let spring (cone_twist.yaml:74)
+    const S l37_0_0 = (L_e__0*p_spring_stiffness);
+    const S l37_0_1 = (L_na__0*p_spring_stiffness);
+    const S l37_0_2 = (L_swing*p_spring_stiffness);
+    const S l37_0_3 = (L_twist*p_spring_stiffness);
+    const S l37_0_4 = (L_e__1*p_spring_stiffness);
+    const S l37_0_5 = (L_na__1*p_spring_stiffness);
+    const S l37_0_6 = (L_e__2*p_spring_stiffness);
+    const S l37_0_7 = (L_na__2*p_spring_stiffness);
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
-    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l30_0_2)) - (d_L_swing__a_dtx*l30_0_0) - (d_L_twist__a_dtx*l30_0_1));
-    const S d_L_spring__0__a_dty = ((-(a_r1_2*l30_0_3)) - (d_L_e__0__a_dty*l30_0_2) - (d_L_swing__a_dty*l30_0_0) - (d_L_twist__a_dty*l30_0_1));
-    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l30_0_2)) - (d_L_na__0__a_dtz*l30_0_3) - (d_L_swing__a_dtz*l30_0_0) - (d_L_twist__a_dtz*l30_0_1));
+    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l37_0_2)) - (d_L_swing__a_dtx*l37_0_0) - (d_L_twist__a_dtx*l37_0_1));
+    const S d_L_spring__0__a_dty = ((-(a_r1_2*l37_0_3)) - (d_L_e__0__a_dty*l37_0_2) - (d_L_swing__a_dty*l37_0_0) - (d_L_twist__a_dty*l37_0_1));
+    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l37_0_2)) - (d_L_na__0__a_dtz*l37_0_3) - (d_L_swing__a_dtz*l37_0_0) - (d_L_twist__a_dtz*l37_0_1));
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
-    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l30_0_2)) - (d_L_na__1__a_dtx*l30_0_3) - (d_L_swing__a_dtx*l30_0_4) - (d_L_twist__a_dtx*l30_0_5));
-    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l30_0_2)) - (d_L_swing__a_dty*l30_0_4) - (d_L_twist__a_dty*l30_0_5));
-    const S d_L_spring__1__a_dtz = ((-(a_r1_0*l30_0_3)) - (d_L_e__1__a_dtz*l30_0_2) - (d_L_swing__a_dtz*l30_0_4) - (d_L_twist__a_dtz*l30_0_5));
+    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l37_0_2)) - (d_L_na__1__a_dtx*l37_0_3) - (d_L_swing__a_dtx*l37_0_4) - (d_L_twist__a_dtx*l37_0_5));
+    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l37_0_2)) - (d_L_swing__a_dty*l37_0_4) - (d_L_twist__a_dty*l37_0_5));
+    const S d_L_spring__1__a_dtz = ((-(a_r1_0*l37_0_3)) - (d_L_e__1__a_dtz*l37_0_2) - (d_L_swing__a_dtz*l37_0_4) - (d_L_twist__a_dtz*l37_0_5));
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    const S d_L_spring__2__a_dtx = ((-(a_r1_1*l30_0_3)) - (d_L_e__2__a_dtx*l30_0_2) - (d_L_swing__a_dtx*l30_0_6) - (d_L_twist__a_dtx*l30_0_7));
-    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l30_0_2)) - (d_L_na__2__a_dty*l30_0_3) - (d_L_swing__a_dty*l30_0_6) - (d_L_twist__a_dty*l30_0_7));
-    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l30_0_2)) - (d_L_swing__a_dtz*l30_0_6) - (d_L_twist__a_dtz*l30_0_7));
-    // let tau (cone_twist.yaml:61)
-    const S l31_0_0 = ((-L_stop_hi) + L_stop_lo);
-    const S l31_0_1 = (L_limited*L_na__0);
-    const S l31_0_2 = (-p_spring_damping);
-    const S l31_0_3 = (L_limited*l31_0_0);
-    const S l31_0_4 = (L_limited*L_na__1);
-    const S l31_0_5 = (L_limited*L_na__2);
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l31_0_0*l31_0_1));
-    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l31_0_1));
-    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r1_2*l31_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l31_0_1));
-    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l31_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l31_0_1));
-    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_1) - l31_0_2);
-    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_1));
-    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_1));
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l31_0_3) + L_spring__1);
-    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l31_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l31_0_4));
-    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l31_0_4));
-    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r1_0*l31_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l31_0_4));
-    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_4));
-    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_4) - l31_0_2);
-    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_4));
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l31_0_3) + L_spring__2);
-    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r1_1*l31_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l31_0_5));
-    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l31_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l31_0_5));
-    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l31_0_5));
-    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l31_0_5));
-    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l31_0_5));
-    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l31_0_5) - l31_0_2);
-    // apply[0] (cone_twist.yaml:63)
+    const S d_L_spring__2__a_dtx = ((-(a_r1_1*l37_0_3)) - (d_L_e__2__a_dtx*l37_0_2) - (d_L_swing__a_dtx*l37_0_6) - (d_L_twist__a_dtx*l37_0_7));
+    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l37_0_2)) - (d_L_na__2__a_dty*l37_0_3) - (d_L_swing__a_dty*l37_0_6) - (d_L_twist__a_dty*l37_0_7));
+    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l37_0_2)) - (d_L_swing__a_dtz*l37_0_6) - (d_L_twist__a_dtz*l37_0_7));
+    // let tau (cone_twist.yaml:75)
+    const S l38_0_0 = ((-L_stop_hi) + L_stop_lo);
+    const S l38_0_1 = (L_limited*L_na__0);
+    const S l38_0_2 = (-p_spring_damping);
+    const S l38_0_3 = (L_limited*l38_0_0);
+    const S l38_0_4 = (L_limited*L_na__1);
+    const S l38_0_5 = (L_limited*L_na__2);
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l38_0_0*l38_0_1));
+    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l38_0_1));
+    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r1_2*l38_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l38_0_1));
+    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l38_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l38_0_1));
+    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_1) - l38_0_2);
+    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_1));
+    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_1));
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_3) + L_spring__1);
+    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l38_0_4));
+    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l38_0_4));
+    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r1_0*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l38_0_4));
+    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_4));
+    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_4) - l38_0_2);
+    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_4));
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_3) + L_spring__2);
+    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r1_1*l38_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l38_0_5));
+    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l38_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l38_0_5));
+    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l38_0_5));
+    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_5));
+    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_5));
+    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_5) - l38_0_2);
+    // apply[0] (cone_twist.yaml:77)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l33_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l33_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l33_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l33_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (cone_twist.yaml:62), shared subexpressions
+    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply (cone_twist.yaml:76), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -3289,14 +3460,14 @@ struct Cone_Twist_World_Kernel {
     const S o41 = (d_L_f__0__a_vx*h);
     const S o42 = (d_L_f__1__a_vy*h);
     const S o43 = (d_L_f__2__a_vz*h);
-    // g_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // g_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o1) + (d_L_f__0__a_dty*o2) + (d_L_f__0__a_dtz*o3) + o0 + (o5*o9));
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o1) + (d_L_f__1__a_dty*o2) + (d_L_f__1__a_dtz*o3) + o10 + (o11*o13));
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o1) + (d_L_f__2__a_dty*o2) + (d_L_f__2__a_dtz*o3) + o14 + (o15*o16));
     out[3] = ((-(L_f__1*o18)) + (L_f__2*o17) - L_tau__0 + (o1*o22) + (o10*o19) + (o13*o25) + (o14*o17) + (o16*o26) + (o2*o23) + (o24*o3));
     out[4] = ((L_f__0*o18) - (L_f__2*o27) - L_tau__1 + (o0*o18) + (o1*o30) + (o14*o28) + (o16*o34) + (o2*o31) + (o3*o32) + (o33*o9));
     out[5] = ((-(L_f__0*o17)) + (L_f__1*o27) - L_tau__2 + (o0*o35) + (o1*o36) + (o10*o27) + (o13*o40) + (o2*o37) + (o3*o38) + (o39*o9));
-    // K_aa from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // K_aa from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[6] = (o41 + o5);
     out[7] = S(0);
     out[8] = S(0);
@@ -3336,13 +3507,13 @@ struct Cone_Twist_World_Kernel {
   }
 
   /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
-  static constexpr int kHeld = 6;
+  static constexpr int kHeld = 11;
   /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
   /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
-  static constexpr int kJointArm[1] = { 2 };
+  static constexpr int kJointArm[1] = { 7 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 355
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 485
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -3394,7 +3565,7 @@ struct Cone_Twist_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[44];
     [[maybe_unused]] const S g_joint_hertz = in[45];
     [[maybe_unused]] const S g_joint_damping_ratio = in[46];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:30), let na (cone_twist.yaml:33), let ua (cone_twist.yaml:35)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let swa (cone_twist.yaml:53)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3412,6 +3583,12 @@ struct Cone_Twist_World_Kernel {
     const S p0_14 = ((S(2)*a_qx*a_qz) - p0_6);
     const S p0_15 = ((S(2)*a_qy*a_qz) + p0_12);
     const S p0_16 = ((-p0_0) - p0_10 + S(1));
+    const S p0_17 = ((a_Ixy*p0_2) + (a_Iyy*p0_5) + (a_Iyz*p0_8));
+    const S p0_18 = ((a_Ixz*p0_2) + (a_Iyz*p0_5) + (a_Izz*p0_8));
+    const S p0_19 = ((a_Ixx*p0_2) + (a_Ixy*p0_5) + (a_Ixz*p0_8));
+    const S p0_20 = ((a_Ixz*p0_9) + (a_Iyz*p0_11) + (a_Izz*p0_13));
+    const S p0_21 = ((a_Ixx*p0_9) + (a_Ixy*p0_11) + (a_Ixz*p0_13));
+    const S p0_22 = ((a_Ixy*p0_9) + (a_Iyy*p0_11) + (a_Iyz*p0_13));
     const S a_r0_0 = ((p0_2*p_point_a__0) + (p0_5*p_point_a__1) + (p0_8*p_point_a__2));
     const S a_r0_1 = ((p0_11*p_point_a__1) + (p0_13*p_point_a__2) + (p0_9*p_point_a__0));
     const S a_r0_2 = ((p0_14*p_point_a__0) + (p0_15*p_point_a__1) + (p0_16*p_point_a__2));
@@ -3421,6 +3598,12 @@ struct Cone_Twist_World_Kernel {
     const S a_r2_0 = ((p0_2*p_ref_a__0) + (p0_5*p_ref_a__1) + (p0_8*p_ref_a__2));
     const S a_r2_1 = ((p0_11*p_ref_a__1) + (p0_13*p_ref_a__2) + (p0_9*p_ref_a__0));
     const S a_r2_2 = ((p0_14*p_ref_a__0) + (p0_15*p_ref_a__1) + (p0_16*p_ref_a__2));
+    const S a_Iw3_00 = ((p0_17*p0_5) + (p0_18*p0_8) + (p0_19*p0_2));
+    const S a_Iw3_11 = ((p0_11*p0_22) + (p0_13*p0_20) + (p0_21*p0_9));
+    const S a_Iw3_22 = ((p0_14*((a_Ixx*p0_14) + (a_Ixy*p0_15) + (a_Ixz*p0_16))) + (p0_15*((a_Ixy*p0_14) + (a_Iyy*p0_15) + (a_Iyz*p0_16))) + (p0_16*((a_Ixz*p0_14) + (a_Iyz*p0_15) + (a_Izz*p0_16))));
+    const S a_Iw3_01 = ((p0_11*p0_17) + (p0_13*p0_18) + (p0_19*p0_9));
+    const S a_Iw3_02 = ((p0_14*p0_19) + (p0_15*p0_17) + (p0_16*p0_18));
+    const S a_Iw3_12 = ((p0_14*p0_21) + (p0_15*p0_22) + (p0_16*p0_20));
     // let omega (cone_twist.yaml:26)
     const S L_omega = (S(6.283185307179586)*select((p_hertz > S(0)), p_hertz, g_joint_hertz));
     // let zeta (cone_twist.yaml:27)
@@ -3428,115 +3611,134 @@ struct Cone_Twist_World_Kernel {
     // let m (cone_twist.yaml:28)
     const S L_m = held_in ? held_in[0] : S(max(S(0), a_m));
     if (held_out) held_out[0] = L_m;
-    // let im (cone_twist.yaml:29)
-    const S L_im = held_in ? held_in[1] : S(max(S(0), ((S(0.5)*a_Ixx) + (S(0.5)*a_Iyy) + (S(0.5)*a_Izz))));
-    if (held_out) held_out[1] = L_im;
-    // let pa (cone_twist.yaml:30)
+    // let pa (cone_twist.yaml:29)
     const S L_pa__0 = (a_px + a_r0_0);
     const S L_pa__1 = (a_py + a_r0_1);
     const S L_pa__2 = (a_pz + a_r0_2);
-    // let pb (cone_twist.yaml:31)
+    // let pb (cone_twist.yaml:30)
     const S L_pb__0 = p_point_b__0;
     const S L_pb__1 = p_point_b__1;
     const S L_pb__2 = p_point_b__2;
-    // let f (cone_twist.yaml:32)
-    const S l6_0_0 = (L_m*(L_omega*L_omega));
-    const S l6_0_1 = (S(2)*L_m*L_omega*L_zeta);
-    const S L_f__0 = ((l6_0_0*((-L_pa__0) + L_pb__0)) + (l6_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)));
-    const S L_f__1 = ((l6_0_0*((-L_pa__1) + L_pb__1)) + (l6_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)));
-    const S L_f__2 = ((l6_0_0*((-L_pa__2) + L_pb__2)) + (l6_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
-    // let na (cone_twist.yaml:33)
+    // let f (cone_twist.yaml:31)
+    const S l5_0_0 = (L_m*(L_omega*L_omega));
+    const S l5_0_1 = (S(2)*L_m*L_omega*L_zeta);
+    const S L_f__0 = ((l5_0_0*((-L_pa__0) + L_pb__0)) + (l5_0_1*((a_r0_1*a_wz) - (a_r0_2*a_wy) - a_vx)));
+    const S L_f__1 = ((l5_0_0*((-L_pa__1) + L_pb__1)) + (l5_0_1*((-(a_r0_0*a_wz)) + (a_r0_2*a_wx) - a_vy)));
+    const S L_f__2 = ((l5_0_0*((-L_pa__2) + L_pb__2)) + (l5_0_1*((a_r0_0*a_wy) - (a_r0_1*a_wx) - a_vz)));
+    // let na (cone_twist.yaml:32)
     const S L_na__0 = a_r1_0;
     const S L_na__1 = a_r1_1;
     const S L_na__2 = a_r1_2;
-    // let nb (cone_twist.yaml:34)
+    // let nb (cone_twist.yaml:33)
     const S L_nb__0 = p_axis_b__0;
     const S L_nb__1 = p_axis_b__1;
     const S L_nb__2 = p_axis_b__2;
-    // let ua (cone_twist.yaml:35)
+    // let ua (cone_twist.yaml:34)
     const S L_ua__0 = a_r2_0;
     const S L_ua__1 = a_r2_1;
     const S L_ua__2 = a_r2_2;
-    // let ub (cone_twist.yaml:36)
+    // let ub (cone_twist.yaml:35)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let wrel (cone_twist.yaml:37)
+    // let wrel (cone_twist.yaml:36)
     const S L_wrel__0 = (-a_wx);
     const S L_wrel__1 = (-a_wy);
     const S L_wrel__2 = (-a_wz);
-    // let kr (cone_twist.yaml:38)
-    const S L_kr = (L_im*(L_omega*L_omega));
-    // let cr (cone_twist.yaml:39)
-    const S L_cr = (S(2)*L_im*L_omega*L_zeta);
-    // let cs (cone_twist.yaml:42)
+    // let cs (cone_twist.yaml:39)
     const S L_cs = ((L_na__0*L_nb__0) + (L_na__1*L_nb__1) + (L_na__2*L_nb__2));
-    // let k (cone_twist.yaml:43)
+    // let k (cone_twist.yaml:40)
     const S L_k__0 = ((-(L_na__1*L_nb__2)) + (L_na__2*L_nb__1));
     const S L_k__1 = ((L_na__0*L_nb__2) - (L_na__2*L_nb__0));
     const S L_k__2 = ((-(L_na__0*L_nb__1)) + (L_na__1*L_nb__0));
-    // let sn (cone_twist.yaml:44)
+    // let sn (cone_twist.yaml:41)
     const S L_sn = sqrt(((L_k__0*L_k__0) + (L_k__1*L_k__1) + (L_k__2*L_k__2) + S(1e-12)));
-    // let swing (cone_twist.yaml:45)
+    // let swing (cone_twist.yaml:42)
     const S L_swing = angle_of(L_sn, L_cs);
-    // let e (cone_twist.yaml:46)
-    const S l18_0_0 = (S(1)/(L_sn));
-    const S L_e__0 = (-(L_k__0*l18_0_0));
-    const S L_e__1 = (-(L_k__1*l18_0_0));
-    const S L_e__2 = (-(L_k__2*l18_0_0));
-    // let swing_rate (cone_twist.yaml:47)
+    // let e (cone_twist.yaml:43)
+    const S l15_0_0 = (S(1)/(L_sn));
+    const S L_e__0 = (-(L_k__0*l15_0_0));
+    const S L_e__1 = (-(L_k__1*l15_0_0));
+    const S L_e__2 = (-(L_k__2*l15_0_0));
+    // let swing_rate (cone_twist.yaml:44)
     const S L_swing_rate = ((L_e__0*L_wrel__0) + (L_e__1*L_wrel__1) + (L_e__2*L_wrel__2));
-    // let over_cone (cone_twist.yaml:48)
+    // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let stop_cone (cone_twist.yaml:49)
-    const S l21_0_0 = ((L_cr*L_swing_rate) + (L_kr*L_over_cone));
-    const S L_stop_cone = select((p_cone_angle > S(0)), select((L_over_cone > S(0)), select((l21_0_0 > S(0)), l21_0_0, S(0)), select(((L_over_cone + (L_swing_rate*h)) > S(0)), l21_0_0, S(0))), S(0));
-    // let ubs (cone_twist.yaml:52)
-    const S l22_0_0 = (((L_k__0*L_ub__0) + (L_k__1*L_ub__1) + (L_k__2*L_ub__2))/(max(S(1e-06), (L_cs + S(1)))));
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_0) + (L_k__1*L_ub__2) - (L_k__2*L_ub__1));
-    const S L_ubs__1 = ((L_cs*L_ub__1) - (L_k__0*L_ub__2) + (L_k__1*l22_0_0) + (L_k__2*L_ub__0));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__0*L_ub__1) - (L_k__1*L_ub__0) + (L_k__2*l22_0_0));
-    // let twist (cone_twist.yaml:53)
+    // let swa (cone_twist.yaml:53)
+    const S L_swa = held_in ? held_in[1] : S(((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22)))));
+    if (held_out) held_out[1] = L_swa;
+    // let swb (cone_twist.yaml:54)
+    const S L_swb = held_in ? held_in[2] : S(S(0));
+    if (held_out) held_out[2] = L_swb;
+    // let isw (cone_twist.yaml:55)
+    const S L_isw = held_in ? held_in[3] : S(select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa));
+    if (held_out) held_out[3] = L_isw;
+    // let ksw (cone_twist.yaml:56)
+    const S L_ksw = (L_isw*(L_omega*L_omega));
+    // let csw (cone_twist.yaml:57)
+    const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
+    // let stop_cone (cone_twist.yaml:58)
+    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const S L_stop_cone = select((p_cone_angle > S(0)), select((L_over_cone > S(0)), select((l23_0_0 > S(0)), l23_0_0, S(0)), select(((L_over_cone + (L_swing_rate*h)) > S(0)), l23_0_0, S(0))), S(0));
+    // let ubs (cone_twist.yaml:61)
+    const S l24_0_0 = (((L_k__0*L_ub__0) + (L_k__1*L_ub__1) + (L_k__2*L_ub__2))/(max(S(1e-06), (L_cs + S(1)))));
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_0) + (L_k__1*L_ub__2) - (L_k__2*L_ub__1));
+    const S L_ubs__1 = ((L_cs*L_ub__1) - (L_k__0*L_ub__2) + (L_k__1*l24_0_0) + (L_k__2*L_ub__0));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__0*L_ub__1) - (L_k__1*L_ub__0) + (L_k__2*l24_0_0));
+    // let twist (cone_twist.yaml:62)
     const S L_twist = angle_of(((L_na__0*((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1))) + (L_na__1*((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0))) + (L_na__2*((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0)))), ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2)));
-    // let twist_rate (cone_twist.yaml:54)
+    // let twist_rate (cone_twist.yaml:63)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
-    // let limited (cone_twist.yaml:55)
+    // let limited (cone_twist.yaml:64)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:56)
+    // let over_hi (cone_twist.yaml:65)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:57)
+    // let over_lo (cone_twist.yaml:66)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
-    // let stop_hi (cone_twist.yaml:58)
-    const S l28_0_0 = ((L_cr*L_twist_rate) + (L_kr*L_over_hi));
-    const S L_stop_hi = select((L_over_hi > S(0)), select((l28_0_0 > S(0)), l28_0_0, S(0)), select(((L_over_hi + (L_twist_rate*h)) > S(0)), l28_0_0, S(0)));
-    // let stop_lo (cone_twist.yaml:59)
-    const S l29_0_0 = ((L_cr*L_twist_rate) - (L_kr*L_over_lo));
-    const S l29_0_1 = (-l29_0_0);
-    const S L_stop_lo = select((L_over_lo > S(0)), select((l29_0_0 < S(0)), l29_0_1, S(0)), select(((L_over_lo - (L_twist_rate*h)) > S(0)), l29_0_1, S(0)));
-    // let spring (cone_twist.yaml:60)
+    // let twa (cone_twist.yaml:67)
+    const S L_twa = held_in ? held_in[4] : S(((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22)))));
+    if (held_out) held_out[4] = L_twa;
+    // let twb (cone_twist.yaml:68)
+    const S L_twb = held_in ? held_in[5] : S(S(0));
+    if (held_out) held_out[5] = L_twb;
+    // let itw (cone_twist.yaml:69)
+    const S L_itw = held_in ? held_in[6] : S(select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa));
+    if (held_out) held_out[6] = L_itw;
+    // let ktw (cone_twist.yaml:70)
+    const S L_ktw = (L_itw*(L_omega*L_omega));
+    // let ctw (cone_twist.yaml:71)
+    const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
+    // let stop_hi (cone_twist.yaml:72)
+    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const S L_stop_hi = select((L_over_hi > S(0)), select((l35_0_0 > S(0)), l35_0_0, S(0)), select(((L_over_hi + (L_twist_rate*h)) > S(0)), l35_0_0, S(0)));
+    // let stop_lo (cone_twist.yaml:73)
+    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l36_0_1 = (-l36_0_0);
+    const S L_stop_lo = select((L_over_lo > S(0)), select((l36_0_0 < S(0)), l36_0_1, S(0)), select(((L_over_lo - (L_twist_rate*h)) > S(0)), l36_0_1, S(0)));
+    // let spring (cone_twist.yaml:74)
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    // let tau (cone_twist.yaml:61)
-    const S l31_0_0 = (L_limited*((-L_stop_hi) + L_stop_lo));
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + (L_na__0*l31_0_0) + L_spring__0);
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l31_0_0) + L_spring__1);
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l31_0_0) + L_spring__2);
-    // apply[0] (cone_twist.yaml:63)
-    const S T0_arm__0 = held_in ? held_in[2] : S((L_pa__0 - a_px));
-    if (held_out) held_out[2] = T0_arm__0;
-    const S T0_arm__1 = held_in ? held_in[3] : S((L_pa__1 - a_py));
-    if (held_out) held_out[3] = T0_arm__1;
-    const S T0_arm__2 = held_in ? held_in[4] : S((L_pa__2 - a_pz));
-    if (held_out) held_out[4] = T0_arm__2;
-    const S l33_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    const S T1_turn = held_in ? held_in[5] : S((S(1) - (S(1)/((((h*h*h*h)*l33_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l33_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l33_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[5] = T1_turn;
-    // apply (cone_twist.yaml:62), shared subexpressions
+    // let tau (cone_twist.yaml:75)
+    const S l38_0_0 = (L_limited*((-L_stop_hi) + L_stop_lo));
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + (L_na__0*l38_0_0) + L_spring__0);
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_0) + L_spring__1);
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_0) + L_spring__2);
+    // apply[0] (cone_twist.yaml:77)
+    const S T0_arm__0 = held_in ? held_in[7] : S((L_pa__0 - a_px));
+    if (held_out) held_out[7] = T0_arm__0;
+    const S T0_arm__1 = held_in ? held_in[8] : S((L_pa__1 - a_py));
+    if (held_out) held_out[8] = T0_arm__1;
+    const S T0_arm__2 = held_in ? held_in[9] : S((L_pa__2 - a_pz));
+    if (held_out) held_out[9] = T0_arm__2;
+    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    const S T1_turn = held_in ? held_in[10] : S((S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[10] = T1_turn;
+    // apply (cone_twist.yaml:76), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
-    // F_a from apply[0] (cone_twist.yaml:63), apply[2] (cone_twist.yaml:65)
+    // F_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

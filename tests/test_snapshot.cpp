@@ -412,8 +412,6 @@ TEST(Snapshot, RecordsWrittenWrongAreRefusedByFieldAndTheWorldKept) {
   EXPECT_EQ(source->snapshot(), good);
 }
 
-// A snapshot as an older version wrote it: without the setting `name` (its value `bytes` long),
-// the settings' count one less, the header's version `version`, sealed again.
 // The bytes with each contact memory pair as versions before 10 wrote it: no drift, no held gaps.
 std::vector<unsigned char> without_pair_drift(std::vector<unsigned char> b) {
   const Layout l = layout_of(b);
@@ -428,6 +426,9 @@ std::vector<unsigned char> without_pair_drift(std::vector<unsigned char> b) {
   return b;
 }
 
+// A snapshot as an older version wrote it: without the setting `name` (its value `bytes` long),
+// the settings' count one less, the header's version `version` (its pairs as that version wrote
+// them), sealed again.
 std::vector<unsigned char> without_setting(std::vector<unsigned char> b, const std::string& name, uint32_t bytes,
                                            uint32_t version) {
   if (version < 10) b = without_pair_drift(std::move(b));

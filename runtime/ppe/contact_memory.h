@@ -26,8 +26,8 @@ struct ContactMemory {
     float slip = 0.0f;
     float drift[3] = {};  // the mean tangential velocity of b against a over its points (world)
     uint32_t count = 0;
-    // Bit i: point i was a gap its bodies did not close at the speed that meets it by the step's
-    // end (note_held_gaps): something else held them apart, not gravity closing it.
+    // Bit i: point i was a gap its bodies ended the last step neither closing within a step nor
+    // approaching faster than contact.rest_speed (note_held_gaps): something held them apart.
     uint32_t held_gaps = 0;
     Anchor anchors[spu::kMaxManifoldPoints];
   };
@@ -52,11 +52,11 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
                      bool all, ContactMemory& memory, std::vector<WorldContact>& contacts);
 
 /// After the step: which of each pair's gaps its bodies left open, approaching slower than the
-/// gap over a step (or opening). Gravity is not taken to close such a gap in the next step
+/// gap over a step and than contact.rest_speed (or opening). Gravity is not taken to close such a gap in the next step
 /// (its `fall` is 0 there): what held the bodies apart holds them still, and a landing damper
-/// that took gravity's fall pulled them together instead: a ragdoll whose pelvis hovers half a
-/// millimetre above the ground, held by its hips, was pulled down at 3 cm/s every step, pressed
-/// its other parts past their hold, and was pushed back up for ever.
+/// that took gravity's fall pulled them together instead: a ragdoll whose pelvis and head hovered
+/// half a millimetre above the ground, held by their joints, was pulled down every step (it sank
+/// at 2 cm/s), pressed its other parts past their hold, and was pushed back up for ever.
 void note_held_gaps(const std::vector<WorldBody>& bodies, const WorldSettings& s,
                     const std::vector<WorldContact>& contacts, ContactMemory& memory);
 

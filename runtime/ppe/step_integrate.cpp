@@ -155,6 +155,8 @@ void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, co
       failed[k] = 1;
       for (uint32_t i : islands[k].bodies) bodies[i] = start[i];
     }
+  // A failed island is stopped where it started: given back moving, it failed again from the
+  // same state every step (a tangled ragdoll hung in the air at 6.7 m/s for 420 steps).
   for (size_t k = 0; k < islands.size(); ++k)
     if (failed[k])
       for (uint32_t i : islands[k].bodies) {

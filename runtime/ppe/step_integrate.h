@@ -4,7 +4,8 @@
 // split island run in order, each from the start state against ghosts at the latest
 // velocities of the others: one block Gauss-Seidel sweep. Split islands sweep again until no
 // velocity changes by more than the decoupling tolerance. Step-size halving happens inside
-// the kernel; an island whose step still fails keeps its start state and is counted.
+// the kernel; an island whose step still fails keeps its start pose, is stopped (given back
+// moving, it failed again from the same state every step) and is counted.
 #pragma once
 #include <functional>
 #include <vector>
@@ -44,7 +45,7 @@ struct IntegrateScratch {
 };
 
 /// Advances the bodies of every island by one step of s.dt. Sets, per island, whether its
-/// step failed (its bodies kept their start state) in `failed` (replaced).
+/// step failed (its bodies kept their start pose, their velocities zeroed) in `failed` (replaced).
 void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, const std::vector<IslandContent>& islands,
                        const DecoupledIslands& parts, const std::vector<WorldForce>& forces,
                        const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies, const IslandCompute& compute,

@@ -738,7 +738,17 @@ void joint_reference(const Case<K>& c, const std::string& name, std::vector<doub
   const double iz = ib > 0 ? ia * ib / (ia + ib) : ia;
   const double lim = limited ? stop(p("lower") - angle, -rate, kr, cr) - stop(angle - p("upper"), rate, kr, cr) : 0.0;
   const double spring = -(p("spring_stiffness") * (angle - p("spring_angle")) + p("spring_damping") * rate);
-  const Vec3 align = -kr * na.cross(nb) - cr * (wrel - rate * na);
+  // the alignment across each of the two axes across the hinge's: between two bodies, tuned to the
+  // moments about that axis in series, at most sixteen times that and at most the heavier's; to
+  // the world, to the body's largest moment
+  auto across_inertia = [&](const Vec3& axis) {
+    const double ja = axis.dot(A.Iw * axis), jb = kPair<K> ? axis.dot(B.Iw * axis) : 0.0;
+    return jb > 0 ? std::min(std::max(ja, jb), 16 * ja * jb / (ja + jb)) : im;
+  };
+  const Vec3 p1 = ua, p2 = na.cross(ua), mis = na.cross(nb), wp = wrel - rate * na;
+  const double i1 = across_inertia(p1), i2 = across_inertia(p2);
+  const Vec3 align = -omega * omega * (i1 * mis.dot(p1) * p1 + i2 * mis.dot(p2) * p2) -
+                     2 * zeta * omega * (i1 * wp.dot(p1) * p1 + i2 * wp.dot(p2) * p2);
   put_torque(align + (lim + motor(p("motor_speed"), rate, iz, p("motor_torque")) + spring) * na);
 }
 

@@ -350,6 +350,22 @@ def inertia_about(body, n):
     return dot(n, inertia_world(body) * n)
 
 
+def stop_inertia(a, b, n, alone=None):
+    """The moment a joint's angular term about world direction n (unit) is tuned to: a's and
+    b's moments about n in series, raised toward the heavier's but to at most 16 times the
+    series moment (the term at most four times the joint's frequency on the lighter body). To
+    the world, a's moment about n, or `alone` when given. Tuned to the heavier body alone, a
+    limit or alignment stopping a light limb's turn about its length flings it (docs/joints.md)."""
+    if not isinstance(a, (Body, World)) or not isinstance(b, (Body, World)):
+        raise TypeError("stop_inertia() takes two bodies (a, b) as its first two arguments")
+    ia = inertia_about(a, n)
+    if isinstance(b, World):
+        return ia if alone is None else alone
+    ib = inertia_about(b, n)
+    return where(ib > 0, sp.Min(sp.Max(ia, ib), 16 * (ia * ib) / sp.Max(ia + ib, sp.Float(1.0e-30))),
+                 ia if alone is None else alone)
+
+
 def angular_velocity(body):
     """The body's angular velocity (world frame); zero for the world."""
     _need_body("angular_velocity", body)
@@ -365,6 +381,7 @@ FUNCTIONS = {
     "force_at_point": force_at_point, "force_at_joint": force_at_joint, "force_at_offset": force_at_offset,
     "attached_offset": attached_offset, "velocity_at_offset": velocity_at_offset, "lagged": lagged,
     "world_axis": world_axis, "mass_of": mass_of, "moment_of": moment_of, "inertia_about": inertia_about,
+    "stop_inertia": stop_inertia,
     "angular_velocity": angular_velocity,
     "atan2": sp.atan2,
 }

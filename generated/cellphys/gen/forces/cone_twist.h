@@ -180,7 +180,7 @@ struct Cone_Twist_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[64];
     [[maybe_unused]] const S g_joint_hertz = in[65];
     [[maybe_unused]] const S g_joint_damping_ratio = in[66];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let swa (cone_twist.yaml:53), let swb (cone_twist.yaml:54)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let isw (cone_twist.yaml:50)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -470,126 +470,124 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_swing_rate__a_wz = (-L_e__2);
     // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let swa (cone_twist.yaml:53)
-    [[maybe_unused]] const S L_swa = ((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22))));
-    // let swb (cone_twist.yaml:54)
-    [[maybe_unused]] const S L_swb = ((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22))));
-    // let isw (cone_twist.yaml:55)
-    [[maybe_unused]] const S L_isw = select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa);
-    // let ksw (cone_twist.yaml:56)
+    // let isw (cone_twist.yaml:50)
+    const S l18_0_0 = ((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22))));
+    const S l18_0_1 = ((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22))));
+    [[maybe_unused]] const S L_isw = select((l18_0_1 > S(0)), min(max(l18_0_0, l18_0_1), (S(16)*l18_0_0*l18_0_1/(max(S(1e-30), (l18_0_0 + l18_0_1))))), l18_0_0);
+    // let ksw (cone_twist.yaml:51)
     const S L_ksw = (L_isw*(L_omega*L_omega));
-    // let csw (cone_twist.yaml:57)
+    // let csw (cone_twist.yaml:52)
     const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
-    // let stop_cone (cone_twist.yaml:58)
-    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
-    const auto l23_0_1 = (l23_0_0 > S(0));
-    const auto l23_0_2 = (L_over_cone > S(0));
-    const auto l23_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
-    const auto l23_0_4 = (p_cone_angle > S(0));
-    const S l23_0_5 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_ksw, S(0)), select(l23_0_3, L_ksw, S(0))), S(0));
-    const S l23_0_6 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_csw, S(0)), select(l23_0_3, L_csw, S(0))), S(0));
-    const S L_stop_cone = select(l23_0_4, select(l23_0_2, select(l23_0_1, l23_0_0, S(0)), select(l23_0_3, l23_0_0, S(0))), S(0));
-    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l23_0_5) + (d_L_swing_rate__a_dtx*l23_0_6));
-    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l23_0_5) + (d_L_swing_rate__a_dty*l23_0_6));
-    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l23_0_5) + (d_L_swing_rate__a_dtz*l23_0_6));
-    const S d_L_stop_cone__b_dtx = ((d_L_swing__b_dtx*l23_0_5) + (d_L_swing_rate__b_dtx*l23_0_6));
-    const S d_L_stop_cone__b_dty = ((d_L_swing__b_dty*l23_0_5) + (d_L_swing_rate__b_dty*l23_0_6));
-    const S d_L_stop_cone__b_dtz = ((d_L_swing__b_dtz*l23_0_5) + (d_L_swing_rate__b_dtz*l23_0_6));
-    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l23_0_6);
-    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l23_0_6);
-    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l23_0_6);
-    const S d_L_stop_cone__b_wx = (L_e__0*l23_0_6);
-    const S d_L_stop_cone__b_wy = (L_e__1*l23_0_6);
-    const S d_L_stop_cone__b_wz = (L_e__2*l23_0_6);
-    // let ubs (cone_twist.yaml:61)
-    const S l24_0_0 = (L_k__1*L_ub__2);
-    const S l24_0_1 = (L_k__2*L_ub__1);
-    const S l24_0_2 = max(S(1e-06), (L_cs + S(1)));
-    const S l24_0_3 = (S(1)/(l24_0_2));
-    const S l24_0_4 = (L_k__0*L_ub__0);
-    const S l24_0_5 = (L_k__1*L_ub__1);
-    const S l24_0_6 = (L_k__2*L_ub__2);
-    const S l24_0_7 = (l24_0_4 + l24_0_5 + l24_0_6);
-    const S l24_0_8 = (l24_0_3*l24_0_7);
-    const S l24_0_9 = (-L_ub__0);
-    const S l24_0_10 = (l24_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l24_0_2*l24_0_2)));
-    const S l24_0_11 = ((-(L_k__0*l24_0_10)) - l24_0_9);
-    const S l24_0_12 = ((l24_0_3*l24_0_4) + l24_0_8);
-    const S l24_0_13 = (L_k__0*L_ub__1);
-    const S l24_0_14 = (L_ub__2 + (l24_0_13*l24_0_3));
-    const S l24_0_15 = (-L_ub__1);
-    const S l24_0_16 = (L_k__0*L_ub__2);
-    const S l24_0_17 = (l24_0_15 + (l24_0_16*l24_0_3));
-    const S l24_0_18 = (L_k__0*l24_0_3);
-    const S l24_0_19 = (L_k__2*l24_0_18);
-    const S l24_0_20 = (L_k__1 + l24_0_19);
-    const S l24_0_21 = (L_k__1*l24_0_18);
-    const S l24_0_22 = ((-L_k__2) + l24_0_21);
-    const S l24_0_23 = (L_cs + ((L_k__0*L_k__0)*l24_0_3));
-    const S l24_0_24 = (L_k__2*L_ub__0);
-    const S l24_0_25 = ((-(L_k__1*l24_0_10)) - l24_0_15);
-    const S l24_0_26 = (-L_ub__2);
-    const S l24_0_27 = (L_k__1*L_ub__0);
-    const S l24_0_28 = (l24_0_26 + (l24_0_27*l24_0_3));
-    const S l24_0_29 = ((l24_0_3*l24_0_5) + l24_0_8);
-    const S l24_0_30 = (L_ub__0 + (l24_0_0*l24_0_3));
-    const S l24_0_31 = ((-L_k__0) + (L_k__1*L_k__2*l24_0_3));
-    const S l24_0_32 = (L_cs + ((L_k__1*L_k__1)*l24_0_3));
-    const S l24_0_33 = (L_k__2 + l24_0_21);
-    const S l24_0_34 = ((-(L_k__2*l24_0_10)) - l24_0_26);
-    const S l24_0_35 = (L_ub__1 + (l24_0_24*l24_0_3));
-    const S l24_0_36 = ((l24_0_1*l24_0_3) + l24_0_9);
-    const S l24_0_37 = ((l24_0_3*l24_0_6) + l24_0_8);
-    const S l24_0_38 = (L_cs + ((L_k__2*L_k__2)*l24_0_3));
-    const S l24_0_39 = (L_k__0 + (L_k__1*L_k__2*l24_0_3));
-    const S l24_0_40 = ((-L_k__1) + l24_0_19);
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_8) + l24_0_0 - l24_0_1);
-    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l24_0_11) + (d_L_k__0__a_dtx*l24_0_12) + (d_L_k__1__a_dtx*l24_0_14) + (d_L_k__2__a_dtx*l24_0_17));
-    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l24_0_11) + (d_L_k__0__a_dty*l24_0_12) + (d_L_k__1__a_dty*l24_0_14) + (d_L_k__2__a_dty*l24_0_17));
-    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l24_0_11) + (d_L_k__0__a_dtz*l24_0_12) + (d_L_k__1__a_dtz*l24_0_14) + (d_L_k__2__a_dtz*l24_0_17));
-    const S d_L_ubs__0__b_dtx = ((b_r5_1*l24_0_20) + (d_L_cs__b_dtx*l24_0_11) + (d_L_k__0__b_dtx*l24_0_12) + (d_L_k__1__b_dtx*l24_0_14) + (d_L_k__2__b_dtx*l24_0_17) + (d_L_ub__1__b_dtx*l24_0_22));
-    const S d_L_ubs__0__b_dty = ((b_r5_2*l24_0_23) + (d_L_cs__b_dty*l24_0_11) + (d_L_k__0__b_dty*l24_0_12) + (d_L_k__1__b_dty*l24_0_14) + (d_L_k__2__b_dty*l24_0_17) + (d_L_ub__2__b_dty*l24_0_20));
-    const S d_L_ubs__0__b_dtz = ((b_r5_0*l24_0_22) + (d_L_cs__b_dtz*l24_0_11) + (d_L_k__0__b_dtz*l24_0_12) + (d_L_k__1__b_dtz*l24_0_14) + (d_L_k__2__b_dtz*l24_0_17) + (d_L_ub__0__b_dtz*l24_0_23));
-    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l24_0_8) - l24_0_16 + l24_0_24);
-    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l24_0_25) + (d_L_k__0__a_dtx*l24_0_28) + (d_L_k__1__a_dtx*l24_0_29) + (d_L_k__2__a_dtx*l24_0_30));
-    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l24_0_25) + (d_L_k__0__a_dty*l24_0_28) + (d_L_k__1__a_dty*l24_0_29) + (d_L_k__2__a_dty*l24_0_30));
-    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l24_0_25) + (d_L_k__0__a_dtz*l24_0_28) + (d_L_k__1__a_dtz*l24_0_29) + (d_L_k__2__a_dtz*l24_0_30));
-    const S d_L_ubs__1__b_dtx = ((b_r5_1*l24_0_31) + (d_L_cs__b_dtx*l24_0_25) + (d_L_k__0__b_dtx*l24_0_28) + (d_L_k__1__b_dtx*l24_0_29) + (d_L_k__2__b_dtx*l24_0_30) + (d_L_ub__1__b_dtx*l24_0_32));
-    const S d_L_ubs__1__b_dty = ((b_r5_2*l24_0_33) + (d_L_cs__b_dty*l24_0_25) + (d_L_k__0__b_dty*l24_0_28) + (d_L_k__1__b_dty*l24_0_29) + (d_L_k__2__b_dty*l24_0_30) + (d_L_ub__2__b_dty*l24_0_31));
-    const S d_L_ubs__1__b_dtz = ((b_r5_0*l24_0_32) + (d_L_cs__b_dtz*l24_0_25) + (d_L_k__0__b_dtz*l24_0_28) + (d_L_k__1__b_dtz*l24_0_29) + (d_L_k__2__b_dtz*l24_0_30) + (d_L_ub__0__b_dtz*l24_0_33));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l24_0_8) + l24_0_13 - l24_0_27);
-    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l24_0_34) + (d_L_k__0__a_dtx*l24_0_35) + (d_L_k__1__a_dtx*l24_0_36) + (d_L_k__2__a_dtx*l24_0_37));
-    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l24_0_34) + (d_L_k__0__a_dty*l24_0_35) + (d_L_k__1__a_dty*l24_0_36) + (d_L_k__2__a_dty*l24_0_37));
-    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l24_0_34) + (d_L_k__0__a_dtz*l24_0_35) + (d_L_k__1__a_dtz*l24_0_36) + (d_L_k__2__a_dtz*l24_0_37));
-    const S d_L_ubs__2__b_dtx = ((b_r5_1*l24_0_38) + (d_L_cs__b_dtx*l24_0_34) + (d_L_k__0__b_dtx*l24_0_35) + (d_L_k__1__b_dtx*l24_0_36) + (d_L_k__2__b_dtx*l24_0_37) + (d_L_ub__1__b_dtx*l24_0_39));
-    const S d_L_ubs__2__b_dty = ((b_r5_2*l24_0_40) + (d_L_cs__b_dty*l24_0_34) + (d_L_k__0__b_dty*l24_0_35) + (d_L_k__1__b_dty*l24_0_36) + (d_L_k__2__b_dty*l24_0_37) + (d_L_ub__2__b_dty*l24_0_38));
-    const S d_L_ubs__2__b_dtz = ((b_r5_0*l24_0_39) + (d_L_cs__b_dtz*l24_0_34) + (d_L_k__0__b_dtz*l24_0_35) + (d_L_k__1__b_dtz*l24_0_36) + (d_L_k__2__b_dtz*l24_0_37) + (d_L_ub__0__b_dtz*l24_0_40));
-    // let twist (cone_twist.yaml:62)
-    const S l25_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
-    const S l25_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
-    const S l25_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
-    const S l25_0_3 = ((L_na__0*l25_0_0) + (L_na__1*l25_0_1) + (L_na__2*l25_0_2));
-    const S l25_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
-    const S l25_0_5 = (S(1)/(((l25_0_3*l25_0_3) + (l25_0_4*l25_0_4))));
-    const S l25_0_6 = (-(l25_0_3*l25_0_5));
-    const S l25_0_7 = (l25_0_4*l25_0_5);
-    const S l25_0_8 = ((L_ubs__2*l25_0_6) + (l25_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
-    const S l25_0_9 = ((L_ubs__1*l25_0_6) + (l25_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
-    const S l25_0_10 = ((L_ua__0*l25_0_6) + (l25_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S l25_0_11 = ((L_ua__1*l25_0_6) + (l25_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l25_0_12 = ((L_ua__2*l25_0_6) + (l25_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l25_0_13 = (l25_0_2*l25_0_7);
-    const S l25_0_14 = (l25_0_1*l25_0_7);
-    const S l25_0_15 = ((L_ubs__0*l25_0_6) + (l25_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
-    const S l25_0_16 = (l25_0_0*l25_0_7);
-    const S L_twist = angle_of(l25_0_3, l25_0_4);
-    const S d_L_twist__a_dtx = ((a_r2_1*l25_0_13) + (a_r4_1*l25_0_8) + (d_L_na__1__a_dtx*l25_0_14) + (d_L_ua__1__a_dtx*l25_0_9) + (d_L_ubs__0__a_dtx*l25_0_10) + (d_L_ubs__1__a_dtx*l25_0_11) + (d_L_ubs__2__a_dtx*l25_0_12));
-    const S d_L_twist__a_dty = ((a_r2_2*l25_0_16) + (a_r4_2*l25_0_15) + (d_L_na__2__a_dty*l25_0_13) + (d_L_ua__2__a_dty*l25_0_8) + (d_L_ubs__0__a_dty*l25_0_10) + (d_L_ubs__1__a_dty*l25_0_11) + (d_L_ubs__2__a_dty*l25_0_12));
-    const S d_L_twist__a_dtz = ((a_r2_0*l25_0_14) + (a_r4_0*l25_0_9) + (d_L_na__0__a_dtz*l25_0_16) + (d_L_ua__0__a_dtz*l25_0_15) + (d_L_ubs__0__a_dtz*l25_0_10) + (d_L_ubs__1__a_dtz*l25_0_11) + (d_L_ubs__2__a_dtz*l25_0_12));
-    const S d_L_twist__b_dtx = ((d_L_ubs__0__b_dtx*l25_0_10) + (d_L_ubs__1__b_dtx*l25_0_11) + (d_L_ubs__2__b_dtx*l25_0_12));
-    const S d_L_twist__b_dty = ((d_L_ubs__0__b_dty*l25_0_10) + (d_L_ubs__1__b_dty*l25_0_11) + (d_L_ubs__2__b_dty*l25_0_12));
-    const S d_L_twist__b_dtz = ((d_L_ubs__0__b_dtz*l25_0_10) + (d_L_ubs__1__b_dtz*l25_0_11) + (d_L_ubs__2__b_dtz*l25_0_12));
-    // let twist_rate (cone_twist.yaml:63)
+    // let stop_cone (cone_twist.yaml:53)
+    const S l21_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const auto l21_0_1 = (l21_0_0 > S(0));
+    const auto l21_0_2 = (L_over_cone > S(0));
+    const auto l21_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
+    const auto l21_0_4 = (p_cone_angle > S(0));
+    const S l21_0_5 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_ksw, S(0)), select(l21_0_3, L_ksw, S(0))), S(0));
+    const S l21_0_6 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_csw, S(0)), select(l21_0_3, L_csw, S(0))), S(0));
+    const S L_stop_cone = select(l21_0_4, select(l21_0_2, select(l21_0_1, l21_0_0, S(0)), select(l21_0_3, l21_0_0, S(0))), S(0));
+    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l21_0_5) + (d_L_swing_rate__a_dtx*l21_0_6));
+    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l21_0_5) + (d_L_swing_rate__a_dty*l21_0_6));
+    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l21_0_5) + (d_L_swing_rate__a_dtz*l21_0_6));
+    const S d_L_stop_cone__b_dtx = ((d_L_swing__b_dtx*l21_0_5) + (d_L_swing_rate__b_dtx*l21_0_6));
+    const S d_L_stop_cone__b_dty = ((d_L_swing__b_dty*l21_0_5) + (d_L_swing_rate__b_dty*l21_0_6));
+    const S d_L_stop_cone__b_dtz = ((d_L_swing__b_dtz*l21_0_5) + (d_L_swing_rate__b_dtz*l21_0_6));
+    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l21_0_6);
+    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l21_0_6);
+    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l21_0_6);
+    const S d_L_stop_cone__b_wx = (L_e__0*l21_0_6);
+    const S d_L_stop_cone__b_wy = (L_e__1*l21_0_6);
+    const S d_L_stop_cone__b_wz = (L_e__2*l21_0_6);
+    // let ubs (cone_twist.yaml:56)
+    const S l22_0_0 = (L_k__1*L_ub__2);
+    const S l22_0_1 = (L_k__2*L_ub__1);
+    const S l22_0_2 = max(S(1e-06), (L_cs + S(1)));
+    const S l22_0_3 = (S(1)/(l22_0_2));
+    const S l22_0_4 = (L_k__0*L_ub__0);
+    const S l22_0_5 = (L_k__1*L_ub__1);
+    const S l22_0_6 = (L_k__2*L_ub__2);
+    const S l22_0_7 = (l22_0_4 + l22_0_5 + l22_0_6);
+    const S l22_0_8 = (l22_0_3*l22_0_7);
+    const S l22_0_9 = (-L_ub__0);
+    const S l22_0_10 = (l22_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l22_0_2*l22_0_2)));
+    const S l22_0_11 = ((-(L_k__0*l22_0_10)) - l22_0_9);
+    const S l22_0_12 = ((l22_0_3*l22_0_4) + l22_0_8);
+    const S l22_0_13 = (L_k__0*L_ub__1);
+    const S l22_0_14 = (L_ub__2 + (l22_0_13*l22_0_3));
+    const S l22_0_15 = (-L_ub__1);
+    const S l22_0_16 = (L_k__0*L_ub__2);
+    const S l22_0_17 = (l22_0_15 + (l22_0_16*l22_0_3));
+    const S l22_0_18 = (L_k__0*l22_0_3);
+    const S l22_0_19 = (L_k__2*l22_0_18);
+    const S l22_0_20 = (L_k__1 + l22_0_19);
+    const S l22_0_21 = (L_k__1*l22_0_18);
+    const S l22_0_22 = ((-L_k__2) + l22_0_21);
+    const S l22_0_23 = (L_cs + ((L_k__0*L_k__0)*l22_0_3));
+    const S l22_0_24 = (L_k__2*L_ub__0);
+    const S l22_0_25 = ((-(L_k__1*l22_0_10)) - l22_0_15);
+    const S l22_0_26 = (-L_ub__2);
+    const S l22_0_27 = (L_k__1*L_ub__0);
+    const S l22_0_28 = (l22_0_26 + (l22_0_27*l22_0_3));
+    const S l22_0_29 = ((l22_0_3*l22_0_5) + l22_0_8);
+    const S l22_0_30 = (L_ub__0 + (l22_0_0*l22_0_3));
+    const S l22_0_31 = ((-L_k__0) + (L_k__1*L_k__2*l22_0_3));
+    const S l22_0_32 = (L_cs + ((L_k__1*L_k__1)*l22_0_3));
+    const S l22_0_33 = (L_k__2 + l22_0_21);
+    const S l22_0_34 = ((-(L_k__2*l22_0_10)) - l22_0_26);
+    const S l22_0_35 = (L_ub__1 + (l22_0_24*l22_0_3));
+    const S l22_0_36 = ((l22_0_1*l22_0_3) + l22_0_9);
+    const S l22_0_37 = ((l22_0_3*l22_0_6) + l22_0_8);
+    const S l22_0_38 = (L_cs + ((L_k__2*L_k__2)*l22_0_3));
+    const S l22_0_39 = (L_k__0 + (L_k__1*L_k__2*l22_0_3));
+    const S l22_0_40 = ((-L_k__1) + l22_0_19);
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_8) + l22_0_0 - l22_0_1);
+    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l22_0_11) + (d_L_k__0__a_dtx*l22_0_12) + (d_L_k__1__a_dtx*l22_0_14) + (d_L_k__2__a_dtx*l22_0_17));
+    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l22_0_11) + (d_L_k__0__a_dty*l22_0_12) + (d_L_k__1__a_dty*l22_0_14) + (d_L_k__2__a_dty*l22_0_17));
+    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l22_0_11) + (d_L_k__0__a_dtz*l22_0_12) + (d_L_k__1__a_dtz*l22_0_14) + (d_L_k__2__a_dtz*l22_0_17));
+    const S d_L_ubs__0__b_dtx = ((b_r5_1*l22_0_20) + (d_L_cs__b_dtx*l22_0_11) + (d_L_k__0__b_dtx*l22_0_12) + (d_L_k__1__b_dtx*l22_0_14) + (d_L_k__2__b_dtx*l22_0_17) + (d_L_ub__1__b_dtx*l22_0_22));
+    const S d_L_ubs__0__b_dty = ((b_r5_2*l22_0_23) + (d_L_cs__b_dty*l22_0_11) + (d_L_k__0__b_dty*l22_0_12) + (d_L_k__1__b_dty*l22_0_14) + (d_L_k__2__b_dty*l22_0_17) + (d_L_ub__2__b_dty*l22_0_20));
+    const S d_L_ubs__0__b_dtz = ((b_r5_0*l22_0_22) + (d_L_cs__b_dtz*l22_0_11) + (d_L_k__0__b_dtz*l22_0_12) + (d_L_k__1__b_dtz*l22_0_14) + (d_L_k__2__b_dtz*l22_0_17) + (d_L_ub__0__b_dtz*l22_0_23));
+    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l22_0_8) - l22_0_16 + l22_0_24);
+    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l22_0_25) + (d_L_k__0__a_dtx*l22_0_28) + (d_L_k__1__a_dtx*l22_0_29) + (d_L_k__2__a_dtx*l22_0_30));
+    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l22_0_25) + (d_L_k__0__a_dty*l22_0_28) + (d_L_k__1__a_dty*l22_0_29) + (d_L_k__2__a_dty*l22_0_30));
+    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l22_0_25) + (d_L_k__0__a_dtz*l22_0_28) + (d_L_k__1__a_dtz*l22_0_29) + (d_L_k__2__a_dtz*l22_0_30));
+    const S d_L_ubs__1__b_dtx = ((b_r5_1*l22_0_31) + (d_L_cs__b_dtx*l22_0_25) + (d_L_k__0__b_dtx*l22_0_28) + (d_L_k__1__b_dtx*l22_0_29) + (d_L_k__2__b_dtx*l22_0_30) + (d_L_ub__1__b_dtx*l22_0_32));
+    const S d_L_ubs__1__b_dty = ((b_r5_2*l22_0_33) + (d_L_cs__b_dty*l22_0_25) + (d_L_k__0__b_dty*l22_0_28) + (d_L_k__1__b_dty*l22_0_29) + (d_L_k__2__b_dty*l22_0_30) + (d_L_ub__2__b_dty*l22_0_31));
+    const S d_L_ubs__1__b_dtz = ((b_r5_0*l22_0_32) + (d_L_cs__b_dtz*l22_0_25) + (d_L_k__0__b_dtz*l22_0_28) + (d_L_k__1__b_dtz*l22_0_29) + (d_L_k__2__b_dtz*l22_0_30) + (d_L_ub__0__b_dtz*l22_0_33));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l22_0_8) + l22_0_13 - l22_0_27);
+    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l22_0_34) + (d_L_k__0__a_dtx*l22_0_35) + (d_L_k__1__a_dtx*l22_0_36) + (d_L_k__2__a_dtx*l22_0_37));
+    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l22_0_34) + (d_L_k__0__a_dty*l22_0_35) + (d_L_k__1__a_dty*l22_0_36) + (d_L_k__2__a_dty*l22_0_37));
+    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l22_0_34) + (d_L_k__0__a_dtz*l22_0_35) + (d_L_k__1__a_dtz*l22_0_36) + (d_L_k__2__a_dtz*l22_0_37));
+    const S d_L_ubs__2__b_dtx = ((b_r5_1*l22_0_38) + (d_L_cs__b_dtx*l22_0_34) + (d_L_k__0__b_dtx*l22_0_35) + (d_L_k__1__b_dtx*l22_0_36) + (d_L_k__2__b_dtx*l22_0_37) + (d_L_ub__1__b_dtx*l22_0_39));
+    const S d_L_ubs__2__b_dty = ((b_r5_2*l22_0_40) + (d_L_cs__b_dty*l22_0_34) + (d_L_k__0__b_dty*l22_0_35) + (d_L_k__1__b_dty*l22_0_36) + (d_L_k__2__b_dty*l22_0_37) + (d_L_ub__2__b_dty*l22_0_38));
+    const S d_L_ubs__2__b_dtz = ((b_r5_0*l22_0_39) + (d_L_cs__b_dtz*l22_0_34) + (d_L_k__0__b_dtz*l22_0_35) + (d_L_k__1__b_dtz*l22_0_36) + (d_L_k__2__b_dtz*l22_0_37) + (d_L_ub__0__b_dtz*l22_0_40));
+    // let twist (cone_twist.yaml:57)
+    const S l23_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
+    const S l23_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
+    const S l23_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
+    const S l23_0_3 = ((L_na__0*l23_0_0) + (L_na__1*l23_0_1) + (L_na__2*l23_0_2));
+    const S l23_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
+    const S l23_0_5 = (S(1)/(((l23_0_3*l23_0_3) + (l23_0_4*l23_0_4))));
+    const S l23_0_6 = (-(l23_0_3*l23_0_5));
+    const S l23_0_7 = (l23_0_4*l23_0_5);
+    const S l23_0_8 = ((L_ubs__2*l23_0_6) + (l23_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
+    const S l23_0_9 = ((L_ubs__1*l23_0_6) + (l23_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
+    const S l23_0_10 = ((L_ua__0*l23_0_6) + (l23_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S l23_0_11 = ((L_ua__1*l23_0_6) + (l23_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l23_0_12 = ((L_ua__2*l23_0_6) + (l23_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l23_0_13 = (l23_0_2*l23_0_7);
+    const S l23_0_14 = (l23_0_1*l23_0_7);
+    const S l23_0_15 = ((L_ubs__0*l23_0_6) + (l23_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
+    const S l23_0_16 = (l23_0_0*l23_0_7);
+    const S L_twist = angle_of(l23_0_3, l23_0_4);
+    const S d_L_twist__a_dtx = ((a_r2_1*l23_0_13) + (a_r4_1*l23_0_8) + (d_L_na__1__a_dtx*l23_0_14) + (d_L_ua__1__a_dtx*l23_0_9) + (d_L_ubs__0__a_dtx*l23_0_10) + (d_L_ubs__1__a_dtx*l23_0_11) + (d_L_ubs__2__a_dtx*l23_0_12));
+    const S d_L_twist__a_dty = ((a_r2_2*l23_0_16) + (a_r4_2*l23_0_15) + (d_L_na__2__a_dty*l23_0_13) + (d_L_ua__2__a_dty*l23_0_8) + (d_L_ubs__0__a_dty*l23_0_10) + (d_L_ubs__1__a_dty*l23_0_11) + (d_L_ubs__2__a_dty*l23_0_12));
+    const S d_L_twist__a_dtz = ((a_r2_0*l23_0_14) + (a_r4_0*l23_0_9) + (d_L_na__0__a_dtz*l23_0_16) + (d_L_ua__0__a_dtz*l23_0_15) + (d_L_ubs__0__a_dtz*l23_0_10) + (d_L_ubs__1__a_dtz*l23_0_11) + (d_L_ubs__2__a_dtz*l23_0_12));
+    const S d_L_twist__b_dtx = ((d_L_ubs__0__b_dtx*l23_0_10) + (d_L_ubs__1__b_dtx*l23_0_11) + (d_L_ubs__2__b_dtx*l23_0_12));
+    const S d_L_twist__b_dty = ((d_L_ubs__0__b_dty*l23_0_10) + (d_L_ubs__1__b_dty*l23_0_11) + (d_L_ubs__2__b_dty*l23_0_12));
+    const S d_L_twist__b_dtz = ((d_L_ubs__0__b_dtz*l23_0_10) + (d_L_ubs__1__b_dtz*l23_0_11) + (d_L_ubs__2__b_dtz*l23_0_12));
+    // let twist_rate (cone_twist.yaml:58)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_twist_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r2_1));
     const S d_L_twist_rate__a_dty = ((L_wrel__0*a_r2_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -597,11 +595,11 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_twist_rate__a_wx = (-L_na__0);
     const S d_L_twist_rate__a_wy = (-L_na__1);
     const S d_L_twist_rate__a_wz = (-L_na__2);
-    // let limited (cone_twist.yaml:64)
+    // let limited (cone_twist.yaml:59)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:65)
+    // let over_hi (cone_twist.yaml:60)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:66)
+    // let over_lo (cone_twist.yaml:61)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
     const S d_L_over_lo__a_dtx = (-d_L_twist__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_twist__a_dty);
@@ -609,151 +607,149 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_twist__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_twist__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_twist__b_dtz);
-    // let twa (cone_twist.yaml:67)
-    [[maybe_unused]] const S L_twa = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
-    // let twb (cone_twist.yaml:68)
-    [[maybe_unused]] const S L_twb = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
-    // let itw (cone_twist.yaml:69)
-    [[maybe_unused]] const S L_itw = select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa);
-    // let ktw (cone_twist.yaml:70)
+    // let itw (cone_twist.yaml:62)
+    const S l28_0_0 = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
+    const S l28_0_1 = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
+    [[maybe_unused]] const S L_itw = select((l28_0_1 > S(0)), min(max(l28_0_0, l28_0_1), (S(16)*l28_0_0*l28_0_1/(max(S(1e-30), (l28_0_0 + l28_0_1))))), l28_0_0);
+    // let ktw (cone_twist.yaml:63)
     const S L_ktw = (L_itw*(L_omega*L_omega));
-    // let ctw (cone_twist.yaml:71)
+    // let ctw (cone_twist.yaml:64)
     const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
-    // let stop_hi (cone_twist.yaml:72)
-    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
-    const auto l35_0_1 = (l35_0_0 > S(0));
-    const auto l35_0_2 = (L_over_hi > S(0));
-    const auto l35_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
-    const S l35_0_4 = select(l35_0_2, select(l35_0_1, L_ktw, S(0)), select(l35_0_3, L_ktw, S(0)));
-    const S l35_0_5 = select(l35_0_2, select(l35_0_1, L_ctw, S(0)), select(l35_0_3, L_ctw, S(0)));
-    const S L_stop_hi = select(l35_0_2, select(l35_0_1, l35_0_0, S(0)), select(l35_0_3, l35_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l35_0_4) + (d_L_twist_rate__a_dtx*l35_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l35_0_4) + (d_L_twist_rate__a_dty*l35_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l35_0_4) + (d_L_twist_rate__a_dtz*l35_0_5));
-    const S d_L_stop_hi__b_dtx = (d_L_twist__b_dtx*l35_0_4);
-    const S d_L_stop_hi__b_dty = (d_L_twist__b_dty*l35_0_4);
-    const S d_L_stop_hi__b_dtz = (d_L_twist__b_dtz*l35_0_4);
-    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l35_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l35_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l35_0_5);
-    const S d_L_stop_hi__b_wx = (L_na__0*l35_0_5);
-    const S d_L_stop_hi__b_wy = (L_na__1*l35_0_5);
-    const S d_L_stop_hi__b_wz = (L_na__2*l35_0_5);
-    // let stop_lo (cone_twist.yaml:73)
-    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
-    const S l36_0_1 = (-l36_0_0);
-    const auto l36_0_2 = (l36_0_0 < S(0));
-    const auto l36_0_3 = (L_over_lo > S(0));
-    const auto l36_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
-    const S l36_0_5 = select(l36_0_3, select(l36_0_2, L_ktw, S(0)), select(l36_0_4, L_ktw, S(0)));
-    const S l36_0_6 = (-L_ctw);
-    const S l36_0_7 = select(l36_0_3, select(l36_0_2, l36_0_6, S(0)), select(l36_0_4, l36_0_6, S(0)));
-    const S L_stop_lo = select(l36_0_3, select(l36_0_2, l36_0_1, S(0)), select(l36_0_4, l36_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l36_0_5) + (d_L_twist_rate__a_dtx*l36_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l36_0_5) + (d_L_twist_rate__a_dty*l36_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l36_0_5) + (d_L_twist_rate__a_dtz*l36_0_7));
-    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l36_0_5);
-    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l36_0_5);
-    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l36_0_5);
-    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l36_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l36_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l36_0_7);
-    const S d_L_stop_lo__b_wx = (L_na__0*l36_0_7);
-    const S d_L_stop_lo__b_wy = (L_na__1*l36_0_7);
-    const S d_L_stop_lo__b_wz = (L_na__2*l36_0_7);
-    // let spring (cone_twist.yaml:74)
-    const S l37_0_0 = (L_e__0*p_spring_stiffness);
-    const S l37_0_1 = (L_na__0*p_spring_stiffness);
-    const S l37_0_2 = (L_swing*p_spring_stiffness);
-    const S l37_0_3 = (L_twist*p_spring_stiffness);
-    const S l37_0_4 = (-p_spring_damping);
-    const S l37_0_5 = (L_e__1*p_spring_stiffness);
-    const S l37_0_6 = (L_na__1*p_spring_stiffness);
-    const S l37_0_7 = (L_e__2*p_spring_stiffness);
-    const S l37_0_8 = (L_na__2*p_spring_stiffness);
+    // let stop_hi (cone_twist.yaml:65)
+    const S l31_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const auto l31_0_1 = (l31_0_0 > S(0));
+    const auto l31_0_2 = (L_over_hi > S(0));
+    const auto l31_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
+    const S l31_0_4 = select(l31_0_2, select(l31_0_1, L_ktw, S(0)), select(l31_0_3, L_ktw, S(0)));
+    const S l31_0_5 = select(l31_0_2, select(l31_0_1, L_ctw, S(0)), select(l31_0_3, L_ctw, S(0)));
+    const S L_stop_hi = select(l31_0_2, select(l31_0_1, l31_0_0, S(0)), select(l31_0_3, l31_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l31_0_4) + (d_L_twist_rate__a_dtx*l31_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l31_0_4) + (d_L_twist_rate__a_dty*l31_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l31_0_4) + (d_L_twist_rate__a_dtz*l31_0_5));
+    const S d_L_stop_hi__b_dtx = (d_L_twist__b_dtx*l31_0_4);
+    const S d_L_stop_hi__b_dty = (d_L_twist__b_dty*l31_0_4);
+    const S d_L_stop_hi__b_dtz = (d_L_twist__b_dtz*l31_0_4);
+    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l31_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l31_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l31_0_5);
+    const S d_L_stop_hi__b_wx = (L_na__0*l31_0_5);
+    const S d_L_stop_hi__b_wy = (L_na__1*l31_0_5);
+    const S d_L_stop_hi__b_wz = (L_na__2*l31_0_5);
+    // let stop_lo (cone_twist.yaml:66)
+    const S l32_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l32_0_1 = (-l32_0_0);
+    const auto l32_0_2 = (l32_0_0 < S(0));
+    const auto l32_0_3 = (L_over_lo > S(0));
+    const auto l32_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
+    const S l32_0_5 = select(l32_0_3, select(l32_0_2, L_ktw, S(0)), select(l32_0_4, L_ktw, S(0)));
+    const S l32_0_6 = (-L_ctw);
+    const S l32_0_7 = select(l32_0_3, select(l32_0_2, l32_0_6, S(0)), select(l32_0_4, l32_0_6, S(0)));
+    const S L_stop_lo = select(l32_0_3, select(l32_0_2, l32_0_1, S(0)), select(l32_0_4, l32_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l32_0_5) + (d_L_twist_rate__a_dtx*l32_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l32_0_5) + (d_L_twist_rate__a_dty*l32_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l32_0_5) + (d_L_twist_rate__a_dtz*l32_0_7));
+    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l32_0_5);
+    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l32_0_5);
+    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l32_0_5);
+    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l32_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l32_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l32_0_7);
+    const S d_L_stop_lo__b_wx = (L_na__0*l32_0_7);
+    const S d_L_stop_lo__b_wy = (L_na__1*l32_0_7);
+    const S d_L_stop_lo__b_wz = (L_na__2*l32_0_7);
+    // let spring (cone_twist.yaml:67)
+    const S l33_0_0 = (L_e__0*p_spring_stiffness);
+    const S l33_0_1 = (L_na__0*p_spring_stiffness);
+    const S l33_0_2 = (L_swing*p_spring_stiffness);
+    const S l33_0_3 = (L_twist*p_spring_stiffness);
+    const S l33_0_4 = (-p_spring_damping);
+    const S l33_0_5 = (L_e__1*p_spring_stiffness);
+    const S l33_0_6 = (L_na__1*p_spring_stiffness);
+    const S l33_0_7 = (L_e__2*p_spring_stiffness);
+    const S l33_0_8 = (L_na__2*p_spring_stiffness);
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
-    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l37_0_2)) - (d_L_swing__a_dtx*l37_0_0) - (d_L_twist__a_dtx*l37_0_1));
-    const S d_L_spring__0__a_dty = ((-(a_r2_2*l37_0_3)) - (d_L_e__0__a_dty*l37_0_2) - (d_L_swing__a_dty*l37_0_0) - (d_L_twist__a_dty*l37_0_1));
-    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l37_0_2)) - (d_L_na__0__a_dtz*l37_0_3) - (d_L_swing__a_dtz*l37_0_0) - (d_L_twist__a_dtz*l37_0_1));
-    const S d_L_spring__0__b_dtx = ((-(d_L_e__0__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_0) - (d_L_twist__b_dtx*l37_0_1));
-    const S d_L_spring__0__b_dty = ((-(d_L_e__0__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_0) - (d_L_twist__b_dty*l37_0_1));
-    const S d_L_spring__0__b_dtz = ((-(d_L_e__0__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_0) - (d_L_twist__b_dtz*l37_0_1));
-    const S d_L_spring__0__b_wx = l37_0_4;
+    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l33_0_2)) - (d_L_swing__a_dtx*l33_0_0) - (d_L_twist__a_dtx*l33_0_1));
+    const S d_L_spring__0__a_dty = ((-(a_r2_2*l33_0_3)) - (d_L_e__0__a_dty*l33_0_2) - (d_L_swing__a_dty*l33_0_0) - (d_L_twist__a_dty*l33_0_1));
+    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l33_0_2)) - (d_L_na__0__a_dtz*l33_0_3) - (d_L_swing__a_dtz*l33_0_0) - (d_L_twist__a_dtz*l33_0_1));
+    const S d_L_spring__0__b_dtx = ((-(d_L_e__0__b_dtx*l33_0_2)) - (d_L_swing__b_dtx*l33_0_0) - (d_L_twist__b_dtx*l33_0_1));
+    const S d_L_spring__0__b_dty = ((-(d_L_e__0__b_dty*l33_0_2)) - (d_L_swing__b_dty*l33_0_0) - (d_L_twist__b_dty*l33_0_1));
+    const S d_L_spring__0__b_dtz = ((-(d_L_e__0__b_dtz*l33_0_2)) - (d_L_swing__b_dtz*l33_0_0) - (d_L_twist__b_dtz*l33_0_1));
+    const S d_L_spring__0__b_wx = l33_0_4;
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
-    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l37_0_2)) - (d_L_na__1__a_dtx*l37_0_3) - (d_L_swing__a_dtx*l37_0_5) - (d_L_twist__a_dtx*l37_0_6));
-    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l37_0_2)) - (d_L_swing__a_dty*l37_0_5) - (d_L_twist__a_dty*l37_0_6));
-    const S d_L_spring__1__a_dtz = ((-(a_r2_0*l37_0_3)) - (d_L_e__1__a_dtz*l37_0_2) - (d_L_swing__a_dtz*l37_0_5) - (d_L_twist__a_dtz*l37_0_6));
-    const S d_L_spring__1__b_dtx = ((-(d_L_e__1__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_5) - (d_L_twist__b_dtx*l37_0_6));
-    const S d_L_spring__1__b_dty = ((-(d_L_e__1__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_5) - (d_L_twist__b_dty*l37_0_6));
-    const S d_L_spring__1__b_dtz = ((-(d_L_e__1__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_5) - (d_L_twist__b_dtz*l37_0_6));
-    const S d_L_spring__1__b_wy = l37_0_4;
+    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l33_0_2)) - (d_L_na__1__a_dtx*l33_0_3) - (d_L_swing__a_dtx*l33_0_5) - (d_L_twist__a_dtx*l33_0_6));
+    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l33_0_2)) - (d_L_swing__a_dty*l33_0_5) - (d_L_twist__a_dty*l33_0_6));
+    const S d_L_spring__1__a_dtz = ((-(a_r2_0*l33_0_3)) - (d_L_e__1__a_dtz*l33_0_2) - (d_L_swing__a_dtz*l33_0_5) - (d_L_twist__a_dtz*l33_0_6));
+    const S d_L_spring__1__b_dtx = ((-(d_L_e__1__b_dtx*l33_0_2)) - (d_L_swing__b_dtx*l33_0_5) - (d_L_twist__b_dtx*l33_0_6));
+    const S d_L_spring__1__b_dty = ((-(d_L_e__1__b_dty*l33_0_2)) - (d_L_swing__b_dty*l33_0_5) - (d_L_twist__b_dty*l33_0_6));
+    const S d_L_spring__1__b_dtz = ((-(d_L_e__1__b_dtz*l33_0_2)) - (d_L_swing__b_dtz*l33_0_5) - (d_L_twist__b_dtz*l33_0_6));
+    const S d_L_spring__1__b_wy = l33_0_4;
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    const S d_L_spring__2__a_dtx = ((-(a_r2_1*l37_0_3)) - (d_L_e__2__a_dtx*l37_0_2) - (d_L_swing__a_dtx*l37_0_7) - (d_L_twist__a_dtx*l37_0_8));
-    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l37_0_2)) - (d_L_na__2__a_dty*l37_0_3) - (d_L_swing__a_dty*l37_0_7) - (d_L_twist__a_dty*l37_0_8));
-    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l37_0_2)) - (d_L_swing__a_dtz*l37_0_7) - (d_L_twist__a_dtz*l37_0_8));
-    const S d_L_spring__2__b_dtx = ((-(d_L_e__2__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_7) - (d_L_twist__b_dtx*l37_0_8));
-    const S d_L_spring__2__b_dty = ((-(d_L_e__2__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_7) - (d_L_twist__b_dty*l37_0_8));
-    const S d_L_spring__2__b_dtz = ((-(d_L_e__2__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_7) - (d_L_twist__b_dtz*l37_0_8));
-    const S d_L_spring__2__b_wz = l37_0_4;
-    // let tau (cone_twist.yaml:75)
-    const S l38_0_0 = ((-L_stop_hi) + L_stop_lo);
-    const S l38_0_1 = (L_limited*L_na__0);
-    const S l38_0_2 = (-p_spring_damping);
-    const S l38_0_3 = (L_limited*l38_0_0);
-    const S l38_0_4 = (L_limited*L_na__1);
-    const S l38_0_5 = (L_limited*L_na__2);
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l38_0_0*l38_0_1));
-    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l38_0_1));
-    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r2_2*l38_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l38_0_1));
-    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l38_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l38_0_1));
-    const S d_L_tau__0__b_dtx = ((-(L_e__0*d_L_stop_cone__b_dtx)) + (L_limited*L_na__0*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__0__b_dtx) + d_L_spring__0__b_dtx - (d_L_stop_hi__b_dtx*l38_0_1));
-    const S d_L_tau__0__b_dty = ((-(L_e__0*d_L_stop_cone__b_dty)) + (L_limited*L_na__0*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__0__b_dty) + d_L_spring__0__b_dty - (d_L_stop_hi__b_dty*l38_0_1));
-    const S d_L_tau__0__b_dtz = ((-(L_e__0*d_L_stop_cone__b_dtz)) + (L_limited*L_na__0*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__0__b_dtz) + d_L_spring__0__b_dtz - (d_L_stop_hi__b_dtz*l38_0_1));
-    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_1) - l38_0_2);
-    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_1));
-    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_1));
-    const S d_L_tau__0__b_wx = ((-(L_e__0*d_L_stop_cone__b_wx)) + (L_limited*L_na__0*d_L_stop_lo__b_wx) + d_L_spring__0__b_wx - (d_L_stop_hi__b_wx*l38_0_1));
-    const S d_L_tau__0__b_wy = ((-(L_e__0*d_L_stop_cone__b_wy)) + (L_limited*L_na__0*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l38_0_1));
-    const S d_L_tau__0__b_wz = ((-(L_e__0*d_L_stop_cone__b_wz)) + (L_limited*L_na__0*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l38_0_1));
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_3) + L_spring__1);
-    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l38_0_4));
-    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l38_0_4));
-    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r2_0*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l38_0_4));
-    const S d_L_tau__1__b_dtx = ((-(L_e__1*d_L_stop_cone__b_dtx)) + (L_limited*L_na__1*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__1__b_dtx) + d_L_spring__1__b_dtx - (d_L_stop_hi__b_dtx*l38_0_4));
-    const S d_L_tau__1__b_dty = ((-(L_e__1*d_L_stop_cone__b_dty)) + (L_limited*L_na__1*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__1__b_dty) + d_L_spring__1__b_dty - (d_L_stop_hi__b_dty*l38_0_4));
-    const S d_L_tau__1__b_dtz = ((-(L_e__1*d_L_stop_cone__b_dtz)) + (L_limited*L_na__1*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__1__b_dtz) + d_L_spring__1__b_dtz - (d_L_stop_hi__b_dtz*l38_0_4));
-    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_4));
-    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_4) - l38_0_2);
-    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_4));
-    const S d_L_tau__1__b_wx = ((-(L_e__1*d_L_stop_cone__b_wx)) + (L_limited*L_na__1*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l38_0_4));
-    const S d_L_tau__1__b_wy = ((-(L_e__1*d_L_stop_cone__b_wy)) + (L_limited*L_na__1*d_L_stop_lo__b_wy) + d_L_spring__1__b_wy - (d_L_stop_hi__b_wy*l38_0_4));
-    const S d_L_tau__1__b_wz = ((-(L_e__1*d_L_stop_cone__b_wz)) + (L_limited*L_na__1*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l38_0_4));
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_3) + L_spring__2);
-    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r2_1*l38_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l38_0_5));
-    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l38_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l38_0_5));
-    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l38_0_5));
-    const S d_L_tau__2__b_dtx = ((-(L_e__2*d_L_stop_cone__b_dtx)) + (L_limited*L_na__2*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__2__b_dtx) + d_L_spring__2__b_dtx - (d_L_stop_hi__b_dtx*l38_0_5));
-    const S d_L_tau__2__b_dty = ((-(L_e__2*d_L_stop_cone__b_dty)) + (L_limited*L_na__2*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__2__b_dty) + d_L_spring__2__b_dty - (d_L_stop_hi__b_dty*l38_0_5));
-    const S d_L_tau__2__b_dtz = ((-(L_e__2*d_L_stop_cone__b_dtz)) + (L_limited*L_na__2*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__2__b_dtz) + d_L_spring__2__b_dtz - (d_L_stop_hi__b_dtz*l38_0_5));
-    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_5));
-    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_5));
-    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_5) - l38_0_2);
-    const S d_L_tau__2__b_wx = ((-(L_e__2*d_L_stop_cone__b_wx)) + (L_limited*L_na__2*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l38_0_5));
-    const S d_L_tau__2__b_wy = ((-(L_e__2*d_L_stop_cone__b_wy)) + (L_limited*L_na__2*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l38_0_5));
-    const S d_L_tau__2__b_wz = ((-(L_e__2*d_L_stop_cone__b_wz)) + (L_limited*L_na__2*d_L_stop_lo__b_wz) + d_L_spring__2__b_wz - (d_L_stop_hi__b_wz*l38_0_5));
-    // apply[0] (cone_twist.yaml:77)
+    const S d_L_spring__2__a_dtx = ((-(a_r2_1*l33_0_3)) - (d_L_e__2__a_dtx*l33_0_2) - (d_L_swing__a_dtx*l33_0_7) - (d_L_twist__a_dtx*l33_0_8));
+    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l33_0_2)) - (d_L_na__2__a_dty*l33_0_3) - (d_L_swing__a_dty*l33_0_7) - (d_L_twist__a_dty*l33_0_8));
+    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l33_0_2)) - (d_L_swing__a_dtz*l33_0_7) - (d_L_twist__a_dtz*l33_0_8));
+    const S d_L_spring__2__b_dtx = ((-(d_L_e__2__b_dtx*l33_0_2)) - (d_L_swing__b_dtx*l33_0_7) - (d_L_twist__b_dtx*l33_0_8));
+    const S d_L_spring__2__b_dty = ((-(d_L_e__2__b_dty*l33_0_2)) - (d_L_swing__b_dty*l33_0_7) - (d_L_twist__b_dty*l33_0_8));
+    const S d_L_spring__2__b_dtz = ((-(d_L_e__2__b_dtz*l33_0_2)) - (d_L_swing__b_dtz*l33_0_7) - (d_L_twist__b_dtz*l33_0_8));
+    const S d_L_spring__2__b_wz = l33_0_4;
+    // let tau (cone_twist.yaml:68)
+    const S l34_0_0 = ((-L_stop_hi) + L_stop_lo);
+    const S l34_0_1 = (L_limited*L_na__0);
+    const S l34_0_2 = (-p_spring_damping);
+    const S l34_0_3 = (L_limited*l34_0_0);
+    const S l34_0_4 = (L_limited*L_na__1);
+    const S l34_0_5 = (L_limited*L_na__2);
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l34_0_0*l34_0_1));
+    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l34_0_1));
+    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r2_2*l34_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l34_0_1));
+    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l34_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l34_0_1));
+    const S d_L_tau__0__b_dtx = ((-(L_e__0*d_L_stop_cone__b_dtx)) + (L_limited*L_na__0*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__0__b_dtx) + d_L_spring__0__b_dtx - (d_L_stop_hi__b_dtx*l34_0_1));
+    const S d_L_tau__0__b_dty = ((-(L_e__0*d_L_stop_cone__b_dty)) + (L_limited*L_na__0*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__0__b_dty) + d_L_spring__0__b_dty - (d_L_stop_hi__b_dty*l34_0_1));
+    const S d_L_tau__0__b_dtz = ((-(L_e__0*d_L_stop_cone__b_dtz)) + (L_limited*L_na__0*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__0__b_dtz) + d_L_spring__0__b_dtz - (d_L_stop_hi__b_dtz*l34_0_1));
+    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_1) - l34_0_2);
+    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_1));
+    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_1));
+    const S d_L_tau__0__b_wx = ((-(L_e__0*d_L_stop_cone__b_wx)) + (L_limited*L_na__0*d_L_stop_lo__b_wx) + d_L_spring__0__b_wx - (d_L_stop_hi__b_wx*l34_0_1));
+    const S d_L_tau__0__b_wy = ((-(L_e__0*d_L_stop_cone__b_wy)) + (L_limited*L_na__0*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l34_0_1));
+    const S d_L_tau__0__b_wz = ((-(L_e__0*d_L_stop_cone__b_wz)) + (L_limited*L_na__0*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l34_0_1));
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l34_0_3) + L_spring__1);
+    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l34_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l34_0_4));
+    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l34_0_4));
+    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r2_0*l34_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l34_0_4));
+    const S d_L_tau__1__b_dtx = ((-(L_e__1*d_L_stop_cone__b_dtx)) + (L_limited*L_na__1*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__1__b_dtx) + d_L_spring__1__b_dtx - (d_L_stop_hi__b_dtx*l34_0_4));
+    const S d_L_tau__1__b_dty = ((-(L_e__1*d_L_stop_cone__b_dty)) + (L_limited*L_na__1*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__1__b_dty) + d_L_spring__1__b_dty - (d_L_stop_hi__b_dty*l34_0_4));
+    const S d_L_tau__1__b_dtz = ((-(L_e__1*d_L_stop_cone__b_dtz)) + (L_limited*L_na__1*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__1__b_dtz) + d_L_spring__1__b_dtz - (d_L_stop_hi__b_dtz*l34_0_4));
+    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_4));
+    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_4) - l34_0_2);
+    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_4));
+    const S d_L_tau__1__b_wx = ((-(L_e__1*d_L_stop_cone__b_wx)) + (L_limited*L_na__1*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l34_0_4));
+    const S d_L_tau__1__b_wy = ((-(L_e__1*d_L_stop_cone__b_wy)) + (L_limited*L_na__1*d_L_stop_lo__b_wy) + d_L_spring__1__b_wy - (d_L_stop_hi__b_wy*l34_0_4));
+    const S d_L_tau__1__b_wz = ((-(L_e__1*d_L_stop_cone__b_wz)) + (L_limited*L_na__1*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l34_0_4));
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l34_0_3) + L_spring__2);
+    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r2_1*l34_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l34_0_5));
+    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l34_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l34_0_5));
+    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l34_0_5));
+    const S d_L_tau__2__b_dtx = ((-(L_e__2*d_L_stop_cone__b_dtx)) + (L_limited*L_na__2*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__2__b_dtx) + d_L_spring__2__b_dtx - (d_L_stop_hi__b_dtx*l34_0_5));
+    const S d_L_tau__2__b_dty = ((-(L_e__2*d_L_stop_cone__b_dty)) + (L_limited*L_na__2*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__2__b_dty) + d_L_spring__2__b_dty - (d_L_stop_hi__b_dty*l34_0_5));
+    const S d_L_tau__2__b_dtz = ((-(L_e__2*d_L_stop_cone__b_dtz)) + (L_limited*L_na__2*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__2__b_dtz) + d_L_spring__2__b_dtz - (d_L_stop_hi__b_dtz*l34_0_5));
+    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_5));
+    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_5));
+    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_5) - l34_0_2);
+    const S d_L_tau__2__b_wx = ((-(L_e__2*d_L_stop_cone__b_wx)) + (L_limited*L_na__2*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l34_0_5));
+    const S d_L_tau__2__b_wy = ((-(L_e__2*d_L_stop_cone__b_wy)) + (L_limited*L_na__2*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l34_0_5));
+    const S d_L_tau__2__b_wz = ((-(L_e__2*d_L_stop_cone__b_wz)) + (L_limited*L_na__2*d_L_stop_lo__b_wz) + d_L_spring__2__b_wz - (d_L_stop_hi__b_wz*l34_0_5));
+    // apply[0] (cone_twist.yaml:70)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (cone_twist.yaml:78)
+    const S l36_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l36_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l36_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l36_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply[1] (cone_twist.yaml:71)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
-    const S l42_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (cone_twist.yaml:76), shared subexpressions
+    const S l38_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
+    // apply (cone_twist.yaml:69), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -776,21 +772,21 @@ struct Cone_Twist_Pair_Kernel {
     const S o19 = (T3_turn*d_L_pb__2__b_dty);
     const S o20 = (T3_turn*b_r1_2);
     const S o21 = (L_f__2*T3_turn);
-    // F_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // F_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // F_b from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4) + L_tau__0);
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5) + L_tau__1);
     out[11] = ((L_f__0*o4) - (L_f__1*o5) + L_tau__2);
-    // dF_a/ddelta_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // dF_a/ddelta_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[12] = d_L_f__0__a_dx;
     out[13] = S(0);
     out[14] = S(0);
@@ -827,7 +823,7 @@ struct Cone_Twist_Pair_Kernel {
     out[45] = ((a_r0_0*o13) + (d_L_f__1__a_dtz*o7) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[46] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o8) - (d_L_pa__0__a_dtz*o13) - d_L_tau__1__a_dtz);
     out[47] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o6) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/ddelta_b from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // dF_a/ddelta_b from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[48] = d_L_f__0__b_dx;
     out[49] = S(0);
     out[50] = S(0);
@@ -864,7 +860,7 @@ struct Cone_Twist_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o7) + (d_L_f__2__b_dtz*o1) - d_L_tau__0__b_dtz);
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o8) - d_L_tau__1__b_dtz);
     out[83] = ((d_L_f__0__b_dtz*o6) + (d_L_f__1__b_dtz*o2) - d_L_tau__2__b_dtz);
-    // dF_a/du_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // dF_a/du_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[84] = d_L_f__0__a_vx;
     out[85] = S(0);
     out[86] = S(0);
@@ -901,7 +897,7 @@ struct Cone_Twist_Pair_Kernel {
     out[117] = ((d_L_f__1__a_wz*o7) - d_L_tau__0__a_wz);
     out[118] = ((d_L_f__0__a_wz*o0) - d_L_tau__1__a_wz);
     out[119] = ((d_L_f__0__a_wz*o6) + (d_L_f__1__a_wz*o2) - d_L_tau__2__a_wz);
-    // dF_a/du_b from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // dF_a/du_b from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[120] = d_L_f__0__b_vx;
     out[121] = S(0);
     out[122] = S(0);
@@ -938,7 +934,7 @@ struct Cone_Twist_Pair_Kernel {
     out[153] = ((d_L_f__1__b_wz*o7) - d_L_tau__0__b_wz);
     out[154] = ((d_L_f__0__b_wz*o0) - d_L_tau__1__b_wz);
     out[155] = ((d_L_f__0__b_wz*o6) + (d_L_f__1__b_wz*o2) - d_L_tau__2__b_wz);
-    // dF_b/ddelta_a from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // dF_b/ddelta_a from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = S(0);
     out[158] = S(0);
@@ -975,7 +971,7 @@ struct Cone_Twist_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o16) + d_L_tau__0__a_dtz);
     out[190] = ((d_L_f__0__a_dtz*o14) + (d_L_f__2__a_dtz*o5) + d_L_tau__1__a_dtz);
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o15) + d_L_tau__2__a_dtz);
-    // dF_b/ddelta_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // dF_b/ddelta_b from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[192] = (-d_L_f__0__b_dx);
     out[193] = S(0);
     out[194] = S(0);
@@ -1012,7 +1008,7 @@ struct Cone_Twist_Pair_Kernel {
     out[225] = ((-(b_r1_0*o21)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o16) + d_L_tau__0__b_dtz);
     out[226] = ((d_L_f__0__b_dtz*o14) + (d_L_f__2__b_dtz*o5) + (d_L_pb__0__b_dtz*o21) + d_L_tau__1__b_dtz);
     out[227] = ((L_f__0*T3_turn*b_r1_0) - (L_f__1*T3_turn*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o15) + d_L_tau__2__b_dtz);
-    // dF_b/du_a from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // dF_b/du_a from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = S(0);
     out[230] = S(0);
@@ -1049,7 +1045,7 @@ struct Cone_Twist_Pair_Kernel {
     out[261] = ((d_L_f__1__a_wz*o3) + d_L_tau__0__a_wz);
     out[262] = ((d_L_f__0__a_wz*o14) + d_L_tau__1__a_wz);
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o15) + d_L_tau__2__a_wz);
-    // dF_b/du_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // dF_b/du_b from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[264] = (-d_L_f__0__b_vx);
     out[265] = S(0);
     out[266] = S(0);
@@ -1170,7 +1166,7 @@ struct Cone_Twist_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[64];
     [[maybe_unused]] const S g_joint_hertz = in[65];
     [[maybe_unused]] const S g_joint_damping_ratio = in[66];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let swa (cone_twist.yaml:53), let swb (cone_twist.yaml:54)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let isw (cone_twist.yaml:50)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -1460,126 +1456,124 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_swing_rate__a_wz = (-L_e__2);
     // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let swa (cone_twist.yaml:53)
-    [[maybe_unused]] const S L_swa = ((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22))));
-    // let swb (cone_twist.yaml:54)
-    [[maybe_unused]] const S L_swb = ((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22))));
-    // let isw (cone_twist.yaml:55)
-    [[maybe_unused]] const S L_isw = select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa);
-    // let ksw (cone_twist.yaml:56)
+    // let isw (cone_twist.yaml:50)
+    const S l18_0_0 = ((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22))));
+    const S l18_0_1 = ((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22))));
+    [[maybe_unused]] const S L_isw = select((l18_0_1 > S(0)), min(max(l18_0_0, l18_0_1), (S(16)*l18_0_0*l18_0_1/(max(S(1e-30), (l18_0_0 + l18_0_1))))), l18_0_0);
+    // let ksw (cone_twist.yaml:51)
     const S L_ksw = (L_isw*(L_omega*L_omega));
-    // let csw (cone_twist.yaml:57)
+    // let csw (cone_twist.yaml:52)
     const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
-    // let stop_cone (cone_twist.yaml:58)
-    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
-    const auto l23_0_1 = (l23_0_0 > S(0));
-    const auto l23_0_2 = (L_over_cone > S(0));
-    const auto l23_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
-    const auto l23_0_4 = (p_cone_angle > S(0));
-    const S l23_0_5 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_ksw, S(0)), select(l23_0_3, L_ksw, S(0))), S(0));
-    const S l23_0_6 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_csw, S(0)), select(l23_0_3, L_csw, S(0))), S(0));
-    const S L_stop_cone = select(l23_0_4, select(l23_0_2, select(l23_0_1, l23_0_0, S(0)), select(l23_0_3, l23_0_0, S(0))), S(0));
-    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l23_0_5) + (d_L_swing_rate__a_dtx*l23_0_6));
-    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l23_0_5) + (d_L_swing_rate__a_dty*l23_0_6));
-    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l23_0_5) + (d_L_swing_rate__a_dtz*l23_0_6));
-    const S d_L_stop_cone__b_dtx = ((d_L_swing__b_dtx*l23_0_5) + (d_L_swing_rate__b_dtx*l23_0_6));
-    const S d_L_stop_cone__b_dty = ((d_L_swing__b_dty*l23_0_5) + (d_L_swing_rate__b_dty*l23_0_6));
-    const S d_L_stop_cone__b_dtz = ((d_L_swing__b_dtz*l23_0_5) + (d_L_swing_rate__b_dtz*l23_0_6));
-    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l23_0_6);
-    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l23_0_6);
-    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l23_0_6);
-    const S d_L_stop_cone__b_wx = (L_e__0*l23_0_6);
-    const S d_L_stop_cone__b_wy = (L_e__1*l23_0_6);
-    const S d_L_stop_cone__b_wz = (L_e__2*l23_0_6);
-    // let ubs (cone_twist.yaml:61)
-    const S l24_0_0 = (L_k__1*L_ub__2);
-    const S l24_0_1 = (L_k__2*L_ub__1);
-    const S l24_0_2 = max(S(1e-06), (L_cs + S(1)));
-    const S l24_0_3 = (S(1)/(l24_0_2));
-    const S l24_0_4 = (L_k__0*L_ub__0);
-    const S l24_0_5 = (L_k__1*L_ub__1);
-    const S l24_0_6 = (L_k__2*L_ub__2);
-    const S l24_0_7 = (l24_0_4 + l24_0_5 + l24_0_6);
-    const S l24_0_8 = (l24_0_3*l24_0_7);
-    const S l24_0_9 = (-L_ub__0);
-    const S l24_0_10 = (l24_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l24_0_2*l24_0_2)));
-    const S l24_0_11 = ((-(L_k__0*l24_0_10)) - l24_0_9);
-    const S l24_0_12 = ((l24_0_3*l24_0_4) + l24_0_8);
-    const S l24_0_13 = (L_k__0*L_ub__1);
-    const S l24_0_14 = (L_ub__2 + (l24_0_13*l24_0_3));
-    const S l24_0_15 = (-L_ub__1);
-    const S l24_0_16 = (L_k__0*L_ub__2);
-    const S l24_0_17 = (l24_0_15 + (l24_0_16*l24_0_3));
-    const S l24_0_18 = (L_k__0*l24_0_3);
-    const S l24_0_19 = (L_k__2*l24_0_18);
-    const S l24_0_20 = (L_k__1 + l24_0_19);
-    const S l24_0_21 = (L_k__1*l24_0_18);
-    const S l24_0_22 = ((-L_k__2) + l24_0_21);
-    const S l24_0_23 = (L_cs + ((L_k__0*L_k__0)*l24_0_3));
-    const S l24_0_24 = (L_k__2*L_ub__0);
-    const S l24_0_25 = ((-(L_k__1*l24_0_10)) - l24_0_15);
-    const S l24_0_26 = (-L_ub__2);
-    const S l24_0_27 = (L_k__1*L_ub__0);
-    const S l24_0_28 = (l24_0_26 + (l24_0_27*l24_0_3));
-    const S l24_0_29 = ((l24_0_3*l24_0_5) + l24_0_8);
-    const S l24_0_30 = (L_ub__0 + (l24_0_0*l24_0_3));
-    const S l24_0_31 = ((-L_k__0) + (L_k__1*L_k__2*l24_0_3));
-    const S l24_0_32 = (L_cs + ((L_k__1*L_k__1)*l24_0_3));
-    const S l24_0_33 = (L_k__2 + l24_0_21);
-    const S l24_0_34 = ((-(L_k__2*l24_0_10)) - l24_0_26);
-    const S l24_0_35 = (L_ub__1 + (l24_0_24*l24_0_3));
-    const S l24_0_36 = ((l24_0_1*l24_0_3) + l24_0_9);
-    const S l24_0_37 = ((l24_0_3*l24_0_6) + l24_0_8);
-    const S l24_0_38 = (L_cs + ((L_k__2*L_k__2)*l24_0_3));
-    const S l24_0_39 = (L_k__0 + (L_k__1*L_k__2*l24_0_3));
-    const S l24_0_40 = ((-L_k__1) + l24_0_19);
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_8) + l24_0_0 - l24_0_1);
-    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l24_0_11) + (d_L_k__0__a_dtx*l24_0_12) + (d_L_k__1__a_dtx*l24_0_14) + (d_L_k__2__a_dtx*l24_0_17));
-    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l24_0_11) + (d_L_k__0__a_dty*l24_0_12) + (d_L_k__1__a_dty*l24_0_14) + (d_L_k__2__a_dty*l24_0_17));
-    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l24_0_11) + (d_L_k__0__a_dtz*l24_0_12) + (d_L_k__1__a_dtz*l24_0_14) + (d_L_k__2__a_dtz*l24_0_17));
-    const S d_L_ubs__0__b_dtx = ((b_r5_1*l24_0_20) + (d_L_cs__b_dtx*l24_0_11) + (d_L_k__0__b_dtx*l24_0_12) + (d_L_k__1__b_dtx*l24_0_14) + (d_L_k__2__b_dtx*l24_0_17) + (d_L_ub__1__b_dtx*l24_0_22));
-    const S d_L_ubs__0__b_dty = ((b_r5_2*l24_0_23) + (d_L_cs__b_dty*l24_0_11) + (d_L_k__0__b_dty*l24_0_12) + (d_L_k__1__b_dty*l24_0_14) + (d_L_k__2__b_dty*l24_0_17) + (d_L_ub__2__b_dty*l24_0_20));
-    const S d_L_ubs__0__b_dtz = ((b_r5_0*l24_0_22) + (d_L_cs__b_dtz*l24_0_11) + (d_L_k__0__b_dtz*l24_0_12) + (d_L_k__1__b_dtz*l24_0_14) + (d_L_k__2__b_dtz*l24_0_17) + (d_L_ub__0__b_dtz*l24_0_23));
-    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l24_0_8) - l24_0_16 + l24_0_24);
-    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l24_0_25) + (d_L_k__0__a_dtx*l24_0_28) + (d_L_k__1__a_dtx*l24_0_29) + (d_L_k__2__a_dtx*l24_0_30));
-    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l24_0_25) + (d_L_k__0__a_dty*l24_0_28) + (d_L_k__1__a_dty*l24_0_29) + (d_L_k__2__a_dty*l24_0_30));
-    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l24_0_25) + (d_L_k__0__a_dtz*l24_0_28) + (d_L_k__1__a_dtz*l24_0_29) + (d_L_k__2__a_dtz*l24_0_30));
-    const S d_L_ubs__1__b_dtx = ((b_r5_1*l24_0_31) + (d_L_cs__b_dtx*l24_0_25) + (d_L_k__0__b_dtx*l24_0_28) + (d_L_k__1__b_dtx*l24_0_29) + (d_L_k__2__b_dtx*l24_0_30) + (d_L_ub__1__b_dtx*l24_0_32));
-    const S d_L_ubs__1__b_dty = ((b_r5_2*l24_0_33) + (d_L_cs__b_dty*l24_0_25) + (d_L_k__0__b_dty*l24_0_28) + (d_L_k__1__b_dty*l24_0_29) + (d_L_k__2__b_dty*l24_0_30) + (d_L_ub__2__b_dty*l24_0_31));
-    const S d_L_ubs__1__b_dtz = ((b_r5_0*l24_0_32) + (d_L_cs__b_dtz*l24_0_25) + (d_L_k__0__b_dtz*l24_0_28) + (d_L_k__1__b_dtz*l24_0_29) + (d_L_k__2__b_dtz*l24_0_30) + (d_L_ub__0__b_dtz*l24_0_33));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l24_0_8) + l24_0_13 - l24_0_27);
-    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l24_0_34) + (d_L_k__0__a_dtx*l24_0_35) + (d_L_k__1__a_dtx*l24_0_36) + (d_L_k__2__a_dtx*l24_0_37));
-    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l24_0_34) + (d_L_k__0__a_dty*l24_0_35) + (d_L_k__1__a_dty*l24_0_36) + (d_L_k__2__a_dty*l24_0_37));
-    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l24_0_34) + (d_L_k__0__a_dtz*l24_0_35) + (d_L_k__1__a_dtz*l24_0_36) + (d_L_k__2__a_dtz*l24_0_37));
-    const S d_L_ubs__2__b_dtx = ((b_r5_1*l24_0_38) + (d_L_cs__b_dtx*l24_0_34) + (d_L_k__0__b_dtx*l24_0_35) + (d_L_k__1__b_dtx*l24_0_36) + (d_L_k__2__b_dtx*l24_0_37) + (d_L_ub__1__b_dtx*l24_0_39));
-    const S d_L_ubs__2__b_dty = ((b_r5_2*l24_0_40) + (d_L_cs__b_dty*l24_0_34) + (d_L_k__0__b_dty*l24_0_35) + (d_L_k__1__b_dty*l24_0_36) + (d_L_k__2__b_dty*l24_0_37) + (d_L_ub__2__b_dty*l24_0_38));
-    const S d_L_ubs__2__b_dtz = ((b_r5_0*l24_0_39) + (d_L_cs__b_dtz*l24_0_34) + (d_L_k__0__b_dtz*l24_0_35) + (d_L_k__1__b_dtz*l24_0_36) + (d_L_k__2__b_dtz*l24_0_37) + (d_L_ub__0__b_dtz*l24_0_40));
-    // let twist (cone_twist.yaml:62)
-    const S l25_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
-    const S l25_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
-    const S l25_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
-    const S l25_0_3 = ((L_na__0*l25_0_0) + (L_na__1*l25_0_1) + (L_na__2*l25_0_2));
-    const S l25_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
-    const S l25_0_5 = (S(1)/(((l25_0_3*l25_0_3) + (l25_0_4*l25_0_4))));
-    const S l25_0_6 = (-(l25_0_3*l25_0_5));
-    const S l25_0_7 = (l25_0_4*l25_0_5);
-    const S l25_0_8 = ((L_ubs__2*l25_0_6) + (l25_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
-    const S l25_0_9 = ((L_ubs__1*l25_0_6) + (l25_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
-    const S l25_0_10 = ((L_ua__0*l25_0_6) + (l25_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S l25_0_11 = ((L_ua__1*l25_0_6) + (l25_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l25_0_12 = ((L_ua__2*l25_0_6) + (l25_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l25_0_13 = (l25_0_2*l25_0_7);
-    const S l25_0_14 = (l25_0_1*l25_0_7);
-    const S l25_0_15 = ((L_ubs__0*l25_0_6) + (l25_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
-    const S l25_0_16 = (l25_0_0*l25_0_7);
-    const S L_twist = angle_of(l25_0_3, l25_0_4);
-    const S d_L_twist__a_dtx = ((a_r2_1*l25_0_13) + (a_r4_1*l25_0_8) + (d_L_na__1__a_dtx*l25_0_14) + (d_L_ua__1__a_dtx*l25_0_9) + (d_L_ubs__0__a_dtx*l25_0_10) + (d_L_ubs__1__a_dtx*l25_0_11) + (d_L_ubs__2__a_dtx*l25_0_12));
-    const S d_L_twist__a_dty = ((a_r2_2*l25_0_16) + (a_r4_2*l25_0_15) + (d_L_na__2__a_dty*l25_0_13) + (d_L_ua__2__a_dty*l25_0_8) + (d_L_ubs__0__a_dty*l25_0_10) + (d_L_ubs__1__a_dty*l25_0_11) + (d_L_ubs__2__a_dty*l25_0_12));
-    const S d_L_twist__a_dtz = ((a_r2_0*l25_0_14) + (a_r4_0*l25_0_9) + (d_L_na__0__a_dtz*l25_0_16) + (d_L_ua__0__a_dtz*l25_0_15) + (d_L_ubs__0__a_dtz*l25_0_10) + (d_L_ubs__1__a_dtz*l25_0_11) + (d_L_ubs__2__a_dtz*l25_0_12));
-    const S d_L_twist__b_dtx = ((d_L_ubs__0__b_dtx*l25_0_10) + (d_L_ubs__1__b_dtx*l25_0_11) + (d_L_ubs__2__b_dtx*l25_0_12));
-    const S d_L_twist__b_dty = ((d_L_ubs__0__b_dty*l25_0_10) + (d_L_ubs__1__b_dty*l25_0_11) + (d_L_ubs__2__b_dty*l25_0_12));
-    const S d_L_twist__b_dtz = ((d_L_ubs__0__b_dtz*l25_0_10) + (d_L_ubs__1__b_dtz*l25_0_11) + (d_L_ubs__2__b_dtz*l25_0_12));
-    // let twist_rate (cone_twist.yaml:63)
+    // let stop_cone (cone_twist.yaml:53)
+    const S l21_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const auto l21_0_1 = (l21_0_0 > S(0));
+    const auto l21_0_2 = (L_over_cone > S(0));
+    const auto l21_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
+    const auto l21_0_4 = (p_cone_angle > S(0));
+    const S l21_0_5 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_ksw, S(0)), select(l21_0_3, L_ksw, S(0))), S(0));
+    const S l21_0_6 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_csw, S(0)), select(l21_0_3, L_csw, S(0))), S(0));
+    const S L_stop_cone = select(l21_0_4, select(l21_0_2, select(l21_0_1, l21_0_0, S(0)), select(l21_0_3, l21_0_0, S(0))), S(0));
+    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l21_0_5) + (d_L_swing_rate__a_dtx*l21_0_6));
+    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l21_0_5) + (d_L_swing_rate__a_dty*l21_0_6));
+    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l21_0_5) + (d_L_swing_rate__a_dtz*l21_0_6));
+    const S d_L_stop_cone__b_dtx = ((d_L_swing__b_dtx*l21_0_5) + (d_L_swing_rate__b_dtx*l21_0_6));
+    const S d_L_stop_cone__b_dty = ((d_L_swing__b_dty*l21_0_5) + (d_L_swing_rate__b_dty*l21_0_6));
+    const S d_L_stop_cone__b_dtz = ((d_L_swing__b_dtz*l21_0_5) + (d_L_swing_rate__b_dtz*l21_0_6));
+    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l21_0_6);
+    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l21_0_6);
+    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l21_0_6);
+    const S d_L_stop_cone__b_wx = (L_e__0*l21_0_6);
+    const S d_L_stop_cone__b_wy = (L_e__1*l21_0_6);
+    const S d_L_stop_cone__b_wz = (L_e__2*l21_0_6);
+    // let ubs (cone_twist.yaml:56)
+    const S l22_0_0 = (L_k__1*L_ub__2);
+    const S l22_0_1 = (L_k__2*L_ub__1);
+    const S l22_0_2 = max(S(1e-06), (L_cs + S(1)));
+    const S l22_0_3 = (S(1)/(l22_0_2));
+    const S l22_0_4 = (L_k__0*L_ub__0);
+    const S l22_0_5 = (L_k__1*L_ub__1);
+    const S l22_0_6 = (L_k__2*L_ub__2);
+    const S l22_0_7 = (l22_0_4 + l22_0_5 + l22_0_6);
+    const S l22_0_8 = (l22_0_3*l22_0_7);
+    const S l22_0_9 = (-L_ub__0);
+    const S l22_0_10 = (l22_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l22_0_2*l22_0_2)));
+    const S l22_0_11 = ((-(L_k__0*l22_0_10)) - l22_0_9);
+    const S l22_0_12 = ((l22_0_3*l22_0_4) + l22_0_8);
+    const S l22_0_13 = (L_k__0*L_ub__1);
+    const S l22_0_14 = (L_ub__2 + (l22_0_13*l22_0_3));
+    const S l22_0_15 = (-L_ub__1);
+    const S l22_0_16 = (L_k__0*L_ub__2);
+    const S l22_0_17 = (l22_0_15 + (l22_0_16*l22_0_3));
+    const S l22_0_18 = (L_k__0*l22_0_3);
+    const S l22_0_19 = (L_k__2*l22_0_18);
+    const S l22_0_20 = (L_k__1 + l22_0_19);
+    const S l22_0_21 = (L_k__1*l22_0_18);
+    const S l22_0_22 = ((-L_k__2) + l22_0_21);
+    const S l22_0_23 = (L_cs + ((L_k__0*L_k__0)*l22_0_3));
+    const S l22_0_24 = (L_k__2*L_ub__0);
+    const S l22_0_25 = ((-(L_k__1*l22_0_10)) - l22_0_15);
+    const S l22_0_26 = (-L_ub__2);
+    const S l22_0_27 = (L_k__1*L_ub__0);
+    const S l22_0_28 = (l22_0_26 + (l22_0_27*l22_0_3));
+    const S l22_0_29 = ((l22_0_3*l22_0_5) + l22_0_8);
+    const S l22_0_30 = (L_ub__0 + (l22_0_0*l22_0_3));
+    const S l22_0_31 = ((-L_k__0) + (L_k__1*L_k__2*l22_0_3));
+    const S l22_0_32 = (L_cs + ((L_k__1*L_k__1)*l22_0_3));
+    const S l22_0_33 = (L_k__2 + l22_0_21);
+    const S l22_0_34 = ((-(L_k__2*l22_0_10)) - l22_0_26);
+    const S l22_0_35 = (L_ub__1 + (l22_0_24*l22_0_3));
+    const S l22_0_36 = ((l22_0_1*l22_0_3) + l22_0_9);
+    const S l22_0_37 = ((l22_0_3*l22_0_6) + l22_0_8);
+    const S l22_0_38 = (L_cs + ((L_k__2*L_k__2)*l22_0_3));
+    const S l22_0_39 = (L_k__0 + (L_k__1*L_k__2*l22_0_3));
+    const S l22_0_40 = ((-L_k__1) + l22_0_19);
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_8) + l22_0_0 - l22_0_1);
+    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l22_0_11) + (d_L_k__0__a_dtx*l22_0_12) + (d_L_k__1__a_dtx*l22_0_14) + (d_L_k__2__a_dtx*l22_0_17));
+    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l22_0_11) + (d_L_k__0__a_dty*l22_0_12) + (d_L_k__1__a_dty*l22_0_14) + (d_L_k__2__a_dty*l22_0_17));
+    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l22_0_11) + (d_L_k__0__a_dtz*l22_0_12) + (d_L_k__1__a_dtz*l22_0_14) + (d_L_k__2__a_dtz*l22_0_17));
+    const S d_L_ubs__0__b_dtx = ((b_r5_1*l22_0_20) + (d_L_cs__b_dtx*l22_0_11) + (d_L_k__0__b_dtx*l22_0_12) + (d_L_k__1__b_dtx*l22_0_14) + (d_L_k__2__b_dtx*l22_0_17) + (d_L_ub__1__b_dtx*l22_0_22));
+    const S d_L_ubs__0__b_dty = ((b_r5_2*l22_0_23) + (d_L_cs__b_dty*l22_0_11) + (d_L_k__0__b_dty*l22_0_12) + (d_L_k__1__b_dty*l22_0_14) + (d_L_k__2__b_dty*l22_0_17) + (d_L_ub__2__b_dty*l22_0_20));
+    const S d_L_ubs__0__b_dtz = ((b_r5_0*l22_0_22) + (d_L_cs__b_dtz*l22_0_11) + (d_L_k__0__b_dtz*l22_0_12) + (d_L_k__1__b_dtz*l22_0_14) + (d_L_k__2__b_dtz*l22_0_17) + (d_L_ub__0__b_dtz*l22_0_23));
+    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l22_0_8) - l22_0_16 + l22_0_24);
+    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l22_0_25) + (d_L_k__0__a_dtx*l22_0_28) + (d_L_k__1__a_dtx*l22_0_29) + (d_L_k__2__a_dtx*l22_0_30));
+    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l22_0_25) + (d_L_k__0__a_dty*l22_0_28) + (d_L_k__1__a_dty*l22_0_29) + (d_L_k__2__a_dty*l22_0_30));
+    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l22_0_25) + (d_L_k__0__a_dtz*l22_0_28) + (d_L_k__1__a_dtz*l22_0_29) + (d_L_k__2__a_dtz*l22_0_30));
+    const S d_L_ubs__1__b_dtx = ((b_r5_1*l22_0_31) + (d_L_cs__b_dtx*l22_0_25) + (d_L_k__0__b_dtx*l22_0_28) + (d_L_k__1__b_dtx*l22_0_29) + (d_L_k__2__b_dtx*l22_0_30) + (d_L_ub__1__b_dtx*l22_0_32));
+    const S d_L_ubs__1__b_dty = ((b_r5_2*l22_0_33) + (d_L_cs__b_dty*l22_0_25) + (d_L_k__0__b_dty*l22_0_28) + (d_L_k__1__b_dty*l22_0_29) + (d_L_k__2__b_dty*l22_0_30) + (d_L_ub__2__b_dty*l22_0_31));
+    const S d_L_ubs__1__b_dtz = ((b_r5_0*l22_0_32) + (d_L_cs__b_dtz*l22_0_25) + (d_L_k__0__b_dtz*l22_0_28) + (d_L_k__1__b_dtz*l22_0_29) + (d_L_k__2__b_dtz*l22_0_30) + (d_L_ub__0__b_dtz*l22_0_33));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l22_0_8) + l22_0_13 - l22_0_27);
+    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l22_0_34) + (d_L_k__0__a_dtx*l22_0_35) + (d_L_k__1__a_dtx*l22_0_36) + (d_L_k__2__a_dtx*l22_0_37));
+    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l22_0_34) + (d_L_k__0__a_dty*l22_0_35) + (d_L_k__1__a_dty*l22_0_36) + (d_L_k__2__a_dty*l22_0_37));
+    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l22_0_34) + (d_L_k__0__a_dtz*l22_0_35) + (d_L_k__1__a_dtz*l22_0_36) + (d_L_k__2__a_dtz*l22_0_37));
+    const S d_L_ubs__2__b_dtx = ((b_r5_1*l22_0_38) + (d_L_cs__b_dtx*l22_0_34) + (d_L_k__0__b_dtx*l22_0_35) + (d_L_k__1__b_dtx*l22_0_36) + (d_L_k__2__b_dtx*l22_0_37) + (d_L_ub__1__b_dtx*l22_0_39));
+    const S d_L_ubs__2__b_dty = ((b_r5_2*l22_0_40) + (d_L_cs__b_dty*l22_0_34) + (d_L_k__0__b_dty*l22_0_35) + (d_L_k__1__b_dty*l22_0_36) + (d_L_k__2__b_dty*l22_0_37) + (d_L_ub__2__b_dty*l22_0_38));
+    const S d_L_ubs__2__b_dtz = ((b_r5_0*l22_0_39) + (d_L_cs__b_dtz*l22_0_34) + (d_L_k__0__b_dtz*l22_0_35) + (d_L_k__1__b_dtz*l22_0_36) + (d_L_k__2__b_dtz*l22_0_37) + (d_L_ub__0__b_dtz*l22_0_40));
+    // let twist (cone_twist.yaml:57)
+    const S l23_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
+    const S l23_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
+    const S l23_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
+    const S l23_0_3 = ((L_na__0*l23_0_0) + (L_na__1*l23_0_1) + (L_na__2*l23_0_2));
+    const S l23_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
+    const S l23_0_5 = (S(1)/(((l23_0_3*l23_0_3) + (l23_0_4*l23_0_4))));
+    const S l23_0_6 = (-(l23_0_3*l23_0_5));
+    const S l23_0_7 = (l23_0_4*l23_0_5);
+    const S l23_0_8 = ((L_ubs__2*l23_0_6) + (l23_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
+    const S l23_0_9 = ((L_ubs__1*l23_0_6) + (l23_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
+    const S l23_0_10 = ((L_ua__0*l23_0_6) + (l23_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S l23_0_11 = ((L_ua__1*l23_0_6) + (l23_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l23_0_12 = ((L_ua__2*l23_0_6) + (l23_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l23_0_13 = (l23_0_2*l23_0_7);
+    const S l23_0_14 = (l23_0_1*l23_0_7);
+    const S l23_0_15 = ((L_ubs__0*l23_0_6) + (l23_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
+    const S l23_0_16 = (l23_0_0*l23_0_7);
+    const S L_twist = angle_of(l23_0_3, l23_0_4);
+    const S d_L_twist__a_dtx = ((a_r2_1*l23_0_13) + (a_r4_1*l23_0_8) + (d_L_na__1__a_dtx*l23_0_14) + (d_L_ua__1__a_dtx*l23_0_9) + (d_L_ubs__0__a_dtx*l23_0_10) + (d_L_ubs__1__a_dtx*l23_0_11) + (d_L_ubs__2__a_dtx*l23_0_12));
+    const S d_L_twist__a_dty = ((a_r2_2*l23_0_16) + (a_r4_2*l23_0_15) + (d_L_na__2__a_dty*l23_0_13) + (d_L_ua__2__a_dty*l23_0_8) + (d_L_ubs__0__a_dty*l23_0_10) + (d_L_ubs__1__a_dty*l23_0_11) + (d_L_ubs__2__a_dty*l23_0_12));
+    const S d_L_twist__a_dtz = ((a_r2_0*l23_0_14) + (a_r4_0*l23_0_9) + (d_L_na__0__a_dtz*l23_0_16) + (d_L_ua__0__a_dtz*l23_0_15) + (d_L_ubs__0__a_dtz*l23_0_10) + (d_L_ubs__1__a_dtz*l23_0_11) + (d_L_ubs__2__a_dtz*l23_0_12));
+    const S d_L_twist__b_dtx = ((d_L_ubs__0__b_dtx*l23_0_10) + (d_L_ubs__1__b_dtx*l23_0_11) + (d_L_ubs__2__b_dtx*l23_0_12));
+    const S d_L_twist__b_dty = ((d_L_ubs__0__b_dty*l23_0_10) + (d_L_ubs__1__b_dty*l23_0_11) + (d_L_ubs__2__b_dty*l23_0_12));
+    const S d_L_twist__b_dtz = ((d_L_ubs__0__b_dtz*l23_0_10) + (d_L_ubs__1__b_dtz*l23_0_11) + (d_L_ubs__2__b_dtz*l23_0_12));
+    // let twist_rate (cone_twist.yaml:58)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_twist_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r2_1));
     const S d_L_twist_rate__a_dty = ((L_wrel__0*a_r2_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -1587,11 +1581,11 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_twist_rate__a_wx = (-L_na__0);
     const S d_L_twist_rate__a_wy = (-L_na__1);
     const S d_L_twist_rate__a_wz = (-L_na__2);
-    // let limited (cone_twist.yaml:64)
+    // let limited (cone_twist.yaml:59)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:65)
+    // let over_hi (cone_twist.yaml:60)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:66)
+    // let over_lo (cone_twist.yaml:61)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
     const S d_L_over_lo__a_dtx = (-d_L_twist__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_twist__a_dty);
@@ -1599,151 +1593,149 @@ struct Cone_Twist_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_twist__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_twist__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_twist__b_dtz);
-    // let twa (cone_twist.yaml:67)
-    [[maybe_unused]] const S L_twa = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
-    // let twb (cone_twist.yaml:68)
-    [[maybe_unused]] const S L_twb = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
-    // let itw (cone_twist.yaml:69)
-    [[maybe_unused]] const S L_itw = select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa);
-    // let ktw (cone_twist.yaml:70)
+    // let itw (cone_twist.yaml:62)
+    const S l28_0_0 = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
+    const S l28_0_1 = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
+    [[maybe_unused]] const S L_itw = select((l28_0_1 > S(0)), min(max(l28_0_0, l28_0_1), (S(16)*l28_0_0*l28_0_1/(max(S(1e-30), (l28_0_0 + l28_0_1))))), l28_0_0);
+    // let ktw (cone_twist.yaml:63)
     const S L_ktw = (L_itw*(L_omega*L_omega));
-    // let ctw (cone_twist.yaml:71)
+    // let ctw (cone_twist.yaml:64)
     const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
-    // let stop_hi (cone_twist.yaml:72)
-    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
-    const auto l35_0_1 = (l35_0_0 > S(0));
-    const auto l35_0_2 = (L_over_hi > S(0));
-    const auto l35_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
-    const S l35_0_4 = select(l35_0_2, select(l35_0_1, L_ktw, S(0)), select(l35_0_3, L_ktw, S(0)));
-    const S l35_0_5 = select(l35_0_2, select(l35_0_1, L_ctw, S(0)), select(l35_0_3, L_ctw, S(0)));
-    const S L_stop_hi = select(l35_0_2, select(l35_0_1, l35_0_0, S(0)), select(l35_0_3, l35_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l35_0_4) + (d_L_twist_rate__a_dtx*l35_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l35_0_4) + (d_L_twist_rate__a_dty*l35_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l35_0_4) + (d_L_twist_rate__a_dtz*l35_0_5));
-    const S d_L_stop_hi__b_dtx = (d_L_twist__b_dtx*l35_0_4);
-    const S d_L_stop_hi__b_dty = (d_L_twist__b_dty*l35_0_4);
-    const S d_L_stop_hi__b_dtz = (d_L_twist__b_dtz*l35_0_4);
-    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l35_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l35_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l35_0_5);
-    const S d_L_stop_hi__b_wx = (L_na__0*l35_0_5);
-    const S d_L_stop_hi__b_wy = (L_na__1*l35_0_5);
-    const S d_L_stop_hi__b_wz = (L_na__2*l35_0_5);
-    // let stop_lo (cone_twist.yaml:73)
-    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
-    const S l36_0_1 = (-l36_0_0);
-    const auto l36_0_2 = (l36_0_0 < S(0));
-    const auto l36_0_3 = (L_over_lo > S(0));
-    const auto l36_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
-    const S l36_0_5 = select(l36_0_3, select(l36_0_2, L_ktw, S(0)), select(l36_0_4, L_ktw, S(0)));
-    const S l36_0_6 = (-L_ctw);
-    const S l36_0_7 = select(l36_0_3, select(l36_0_2, l36_0_6, S(0)), select(l36_0_4, l36_0_6, S(0)));
-    const S L_stop_lo = select(l36_0_3, select(l36_0_2, l36_0_1, S(0)), select(l36_0_4, l36_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l36_0_5) + (d_L_twist_rate__a_dtx*l36_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l36_0_5) + (d_L_twist_rate__a_dty*l36_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l36_0_5) + (d_L_twist_rate__a_dtz*l36_0_7));
-    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l36_0_5);
-    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l36_0_5);
-    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l36_0_5);
-    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l36_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l36_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l36_0_7);
-    const S d_L_stop_lo__b_wx = (L_na__0*l36_0_7);
-    const S d_L_stop_lo__b_wy = (L_na__1*l36_0_7);
-    const S d_L_stop_lo__b_wz = (L_na__2*l36_0_7);
-    // let spring (cone_twist.yaml:74)
-    const S l37_0_0 = (L_e__0*p_spring_stiffness);
-    const S l37_0_1 = (L_na__0*p_spring_stiffness);
-    const S l37_0_2 = (L_swing*p_spring_stiffness);
-    const S l37_0_3 = (L_twist*p_spring_stiffness);
-    const S l37_0_4 = (-p_spring_damping);
-    const S l37_0_5 = (L_e__1*p_spring_stiffness);
-    const S l37_0_6 = (L_na__1*p_spring_stiffness);
-    const S l37_0_7 = (L_e__2*p_spring_stiffness);
-    const S l37_0_8 = (L_na__2*p_spring_stiffness);
+    // let stop_hi (cone_twist.yaml:65)
+    const S l31_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const auto l31_0_1 = (l31_0_0 > S(0));
+    const auto l31_0_2 = (L_over_hi > S(0));
+    const auto l31_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
+    const S l31_0_4 = select(l31_0_2, select(l31_0_1, L_ktw, S(0)), select(l31_0_3, L_ktw, S(0)));
+    const S l31_0_5 = select(l31_0_2, select(l31_0_1, L_ctw, S(0)), select(l31_0_3, L_ctw, S(0)));
+    const S L_stop_hi = select(l31_0_2, select(l31_0_1, l31_0_0, S(0)), select(l31_0_3, l31_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l31_0_4) + (d_L_twist_rate__a_dtx*l31_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l31_0_4) + (d_L_twist_rate__a_dty*l31_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l31_0_4) + (d_L_twist_rate__a_dtz*l31_0_5));
+    const S d_L_stop_hi__b_dtx = (d_L_twist__b_dtx*l31_0_4);
+    const S d_L_stop_hi__b_dty = (d_L_twist__b_dty*l31_0_4);
+    const S d_L_stop_hi__b_dtz = (d_L_twist__b_dtz*l31_0_4);
+    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l31_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l31_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l31_0_5);
+    const S d_L_stop_hi__b_wx = (L_na__0*l31_0_5);
+    const S d_L_stop_hi__b_wy = (L_na__1*l31_0_5);
+    const S d_L_stop_hi__b_wz = (L_na__2*l31_0_5);
+    // let stop_lo (cone_twist.yaml:66)
+    const S l32_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l32_0_1 = (-l32_0_0);
+    const auto l32_0_2 = (l32_0_0 < S(0));
+    const auto l32_0_3 = (L_over_lo > S(0));
+    const auto l32_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
+    const S l32_0_5 = select(l32_0_3, select(l32_0_2, L_ktw, S(0)), select(l32_0_4, L_ktw, S(0)));
+    const S l32_0_6 = (-L_ctw);
+    const S l32_0_7 = select(l32_0_3, select(l32_0_2, l32_0_6, S(0)), select(l32_0_4, l32_0_6, S(0)));
+    const S L_stop_lo = select(l32_0_3, select(l32_0_2, l32_0_1, S(0)), select(l32_0_4, l32_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l32_0_5) + (d_L_twist_rate__a_dtx*l32_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l32_0_5) + (d_L_twist_rate__a_dty*l32_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l32_0_5) + (d_L_twist_rate__a_dtz*l32_0_7));
+    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l32_0_5);
+    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l32_0_5);
+    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l32_0_5);
+    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l32_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l32_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l32_0_7);
+    const S d_L_stop_lo__b_wx = (L_na__0*l32_0_7);
+    const S d_L_stop_lo__b_wy = (L_na__1*l32_0_7);
+    const S d_L_stop_lo__b_wz = (L_na__2*l32_0_7);
+    // let spring (cone_twist.yaml:67)
+    const S l33_0_0 = (L_e__0*p_spring_stiffness);
+    const S l33_0_1 = (L_na__0*p_spring_stiffness);
+    const S l33_0_2 = (L_swing*p_spring_stiffness);
+    const S l33_0_3 = (L_twist*p_spring_stiffness);
+    const S l33_0_4 = (-p_spring_damping);
+    const S l33_0_5 = (L_e__1*p_spring_stiffness);
+    const S l33_0_6 = (L_na__1*p_spring_stiffness);
+    const S l33_0_7 = (L_e__2*p_spring_stiffness);
+    const S l33_0_8 = (L_na__2*p_spring_stiffness);
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
-    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l37_0_2)) - (d_L_swing__a_dtx*l37_0_0) - (d_L_twist__a_dtx*l37_0_1));
-    const S d_L_spring__0__a_dty = ((-(a_r2_2*l37_0_3)) - (d_L_e__0__a_dty*l37_0_2) - (d_L_swing__a_dty*l37_0_0) - (d_L_twist__a_dty*l37_0_1));
-    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l37_0_2)) - (d_L_na__0__a_dtz*l37_0_3) - (d_L_swing__a_dtz*l37_0_0) - (d_L_twist__a_dtz*l37_0_1));
-    const S d_L_spring__0__b_dtx = ((-(d_L_e__0__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_0) - (d_L_twist__b_dtx*l37_0_1));
-    const S d_L_spring__0__b_dty = ((-(d_L_e__0__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_0) - (d_L_twist__b_dty*l37_0_1));
-    const S d_L_spring__0__b_dtz = ((-(d_L_e__0__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_0) - (d_L_twist__b_dtz*l37_0_1));
-    const S d_L_spring__0__b_wx = l37_0_4;
+    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l33_0_2)) - (d_L_swing__a_dtx*l33_0_0) - (d_L_twist__a_dtx*l33_0_1));
+    const S d_L_spring__0__a_dty = ((-(a_r2_2*l33_0_3)) - (d_L_e__0__a_dty*l33_0_2) - (d_L_swing__a_dty*l33_0_0) - (d_L_twist__a_dty*l33_0_1));
+    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l33_0_2)) - (d_L_na__0__a_dtz*l33_0_3) - (d_L_swing__a_dtz*l33_0_0) - (d_L_twist__a_dtz*l33_0_1));
+    const S d_L_spring__0__b_dtx = ((-(d_L_e__0__b_dtx*l33_0_2)) - (d_L_swing__b_dtx*l33_0_0) - (d_L_twist__b_dtx*l33_0_1));
+    const S d_L_spring__0__b_dty = ((-(d_L_e__0__b_dty*l33_0_2)) - (d_L_swing__b_dty*l33_0_0) - (d_L_twist__b_dty*l33_0_1));
+    const S d_L_spring__0__b_dtz = ((-(d_L_e__0__b_dtz*l33_0_2)) - (d_L_swing__b_dtz*l33_0_0) - (d_L_twist__b_dtz*l33_0_1));
+    const S d_L_spring__0__b_wx = l33_0_4;
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
-    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l37_0_2)) - (d_L_na__1__a_dtx*l37_0_3) - (d_L_swing__a_dtx*l37_0_5) - (d_L_twist__a_dtx*l37_0_6));
-    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l37_0_2)) - (d_L_swing__a_dty*l37_0_5) - (d_L_twist__a_dty*l37_0_6));
-    const S d_L_spring__1__a_dtz = ((-(a_r2_0*l37_0_3)) - (d_L_e__1__a_dtz*l37_0_2) - (d_L_swing__a_dtz*l37_0_5) - (d_L_twist__a_dtz*l37_0_6));
-    const S d_L_spring__1__b_dtx = ((-(d_L_e__1__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_5) - (d_L_twist__b_dtx*l37_0_6));
-    const S d_L_spring__1__b_dty = ((-(d_L_e__1__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_5) - (d_L_twist__b_dty*l37_0_6));
-    const S d_L_spring__1__b_dtz = ((-(d_L_e__1__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_5) - (d_L_twist__b_dtz*l37_0_6));
-    const S d_L_spring__1__b_wy = l37_0_4;
+    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l33_0_2)) - (d_L_na__1__a_dtx*l33_0_3) - (d_L_swing__a_dtx*l33_0_5) - (d_L_twist__a_dtx*l33_0_6));
+    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l33_0_2)) - (d_L_swing__a_dty*l33_0_5) - (d_L_twist__a_dty*l33_0_6));
+    const S d_L_spring__1__a_dtz = ((-(a_r2_0*l33_0_3)) - (d_L_e__1__a_dtz*l33_0_2) - (d_L_swing__a_dtz*l33_0_5) - (d_L_twist__a_dtz*l33_0_6));
+    const S d_L_spring__1__b_dtx = ((-(d_L_e__1__b_dtx*l33_0_2)) - (d_L_swing__b_dtx*l33_0_5) - (d_L_twist__b_dtx*l33_0_6));
+    const S d_L_spring__1__b_dty = ((-(d_L_e__1__b_dty*l33_0_2)) - (d_L_swing__b_dty*l33_0_5) - (d_L_twist__b_dty*l33_0_6));
+    const S d_L_spring__1__b_dtz = ((-(d_L_e__1__b_dtz*l33_0_2)) - (d_L_swing__b_dtz*l33_0_5) - (d_L_twist__b_dtz*l33_0_6));
+    const S d_L_spring__1__b_wy = l33_0_4;
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    const S d_L_spring__2__a_dtx = ((-(a_r2_1*l37_0_3)) - (d_L_e__2__a_dtx*l37_0_2) - (d_L_swing__a_dtx*l37_0_7) - (d_L_twist__a_dtx*l37_0_8));
-    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l37_0_2)) - (d_L_na__2__a_dty*l37_0_3) - (d_L_swing__a_dty*l37_0_7) - (d_L_twist__a_dty*l37_0_8));
-    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l37_0_2)) - (d_L_swing__a_dtz*l37_0_7) - (d_L_twist__a_dtz*l37_0_8));
-    const S d_L_spring__2__b_dtx = ((-(d_L_e__2__b_dtx*l37_0_2)) - (d_L_swing__b_dtx*l37_0_7) - (d_L_twist__b_dtx*l37_0_8));
-    const S d_L_spring__2__b_dty = ((-(d_L_e__2__b_dty*l37_0_2)) - (d_L_swing__b_dty*l37_0_7) - (d_L_twist__b_dty*l37_0_8));
-    const S d_L_spring__2__b_dtz = ((-(d_L_e__2__b_dtz*l37_0_2)) - (d_L_swing__b_dtz*l37_0_7) - (d_L_twist__b_dtz*l37_0_8));
-    const S d_L_spring__2__b_wz = l37_0_4;
-    // let tau (cone_twist.yaml:75)
-    const S l38_0_0 = ((-L_stop_hi) + L_stop_lo);
-    const S l38_0_1 = (L_limited*L_na__0);
-    const S l38_0_2 = (-p_spring_damping);
-    const S l38_0_3 = (L_limited*l38_0_0);
-    const S l38_0_4 = (L_limited*L_na__1);
-    const S l38_0_5 = (L_limited*L_na__2);
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l38_0_0*l38_0_1));
-    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l38_0_1));
-    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r2_2*l38_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l38_0_1));
-    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l38_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l38_0_1));
-    const S d_L_tau__0__b_dtx = ((-(L_e__0*d_L_stop_cone__b_dtx)) + (L_limited*L_na__0*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__0__b_dtx) + d_L_spring__0__b_dtx - (d_L_stop_hi__b_dtx*l38_0_1));
-    const S d_L_tau__0__b_dty = ((-(L_e__0*d_L_stop_cone__b_dty)) + (L_limited*L_na__0*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__0__b_dty) + d_L_spring__0__b_dty - (d_L_stop_hi__b_dty*l38_0_1));
-    const S d_L_tau__0__b_dtz = ((-(L_e__0*d_L_stop_cone__b_dtz)) + (L_limited*L_na__0*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__0__b_dtz) + d_L_spring__0__b_dtz - (d_L_stop_hi__b_dtz*l38_0_1));
-    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_1) - l38_0_2);
-    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_1));
-    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_1));
-    const S d_L_tau__0__b_wx = ((-(L_e__0*d_L_stop_cone__b_wx)) + (L_limited*L_na__0*d_L_stop_lo__b_wx) + d_L_spring__0__b_wx - (d_L_stop_hi__b_wx*l38_0_1));
-    const S d_L_tau__0__b_wy = ((-(L_e__0*d_L_stop_cone__b_wy)) + (L_limited*L_na__0*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l38_0_1));
-    const S d_L_tau__0__b_wz = ((-(L_e__0*d_L_stop_cone__b_wz)) + (L_limited*L_na__0*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l38_0_1));
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_3) + L_spring__1);
-    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l38_0_4));
-    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l38_0_4));
-    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r2_0*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l38_0_4));
-    const S d_L_tau__1__b_dtx = ((-(L_e__1*d_L_stop_cone__b_dtx)) + (L_limited*L_na__1*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__1__b_dtx) + d_L_spring__1__b_dtx - (d_L_stop_hi__b_dtx*l38_0_4));
-    const S d_L_tau__1__b_dty = ((-(L_e__1*d_L_stop_cone__b_dty)) + (L_limited*L_na__1*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__1__b_dty) + d_L_spring__1__b_dty - (d_L_stop_hi__b_dty*l38_0_4));
-    const S d_L_tau__1__b_dtz = ((-(L_e__1*d_L_stop_cone__b_dtz)) + (L_limited*L_na__1*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__1__b_dtz) + d_L_spring__1__b_dtz - (d_L_stop_hi__b_dtz*l38_0_4));
-    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_4));
-    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_4) - l38_0_2);
-    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_4));
-    const S d_L_tau__1__b_wx = ((-(L_e__1*d_L_stop_cone__b_wx)) + (L_limited*L_na__1*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l38_0_4));
-    const S d_L_tau__1__b_wy = ((-(L_e__1*d_L_stop_cone__b_wy)) + (L_limited*L_na__1*d_L_stop_lo__b_wy) + d_L_spring__1__b_wy - (d_L_stop_hi__b_wy*l38_0_4));
-    const S d_L_tau__1__b_wz = ((-(L_e__1*d_L_stop_cone__b_wz)) + (L_limited*L_na__1*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l38_0_4));
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_3) + L_spring__2);
-    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r2_1*l38_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l38_0_5));
-    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l38_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l38_0_5));
-    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l38_0_5));
-    const S d_L_tau__2__b_dtx = ((-(L_e__2*d_L_stop_cone__b_dtx)) + (L_limited*L_na__2*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__2__b_dtx) + d_L_spring__2__b_dtx - (d_L_stop_hi__b_dtx*l38_0_5));
-    const S d_L_tau__2__b_dty = ((-(L_e__2*d_L_stop_cone__b_dty)) + (L_limited*L_na__2*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__2__b_dty) + d_L_spring__2__b_dty - (d_L_stop_hi__b_dty*l38_0_5));
-    const S d_L_tau__2__b_dtz = ((-(L_e__2*d_L_stop_cone__b_dtz)) + (L_limited*L_na__2*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__2__b_dtz) + d_L_spring__2__b_dtz - (d_L_stop_hi__b_dtz*l38_0_5));
-    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_5));
-    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_5));
-    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_5) - l38_0_2);
-    const S d_L_tau__2__b_wx = ((-(L_e__2*d_L_stop_cone__b_wx)) + (L_limited*L_na__2*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l38_0_5));
-    const S d_L_tau__2__b_wy = ((-(L_e__2*d_L_stop_cone__b_wy)) + (L_limited*L_na__2*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l38_0_5));
-    const S d_L_tau__2__b_wz = ((-(L_e__2*d_L_stop_cone__b_wz)) + (L_limited*L_na__2*d_L_stop_lo__b_wz) + d_L_spring__2__b_wz - (d_L_stop_hi__b_wz*l38_0_5));
-    // apply[0] (cone_twist.yaml:77)
+    const S d_L_spring__2__a_dtx = ((-(a_r2_1*l33_0_3)) - (d_L_e__2__a_dtx*l33_0_2) - (d_L_swing__a_dtx*l33_0_7) - (d_L_twist__a_dtx*l33_0_8));
+    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l33_0_2)) - (d_L_na__2__a_dty*l33_0_3) - (d_L_swing__a_dty*l33_0_7) - (d_L_twist__a_dty*l33_0_8));
+    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l33_0_2)) - (d_L_swing__a_dtz*l33_0_7) - (d_L_twist__a_dtz*l33_0_8));
+    const S d_L_spring__2__b_dtx = ((-(d_L_e__2__b_dtx*l33_0_2)) - (d_L_swing__b_dtx*l33_0_7) - (d_L_twist__b_dtx*l33_0_8));
+    const S d_L_spring__2__b_dty = ((-(d_L_e__2__b_dty*l33_0_2)) - (d_L_swing__b_dty*l33_0_7) - (d_L_twist__b_dty*l33_0_8));
+    const S d_L_spring__2__b_dtz = ((-(d_L_e__2__b_dtz*l33_0_2)) - (d_L_swing__b_dtz*l33_0_7) - (d_L_twist__b_dtz*l33_0_8));
+    const S d_L_spring__2__b_wz = l33_0_4;
+    // let tau (cone_twist.yaml:68)
+    const S l34_0_0 = ((-L_stop_hi) + L_stop_lo);
+    const S l34_0_1 = (L_limited*L_na__0);
+    const S l34_0_2 = (-p_spring_damping);
+    const S l34_0_3 = (L_limited*l34_0_0);
+    const S l34_0_4 = (L_limited*L_na__1);
+    const S l34_0_5 = (L_limited*L_na__2);
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l34_0_0*l34_0_1));
+    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l34_0_1));
+    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r2_2*l34_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l34_0_1));
+    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l34_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l34_0_1));
+    const S d_L_tau__0__b_dtx = ((-(L_e__0*d_L_stop_cone__b_dtx)) + (L_limited*L_na__0*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__0__b_dtx) + d_L_spring__0__b_dtx - (d_L_stop_hi__b_dtx*l34_0_1));
+    const S d_L_tau__0__b_dty = ((-(L_e__0*d_L_stop_cone__b_dty)) + (L_limited*L_na__0*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__0__b_dty) + d_L_spring__0__b_dty - (d_L_stop_hi__b_dty*l34_0_1));
+    const S d_L_tau__0__b_dtz = ((-(L_e__0*d_L_stop_cone__b_dtz)) + (L_limited*L_na__0*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__0__b_dtz) + d_L_spring__0__b_dtz - (d_L_stop_hi__b_dtz*l34_0_1));
+    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_1) - l34_0_2);
+    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_1));
+    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_1));
+    const S d_L_tau__0__b_wx = ((-(L_e__0*d_L_stop_cone__b_wx)) + (L_limited*L_na__0*d_L_stop_lo__b_wx) + d_L_spring__0__b_wx - (d_L_stop_hi__b_wx*l34_0_1));
+    const S d_L_tau__0__b_wy = ((-(L_e__0*d_L_stop_cone__b_wy)) + (L_limited*L_na__0*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l34_0_1));
+    const S d_L_tau__0__b_wz = ((-(L_e__0*d_L_stop_cone__b_wz)) + (L_limited*L_na__0*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l34_0_1));
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l34_0_3) + L_spring__1);
+    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l34_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l34_0_4));
+    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l34_0_4));
+    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r2_0*l34_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l34_0_4));
+    const S d_L_tau__1__b_dtx = ((-(L_e__1*d_L_stop_cone__b_dtx)) + (L_limited*L_na__1*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__1__b_dtx) + d_L_spring__1__b_dtx - (d_L_stop_hi__b_dtx*l34_0_4));
+    const S d_L_tau__1__b_dty = ((-(L_e__1*d_L_stop_cone__b_dty)) + (L_limited*L_na__1*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__1__b_dty) + d_L_spring__1__b_dty - (d_L_stop_hi__b_dty*l34_0_4));
+    const S d_L_tau__1__b_dtz = ((-(L_e__1*d_L_stop_cone__b_dtz)) + (L_limited*L_na__1*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__1__b_dtz) + d_L_spring__1__b_dtz - (d_L_stop_hi__b_dtz*l34_0_4));
+    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_4));
+    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_4) - l34_0_2);
+    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_4));
+    const S d_L_tau__1__b_wx = ((-(L_e__1*d_L_stop_cone__b_wx)) + (L_limited*L_na__1*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l34_0_4));
+    const S d_L_tau__1__b_wy = ((-(L_e__1*d_L_stop_cone__b_wy)) + (L_limited*L_na__1*d_L_stop_lo__b_wy) + d_L_spring__1__b_wy - (d_L_stop_hi__b_wy*l34_0_4));
+    const S d_L_tau__1__b_wz = ((-(L_e__1*d_L_stop_cone__b_wz)) + (L_limited*L_na__1*d_L_stop_lo__b_wz) - (d_L_stop_hi__b_wz*l34_0_4));
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l34_0_3) + L_spring__2);
+    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r2_1*l34_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l34_0_5));
+    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l34_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l34_0_5));
+    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l34_0_5));
+    const S d_L_tau__2__b_dtx = ((-(L_e__2*d_L_stop_cone__b_dtx)) + (L_limited*L_na__2*d_L_stop_lo__b_dtx) - (L_stop_cone*d_L_e__2__b_dtx) + d_L_spring__2__b_dtx - (d_L_stop_hi__b_dtx*l34_0_5));
+    const S d_L_tau__2__b_dty = ((-(L_e__2*d_L_stop_cone__b_dty)) + (L_limited*L_na__2*d_L_stop_lo__b_dty) - (L_stop_cone*d_L_e__2__b_dty) + d_L_spring__2__b_dty - (d_L_stop_hi__b_dty*l34_0_5));
+    const S d_L_tau__2__b_dtz = ((-(L_e__2*d_L_stop_cone__b_dtz)) + (L_limited*L_na__2*d_L_stop_lo__b_dtz) - (L_stop_cone*d_L_e__2__b_dtz) + d_L_spring__2__b_dtz - (d_L_stop_hi__b_dtz*l34_0_5));
+    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_5));
+    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_5));
+    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_5) - l34_0_2);
+    const S d_L_tau__2__b_wx = ((-(L_e__2*d_L_stop_cone__b_wx)) + (L_limited*L_na__2*d_L_stop_lo__b_wx) - (d_L_stop_hi__b_wx*l34_0_5));
+    const S d_L_tau__2__b_wy = ((-(L_e__2*d_L_stop_cone__b_wy)) + (L_limited*L_na__2*d_L_stop_lo__b_wy) - (d_L_stop_hi__b_wy*l34_0_5));
+    const S d_L_tau__2__b_wz = ((-(L_e__2*d_L_stop_cone__b_wz)) + (L_limited*L_na__2*d_L_stop_lo__b_wz) + d_L_spring__2__b_wz - (d_L_stop_hi__b_wz*l34_0_5));
+    // apply[0] (cone_twist.yaml:70)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (cone_twist.yaml:78)
+    const S l36_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l36_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l36_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l36_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply[1] (cone_twist.yaml:71)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
-    const S l42_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (cone_twist.yaml:76), shared subexpressions
+    const S l38_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
+    // apply (cone_twist.yaml:69), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -1888,21 +1880,21 @@ struct Cone_Twist_Pair_Kernel {
     const S o141 = ((d_L_f__0__b_dtz*o8) + (d_L_f__0__b_wz*h));
     const S o142 = ((d_L_f__1__b_dtz*o8) + (d_L_f__1__b_wz*h));
     const S o143 = (d_L_f__2__b_dtz*o8);
-    // g_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // g_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[0] = o19;
     out[1] = o28;
     out[2] = o35;
     out[3] = ((-(L_f__1*o37)) + (L_f__2*o36) - L_tau__0 + (o1*o41) + (o2*o42) + (o20*o38) + (o21*o38) + (o24*o47) + (o27*o48) + (o29*o36) + (o3*o43) + (o30*o36) + (o32*o49) + (o34*o50) + (o44*o5) + (o45*o6) + (o46*o7));
     out[4] = ((L_f__0*o37) - (L_f__2*o51) - L_tau__1 + (o0*o37) + (o1*o54) + (o13*o60) + (o18*o61) + (o2*o55) + (o29*o52) + (o3*o56) + (o30*o52) + (o32*o62) + (o34*o63) + (o37*o4) + (o5*o57) + (o58*o6) + (o59*o7));
     out[5] = ((-(L_f__0*o36)) + (L_f__1*o51) - L_tau__2 + (o0*o64) + (o1*o65) + (o13*o71) + (o18*o72) + (o2*o66) + (o20*o51) + (o21*o51) + (o24*o73) + (o27*o74) + (o3*o67) + (o4*o64) + (o5*o68) + (o6*o69) + (o7*o70));
-    // g_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // g_b from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[6] = (-o19);
     out[7] = (-o28);
     out[8] = (-o35);
     out[9] = ((L_f__1*o75) - (L_f__2*o76) + L_tau__0 + (o1*o78) + (o2*o79) + (o20*o75) + (o21*o75) + (o24*o86) + (o27*o87) + (o29*o77) + (o3*o80) + (o30*o77) + (o32*o88) + (o34*o89) + (o5*o83) + (o6*o84) + (o7*o85));
     out[10] = ((-(L_f__0*o75)) + (L_f__2*o90) + L_tau__1 + (o0*o91) + (o1*o92) + (o100*o18) + (o101*o32) + (o102*o34) + (o13*o99) + (o2*o93) + (o29*o90) + (o3*o94) + (o30*o90) + (o4*o91) + (o5*o96) + (o6*o97) + (o7*o98));
     out[11] = ((L_f__0*o76) - (L_f__1*o90) + L_tau__2 + (o0*o76) + (o1*o104) + (o103*o20) + (o103*o21) + (o105*o2) + (o106*o3) + (o107*o5) + (o108*o6) + (o109*o7) + (o110*o13) + (o111*o18) + (o112*o24) + (o113*o27) + (o4*o76));
-    // K_aa from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // K_aa from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[12] = o115;
     out[13] = S(0);
     out[14] = S(0);
@@ -1939,7 +1931,7 @@ struct Cone_Twist_Pair_Kernel {
     out[45] = ((h*((d_L_f__1__a_wz*o38) - d_L_tau__0__a_wz)) + (o43*o8));
     out[46] = ((h*((d_L_f__0__a_wz*o37) - d_L_tau__1__a_wz)) + (o56*o8));
     out[47] = ((h*((d_L_f__0__a_wz*o64) + (d_L_f__1__a_wz*o51) - d_L_tau__2__a_wz)) + (o67*o8));
-    // K_ab from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // K_ab from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[48] = o130;
     out[49] = S(0);
     out[50] = S(0);
@@ -1976,7 +1968,7 @@ struct Cone_Twist_Pair_Kernel {
     out[81] = ((h*((d_L_f__1__b_wz*o38) - d_L_tau__0__b_wz)) + (o46*o8));
     out[82] = ((h*((d_L_f__0__b_wz*o37) - d_L_tau__1__b_wz)) + (o59*o8));
     out[83] = ((h*((d_L_f__0__b_wz*o64) + (d_L_f__1__b_wz*o51) - d_L_tau__2__b_wz)) + (o70*o8));
-    // K_ba from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // K_ba from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[84] = (-o115);
     out[85] = S(0);
     out[86] = S(0);
@@ -2013,7 +2005,7 @@ struct Cone_Twist_Pair_Kernel {
     out[117] = ((h*((d_L_f__1__a_wz*o75) + d_L_tau__0__a_wz)) + (o8*o80));
     out[118] = ((h*((d_L_f__0__a_wz*o91) + d_L_tau__1__a_wz)) + (o8*o94));
     out[119] = ((h*((d_L_f__0__a_wz*o76) + (d_L_f__1__a_wz*o103) + d_L_tau__2__a_wz)) + (o106*o8));
-    // K_bb from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // K_bb from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[120] = (-o130);
     out[121] = S(0);
     out[122] = S(0);
@@ -2053,10 +2045,10 @@ struct Cone_Twist_Pair_Kernel {
   }
 
   /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
-  static constexpr int kHeld = 15;
+  static constexpr int kHeld = 11;
   /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
   /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
-  static constexpr int kJointArm[2] = { 7, 11 };
+  static constexpr int kJointArm[2] = { 3, 7 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
   /// of computing them from `in`; held_out: where to write the ones used. Total ops: 780
@@ -2131,7 +2123,7 @@ struct Cone_Twist_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[64];
     [[maybe_unused]] const S g_joint_hertz = in[65];
     [[maybe_unused]] const S g_joint_damping_ratio = in[66];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let swa (cone_twist.yaml:53), let swb (cone_twist.yaml:54)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let pb (cone_twist.yaml:30), let na (cone_twist.yaml:32), let nb (cone_twist.yaml:33), let ua (cone_twist.yaml:34), let ub (cone_twist.yaml:35), let isw (cone_twist.yaml:50)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2268,101 +2260,93 @@ struct Cone_Twist_Pair_Kernel {
     const S L_swing_rate = ((L_e__0*L_wrel__0) + (L_e__1*L_wrel__1) + (L_e__2*L_wrel__2));
     // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let swa (cone_twist.yaml:53)
-    const S L_swa = held_in ? held_in[1] : S(((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22)))));
-    if (held_out) held_out[1] = L_swa;
-    // let swb (cone_twist.yaml:54)
-    const S L_swb = held_in ? held_in[2] : S(((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22)))));
-    if (held_out) held_out[2] = L_swb;
-    // let isw (cone_twist.yaml:55)
-    const S L_isw = held_in ? held_in[3] : S(select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa));
-    if (held_out) held_out[3] = L_isw;
-    // let ksw (cone_twist.yaml:56)
+    // let isw (cone_twist.yaml:50)
+    const S l18_0_0 = ((L_e__0*((L_e__0*a_Iw6_00) + (L_e__1*a_Iw6_01) + (L_e__2*a_Iw6_02))) + (L_e__1*((L_e__0*a_Iw6_01) + (L_e__1*a_Iw6_11) + (L_e__2*a_Iw6_12))) + (L_e__2*((L_e__0*a_Iw6_02) + (L_e__1*a_Iw6_12) + (L_e__2*a_Iw6_22))));
+    const S l18_0_1 = ((L_e__0*((L_e__0*b_Iw7_00) + (L_e__1*b_Iw7_01) + (L_e__2*b_Iw7_02))) + (L_e__1*((L_e__0*b_Iw7_01) + (L_e__1*b_Iw7_11) + (L_e__2*b_Iw7_12))) + (L_e__2*((L_e__0*b_Iw7_02) + (L_e__1*b_Iw7_12) + (L_e__2*b_Iw7_22))));
+    const S L_isw = held_in ? held_in[1] : S(select((l18_0_1 > S(0)), min(max(l18_0_0, l18_0_1), (S(16)*l18_0_0*l18_0_1/(max(S(1e-30), (l18_0_0 + l18_0_1))))), l18_0_0));
+    if (held_out) held_out[1] = L_isw;
+    // let ksw (cone_twist.yaml:51)
     const S L_ksw = (L_isw*(L_omega*L_omega));
-    // let csw (cone_twist.yaml:57)
+    // let csw (cone_twist.yaml:52)
     const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
-    // let stop_cone (cone_twist.yaml:58)
-    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
-    const S L_stop_cone = select((p_cone_angle > S(0)), select((L_over_cone > S(0)), select((l23_0_0 > S(0)), l23_0_0, S(0)), select(((L_over_cone + (L_swing_rate*h)) > S(0)), l23_0_0, S(0))), S(0));
-    // let ubs (cone_twist.yaml:61)
-    const S l24_0_0 = (((L_k__0*L_ub__0) + (L_k__1*L_ub__1) + (L_k__2*L_ub__2))/(max(S(1e-06), (L_cs + S(1)))));
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_0) + (L_k__1*L_ub__2) - (L_k__2*L_ub__1));
-    const S L_ubs__1 = ((L_cs*L_ub__1) - (L_k__0*L_ub__2) + (L_k__1*l24_0_0) + (L_k__2*L_ub__0));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__0*L_ub__1) - (L_k__1*L_ub__0) + (L_k__2*l24_0_0));
-    // let twist (cone_twist.yaml:62)
+    // let stop_cone (cone_twist.yaml:53)
+    const S l21_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const S L_stop_cone = select((p_cone_angle > S(0)), select((L_over_cone > S(0)), select((l21_0_0 > S(0)), l21_0_0, S(0)), select(((L_over_cone + (L_swing_rate*h)) > S(0)), l21_0_0, S(0))), S(0));
+    // let ubs (cone_twist.yaml:56)
+    const S l22_0_0 = (((L_k__0*L_ub__0) + (L_k__1*L_ub__1) + (L_k__2*L_ub__2))/(max(S(1e-06), (L_cs + S(1)))));
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_0) + (L_k__1*L_ub__2) - (L_k__2*L_ub__1));
+    const S L_ubs__1 = ((L_cs*L_ub__1) - (L_k__0*L_ub__2) + (L_k__1*l22_0_0) + (L_k__2*L_ub__0));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__0*L_ub__1) - (L_k__1*L_ub__0) + (L_k__2*l22_0_0));
+    // let twist (cone_twist.yaml:57)
     const S L_twist = angle_of(((L_na__0*((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1))) + (L_na__1*((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0))) + (L_na__2*((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0)))), ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2)));
-    // let twist_rate (cone_twist.yaml:63)
+    // let twist_rate (cone_twist.yaml:58)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
-    // let limited (cone_twist.yaml:64)
+    // let limited (cone_twist.yaml:59)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:65)
+    // let over_hi (cone_twist.yaml:60)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:66)
+    // let over_lo (cone_twist.yaml:61)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
-    // let twa (cone_twist.yaml:67)
-    const S L_twa = held_in ? held_in[4] : S(((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22)))));
-    if (held_out) held_out[4] = L_twa;
-    // let twb (cone_twist.yaml:68)
-    const S L_twb = held_in ? held_in[5] : S(((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22)))));
-    if (held_out) held_out[5] = L_twb;
-    // let itw (cone_twist.yaml:69)
-    const S L_itw = held_in ? held_in[6] : S(select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa));
-    if (held_out) held_out[6] = L_itw;
-    // let ktw (cone_twist.yaml:70)
+    // let itw (cone_twist.yaml:62)
+    const S l28_0_0 = ((L_na__0*((L_na__0*a_Iw6_00) + (L_na__1*a_Iw6_01) + (L_na__2*a_Iw6_02))) + (L_na__1*((L_na__0*a_Iw6_01) + (L_na__1*a_Iw6_11) + (L_na__2*a_Iw6_12))) + (L_na__2*((L_na__0*a_Iw6_02) + (L_na__1*a_Iw6_12) + (L_na__2*a_Iw6_22))));
+    const S l28_0_1 = ((L_na__0*((L_na__0*b_Iw7_00) + (L_na__1*b_Iw7_01) + (L_na__2*b_Iw7_02))) + (L_na__1*((L_na__0*b_Iw7_01) + (L_na__1*b_Iw7_11) + (L_na__2*b_Iw7_12))) + (L_na__2*((L_na__0*b_Iw7_02) + (L_na__1*b_Iw7_12) + (L_na__2*b_Iw7_22))));
+    const S L_itw = held_in ? held_in[2] : S(select((l28_0_1 > S(0)), min(max(l28_0_0, l28_0_1), (S(16)*l28_0_0*l28_0_1/(max(S(1e-30), (l28_0_0 + l28_0_1))))), l28_0_0));
+    if (held_out) held_out[2] = L_itw;
+    // let ktw (cone_twist.yaml:63)
     const S L_ktw = (L_itw*(L_omega*L_omega));
-    // let ctw (cone_twist.yaml:71)
+    // let ctw (cone_twist.yaml:64)
     const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
-    // let stop_hi (cone_twist.yaml:72)
-    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
-    const S L_stop_hi = select((L_over_hi > S(0)), select((l35_0_0 > S(0)), l35_0_0, S(0)), select(((L_over_hi + (L_twist_rate*h)) > S(0)), l35_0_0, S(0)));
-    // let stop_lo (cone_twist.yaml:73)
-    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
-    const S l36_0_1 = (-l36_0_0);
-    const S L_stop_lo = select((L_over_lo > S(0)), select((l36_0_0 < S(0)), l36_0_1, S(0)), select(((L_over_lo - (L_twist_rate*h)) > S(0)), l36_0_1, S(0)));
-    // let spring (cone_twist.yaml:74)
+    // let stop_hi (cone_twist.yaml:65)
+    const S l31_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const S L_stop_hi = select((L_over_hi > S(0)), select((l31_0_0 > S(0)), l31_0_0, S(0)), select(((L_over_hi + (L_twist_rate*h)) > S(0)), l31_0_0, S(0)));
+    // let stop_lo (cone_twist.yaml:66)
+    const S l32_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l32_0_1 = (-l32_0_0);
+    const S L_stop_lo = select((L_over_lo > S(0)), select((l32_0_0 < S(0)), l32_0_1, S(0)), select(((L_over_lo - (L_twist_rate*h)) > S(0)), l32_0_1, S(0)));
+    // let spring (cone_twist.yaml:67)
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    // let tau (cone_twist.yaml:75)
-    const S l38_0_0 = (L_limited*((-L_stop_hi) + L_stop_lo));
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + (L_na__0*l38_0_0) + L_spring__0);
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_0) + L_spring__1);
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_0) + L_spring__2);
-    // apply[0] (cone_twist.yaml:77)
-    const S T0_arm__0 = held_in ? held_in[7] : S((L_pa__0 - a_px));
-    if (held_out) held_out[7] = T0_arm__0;
-    const S T0_arm__1 = held_in ? held_in[8] : S((L_pa__1 - a_py));
-    if (held_out) held_out[8] = T0_arm__1;
-    const S T0_arm__2 = held_in ? held_in[9] : S((L_pa__2 - a_pz));
-    if (held_out) held_out[9] = T0_arm__2;
-    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    const S T1_turn = held_in ? held_in[10] : S((S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[10] = T1_turn;
-    // apply[1] (cone_twist.yaml:78)
-    const S T2_arm__0 = held_in ? held_in[11] : S((L_pb__0 - b_px));
-    if (held_out) held_out[11] = T2_arm__0;
-    const S T2_arm__1 = held_in ? held_in[12] : S((L_pb__1 - b_py));
-    if (held_out) held_out[12] = T2_arm__1;
-    const S T2_arm__2 = held_in ? held_in[13] : S((L_pb__2 - b_pz));
-    if (held_out) held_out[13] = T2_arm__2;
-    const S l42_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    const S T3_turn = held_in ? held_in[14] : S((S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[14] = T3_turn;
-    // apply (cone_twist.yaml:76), shared subexpressions
+    // let tau (cone_twist.yaml:68)
+    const S l34_0_0 = (L_limited*((-L_stop_hi) + L_stop_lo));
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + (L_na__0*l34_0_0) + L_spring__0);
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l34_0_0) + L_spring__1);
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l34_0_0) + L_spring__2);
+    // apply[0] (cone_twist.yaml:70)
+    const S T0_arm__0 = held_in ? held_in[3] : S((L_pa__0 - a_px));
+    if (held_out) held_out[3] = T0_arm__0;
+    const S T0_arm__1 = held_in ? held_in[4] : S((L_pa__1 - a_py));
+    if (held_out) held_out[4] = T0_arm__1;
+    const S T0_arm__2 = held_in ? held_in[5] : S((L_pa__2 - a_pz));
+    if (held_out) held_out[5] = T0_arm__2;
+    const S l36_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    const S T1_turn = held_in ? held_in[6] : S((S(1) - (S(1)/((((h*h*h*h)*l36_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l36_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l36_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[6] = T1_turn;
+    // apply[1] (cone_twist.yaml:71)
+    const S T2_arm__0 = held_in ? held_in[7] : S((L_pb__0 - b_px));
+    if (held_out) held_out[7] = T2_arm__0;
+    const S T2_arm__1 = held_in ? held_in[8] : S((L_pb__1 - b_py));
+    if (held_out) held_out[8] = T2_arm__1;
+    const S T2_arm__2 = held_in ? held_in[9] : S((L_pb__2 - b_pz));
+    if (held_out) held_out[9] = T2_arm__2;
+    const S l38_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    const S T3_turn = held_in ? held_in[10] : S((S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[10] = T3_turn;
+    // apply (cone_twist.yaml:69), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
     const S o3 = (T2_arm__2 + (T3_turn*(L_pb__2 - T2_arm__2 - b_pz)));
     const S o4 = (T2_arm__1 + (T3_turn*(L_pb__1 - T2_arm__1 - b_py)));
     const S o5 = (T2_arm__0 + (T3_turn*(L_pb__0 - T2_arm__0 - b_px)));
-    // F_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // F_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (cone_twist.yaml:78), apply[3] (cone_twist.yaml:80)
+    // F_b from apply[1] (cone_twist.yaml:71), apply[3] (cone_twist.yaml:73)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -2374,7 +2358,7 @@ struct Cone_Twist_Pair_Kernel {
 
 /// cone_twist (world): F for 1 body and 2 Jacobian block(s).
 /// out = [F_a (6), dF_a/ddelta_a (36), dF_a/du_a (36)]
-/// Total ops: 1274
+/// Total ops: 1258
 struct Cone_Twist_World_Kernel {
   using Instance = Cone_Twist_Force;
   static constexpr ForceType kType = ForceType::cone_twist;
@@ -2383,7 +2367,7 @@ struct Cone_Twist_World_Kernel {
   static constexpr int kInputs = 47;
   static constexpr int kNumBlocks = 2;
   static constexpr int kOutputs = 78;
-  static constexpr int kOps = 1274;
+  static constexpr int kOps = 1258;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_du, 0, 0},
@@ -2497,7 +2481,7 @@ struct Cone_Twist_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[44];
     [[maybe_unused]] const S g_joint_hertz = in[45];
     [[maybe_unused]] const S g_joint_damping_ratio = in[46];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let swa (cone_twist.yaml:53)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let isw (cone_twist.yaml:50)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2678,96 +2662,92 @@ struct Cone_Twist_World_Kernel {
     const S d_L_swing_rate__a_wz = (-L_e__2);
     // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let swa (cone_twist.yaml:53)
-    [[maybe_unused]] const S L_swa = ((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22))));
-    // let swb (cone_twist.yaml:54)
-    [[maybe_unused]] const S L_swb = S(0);
-    // let isw (cone_twist.yaml:55)
-    [[maybe_unused]] const S L_isw = select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa);
-    // let ksw (cone_twist.yaml:56)
+    // let isw (cone_twist.yaml:50)
+    [[maybe_unused]] const S L_isw = ((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22))));
+    // let ksw (cone_twist.yaml:51)
     const S L_ksw = (L_isw*(L_omega*L_omega));
-    // let csw (cone_twist.yaml:57)
+    // let csw (cone_twist.yaml:52)
     const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
-    // let stop_cone (cone_twist.yaml:58)
-    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
-    const auto l23_0_1 = (l23_0_0 > S(0));
-    const auto l23_0_2 = (L_over_cone > S(0));
-    const auto l23_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
-    const auto l23_0_4 = (p_cone_angle > S(0));
-    const S l23_0_5 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_ksw, S(0)), select(l23_0_3, L_ksw, S(0))), S(0));
-    const S l23_0_6 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_csw, S(0)), select(l23_0_3, L_csw, S(0))), S(0));
-    const S L_stop_cone = select(l23_0_4, select(l23_0_2, select(l23_0_1, l23_0_0, S(0)), select(l23_0_3, l23_0_0, S(0))), S(0));
-    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l23_0_5) + (d_L_swing_rate__a_dtx*l23_0_6));
-    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l23_0_5) + (d_L_swing_rate__a_dty*l23_0_6));
-    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l23_0_5) + (d_L_swing_rate__a_dtz*l23_0_6));
-    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l23_0_6);
-    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l23_0_6);
-    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l23_0_6);
-    // let ubs (cone_twist.yaml:61)
-    const S l24_0_0 = (L_k__1*L_ub__2);
-    const S l24_0_1 = (L_k__2*L_ub__1);
-    const S l24_0_2 = max(S(1e-06), (L_cs + S(1)));
-    const S l24_0_3 = (S(1)/(l24_0_2));
-    const S l24_0_4 = (L_k__0*L_ub__0);
-    const S l24_0_5 = (L_k__1*L_ub__1);
-    const S l24_0_6 = (L_k__2*L_ub__2);
-    const S l24_0_7 = (l24_0_4 + l24_0_5 + l24_0_6);
-    const S l24_0_8 = (l24_0_3*l24_0_7);
-    const S l24_0_9 = (-L_ub__0);
-    const S l24_0_10 = (l24_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l24_0_2*l24_0_2)));
-    const S l24_0_11 = ((-(L_k__0*l24_0_10)) - l24_0_9);
-    const S l24_0_12 = ((l24_0_3*l24_0_4) + l24_0_8);
-    const S l24_0_13 = (L_k__0*L_ub__1);
-    const S l24_0_14 = (L_ub__2 + (l24_0_13*l24_0_3));
-    const S l24_0_15 = (-L_ub__1);
-    const S l24_0_16 = (L_k__0*L_ub__2);
-    const S l24_0_17 = (l24_0_15 + (l24_0_16*l24_0_3));
-    const S l24_0_18 = (L_k__2*L_ub__0);
-    const S l24_0_19 = ((-(L_k__1*l24_0_10)) - l24_0_15);
-    const S l24_0_20 = (-L_ub__2);
-    const S l24_0_21 = (L_k__1*L_ub__0);
-    const S l24_0_22 = (l24_0_20 + (l24_0_21*l24_0_3));
-    const S l24_0_23 = ((l24_0_3*l24_0_5) + l24_0_8);
-    const S l24_0_24 = (L_ub__0 + (l24_0_0*l24_0_3));
-    const S l24_0_25 = ((-(L_k__2*l24_0_10)) - l24_0_20);
-    const S l24_0_26 = (L_ub__1 + (l24_0_18*l24_0_3));
-    const S l24_0_27 = ((l24_0_1*l24_0_3) + l24_0_9);
-    const S l24_0_28 = ((l24_0_3*l24_0_6) + l24_0_8);
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_8) + l24_0_0 - l24_0_1);
-    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l24_0_11) + (d_L_k__0__a_dtx*l24_0_12) + (d_L_k__1__a_dtx*l24_0_14) + (d_L_k__2__a_dtx*l24_0_17));
-    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l24_0_11) + (d_L_k__0__a_dty*l24_0_12) + (d_L_k__1__a_dty*l24_0_14) + (d_L_k__2__a_dty*l24_0_17));
-    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l24_0_11) + (d_L_k__0__a_dtz*l24_0_12) + (d_L_k__1__a_dtz*l24_0_14) + (d_L_k__2__a_dtz*l24_0_17));
-    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l24_0_8) - l24_0_16 + l24_0_18);
-    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l24_0_19) + (d_L_k__0__a_dtx*l24_0_22) + (d_L_k__1__a_dtx*l24_0_23) + (d_L_k__2__a_dtx*l24_0_24));
-    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l24_0_19) + (d_L_k__0__a_dty*l24_0_22) + (d_L_k__1__a_dty*l24_0_23) + (d_L_k__2__a_dty*l24_0_24));
-    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l24_0_19) + (d_L_k__0__a_dtz*l24_0_22) + (d_L_k__1__a_dtz*l24_0_23) + (d_L_k__2__a_dtz*l24_0_24));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l24_0_8) + l24_0_13 - l24_0_21);
-    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l24_0_25) + (d_L_k__0__a_dtx*l24_0_26) + (d_L_k__1__a_dtx*l24_0_27) + (d_L_k__2__a_dtx*l24_0_28));
-    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l24_0_25) + (d_L_k__0__a_dty*l24_0_26) + (d_L_k__1__a_dty*l24_0_27) + (d_L_k__2__a_dty*l24_0_28));
-    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l24_0_25) + (d_L_k__0__a_dtz*l24_0_26) + (d_L_k__1__a_dtz*l24_0_27) + (d_L_k__2__a_dtz*l24_0_28));
-    // let twist (cone_twist.yaml:62)
-    const S l25_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
-    const S l25_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
-    const S l25_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
-    const S l25_0_3 = ((L_na__0*l25_0_0) + (L_na__1*l25_0_1) + (L_na__2*l25_0_2));
-    const S l25_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
-    const S l25_0_5 = (S(1)/(((l25_0_3*l25_0_3) + (l25_0_4*l25_0_4))));
-    const S l25_0_6 = (-(l25_0_3*l25_0_5));
-    const S l25_0_7 = (l25_0_4*l25_0_5);
-    const S l25_0_8 = ((L_ubs__2*l25_0_6) + (l25_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
-    const S l25_0_9 = ((L_ubs__1*l25_0_6) + (l25_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
-    const S l25_0_10 = ((L_ua__0*l25_0_6) + (l25_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S l25_0_11 = ((L_ua__1*l25_0_6) + (l25_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l25_0_12 = ((L_ua__2*l25_0_6) + (l25_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l25_0_13 = (l25_0_2*l25_0_7);
-    const S l25_0_14 = (l25_0_1*l25_0_7);
-    const S l25_0_15 = ((L_ubs__0*l25_0_6) + (l25_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
-    const S l25_0_16 = (l25_0_0*l25_0_7);
-    const S L_twist = angle_of(l25_0_3, l25_0_4);
-    const S d_L_twist__a_dtx = ((a_r1_1*l25_0_13) + (a_r2_1*l25_0_8) + (d_L_na__1__a_dtx*l25_0_14) + (d_L_ua__1__a_dtx*l25_0_9) + (d_L_ubs__0__a_dtx*l25_0_10) + (d_L_ubs__1__a_dtx*l25_0_11) + (d_L_ubs__2__a_dtx*l25_0_12));
-    const S d_L_twist__a_dty = ((a_r1_2*l25_0_16) + (a_r2_2*l25_0_15) + (d_L_na__2__a_dty*l25_0_13) + (d_L_ua__2__a_dty*l25_0_8) + (d_L_ubs__0__a_dty*l25_0_10) + (d_L_ubs__1__a_dty*l25_0_11) + (d_L_ubs__2__a_dty*l25_0_12));
-    const S d_L_twist__a_dtz = ((a_r1_0*l25_0_14) + (a_r2_0*l25_0_9) + (d_L_na__0__a_dtz*l25_0_16) + (d_L_ua__0__a_dtz*l25_0_15) + (d_L_ubs__0__a_dtz*l25_0_10) + (d_L_ubs__1__a_dtz*l25_0_11) + (d_L_ubs__2__a_dtz*l25_0_12));
-    // let twist_rate (cone_twist.yaml:63)
+    // let stop_cone (cone_twist.yaml:53)
+    const S l21_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const auto l21_0_1 = (l21_0_0 > S(0));
+    const auto l21_0_2 = (L_over_cone > S(0));
+    const auto l21_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
+    const auto l21_0_4 = (p_cone_angle > S(0));
+    const S l21_0_5 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_ksw, S(0)), select(l21_0_3, L_ksw, S(0))), S(0));
+    const S l21_0_6 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_csw, S(0)), select(l21_0_3, L_csw, S(0))), S(0));
+    const S L_stop_cone = select(l21_0_4, select(l21_0_2, select(l21_0_1, l21_0_0, S(0)), select(l21_0_3, l21_0_0, S(0))), S(0));
+    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l21_0_5) + (d_L_swing_rate__a_dtx*l21_0_6));
+    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l21_0_5) + (d_L_swing_rate__a_dty*l21_0_6));
+    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l21_0_5) + (d_L_swing_rate__a_dtz*l21_0_6));
+    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l21_0_6);
+    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l21_0_6);
+    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l21_0_6);
+    // let ubs (cone_twist.yaml:56)
+    const S l22_0_0 = (L_k__1*L_ub__2);
+    const S l22_0_1 = (L_k__2*L_ub__1);
+    const S l22_0_2 = max(S(1e-06), (L_cs + S(1)));
+    const S l22_0_3 = (S(1)/(l22_0_2));
+    const S l22_0_4 = (L_k__0*L_ub__0);
+    const S l22_0_5 = (L_k__1*L_ub__1);
+    const S l22_0_6 = (L_k__2*L_ub__2);
+    const S l22_0_7 = (l22_0_4 + l22_0_5 + l22_0_6);
+    const S l22_0_8 = (l22_0_3*l22_0_7);
+    const S l22_0_9 = (-L_ub__0);
+    const S l22_0_10 = (l22_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l22_0_2*l22_0_2)));
+    const S l22_0_11 = ((-(L_k__0*l22_0_10)) - l22_0_9);
+    const S l22_0_12 = ((l22_0_3*l22_0_4) + l22_0_8);
+    const S l22_0_13 = (L_k__0*L_ub__1);
+    const S l22_0_14 = (L_ub__2 + (l22_0_13*l22_0_3));
+    const S l22_0_15 = (-L_ub__1);
+    const S l22_0_16 = (L_k__0*L_ub__2);
+    const S l22_0_17 = (l22_0_15 + (l22_0_16*l22_0_3));
+    const S l22_0_18 = (L_k__2*L_ub__0);
+    const S l22_0_19 = ((-(L_k__1*l22_0_10)) - l22_0_15);
+    const S l22_0_20 = (-L_ub__2);
+    const S l22_0_21 = (L_k__1*L_ub__0);
+    const S l22_0_22 = (l22_0_20 + (l22_0_21*l22_0_3));
+    const S l22_0_23 = ((l22_0_3*l22_0_5) + l22_0_8);
+    const S l22_0_24 = (L_ub__0 + (l22_0_0*l22_0_3));
+    const S l22_0_25 = ((-(L_k__2*l22_0_10)) - l22_0_20);
+    const S l22_0_26 = (L_ub__1 + (l22_0_18*l22_0_3));
+    const S l22_0_27 = ((l22_0_1*l22_0_3) + l22_0_9);
+    const S l22_0_28 = ((l22_0_3*l22_0_6) + l22_0_8);
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_8) + l22_0_0 - l22_0_1);
+    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l22_0_11) + (d_L_k__0__a_dtx*l22_0_12) + (d_L_k__1__a_dtx*l22_0_14) + (d_L_k__2__a_dtx*l22_0_17));
+    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l22_0_11) + (d_L_k__0__a_dty*l22_0_12) + (d_L_k__1__a_dty*l22_0_14) + (d_L_k__2__a_dty*l22_0_17));
+    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l22_0_11) + (d_L_k__0__a_dtz*l22_0_12) + (d_L_k__1__a_dtz*l22_0_14) + (d_L_k__2__a_dtz*l22_0_17));
+    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l22_0_8) - l22_0_16 + l22_0_18);
+    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l22_0_19) + (d_L_k__0__a_dtx*l22_0_22) + (d_L_k__1__a_dtx*l22_0_23) + (d_L_k__2__a_dtx*l22_0_24));
+    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l22_0_19) + (d_L_k__0__a_dty*l22_0_22) + (d_L_k__1__a_dty*l22_0_23) + (d_L_k__2__a_dty*l22_0_24));
+    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l22_0_19) + (d_L_k__0__a_dtz*l22_0_22) + (d_L_k__1__a_dtz*l22_0_23) + (d_L_k__2__a_dtz*l22_0_24));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l22_0_8) + l22_0_13 - l22_0_21);
+    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l22_0_25) + (d_L_k__0__a_dtx*l22_0_26) + (d_L_k__1__a_dtx*l22_0_27) + (d_L_k__2__a_dtx*l22_0_28));
+    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l22_0_25) + (d_L_k__0__a_dty*l22_0_26) + (d_L_k__1__a_dty*l22_0_27) + (d_L_k__2__a_dty*l22_0_28));
+    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l22_0_25) + (d_L_k__0__a_dtz*l22_0_26) + (d_L_k__1__a_dtz*l22_0_27) + (d_L_k__2__a_dtz*l22_0_28));
+    // let twist (cone_twist.yaml:57)
+    const S l23_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
+    const S l23_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
+    const S l23_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
+    const S l23_0_3 = ((L_na__0*l23_0_0) + (L_na__1*l23_0_1) + (L_na__2*l23_0_2));
+    const S l23_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
+    const S l23_0_5 = (S(1)/(((l23_0_3*l23_0_3) + (l23_0_4*l23_0_4))));
+    const S l23_0_6 = (-(l23_0_3*l23_0_5));
+    const S l23_0_7 = (l23_0_4*l23_0_5);
+    const S l23_0_8 = ((L_ubs__2*l23_0_6) + (l23_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
+    const S l23_0_9 = ((L_ubs__1*l23_0_6) + (l23_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
+    const S l23_0_10 = ((L_ua__0*l23_0_6) + (l23_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S l23_0_11 = ((L_ua__1*l23_0_6) + (l23_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l23_0_12 = ((L_ua__2*l23_0_6) + (l23_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l23_0_13 = (l23_0_2*l23_0_7);
+    const S l23_0_14 = (l23_0_1*l23_0_7);
+    const S l23_0_15 = ((L_ubs__0*l23_0_6) + (l23_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
+    const S l23_0_16 = (l23_0_0*l23_0_7);
+    const S L_twist = angle_of(l23_0_3, l23_0_4);
+    const S d_L_twist__a_dtx = ((a_r1_1*l23_0_13) + (a_r2_1*l23_0_8) + (d_L_na__1__a_dtx*l23_0_14) + (d_L_ua__1__a_dtx*l23_0_9) + (d_L_ubs__0__a_dtx*l23_0_10) + (d_L_ubs__1__a_dtx*l23_0_11) + (d_L_ubs__2__a_dtx*l23_0_12));
+    const S d_L_twist__a_dty = ((a_r1_2*l23_0_16) + (a_r2_2*l23_0_15) + (d_L_na__2__a_dty*l23_0_13) + (d_L_ua__2__a_dty*l23_0_8) + (d_L_ubs__0__a_dty*l23_0_10) + (d_L_ubs__1__a_dty*l23_0_11) + (d_L_ubs__2__a_dty*l23_0_12));
+    const S d_L_twist__a_dtz = ((a_r1_0*l23_0_14) + (a_r2_0*l23_0_9) + (d_L_na__0__a_dtz*l23_0_16) + (d_L_ua__0__a_dtz*l23_0_15) + (d_L_ubs__0__a_dtz*l23_0_10) + (d_L_ubs__1__a_dtz*l23_0_11) + (d_L_ubs__2__a_dtz*l23_0_12));
+    // let twist_rate (cone_twist.yaml:58)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_twist_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r1_1));
     const S d_L_twist_rate__a_dty = ((L_wrel__0*a_r1_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -2775,111 +2755,107 @@ struct Cone_Twist_World_Kernel {
     const S d_L_twist_rate__a_wx = (-L_na__0);
     const S d_L_twist_rate__a_wy = (-L_na__1);
     const S d_L_twist_rate__a_wz = (-L_na__2);
-    // let limited (cone_twist.yaml:64)
+    // let limited (cone_twist.yaml:59)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:65)
+    // let over_hi (cone_twist.yaml:60)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:66)
+    // let over_lo (cone_twist.yaml:61)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
     const S d_L_over_lo__a_dtx = (-d_L_twist__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_twist__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_twist__a_dtz);
-    // let twa (cone_twist.yaml:67)
-    [[maybe_unused]] const S L_twa = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
-    // let twb (cone_twist.yaml:68)
-    [[maybe_unused]] const S L_twb = S(0);
-    // let itw (cone_twist.yaml:69)
-    [[maybe_unused]] const S L_itw = select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa);
-    // let ktw (cone_twist.yaml:70)
+    // let itw (cone_twist.yaml:62)
+    [[maybe_unused]] const S L_itw = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
+    // let ktw (cone_twist.yaml:63)
     const S L_ktw = (L_itw*(L_omega*L_omega));
-    // let ctw (cone_twist.yaml:71)
+    // let ctw (cone_twist.yaml:64)
     const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
-    // let stop_hi (cone_twist.yaml:72)
-    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
-    const auto l35_0_1 = (l35_0_0 > S(0));
-    const auto l35_0_2 = (L_over_hi > S(0));
-    const auto l35_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
-    const S l35_0_4 = select(l35_0_2, select(l35_0_1, L_ktw, S(0)), select(l35_0_3, L_ktw, S(0)));
-    const S l35_0_5 = select(l35_0_2, select(l35_0_1, L_ctw, S(0)), select(l35_0_3, L_ctw, S(0)));
-    const S L_stop_hi = select(l35_0_2, select(l35_0_1, l35_0_0, S(0)), select(l35_0_3, l35_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l35_0_4) + (d_L_twist_rate__a_dtx*l35_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l35_0_4) + (d_L_twist_rate__a_dty*l35_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l35_0_4) + (d_L_twist_rate__a_dtz*l35_0_5));
-    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l35_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l35_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l35_0_5);
-    // let stop_lo (cone_twist.yaml:73)
-    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
-    const S l36_0_1 = (-l36_0_0);
-    const auto l36_0_2 = (l36_0_0 < S(0));
-    const auto l36_0_3 = (L_over_lo > S(0));
-    const auto l36_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
-    const S l36_0_5 = select(l36_0_3, select(l36_0_2, L_ktw, S(0)), select(l36_0_4, L_ktw, S(0)));
-    const S l36_0_6 = (-L_ctw);
-    const S l36_0_7 = select(l36_0_3, select(l36_0_2, l36_0_6, S(0)), select(l36_0_4, l36_0_6, S(0)));
-    const S L_stop_lo = select(l36_0_3, select(l36_0_2, l36_0_1, S(0)), select(l36_0_4, l36_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l36_0_5) + (d_L_twist_rate__a_dtx*l36_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l36_0_5) + (d_L_twist_rate__a_dty*l36_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l36_0_5) + (d_L_twist_rate__a_dtz*l36_0_7));
-    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l36_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l36_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l36_0_7);
-    // let spring (cone_twist.yaml:74)
-    const S l37_0_0 = (L_e__0*p_spring_stiffness);
-    const S l37_0_1 = (L_na__0*p_spring_stiffness);
-    const S l37_0_2 = (L_swing*p_spring_stiffness);
-    const S l37_0_3 = (L_twist*p_spring_stiffness);
-    const S l37_0_4 = (L_e__1*p_spring_stiffness);
-    const S l37_0_5 = (L_na__1*p_spring_stiffness);
-    const S l37_0_6 = (L_e__2*p_spring_stiffness);
-    const S l37_0_7 = (L_na__2*p_spring_stiffness);
+    // let stop_hi (cone_twist.yaml:65)
+    const S l31_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const auto l31_0_1 = (l31_0_0 > S(0));
+    const auto l31_0_2 = (L_over_hi > S(0));
+    const auto l31_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
+    const S l31_0_4 = select(l31_0_2, select(l31_0_1, L_ktw, S(0)), select(l31_0_3, L_ktw, S(0)));
+    const S l31_0_5 = select(l31_0_2, select(l31_0_1, L_ctw, S(0)), select(l31_0_3, L_ctw, S(0)));
+    const S L_stop_hi = select(l31_0_2, select(l31_0_1, l31_0_0, S(0)), select(l31_0_3, l31_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l31_0_4) + (d_L_twist_rate__a_dtx*l31_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l31_0_4) + (d_L_twist_rate__a_dty*l31_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l31_0_4) + (d_L_twist_rate__a_dtz*l31_0_5));
+    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l31_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l31_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l31_0_5);
+    // let stop_lo (cone_twist.yaml:66)
+    const S l32_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l32_0_1 = (-l32_0_0);
+    const auto l32_0_2 = (l32_0_0 < S(0));
+    const auto l32_0_3 = (L_over_lo > S(0));
+    const auto l32_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
+    const S l32_0_5 = select(l32_0_3, select(l32_0_2, L_ktw, S(0)), select(l32_0_4, L_ktw, S(0)));
+    const S l32_0_6 = (-L_ctw);
+    const S l32_0_7 = select(l32_0_3, select(l32_0_2, l32_0_6, S(0)), select(l32_0_4, l32_0_6, S(0)));
+    const S L_stop_lo = select(l32_0_3, select(l32_0_2, l32_0_1, S(0)), select(l32_0_4, l32_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l32_0_5) + (d_L_twist_rate__a_dtx*l32_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l32_0_5) + (d_L_twist_rate__a_dty*l32_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l32_0_5) + (d_L_twist_rate__a_dtz*l32_0_7));
+    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l32_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l32_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l32_0_7);
+    // let spring (cone_twist.yaml:67)
+    const S l33_0_0 = (L_e__0*p_spring_stiffness);
+    const S l33_0_1 = (L_na__0*p_spring_stiffness);
+    const S l33_0_2 = (L_swing*p_spring_stiffness);
+    const S l33_0_3 = (L_twist*p_spring_stiffness);
+    const S l33_0_4 = (L_e__1*p_spring_stiffness);
+    const S l33_0_5 = (L_na__1*p_spring_stiffness);
+    const S l33_0_6 = (L_e__2*p_spring_stiffness);
+    const S l33_0_7 = (L_na__2*p_spring_stiffness);
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
-    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l37_0_2)) - (d_L_swing__a_dtx*l37_0_0) - (d_L_twist__a_dtx*l37_0_1));
-    const S d_L_spring__0__a_dty = ((-(a_r1_2*l37_0_3)) - (d_L_e__0__a_dty*l37_0_2) - (d_L_swing__a_dty*l37_0_0) - (d_L_twist__a_dty*l37_0_1));
-    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l37_0_2)) - (d_L_na__0__a_dtz*l37_0_3) - (d_L_swing__a_dtz*l37_0_0) - (d_L_twist__a_dtz*l37_0_1));
+    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l33_0_2)) - (d_L_swing__a_dtx*l33_0_0) - (d_L_twist__a_dtx*l33_0_1));
+    const S d_L_spring__0__a_dty = ((-(a_r1_2*l33_0_3)) - (d_L_e__0__a_dty*l33_0_2) - (d_L_swing__a_dty*l33_0_0) - (d_L_twist__a_dty*l33_0_1));
+    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l33_0_2)) - (d_L_na__0__a_dtz*l33_0_3) - (d_L_swing__a_dtz*l33_0_0) - (d_L_twist__a_dtz*l33_0_1));
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
-    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l37_0_2)) - (d_L_na__1__a_dtx*l37_0_3) - (d_L_swing__a_dtx*l37_0_4) - (d_L_twist__a_dtx*l37_0_5));
-    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l37_0_2)) - (d_L_swing__a_dty*l37_0_4) - (d_L_twist__a_dty*l37_0_5));
-    const S d_L_spring__1__a_dtz = ((-(a_r1_0*l37_0_3)) - (d_L_e__1__a_dtz*l37_0_2) - (d_L_swing__a_dtz*l37_0_4) - (d_L_twist__a_dtz*l37_0_5));
+    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l33_0_2)) - (d_L_na__1__a_dtx*l33_0_3) - (d_L_swing__a_dtx*l33_0_4) - (d_L_twist__a_dtx*l33_0_5));
+    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l33_0_2)) - (d_L_swing__a_dty*l33_0_4) - (d_L_twist__a_dty*l33_0_5));
+    const S d_L_spring__1__a_dtz = ((-(a_r1_0*l33_0_3)) - (d_L_e__1__a_dtz*l33_0_2) - (d_L_swing__a_dtz*l33_0_4) - (d_L_twist__a_dtz*l33_0_5));
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    const S d_L_spring__2__a_dtx = ((-(a_r1_1*l37_0_3)) - (d_L_e__2__a_dtx*l37_0_2) - (d_L_swing__a_dtx*l37_0_6) - (d_L_twist__a_dtx*l37_0_7));
-    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l37_0_2)) - (d_L_na__2__a_dty*l37_0_3) - (d_L_swing__a_dty*l37_0_6) - (d_L_twist__a_dty*l37_0_7));
-    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l37_0_2)) - (d_L_swing__a_dtz*l37_0_6) - (d_L_twist__a_dtz*l37_0_7));
-    // let tau (cone_twist.yaml:75)
-    const S l38_0_0 = ((-L_stop_hi) + L_stop_lo);
-    const S l38_0_1 = (L_limited*L_na__0);
-    const S l38_0_2 = (-p_spring_damping);
-    const S l38_0_3 = (L_limited*l38_0_0);
-    const S l38_0_4 = (L_limited*L_na__1);
-    const S l38_0_5 = (L_limited*L_na__2);
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l38_0_0*l38_0_1));
-    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l38_0_1));
-    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r1_2*l38_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l38_0_1));
-    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l38_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l38_0_1));
-    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_1) - l38_0_2);
-    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_1));
-    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_1));
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_3) + L_spring__1);
-    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l38_0_4));
-    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l38_0_4));
-    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r1_0*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l38_0_4));
-    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_4));
-    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_4) - l38_0_2);
-    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_4));
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_3) + L_spring__2);
-    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r1_1*l38_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l38_0_5));
-    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l38_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l38_0_5));
-    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l38_0_5));
-    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_5));
-    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_5));
-    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_5) - l38_0_2);
-    // apply[0] (cone_twist.yaml:77)
+    const S d_L_spring__2__a_dtx = ((-(a_r1_1*l33_0_3)) - (d_L_e__2__a_dtx*l33_0_2) - (d_L_swing__a_dtx*l33_0_6) - (d_L_twist__a_dtx*l33_0_7));
+    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l33_0_2)) - (d_L_na__2__a_dty*l33_0_3) - (d_L_swing__a_dty*l33_0_6) - (d_L_twist__a_dty*l33_0_7));
+    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l33_0_2)) - (d_L_swing__a_dtz*l33_0_6) - (d_L_twist__a_dtz*l33_0_7));
+    // let tau (cone_twist.yaml:68)
+    const S l34_0_0 = ((-L_stop_hi) + L_stop_lo);
+    const S l34_0_1 = (L_limited*L_na__0);
+    const S l34_0_2 = (-p_spring_damping);
+    const S l34_0_3 = (L_limited*l34_0_0);
+    const S l34_0_4 = (L_limited*L_na__1);
+    const S l34_0_5 = (L_limited*L_na__2);
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l34_0_0*l34_0_1));
+    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l34_0_1));
+    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r1_2*l34_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l34_0_1));
+    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l34_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l34_0_1));
+    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_1) - l34_0_2);
+    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_1));
+    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_1));
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l34_0_3) + L_spring__1);
+    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l34_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l34_0_4));
+    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l34_0_4));
+    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r1_0*l34_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l34_0_4));
+    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_4));
+    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_4) - l34_0_2);
+    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_4));
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l34_0_3) + L_spring__2);
+    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r1_1*l34_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l34_0_5));
+    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l34_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l34_0_5));
+    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l34_0_5));
+    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_5));
+    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_5));
+    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_5) - l34_0_2);
+    // apply[0] (cone_twist.yaml:70)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (cone_twist.yaml:76), shared subexpressions
+    const S l36_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l36_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l36_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l36_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply (cone_twist.yaml:69), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -2891,14 +2867,14 @@ struct Cone_Twist_World_Kernel {
     const S o8 = (T1_turn*d_L_pa__2__a_dty);
     const S o9 = (T1_turn*a_r0_2);
     const S o10 = (L_f__2*T1_turn);
-    // F_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // F_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // dF_a/ddelta_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // dF_a/ddelta_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[6] = d_L_f__0__a_dx;
     out[7] = S(0);
     out[8] = S(0);
@@ -2935,7 +2911,7 @@ struct Cone_Twist_World_Kernel {
     out[39] = ((a_r0_0*o10) + (d_L_f__1__a_dtz*o4) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[40] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o5) - (d_L_pa__0__a_dtz*o10) - d_L_tau__1__a_dtz);
     out[41] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o3) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/du_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // dF_a/du_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[42] = d_L_f__0__a_vx;
     out[43] = S(0);
     out[44] = S(0);
@@ -2976,7 +2952,7 @@ struct Cone_Twist_World_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1436
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1420
   static constexpr int kNumImplicitBlocks = 1;
   static constexpr int kImplicitOutputs = 42;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -3033,7 +3009,7 @@ struct Cone_Twist_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[44];
     [[maybe_unused]] const S g_joint_hertz = in[45];
     [[maybe_unused]] const S g_joint_damping_ratio = in[46];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let swa (cone_twist.yaml:53)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let isw (cone_twist.yaml:50)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3214,96 +3190,92 @@ struct Cone_Twist_World_Kernel {
     const S d_L_swing_rate__a_wz = (-L_e__2);
     // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let swa (cone_twist.yaml:53)
-    [[maybe_unused]] const S L_swa = ((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22))));
-    // let swb (cone_twist.yaml:54)
-    [[maybe_unused]] const S L_swb = S(0);
-    // let isw (cone_twist.yaml:55)
-    [[maybe_unused]] const S L_isw = select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa);
-    // let ksw (cone_twist.yaml:56)
+    // let isw (cone_twist.yaml:50)
+    [[maybe_unused]] const S L_isw = ((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22))));
+    // let ksw (cone_twist.yaml:51)
     const S L_ksw = (L_isw*(L_omega*L_omega));
-    // let csw (cone_twist.yaml:57)
+    // let csw (cone_twist.yaml:52)
     const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
-    // let stop_cone (cone_twist.yaml:58)
-    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
-    const auto l23_0_1 = (l23_0_0 > S(0));
-    const auto l23_0_2 = (L_over_cone > S(0));
-    const auto l23_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
-    const auto l23_0_4 = (p_cone_angle > S(0));
-    const S l23_0_5 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_ksw, S(0)), select(l23_0_3, L_ksw, S(0))), S(0));
-    const S l23_0_6 = select(l23_0_4, select(l23_0_2, select(l23_0_1, L_csw, S(0)), select(l23_0_3, L_csw, S(0))), S(0));
-    const S L_stop_cone = select(l23_0_4, select(l23_0_2, select(l23_0_1, l23_0_0, S(0)), select(l23_0_3, l23_0_0, S(0))), S(0));
-    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l23_0_5) + (d_L_swing_rate__a_dtx*l23_0_6));
-    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l23_0_5) + (d_L_swing_rate__a_dty*l23_0_6));
-    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l23_0_5) + (d_L_swing_rate__a_dtz*l23_0_6));
-    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l23_0_6);
-    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l23_0_6);
-    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l23_0_6);
-    // let ubs (cone_twist.yaml:61)
-    const S l24_0_0 = (L_k__1*L_ub__2);
-    const S l24_0_1 = (L_k__2*L_ub__1);
-    const S l24_0_2 = max(S(1e-06), (L_cs + S(1)));
-    const S l24_0_3 = (S(1)/(l24_0_2));
-    const S l24_0_4 = (L_k__0*L_ub__0);
-    const S l24_0_5 = (L_k__1*L_ub__1);
-    const S l24_0_6 = (L_k__2*L_ub__2);
-    const S l24_0_7 = (l24_0_4 + l24_0_5 + l24_0_6);
-    const S l24_0_8 = (l24_0_3*l24_0_7);
-    const S l24_0_9 = (-L_ub__0);
-    const S l24_0_10 = (l24_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l24_0_2*l24_0_2)));
-    const S l24_0_11 = ((-(L_k__0*l24_0_10)) - l24_0_9);
-    const S l24_0_12 = ((l24_0_3*l24_0_4) + l24_0_8);
-    const S l24_0_13 = (L_k__0*L_ub__1);
-    const S l24_0_14 = (L_ub__2 + (l24_0_13*l24_0_3));
-    const S l24_0_15 = (-L_ub__1);
-    const S l24_0_16 = (L_k__0*L_ub__2);
-    const S l24_0_17 = (l24_0_15 + (l24_0_16*l24_0_3));
-    const S l24_0_18 = (L_k__2*L_ub__0);
-    const S l24_0_19 = ((-(L_k__1*l24_0_10)) - l24_0_15);
-    const S l24_0_20 = (-L_ub__2);
-    const S l24_0_21 = (L_k__1*L_ub__0);
-    const S l24_0_22 = (l24_0_20 + (l24_0_21*l24_0_3));
-    const S l24_0_23 = ((l24_0_3*l24_0_5) + l24_0_8);
-    const S l24_0_24 = (L_ub__0 + (l24_0_0*l24_0_3));
-    const S l24_0_25 = ((-(L_k__2*l24_0_10)) - l24_0_20);
-    const S l24_0_26 = (L_ub__1 + (l24_0_18*l24_0_3));
-    const S l24_0_27 = ((l24_0_1*l24_0_3) + l24_0_9);
-    const S l24_0_28 = ((l24_0_3*l24_0_6) + l24_0_8);
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_8) + l24_0_0 - l24_0_1);
-    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l24_0_11) + (d_L_k__0__a_dtx*l24_0_12) + (d_L_k__1__a_dtx*l24_0_14) + (d_L_k__2__a_dtx*l24_0_17));
-    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l24_0_11) + (d_L_k__0__a_dty*l24_0_12) + (d_L_k__1__a_dty*l24_0_14) + (d_L_k__2__a_dty*l24_0_17));
-    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l24_0_11) + (d_L_k__0__a_dtz*l24_0_12) + (d_L_k__1__a_dtz*l24_0_14) + (d_L_k__2__a_dtz*l24_0_17));
-    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l24_0_8) - l24_0_16 + l24_0_18);
-    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l24_0_19) + (d_L_k__0__a_dtx*l24_0_22) + (d_L_k__1__a_dtx*l24_0_23) + (d_L_k__2__a_dtx*l24_0_24));
-    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l24_0_19) + (d_L_k__0__a_dty*l24_0_22) + (d_L_k__1__a_dty*l24_0_23) + (d_L_k__2__a_dty*l24_0_24));
-    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l24_0_19) + (d_L_k__0__a_dtz*l24_0_22) + (d_L_k__1__a_dtz*l24_0_23) + (d_L_k__2__a_dtz*l24_0_24));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l24_0_8) + l24_0_13 - l24_0_21);
-    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l24_0_25) + (d_L_k__0__a_dtx*l24_0_26) + (d_L_k__1__a_dtx*l24_0_27) + (d_L_k__2__a_dtx*l24_0_28));
-    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l24_0_25) + (d_L_k__0__a_dty*l24_0_26) + (d_L_k__1__a_dty*l24_0_27) + (d_L_k__2__a_dty*l24_0_28));
-    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l24_0_25) + (d_L_k__0__a_dtz*l24_0_26) + (d_L_k__1__a_dtz*l24_0_27) + (d_L_k__2__a_dtz*l24_0_28));
-    // let twist (cone_twist.yaml:62)
-    const S l25_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
-    const S l25_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
-    const S l25_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
-    const S l25_0_3 = ((L_na__0*l25_0_0) + (L_na__1*l25_0_1) + (L_na__2*l25_0_2));
-    const S l25_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
-    const S l25_0_5 = (S(1)/(((l25_0_3*l25_0_3) + (l25_0_4*l25_0_4))));
-    const S l25_0_6 = (-(l25_0_3*l25_0_5));
-    const S l25_0_7 = (l25_0_4*l25_0_5);
-    const S l25_0_8 = ((L_ubs__2*l25_0_6) + (l25_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
-    const S l25_0_9 = ((L_ubs__1*l25_0_6) + (l25_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
-    const S l25_0_10 = ((L_ua__0*l25_0_6) + (l25_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S l25_0_11 = ((L_ua__1*l25_0_6) + (l25_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l25_0_12 = ((L_ua__2*l25_0_6) + (l25_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l25_0_13 = (l25_0_2*l25_0_7);
-    const S l25_0_14 = (l25_0_1*l25_0_7);
-    const S l25_0_15 = ((L_ubs__0*l25_0_6) + (l25_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
-    const S l25_0_16 = (l25_0_0*l25_0_7);
-    const S L_twist = angle_of(l25_0_3, l25_0_4);
-    const S d_L_twist__a_dtx = ((a_r1_1*l25_0_13) + (a_r2_1*l25_0_8) + (d_L_na__1__a_dtx*l25_0_14) + (d_L_ua__1__a_dtx*l25_0_9) + (d_L_ubs__0__a_dtx*l25_0_10) + (d_L_ubs__1__a_dtx*l25_0_11) + (d_L_ubs__2__a_dtx*l25_0_12));
-    const S d_L_twist__a_dty = ((a_r1_2*l25_0_16) + (a_r2_2*l25_0_15) + (d_L_na__2__a_dty*l25_0_13) + (d_L_ua__2__a_dty*l25_0_8) + (d_L_ubs__0__a_dty*l25_0_10) + (d_L_ubs__1__a_dty*l25_0_11) + (d_L_ubs__2__a_dty*l25_0_12));
-    const S d_L_twist__a_dtz = ((a_r1_0*l25_0_14) + (a_r2_0*l25_0_9) + (d_L_na__0__a_dtz*l25_0_16) + (d_L_ua__0__a_dtz*l25_0_15) + (d_L_ubs__0__a_dtz*l25_0_10) + (d_L_ubs__1__a_dtz*l25_0_11) + (d_L_ubs__2__a_dtz*l25_0_12));
-    // let twist_rate (cone_twist.yaml:63)
+    // let stop_cone (cone_twist.yaml:53)
+    const S l21_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const auto l21_0_1 = (l21_0_0 > S(0));
+    const auto l21_0_2 = (L_over_cone > S(0));
+    const auto l21_0_3 = ((L_over_cone + (L_swing_rate*h)) > S(0));
+    const auto l21_0_4 = (p_cone_angle > S(0));
+    const S l21_0_5 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_ksw, S(0)), select(l21_0_3, L_ksw, S(0))), S(0));
+    const S l21_0_6 = select(l21_0_4, select(l21_0_2, select(l21_0_1, L_csw, S(0)), select(l21_0_3, L_csw, S(0))), S(0));
+    const S L_stop_cone = select(l21_0_4, select(l21_0_2, select(l21_0_1, l21_0_0, S(0)), select(l21_0_3, l21_0_0, S(0))), S(0));
+    const S d_L_stop_cone__a_dtx = ((d_L_swing__a_dtx*l21_0_5) + (d_L_swing_rate__a_dtx*l21_0_6));
+    const S d_L_stop_cone__a_dty = ((d_L_swing__a_dty*l21_0_5) + (d_L_swing_rate__a_dty*l21_0_6));
+    const S d_L_stop_cone__a_dtz = ((d_L_swing__a_dtz*l21_0_5) + (d_L_swing_rate__a_dtz*l21_0_6));
+    const S d_L_stop_cone__a_wx = (d_L_swing_rate__a_wx*l21_0_6);
+    const S d_L_stop_cone__a_wy = (d_L_swing_rate__a_wy*l21_0_6);
+    const S d_L_stop_cone__a_wz = (d_L_swing_rate__a_wz*l21_0_6);
+    // let ubs (cone_twist.yaml:56)
+    const S l22_0_0 = (L_k__1*L_ub__2);
+    const S l22_0_1 = (L_k__2*L_ub__1);
+    const S l22_0_2 = max(S(1e-06), (L_cs + S(1)));
+    const S l22_0_3 = (S(1)/(l22_0_2));
+    const S l22_0_4 = (L_k__0*L_ub__0);
+    const S l22_0_5 = (L_k__1*L_ub__1);
+    const S l22_0_6 = (L_k__2*L_ub__2);
+    const S l22_0_7 = (l22_0_4 + l22_0_5 + l22_0_6);
+    const S l22_0_8 = (l22_0_3*l22_0_7);
+    const S l22_0_9 = (-L_ub__0);
+    const S l22_0_10 = (l22_0_7*select((L_cs + S(0.999999)) > S(0), S(1), S(0))/((l22_0_2*l22_0_2)));
+    const S l22_0_11 = ((-(L_k__0*l22_0_10)) - l22_0_9);
+    const S l22_0_12 = ((l22_0_3*l22_0_4) + l22_0_8);
+    const S l22_0_13 = (L_k__0*L_ub__1);
+    const S l22_0_14 = (L_ub__2 + (l22_0_13*l22_0_3));
+    const S l22_0_15 = (-L_ub__1);
+    const S l22_0_16 = (L_k__0*L_ub__2);
+    const S l22_0_17 = (l22_0_15 + (l22_0_16*l22_0_3));
+    const S l22_0_18 = (L_k__2*L_ub__0);
+    const S l22_0_19 = ((-(L_k__1*l22_0_10)) - l22_0_15);
+    const S l22_0_20 = (-L_ub__2);
+    const S l22_0_21 = (L_k__1*L_ub__0);
+    const S l22_0_22 = (l22_0_20 + (l22_0_21*l22_0_3));
+    const S l22_0_23 = ((l22_0_3*l22_0_5) + l22_0_8);
+    const S l22_0_24 = (L_ub__0 + (l22_0_0*l22_0_3));
+    const S l22_0_25 = ((-(L_k__2*l22_0_10)) - l22_0_20);
+    const S l22_0_26 = (L_ub__1 + (l22_0_18*l22_0_3));
+    const S l22_0_27 = ((l22_0_1*l22_0_3) + l22_0_9);
+    const S l22_0_28 = ((l22_0_3*l22_0_6) + l22_0_8);
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_8) + l22_0_0 - l22_0_1);
+    const S d_L_ubs__0__a_dtx = ((d_L_cs__a_dtx*l22_0_11) + (d_L_k__0__a_dtx*l22_0_12) + (d_L_k__1__a_dtx*l22_0_14) + (d_L_k__2__a_dtx*l22_0_17));
+    const S d_L_ubs__0__a_dty = ((d_L_cs__a_dty*l22_0_11) + (d_L_k__0__a_dty*l22_0_12) + (d_L_k__1__a_dty*l22_0_14) + (d_L_k__2__a_dty*l22_0_17));
+    const S d_L_ubs__0__a_dtz = ((d_L_cs__a_dtz*l22_0_11) + (d_L_k__0__a_dtz*l22_0_12) + (d_L_k__1__a_dtz*l22_0_14) + (d_L_k__2__a_dtz*l22_0_17));
+    const S L_ubs__1 = ((L_cs*L_ub__1) + (L_k__1*l22_0_8) - l22_0_16 + l22_0_18);
+    const S d_L_ubs__1__a_dtx = ((d_L_cs__a_dtx*l22_0_19) + (d_L_k__0__a_dtx*l22_0_22) + (d_L_k__1__a_dtx*l22_0_23) + (d_L_k__2__a_dtx*l22_0_24));
+    const S d_L_ubs__1__a_dty = ((d_L_cs__a_dty*l22_0_19) + (d_L_k__0__a_dty*l22_0_22) + (d_L_k__1__a_dty*l22_0_23) + (d_L_k__2__a_dty*l22_0_24));
+    const S d_L_ubs__1__a_dtz = ((d_L_cs__a_dtz*l22_0_19) + (d_L_k__0__a_dtz*l22_0_22) + (d_L_k__1__a_dtz*l22_0_23) + (d_L_k__2__a_dtz*l22_0_24));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__2*l22_0_8) + l22_0_13 - l22_0_21);
+    const S d_L_ubs__2__a_dtx = ((d_L_cs__a_dtx*l22_0_25) + (d_L_k__0__a_dtx*l22_0_26) + (d_L_k__1__a_dtx*l22_0_27) + (d_L_k__2__a_dtx*l22_0_28));
+    const S d_L_ubs__2__a_dty = ((d_L_cs__a_dty*l22_0_25) + (d_L_k__0__a_dty*l22_0_26) + (d_L_k__1__a_dty*l22_0_27) + (d_L_k__2__a_dty*l22_0_28));
+    const S d_L_ubs__2__a_dtz = ((d_L_cs__a_dtz*l22_0_25) + (d_L_k__0__a_dtz*l22_0_26) + (d_L_k__1__a_dtz*l22_0_27) + (d_L_k__2__a_dtz*l22_0_28));
+    // let twist (cone_twist.yaml:57)
+    const S l23_0_0 = ((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1));
+    const S l23_0_1 = ((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0));
+    const S l23_0_2 = ((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0));
+    const S l23_0_3 = ((L_na__0*l23_0_0) + (L_na__1*l23_0_1) + (L_na__2*l23_0_2));
+    const S l23_0_4 = ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2));
+    const S l23_0_5 = (S(1)/(((l23_0_3*l23_0_3) + (l23_0_4*l23_0_4))));
+    const S l23_0_6 = (-(l23_0_3*l23_0_5));
+    const S l23_0_7 = (l23_0_4*l23_0_5);
+    const S l23_0_8 = ((L_ubs__2*l23_0_6) + (l23_0_7*((-(L_na__0*L_ubs__1)) + (L_na__1*L_ubs__0))));
+    const S l23_0_9 = ((L_ubs__1*l23_0_6) + (l23_0_7*((L_na__0*L_ubs__2) - (L_na__2*L_ubs__0))));
+    const S l23_0_10 = ((L_ua__0*l23_0_6) + (l23_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S l23_0_11 = ((L_ua__1*l23_0_6) + (l23_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l23_0_12 = ((L_ua__2*l23_0_6) + (l23_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l23_0_13 = (l23_0_2*l23_0_7);
+    const S l23_0_14 = (l23_0_1*l23_0_7);
+    const S l23_0_15 = ((L_ubs__0*l23_0_6) + (l23_0_7*((-(L_na__1*L_ubs__2)) + (L_na__2*L_ubs__1))));
+    const S l23_0_16 = (l23_0_0*l23_0_7);
+    const S L_twist = angle_of(l23_0_3, l23_0_4);
+    const S d_L_twist__a_dtx = ((a_r1_1*l23_0_13) + (a_r2_1*l23_0_8) + (d_L_na__1__a_dtx*l23_0_14) + (d_L_ua__1__a_dtx*l23_0_9) + (d_L_ubs__0__a_dtx*l23_0_10) + (d_L_ubs__1__a_dtx*l23_0_11) + (d_L_ubs__2__a_dtx*l23_0_12));
+    const S d_L_twist__a_dty = ((a_r1_2*l23_0_16) + (a_r2_2*l23_0_15) + (d_L_na__2__a_dty*l23_0_13) + (d_L_ua__2__a_dty*l23_0_8) + (d_L_ubs__0__a_dty*l23_0_10) + (d_L_ubs__1__a_dty*l23_0_11) + (d_L_ubs__2__a_dty*l23_0_12));
+    const S d_L_twist__a_dtz = ((a_r1_0*l23_0_14) + (a_r2_0*l23_0_9) + (d_L_na__0__a_dtz*l23_0_16) + (d_L_ua__0__a_dtz*l23_0_15) + (d_L_ubs__0__a_dtz*l23_0_10) + (d_L_ubs__1__a_dtz*l23_0_11) + (d_L_ubs__2__a_dtz*l23_0_12));
+    // let twist_rate (cone_twist.yaml:58)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
     const S d_L_twist_rate__a_dtx = ((L_wrel__1*d_L_na__1__a_dtx) + (L_wrel__2*a_r1_1));
     const S d_L_twist_rate__a_dty = ((L_wrel__0*a_r1_2) + (L_wrel__2*d_L_na__2__a_dty));
@@ -3311,111 +3283,107 @@ struct Cone_Twist_World_Kernel {
     const S d_L_twist_rate__a_wx = (-L_na__0);
     const S d_L_twist_rate__a_wy = (-L_na__1);
     const S d_L_twist_rate__a_wz = (-L_na__2);
-    // let limited (cone_twist.yaml:64)
+    // let limited (cone_twist.yaml:59)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:65)
+    // let over_hi (cone_twist.yaml:60)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:66)
+    // let over_lo (cone_twist.yaml:61)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
     const S d_L_over_lo__a_dtx = (-d_L_twist__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_twist__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_twist__a_dtz);
-    // let twa (cone_twist.yaml:67)
-    [[maybe_unused]] const S L_twa = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
-    // let twb (cone_twist.yaml:68)
-    [[maybe_unused]] const S L_twb = S(0);
-    // let itw (cone_twist.yaml:69)
-    [[maybe_unused]] const S L_itw = select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa);
-    // let ktw (cone_twist.yaml:70)
+    // let itw (cone_twist.yaml:62)
+    [[maybe_unused]] const S L_itw = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
+    // let ktw (cone_twist.yaml:63)
     const S L_ktw = (L_itw*(L_omega*L_omega));
-    // let ctw (cone_twist.yaml:71)
+    // let ctw (cone_twist.yaml:64)
     const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
-    // let stop_hi (cone_twist.yaml:72)
-    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
-    const auto l35_0_1 = (l35_0_0 > S(0));
-    const auto l35_0_2 = (L_over_hi > S(0));
-    const auto l35_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
-    const S l35_0_4 = select(l35_0_2, select(l35_0_1, L_ktw, S(0)), select(l35_0_3, L_ktw, S(0)));
-    const S l35_0_5 = select(l35_0_2, select(l35_0_1, L_ctw, S(0)), select(l35_0_3, L_ctw, S(0)));
-    const S L_stop_hi = select(l35_0_2, select(l35_0_1, l35_0_0, S(0)), select(l35_0_3, l35_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l35_0_4) + (d_L_twist_rate__a_dtx*l35_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l35_0_4) + (d_L_twist_rate__a_dty*l35_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l35_0_4) + (d_L_twist_rate__a_dtz*l35_0_5));
-    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l35_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l35_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l35_0_5);
-    // let stop_lo (cone_twist.yaml:73)
-    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
-    const S l36_0_1 = (-l36_0_0);
-    const auto l36_0_2 = (l36_0_0 < S(0));
-    const auto l36_0_3 = (L_over_lo > S(0));
-    const auto l36_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
-    const S l36_0_5 = select(l36_0_3, select(l36_0_2, L_ktw, S(0)), select(l36_0_4, L_ktw, S(0)));
-    const S l36_0_6 = (-L_ctw);
-    const S l36_0_7 = select(l36_0_3, select(l36_0_2, l36_0_6, S(0)), select(l36_0_4, l36_0_6, S(0)));
-    const S L_stop_lo = select(l36_0_3, select(l36_0_2, l36_0_1, S(0)), select(l36_0_4, l36_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l36_0_5) + (d_L_twist_rate__a_dtx*l36_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l36_0_5) + (d_L_twist_rate__a_dty*l36_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l36_0_5) + (d_L_twist_rate__a_dtz*l36_0_7));
-    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l36_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l36_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l36_0_7);
-    // let spring (cone_twist.yaml:74)
-    const S l37_0_0 = (L_e__0*p_spring_stiffness);
-    const S l37_0_1 = (L_na__0*p_spring_stiffness);
-    const S l37_0_2 = (L_swing*p_spring_stiffness);
-    const S l37_0_3 = (L_twist*p_spring_stiffness);
-    const S l37_0_4 = (L_e__1*p_spring_stiffness);
-    const S l37_0_5 = (L_na__1*p_spring_stiffness);
-    const S l37_0_6 = (L_e__2*p_spring_stiffness);
-    const S l37_0_7 = (L_na__2*p_spring_stiffness);
+    // let stop_hi (cone_twist.yaml:65)
+    const S l31_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const auto l31_0_1 = (l31_0_0 > S(0));
+    const auto l31_0_2 = (L_over_hi > S(0));
+    const auto l31_0_3 = ((L_over_hi + (L_twist_rate*h)) > S(0));
+    const S l31_0_4 = select(l31_0_2, select(l31_0_1, L_ktw, S(0)), select(l31_0_3, L_ktw, S(0)));
+    const S l31_0_5 = select(l31_0_2, select(l31_0_1, L_ctw, S(0)), select(l31_0_3, L_ctw, S(0)));
+    const S L_stop_hi = select(l31_0_2, select(l31_0_1, l31_0_0, S(0)), select(l31_0_3, l31_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_twist__a_dtx*l31_0_4) + (d_L_twist_rate__a_dtx*l31_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_twist__a_dty*l31_0_4) + (d_L_twist_rate__a_dty*l31_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_twist__a_dtz*l31_0_4) + (d_L_twist_rate__a_dtz*l31_0_5));
+    const S d_L_stop_hi__a_wx = (d_L_twist_rate__a_wx*l31_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_twist_rate__a_wy*l31_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_twist_rate__a_wz*l31_0_5);
+    // let stop_lo (cone_twist.yaml:66)
+    const S l32_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l32_0_1 = (-l32_0_0);
+    const auto l32_0_2 = (l32_0_0 < S(0));
+    const auto l32_0_3 = (L_over_lo > S(0));
+    const auto l32_0_4 = ((L_over_lo - (L_twist_rate*h)) > S(0));
+    const S l32_0_5 = select(l32_0_3, select(l32_0_2, L_ktw, S(0)), select(l32_0_4, L_ktw, S(0)));
+    const S l32_0_6 = (-L_ctw);
+    const S l32_0_7 = select(l32_0_3, select(l32_0_2, l32_0_6, S(0)), select(l32_0_4, l32_0_6, S(0)));
+    const S L_stop_lo = select(l32_0_3, select(l32_0_2, l32_0_1, S(0)), select(l32_0_4, l32_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l32_0_5) + (d_L_twist_rate__a_dtx*l32_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l32_0_5) + (d_L_twist_rate__a_dty*l32_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l32_0_5) + (d_L_twist_rate__a_dtz*l32_0_7));
+    const S d_L_stop_lo__a_wx = (d_L_twist_rate__a_wx*l32_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_twist_rate__a_wy*l32_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_twist_rate__a_wz*l32_0_7);
+    // let spring (cone_twist.yaml:67)
+    const S l33_0_0 = (L_e__0*p_spring_stiffness);
+    const S l33_0_1 = (L_na__0*p_spring_stiffness);
+    const S l33_0_2 = (L_swing*p_spring_stiffness);
+    const S l33_0_3 = (L_twist*p_spring_stiffness);
+    const S l33_0_4 = (L_e__1*p_spring_stiffness);
+    const S l33_0_5 = (L_na__1*p_spring_stiffness);
+    const S l33_0_6 = (L_e__2*p_spring_stiffness);
+    const S l33_0_7 = (L_na__2*p_spring_stiffness);
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
-    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l37_0_2)) - (d_L_swing__a_dtx*l37_0_0) - (d_L_twist__a_dtx*l37_0_1));
-    const S d_L_spring__0__a_dty = ((-(a_r1_2*l37_0_3)) - (d_L_e__0__a_dty*l37_0_2) - (d_L_swing__a_dty*l37_0_0) - (d_L_twist__a_dty*l37_0_1));
-    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l37_0_2)) - (d_L_na__0__a_dtz*l37_0_3) - (d_L_swing__a_dtz*l37_0_0) - (d_L_twist__a_dtz*l37_0_1));
+    const S d_L_spring__0__a_dtx = ((-(d_L_e__0__a_dtx*l33_0_2)) - (d_L_swing__a_dtx*l33_0_0) - (d_L_twist__a_dtx*l33_0_1));
+    const S d_L_spring__0__a_dty = ((-(a_r1_2*l33_0_3)) - (d_L_e__0__a_dty*l33_0_2) - (d_L_swing__a_dty*l33_0_0) - (d_L_twist__a_dty*l33_0_1));
+    const S d_L_spring__0__a_dtz = ((-(d_L_e__0__a_dtz*l33_0_2)) - (d_L_na__0__a_dtz*l33_0_3) - (d_L_swing__a_dtz*l33_0_0) - (d_L_twist__a_dtz*l33_0_1));
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
-    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l37_0_2)) - (d_L_na__1__a_dtx*l37_0_3) - (d_L_swing__a_dtx*l37_0_4) - (d_L_twist__a_dtx*l37_0_5));
-    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l37_0_2)) - (d_L_swing__a_dty*l37_0_4) - (d_L_twist__a_dty*l37_0_5));
-    const S d_L_spring__1__a_dtz = ((-(a_r1_0*l37_0_3)) - (d_L_e__1__a_dtz*l37_0_2) - (d_L_swing__a_dtz*l37_0_4) - (d_L_twist__a_dtz*l37_0_5));
+    const S d_L_spring__1__a_dtx = ((-(d_L_e__1__a_dtx*l33_0_2)) - (d_L_na__1__a_dtx*l33_0_3) - (d_L_swing__a_dtx*l33_0_4) - (d_L_twist__a_dtx*l33_0_5));
+    const S d_L_spring__1__a_dty = ((-(d_L_e__1__a_dty*l33_0_2)) - (d_L_swing__a_dty*l33_0_4) - (d_L_twist__a_dty*l33_0_5));
+    const S d_L_spring__1__a_dtz = ((-(a_r1_0*l33_0_3)) - (d_L_e__1__a_dtz*l33_0_2) - (d_L_swing__a_dtz*l33_0_4) - (d_L_twist__a_dtz*l33_0_5));
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    const S d_L_spring__2__a_dtx = ((-(a_r1_1*l37_0_3)) - (d_L_e__2__a_dtx*l37_0_2) - (d_L_swing__a_dtx*l37_0_6) - (d_L_twist__a_dtx*l37_0_7));
-    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l37_0_2)) - (d_L_na__2__a_dty*l37_0_3) - (d_L_swing__a_dty*l37_0_6) - (d_L_twist__a_dty*l37_0_7));
-    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l37_0_2)) - (d_L_swing__a_dtz*l37_0_6) - (d_L_twist__a_dtz*l37_0_7));
-    // let tau (cone_twist.yaml:75)
-    const S l38_0_0 = ((-L_stop_hi) + L_stop_lo);
-    const S l38_0_1 = (L_limited*L_na__0);
-    const S l38_0_2 = (-p_spring_damping);
-    const S l38_0_3 = (L_limited*l38_0_0);
-    const S l38_0_4 = (L_limited*L_na__1);
-    const S l38_0_5 = (L_limited*L_na__2);
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l38_0_0*l38_0_1));
-    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l38_0_1));
-    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r1_2*l38_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l38_0_1));
-    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l38_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l38_0_1));
-    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_1) - l38_0_2);
-    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_1));
-    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_1));
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_3) + L_spring__1);
-    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l38_0_4));
-    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l38_0_4));
-    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r1_0*l38_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l38_0_4));
-    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_4));
-    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_4) - l38_0_2);
-    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_4));
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_3) + L_spring__2);
-    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r1_1*l38_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l38_0_5));
-    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l38_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l38_0_5));
-    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l38_0_5));
-    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l38_0_5));
-    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l38_0_5));
-    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l38_0_5) - l38_0_2);
-    // apply[0] (cone_twist.yaml:77)
+    const S d_L_spring__2__a_dtx = ((-(a_r1_1*l33_0_3)) - (d_L_e__2__a_dtx*l33_0_2) - (d_L_swing__a_dtx*l33_0_6) - (d_L_twist__a_dtx*l33_0_7));
+    const S d_L_spring__2__a_dty = ((-(d_L_e__2__a_dty*l33_0_2)) - (d_L_na__2__a_dty*l33_0_3) - (d_L_swing__a_dty*l33_0_6) - (d_L_twist__a_dty*l33_0_7));
+    const S d_L_spring__2__a_dtz = ((-(d_L_e__2__a_dtz*l33_0_2)) - (d_L_swing__a_dtz*l33_0_6) - (d_L_twist__a_dtz*l33_0_7));
+    // let tau (cone_twist.yaml:68)
+    const S l34_0_0 = ((-L_stop_hi) + L_stop_lo);
+    const S l34_0_1 = (L_limited*L_na__0);
+    const S l34_0_2 = (-p_spring_damping);
+    const S l34_0_3 = (L_limited*l34_0_0);
+    const S l34_0_4 = (L_limited*L_na__1);
+    const S l34_0_5 = (L_limited*L_na__2);
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + L_spring__0 + (l34_0_0*l34_0_1));
+    const S d_L_tau__0__a_dtx = ((-(L_e__0*d_L_stop_cone__a_dtx)) + (L_limited*L_na__0*d_L_stop_lo__a_dtx) - (L_stop_cone*d_L_e__0__a_dtx) + d_L_spring__0__a_dtx - (d_L_stop_hi__a_dtx*l34_0_1));
+    const S d_L_tau__0__a_dty = ((-(L_e__0*d_L_stop_cone__a_dty)) + (L_limited*L_na__0*d_L_stop_lo__a_dty) + (L_limited*a_r1_2*l34_0_0) - (L_stop_cone*d_L_e__0__a_dty) + d_L_spring__0__a_dty - (d_L_stop_hi__a_dty*l34_0_1));
+    const S d_L_tau__0__a_dtz = ((-(L_e__0*d_L_stop_cone__a_dtz)) + (L_limited*L_na__0*d_L_stop_lo__a_dtz) + (L_limited*d_L_na__0__a_dtz*l34_0_0) - (L_stop_cone*d_L_e__0__a_dtz) + d_L_spring__0__a_dtz - (d_L_stop_hi__a_dtz*l34_0_1));
+    const S d_L_tau__0__a_wx = ((-(L_e__0*d_L_stop_cone__a_wx)) + (L_limited*L_na__0*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_1) - l34_0_2);
+    const S d_L_tau__0__a_wy = ((-(L_e__0*d_L_stop_cone__a_wy)) + (L_limited*L_na__0*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_1));
+    const S d_L_tau__0__a_wz = ((-(L_e__0*d_L_stop_cone__a_wz)) + (L_limited*L_na__0*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_1));
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l34_0_3) + L_spring__1);
+    const S d_L_tau__1__a_dtx = ((-(L_e__1*d_L_stop_cone__a_dtx)) + (L_limited*L_na__1*d_L_stop_lo__a_dtx) + (L_limited*d_L_na__1__a_dtx*l34_0_0) - (L_stop_cone*d_L_e__1__a_dtx) + d_L_spring__1__a_dtx - (d_L_stop_hi__a_dtx*l34_0_4));
+    const S d_L_tau__1__a_dty = ((-(L_e__1*d_L_stop_cone__a_dty)) + (L_limited*L_na__1*d_L_stop_lo__a_dty) - (L_stop_cone*d_L_e__1__a_dty) + d_L_spring__1__a_dty - (d_L_stop_hi__a_dty*l34_0_4));
+    const S d_L_tau__1__a_dtz = ((-(L_e__1*d_L_stop_cone__a_dtz)) + (L_limited*L_na__1*d_L_stop_lo__a_dtz) + (L_limited*a_r1_0*l34_0_0) - (L_stop_cone*d_L_e__1__a_dtz) + d_L_spring__1__a_dtz - (d_L_stop_hi__a_dtz*l34_0_4));
+    const S d_L_tau__1__a_wx = ((-(L_e__1*d_L_stop_cone__a_wx)) + (L_limited*L_na__1*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_4));
+    const S d_L_tau__1__a_wy = ((-(L_e__1*d_L_stop_cone__a_wy)) + (L_limited*L_na__1*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_4) - l34_0_2);
+    const S d_L_tau__1__a_wz = ((-(L_e__1*d_L_stop_cone__a_wz)) + (L_limited*L_na__1*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_4));
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l34_0_3) + L_spring__2);
+    const S d_L_tau__2__a_dtx = ((-(L_e__2*d_L_stop_cone__a_dtx)) + (L_limited*L_na__2*d_L_stop_lo__a_dtx) + (L_limited*a_r1_1*l34_0_0) - (L_stop_cone*d_L_e__2__a_dtx) + d_L_spring__2__a_dtx - (d_L_stop_hi__a_dtx*l34_0_5));
+    const S d_L_tau__2__a_dty = ((-(L_e__2*d_L_stop_cone__a_dty)) + (L_limited*L_na__2*d_L_stop_lo__a_dty) + (L_limited*d_L_na__2__a_dty*l34_0_0) - (L_stop_cone*d_L_e__2__a_dty) + d_L_spring__2__a_dty - (d_L_stop_hi__a_dty*l34_0_5));
+    const S d_L_tau__2__a_dtz = ((-(L_e__2*d_L_stop_cone__a_dtz)) + (L_limited*L_na__2*d_L_stop_lo__a_dtz) - (L_stop_cone*d_L_e__2__a_dtz) + d_L_spring__2__a_dtz - (d_L_stop_hi__a_dtz*l34_0_5));
+    const S d_L_tau__2__a_wx = ((-(L_e__2*d_L_stop_cone__a_wx)) + (L_limited*L_na__2*d_L_stop_lo__a_wx) - (d_L_stop_hi__a_wx*l34_0_5));
+    const S d_L_tau__2__a_wy = ((-(L_e__2*d_L_stop_cone__a_wy)) + (L_limited*L_na__2*d_L_stop_lo__a_wy) - (d_L_stop_hi__a_wy*l34_0_5));
+    const S d_L_tau__2__a_wz = ((-(L_e__2*d_L_stop_cone__a_wz)) + (L_limited*L_na__2*d_L_stop_lo__a_wz) - (d_L_stop_hi__a_wz*l34_0_5) - l34_0_2);
+    // apply[0] (cone_twist.yaml:70)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (cone_twist.yaml:76), shared subexpressions
+    const S l36_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l36_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l36_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l36_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply (cone_twist.yaml:69), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -3460,14 +3428,14 @@ struct Cone_Twist_World_Kernel {
     const S o41 = (d_L_f__0__a_vx*h);
     const S o42 = (d_L_f__1__a_vy*h);
     const S o43 = (d_L_f__2__a_vz*h);
-    // g_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // g_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o1) + (d_L_f__0__a_dty*o2) + (d_L_f__0__a_dtz*o3) + o0 + (o5*o9));
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o1) + (d_L_f__1__a_dty*o2) + (d_L_f__1__a_dtz*o3) + o10 + (o11*o13));
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o1) + (d_L_f__2__a_dty*o2) + (d_L_f__2__a_dtz*o3) + o14 + (o15*o16));
     out[3] = ((-(L_f__1*o18)) + (L_f__2*o17) - L_tau__0 + (o1*o22) + (o10*o19) + (o13*o25) + (o14*o17) + (o16*o26) + (o2*o23) + (o24*o3));
     out[4] = ((L_f__0*o18) - (L_f__2*o27) - L_tau__1 + (o0*o18) + (o1*o30) + (o14*o28) + (o16*o34) + (o2*o31) + (o3*o32) + (o33*o9));
     out[5] = ((-(L_f__0*o17)) + (L_f__1*o27) - L_tau__2 + (o0*o35) + (o1*o36) + (o10*o27) + (o13*o40) + (o2*o37) + (o3*o38) + (o39*o9));
-    // K_aa from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // K_aa from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[6] = (o41 + o5);
     out[7] = S(0);
     out[8] = S(0);
@@ -3507,13 +3475,13 @@ struct Cone_Twist_World_Kernel {
   }
 
   /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
-  static constexpr int kHeld = 11;
+  static constexpr int kHeld = 7;
   /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
   /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
-  static constexpr int kJointArm[1] = { 7 };
+  static constexpr int kJointArm[1] = { 3 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 485
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 469
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -3565,7 +3533,7 @@ struct Cone_Twist_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[44];
     [[maybe_unused]] const S g_joint_hertz = in[45];
     [[maybe_unused]] const S g_joint_damping_ratio = in[46];
-    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let swa (cone_twist.yaml:53)
+    // body-frame quantities rotated to world, first used by let pa (cone_twist.yaml:29), let na (cone_twist.yaml:32), let ua (cone_twist.yaml:34), let isw (cone_twist.yaml:50)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3664,81 +3632,69 @@ struct Cone_Twist_World_Kernel {
     const S L_swing_rate = ((L_e__0*L_wrel__0) + (L_e__1*L_wrel__1) + (L_e__2*L_wrel__2));
     // let over_cone (cone_twist.yaml:45)
     const S L_over_cone = (L_swing - p_cone_angle);
-    // let swa (cone_twist.yaml:53)
-    const S L_swa = held_in ? held_in[1] : S(((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22)))));
-    if (held_out) held_out[1] = L_swa;
-    // let swb (cone_twist.yaml:54)
-    const S L_swb = held_in ? held_in[2] : S(S(0));
-    if (held_out) held_out[2] = L_swb;
-    // let isw (cone_twist.yaml:55)
-    const S L_isw = held_in ? held_in[3] : S(select((L_swb > S(0)), min(max(L_swa, L_swb), (S(16)*L_swa*L_swb/(max(S(1e-30), (L_swa + L_swb))))), L_swa));
-    if (held_out) held_out[3] = L_isw;
-    // let ksw (cone_twist.yaml:56)
+    // let isw (cone_twist.yaml:50)
+    const S L_isw = held_in ? held_in[1] : S(((L_e__0*((L_e__0*a_Iw3_00) + (L_e__1*a_Iw3_01) + (L_e__2*a_Iw3_02))) + (L_e__1*((L_e__0*a_Iw3_01) + (L_e__1*a_Iw3_11) + (L_e__2*a_Iw3_12))) + (L_e__2*((L_e__0*a_Iw3_02) + (L_e__1*a_Iw3_12) + (L_e__2*a_Iw3_22)))));
+    if (held_out) held_out[1] = L_isw;
+    // let ksw (cone_twist.yaml:51)
     const S L_ksw = (L_isw*(L_omega*L_omega));
-    // let csw (cone_twist.yaml:57)
+    // let csw (cone_twist.yaml:52)
     const S L_csw = (S(2)*L_isw*L_omega*L_zeta);
-    // let stop_cone (cone_twist.yaml:58)
-    const S l23_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
-    const S L_stop_cone = select((p_cone_angle > S(0)), select((L_over_cone > S(0)), select((l23_0_0 > S(0)), l23_0_0, S(0)), select(((L_over_cone + (L_swing_rate*h)) > S(0)), l23_0_0, S(0))), S(0));
-    // let ubs (cone_twist.yaml:61)
-    const S l24_0_0 = (((L_k__0*L_ub__0) + (L_k__1*L_ub__1) + (L_k__2*L_ub__2))/(max(S(1e-06), (L_cs + S(1)))));
-    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l24_0_0) + (L_k__1*L_ub__2) - (L_k__2*L_ub__1));
-    const S L_ubs__1 = ((L_cs*L_ub__1) - (L_k__0*L_ub__2) + (L_k__1*l24_0_0) + (L_k__2*L_ub__0));
-    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__0*L_ub__1) - (L_k__1*L_ub__0) + (L_k__2*l24_0_0));
-    // let twist (cone_twist.yaml:62)
+    // let stop_cone (cone_twist.yaml:53)
+    const S l21_0_0 = ((L_csw*L_swing_rate) + (L_ksw*L_over_cone));
+    const S L_stop_cone = select((p_cone_angle > S(0)), select((L_over_cone > S(0)), select((l21_0_0 > S(0)), l21_0_0, S(0)), select(((L_over_cone + (L_swing_rate*h)) > S(0)), l21_0_0, S(0))), S(0));
+    // let ubs (cone_twist.yaml:56)
+    const S l22_0_0 = (((L_k__0*L_ub__0) + (L_k__1*L_ub__1) + (L_k__2*L_ub__2))/(max(S(1e-06), (L_cs + S(1)))));
+    const S L_ubs__0 = ((L_cs*L_ub__0) + (L_k__0*l22_0_0) + (L_k__1*L_ub__2) - (L_k__2*L_ub__1));
+    const S L_ubs__1 = ((L_cs*L_ub__1) - (L_k__0*L_ub__2) + (L_k__1*l22_0_0) + (L_k__2*L_ub__0));
+    const S L_ubs__2 = ((L_cs*L_ub__2) + (L_k__0*L_ub__1) - (L_k__1*L_ub__0) + (L_k__2*l22_0_0));
+    // let twist (cone_twist.yaml:57)
     const S L_twist = angle_of(((L_na__0*((L_ua__1*L_ubs__2) - (L_ua__2*L_ubs__1))) + (L_na__1*((-(L_ua__0*L_ubs__2)) + (L_ua__2*L_ubs__0))) + (L_na__2*((L_ua__0*L_ubs__1) - (L_ua__1*L_ubs__0)))), ((L_ua__0*L_ubs__0) + (L_ua__1*L_ubs__1) + (L_ua__2*L_ubs__2)));
-    // let twist_rate (cone_twist.yaml:63)
+    // let twist_rate (cone_twist.yaml:58)
     const S L_twist_rate = ((L_na__0*L_wrel__0) + (L_na__1*L_wrel__1) + (L_na__2*L_wrel__2));
-    // let limited (cone_twist.yaml:64)
+    // let limited (cone_twist.yaml:59)
     const S L_limited = select((p_twist_lower < p_twist_upper), S(1), S(0));
-    // let over_hi (cone_twist.yaml:65)
+    // let over_hi (cone_twist.yaml:60)
     const S L_over_hi = (L_twist - p_twist_upper);
-    // let over_lo (cone_twist.yaml:66)
+    // let over_lo (cone_twist.yaml:61)
     const S L_over_lo = ((-L_twist) + p_twist_lower);
-    // let twa (cone_twist.yaml:67)
-    const S L_twa = held_in ? held_in[4] : S(((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22)))));
-    if (held_out) held_out[4] = L_twa;
-    // let twb (cone_twist.yaml:68)
-    const S L_twb = held_in ? held_in[5] : S(S(0));
-    if (held_out) held_out[5] = L_twb;
-    // let itw (cone_twist.yaml:69)
-    const S L_itw = held_in ? held_in[6] : S(select((L_twb > S(0)), min(max(L_twa, L_twb), (S(16)*L_twa*L_twb/(max(S(1e-30), (L_twa + L_twb))))), L_twa));
-    if (held_out) held_out[6] = L_itw;
-    // let ktw (cone_twist.yaml:70)
+    // let itw (cone_twist.yaml:62)
+    const S L_itw = held_in ? held_in[2] : S(((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22)))));
+    if (held_out) held_out[2] = L_itw;
+    // let ktw (cone_twist.yaml:63)
     const S L_ktw = (L_itw*(L_omega*L_omega));
-    // let ctw (cone_twist.yaml:71)
+    // let ctw (cone_twist.yaml:64)
     const S L_ctw = (S(2)*L_itw*L_omega*L_zeta);
-    // let stop_hi (cone_twist.yaml:72)
-    const S l35_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
-    const S L_stop_hi = select((L_over_hi > S(0)), select((l35_0_0 > S(0)), l35_0_0, S(0)), select(((L_over_hi + (L_twist_rate*h)) > S(0)), l35_0_0, S(0)));
-    // let stop_lo (cone_twist.yaml:73)
-    const S l36_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
-    const S l36_0_1 = (-l36_0_0);
-    const S L_stop_lo = select((L_over_lo > S(0)), select((l36_0_0 < S(0)), l36_0_1, S(0)), select(((L_over_lo - (L_twist_rate*h)) > S(0)), l36_0_1, S(0)));
-    // let spring (cone_twist.yaml:74)
+    // let stop_hi (cone_twist.yaml:65)
+    const S l31_0_0 = ((L_ctw*L_twist_rate) + (L_ktw*L_over_hi));
+    const S L_stop_hi = select((L_over_hi > S(0)), select((l31_0_0 > S(0)), l31_0_0, S(0)), select(((L_over_hi + (L_twist_rate*h)) > S(0)), l31_0_0, S(0)));
+    // let stop_lo (cone_twist.yaml:66)
+    const S l32_0_0 = ((L_ctw*L_twist_rate) - (L_ktw*L_over_lo));
+    const S l32_0_1 = (-l32_0_0);
+    const S L_stop_lo = select((L_over_lo > S(0)), select((l32_0_0 < S(0)), l32_0_1, S(0)), select(((L_over_lo - (L_twist_rate*h)) > S(0)), l32_0_1, S(0)));
+    // let spring (cone_twist.yaml:67)
     const S L_spring__0 = ((-(L_wrel__0*p_spring_damping)) - (p_spring_stiffness*((L_e__0*L_swing) + (L_na__0*L_twist))));
     const S L_spring__1 = ((-(L_wrel__1*p_spring_damping)) - (p_spring_stiffness*((L_e__1*L_swing) + (L_na__1*L_twist))));
     const S L_spring__2 = ((-(L_wrel__2*p_spring_damping)) - (p_spring_stiffness*((L_e__2*L_swing) + (L_na__2*L_twist))));
-    // let tau (cone_twist.yaml:75)
-    const S l38_0_0 = (L_limited*((-L_stop_hi) + L_stop_lo));
-    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + (L_na__0*l38_0_0) + L_spring__0);
-    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l38_0_0) + L_spring__1);
-    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l38_0_0) + L_spring__2);
-    // apply[0] (cone_twist.yaml:77)
-    const S T0_arm__0 = held_in ? held_in[7] : S((L_pa__0 - a_px));
-    if (held_out) held_out[7] = T0_arm__0;
-    const S T0_arm__1 = held_in ? held_in[8] : S((L_pa__1 - a_py));
-    if (held_out) held_out[8] = T0_arm__1;
-    const S T0_arm__2 = held_in ? held_in[9] : S((L_pa__2 - a_pz));
-    if (held_out) held_out[9] = T0_arm__2;
-    const S l40_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    const S T1_turn = held_in ? held_in[10] : S((S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l40_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[10] = T1_turn;
-    // apply (cone_twist.yaml:76), shared subexpressions
+    // let tau (cone_twist.yaml:68)
+    const S l34_0_0 = (L_limited*((-L_stop_hi) + L_stop_lo));
+    const S L_tau__0 = ((-(L_e__0*L_stop_cone)) + (L_na__0*l34_0_0) + L_spring__0);
+    const S L_tau__1 = ((-(L_e__1*L_stop_cone)) + (L_na__1*l34_0_0) + L_spring__1);
+    const S L_tau__2 = ((-(L_e__2*L_stop_cone)) + (L_na__2*l34_0_0) + L_spring__2);
+    // apply[0] (cone_twist.yaml:70)
+    const S T0_arm__0 = held_in ? held_in[3] : S((L_pa__0 - a_px));
+    if (held_out) held_out[3] = T0_arm__0;
+    const S T0_arm__1 = held_in ? held_in[4] : S((L_pa__1 - a_py));
+    if (held_out) held_out[4] = T0_arm__1;
+    const S T0_arm__2 = held_in ? held_in[5] : S((L_pa__2 - a_pz));
+    if (held_out) held_out[5] = T0_arm__2;
+    const S l36_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    const S T1_turn = held_in ? held_in[6] : S((S(1) - (S(1)/((((h*h*h*h)*l36_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l36_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l36_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[6] = T1_turn;
+    // apply (cone_twist.yaml:69), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
-    // F_a from apply[0] (cone_twist.yaml:77), apply[2] (cone_twist.yaml:79)
+    // F_a from apply[0] (cone_twist.yaml:70), apply[2] (cone_twist.yaml:72)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

@@ -184,7 +184,7 @@ struct Hinge_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[66];
     [[maybe_unused]] const S g_joint_hertz = in[67];
     [[maybe_unused]] const S g_joint_damping_ratio = in[68];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:42), let a1 (hinge.yaml:52), let b1 (hinge.yaml:53), let ub (hinge.yaml:61)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:42), let i1 (hinge.yaml:51), let ub (hinge.yaml:56)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -387,27 +387,23 @@ struct Hinge_Pair_Kernel {
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let p1 (hinge.yaml:50)
+    // let p1 (hinge.yaml:49)
     [[maybe_unused]] const S L_p1__0 = L_ua__0;
     [[maybe_unused]] const S L_p1__1 = L_ua__1;
     [[maybe_unused]] const S L_p1__2 = L_ua__2;
-    // let p2 (hinge.yaml:51)
+    // let p2 (hinge.yaml:50)
     [[maybe_unused]] const S L_p2__0 = ((L_na__1*L_ua__2) - (L_na__2*L_ua__1));
     [[maybe_unused]] const S L_p2__1 = ((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0));
     [[maybe_unused]] const S L_p2__2 = ((L_na__0*L_ua__1) - (L_na__1*L_ua__0));
-    // let a1 (hinge.yaml:52)
-    [[maybe_unused]] const S L_a1 = ((L_p1__0*((L_p1__0*a_Iw5_00) + (L_p1__1*a_Iw5_01) + (L_p1__2*a_Iw5_02))) + (L_p1__1*((L_p1__0*a_Iw5_01) + (L_p1__1*a_Iw5_11) + (L_p1__2*a_Iw5_12))) + (L_p1__2*((L_p1__0*a_Iw5_02) + (L_p1__1*a_Iw5_12) + (L_p1__2*a_Iw5_22))));
-    // let b1 (hinge.yaml:53)
-    [[maybe_unused]] const S L_b1 = ((L_p1__0*((L_p1__0*b_Iw6_00) + (L_p1__1*b_Iw6_01) + (L_p1__2*b_Iw6_02))) + (L_p1__1*((L_p1__0*b_Iw6_01) + (L_p1__1*b_Iw6_11) + (L_p1__2*b_Iw6_12))) + (L_p1__2*((L_p1__0*b_Iw6_02) + (L_p1__1*b_Iw6_12) + (L_p1__2*b_Iw6_22))));
-    // let i1 (hinge.yaml:54)
-    [[maybe_unused]] const S L_i1 = select((L_b1 > S(0)), min(max(L_a1, L_b1), (S(16)*L_a1*L_b1/(max(S(1e-30), (L_a1 + L_b1))))), L_im);
-    // let a2 (hinge.yaml:55)
-    [[maybe_unused]] const S L_a2 = ((L_p2__0*((L_p2__0*a_Iw5_00) + (L_p2__1*a_Iw5_01) + (L_p2__2*a_Iw5_02))) + (L_p2__1*((L_p2__0*a_Iw5_01) + (L_p2__1*a_Iw5_11) + (L_p2__2*a_Iw5_12))) + (L_p2__2*((L_p2__0*a_Iw5_02) + (L_p2__1*a_Iw5_12) + (L_p2__2*a_Iw5_22))));
-    // let b2 (hinge.yaml:56)
-    [[maybe_unused]] const S L_b2 = ((L_p2__0*((L_p2__0*b_Iw6_00) + (L_p2__1*b_Iw6_01) + (L_p2__2*b_Iw6_02))) + (L_p2__1*((L_p2__0*b_Iw6_01) + (L_p2__1*b_Iw6_11) + (L_p2__2*b_Iw6_12))) + (L_p2__2*((L_p2__0*b_Iw6_02) + (L_p2__1*b_Iw6_12) + (L_p2__2*b_Iw6_22))));
-    // let i2 (hinge.yaml:57)
-    [[maybe_unused]] const S L_i2 = select((L_b2 > S(0)), min(max(L_a2, L_b2), (S(16)*L_a2*L_b2/(max(S(1e-30), (L_a2 + L_b2))))), L_im);
-    // let mis (hinge.yaml:58)
+    // let i1 (hinge.yaml:51)
+    const S l16_0_0 = ((L_p1__0*((L_p1__0*a_Iw5_00) + (L_p1__1*a_Iw5_01) + (L_p1__2*a_Iw5_02))) + (L_p1__1*((L_p1__0*a_Iw5_01) + (L_p1__1*a_Iw5_11) + (L_p1__2*a_Iw5_12))) + (L_p1__2*((L_p1__0*a_Iw5_02) + (L_p1__1*a_Iw5_12) + (L_p1__2*a_Iw5_22))));
+    const S l16_0_1 = ((L_p1__0*((L_p1__0*b_Iw6_00) + (L_p1__1*b_Iw6_01) + (L_p1__2*b_Iw6_02))) + (L_p1__1*((L_p1__0*b_Iw6_01) + (L_p1__1*b_Iw6_11) + (L_p1__2*b_Iw6_12))) + (L_p1__2*((L_p1__0*b_Iw6_02) + (L_p1__1*b_Iw6_12) + (L_p1__2*b_Iw6_22))));
+    [[maybe_unused]] const S L_i1 = select((l16_0_1 > S(0)), min(max(l16_0_0, l16_0_1), (S(16)*l16_0_0*l16_0_1/(max(S(1e-30), (l16_0_0 + l16_0_1))))), L_im);
+    // let i2 (hinge.yaml:52)
+    const S l17_0_0 = ((L_p2__0*((L_p2__0*a_Iw5_00) + (L_p2__1*a_Iw5_01) + (L_p2__2*a_Iw5_02))) + (L_p2__1*((L_p2__0*a_Iw5_01) + (L_p2__1*a_Iw5_11) + (L_p2__2*a_Iw5_12))) + (L_p2__2*((L_p2__0*a_Iw5_02) + (L_p2__1*a_Iw5_12) + (L_p2__2*a_Iw5_22))));
+    const S l17_0_1 = ((L_p2__0*((L_p2__0*b_Iw6_00) + (L_p2__1*b_Iw6_01) + (L_p2__2*b_Iw6_02))) + (L_p2__1*((L_p2__0*b_Iw6_01) + (L_p2__1*b_Iw6_11) + (L_p2__2*b_Iw6_12))) + (L_p2__2*((L_p2__0*b_Iw6_02) + (L_p2__1*b_Iw6_12) + (L_p2__2*b_Iw6_22))));
+    [[maybe_unused]] const S L_i2 = select((l17_0_1 > S(0)), min(max(l17_0_0, l17_0_1), (S(16)*l17_0_0*l17_0_1/(max(S(1e-30), (l17_0_0 + l17_0_1))))), L_im);
+    // let mis (hinge.yaml:53)
     const S L_mis__0 = ((L_na__1*L_nb__2) - (L_na__2*L_nb__1));
     const S d_L_mis__0__a_dtx = ((-(L_nb__1*a_r2_1)) + (L_nb__2*d_L_na__1__a_dtx));
     const S d_L_mis__0__a_dty = (-(L_nb__1*d_L_na__2__a_dty));
@@ -429,10 +425,10 @@ struct Hinge_Pair_Kernel {
     const S d_L_mis__2__b_dtx = (L_na__0*d_L_nb__1__b_dtx);
     const S d_L_mis__2__b_dty = (-(L_na__1*b_r3_2));
     const S d_L_mis__2__b_dtz = ((L_na__0*b_r3_0) - (L_na__1*d_L_nb__0__b_dtz));
-    // let wperp (hinge.yaml:59)
-    const S l23_0_0 = (-(L_na__0*L_na__1));
-    const S l23_0_1 = (-(L_na__0*L_na__2));
-    const S l23_0_2 = (-(L_na__1*L_na__2));
+    // let wperp (hinge.yaml:54)
+    const S l19_0_0 = (-(L_na__0*L_na__1));
+    const S l19_0_1 = (-(L_na__0*L_na__2));
+    const S l19_0_2 = (-(L_na__1*L_na__2));
     const S L_wperp__0 = ((-(L_na__0*L_rate)) + L_wrel__0);
     const S d_L_wperp__0__a_dtx = (-(L_na__0*d_L_rate__a_dtx));
     const S d_L_wperp__0__a_dty = ((-(L_na__0*d_L_rate__a_dty)) - (L_rate*a_r2_2));
@@ -441,8 +437,8 @@ struct Hinge_Pair_Kernel {
     const S d_L_wperp__0__a_wy = (-(L_na__0*d_L_rate__a_wy));
     const S d_L_wperp__0__a_wz = (-(L_na__0*d_L_rate__a_wz));
     const S d_L_wperp__0__b_wx = (S(1) - (L_na__0*L_na__0));
-    const S d_L_wperp__0__b_wy = l23_0_0;
-    const S d_L_wperp__0__b_wz = l23_0_1;
+    const S d_L_wperp__0__b_wy = l19_0_0;
+    const S d_L_wperp__0__b_wz = l19_0_1;
     const S L_wperp__1 = ((-(L_na__1*L_rate)) + L_wrel__1);
     const S d_L_wperp__1__a_dtx = ((-(L_na__1*d_L_rate__a_dtx)) - (L_rate*d_L_na__1__a_dtx));
     const S d_L_wperp__1__a_dty = (-(L_na__1*d_L_rate__a_dty));
@@ -450,9 +446,9 @@ struct Hinge_Pair_Kernel {
     const S d_L_wperp__1__a_wx = (-(L_na__1*d_L_rate__a_wx));
     const S d_L_wperp__1__a_wy = ((-(L_na__1*d_L_rate__a_wy)) - S(1));
     const S d_L_wperp__1__a_wz = (-(L_na__1*d_L_rate__a_wz));
-    const S d_L_wperp__1__b_wx = l23_0_0;
+    const S d_L_wperp__1__b_wx = l19_0_0;
     const S d_L_wperp__1__b_wy = (S(1) - (L_na__1*L_na__1));
-    const S d_L_wperp__1__b_wz = l23_0_2;
+    const S d_L_wperp__1__b_wz = l19_0_2;
     const S L_wperp__2 = ((-(L_na__2*L_rate)) + L_wrel__2);
     const S d_L_wperp__2__a_dtx = ((-(L_na__2*d_L_rate__a_dtx)) - (L_rate*a_r2_1));
     const S d_L_wperp__2__a_dty = ((-(L_na__2*d_L_rate__a_dty)) - (L_rate*d_L_na__2__a_dty));
@@ -460,116 +456,116 @@ struct Hinge_Pair_Kernel {
     const S d_L_wperp__2__a_wx = (-(L_na__2*d_L_rate__a_wx));
     const S d_L_wperp__2__a_wy = (-(L_na__2*d_L_rate__a_wy));
     const S d_L_wperp__2__a_wz = ((-(L_na__2*d_L_rate__a_wz)) - S(1));
-    const S d_L_wperp__2__b_wx = l23_0_1;
-    const S d_L_wperp__2__b_wy = l23_0_2;
+    const S d_L_wperp__2__b_wx = l19_0_1;
+    const S d_L_wperp__2__b_wy = l19_0_2;
     const S d_L_wperp__2__b_wz = (S(1) - (L_na__2*L_na__2));
-    // let align (hinge.yaml:60)
-    const S l24_0_0 = (L_omega*L_omega);
-    const S l24_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
-    const S l24_0_2 = (L_i1*L_p1__0);
-    const S l24_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
-    const S l24_0_4 = (L_i2*L_p2__0);
-    const S l24_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
-    const S l24_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
-    const S l24_0_7 = (S(2)*L_omega*L_zeta);
-    const S l24_0_8 = ((L_i1*(L_p1__0*L_p1__0)) + (L_i2*(L_p2__0*L_p2__0)));
-    const S l24_0_9 = (l24_0_0*l24_0_8);
-    const S l24_0_10 = ((L_p1__1*l24_0_2) + (L_p2__1*l24_0_4));
-    const S l24_0_11 = (l24_0_0*l24_0_10);
-    const S l24_0_12 = ((L_p1__2*l24_0_2) + (L_p2__2*l24_0_4));
-    const S l24_0_13 = (l24_0_0*l24_0_12);
-    const S l24_0_14 = (l24_0_7*l24_0_8);
-    const S l24_0_15 = (l24_0_10*l24_0_7);
-    const S l24_0_16 = (l24_0_12*l24_0_7);
-    const S l24_0_17 = (L_i1*L_p1__1);
-    const S l24_0_18 = (L_i2*L_p2__1);
-    const S l24_0_19 = ((L_i1*(L_p1__1*L_p1__1)) + (L_i2*(L_p2__1*L_p2__1)));
-    const S l24_0_20 = (l24_0_0*l24_0_19);
-    const S l24_0_21 = ((L_p1__2*l24_0_17) + (L_p2__2*l24_0_18));
-    const S l24_0_22 = (l24_0_0*l24_0_21);
-    const S l24_0_23 = (l24_0_19*l24_0_7);
-    const S l24_0_24 = (l24_0_21*l24_0_7);
-    const S l24_0_25 = (L_i1*L_p1__2);
-    const S l24_0_26 = (L_i2*L_p2__2);
-    const S l24_0_27 = ((L_i1*(L_p1__2*L_p1__2)) + (L_i2*(L_p2__2*L_p2__2)));
-    const S l24_0_28 = (l24_0_0*l24_0_27);
-    const S l24_0_29 = (l24_0_27*l24_0_7);
-    const S L_align__0 = ((-(l24_0_0*((l24_0_1*l24_0_2) + (l24_0_3*l24_0_4)))) - (l24_0_7*((l24_0_2*l24_0_5) + (l24_0_4*l24_0_6))));
-    const S d_L_align__0__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_9)) - (d_L_mis__1__a_dtx*l24_0_11) - (d_L_mis__2__a_dtx*l24_0_13) - (d_L_wperp__0__a_dtx*l24_0_14) - (d_L_wperp__1__a_dtx*l24_0_15) - (d_L_wperp__2__a_dtx*l24_0_16));
-    const S d_L_align__0__a_dty = ((-(d_L_mis__0__a_dty*l24_0_9)) - (d_L_mis__1__a_dty*l24_0_11) - (d_L_mis__2__a_dty*l24_0_13) - (d_L_wperp__0__a_dty*l24_0_14) - (d_L_wperp__1__a_dty*l24_0_15) - (d_L_wperp__2__a_dty*l24_0_16));
-    const S d_L_align__0__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_9)) - (d_L_mis__1__a_dtz*l24_0_11) - (d_L_mis__2__a_dtz*l24_0_13) - (d_L_wperp__0__a_dtz*l24_0_14) - (d_L_wperp__1__a_dtz*l24_0_15) - (d_L_wperp__2__a_dtz*l24_0_16));
-    const S d_L_align__0__b_dtx = ((-(d_L_mis__0__b_dtx*l24_0_9)) - (d_L_mis__1__b_dtx*l24_0_11) - (d_L_mis__2__b_dtx*l24_0_13));
-    const S d_L_align__0__b_dty = ((-(d_L_mis__0__b_dty*l24_0_9)) - (d_L_mis__1__b_dty*l24_0_11) - (d_L_mis__2__b_dty*l24_0_13));
-    const S d_L_align__0__b_dtz = ((-(d_L_mis__0__b_dtz*l24_0_9)) - (d_L_mis__1__b_dtz*l24_0_11) - (d_L_mis__2__b_dtz*l24_0_13));
-    const S d_L_align__0__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_14)) - (d_L_wperp__1__a_wx*l24_0_15) - (d_L_wperp__2__a_wx*l24_0_16));
-    const S d_L_align__0__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_14)) - (d_L_wperp__1__a_wy*l24_0_15) - (d_L_wperp__2__a_wy*l24_0_16));
-    const S d_L_align__0__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_14)) - (d_L_wperp__1__a_wz*l24_0_15) - (d_L_wperp__2__a_wz*l24_0_16));
-    const S d_L_align__0__b_wx = ((-(d_L_wperp__0__b_wx*l24_0_14)) - (d_L_wperp__1__b_wx*l24_0_15) - (d_L_wperp__2__b_wx*l24_0_16));
-    const S d_L_align__0__b_wy = ((-(d_L_wperp__0__b_wy*l24_0_14)) - (d_L_wperp__1__b_wy*l24_0_15) - (d_L_wperp__2__b_wy*l24_0_16));
-    const S d_L_align__0__b_wz = ((-(d_L_wperp__0__b_wz*l24_0_14)) - (d_L_wperp__1__b_wz*l24_0_15) - (d_L_wperp__2__b_wz*l24_0_16));
-    const S L_align__1 = ((-(l24_0_0*((l24_0_1*l24_0_17) + (l24_0_18*l24_0_3)))) - (l24_0_7*((l24_0_17*l24_0_5) + (l24_0_18*l24_0_6))));
-    const S d_L_align__1__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_11)) - (d_L_mis__1__a_dtx*l24_0_20) - (d_L_mis__2__a_dtx*l24_0_22) - (d_L_wperp__0__a_dtx*l24_0_15) - (d_L_wperp__1__a_dtx*l24_0_23) - (d_L_wperp__2__a_dtx*l24_0_24));
-    const S d_L_align__1__a_dty = ((-(d_L_mis__0__a_dty*l24_0_11)) - (d_L_mis__1__a_dty*l24_0_20) - (d_L_mis__2__a_dty*l24_0_22) - (d_L_wperp__0__a_dty*l24_0_15) - (d_L_wperp__1__a_dty*l24_0_23) - (d_L_wperp__2__a_dty*l24_0_24));
-    const S d_L_align__1__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_11)) - (d_L_mis__1__a_dtz*l24_0_20) - (d_L_mis__2__a_dtz*l24_0_22) - (d_L_wperp__0__a_dtz*l24_0_15) - (d_L_wperp__1__a_dtz*l24_0_23) - (d_L_wperp__2__a_dtz*l24_0_24));
-    const S d_L_align__1__b_dtx = ((-(d_L_mis__0__b_dtx*l24_0_11)) - (d_L_mis__1__b_dtx*l24_0_20) - (d_L_mis__2__b_dtx*l24_0_22));
-    const S d_L_align__1__b_dty = ((-(d_L_mis__0__b_dty*l24_0_11)) - (d_L_mis__1__b_dty*l24_0_20) - (d_L_mis__2__b_dty*l24_0_22));
-    const S d_L_align__1__b_dtz = ((-(d_L_mis__0__b_dtz*l24_0_11)) - (d_L_mis__1__b_dtz*l24_0_20) - (d_L_mis__2__b_dtz*l24_0_22));
-    const S d_L_align__1__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_15)) - (d_L_wperp__1__a_wx*l24_0_23) - (d_L_wperp__2__a_wx*l24_0_24));
-    const S d_L_align__1__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_15)) - (d_L_wperp__1__a_wy*l24_0_23) - (d_L_wperp__2__a_wy*l24_0_24));
-    const S d_L_align__1__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_15)) - (d_L_wperp__1__a_wz*l24_0_23) - (d_L_wperp__2__a_wz*l24_0_24));
-    const S d_L_align__1__b_wx = ((-(d_L_wperp__0__b_wx*l24_0_15)) - (d_L_wperp__1__b_wx*l24_0_23) - (d_L_wperp__2__b_wx*l24_0_24));
-    const S d_L_align__1__b_wy = ((-(d_L_wperp__0__b_wy*l24_0_15)) - (d_L_wperp__1__b_wy*l24_0_23) - (d_L_wperp__2__b_wy*l24_0_24));
-    const S d_L_align__1__b_wz = ((-(d_L_wperp__0__b_wz*l24_0_15)) - (d_L_wperp__1__b_wz*l24_0_23) - (d_L_wperp__2__b_wz*l24_0_24));
-    const S L_align__2 = ((-(l24_0_0*((l24_0_1*l24_0_25) + (l24_0_26*l24_0_3)))) - (l24_0_7*((l24_0_25*l24_0_5) + (l24_0_26*l24_0_6))));
-    const S d_L_align__2__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_13)) - (d_L_mis__1__a_dtx*l24_0_22) - (d_L_mis__2__a_dtx*l24_0_28) - (d_L_wperp__0__a_dtx*l24_0_16) - (d_L_wperp__1__a_dtx*l24_0_24) - (d_L_wperp__2__a_dtx*l24_0_29));
-    const S d_L_align__2__a_dty = ((-(d_L_mis__0__a_dty*l24_0_13)) - (d_L_mis__1__a_dty*l24_0_22) - (d_L_mis__2__a_dty*l24_0_28) - (d_L_wperp__0__a_dty*l24_0_16) - (d_L_wperp__1__a_dty*l24_0_24) - (d_L_wperp__2__a_dty*l24_0_29));
-    const S d_L_align__2__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_13)) - (d_L_mis__1__a_dtz*l24_0_22) - (d_L_mis__2__a_dtz*l24_0_28) - (d_L_wperp__0__a_dtz*l24_0_16) - (d_L_wperp__1__a_dtz*l24_0_24) - (d_L_wperp__2__a_dtz*l24_0_29));
-    const S d_L_align__2__b_dtx = ((-(d_L_mis__0__b_dtx*l24_0_13)) - (d_L_mis__1__b_dtx*l24_0_22) - (d_L_mis__2__b_dtx*l24_0_28));
-    const S d_L_align__2__b_dty = ((-(d_L_mis__0__b_dty*l24_0_13)) - (d_L_mis__1__b_dty*l24_0_22) - (d_L_mis__2__b_dty*l24_0_28));
-    const S d_L_align__2__b_dtz = ((-(d_L_mis__0__b_dtz*l24_0_13)) - (d_L_mis__1__b_dtz*l24_0_22) - (d_L_mis__2__b_dtz*l24_0_28));
-    const S d_L_align__2__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_16)) - (d_L_wperp__1__a_wx*l24_0_24) - (d_L_wperp__2__a_wx*l24_0_29));
-    const S d_L_align__2__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_16)) - (d_L_wperp__1__a_wy*l24_0_24) - (d_L_wperp__2__a_wy*l24_0_29));
-    const S d_L_align__2__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_16)) - (d_L_wperp__1__a_wz*l24_0_24) - (d_L_wperp__2__a_wz*l24_0_29));
-    const S d_L_align__2__b_wx = ((-(d_L_wperp__0__b_wx*l24_0_16)) - (d_L_wperp__1__b_wx*l24_0_24) - (d_L_wperp__2__b_wx*l24_0_29));
-    const S d_L_align__2__b_wy = ((-(d_L_wperp__0__b_wy*l24_0_16)) - (d_L_wperp__1__b_wy*l24_0_24) - (d_L_wperp__2__b_wy*l24_0_29));
-    const S d_L_align__2__b_wz = ((-(d_L_wperp__0__b_wz*l24_0_16)) - (d_L_wperp__1__b_wz*l24_0_24) - (d_L_wperp__2__b_wz*l24_0_29));
-    // let ub (hinge.yaml:61)
+    // let align (hinge.yaml:55)
+    const S l20_0_0 = (L_omega*L_omega);
+    const S l20_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
+    const S l20_0_2 = (L_i1*L_p1__0);
+    const S l20_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
+    const S l20_0_4 = (L_i2*L_p2__0);
+    const S l20_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
+    const S l20_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
+    const S l20_0_7 = (S(2)*L_omega*L_zeta);
+    const S l20_0_8 = ((L_i1*(L_p1__0*L_p1__0)) + (L_i2*(L_p2__0*L_p2__0)));
+    const S l20_0_9 = (l20_0_0*l20_0_8);
+    const S l20_0_10 = ((L_p1__1*l20_0_2) + (L_p2__1*l20_0_4));
+    const S l20_0_11 = (l20_0_0*l20_0_10);
+    const S l20_0_12 = ((L_p1__2*l20_0_2) + (L_p2__2*l20_0_4));
+    const S l20_0_13 = (l20_0_0*l20_0_12);
+    const S l20_0_14 = (l20_0_7*l20_0_8);
+    const S l20_0_15 = (l20_0_10*l20_0_7);
+    const S l20_0_16 = (l20_0_12*l20_0_7);
+    const S l20_0_17 = (L_i1*L_p1__1);
+    const S l20_0_18 = (L_i2*L_p2__1);
+    const S l20_0_19 = ((L_i1*(L_p1__1*L_p1__1)) + (L_i2*(L_p2__1*L_p2__1)));
+    const S l20_0_20 = (l20_0_0*l20_0_19);
+    const S l20_0_21 = ((L_p1__2*l20_0_17) + (L_p2__2*l20_0_18));
+    const S l20_0_22 = (l20_0_0*l20_0_21);
+    const S l20_0_23 = (l20_0_19*l20_0_7);
+    const S l20_0_24 = (l20_0_21*l20_0_7);
+    const S l20_0_25 = (L_i1*L_p1__2);
+    const S l20_0_26 = (L_i2*L_p2__2);
+    const S l20_0_27 = ((L_i1*(L_p1__2*L_p1__2)) + (L_i2*(L_p2__2*L_p2__2)));
+    const S l20_0_28 = (l20_0_0*l20_0_27);
+    const S l20_0_29 = (l20_0_27*l20_0_7);
+    const S L_align__0 = ((-(l20_0_0*((l20_0_1*l20_0_2) + (l20_0_3*l20_0_4)))) - (l20_0_7*((l20_0_2*l20_0_5) + (l20_0_4*l20_0_6))));
+    const S d_L_align__0__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_9)) - (d_L_mis__1__a_dtx*l20_0_11) - (d_L_mis__2__a_dtx*l20_0_13) - (d_L_wperp__0__a_dtx*l20_0_14) - (d_L_wperp__1__a_dtx*l20_0_15) - (d_L_wperp__2__a_dtx*l20_0_16));
+    const S d_L_align__0__a_dty = ((-(d_L_mis__0__a_dty*l20_0_9)) - (d_L_mis__1__a_dty*l20_0_11) - (d_L_mis__2__a_dty*l20_0_13) - (d_L_wperp__0__a_dty*l20_0_14) - (d_L_wperp__1__a_dty*l20_0_15) - (d_L_wperp__2__a_dty*l20_0_16));
+    const S d_L_align__0__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_9)) - (d_L_mis__1__a_dtz*l20_0_11) - (d_L_mis__2__a_dtz*l20_0_13) - (d_L_wperp__0__a_dtz*l20_0_14) - (d_L_wperp__1__a_dtz*l20_0_15) - (d_L_wperp__2__a_dtz*l20_0_16));
+    const S d_L_align__0__b_dtx = ((-(d_L_mis__0__b_dtx*l20_0_9)) - (d_L_mis__1__b_dtx*l20_0_11) - (d_L_mis__2__b_dtx*l20_0_13));
+    const S d_L_align__0__b_dty = ((-(d_L_mis__0__b_dty*l20_0_9)) - (d_L_mis__1__b_dty*l20_0_11) - (d_L_mis__2__b_dty*l20_0_13));
+    const S d_L_align__0__b_dtz = ((-(d_L_mis__0__b_dtz*l20_0_9)) - (d_L_mis__1__b_dtz*l20_0_11) - (d_L_mis__2__b_dtz*l20_0_13));
+    const S d_L_align__0__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_14)) - (d_L_wperp__1__a_wx*l20_0_15) - (d_L_wperp__2__a_wx*l20_0_16));
+    const S d_L_align__0__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_14)) - (d_L_wperp__1__a_wy*l20_0_15) - (d_L_wperp__2__a_wy*l20_0_16));
+    const S d_L_align__0__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_14)) - (d_L_wperp__1__a_wz*l20_0_15) - (d_L_wperp__2__a_wz*l20_0_16));
+    const S d_L_align__0__b_wx = ((-(d_L_wperp__0__b_wx*l20_0_14)) - (d_L_wperp__1__b_wx*l20_0_15) - (d_L_wperp__2__b_wx*l20_0_16));
+    const S d_L_align__0__b_wy = ((-(d_L_wperp__0__b_wy*l20_0_14)) - (d_L_wperp__1__b_wy*l20_0_15) - (d_L_wperp__2__b_wy*l20_0_16));
+    const S d_L_align__0__b_wz = ((-(d_L_wperp__0__b_wz*l20_0_14)) - (d_L_wperp__1__b_wz*l20_0_15) - (d_L_wperp__2__b_wz*l20_0_16));
+    const S L_align__1 = ((-(l20_0_0*((l20_0_1*l20_0_17) + (l20_0_18*l20_0_3)))) - (l20_0_7*((l20_0_17*l20_0_5) + (l20_0_18*l20_0_6))));
+    const S d_L_align__1__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_11)) - (d_L_mis__1__a_dtx*l20_0_20) - (d_L_mis__2__a_dtx*l20_0_22) - (d_L_wperp__0__a_dtx*l20_0_15) - (d_L_wperp__1__a_dtx*l20_0_23) - (d_L_wperp__2__a_dtx*l20_0_24));
+    const S d_L_align__1__a_dty = ((-(d_L_mis__0__a_dty*l20_0_11)) - (d_L_mis__1__a_dty*l20_0_20) - (d_L_mis__2__a_dty*l20_0_22) - (d_L_wperp__0__a_dty*l20_0_15) - (d_L_wperp__1__a_dty*l20_0_23) - (d_L_wperp__2__a_dty*l20_0_24));
+    const S d_L_align__1__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_11)) - (d_L_mis__1__a_dtz*l20_0_20) - (d_L_mis__2__a_dtz*l20_0_22) - (d_L_wperp__0__a_dtz*l20_0_15) - (d_L_wperp__1__a_dtz*l20_0_23) - (d_L_wperp__2__a_dtz*l20_0_24));
+    const S d_L_align__1__b_dtx = ((-(d_L_mis__0__b_dtx*l20_0_11)) - (d_L_mis__1__b_dtx*l20_0_20) - (d_L_mis__2__b_dtx*l20_0_22));
+    const S d_L_align__1__b_dty = ((-(d_L_mis__0__b_dty*l20_0_11)) - (d_L_mis__1__b_dty*l20_0_20) - (d_L_mis__2__b_dty*l20_0_22));
+    const S d_L_align__1__b_dtz = ((-(d_L_mis__0__b_dtz*l20_0_11)) - (d_L_mis__1__b_dtz*l20_0_20) - (d_L_mis__2__b_dtz*l20_0_22));
+    const S d_L_align__1__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_15)) - (d_L_wperp__1__a_wx*l20_0_23) - (d_L_wperp__2__a_wx*l20_0_24));
+    const S d_L_align__1__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_15)) - (d_L_wperp__1__a_wy*l20_0_23) - (d_L_wperp__2__a_wy*l20_0_24));
+    const S d_L_align__1__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_15)) - (d_L_wperp__1__a_wz*l20_0_23) - (d_L_wperp__2__a_wz*l20_0_24));
+    const S d_L_align__1__b_wx = ((-(d_L_wperp__0__b_wx*l20_0_15)) - (d_L_wperp__1__b_wx*l20_0_23) - (d_L_wperp__2__b_wx*l20_0_24));
+    const S d_L_align__1__b_wy = ((-(d_L_wperp__0__b_wy*l20_0_15)) - (d_L_wperp__1__b_wy*l20_0_23) - (d_L_wperp__2__b_wy*l20_0_24));
+    const S d_L_align__1__b_wz = ((-(d_L_wperp__0__b_wz*l20_0_15)) - (d_L_wperp__1__b_wz*l20_0_23) - (d_L_wperp__2__b_wz*l20_0_24));
+    const S L_align__2 = ((-(l20_0_0*((l20_0_1*l20_0_25) + (l20_0_26*l20_0_3)))) - (l20_0_7*((l20_0_25*l20_0_5) + (l20_0_26*l20_0_6))));
+    const S d_L_align__2__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_13)) - (d_L_mis__1__a_dtx*l20_0_22) - (d_L_mis__2__a_dtx*l20_0_28) - (d_L_wperp__0__a_dtx*l20_0_16) - (d_L_wperp__1__a_dtx*l20_0_24) - (d_L_wperp__2__a_dtx*l20_0_29));
+    const S d_L_align__2__a_dty = ((-(d_L_mis__0__a_dty*l20_0_13)) - (d_L_mis__1__a_dty*l20_0_22) - (d_L_mis__2__a_dty*l20_0_28) - (d_L_wperp__0__a_dty*l20_0_16) - (d_L_wperp__1__a_dty*l20_0_24) - (d_L_wperp__2__a_dty*l20_0_29));
+    const S d_L_align__2__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_13)) - (d_L_mis__1__a_dtz*l20_0_22) - (d_L_mis__2__a_dtz*l20_0_28) - (d_L_wperp__0__a_dtz*l20_0_16) - (d_L_wperp__1__a_dtz*l20_0_24) - (d_L_wperp__2__a_dtz*l20_0_29));
+    const S d_L_align__2__b_dtx = ((-(d_L_mis__0__b_dtx*l20_0_13)) - (d_L_mis__1__b_dtx*l20_0_22) - (d_L_mis__2__b_dtx*l20_0_28));
+    const S d_L_align__2__b_dty = ((-(d_L_mis__0__b_dty*l20_0_13)) - (d_L_mis__1__b_dty*l20_0_22) - (d_L_mis__2__b_dty*l20_0_28));
+    const S d_L_align__2__b_dtz = ((-(d_L_mis__0__b_dtz*l20_0_13)) - (d_L_mis__1__b_dtz*l20_0_22) - (d_L_mis__2__b_dtz*l20_0_28));
+    const S d_L_align__2__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_16)) - (d_L_wperp__1__a_wx*l20_0_24) - (d_L_wperp__2__a_wx*l20_0_29));
+    const S d_L_align__2__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_16)) - (d_L_wperp__1__a_wy*l20_0_24) - (d_L_wperp__2__a_wy*l20_0_29));
+    const S d_L_align__2__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_16)) - (d_L_wperp__1__a_wz*l20_0_24) - (d_L_wperp__2__a_wz*l20_0_29));
+    const S d_L_align__2__b_wx = ((-(d_L_wperp__0__b_wx*l20_0_16)) - (d_L_wperp__1__b_wx*l20_0_24) - (d_L_wperp__2__b_wx*l20_0_29));
+    const S d_L_align__2__b_wy = ((-(d_L_wperp__0__b_wy*l20_0_16)) - (d_L_wperp__1__b_wy*l20_0_24) - (d_L_wperp__2__b_wy*l20_0_29));
+    const S d_L_align__2__b_wz = ((-(d_L_wperp__0__b_wz*l20_0_16)) - (d_L_wperp__1__b_wz*l20_0_24) - (d_L_wperp__2__b_wz*l20_0_29));
+    // let ub (hinge.yaml:56)
     const S L_ub__0 = b_r7_0;
     const S d_L_ub__0__b_dtz = (-b_r7_1);
     const S L_ub__1 = b_r7_1;
     const S d_L_ub__1__b_dtx = (-b_r7_2);
     const S L_ub__2 = b_r7_2;
     const S d_L_ub__2__b_dty = (-b_r7_0);
-    // let angle (hinge.yaml:62)
-    const S l26_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
-    const S l26_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
-    const S l26_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
-    const S l26_0_3 = ((L_na__0*l26_0_0) + (L_na__1*l26_0_1) + (L_na__2*l26_0_2));
-    const S l26_0_4 = ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2));
-    const S l26_0_5 = (S(1)/(((l26_0_3*l26_0_3) + (l26_0_4*l26_0_4))));
-    const S l26_0_6 = (-(l26_0_3*l26_0_5));
-    const S l26_0_7 = (l26_0_4*l26_0_5);
-    const S l26_0_8 = ((L_ub__2*l26_0_6) + (l26_0_7*((-(L_na__0*L_ub__1)) + (L_na__1*L_ub__0))));
-    const S l26_0_9 = ((L_ub__1*l26_0_6) + (l26_0_7*((L_na__0*L_ub__2) - (L_na__2*L_ub__0))));
-    const S l26_0_10 = (l26_0_2*l26_0_7);
-    const S l26_0_11 = (l26_0_1*l26_0_7);
-    const S l26_0_12 = ((L_ub__0*l26_0_6) + (l26_0_7*((-(L_na__1*L_ub__2)) + (L_na__2*L_ub__1))));
-    const S l26_0_13 = (l26_0_0*l26_0_7);
-    const S l26_0_14 = ((L_ua__2*l26_0_6) + (l26_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l26_0_15 = ((L_ua__1*l26_0_6) + (l26_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l26_0_16 = ((L_ua__0*l26_0_6) + (l26_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S L_angle = angle_of(l26_0_3, l26_0_4);
-    const S d_L_angle__a_dtx = ((a_r2_1*l26_0_10) + (a_r4_1*l26_0_8) + (d_L_na__1__a_dtx*l26_0_11) + (d_L_ua__1__a_dtx*l26_0_9));
-    const S d_L_angle__a_dty = ((a_r2_2*l26_0_13) + (a_r4_2*l26_0_12) + (d_L_na__2__a_dty*l26_0_10) + (d_L_ua__2__a_dty*l26_0_8));
-    const S d_L_angle__a_dtz = ((a_r2_0*l26_0_11) + (a_r4_0*l26_0_9) + (d_L_na__0__a_dtz*l26_0_13) + (d_L_ua__0__a_dtz*l26_0_12));
-    const S d_L_angle__b_dtx = ((b_r7_1*l26_0_14) + (d_L_ub__1__b_dtx*l26_0_15));
-    const S d_L_angle__b_dty = ((b_r7_2*l26_0_16) + (d_L_ub__2__b_dty*l26_0_14));
-    const S d_L_angle__b_dtz = ((b_r7_0*l26_0_15) + (d_L_ub__0__b_dtz*l26_0_16));
-    // let limited (hinge.yaml:65)
+    // let angle (hinge.yaml:57)
+    const S l22_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
+    const S l22_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
+    const S l22_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
+    const S l22_0_3 = ((L_na__0*l22_0_0) + (L_na__1*l22_0_1) + (L_na__2*l22_0_2));
+    const S l22_0_4 = ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2));
+    const S l22_0_5 = (S(1)/(((l22_0_3*l22_0_3) + (l22_0_4*l22_0_4))));
+    const S l22_0_6 = (-(l22_0_3*l22_0_5));
+    const S l22_0_7 = (l22_0_4*l22_0_5);
+    const S l22_0_8 = ((L_ub__2*l22_0_6) + (l22_0_7*((-(L_na__0*L_ub__1)) + (L_na__1*L_ub__0))));
+    const S l22_0_9 = ((L_ub__1*l22_0_6) + (l22_0_7*((L_na__0*L_ub__2) - (L_na__2*L_ub__0))));
+    const S l22_0_10 = (l22_0_2*l22_0_7);
+    const S l22_0_11 = (l22_0_1*l22_0_7);
+    const S l22_0_12 = ((L_ub__0*l22_0_6) + (l22_0_7*((-(L_na__1*L_ub__2)) + (L_na__2*L_ub__1))));
+    const S l22_0_13 = (l22_0_0*l22_0_7);
+    const S l22_0_14 = ((L_ua__2*l22_0_6) + (l22_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l22_0_15 = ((L_ua__1*l22_0_6) + (l22_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l22_0_16 = ((L_ua__0*l22_0_6) + (l22_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S L_angle = angle_of(l22_0_3, l22_0_4);
+    const S d_L_angle__a_dtx = ((a_r2_1*l22_0_10) + (a_r4_1*l22_0_8) + (d_L_na__1__a_dtx*l22_0_11) + (d_L_ua__1__a_dtx*l22_0_9));
+    const S d_L_angle__a_dty = ((a_r2_2*l22_0_13) + (a_r4_2*l22_0_12) + (d_L_na__2__a_dty*l22_0_10) + (d_L_ua__2__a_dty*l22_0_8));
+    const S d_L_angle__a_dtz = ((a_r2_0*l22_0_11) + (a_r4_0*l22_0_9) + (d_L_na__0__a_dtz*l22_0_13) + (d_L_ua__0__a_dtz*l22_0_12));
+    const S d_L_angle__b_dtx = ((b_r7_1*l22_0_14) + (d_L_ub__1__b_dtx*l22_0_15));
+    const S d_L_angle__b_dty = ((b_r7_2*l22_0_16) + (d_L_ub__2__b_dty*l22_0_14));
+    const S d_L_angle__b_dtz = ((b_r7_0*l22_0_15) + (d_L_ub__0__b_dtz*l22_0_16));
+    // let limited (hinge.yaml:60)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:66)
+    // let over_hi (hinge.yaml:61)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:67)
+    // let over_lo (hinge.yaml:62)
     const S L_over_lo = ((-L_angle) + p_lower);
     const S d_L_over_lo__a_dtx = (-d_L_angle__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_angle__a_dty);
@@ -577,55 +573,55 @@ struct Hinge_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_angle__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_angle__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_angle__b_dtz);
-    // let stop_hi (hinge.yaml:68)
-    const S l30_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
-    const auto l30_0_1 = (l30_0_0 > S(0));
-    const auto l30_0_2 = (L_over_hi > S(0));
-    const auto l30_0_3 = ((L_over_hi + (L_rate*h)) > S(0));
-    const S l30_0_4 = select(l30_0_2, select(l30_0_1, L_kr, S(0)), select(l30_0_3, L_kr, S(0)));
-    const S l30_0_5 = select(l30_0_2, select(l30_0_1, L_cr, S(0)), select(l30_0_3, L_cr, S(0)));
-    const S L_stop_hi = select(l30_0_2, select(l30_0_1, l30_0_0, S(0)), select(l30_0_3, l30_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_angle__a_dtx*l30_0_4) + (d_L_rate__a_dtx*l30_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_angle__a_dty*l30_0_4) + (d_L_rate__a_dty*l30_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_angle__a_dtz*l30_0_4) + (d_L_rate__a_dtz*l30_0_5));
-    const S d_L_stop_hi__b_dtx = (d_L_angle__b_dtx*l30_0_4);
-    const S d_L_stop_hi__b_dty = (d_L_angle__b_dty*l30_0_4);
-    const S d_L_stop_hi__b_dtz = (d_L_angle__b_dtz*l30_0_4);
-    const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l30_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l30_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l30_0_5);
-    const S d_L_stop_hi__b_wx = (L_na__0*l30_0_5);
-    const S d_L_stop_hi__b_wy = (L_na__1*l30_0_5);
-    const S d_L_stop_hi__b_wz = (L_na__2*l30_0_5);
-    // let stop_lo (hinge.yaml:69)
-    const S l31_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
-    const S l31_0_1 = (-l31_0_0);
-    const auto l31_0_2 = (l31_0_0 < S(0));
-    const auto l31_0_3 = (L_over_lo > S(0));
-    const auto l31_0_4 = ((L_over_lo - (L_rate*h)) > S(0));
-    const S l31_0_5 = select(l31_0_3, select(l31_0_2, L_kr, S(0)), select(l31_0_4, L_kr, S(0)));
-    const S l31_0_6 = (-L_cr);
-    const S l31_0_7 = select(l31_0_3, select(l31_0_2, l31_0_6, S(0)), select(l31_0_4, l31_0_6, S(0)));
-    const S L_stop_lo = select(l31_0_3, select(l31_0_2, l31_0_1, S(0)), select(l31_0_4, l31_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l31_0_5) + (d_L_rate__a_dtx*l31_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l31_0_5) + (d_L_rate__a_dty*l31_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l31_0_5) + (d_L_rate__a_dtz*l31_0_7));
-    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l31_0_5);
-    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l31_0_5);
-    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l31_0_5);
-    const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l31_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l31_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l31_0_7);
-    const S d_L_stop_lo__b_wx = (L_na__0*l31_0_7);
-    const S d_L_stop_lo__b_wy = (L_na__1*l31_0_7);
-    const S d_L_stop_lo__b_wz = (L_na__2*l31_0_7);
-    // let ia (hinge.yaml:73)
+    // let stop_hi (hinge.yaml:63)
+    const S l26_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
+    const auto l26_0_1 = (l26_0_0 > S(0));
+    const auto l26_0_2 = (L_over_hi > S(0));
+    const auto l26_0_3 = ((L_over_hi + (L_rate*h)) > S(0));
+    const S l26_0_4 = select(l26_0_2, select(l26_0_1, L_kr, S(0)), select(l26_0_3, L_kr, S(0)));
+    const S l26_0_5 = select(l26_0_2, select(l26_0_1, L_cr, S(0)), select(l26_0_3, L_cr, S(0)));
+    const S L_stop_hi = select(l26_0_2, select(l26_0_1, l26_0_0, S(0)), select(l26_0_3, l26_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_angle__a_dtx*l26_0_4) + (d_L_rate__a_dtx*l26_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_angle__a_dty*l26_0_4) + (d_L_rate__a_dty*l26_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_angle__a_dtz*l26_0_4) + (d_L_rate__a_dtz*l26_0_5));
+    const S d_L_stop_hi__b_dtx = (d_L_angle__b_dtx*l26_0_4);
+    const S d_L_stop_hi__b_dty = (d_L_angle__b_dty*l26_0_4);
+    const S d_L_stop_hi__b_dtz = (d_L_angle__b_dtz*l26_0_4);
+    const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l26_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l26_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l26_0_5);
+    const S d_L_stop_hi__b_wx = (L_na__0*l26_0_5);
+    const S d_L_stop_hi__b_wy = (L_na__1*l26_0_5);
+    const S d_L_stop_hi__b_wz = (L_na__2*l26_0_5);
+    // let stop_lo (hinge.yaml:64)
+    const S l27_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
+    const S l27_0_1 = (-l27_0_0);
+    const auto l27_0_2 = (l27_0_0 < S(0));
+    const auto l27_0_3 = (L_over_lo > S(0));
+    const auto l27_0_4 = ((L_over_lo - (L_rate*h)) > S(0));
+    const S l27_0_5 = select(l27_0_3, select(l27_0_2, L_kr, S(0)), select(l27_0_4, L_kr, S(0)));
+    const S l27_0_6 = (-L_cr);
+    const S l27_0_7 = select(l27_0_3, select(l27_0_2, l27_0_6, S(0)), select(l27_0_4, l27_0_6, S(0)));
+    const S L_stop_lo = select(l27_0_3, select(l27_0_2, l27_0_1, S(0)), select(l27_0_4, l27_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l27_0_5) + (d_L_rate__a_dtx*l27_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l27_0_5) + (d_L_rate__a_dty*l27_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l27_0_5) + (d_L_rate__a_dtz*l27_0_7));
+    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l27_0_5);
+    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l27_0_5);
+    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l27_0_5);
+    const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l27_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l27_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l27_0_7);
+    const S d_L_stop_lo__b_wx = (L_na__0*l27_0_7);
+    const S d_L_stop_lo__b_wy = (L_na__1*l27_0_7);
+    const S d_L_stop_lo__b_wz = (L_na__2*l27_0_7);
+    // let ia (hinge.yaml:68)
     [[maybe_unused]] const S L_ia = ((L_na__0*((L_na__0*a_Iw5_00) + (L_na__1*a_Iw5_01) + (L_na__2*a_Iw5_02))) + (L_na__1*((L_na__0*a_Iw5_01) + (L_na__1*a_Iw5_11) + (L_na__2*a_Iw5_12))) + (L_na__2*((L_na__0*a_Iw5_02) + (L_na__1*a_Iw5_12) + (L_na__2*a_Iw5_22))));
-    // let ib (hinge.yaml:74)
+    // let ib (hinge.yaml:69)
     [[maybe_unused]] const S L_ib = ((L_na__0*((L_na__0*b_Iw6_00) + (L_na__1*b_Iw6_01) + (L_na__2*b_Iw6_02))) + (L_na__1*((L_na__0*b_Iw6_01) + (L_na__1*b_Iw6_11) + (L_na__2*b_Iw6_12))) + (L_na__2*((L_na__0*b_Iw6_02) + (L_na__1*b_Iw6_12) + (L_na__2*b_Iw6_22))));
-    // let iz (hinge.yaml:75)
+    // let iz (hinge.yaml:70)
     [[maybe_unused]] const S L_iz = select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia);
-    // let err (hinge.yaml:76)
+    // let err (hinge.yaml:71)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -636,25 +632,25 @@ struct Hinge_Pair_Kernel {
     const S d_L_err__b_wx = (-L_na__0);
     const S d_L_err__b_wy = (-L_na__1);
     const S d_L_err__b_wz = (-L_na__2);
-    // let fast (hinge.yaml:77)
+    // let fast (hinge.yaml:72)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0));
-    // let sgn (hinge.yaml:78)
+    // let sgn (hinge.yaml:73)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (hinge.yaml:79)
-    const S l38_0_0 = (L_iz*L_omega*(S(1) - L_fast));
-    const auto l38_0_1 = (p_motor_torque > S(0));
-    const S l38_0_2 = select(l38_0_1, l38_0_0, S(0));
-    const S L_motor = select(l38_0_1, ((L_err*l38_0_0) + (L_fast*L_sgn*p_motor_torque)), S(0));
-    const S d_L_motor__a_dtx = (d_L_err__a_dtx*l38_0_2);
-    const S d_L_motor__a_dty = (d_L_err__a_dty*l38_0_2);
-    const S d_L_motor__a_dtz = (d_L_err__a_dtz*l38_0_2);
-    const S d_L_motor__a_wx = (d_L_err__a_wx*l38_0_2);
-    const S d_L_motor__a_wy = (d_L_err__a_wy*l38_0_2);
-    const S d_L_motor__a_wz = (d_L_err__a_wz*l38_0_2);
-    const S d_L_motor__b_wx = (d_L_err__b_wx*l38_0_2);
-    const S d_L_motor__b_wy = (d_L_err__b_wy*l38_0_2);
-    const S d_L_motor__b_wz = (d_L_err__b_wz*l38_0_2);
-    // let spring (hinge.yaml:80)
+    // let motor (hinge.yaml:74)
+    const S l34_0_0 = (L_iz*L_omega*(S(1) - L_fast));
+    const auto l34_0_1 = (p_motor_torque > S(0));
+    const S l34_0_2 = select(l34_0_1, l34_0_0, S(0));
+    const S L_motor = select(l34_0_1, ((L_err*l34_0_0) + (L_fast*L_sgn*p_motor_torque)), S(0));
+    const S d_L_motor__a_dtx = (d_L_err__a_dtx*l34_0_2);
+    const S d_L_motor__a_dty = (d_L_err__a_dty*l34_0_2);
+    const S d_L_motor__a_dtz = (d_L_err__a_dtz*l34_0_2);
+    const S d_L_motor__a_wx = (d_L_err__a_wx*l34_0_2);
+    const S d_L_motor__a_wy = (d_L_err__a_wy*l34_0_2);
+    const S d_L_motor__a_wz = (d_L_err__a_wz*l34_0_2);
+    const S d_L_motor__b_wx = (d_L_err__b_wx*l34_0_2);
+    const S d_L_motor__b_wy = (d_L_err__b_wy*l34_0_2);
+    const S d_L_motor__b_wz = (d_L_err__b_wz*l34_0_2);
+    // let spring (hinge.yaml:75)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
     const S d_L_spring__a_dtx = ((-(d_L_angle__a_dtx*p_spring_stiffness)) - (d_L_rate__a_dtx*p_spring_damping));
     const S d_L_spring__a_dty = ((-(d_L_angle__a_dty*p_spring_stiffness)) - (d_L_rate__a_dty*p_spring_damping));
@@ -668,63 +664,63 @@ struct Hinge_Pair_Kernel {
     const S d_L_spring__b_wx = (-(L_na__0*p_spring_damping));
     const S d_L_spring__b_wy = (-(L_na__1*p_spring_damping));
     const S d_L_spring__b_wz = (-(L_na__2*p_spring_damping));
-    // let tau (hinge.yaml:81)
-    const S l40_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
-    const S l40_0_1 = (L_limited*L_na__0);
-    const S l40_0_2 = (L_limited*L_na__1);
-    const S l40_0_3 = (L_limited*L_na__2);
-    const S L_tau__0 = (L_align__0 + (L_na__0*l40_0_0));
-    const S d_L_tau__0__a_dtx = ((L_na__0*d_L_motor__a_dtx) + (L_na__0*d_L_spring__a_dtx) + d_L_align__0__a_dtx - (d_L_stop_hi__a_dtx*l40_0_1) + (d_L_stop_lo__a_dtx*l40_0_1));
-    const S d_L_tau__0__a_dty = ((L_na__0*d_L_motor__a_dty) + (L_na__0*d_L_spring__a_dty) + (a_r2_2*l40_0_0) + d_L_align__0__a_dty - (d_L_stop_hi__a_dty*l40_0_1) + (d_L_stop_lo__a_dty*l40_0_1));
-    const S d_L_tau__0__a_dtz = ((L_na__0*d_L_motor__a_dtz) + (L_na__0*d_L_spring__a_dtz) + d_L_align__0__a_dtz + (d_L_na__0__a_dtz*l40_0_0) - (d_L_stop_hi__a_dtz*l40_0_1) + (d_L_stop_lo__a_dtz*l40_0_1));
-    const S d_L_tau__0__b_dtx = ((L_na__0*d_L_spring__b_dtx) + d_L_align__0__b_dtx - (d_L_stop_hi__b_dtx*l40_0_1) + (d_L_stop_lo__b_dtx*l40_0_1));
-    const S d_L_tau__0__b_dty = ((L_na__0*d_L_spring__b_dty) + d_L_align__0__b_dty - (d_L_stop_hi__b_dty*l40_0_1) + (d_L_stop_lo__b_dty*l40_0_1));
-    const S d_L_tau__0__b_dtz = ((L_na__0*d_L_spring__b_dtz) + d_L_align__0__b_dtz - (d_L_stop_hi__b_dtz*l40_0_1) + (d_L_stop_lo__b_dtz*l40_0_1));
-    const S d_L_tau__0__a_wx = ((L_na__0*d_L_motor__a_wx) + (L_na__0*d_L_spring__a_wx) + d_L_align__0__a_wx - (d_L_stop_hi__a_wx*l40_0_1) + (d_L_stop_lo__a_wx*l40_0_1));
-    const S d_L_tau__0__a_wy = ((L_na__0*d_L_motor__a_wy) + (L_na__0*d_L_spring__a_wy) + d_L_align__0__a_wy - (d_L_stop_hi__a_wy*l40_0_1) + (d_L_stop_lo__a_wy*l40_0_1));
-    const S d_L_tau__0__a_wz = ((L_na__0*d_L_motor__a_wz) + (L_na__0*d_L_spring__a_wz) + d_L_align__0__a_wz - (d_L_stop_hi__a_wz*l40_0_1) + (d_L_stop_lo__a_wz*l40_0_1));
-    const S d_L_tau__0__b_wx = ((L_na__0*d_L_motor__b_wx) + (L_na__0*d_L_spring__b_wx) + d_L_align__0__b_wx - (d_L_stop_hi__b_wx*l40_0_1) + (d_L_stop_lo__b_wx*l40_0_1));
-    const S d_L_tau__0__b_wy = ((L_na__0*d_L_motor__b_wy) + (L_na__0*d_L_spring__b_wy) + d_L_align__0__b_wy - (d_L_stop_hi__b_wy*l40_0_1) + (d_L_stop_lo__b_wy*l40_0_1));
-    const S d_L_tau__0__b_wz = ((L_na__0*d_L_motor__b_wz) + (L_na__0*d_L_spring__b_wz) + d_L_align__0__b_wz - (d_L_stop_hi__b_wz*l40_0_1) + (d_L_stop_lo__b_wz*l40_0_1));
-    const S L_tau__1 = (L_align__1 + (L_na__1*l40_0_0));
-    const S d_L_tau__1__a_dtx = ((L_na__1*d_L_motor__a_dtx) + (L_na__1*d_L_spring__a_dtx) + d_L_align__1__a_dtx + (d_L_na__1__a_dtx*l40_0_0) - (d_L_stop_hi__a_dtx*l40_0_2) + (d_L_stop_lo__a_dtx*l40_0_2));
-    const S d_L_tau__1__a_dty = ((L_na__1*d_L_motor__a_dty) + (L_na__1*d_L_spring__a_dty) + d_L_align__1__a_dty - (d_L_stop_hi__a_dty*l40_0_2) + (d_L_stop_lo__a_dty*l40_0_2));
-    const S d_L_tau__1__a_dtz = ((L_na__1*d_L_motor__a_dtz) + (L_na__1*d_L_spring__a_dtz) + (a_r2_0*l40_0_0) + d_L_align__1__a_dtz - (d_L_stop_hi__a_dtz*l40_0_2) + (d_L_stop_lo__a_dtz*l40_0_2));
-    const S d_L_tau__1__b_dtx = ((L_na__1*d_L_spring__b_dtx) + d_L_align__1__b_dtx - (d_L_stop_hi__b_dtx*l40_0_2) + (d_L_stop_lo__b_dtx*l40_0_2));
-    const S d_L_tau__1__b_dty = ((L_na__1*d_L_spring__b_dty) + d_L_align__1__b_dty - (d_L_stop_hi__b_dty*l40_0_2) + (d_L_stop_lo__b_dty*l40_0_2));
-    const S d_L_tau__1__b_dtz = ((L_na__1*d_L_spring__b_dtz) + d_L_align__1__b_dtz - (d_L_stop_hi__b_dtz*l40_0_2) + (d_L_stop_lo__b_dtz*l40_0_2));
-    const S d_L_tau__1__a_wx = ((L_na__1*d_L_motor__a_wx) + (L_na__1*d_L_spring__a_wx) + d_L_align__1__a_wx - (d_L_stop_hi__a_wx*l40_0_2) + (d_L_stop_lo__a_wx*l40_0_2));
-    const S d_L_tau__1__a_wy = ((L_na__1*d_L_motor__a_wy) + (L_na__1*d_L_spring__a_wy) + d_L_align__1__a_wy - (d_L_stop_hi__a_wy*l40_0_2) + (d_L_stop_lo__a_wy*l40_0_2));
-    const S d_L_tau__1__a_wz = ((L_na__1*d_L_motor__a_wz) + (L_na__1*d_L_spring__a_wz) + d_L_align__1__a_wz - (d_L_stop_hi__a_wz*l40_0_2) + (d_L_stop_lo__a_wz*l40_0_2));
-    const S d_L_tau__1__b_wx = ((L_na__1*d_L_motor__b_wx) + (L_na__1*d_L_spring__b_wx) + d_L_align__1__b_wx - (d_L_stop_hi__b_wx*l40_0_2) + (d_L_stop_lo__b_wx*l40_0_2));
-    const S d_L_tau__1__b_wy = ((L_na__1*d_L_motor__b_wy) + (L_na__1*d_L_spring__b_wy) + d_L_align__1__b_wy - (d_L_stop_hi__b_wy*l40_0_2) + (d_L_stop_lo__b_wy*l40_0_2));
-    const S d_L_tau__1__b_wz = ((L_na__1*d_L_motor__b_wz) + (L_na__1*d_L_spring__b_wz) + d_L_align__1__b_wz - (d_L_stop_hi__b_wz*l40_0_2) + (d_L_stop_lo__b_wz*l40_0_2));
-    const S L_tau__2 = (L_align__2 + (L_na__2*l40_0_0));
-    const S d_L_tau__2__a_dtx = ((L_na__2*d_L_motor__a_dtx) + (L_na__2*d_L_spring__a_dtx) + (a_r2_1*l40_0_0) + d_L_align__2__a_dtx - (d_L_stop_hi__a_dtx*l40_0_3) + (d_L_stop_lo__a_dtx*l40_0_3));
-    const S d_L_tau__2__a_dty = ((L_na__2*d_L_motor__a_dty) + (L_na__2*d_L_spring__a_dty) + d_L_align__2__a_dty + (d_L_na__2__a_dty*l40_0_0) - (d_L_stop_hi__a_dty*l40_0_3) + (d_L_stop_lo__a_dty*l40_0_3));
-    const S d_L_tau__2__a_dtz = ((L_na__2*d_L_motor__a_dtz) + (L_na__2*d_L_spring__a_dtz) + d_L_align__2__a_dtz - (d_L_stop_hi__a_dtz*l40_0_3) + (d_L_stop_lo__a_dtz*l40_0_3));
-    const S d_L_tau__2__b_dtx = ((L_na__2*d_L_spring__b_dtx) + d_L_align__2__b_dtx - (d_L_stop_hi__b_dtx*l40_0_3) + (d_L_stop_lo__b_dtx*l40_0_3));
-    const S d_L_tau__2__b_dty = ((L_na__2*d_L_spring__b_dty) + d_L_align__2__b_dty - (d_L_stop_hi__b_dty*l40_0_3) + (d_L_stop_lo__b_dty*l40_0_3));
-    const S d_L_tau__2__b_dtz = ((L_na__2*d_L_spring__b_dtz) + d_L_align__2__b_dtz - (d_L_stop_hi__b_dtz*l40_0_3) + (d_L_stop_lo__b_dtz*l40_0_3));
-    const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l40_0_3) + (d_L_stop_lo__a_wx*l40_0_3));
-    const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l40_0_3) + (d_L_stop_lo__a_wy*l40_0_3));
-    const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l40_0_3) + (d_L_stop_lo__a_wz*l40_0_3));
-    const S d_L_tau__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_align__2__b_wx - (d_L_stop_hi__b_wx*l40_0_3) + (d_L_stop_lo__b_wx*l40_0_3));
-    const S d_L_tau__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_align__2__b_wy - (d_L_stop_hi__b_wy*l40_0_3) + (d_L_stop_lo__b_wy*l40_0_3));
-    const S d_L_tau__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_align__2__b_wz - (d_L_stop_hi__b_wz*l40_0_3) + (d_L_stop_lo__b_wz*l40_0_3));
-    // apply[0] (hinge.yaml:83)
+    // let tau (hinge.yaml:76)
+    const S l36_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
+    const S l36_0_1 = (L_limited*L_na__0);
+    const S l36_0_2 = (L_limited*L_na__1);
+    const S l36_0_3 = (L_limited*L_na__2);
+    const S L_tau__0 = (L_align__0 + (L_na__0*l36_0_0));
+    const S d_L_tau__0__a_dtx = ((L_na__0*d_L_motor__a_dtx) + (L_na__0*d_L_spring__a_dtx) + d_L_align__0__a_dtx - (d_L_stop_hi__a_dtx*l36_0_1) + (d_L_stop_lo__a_dtx*l36_0_1));
+    const S d_L_tau__0__a_dty = ((L_na__0*d_L_motor__a_dty) + (L_na__0*d_L_spring__a_dty) + (a_r2_2*l36_0_0) + d_L_align__0__a_dty - (d_L_stop_hi__a_dty*l36_0_1) + (d_L_stop_lo__a_dty*l36_0_1));
+    const S d_L_tau__0__a_dtz = ((L_na__0*d_L_motor__a_dtz) + (L_na__0*d_L_spring__a_dtz) + d_L_align__0__a_dtz + (d_L_na__0__a_dtz*l36_0_0) - (d_L_stop_hi__a_dtz*l36_0_1) + (d_L_stop_lo__a_dtz*l36_0_1));
+    const S d_L_tau__0__b_dtx = ((L_na__0*d_L_spring__b_dtx) + d_L_align__0__b_dtx - (d_L_stop_hi__b_dtx*l36_0_1) + (d_L_stop_lo__b_dtx*l36_0_1));
+    const S d_L_tau__0__b_dty = ((L_na__0*d_L_spring__b_dty) + d_L_align__0__b_dty - (d_L_stop_hi__b_dty*l36_0_1) + (d_L_stop_lo__b_dty*l36_0_1));
+    const S d_L_tau__0__b_dtz = ((L_na__0*d_L_spring__b_dtz) + d_L_align__0__b_dtz - (d_L_stop_hi__b_dtz*l36_0_1) + (d_L_stop_lo__b_dtz*l36_0_1));
+    const S d_L_tau__0__a_wx = ((L_na__0*d_L_motor__a_wx) + (L_na__0*d_L_spring__a_wx) + d_L_align__0__a_wx - (d_L_stop_hi__a_wx*l36_0_1) + (d_L_stop_lo__a_wx*l36_0_1));
+    const S d_L_tau__0__a_wy = ((L_na__0*d_L_motor__a_wy) + (L_na__0*d_L_spring__a_wy) + d_L_align__0__a_wy - (d_L_stop_hi__a_wy*l36_0_1) + (d_L_stop_lo__a_wy*l36_0_1));
+    const S d_L_tau__0__a_wz = ((L_na__0*d_L_motor__a_wz) + (L_na__0*d_L_spring__a_wz) + d_L_align__0__a_wz - (d_L_stop_hi__a_wz*l36_0_1) + (d_L_stop_lo__a_wz*l36_0_1));
+    const S d_L_tau__0__b_wx = ((L_na__0*d_L_motor__b_wx) + (L_na__0*d_L_spring__b_wx) + d_L_align__0__b_wx - (d_L_stop_hi__b_wx*l36_0_1) + (d_L_stop_lo__b_wx*l36_0_1));
+    const S d_L_tau__0__b_wy = ((L_na__0*d_L_motor__b_wy) + (L_na__0*d_L_spring__b_wy) + d_L_align__0__b_wy - (d_L_stop_hi__b_wy*l36_0_1) + (d_L_stop_lo__b_wy*l36_0_1));
+    const S d_L_tau__0__b_wz = ((L_na__0*d_L_motor__b_wz) + (L_na__0*d_L_spring__b_wz) + d_L_align__0__b_wz - (d_L_stop_hi__b_wz*l36_0_1) + (d_L_stop_lo__b_wz*l36_0_1));
+    const S L_tau__1 = (L_align__1 + (L_na__1*l36_0_0));
+    const S d_L_tau__1__a_dtx = ((L_na__1*d_L_motor__a_dtx) + (L_na__1*d_L_spring__a_dtx) + d_L_align__1__a_dtx + (d_L_na__1__a_dtx*l36_0_0) - (d_L_stop_hi__a_dtx*l36_0_2) + (d_L_stop_lo__a_dtx*l36_0_2));
+    const S d_L_tau__1__a_dty = ((L_na__1*d_L_motor__a_dty) + (L_na__1*d_L_spring__a_dty) + d_L_align__1__a_dty - (d_L_stop_hi__a_dty*l36_0_2) + (d_L_stop_lo__a_dty*l36_0_2));
+    const S d_L_tau__1__a_dtz = ((L_na__1*d_L_motor__a_dtz) + (L_na__1*d_L_spring__a_dtz) + (a_r2_0*l36_0_0) + d_L_align__1__a_dtz - (d_L_stop_hi__a_dtz*l36_0_2) + (d_L_stop_lo__a_dtz*l36_0_2));
+    const S d_L_tau__1__b_dtx = ((L_na__1*d_L_spring__b_dtx) + d_L_align__1__b_dtx - (d_L_stop_hi__b_dtx*l36_0_2) + (d_L_stop_lo__b_dtx*l36_0_2));
+    const S d_L_tau__1__b_dty = ((L_na__1*d_L_spring__b_dty) + d_L_align__1__b_dty - (d_L_stop_hi__b_dty*l36_0_2) + (d_L_stop_lo__b_dty*l36_0_2));
+    const S d_L_tau__1__b_dtz = ((L_na__1*d_L_spring__b_dtz) + d_L_align__1__b_dtz - (d_L_stop_hi__b_dtz*l36_0_2) + (d_L_stop_lo__b_dtz*l36_0_2));
+    const S d_L_tau__1__a_wx = ((L_na__1*d_L_motor__a_wx) + (L_na__1*d_L_spring__a_wx) + d_L_align__1__a_wx - (d_L_stop_hi__a_wx*l36_0_2) + (d_L_stop_lo__a_wx*l36_0_2));
+    const S d_L_tau__1__a_wy = ((L_na__1*d_L_motor__a_wy) + (L_na__1*d_L_spring__a_wy) + d_L_align__1__a_wy - (d_L_stop_hi__a_wy*l36_0_2) + (d_L_stop_lo__a_wy*l36_0_2));
+    const S d_L_tau__1__a_wz = ((L_na__1*d_L_motor__a_wz) + (L_na__1*d_L_spring__a_wz) + d_L_align__1__a_wz - (d_L_stop_hi__a_wz*l36_0_2) + (d_L_stop_lo__a_wz*l36_0_2));
+    const S d_L_tau__1__b_wx = ((L_na__1*d_L_motor__b_wx) + (L_na__1*d_L_spring__b_wx) + d_L_align__1__b_wx - (d_L_stop_hi__b_wx*l36_0_2) + (d_L_stop_lo__b_wx*l36_0_2));
+    const S d_L_tau__1__b_wy = ((L_na__1*d_L_motor__b_wy) + (L_na__1*d_L_spring__b_wy) + d_L_align__1__b_wy - (d_L_stop_hi__b_wy*l36_0_2) + (d_L_stop_lo__b_wy*l36_0_2));
+    const S d_L_tau__1__b_wz = ((L_na__1*d_L_motor__b_wz) + (L_na__1*d_L_spring__b_wz) + d_L_align__1__b_wz - (d_L_stop_hi__b_wz*l36_0_2) + (d_L_stop_lo__b_wz*l36_0_2));
+    const S L_tau__2 = (L_align__2 + (L_na__2*l36_0_0));
+    const S d_L_tau__2__a_dtx = ((L_na__2*d_L_motor__a_dtx) + (L_na__2*d_L_spring__a_dtx) + (a_r2_1*l36_0_0) + d_L_align__2__a_dtx - (d_L_stop_hi__a_dtx*l36_0_3) + (d_L_stop_lo__a_dtx*l36_0_3));
+    const S d_L_tau__2__a_dty = ((L_na__2*d_L_motor__a_dty) + (L_na__2*d_L_spring__a_dty) + d_L_align__2__a_dty + (d_L_na__2__a_dty*l36_0_0) - (d_L_stop_hi__a_dty*l36_0_3) + (d_L_stop_lo__a_dty*l36_0_3));
+    const S d_L_tau__2__a_dtz = ((L_na__2*d_L_motor__a_dtz) + (L_na__2*d_L_spring__a_dtz) + d_L_align__2__a_dtz - (d_L_stop_hi__a_dtz*l36_0_3) + (d_L_stop_lo__a_dtz*l36_0_3));
+    const S d_L_tau__2__b_dtx = ((L_na__2*d_L_spring__b_dtx) + d_L_align__2__b_dtx - (d_L_stop_hi__b_dtx*l36_0_3) + (d_L_stop_lo__b_dtx*l36_0_3));
+    const S d_L_tau__2__b_dty = ((L_na__2*d_L_spring__b_dty) + d_L_align__2__b_dty - (d_L_stop_hi__b_dty*l36_0_3) + (d_L_stop_lo__b_dty*l36_0_3));
+    const S d_L_tau__2__b_dtz = ((L_na__2*d_L_spring__b_dtz) + d_L_align__2__b_dtz - (d_L_stop_hi__b_dtz*l36_0_3) + (d_L_stop_lo__b_dtz*l36_0_3));
+    const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l36_0_3) + (d_L_stop_lo__a_wx*l36_0_3));
+    const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l36_0_3) + (d_L_stop_lo__a_wy*l36_0_3));
+    const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l36_0_3) + (d_L_stop_lo__a_wz*l36_0_3));
+    const S d_L_tau__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_align__2__b_wx - (d_L_stop_hi__b_wx*l36_0_3) + (d_L_stop_lo__b_wx*l36_0_3));
+    const S d_L_tau__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_align__2__b_wy - (d_L_stop_hi__b_wy*l36_0_3) + (d_L_stop_lo__b_wy*l36_0_3));
+    const S d_L_tau__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_align__2__b_wz - (d_L_stop_hi__b_wz*l36_0_3) + (d_L_stop_lo__b_wz*l36_0_3));
+    // apply[0] (hinge.yaml:78)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l42_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (hinge.yaml:84)
+    const S l38_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply[1] (hinge.yaml:79)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
-    const S l44_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l44_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l44_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l44_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (hinge.yaml:82), shared subexpressions
+    const S l40_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
+    // apply (hinge.yaml:77), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -747,21 +743,21 @@ struct Hinge_Pair_Kernel {
     const S o19 = (T3_turn*d_L_pb__2__b_dty);
     const S o20 = (T3_turn*b_r1_2);
     const S o21 = (L_f__2*T3_turn);
-    // F_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // F_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // F_b from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
     out[9] = ((L_f__1*o3) - (L_f__2*o4) + L_tau__0);
     out[10] = ((-(L_f__0*o3)) + (L_f__2*o5) + L_tau__1);
     out[11] = ((L_f__0*o4) - (L_f__1*o5) + L_tau__2);
-    // dF_a/ddelta_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // dF_a/ddelta_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[12] = d_L_f__0__a_dx;
     out[13] = S(0);
     out[14] = S(0);
@@ -798,7 +794,7 @@ struct Hinge_Pair_Kernel {
     out[45] = ((a_r0_0*o13) + (d_L_f__1__a_dtz*o7) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[46] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o8) - (d_L_pa__0__a_dtz*o13) - d_L_tau__1__a_dtz);
     out[47] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o6) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/ddelta_b from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // dF_a/ddelta_b from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[48] = d_L_f__0__b_dx;
     out[49] = S(0);
     out[50] = S(0);
@@ -835,7 +831,7 @@ struct Hinge_Pair_Kernel {
     out[81] = ((d_L_f__1__b_dtz*o7) + (d_L_f__2__b_dtz*o1) - d_L_tau__0__b_dtz);
     out[82] = ((d_L_f__0__b_dtz*o0) + (d_L_f__2__b_dtz*o8) - d_L_tau__1__b_dtz);
     out[83] = ((d_L_f__0__b_dtz*o6) + (d_L_f__1__b_dtz*o2) - d_L_tau__2__b_dtz);
-    // dF_a/du_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // dF_a/du_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[84] = d_L_f__0__a_vx;
     out[85] = S(0);
     out[86] = S(0);
@@ -872,7 +868,7 @@ struct Hinge_Pair_Kernel {
     out[117] = ((d_L_f__1__a_wz*o7) - d_L_tau__0__a_wz);
     out[118] = ((d_L_f__0__a_wz*o0) - d_L_tau__1__a_wz);
     out[119] = ((d_L_f__0__a_wz*o6) + (d_L_f__1__a_wz*o2) - d_L_tau__2__a_wz);
-    // dF_a/du_b from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // dF_a/du_b from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[120] = d_L_f__0__b_vx;
     out[121] = S(0);
     out[122] = S(0);
@@ -909,7 +905,7 @@ struct Hinge_Pair_Kernel {
     out[153] = ((d_L_f__1__b_wz*o7) - d_L_tau__0__b_wz);
     out[154] = ((d_L_f__0__b_wz*o0) - d_L_tau__1__b_wz);
     out[155] = ((d_L_f__0__b_wz*o6) + (d_L_f__1__b_wz*o2) - d_L_tau__2__b_wz);
-    // dF_b/ddelta_a from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // dF_b/ddelta_a from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[156] = (-d_L_f__0__a_dx);
     out[157] = S(0);
     out[158] = S(0);
@@ -946,7 +942,7 @@ struct Hinge_Pair_Kernel {
     out[189] = ((d_L_f__1__a_dtz*o3) + (d_L_f__2__a_dtz*o16) + d_L_tau__0__a_dtz);
     out[190] = ((d_L_f__0__a_dtz*o14) + (d_L_f__2__a_dtz*o5) + d_L_tau__1__a_dtz);
     out[191] = ((d_L_f__0__a_dtz*o4) + (d_L_f__1__a_dtz*o15) + d_L_tau__2__a_dtz);
-    // dF_b/ddelta_b from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // dF_b/ddelta_b from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[192] = (-d_L_f__0__b_dx);
     out[193] = S(0);
     out[194] = S(0);
@@ -983,7 +979,7 @@ struct Hinge_Pair_Kernel {
     out[225] = ((-(b_r1_0*o21)) + (d_L_f__1__b_dtz*o3) + (d_L_f__2__b_dtz*o16) + d_L_tau__0__b_dtz);
     out[226] = ((d_L_f__0__b_dtz*o14) + (d_L_f__2__b_dtz*o5) + (d_L_pb__0__b_dtz*o21) + d_L_tau__1__b_dtz);
     out[227] = ((L_f__0*T3_turn*b_r1_0) - (L_f__1*T3_turn*d_L_pb__0__b_dtz) + (d_L_f__0__b_dtz*o4) + (d_L_f__1__b_dtz*o15) + d_L_tau__2__b_dtz);
-    // dF_b/du_a from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // dF_b/du_a from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[228] = (-d_L_f__0__a_vx);
     out[229] = S(0);
     out[230] = S(0);
@@ -1020,7 +1016,7 @@ struct Hinge_Pair_Kernel {
     out[261] = ((d_L_f__1__a_wz*o3) + d_L_tau__0__a_wz);
     out[262] = ((d_L_f__0__a_wz*o14) + d_L_tau__1__a_wz);
     out[263] = ((d_L_f__0__a_wz*o4) + (d_L_f__1__a_wz*o15) + d_L_tau__2__a_wz);
-    // dF_b/du_b from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // dF_b/du_b from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[264] = (-d_L_f__0__b_vx);
     out[265] = S(0);
     out[266] = S(0);
@@ -1143,7 +1139,7 @@ struct Hinge_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[66];
     [[maybe_unused]] const S g_joint_hertz = in[67];
     [[maybe_unused]] const S g_joint_damping_ratio = in[68];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:42), let a1 (hinge.yaml:52), let b1 (hinge.yaml:53), let ub (hinge.yaml:61)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:42), let i1 (hinge.yaml:51), let ub (hinge.yaml:56)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -1346,27 +1342,23 @@ struct Hinge_Pair_Kernel {
     const S d_L_ua__1__a_dtx = (-a_r4_2);
     const S L_ua__2 = a_r4_2;
     const S d_L_ua__2__a_dty = (-a_r4_0);
-    // let p1 (hinge.yaml:50)
+    // let p1 (hinge.yaml:49)
     [[maybe_unused]] const S L_p1__0 = L_ua__0;
     [[maybe_unused]] const S L_p1__1 = L_ua__1;
     [[maybe_unused]] const S L_p1__2 = L_ua__2;
-    // let p2 (hinge.yaml:51)
+    // let p2 (hinge.yaml:50)
     [[maybe_unused]] const S L_p2__0 = ((L_na__1*L_ua__2) - (L_na__2*L_ua__1));
     [[maybe_unused]] const S L_p2__1 = ((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0));
     [[maybe_unused]] const S L_p2__2 = ((L_na__0*L_ua__1) - (L_na__1*L_ua__0));
-    // let a1 (hinge.yaml:52)
-    [[maybe_unused]] const S L_a1 = ((L_p1__0*((L_p1__0*a_Iw5_00) + (L_p1__1*a_Iw5_01) + (L_p1__2*a_Iw5_02))) + (L_p1__1*((L_p1__0*a_Iw5_01) + (L_p1__1*a_Iw5_11) + (L_p1__2*a_Iw5_12))) + (L_p1__2*((L_p1__0*a_Iw5_02) + (L_p1__1*a_Iw5_12) + (L_p1__2*a_Iw5_22))));
-    // let b1 (hinge.yaml:53)
-    [[maybe_unused]] const S L_b1 = ((L_p1__0*((L_p1__0*b_Iw6_00) + (L_p1__1*b_Iw6_01) + (L_p1__2*b_Iw6_02))) + (L_p1__1*((L_p1__0*b_Iw6_01) + (L_p1__1*b_Iw6_11) + (L_p1__2*b_Iw6_12))) + (L_p1__2*((L_p1__0*b_Iw6_02) + (L_p1__1*b_Iw6_12) + (L_p1__2*b_Iw6_22))));
-    // let i1 (hinge.yaml:54)
-    [[maybe_unused]] const S L_i1 = select((L_b1 > S(0)), min(max(L_a1, L_b1), (S(16)*L_a1*L_b1/(max(S(1e-30), (L_a1 + L_b1))))), L_im);
-    // let a2 (hinge.yaml:55)
-    [[maybe_unused]] const S L_a2 = ((L_p2__0*((L_p2__0*a_Iw5_00) + (L_p2__1*a_Iw5_01) + (L_p2__2*a_Iw5_02))) + (L_p2__1*((L_p2__0*a_Iw5_01) + (L_p2__1*a_Iw5_11) + (L_p2__2*a_Iw5_12))) + (L_p2__2*((L_p2__0*a_Iw5_02) + (L_p2__1*a_Iw5_12) + (L_p2__2*a_Iw5_22))));
-    // let b2 (hinge.yaml:56)
-    [[maybe_unused]] const S L_b2 = ((L_p2__0*((L_p2__0*b_Iw6_00) + (L_p2__1*b_Iw6_01) + (L_p2__2*b_Iw6_02))) + (L_p2__1*((L_p2__0*b_Iw6_01) + (L_p2__1*b_Iw6_11) + (L_p2__2*b_Iw6_12))) + (L_p2__2*((L_p2__0*b_Iw6_02) + (L_p2__1*b_Iw6_12) + (L_p2__2*b_Iw6_22))));
-    // let i2 (hinge.yaml:57)
-    [[maybe_unused]] const S L_i2 = select((L_b2 > S(0)), min(max(L_a2, L_b2), (S(16)*L_a2*L_b2/(max(S(1e-30), (L_a2 + L_b2))))), L_im);
-    // let mis (hinge.yaml:58)
+    // let i1 (hinge.yaml:51)
+    const S l16_0_0 = ((L_p1__0*((L_p1__0*a_Iw5_00) + (L_p1__1*a_Iw5_01) + (L_p1__2*a_Iw5_02))) + (L_p1__1*((L_p1__0*a_Iw5_01) + (L_p1__1*a_Iw5_11) + (L_p1__2*a_Iw5_12))) + (L_p1__2*((L_p1__0*a_Iw5_02) + (L_p1__1*a_Iw5_12) + (L_p1__2*a_Iw5_22))));
+    const S l16_0_1 = ((L_p1__0*((L_p1__0*b_Iw6_00) + (L_p1__1*b_Iw6_01) + (L_p1__2*b_Iw6_02))) + (L_p1__1*((L_p1__0*b_Iw6_01) + (L_p1__1*b_Iw6_11) + (L_p1__2*b_Iw6_12))) + (L_p1__2*((L_p1__0*b_Iw6_02) + (L_p1__1*b_Iw6_12) + (L_p1__2*b_Iw6_22))));
+    [[maybe_unused]] const S L_i1 = select((l16_0_1 > S(0)), min(max(l16_0_0, l16_0_1), (S(16)*l16_0_0*l16_0_1/(max(S(1e-30), (l16_0_0 + l16_0_1))))), L_im);
+    // let i2 (hinge.yaml:52)
+    const S l17_0_0 = ((L_p2__0*((L_p2__0*a_Iw5_00) + (L_p2__1*a_Iw5_01) + (L_p2__2*a_Iw5_02))) + (L_p2__1*((L_p2__0*a_Iw5_01) + (L_p2__1*a_Iw5_11) + (L_p2__2*a_Iw5_12))) + (L_p2__2*((L_p2__0*a_Iw5_02) + (L_p2__1*a_Iw5_12) + (L_p2__2*a_Iw5_22))));
+    const S l17_0_1 = ((L_p2__0*((L_p2__0*b_Iw6_00) + (L_p2__1*b_Iw6_01) + (L_p2__2*b_Iw6_02))) + (L_p2__1*((L_p2__0*b_Iw6_01) + (L_p2__1*b_Iw6_11) + (L_p2__2*b_Iw6_12))) + (L_p2__2*((L_p2__0*b_Iw6_02) + (L_p2__1*b_Iw6_12) + (L_p2__2*b_Iw6_22))));
+    [[maybe_unused]] const S L_i2 = select((l17_0_1 > S(0)), min(max(l17_0_0, l17_0_1), (S(16)*l17_0_0*l17_0_1/(max(S(1e-30), (l17_0_0 + l17_0_1))))), L_im);
+    // let mis (hinge.yaml:53)
     const S L_mis__0 = ((L_na__1*L_nb__2) - (L_na__2*L_nb__1));
     const S d_L_mis__0__a_dtx = ((-(L_nb__1*a_r2_1)) + (L_nb__2*d_L_na__1__a_dtx));
     const S d_L_mis__0__a_dty = (-(L_nb__1*d_L_na__2__a_dty));
@@ -1388,10 +1380,10 @@ struct Hinge_Pair_Kernel {
     const S d_L_mis__2__b_dtx = (L_na__0*d_L_nb__1__b_dtx);
     const S d_L_mis__2__b_dty = (-(L_na__1*b_r3_2));
     const S d_L_mis__2__b_dtz = ((L_na__0*b_r3_0) - (L_na__1*d_L_nb__0__b_dtz));
-    // let wperp (hinge.yaml:59)
-    const S l23_0_0 = (-(L_na__0*L_na__1));
-    const S l23_0_1 = (-(L_na__0*L_na__2));
-    const S l23_0_2 = (-(L_na__1*L_na__2));
+    // let wperp (hinge.yaml:54)
+    const S l19_0_0 = (-(L_na__0*L_na__1));
+    const S l19_0_1 = (-(L_na__0*L_na__2));
+    const S l19_0_2 = (-(L_na__1*L_na__2));
     const S L_wperp__0 = ((-(L_na__0*L_rate)) + L_wrel__0);
     const S d_L_wperp__0__a_dtx = (-(L_na__0*d_L_rate__a_dtx));
     const S d_L_wperp__0__a_dty = ((-(L_na__0*d_L_rate__a_dty)) - (L_rate*a_r2_2));
@@ -1400,8 +1392,8 @@ struct Hinge_Pair_Kernel {
     const S d_L_wperp__0__a_wy = (-(L_na__0*d_L_rate__a_wy));
     const S d_L_wperp__0__a_wz = (-(L_na__0*d_L_rate__a_wz));
     const S d_L_wperp__0__b_wx = (S(1) - (L_na__0*L_na__0));
-    const S d_L_wperp__0__b_wy = l23_0_0;
-    const S d_L_wperp__0__b_wz = l23_0_1;
+    const S d_L_wperp__0__b_wy = l19_0_0;
+    const S d_L_wperp__0__b_wz = l19_0_1;
     const S L_wperp__1 = ((-(L_na__1*L_rate)) + L_wrel__1);
     const S d_L_wperp__1__a_dtx = ((-(L_na__1*d_L_rate__a_dtx)) - (L_rate*d_L_na__1__a_dtx));
     const S d_L_wperp__1__a_dty = (-(L_na__1*d_L_rate__a_dty));
@@ -1409,9 +1401,9 @@ struct Hinge_Pair_Kernel {
     const S d_L_wperp__1__a_wx = (-(L_na__1*d_L_rate__a_wx));
     const S d_L_wperp__1__a_wy = ((-(L_na__1*d_L_rate__a_wy)) - S(1));
     const S d_L_wperp__1__a_wz = (-(L_na__1*d_L_rate__a_wz));
-    const S d_L_wperp__1__b_wx = l23_0_0;
+    const S d_L_wperp__1__b_wx = l19_0_0;
     const S d_L_wperp__1__b_wy = (S(1) - (L_na__1*L_na__1));
-    const S d_L_wperp__1__b_wz = l23_0_2;
+    const S d_L_wperp__1__b_wz = l19_0_2;
     const S L_wperp__2 = ((-(L_na__2*L_rate)) + L_wrel__2);
     const S d_L_wperp__2__a_dtx = ((-(L_na__2*d_L_rate__a_dtx)) - (L_rate*a_r2_1));
     const S d_L_wperp__2__a_dty = ((-(L_na__2*d_L_rate__a_dty)) - (L_rate*d_L_na__2__a_dty));
@@ -1419,116 +1411,116 @@ struct Hinge_Pair_Kernel {
     const S d_L_wperp__2__a_wx = (-(L_na__2*d_L_rate__a_wx));
     const S d_L_wperp__2__a_wy = (-(L_na__2*d_L_rate__a_wy));
     const S d_L_wperp__2__a_wz = ((-(L_na__2*d_L_rate__a_wz)) - S(1));
-    const S d_L_wperp__2__b_wx = l23_0_1;
-    const S d_L_wperp__2__b_wy = l23_0_2;
+    const S d_L_wperp__2__b_wx = l19_0_1;
+    const S d_L_wperp__2__b_wy = l19_0_2;
     const S d_L_wperp__2__b_wz = (S(1) - (L_na__2*L_na__2));
-    // let align (hinge.yaml:60)
-    const S l24_0_0 = (L_omega*L_omega);
-    const S l24_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
-    const S l24_0_2 = (L_i1*L_p1__0);
-    const S l24_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
-    const S l24_0_4 = (L_i2*L_p2__0);
-    const S l24_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
-    const S l24_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
-    const S l24_0_7 = (S(2)*L_omega*L_zeta);
-    const S l24_0_8 = ((L_i1*(L_p1__0*L_p1__0)) + (L_i2*(L_p2__0*L_p2__0)));
-    const S l24_0_9 = (l24_0_0*l24_0_8);
-    const S l24_0_10 = ((L_p1__1*l24_0_2) + (L_p2__1*l24_0_4));
-    const S l24_0_11 = (l24_0_0*l24_0_10);
-    const S l24_0_12 = ((L_p1__2*l24_0_2) + (L_p2__2*l24_0_4));
-    const S l24_0_13 = (l24_0_0*l24_0_12);
-    const S l24_0_14 = (l24_0_7*l24_0_8);
-    const S l24_0_15 = (l24_0_10*l24_0_7);
-    const S l24_0_16 = (l24_0_12*l24_0_7);
-    const S l24_0_17 = (L_i1*L_p1__1);
-    const S l24_0_18 = (L_i2*L_p2__1);
-    const S l24_0_19 = ((L_i1*(L_p1__1*L_p1__1)) + (L_i2*(L_p2__1*L_p2__1)));
-    const S l24_0_20 = (l24_0_0*l24_0_19);
-    const S l24_0_21 = ((L_p1__2*l24_0_17) + (L_p2__2*l24_0_18));
-    const S l24_0_22 = (l24_0_0*l24_0_21);
-    const S l24_0_23 = (l24_0_19*l24_0_7);
-    const S l24_0_24 = (l24_0_21*l24_0_7);
-    const S l24_0_25 = (L_i1*L_p1__2);
-    const S l24_0_26 = (L_i2*L_p2__2);
-    const S l24_0_27 = ((L_i1*(L_p1__2*L_p1__2)) + (L_i2*(L_p2__2*L_p2__2)));
-    const S l24_0_28 = (l24_0_0*l24_0_27);
-    const S l24_0_29 = (l24_0_27*l24_0_7);
-    const S L_align__0 = ((-(l24_0_0*((l24_0_1*l24_0_2) + (l24_0_3*l24_0_4)))) - (l24_0_7*((l24_0_2*l24_0_5) + (l24_0_4*l24_0_6))));
-    const S d_L_align__0__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_9)) - (d_L_mis__1__a_dtx*l24_0_11) - (d_L_mis__2__a_dtx*l24_0_13) - (d_L_wperp__0__a_dtx*l24_0_14) - (d_L_wperp__1__a_dtx*l24_0_15) - (d_L_wperp__2__a_dtx*l24_0_16));
-    const S d_L_align__0__a_dty = ((-(d_L_mis__0__a_dty*l24_0_9)) - (d_L_mis__1__a_dty*l24_0_11) - (d_L_mis__2__a_dty*l24_0_13) - (d_L_wperp__0__a_dty*l24_0_14) - (d_L_wperp__1__a_dty*l24_0_15) - (d_L_wperp__2__a_dty*l24_0_16));
-    const S d_L_align__0__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_9)) - (d_L_mis__1__a_dtz*l24_0_11) - (d_L_mis__2__a_dtz*l24_0_13) - (d_L_wperp__0__a_dtz*l24_0_14) - (d_L_wperp__1__a_dtz*l24_0_15) - (d_L_wperp__2__a_dtz*l24_0_16));
-    const S d_L_align__0__b_dtx = ((-(d_L_mis__0__b_dtx*l24_0_9)) - (d_L_mis__1__b_dtx*l24_0_11) - (d_L_mis__2__b_dtx*l24_0_13));
-    const S d_L_align__0__b_dty = ((-(d_L_mis__0__b_dty*l24_0_9)) - (d_L_mis__1__b_dty*l24_0_11) - (d_L_mis__2__b_dty*l24_0_13));
-    const S d_L_align__0__b_dtz = ((-(d_L_mis__0__b_dtz*l24_0_9)) - (d_L_mis__1__b_dtz*l24_0_11) - (d_L_mis__2__b_dtz*l24_0_13));
-    const S d_L_align__0__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_14)) - (d_L_wperp__1__a_wx*l24_0_15) - (d_L_wperp__2__a_wx*l24_0_16));
-    const S d_L_align__0__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_14)) - (d_L_wperp__1__a_wy*l24_0_15) - (d_L_wperp__2__a_wy*l24_0_16));
-    const S d_L_align__0__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_14)) - (d_L_wperp__1__a_wz*l24_0_15) - (d_L_wperp__2__a_wz*l24_0_16));
-    const S d_L_align__0__b_wx = ((-(d_L_wperp__0__b_wx*l24_0_14)) - (d_L_wperp__1__b_wx*l24_0_15) - (d_L_wperp__2__b_wx*l24_0_16));
-    const S d_L_align__0__b_wy = ((-(d_L_wperp__0__b_wy*l24_0_14)) - (d_L_wperp__1__b_wy*l24_0_15) - (d_L_wperp__2__b_wy*l24_0_16));
-    const S d_L_align__0__b_wz = ((-(d_L_wperp__0__b_wz*l24_0_14)) - (d_L_wperp__1__b_wz*l24_0_15) - (d_L_wperp__2__b_wz*l24_0_16));
-    const S L_align__1 = ((-(l24_0_0*((l24_0_1*l24_0_17) + (l24_0_18*l24_0_3)))) - (l24_0_7*((l24_0_17*l24_0_5) + (l24_0_18*l24_0_6))));
-    const S d_L_align__1__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_11)) - (d_L_mis__1__a_dtx*l24_0_20) - (d_L_mis__2__a_dtx*l24_0_22) - (d_L_wperp__0__a_dtx*l24_0_15) - (d_L_wperp__1__a_dtx*l24_0_23) - (d_L_wperp__2__a_dtx*l24_0_24));
-    const S d_L_align__1__a_dty = ((-(d_L_mis__0__a_dty*l24_0_11)) - (d_L_mis__1__a_dty*l24_0_20) - (d_L_mis__2__a_dty*l24_0_22) - (d_L_wperp__0__a_dty*l24_0_15) - (d_L_wperp__1__a_dty*l24_0_23) - (d_L_wperp__2__a_dty*l24_0_24));
-    const S d_L_align__1__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_11)) - (d_L_mis__1__a_dtz*l24_0_20) - (d_L_mis__2__a_dtz*l24_0_22) - (d_L_wperp__0__a_dtz*l24_0_15) - (d_L_wperp__1__a_dtz*l24_0_23) - (d_L_wperp__2__a_dtz*l24_0_24));
-    const S d_L_align__1__b_dtx = ((-(d_L_mis__0__b_dtx*l24_0_11)) - (d_L_mis__1__b_dtx*l24_0_20) - (d_L_mis__2__b_dtx*l24_0_22));
-    const S d_L_align__1__b_dty = ((-(d_L_mis__0__b_dty*l24_0_11)) - (d_L_mis__1__b_dty*l24_0_20) - (d_L_mis__2__b_dty*l24_0_22));
-    const S d_L_align__1__b_dtz = ((-(d_L_mis__0__b_dtz*l24_0_11)) - (d_L_mis__1__b_dtz*l24_0_20) - (d_L_mis__2__b_dtz*l24_0_22));
-    const S d_L_align__1__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_15)) - (d_L_wperp__1__a_wx*l24_0_23) - (d_L_wperp__2__a_wx*l24_0_24));
-    const S d_L_align__1__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_15)) - (d_L_wperp__1__a_wy*l24_0_23) - (d_L_wperp__2__a_wy*l24_0_24));
-    const S d_L_align__1__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_15)) - (d_L_wperp__1__a_wz*l24_0_23) - (d_L_wperp__2__a_wz*l24_0_24));
-    const S d_L_align__1__b_wx = ((-(d_L_wperp__0__b_wx*l24_0_15)) - (d_L_wperp__1__b_wx*l24_0_23) - (d_L_wperp__2__b_wx*l24_0_24));
-    const S d_L_align__1__b_wy = ((-(d_L_wperp__0__b_wy*l24_0_15)) - (d_L_wperp__1__b_wy*l24_0_23) - (d_L_wperp__2__b_wy*l24_0_24));
-    const S d_L_align__1__b_wz = ((-(d_L_wperp__0__b_wz*l24_0_15)) - (d_L_wperp__1__b_wz*l24_0_23) - (d_L_wperp__2__b_wz*l24_0_24));
-    const S L_align__2 = ((-(l24_0_0*((l24_0_1*l24_0_25) + (l24_0_26*l24_0_3)))) - (l24_0_7*((l24_0_25*l24_0_5) + (l24_0_26*l24_0_6))));
-    const S d_L_align__2__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_13)) - (d_L_mis__1__a_dtx*l24_0_22) - (d_L_mis__2__a_dtx*l24_0_28) - (d_L_wperp__0__a_dtx*l24_0_16) - (d_L_wperp__1__a_dtx*l24_0_24) - (d_L_wperp__2__a_dtx*l24_0_29));
-    const S d_L_align__2__a_dty = ((-(d_L_mis__0__a_dty*l24_0_13)) - (d_L_mis__1__a_dty*l24_0_22) - (d_L_mis__2__a_dty*l24_0_28) - (d_L_wperp__0__a_dty*l24_0_16) - (d_L_wperp__1__a_dty*l24_0_24) - (d_L_wperp__2__a_dty*l24_0_29));
-    const S d_L_align__2__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_13)) - (d_L_mis__1__a_dtz*l24_0_22) - (d_L_mis__2__a_dtz*l24_0_28) - (d_L_wperp__0__a_dtz*l24_0_16) - (d_L_wperp__1__a_dtz*l24_0_24) - (d_L_wperp__2__a_dtz*l24_0_29));
-    const S d_L_align__2__b_dtx = ((-(d_L_mis__0__b_dtx*l24_0_13)) - (d_L_mis__1__b_dtx*l24_0_22) - (d_L_mis__2__b_dtx*l24_0_28));
-    const S d_L_align__2__b_dty = ((-(d_L_mis__0__b_dty*l24_0_13)) - (d_L_mis__1__b_dty*l24_0_22) - (d_L_mis__2__b_dty*l24_0_28));
-    const S d_L_align__2__b_dtz = ((-(d_L_mis__0__b_dtz*l24_0_13)) - (d_L_mis__1__b_dtz*l24_0_22) - (d_L_mis__2__b_dtz*l24_0_28));
-    const S d_L_align__2__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_16)) - (d_L_wperp__1__a_wx*l24_0_24) - (d_L_wperp__2__a_wx*l24_0_29));
-    const S d_L_align__2__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_16)) - (d_L_wperp__1__a_wy*l24_0_24) - (d_L_wperp__2__a_wy*l24_0_29));
-    const S d_L_align__2__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_16)) - (d_L_wperp__1__a_wz*l24_0_24) - (d_L_wperp__2__a_wz*l24_0_29));
-    const S d_L_align__2__b_wx = ((-(d_L_wperp__0__b_wx*l24_0_16)) - (d_L_wperp__1__b_wx*l24_0_24) - (d_L_wperp__2__b_wx*l24_0_29));
-    const S d_L_align__2__b_wy = ((-(d_L_wperp__0__b_wy*l24_0_16)) - (d_L_wperp__1__b_wy*l24_0_24) - (d_L_wperp__2__b_wy*l24_0_29));
-    const S d_L_align__2__b_wz = ((-(d_L_wperp__0__b_wz*l24_0_16)) - (d_L_wperp__1__b_wz*l24_0_24) - (d_L_wperp__2__b_wz*l24_0_29));
-    // let ub (hinge.yaml:61)
+    // let align (hinge.yaml:55)
+    const S l20_0_0 = (L_omega*L_omega);
+    const S l20_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
+    const S l20_0_2 = (L_i1*L_p1__0);
+    const S l20_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
+    const S l20_0_4 = (L_i2*L_p2__0);
+    const S l20_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
+    const S l20_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
+    const S l20_0_7 = (S(2)*L_omega*L_zeta);
+    const S l20_0_8 = ((L_i1*(L_p1__0*L_p1__0)) + (L_i2*(L_p2__0*L_p2__0)));
+    const S l20_0_9 = (l20_0_0*l20_0_8);
+    const S l20_0_10 = ((L_p1__1*l20_0_2) + (L_p2__1*l20_0_4));
+    const S l20_0_11 = (l20_0_0*l20_0_10);
+    const S l20_0_12 = ((L_p1__2*l20_0_2) + (L_p2__2*l20_0_4));
+    const S l20_0_13 = (l20_0_0*l20_0_12);
+    const S l20_0_14 = (l20_0_7*l20_0_8);
+    const S l20_0_15 = (l20_0_10*l20_0_7);
+    const S l20_0_16 = (l20_0_12*l20_0_7);
+    const S l20_0_17 = (L_i1*L_p1__1);
+    const S l20_0_18 = (L_i2*L_p2__1);
+    const S l20_0_19 = ((L_i1*(L_p1__1*L_p1__1)) + (L_i2*(L_p2__1*L_p2__1)));
+    const S l20_0_20 = (l20_0_0*l20_0_19);
+    const S l20_0_21 = ((L_p1__2*l20_0_17) + (L_p2__2*l20_0_18));
+    const S l20_0_22 = (l20_0_0*l20_0_21);
+    const S l20_0_23 = (l20_0_19*l20_0_7);
+    const S l20_0_24 = (l20_0_21*l20_0_7);
+    const S l20_0_25 = (L_i1*L_p1__2);
+    const S l20_0_26 = (L_i2*L_p2__2);
+    const S l20_0_27 = ((L_i1*(L_p1__2*L_p1__2)) + (L_i2*(L_p2__2*L_p2__2)));
+    const S l20_0_28 = (l20_0_0*l20_0_27);
+    const S l20_0_29 = (l20_0_27*l20_0_7);
+    const S L_align__0 = ((-(l20_0_0*((l20_0_1*l20_0_2) + (l20_0_3*l20_0_4)))) - (l20_0_7*((l20_0_2*l20_0_5) + (l20_0_4*l20_0_6))));
+    const S d_L_align__0__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_9)) - (d_L_mis__1__a_dtx*l20_0_11) - (d_L_mis__2__a_dtx*l20_0_13) - (d_L_wperp__0__a_dtx*l20_0_14) - (d_L_wperp__1__a_dtx*l20_0_15) - (d_L_wperp__2__a_dtx*l20_0_16));
+    const S d_L_align__0__a_dty = ((-(d_L_mis__0__a_dty*l20_0_9)) - (d_L_mis__1__a_dty*l20_0_11) - (d_L_mis__2__a_dty*l20_0_13) - (d_L_wperp__0__a_dty*l20_0_14) - (d_L_wperp__1__a_dty*l20_0_15) - (d_L_wperp__2__a_dty*l20_0_16));
+    const S d_L_align__0__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_9)) - (d_L_mis__1__a_dtz*l20_0_11) - (d_L_mis__2__a_dtz*l20_0_13) - (d_L_wperp__0__a_dtz*l20_0_14) - (d_L_wperp__1__a_dtz*l20_0_15) - (d_L_wperp__2__a_dtz*l20_0_16));
+    const S d_L_align__0__b_dtx = ((-(d_L_mis__0__b_dtx*l20_0_9)) - (d_L_mis__1__b_dtx*l20_0_11) - (d_L_mis__2__b_dtx*l20_0_13));
+    const S d_L_align__0__b_dty = ((-(d_L_mis__0__b_dty*l20_0_9)) - (d_L_mis__1__b_dty*l20_0_11) - (d_L_mis__2__b_dty*l20_0_13));
+    const S d_L_align__0__b_dtz = ((-(d_L_mis__0__b_dtz*l20_0_9)) - (d_L_mis__1__b_dtz*l20_0_11) - (d_L_mis__2__b_dtz*l20_0_13));
+    const S d_L_align__0__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_14)) - (d_L_wperp__1__a_wx*l20_0_15) - (d_L_wperp__2__a_wx*l20_0_16));
+    const S d_L_align__0__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_14)) - (d_L_wperp__1__a_wy*l20_0_15) - (d_L_wperp__2__a_wy*l20_0_16));
+    const S d_L_align__0__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_14)) - (d_L_wperp__1__a_wz*l20_0_15) - (d_L_wperp__2__a_wz*l20_0_16));
+    const S d_L_align__0__b_wx = ((-(d_L_wperp__0__b_wx*l20_0_14)) - (d_L_wperp__1__b_wx*l20_0_15) - (d_L_wperp__2__b_wx*l20_0_16));
+    const S d_L_align__0__b_wy = ((-(d_L_wperp__0__b_wy*l20_0_14)) - (d_L_wperp__1__b_wy*l20_0_15) - (d_L_wperp__2__b_wy*l20_0_16));
+    const S d_L_align__0__b_wz = ((-(d_L_wperp__0__b_wz*l20_0_14)) - (d_L_wperp__1__b_wz*l20_0_15) - (d_L_wperp__2__b_wz*l20_0_16));
+    const S L_align__1 = ((-(l20_0_0*((l20_0_1*l20_0_17) + (l20_0_18*l20_0_3)))) - (l20_0_7*((l20_0_17*l20_0_5) + (l20_0_18*l20_0_6))));
+    const S d_L_align__1__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_11)) - (d_L_mis__1__a_dtx*l20_0_20) - (d_L_mis__2__a_dtx*l20_0_22) - (d_L_wperp__0__a_dtx*l20_0_15) - (d_L_wperp__1__a_dtx*l20_0_23) - (d_L_wperp__2__a_dtx*l20_0_24));
+    const S d_L_align__1__a_dty = ((-(d_L_mis__0__a_dty*l20_0_11)) - (d_L_mis__1__a_dty*l20_0_20) - (d_L_mis__2__a_dty*l20_0_22) - (d_L_wperp__0__a_dty*l20_0_15) - (d_L_wperp__1__a_dty*l20_0_23) - (d_L_wperp__2__a_dty*l20_0_24));
+    const S d_L_align__1__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_11)) - (d_L_mis__1__a_dtz*l20_0_20) - (d_L_mis__2__a_dtz*l20_0_22) - (d_L_wperp__0__a_dtz*l20_0_15) - (d_L_wperp__1__a_dtz*l20_0_23) - (d_L_wperp__2__a_dtz*l20_0_24));
+    const S d_L_align__1__b_dtx = ((-(d_L_mis__0__b_dtx*l20_0_11)) - (d_L_mis__1__b_dtx*l20_0_20) - (d_L_mis__2__b_dtx*l20_0_22));
+    const S d_L_align__1__b_dty = ((-(d_L_mis__0__b_dty*l20_0_11)) - (d_L_mis__1__b_dty*l20_0_20) - (d_L_mis__2__b_dty*l20_0_22));
+    const S d_L_align__1__b_dtz = ((-(d_L_mis__0__b_dtz*l20_0_11)) - (d_L_mis__1__b_dtz*l20_0_20) - (d_L_mis__2__b_dtz*l20_0_22));
+    const S d_L_align__1__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_15)) - (d_L_wperp__1__a_wx*l20_0_23) - (d_L_wperp__2__a_wx*l20_0_24));
+    const S d_L_align__1__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_15)) - (d_L_wperp__1__a_wy*l20_0_23) - (d_L_wperp__2__a_wy*l20_0_24));
+    const S d_L_align__1__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_15)) - (d_L_wperp__1__a_wz*l20_0_23) - (d_L_wperp__2__a_wz*l20_0_24));
+    const S d_L_align__1__b_wx = ((-(d_L_wperp__0__b_wx*l20_0_15)) - (d_L_wperp__1__b_wx*l20_0_23) - (d_L_wperp__2__b_wx*l20_0_24));
+    const S d_L_align__1__b_wy = ((-(d_L_wperp__0__b_wy*l20_0_15)) - (d_L_wperp__1__b_wy*l20_0_23) - (d_L_wperp__2__b_wy*l20_0_24));
+    const S d_L_align__1__b_wz = ((-(d_L_wperp__0__b_wz*l20_0_15)) - (d_L_wperp__1__b_wz*l20_0_23) - (d_L_wperp__2__b_wz*l20_0_24));
+    const S L_align__2 = ((-(l20_0_0*((l20_0_1*l20_0_25) + (l20_0_26*l20_0_3)))) - (l20_0_7*((l20_0_25*l20_0_5) + (l20_0_26*l20_0_6))));
+    const S d_L_align__2__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_13)) - (d_L_mis__1__a_dtx*l20_0_22) - (d_L_mis__2__a_dtx*l20_0_28) - (d_L_wperp__0__a_dtx*l20_0_16) - (d_L_wperp__1__a_dtx*l20_0_24) - (d_L_wperp__2__a_dtx*l20_0_29));
+    const S d_L_align__2__a_dty = ((-(d_L_mis__0__a_dty*l20_0_13)) - (d_L_mis__1__a_dty*l20_0_22) - (d_L_mis__2__a_dty*l20_0_28) - (d_L_wperp__0__a_dty*l20_0_16) - (d_L_wperp__1__a_dty*l20_0_24) - (d_L_wperp__2__a_dty*l20_0_29));
+    const S d_L_align__2__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_13)) - (d_L_mis__1__a_dtz*l20_0_22) - (d_L_mis__2__a_dtz*l20_0_28) - (d_L_wperp__0__a_dtz*l20_0_16) - (d_L_wperp__1__a_dtz*l20_0_24) - (d_L_wperp__2__a_dtz*l20_0_29));
+    const S d_L_align__2__b_dtx = ((-(d_L_mis__0__b_dtx*l20_0_13)) - (d_L_mis__1__b_dtx*l20_0_22) - (d_L_mis__2__b_dtx*l20_0_28));
+    const S d_L_align__2__b_dty = ((-(d_L_mis__0__b_dty*l20_0_13)) - (d_L_mis__1__b_dty*l20_0_22) - (d_L_mis__2__b_dty*l20_0_28));
+    const S d_L_align__2__b_dtz = ((-(d_L_mis__0__b_dtz*l20_0_13)) - (d_L_mis__1__b_dtz*l20_0_22) - (d_L_mis__2__b_dtz*l20_0_28));
+    const S d_L_align__2__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_16)) - (d_L_wperp__1__a_wx*l20_0_24) - (d_L_wperp__2__a_wx*l20_0_29));
+    const S d_L_align__2__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_16)) - (d_L_wperp__1__a_wy*l20_0_24) - (d_L_wperp__2__a_wy*l20_0_29));
+    const S d_L_align__2__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_16)) - (d_L_wperp__1__a_wz*l20_0_24) - (d_L_wperp__2__a_wz*l20_0_29));
+    const S d_L_align__2__b_wx = ((-(d_L_wperp__0__b_wx*l20_0_16)) - (d_L_wperp__1__b_wx*l20_0_24) - (d_L_wperp__2__b_wx*l20_0_29));
+    const S d_L_align__2__b_wy = ((-(d_L_wperp__0__b_wy*l20_0_16)) - (d_L_wperp__1__b_wy*l20_0_24) - (d_L_wperp__2__b_wy*l20_0_29));
+    const S d_L_align__2__b_wz = ((-(d_L_wperp__0__b_wz*l20_0_16)) - (d_L_wperp__1__b_wz*l20_0_24) - (d_L_wperp__2__b_wz*l20_0_29));
+    // let ub (hinge.yaml:56)
     const S L_ub__0 = b_r7_0;
     const S d_L_ub__0__b_dtz = (-b_r7_1);
     const S L_ub__1 = b_r7_1;
     const S d_L_ub__1__b_dtx = (-b_r7_2);
     const S L_ub__2 = b_r7_2;
     const S d_L_ub__2__b_dty = (-b_r7_0);
-    // let angle (hinge.yaml:62)
-    const S l26_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
-    const S l26_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
-    const S l26_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
-    const S l26_0_3 = ((L_na__0*l26_0_0) + (L_na__1*l26_0_1) + (L_na__2*l26_0_2));
-    const S l26_0_4 = ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2));
-    const S l26_0_5 = (S(1)/(((l26_0_3*l26_0_3) + (l26_0_4*l26_0_4))));
-    const S l26_0_6 = (-(l26_0_3*l26_0_5));
-    const S l26_0_7 = (l26_0_4*l26_0_5);
-    const S l26_0_8 = ((L_ub__2*l26_0_6) + (l26_0_7*((-(L_na__0*L_ub__1)) + (L_na__1*L_ub__0))));
-    const S l26_0_9 = ((L_ub__1*l26_0_6) + (l26_0_7*((L_na__0*L_ub__2) - (L_na__2*L_ub__0))));
-    const S l26_0_10 = (l26_0_2*l26_0_7);
-    const S l26_0_11 = (l26_0_1*l26_0_7);
-    const S l26_0_12 = ((L_ub__0*l26_0_6) + (l26_0_7*((-(L_na__1*L_ub__2)) + (L_na__2*L_ub__1))));
-    const S l26_0_13 = (l26_0_0*l26_0_7);
-    const S l26_0_14 = ((L_ua__2*l26_0_6) + (l26_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
-    const S l26_0_15 = ((L_ua__1*l26_0_6) + (l26_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
-    const S l26_0_16 = ((L_ua__0*l26_0_6) + (l26_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
-    const S L_angle = angle_of(l26_0_3, l26_0_4);
-    const S d_L_angle__a_dtx = ((a_r2_1*l26_0_10) + (a_r4_1*l26_0_8) + (d_L_na__1__a_dtx*l26_0_11) + (d_L_ua__1__a_dtx*l26_0_9));
-    const S d_L_angle__a_dty = ((a_r2_2*l26_0_13) + (a_r4_2*l26_0_12) + (d_L_na__2__a_dty*l26_0_10) + (d_L_ua__2__a_dty*l26_0_8));
-    const S d_L_angle__a_dtz = ((a_r2_0*l26_0_11) + (a_r4_0*l26_0_9) + (d_L_na__0__a_dtz*l26_0_13) + (d_L_ua__0__a_dtz*l26_0_12));
-    const S d_L_angle__b_dtx = ((b_r7_1*l26_0_14) + (d_L_ub__1__b_dtx*l26_0_15));
-    const S d_L_angle__b_dty = ((b_r7_2*l26_0_16) + (d_L_ub__2__b_dty*l26_0_14));
-    const S d_L_angle__b_dtz = ((b_r7_0*l26_0_15) + (d_L_ub__0__b_dtz*l26_0_16));
-    // let limited (hinge.yaml:65)
+    // let angle (hinge.yaml:57)
+    const S l22_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
+    const S l22_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
+    const S l22_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
+    const S l22_0_3 = ((L_na__0*l22_0_0) + (L_na__1*l22_0_1) + (L_na__2*l22_0_2));
+    const S l22_0_4 = ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2));
+    const S l22_0_5 = (S(1)/(((l22_0_3*l22_0_3) + (l22_0_4*l22_0_4))));
+    const S l22_0_6 = (-(l22_0_3*l22_0_5));
+    const S l22_0_7 = (l22_0_4*l22_0_5);
+    const S l22_0_8 = ((L_ub__2*l22_0_6) + (l22_0_7*((-(L_na__0*L_ub__1)) + (L_na__1*L_ub__0))));
+    const S l22_0_9 = ((L_ub__1*l22_0_6) + (l22_0_7*((L_na__0*L_ub__2) - (L_na__2*L_ub__0))));
+    const S l22_0_10 = (l22_0_2*l22_0_7);
+    const S l22_0_11 = (l22_0_1*l22_0_7);
+    const S l22_0_12 = ((L_ub__0*l22_0_6) + (l22_0_7*((-(L_na__1*L_ub__2)) + (L_na__2*L_ub__1))));
+    const S l22_0_13 = (l22_0_0*l22_0_7);
+    const S l22_0_14 = ((L_ua__2*l22_0_6) + (l22_0_7*((L_na__0*L_ua__1) - (L_na__1*L_ua__0))));
+    const S l22_0_15 = ((L_ua__1*l22_0_6) + (l22_0_7*((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0))));
+    const S l22_0_16 = ((L_ua__0*l22_0_6) + (l22_0_7*((L_na__1*L_ua__2) - (L_na__2*L_ua__1))));
+    const S L_angle = angle_of(l22_0_3, l22_0_4);
+    const S d_L_angle__a_dtx = ((a_r2_1*l22_0_10) + (a_r4_1*l22_0_8) + (d_L_na__1__a_dtx*l22_0_11) + (d_L_ua__1__a_dtx*l22_0_9));
+    const S d_L_angle__a_dty = ((a_r2_2*l22_0_13) + (a_r4_2*l22_0_12) + (d_L_na__2__a_dty*l22_0_10) + (d_L_ua__2__a_dty*l22_0_8));
+    const S d_L_angle__a_dtz = ((a_r2_0*l22_0_11) + (a_r4_0*l22_0_9) + (d_L_na__0__a_dtz*l22_0_13) + (d_L_ua__0__a_dtz*l22_0_12));
+    const S d_L_angle__b_dtx = ((b_r7_1*l22_0_14) + (d_L_ub__1__b_dtx*l22_0_15));
+    const S d_L_angle__b_dty = ((b_r7_2*l22_0_16) + (d_L_ub__2__b_dty*l22_0_14));
+    const S d_L_angle__b_dtz = ((b_r7_0*l22_0_15) + (d_L_ub__0__b_dtz*l22_0_16));
+    // let limited (hinge.yaml:60)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:66)
+    // let over_hi (hinge.yaml:61)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:67)
+    // let over_lo (hinge.yaml:62)
     const S L_over_lo = ((-L_angle) + p_lower);
     const S d_L_over_lo__a_dtx = (-d_L_angle__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_angle__a_dty);
@@ -1536,55 +1528,55 @@ struct Hinge_Pair_Kernel {
     const S d_L_over_lo__b_dtx = (-d_L_angle__b_dtx);
     const S d_L_over_lo__b_dty = (-d_L_angle__b_dty);
     const S d_L_over_lo__b_dtz = (-d_L_angle__b_dtz);
-    // let stop_hi (hinge.yaml:68)
-    const S l30_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
-    const auto l30_0_1 = (l30_0_0 > S(0));
-    const auto l30_0_2 = (L_over_hi > S(0));
-    const auto l30_0_3 = ((L_over_hi + (L_rate*h)) > S(0));
-    const S l30_0_4 = select(l30_0_2, select(l30_0_1, L_kr, S(0)), select(l30_0_3, L_kr, S(0)));
-    const S l30_0_5 = select(l30_0_2, select(l30_0_1, L_cr, S(0)), select(l30_0_3, L_cr, S(0)));
-    const S L_stop_hi = select(l30_0_2, select(l30_0_1, l30_0_0, S(0)), select(l30_0_3, l30_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_angle__a_dtx*l30_0_4) + (d_L_rate__a_dtx*l30_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_angle__a_dty*l30_0_4) + (d_L_rate__a_dty*l30_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_angle__a_dtz*l30_0_4) + (d_L_rate__a_dtz*l30_0_5));
-    const S d_L_stop_hi__b_dtx = (d_L_angle__b_dtx*l30_0_4);
-    const S d_L_stop_hi__b_dty = (d_L_angle__b_dty*l30_0_4);
-    const S d_L_stop_hi__b_dtz = (d_L_angle__b_dtz*l30_0_4);
-    const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l30_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l30_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l30_0_5);
-    const S d_L_stop_hi__b_wx = (L_na__0*l30_0_5);
-    const S d_L_stop_hi__b_wy = (L_na__1*l30_0_5);
-    const S d_L_stop_hi__b_wz = (L_na__2*l30_0_5);
-    // let stop_lo (hinge.yaml:69)
-    const S l31_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
-    const S l31_0_1 = (-l31_0_0);
-    const auto l31_0_2 = (l31_0_0 < S(0));
-    const auto l31_0_3 = (L_over_lo > S(0));
-    const auto l31_0_4 = ((L_over_lo - (L_rate*h)) > S(0));
-    const S l31_0_5 = select(l31_0_3, select(l31_0_2, L_kr, S(0)), select(l31_0_4, L_kr, S(0)));
-    const S l31_0_6 = (-L_cr);
-    const S l31_0_7 = select(l31_0_3, select(l31_0_2, l31_0_6, S(0)), select(l31_0_4, l31_0_6, S(0)));
-    const S L_stop_lo = select(l31_0_3, select(l31_0_2, l31_0_1, S(0)), select(l31_0_4, l31_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l31_0_5) + (d_L_rate__a_dtx*l31_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l31_0_5) + (d_L_rate__a_dty*l31_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l31_0_5) + (d_L_rate__a_dtz*l31_0_7));
-    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l31_0_5);
-    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l31_0_5);
-    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l31_0_5);
-    const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l31_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l31_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l31_0_7);
-    const S d_L_stop_lo__b_wx = (L_na__0*l31_0_7);
-    const S d_L_stop_lo__b_wy = (L_na__1*l31_0_7);
-    const S d_L_stop_lo__b_wz = (L_na__2*l31_0_7);
-    // let ia (hinge.yaml:73)
+    // let stop_hi (hinge.yaml:63)
+    const S l26_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
+    const auto l26_0_1 = (l26_0_0 > S(0));
+    const auto l26_0_2 = (L_over_hi > S(0));
+    const auto l26_0_3 = ((L_over_hi + (L_rate*h)) > S(0));
+    const S l26_0_4 = select(l26_0_2, select(l26_0_1, L_kr, S(0)), select(l26_0_3, L_kr, S(0)));
+    const S l26_0_5 = select(l26_0_2, select(l26_0_1, L_cr, S(0)), select(l26_0_3, L_cr, S(0)));
+    const S L_stop_hi = select(l26_0_2, select(l26_0_1, l26_0_0, S(0)), select(l26_0_3, l26_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_angle__a_dtx*l26_0_4) + (d_L_rate__a_dtx*l26_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_angle__a_dty*l26_0_4) + (d_L_rate__a_dty*l26_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_angle__a_dtz*l26_0_4) + (d_L_rate__a_dtz*l26_0_5));
+    const S d_L_stop_hi__b_dtx = (d_L_angle__b_dtx*l26_0_4);
+    const S d_L_stop_hi__b_dty = (d_L_angle__b_dty*l26_0_4);
+    const S d_L_stop_hi__b_dtz = (d_L_angle__b_dtz*l26_0_4);
+    const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l26_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l26_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l26_0_5);
+    const S d_L_stop_hi__b_wx = (L_na__0*l26_0_5);
+    const S d_L_stop_hi__b_wy = (L_na__1*l26_0_5);
+    const S d_L_stop_hi__b_wz = (L_na__2*l26_0_5);
+    // let stop_lo (hinge.yaml:64)
+    const S l27_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
+    const S l27_0_1 = (-l27_0_0);
+    const auto l27_0_2 = (l27_0_0 < S(0));
+    const auto l27_0_3 = (L_over_lo > S(0));
+    const auto l27_0_4 = ((L_over_lo - (L_rate*h)) > S(0));
+    const S l27_0_5 = select(l27_0_3, select(l27_0_2, L_kr, S(0)), select(l27_0_4, L_kr, S(0)));
+    const S l27_0_6 = (-L_cr);
+    const S l27_0_7 = select(l27_0_3, select(l27_0_2, l27_0_6, S(0)), select(l27_0_4, l27_0_6, S(0)));
+    const S L_stop_lo = select(l27_0_3, select(l27_0_2, l27_0_1, S(0)), select(l27_0_4, l27_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l27_0_5) + (d_L_rate__a_dtx*l27_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l27_0_5) + (d_L_rate__a_dty*l27_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l27_0_5) + (d_L_rate__a_dtz*l27_0_7));
+    const S d_L_stop_lo__b_dtx = (d_L_over_lo__b_dtx*l27_0_5);
+    const S d_L_stop_lo__b_dty = (d_L_over_lo__b_dty*l27_0_5);
+    const S d_L_stop_lo__b_dtz = (d_L_over_lo__b_dtz*l27_0_5);
+    const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l27_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l27_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l27_0_7);
+    const S d_L_stop_lo__b_wx = (L_na__0*l27_0_7);
+    const S d_L_stop_lo__b_wy = (L_na__1*l27_0_7);
+    const S d_L_stop_lo__b_wz = (L_na__2*l27_0_7);
+    // let ia (hinge.yaml:68)
     [[maybe_unused]] const S L_ia = ((L_na__0*((L_na__0*a_Iw5_00) + (L_na__1*a_Iw5_01) + (L_na__2*a_Iw5_02))) + (L_na__1*((L_na__0*a_Iw5_01) + (L_na__1*a_Iw5_11) + (L_na__2*a_Iw5_12))) + (L_na__2*((L_na__0*a_Iw5_02) + (L_na__1*a_Iw5_12) + (L_na__2*a_Iw5_22))));
-    // let ib (hinge.yaml:74)
+    // let ib (hinge.yaml:69)
     [[maybe_unused]] const S L_ib = ((L_na__0*((L_na__0*b_Iw6_00) + (L_na__1*b_Iw6_01) + (L_na__2*b_Iw6_02))) + (L_na__1*((L_na__0*b_Iw6_01) + (L_na__1*b_Iw6_11) + (L_na__2*b_Iw6_12))) + (L_na__2*((L_na__0*b_Iw6_02) + (L_na__1*b_Iw6_12) + (L_na__2*b_Iw6_22))));
-    // let iz (hinge.yaml:75)
+    // let iz (hinge.yaml:70)
     [[maybe_unused]] const S L_iz = select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia);
-    // let err (hinge.yaml:76)
+    // let err (hinge.yaml:71)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -1595,25 +1587,25 @@ struct Hinge_Pair_Kernel {
     const S d_L_err__b_wx = (-L_na__0);
     const S d_L_err__b_wy = (-L_na__1);
     const S d_L_err__b_wz = (-L_na__2);
-    // let fast (hinge.yaml:77)
+    // let fast (hinge.yaml:72)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0));
-    // let sgn (hinge.yaml:78)
+    // let sgn (hinge.yaml:73)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (hinge.yaml:79)
-    const S l38_0_0 = (L_iz*L_omega*(S(1) - L_fast));
-    const auto l38_0_1 = (p_motor_torque > S(0));
-    const S l38_0_2 = select(l38_0_1, l38_0_0, S(0));
-    const S L_motor = select(l38_0_1, ((L_err*l38_0_0) + (L_fast*L_sgn*p_motor_torque)), S(0));
-    const S d_L_motor__a_dtx = (d_L_err__a_dtx*l38_0_2);
-    const S d_L_motor__a_dty = (d_L_err__a_dty*l38_0_2);
-    const S d_L_motor__a_dtz = (d_L_err__a_dtz*l38_0_2);
-    const S d_L_motor__a_wx = (d_L_err__a_wx*l38_0_2);
-    const S d_L_motor__a_wy = (d_L_err__a_wy*l38_0_2);
-    const S d_L_motor__a_wz = (d_L_err__a_wz*l38_0_2);
-    const S d_L_motor__b_wx = (d_L_err__b_wx*l38_0_2);
-    const S d_L_motor__b_wy = (d_L_err__b_wy*l38_0_2);
-    const S d_L_motor__b_wz = (d_L_err__b_wz*l38_0_2);
-    // let spring (hinge.yaml:80)
+    // let motor (hinge.yaml:74)
+    const S l34_0_0 = (L_iz*L_omega*(S(1) - L_fast));
+    const auto l34_0_1 = (p_motor_torque > S(0));
+    const S l34_0_2 = select(l34_0_1, l34_0_0, S(0));
+    const S L_motor = select(l34_0_1, ((L_err*l34_0_0) + (L_fast*L_sgn*p_motor_torque)), S(0));
+    const S d_L_motor__a_dtx = (d_L_err__a_dtx*l34_0_2);
+    const S d_L_motor__a_dty = (d_L_err__a_dty*l34_0_2);
+    const S d_L_motor__a_dtz = (d_L_err__a_dtz*l34_0_2);
+    const S d_L_motor__a_wx = (d_L_err__a_wx*l34_0_2);
+    const S d_L_motor__a_wy = (d_L_err__a_wy*l34_0_2);
+    const S d_L_motor__a_wz = (d_L_err__a_wz*l34_0_2);
+    const S d_L_motor__b_wx = (d_L_err__b_wx*l34_0_2);
+    const S d_L_motor__b_wy = (d_L_err__b_wy*l34_0_2);
+    const S d_L_motor__b_wz = (d_L_err__b_wz*l34_0_2);
+    // let spring (hinge.yaml:75)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
     const S d_L_spring__a_dtx = ((-(d_L_angle__a_dtx*p_spring_stiffness)) - (d_L_rate__a_dtx*p_spring_damping));
     const S d_L_spring__a_dty = ((-(d_L_angle__a_dty*p_spring_stiffness)) - (d_L_rate__a_dty*p_spring_damping));
@@ -1627,63 +1619,63 @@ struct Hinge_Pair_Kernel {
     const S d_L_spring__b_wx = (-(L_na__0*p_spring_damping));
     const S d_L_spring__b_wy = (-(L_na__1*p_spring_damping));
     const S d_L_spring__b_wz = (-(L_na__2*p_spring_damping));
-    // let tau (hinge.yaml:81)
-    const S l40_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
-    const S l40_0_1 = (L_limited*L_na__0);
-    const S l40_0_2 = (L_limited*L_na__1);
-    const S l40_0_3 = (L_limited*L_na__2);
-    const S L_tau__0 = (L_align__0 + (L_na__0*l40_0_0));
-    const S d_L_tau__0__a_dtx = ((L_na__0*d_L_motor__a_dtx) + (L_na__0*d_L_spring__a_dtx) + d_L_align__0__a_dtx - (d_L_stop_hi__a_dtx*l40_0_1) + (d_L_stop_lo__a_dtx*l40_0_1));
-    const S d_L_tau__0__a_dty = ((L_na__0*d_L_motor__a_dty) + (L_na__0*d_L_spring__a_dty) + (a_r2_2*l40_0_0) + d_L_align__0__a_dty - (d_L_stop_hi__a_dty*l40_0_1) + (d_L_stop_lo__a_dty*l40_0_1));
-    const S d_L_tau__0__a_dtz = ((L_na__0*d_L_motor__a_dtz) + (L_na__0*d_L_spring__a_dtz) + d_L_align__0__a_dtz + (d_L_na__0__a_dtz*l40_0_0) - (d_L_stop_hi__a_dtz*l40_0_1) + (d_L_stop_lo__a_dtz*l40_0_1));
-    const S d_L_tau__0__b_dtx = ((L_na__0*d_L_spring__b_dtx) + d_L_align__0__b_dtx - (d_L_stop_hi__b_dtx*l40_0_1) + (d_L_stop_lo__b_dtx*l40_0_1));
-    const S d_L_tau__0__b_dty = ((L_na__0*d_L_spring__b_dty) + d_L_align__0__b_dty - (d_L_stop_hi__b_dty*l40_0_1) + (d_L_stop_lo__b_dty*l40_0_1));
-    const S d_L_tau__0__b_dtz = ((L_na__0*d_L_spring__b_dtz) + d_L_align__0__b_dtz - (d_L_stop_hi__b_dtz*l40_0_1) + (d_L_stop_lo__b_dtz*l40_0_1));
-    const S d_L_tau__0__a_wx = ((L_na__0*d_L_motor__a_wx) + (L_na__0*d_L_spring__a_wx) + d_L_align__0__a_wx - (d_L_stop_hi__a_wx*l40_0_1) + (d_L_stop_lo__a_wx*l40_0_1));
-    const S d_L_tau__0__a_wy = ((L_na__0*d_L_motor__a_wy) + (L_na__0*d_L_spring__a_wy) + d_L_align__0__a_wy - (d_L_stop_hi__a_wy*l40_0_1) + (d_L_stop_lo__a_wy*l40_0_1));
-    const S d_L_tau__0__a_wz = ((L_na__0*d_L_motor__a_wz) + (L_na__0*d_L_spring__a_wz) + d_L_align__0__a_wz - (d_L_stop_hi__a_wz*l40_0_1) + (d_L_stop_lo__a_wz*l40_0_1));
-    const S d_L_tau__0__b_wx = ((L_na__0*d_L_motor__b_wx) + (L_na__0*d_L_spring__b_wx) + d_L_align__0__b_wx - (d_L_stop_hi__b_wx*l40_0_1) + (d_L_stop_lo__b_wx*l40_0_1));
-    const S d_L_tau__0__b_wy = ((L_na__0*d_L_motor__b_wy) + (L_na__0*d_L_spring__b_wy) + d_L_align__0__b_wy - (d_L_stop_hi__b_wy*l40_0_1) + (d_L_stop_lo__b_wy*l40_0_1));
-    const S d_L_tau__0__b_wz = ((L_na__0*d_L_motor__b_wz) + (L_na__0*d_L_spring__b_wz) + d_L_align__0__b_wz - (d_L_stop_hi__b_wz*l40_0_1) + (d_L_stop_lo__b_wz*l40_0_1));
-    const S L_tau__1 = (L_align__1 + (L_na__1*l40_0_0));
-    const S d_L_tau__1__a_dtx = ((L_na__1*d_L_motor__a_dtx) + (L_na__1*d_L_spring__a_dtx) + d_L_align__1__a_dtx + (d_L_na__1__a_dtx*l40_0_0) - (d_L_stop_hi__a_dtx*l40_0_2) + (d_L_stop_lo__a_dtx*l40_0_2));
-    const S d_L_tau__1__a_dty = ((L_na__1*d_L_motor__a_dty) + (L_na__1*d_L_spring__a_dty) + d_L_align__1__a_dty - (d_L_stop_hi__a_dty*l40_0_2) + (d_L_stop_lo__a_dty*l40_0_2));
-    const S d_L_tau__1__a_dtz = ((L_na__1*d_L_motor__a_dtz) + (L_na__1*d_L_spring__a_dtz) + (a_r2_0*l40_0_0) + d_L_align__1__a_dtz - (d_L_stop_hi__a_dtz*l40_0_2) + (d_L_stop_lo__a_dtz*l40_0_2));
-    const S d_L_tau__1__b_dtx = ((L_na__1*d_L_spring__b_dtx) + d_L_align__1__b_dtx - (d_L_stop_hi__b_dtx*l40_0_2) + (d_L_stop_lo__b_dtx*l40_0_2));
-    const S d_L_tau__1__b_dty = ((L_na__1*d_L_spring__b_dty) + d_L_align__1__b_dty - (d_L_stop_hi__b_dty*l40_0_2) + (d_L_stop_lo__b_dty*l40_0_2));
-    const S d_L_tau__1__b_dtz = ((L_na__1*d_L_spring__b_dtz) + d_L_align__1__b_dtz - (d_L_stop_hi__b_dtz*l40_0_2) + (d_L_stop_lo__b_dtz*l40_0_2));
-    const S d_L_tau__1__a_wx = ((L_na__1*d_L_motor__a_wx) + (L_na__1*d_L_spring__a_wx) + d_L_align__1__a_wx - (d_L_stop_hi__a_wx*l40_0_2) + (d_L_stop_lo__a_wx*l40_0_2));
-    const S d_L_tau__1__a_wy = ((L_na__1*d_L_motor__a_wy) + (L_na__1*d_L_spring__a_wy) + d_L_align__1__a_wy - (d_L_stop_hi__a_wy*l40_0_2) + (d_L_stop_lo__a_wy*l40_0_2));
-    const S d_L_tau__1__a_wz = ((L_na__1*d_L_motor__a_wz) + (L_na__1*d_L_spring__a_wz) + d_L_align__1__a_wz - (d_L_stop_hi__a_wz*l40_0_2) + (d_L_stop_lo__a_wz*l40_0_2));
-    const S d_L_tau__1__b_wx = ((L_na__1*d_L_motor__b_wx) + (L_na__1*d_L_spring__b_wx) + d_L_align__1__b_wx - (d_L_stop_hi__b_wx*l40_0_2) + (d_L_stop_lo__b_wx*l40_0_2));
-    const S d_L_tau__1__b_wy = ((L_na__1*d_L_motor__b_wy) + (L_na__1*d_L_spring__b_wy) + d_L_align__1__b_wy - (d_L_stop_hi__b_wy*l40_0_2) + (d_L_stop_lo__b_wy*l40_0_2));
-    const S d_L_tau__1__b_wz = ((L_na__1*d_L_motor__b_wz) + (L_na__1*d_L_spring__b_wz) + d_L_align__1__b_wz - (d_L_stop_hi__b_wz*l40_0_2) + (d_L_stop_lo__b_wz*l40_0_2));
-    const S L_tau__2 = (L_align__2 + (L_na__2*l40_0_0));
-    const S d_L_tau__2__a_dtx = ((L_na__2*d_L_motor__a_dtx) + (L_na__2*d_L_spring__a_dtx) + (a_r2_1*l40_0_0) + d_L_align__2__a_dtx - (d_L_stop_hi__a_dtx*l40_0_3) + (d_L_stop_lo__a_dtx*l40_0_3));
-    const S d_L_tau__2__a_dty = ((L_na__2*d_L_motor__a_dty) + (L_na__2*d_L_spring__a_dty) + d_L_align__2__a_dty + (d_L_na__2__a_dty*l40_0_0) - (d_L_stop_hi__a_dty*l40_0_3) + (d_L_stop_lo__a_dty*l40_0_3));
-    const S d_L_tau__2__a_dtz = ((L_na__2*d_L_motor__a_dtz) + (L_na__2*d_L_spring__a_dtz) + d_L_align__2__a_dtz - (d_L_stop_hi__a_dtz*l40_0_3) + (d_L_stop_lo__a_dtz*l40_0_3));
-    const S d_L_tau__2__b_dtx = ((L_na__2*d_L_spring__b_dtx) + d_L_align__2__b_dtx - (d_L_stop_hi__b_dtx*l40_0_3) + (d_L_stop_lo__b_dtx*l40_0_3));
-    const S d_L_tau__2__b_dty = ((L_na__2*d_L_spring__b_dty) + d_L_align__2__b_dty - (d_L_stop_hi__b_dty*l40_0_3) + (d_L_stop_lo__b_dty*l40_0_3));
-    const S d_L_tau__2__b_dtz = ((L_na__2*d_L_spring__b_dtz) + d_L_align__2__b_dtz - (d_L_stop_hi__b_dtz*l40_0_3) + (d_L_stop_lo__b_dtz*l40_0_3));
-    const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l40_0_3) + (d_L_stop_lo__a_wx*l40_0_3));
-    const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l40_0_3) + (d_L_stop_lo__a_wy*l40_0_3));
-    const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l40_0_3) + (d_L_stop_lo__a_wz*l40_0_3));
-    const S d_L_tau__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_align__2__b_wx - (d_L_stop_hi__b_wx*l40_0_3) + (d_L_stop_lo__b_wx*l40_0_3));
-    const S d_L_tau__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_align__2__b_wy - (d_L_stop_hi__b_wy*l40_0_3) + (d_L_stop_lo__b_wy*l40_0_3));
-    const S d_L_tau__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_align__2__b_wz - (d_L_stop_hi__b_wz*l40_0_3) + (d_L_stop_lo__b_wz*l40_0_3));
-    // apply[0] (hinge.yaml:83)
+    // let tau (hinge.yaml:76)
+    const S l36_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
+    const S l36_0_1 = (L_limited*L_na__0);
+    const S l36_0_2 = (L_limited*L_na__1);
+    const S l36_0_3 = (L_limited*L_na__2);
+    const S L_tau__0 = (L_align__0 + (L_na__0*l36_0_0));
+    const S d_L_tau__0__a_dtx = ((L_na__0*d_L_motor__a_dtx) + (L_na__0*d_L_spring__a_dtx) + d_L_align__0__a_dtx - (d_L_stop_hi__a_dtx*l36_0_1) + (d_L_stop_lo__a_dtx*l36_0_1));
+    const S d_L_tau__0__a_dty = ((L_na__0*d_L_motor__a_dty) + (L_na__0*d_L_spring__a_dty) + (a_r2_2*l36_0_0) + d_L_align__0__a_dty - (d_L_stop_hi__a_dty*l36_0_1) + (d_L_stop_lo__a_dty*l36_0_1));
+    const S d_L_tau__0__a_dtz = ((L_na__0*d_L_motor__a_dtz) + (L_na__0*d_L_spring__a_dtz) + d_L_align__0__a_dtz + (d_L_na__0__a_dtz*l36_0_0) - (d_L_stop_hi__a_dtz*l36_0_1) + (d_L_stop_lo__a_dtz*l36_0_1));
+    const S d_L_tau__0__b_dtx = ((L_na__0*d_L_spring__b_dtx) + d_L_align__0__b_dtx - (d_L_stop_hi__b_dtx*l36_0_1) + (d_L_stop_lo__b_dtx*l36_0_1));
+    const S d_L_tau__0__b_dty = ((L_na__0*d_L_spring__b_dty) + d_L_align__0__b_dty - (d_L_stop_hi__b_dty*l36_0_1) + (d_L_stop_lo__b_dty*l36_0_1));
+    const S d_L_tau__0__b_dtz = ((L_na__0*d_L_spring__b_dtz) + d_L_align__0__b_dtz - (d_L_stop_hi__b_dtz*l36_0_1) + (d_L_stop_lo__b_dtz*l36_0_1));
+    const S d_L_tau__0__a_wx = ((L_na__0*d_L_motor__a_wx) + (L_na__0*d_L_spring__a_wx) + d_L_align__0__a_wx - (d_L_stop_hi__a_wx*l36_0_1) + (d_L_stop_lo__a_wx*l36_0_1));
+    const S d_L_tau__0__a_wy = ((L_na__0*d_L_motor__a_wy) + (L_na__0*d_L_spring__a_wy) + d_L_align__0__a_wy - (d_L_stop_hi__a_wy*l36_0_1) + (d_L_stop_lo__a_wy*l36_0_1));
+    const S d_L_tau__0__a_wz = ((L_na__0*d_L_motor__a_wz) + (L_na__0*d_L_spring__a_wz) + d_L_align__0__a_wz - (d_L_stop_hi__a_wz*l36_0_1) + (d_L_stop_lo__a_wz*l36_0_1));
+    const S d_L_tau__0__b_wx = ((L_na__0*d_L_motor__b_wx) + (L_na__0*d_L_spring__b_wx) + d_L_align__0__b_wx - (d_L_stop_hi__b_wx*l36_0_1) + (d_L_stop_lo__b_wx*l36_0_1));
+    const S d_L_tau__0__b_wy = ((L_na__0*d_L_motor__b_wy) + (L_na__0*d_L_spring__b_wy) + d_L_align__0__b_wy - (d_L_stop_hi__b_wy*l36_0_1) + (d_L_stop_lo__b_wy*l36_0_1));
+    const S d_L_tau__0__b_wz = ((L_na__0*d_L_motor__b_wz) + (L_na__0*d_L_spring__b_wz) + d_L_align__0__b_wz - (d_L_stop_hi__b_wz*l36_0_1) + (d_L_stop_lo__b_wz*l36_0_1));
+    const S L_tau__1 = (L_align__1 + (L_na__1*l36_0_0));
+    const S d_L_tau__1__a_dtx = ((L_na__1*d_L_motor__a_dtx) + (L_na__1*d_L_spring__a_dtx) + d_L_align__1__a_dtx + (d_L_na__1__a_dtx*l36_0_0) - (d_L_stop_hi__a_dtx*l36_0_2) + (d_L_stop_lo__a_dtx*l36_0_2));
+    const S d_L_tau__1__a_dty = ((L_na__1*d_L_motor__a_dty) + (L_na__1*d_L_spring__a_dty) + d_L_align__1__a_dty - (d_L_stop_hi__a_dty*l36_0_2) + (d_L_stop_lo__a_dty*l36_0_2));
+    const S d_L_tau__1__a_dtz = ((L_na__1*d_L_motor__a_dtz) + (L_na__1*d_L_spring__a_dtz) + (a_r2_0*l36_0_0) + d_L_align__1__a_dtz - (d_L_stop_hi__a_dtz*l36_0_2) + (d_L_stop_lo__a_dtz*l36_0_2));
+    const S d_L_tau__1__b_dtx = ((L_na__1*d_L_spring__b_dtx) + d_L_align__1__b_dtx - (d_L_stop_hi__b_dtx*l36_0_2) + (d_L_stop_lo__b_dtx*l36_0_2));
+    const S d_L_tau__1__b_dty = ((L_na__1*d_L_spring__b_dty) + d_L_align__1__b_dty - (d_L_stop_hi__b_dty*l36_0_2) + (d_L_stop_lo__b_dty*l36_0_2));
+    const S d_L_tau__1__b_dtz = ((L_na__1*d_L_spring__b_dtz) + d_L_align__1__b_dtz - (d_L_stop_hi__b_dtz*l36_0_2) + (d_L_stop_lo__b_dtz*l36_0_2));
+    const S d_L_tau__1__a_wx = ((L_na__1*d_L_motor__a_wx) + (L_na__1*d_L_spring__a_wx) + d_L_align__1__a_wx - (d_L_stop_hi__a_wx*l36_0_2) + (d_L_stop_lo__a_wx*l36_0_2));
+    const S d_L_tau__1__a_wy = ((L_na__1*d_L_motor__a_wy) + (L_na__1*d_L_spring__a_wy) + d_L_align__1__a_wy - (d_L_stop_hi__a_wy*l36_0_2) + (d_L_stop_lo__a_wy*l36_0_2));
+    const S d_L_tau__1__a_wz = ((L_na__1*d_L_motor__a_wz) + (L_na__1*d_L_spring__a_wz) + d_L_align__1__a_wz - (d_L_stop_hi__a_wz*l36_0_2) + (d_L_stop_lo__a_wz*l36_0_2));
+    const S d_L_tau__1__b_wx = ((L_na__1*d_L_motor__b_wx) + (L_na__1*d_L_spring__b_wx) + d_L_align__1__b_wx - (d_L_stop_hi__b_wx*l36_0_2) + (d_L_stop_lo__b_wx*l36_0_2));
+    const S d_L_tau__1__b_wy = ((L_na__1*d_L_motor__b_wy) + (L_na__1*d_L_spring__b_wy) + d_L_align__1__b_wy - (d_L_stop_hi__b_wy*l36_0_2) + (d_L_stop_lo__b_wy*l36_0_2));
+    const S d_L_tau__1__b_wz = ((L_na__1*d_L_motor__b_wz) + (L_na__1*d_L_spring__b_wz) + d_L_align__1__b_wz - (d_L_stop_hi__b_wz*l36_0_2) + (d_L_stop_lo__b_wz*l36_0_2));
+    const S L_tau__2 = (L_align__2 + (L_na__2*l36_0_0));
+    const S d_L_tau__2__a_dtx = ((L_na__2*d_L_motor__a_dtx) + (L_na__2*d_L_spring__a_dtx) + (a_r2_1*l36_0_0) + d_L_align__2__a_dtx - (d_L_stop_hi__a_dtx*l36_0_3) + (d_L_stop_lo__a_dtx*l36_0_3));
+    const S d_L_tau__2__a_dty = ((L_na__2*d_L_motor__a_dty) + (L_na__2*d_L_spring__a_dty) + d_L_align__2__a_dty + (d_L_na__2__a_dty*l36_0_0) - (d_L_stop_hi__a_dty*l36_0_3) + (d_L_stop_lo__a_dty*l36_0_3));
+    const S d_L_tau__2__a_dtz = ((L_na__2*d_L_motor__a_dtz) + (L_na__2*d_L_spring__a_dtz) + d_L_align__2__a_dtz - (d_L_stop_hi__a_dtz*l36_0_3) + (d_L_stop_lo__a_dtz*l36_0_3));
+    const S d_L_tau__2__b_dtx = ((L_na__2*d_L_spring__b_dtx) + d_L_align__2__b_dtx - (d_L_stop_hi__b_dtx*l36_0_3) + (d_L_stop_lo__b_dtx*l36_0_3));
+    const S d_L_tau__2__b_dty = ((L_na__2*d_L_spring__b_dty) + d_L_align__2__b_dty - (d_L_stop_hi__b_dty*l36_0_3) + (d_L_stop_lo__b_dty*l36_0_3));
+    const S d_L_tau__2__b_dtz = ((L_na__2*d_L_spring__b_dtz) + d_L_align__2__b_dtz - (d_L_stop_hi__b_dtz*l36_0_3) + (d_L_stop_lo__b_dtz*l36_0_3));
+    const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l36_0_3) + (d_L_stop_lo__a_wx*l36_0_3));
+    const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l36_0_3) + (d_L_stop_lo__a_wy*l36_0_3));
+    const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l36_0_3) + (d_L_stop_lo__a_wz*l36_0_3));
+    const S d_L_tau__2__b_wx = ((L_na__2*d_L_motor__b_wx) + (L_na__2*d_L_spring__b_wx) + d_L_align__2__b_wx - (d_L_stop_hi__b_wx*l36_0_3) + (d_L_stop_lo__b_wx*l36_0_3));
+    const S d_L_tau__2__b_wy = ((L_na__2*d_L_motor__b_wy) + (L_na__2*d_L_spring__b_wy) + d_L_align__2__b_wy - (d_L_stop_hi__b_wy*l36_0_3) + (d_L_stop_lo__b_wy*l36_0_3));
+    const S d_L_tau__2__b_wz = ((L_na__2*d_L_motor__b_wz) + (L_na__2*d_L_spring__b_wz) + d_L_align__2__b_wz - (d_L_stop_hi__b_wz*l36_0_3) + (d_L_stop_lo__b_wz*l36_0_3));
+    // apply[0] (hinge.yaml:78)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l42_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply[1] (hinge.yaml:84)
+    const S l38_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply[1] (hinge.yaml:79)
     [[maybe_unused]] const S T2_arm__0 = (L_pb__0 - b_px);
     [[maybe_unused]] const S T2_arm__1 = (L_pb__1 - b_py);
     [[maybe_unused]] const S T2_arm__2 = (L_pb__2 - b_pz);
-    const S l44_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l44_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l44_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l44_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
-    // apply (hinge.yaml:82), shared subexpressions
+    const S l40_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    [[maybe_unused]] const S T3_turn = (S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1)))));
+    // apply (hinge.yaml:77), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -1828,21 +1820,21 @@ struct Hinge_Pair_Kernel {
     const S o141 = ((d_L_f__0__b_dtz*o8) + (d_L_f__0__b_wz*h));
     const S o142 = ((d_L_f__1__b_dtz*o8) + (d_L_f__1__b_wz*h));
     const S o143 = (d_L_f__2__b_dtz*o8);
-    // g_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // g_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[0] = o19;
     out[1] = o28;
     out[2] = o35;
     out[3] = ((-(L_f__1*o37)) + (L_f__2*o36) - L_tau__0 + (o1*o41) + (o2*o42) + (o20*o38) + (o21*o38) + (o24*o47) + (o27*o48) + (o29*o36) + (o3*o43) + (o30*o36) + (o32*o49) + (o34*o50) + (o44*o5) + (o45*o6) + (o46*o7));
     out[4] = ((L_f__0*o37) - (L_f__2*o51) - L_tau__1 + (o0*o37) + (o1*o54) + (o13*o60) + (o18*o61) + (o2*o55) + (o29*o52) + (o3*o56) + (o30*o52) + (o32*o62) + (o34*o63) + (o37*o4) + (o5*o57) + (o58*o6) + (o59*o7));
     out[5] = ((-(L_f__0*o36)) + (L_f__1*o51) - L_tau__2 + (o0*o64) + (o1*o65) + (o13*o71) + (o18*o72) + (o2*o66) + (o20*o51) + (o21*o51) + (o24*o73) + (o27*o74) + (o3*o67) + (o4*o64) + (o5*o68) + (o6*o69) + (o7*o70));
-    // g_b from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // g_b from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[6] = (-o19);
     out[7] = (-o28);
     out[8] = (-o35);
     out[9] = ((L_f__1*o75) - (L_f__2*o76) + L_tau__0 + (o1*o78) + (o2*o79) + (o20*o75) + (o21*o75) + (o24*o86) + (o27*o87) + (o29*o77) + (o3*o80) + (o30*o77) + (o32*o88) + (o34*o89) + (o5*o83) + (o6*o84) + (o7*o85));
     out[10] = ((-(L_f__0*o75)) + (L_f__2*o90) + L_tau__1 + (o0*o91) + (o1*o92) + (o100*o18) + (o101*o32) + (o102*o34) + (o13*o99) + (o2*o93) + (o29*o90) + (o3*o94) + (o30*o90) + (o4*o91) + (o5*o96) + (o6*o97) + (o7*o98));
     out[11] = ((L_f__0*o76) - (L_f__1*o90) + L_tau__2 + (o0*o76) + (o1*o104) + (o103*o20) + (o103*o21) + (o105*o2) + (o106*o3) + (o107*o5) + (o108*o6) + (o109*o7) + (o110*o13) + (o111*o18) + (o112*o24) + (o113*o27) + (o4*o76));
-    // K_aa from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // K_aa from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[12] = o115;
     out[13] = S(0);
     out[14] = S(0);
@@ -1879,7 +1871,7 @@ struct Hinge_Pair_Kernel {
     out[45] = ((h*((d_L_f__1__a_wz*o38) - d_L_tau__0__a_wz)) + (o43*o8));
     out[46] = ((h*((d_L_f__0__a_wz*o37) - d_L_tau__1__a_wz)) + (o56*o8));
     out[47] = ((h*((d_L_f__0__a_wz*o64) + (d_L_f__1__a_wz*o51) - d_L_tau__2__a_wz)) + (o67*o8));
-    // K_ab from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // K_ab from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[48] = o130;
     out[49] = S(0);
     out[50] = S(0);
@@ -1916,7 +1908,7 @@ struct Hinge_Pair_Kernel {
     out[81] = ((h*((d_L_f__1__b_wz*o38) - d_L_tau__0__b_wz)) + (o46*o8));
     out[82] = ((h*((d_L_f__0__b_wz*o37) - d_L_tau__1__b_wz)) + (o59*o8));
     out[83] = ((h*((d_L_f__0__b_wz*o64) + (d_L_f__1__b_wz*o51) - d_L_tau__2__b_wz)) + (o70*o8));
-    // K_ba from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // K_ba from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[84] = (-o115);
     out[85] = S(0);
     out[86] = S(0);
@@ -1953,7 +1945,7 @@ struct Hinge_Pair_Kernel {
     out[117] = ((h*((d_L_f__1__a_wz*o75) + d_L_tau__0__a_wz)) + (o8*o80));
     out[118] = ((h*((d_L_f__0__a_wz*o91) + d_L_tau__1__a_wz)) + (o8*o94));
     out[119] = ((h*((d_L_f__0__a_wz*o76) + (d_L_f__1__a_wz*o103) + d_L_tau__2__a_wz)) + (o106*o8));
-    // K_bb from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // K_bb from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[120] = (-o130);
     out[121] = S(0);
     out[122] = S(0);
@@ -1993,10 +1985,10 @@ struct Hinge_Pair_Kernel {
   }
 
   /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
-  static constexpr int kHeld = 27;
+  static constexpr int kHeld = 23;
   /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
   /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
-  static constexpr int kJointArm[2] = { 19, 23 };
+  static constexpr int kJointArm[2] = { 15, 19 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
   /// of computing them from `in`; held_out: where to write the ones used. Total ops: 835
@@ -2073,7 +2065,7 @@ struct Hinge_Pair_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[66];
     [[maybe_unused]] const S g_joint_hertz = in[67];
     [[maybe_unused]] const S g_joint_damping_ratio = in[68];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:42), let a1 (hinge.yaml:52), let b1 (hinge.yaml:53), let ub (hinge.yaml:61)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let pb (hinge.yaml:34), let na (hinge.yaml:36), let nb (hinge.yaml:37), let ua (hinge.yaml:42), let i1 (hinge.yaml:51), let ub (hinge.yaml:56)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2196,142 +2188,134 @@ struct Hinge_Pair_Kernel {
     const S L_ua__0 = a_r4_0;
     const S L_ua__1 = a_r4_1;
     const S L_ua__2 = a_r4_2;
-    // let p1 (hinge.yaml:50)
+    // let p1 (hinge.yaml:49)
     const S L_p1__0 = held_in ? held_in[2] : S(L_ua__0);
     if (held_out) held_out[2] = L_p1__0;
     const S L_p1__1 = held_in ? held_in[3] : S(L_ua__1);
     if (held_out) held_out[3] = L_p1__1;
     const S L_p1__2 = held_in ? held_in[4] : S(L_ua__2);
     if (held_out) held_out[4] = L_p1__2;
-    // let p2 (hinge.yaml:51)
+    // let p2 (hinge.yaml:50)
     const S L_p2__0 = held_in ? held_in[5] : S(((L_na__1*L_ua__2) - (L_na__2*L_ua__1)));
     if (held_out) held_out[5] = L_p2__0;
     const S L_p2__1 = held_in ? held_in[6] : S(((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0)));
     if (held_out) held_out[6] = L_p2__1;
     const S L_p2__2 = held_in ? held_in[7] : S(((L_na__0*L_ua__1) - (L_na__1*L_ua__0)));
     if (held_out) held_out[7] = L_p2__2;
-    // let a1 (hinge.yaml:52)
-    const S L_a1 = held_in ? held_in[8] : S(((L_p1__0*((L_p1__0*a_Iw5_00) + (L_p1__1*a_Iw5_01) + (L_p1__2*a_Iw5_02))) + (L_p1__1*((L_p1__0*a_Iw5_01) + (L_p1__1*a_Iw5_11) + (L_p1__2*a_Iw5_12))) + (L_p1__2*((L_p1__0*a_Iw5_02) + (L_p1__1*a_Iw5_12) + (L_p1__2*a_Iw5_22)))));
-    if (held_out) held_out[8] = L_a1;
-    // let b1 (hinge.yaml:53)
-    const S L_b1 = held_in ? held_in[9] : S(((L_p1__0*((L_p1__0*b_Iw6_00) + (L_p1__1*b_Iw6_01) + (L_p1__2*b_Iw6_02))) + (L_p1__1*((L_p1__0*b_Iw6_01) + (L_p1__1*b_Iw6_11) + (L_p1__2*b_Iw6_12))) + (L_p1__2*((L_p1__0*b_Iw6_02) + (L_p1__1*b_Iw6_12) + (L_p1__2*b_Iw6_22)))));
-    if (held_out) held_out[9] = L_b1;
-    // let i1 (hinge.yaml:54)
-    const S L_i1 = held_in ? held_in[10] : S(select((L_b1 > S(0)), min(max(L_a1, L_b1), (S(16)*L_a1*L_b1/(max(S(1e-30), (L_a1 + L_b1))))), L_im));
-    if (held_out) held_out[10] = L_i1;
-    // let a2 (hinge.yaml:55)
-    const S L_a2 = held_in ? held_in[11] : S(((L_p2__0*((L_p2__0*a_Iw5_00) + (L_p2__1*a_Iw5_01) + (L_p2__2*a_Iw5_02))) + (L_p2__1*((L_p2__0*a_Iw5_01) + (L_p2__1*a_Iw5_11) + (L_p2__2*a_Iw5_12))) + (L_p2__2*((L_p2__0*a_Iw5_02) + (L_p2__1*a_Iw5_12) + (L_p2__2*a_Iw5_22)))));
-    if (held_out) held_out[11] = L_a2;
-    // let b2 (hinge.yaml:56)
-    const S L_b2 = held_in ? held_in[12] : S(((L_p2__0*((L_p2__0*b_Iw6_00) + (L_p2__1*b_Iw6_01) + (L_p2__2*b_Iw6_02))) + (L_p2__1*((L_p2__0*b_Iw6_01) + (L_p2__1*b_Iw6_11) + (L_p2__2*b_Iw6_12))) + (L_p2__2*((L_p2__0*b_Iw6_02) + (L_p2__1*b_Iw6_12) + (L_p2__2*b_Iw6_22)))));
-    if (held_out) held_out[12] = L_b2;
-    // let i2 (hinge.yaml:57)
-    const S L_i2 = held_in ? held_in[13] : S(select((L_b2 > S(0)), min(max(L_a2, L_b2), (S(16)*L_a2*L_b2/(max(S(1e-30), (L_a2 + L_b2))))), L_im));
-    if (held_out) held_out[13] = L_i2;
-    // let mis (hinge.yaml:58)
+    // let i1 (hinge.yaml:51)
+    const S l16_0_0 = ((L_p1__0*((L_p1__0*a_Iw5_00) + (L_p1__1*a_Iw5_01) + (L_p1__2*a_Iw5_02))) + (L_p1__1*((L_p1__0*a_Iw5_01) + (L_p1__1*a_Iw5_11) + (L_p1__2*a_Iw5_12))) + (L_p1__2*((L_p1__0*a_Iw5_02) + (L_p1__1*a_Iw5_12) + (L_p1__2*a_Iw5_22))));
+    const S l16_0_1 = ((L_p1__0*((L_p1__0*b_Iw6_00) + (L_p1__1*b_Iw6_01) + (L_p1__2*b_Iw6_02))) + (L_p1__1*((L_p1__0*b_Iw6_01) + (L_p1__1*b_Iw6_11) + (L_p1__2*b_Iw6_12))) + (L_p1__2*((L_p1__0*b_Iw6_02) + (L_p1__1*b_Iw6_12) + (L_p1__2*b_Iw6_22))));
+    const S L_i1 = held_in ? held_in[8] : S(select((l16_0_1 > S(0)), min(max(l16_0_0, l16_0_1), (S(16)*l16_0_0*l16_0_1/(max(S(1e-30), (l16_0_0 + l16_0_1))))), L_im));
+    if (held_out) held_out[8] = L_i1;
+    // let i2 (hinge.yaml:52)
+    const S l17_0_0 = ((L_p2__0*((L_p2__0*a_Iw5_00) + (L_p2__1*a_Iw5_01) + (L_p2__2*a_Iw5_02))) + (L_p2__1*((L_p2__0*a_Iw5_01) + (L_p2__1*a_Iw5_11) + (L_p2__2*a_Iw5_12))) + (L_p2__2*((L_p2__0*a_Iw5_02) + (L_p2__1*a_Iw5_12) + (L_p2__2*a_Iw5_22))));
+    const S l17_0_1 = ((L_p2__0*((L_p2__0*b_Iw6_00) + (L_p2__1*b_Iw6_01) + (L_p2__2*b_Iw6_02))) + (L_p2__1*((L_p2__0*b_Iw6_01) + (L_p2__1*b_Iw6_11) + (L_p2__2*b_Iw6_12))) + (L_p2__2*((L_p2__0*b_Iw6_02) + (L_p2__1*b_Iw6_12) + (L_p2__2*b_Iw6_22))));
+    const S L_i2 = held_in ? held_in[9] : S(select((l17_0_1 > S(0)), min(max(l17_0_0, l17_0_1), (S(16)*l17_0_0*l17_0_1/(max(S(1e-30), (l17_0_0 + l17_0_1))))), L_im));
+    if (held_out) held_out[9] = L_i2;
+    // let mis (hinge.yaml:53)
     const S L_mis__0 = ((L_na__1*L_nb__2) - (L_na__2*L_nb__1));
     const S L_mis__1 = ((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0));
     const S L_mis__2 = ((L_na__0*L_nb__1) - (L_na__1*L_nb__0));
-    // let wperp (hinge.yaml:59)
+    // let wperp (hinge.yaml:54)
     const S L_wperp__0 = ((-(L_na__0*L_rate)) + L_wrel__0);
     const S L_wperp__1 = ((-(L_na__1*L_rate)) + L_wrel__1);
     const S L_wperp__2 = ((-(L_na__2*L_rate)) + L_wrel__2);
-    // let align (hinge.yaml:60)
-    const S l24_0_0 = (L_omega*L_omega);
-    const S l24_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
-    const S l24_0_2 = (L_i1*L_p1__0);
-    const S l24_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
-    const S l24_0_4 = (L_i2*L_p2__0);
-    const S l24_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
-    const S l24_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
-    const S l24_0_7 = (S(2)*L_omega*L_zeta);
-    const S l24_0_8 = (L_i1*L_p1__1);
-    const S l24_0_9 = (L_i2*L_p2__1);
-    const S l24_0_10 = (L_i1*L_p1__2);
-    const S l24_0_11 = (L_i2*L_p2__2);
-    const S L_align__0 = ((-(l24_0_0*((l24_0_1*l24_0_2) + (l24_0_3*l24_0_4)))) - (l24_0_7*((l24_0_2*l24_0_5) + (l24_0_4*l24_0_6))));
-    const S L_align__1 = ((-(l24_0_0*((l24_0_1*l24_0_8) + (l24_0_3*l24_0_9)))) - (l24_0_7*((l24_0_5*l24_0_8) + (l24_0_6*l24_0_9))));
-    const S L_align__2 = ((-(l24_0_0*((l24_0_1*l24_0_10) + (l24_0_11*l24_0_3)))) - (l24_0_7*((l24_0_10*l24_0_5) + (l24_0_11*l24_0_6))));
-    // let ub (hinge.yaml:61)
+    // let align (hinge.yaml:55)
+    const S l20_0_0 = (L_omega*L_omega);
+    const S l20_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
+    const S l20_0_2 = (L_i1*L_p1__0);
+    const S l20_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
+    const S l20_0_4 = (L_i2*L_p2__0);
+    const S l20_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
+    const S l20_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
+    const S l20_0_7 = (S(2)*L_omega*L_zeta);
+    const S l20_0_8 = (L_i1*L_p1__1);
+    const S l20_0_9 = (L_i2*L_p2__1);
+    const S l20_0_10 = (L_i1*L_p1__2);
+    const S l20_0_11 = (L_i2*L_p2__2);
+    const S L_align__0 = ((-(l20_0_0*((l20_0_1*l20_0_2) + (l20_0_3*l20_0_4)))) - (l20_0_7*((l20_0_2*l20_0_5) + (l20_0_4*l20_0_6))));
+    const S L_align__1 = ((-(l20_0_0*((l20_0_1*l20_0_8) + (l20_0_3*l20_0_9)))) - (l20_0_7*((l20_0_5*l20_0_8) + (l20_0_6*l20_0_9))));
+    const S L_align__2 = ((-(l20_0_0*((l20_0_1*l20_0_10) + (l20_0_11*l20_0_3)))) - (l20_0_7*((l20_0_10*l20_0_5) + (l20_0_11*l20_0_6))));
+    // let ub (hinge.yaml:56)
     const S L_ub__0 = b_r7_0;
     const S L_ub__1 = b_r7_1;
     const S L_ub__2 = b_r7_2;
-    // let angle (hinge.yaml:62)
+    // let angle (hinge.yaml:57)
     const S L_angle = angle_of(((L_na__0*((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))) + (L_na__1*((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0))) + (L_na__2*((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0)))), ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2)));
-    // let limited (hinge.yaml:65)
+    // let limited (hinge.yaml:60)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:66)
+    // let over_hi (hinge.yaml:61)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:67)
+    // let over_lo (hinge.yaml:62)
     const S L_over_lo = ((-L_angle) + p_lower);
-    // let stop_hi (hinge.yaml:68)
-    const S l30_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
-    const S L_stop_hi = select((L_over_hi > S(0)), select((l30_0_0 > S(0)), l30_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l30_0_0, S(0)));
-    // let stop_lo (hinge.yaml:69)
-    const S l31_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
-    const S l31_0_1 = (-l31_0_0);
-    const S L_stop_lo = select((L_over_lo > S(0)), select((l31_0_0 < S(0)), l31_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l31_0_1, S(0)));
-    // let ia (hinge.yaml:73)
-    const S L_ia = held_in ? held_in[14] : S(((L_na__0*((L_na__0*a_Iw5_00) + (L_na__1*a_Iw5_01) + (L_na__2*a_Iw5_02))) + (L_na__1*((L_na__0*a_Iw5_01) + (L_na__1*a_Iw5_11) + (L_na__2*a_Iw5_12))) + (L_na__2*((L_na__0*a_Iw5_02) + (L_na__1*a_Iw5_12) + (L_na__2*a_Iw5_22)))));
-    if (held_out) held_out[14] = L_ia;
-    // let ib (hinge.yaml:74)
-    const S L_ib = held_in ? held_in[15] : S(((L_na__0*((L_na__0*b_Iw6_00) + (L_na__1*b_Iw6_01) + (L_na__2*b_Iw6_02))) + (L_na__1*((L_na__0*b_Iw6_01) + (L_na__1*b_Iw6_11) + (L_na__2*b_Iw6_12))) + (L_na__2*((L_na__0*b_Iw6_02) + (L_na__1*b_Iw6_12) + (L_na__2*b_Iw6_22)))));
-    if (held_out) held_out[15] = L_ib;
-    // let iz (hinge.yaml:75)
-    const S L_iz = held_in ? held_in[16] : S(select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia));
-    if (held_out) held_out[16] = L_iz;
-    // let err (hinge.yaml:76)
+    // let stop_hi (hinge.yaml:63)
+    const S l26_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
+    const S L_stop_hi = select((L_over_hi > S(0)), select((l26_0_0 > S(0)), l26_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l26_0_0, S(0)));
+    // let stop_lo (hinge.yaml:64)
+    const S l27_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
+    const S l27_0_1 = (-l27_0_0);
+    const S L_stop_lo = select((L_over_lo > S(0)), select((l27_0_0 < S(0)), l27_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l27_0_1, S(0)));
+    // let ia (hinge.yaml:68)
+    const S L_ia = held_in ? held_in[10] : S(((L_na__0*((L_na__0*a_Iw5_00) + (L_na__1*a_Iw5_01) + (L_na__2*a_Iw5_02))) + (L_na__1*((L_na__0*a_Iw5_01) + (L_na__1*a_Iw5_11) + (L_na__2*a_Iw5_12))) + (L_na__2*((L_na__0*a_Iw5_02) + (L_na__1*a_Iw5_12) + (L_na__2*a_Iw5_22)))));
+    if (held_out) held_out[10] = L_ia;
+    // let ib (hinge.yaml:69)
+    const S L_ib = held_in ? held_in[11] : S(((L_na__0*((L_na__0*b_Iw6_00) + (L_na__1*b_Iw6_01) + (L_na__2*b_Iw6_02))) + (L_na__1*((L_na__0*b_Iw6_01) + (L_na__1*b_Iw6_11) + (L_na__2*b_Iw6_12))) + (L_na__2*((L_na__0*b_Iw6_02) + (L_na__1*b_Iw6_12) + (L_na__2*b_Iw6_22)))));
+    if (held_out) held_out[11] = L_ib;
+    // let iz (hinge.yaml:70)
+    const S L_iz = held_in ? held_in[12] : S(select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia));
+    if (held_out) held_out[12] = L_iz;
+    // let err (hinge.yaml:71)
     const S L_err = ((-L_rate) + p_motor_speed);
-    // let fast (hinge.yaml:77)
-    const S L_fast = held_in ? held_in[17] : S(select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0)));
-    if (held_out) held_out[17] = L_fast;
-    // let sgn (hinge.yaml:78)
-    const S L_sgn = held_in ? held_in[18] : S(select((L_err > S(0)), S(1), S(-1)));
-    if (held_out) held_out[18] = L_sgn;
-    // let motor (hinge.yaml:79)
+    // let fast (hinge.yaml:72)
+    const S L_fast = held_in ? held_in[13] : S(select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0)));
+    if (held_out) held_out[13] = L_fast;
+    // let sgn (hinge.yaml:73)
+    const S L_sgn = held_in ? held_in[14] : S(select((L_err > S(0)), S(1), S(-1)));
+    if (held_out) held_out[14] = L_sgn;
+    // let motor (hinge.yaml:74)
     const S L_motor = select((p_motor_torque > S(0)), ((L_err*L_iz*L_omega*(S(1) - L_fast)) + (L_fast*L_sgn*p_motor_torque)), S(0));
-    // let spring (hinge.yaml:80)
+    // let spring (hinge.yaml:75)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
-    // let tau (hinge.yaml:81)
-    const S l40_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
-    const S L_tau__0 = (L_align__0 + (L_na__0*l40_0_0));
-    const S L_tau__1 = (L_align__1 + (L_na__1*l40_0_0));
-    const S L_tau__2 = (L_align__2 + (L_na__2*l40_0_0));
-    // apply[0] (hinge.yaml:83)
-    const S T0_arm__0 = held_in ? held_in[19] : S((L_pa__0 - a_px));
-    if (held_out) held_out[19] = T0_arm__0;
-    const S T0_arm__1 = held_in ? held_in[20] : S((L_pa__1 - a_py));
-    if (held_out) held_out[20] = T0_arm__1;
-    const S T0_arm__2 = held_in ? held_in[21] : S((L_pa__2 - a_pz));
-    if (held_out) held_out[21] = T0_arm__2;
-    const S l42_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    const S T1_turn = held_in ? held_in[22] : S((S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l42_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[22] = T1_turn;
-    // apply[1] (hinge.yaml:84)
-    const S T2_arm__0 = held_in ? held_in[23] : S((L_pb__0 - b_px));
-    if (held_out) held_out[23] = T2_arm__0;
-    const S T2_arm__1 = held_in ? held_in[24] : S((L_pb__1 - b_py));
-    if (held_out) held_out[24] = T2_arm__1;
-    const S T2_arm__2 = held_in ? held_in[25] : S((L_pb__2 - b_pz));
-    if (held_out) held_out[25] = T2_arm__2;
-    const S l44_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
-    const S T3_turn = held_in ? held_in[26] : S((S(1) - (S(1)/((((h*h*h*h)*l44_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l44_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l44_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[26] = T3_turn;
-    // apply (hinge.yaml:82), shared subexpressions
+    // let tau (hinge.yaml:76)
+    const S l36_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
+    const S L_tau__0 = (L_align__0 + (L_na__0*l36_0_0));
+    const S L_tau__1 = (L_align__1 + (L_na__1*l36_0_0));
+    const S L_tau__2 = (L_align__2 + (L_na__2*l36_0_0));
+    // apply[0] (hinge.yaml:78)
+    const S T0_arm__0 = held_in ? held_in[15] : S((L_pa__0 - a_px));
+    if (held_out) held_out[15] = T0_arm__0;
+    const S T0_arm__1 = held_in ? held_in[16] : S((L_pa__1 - a_py));
+    if (held_out) held_out[16] = T0_arm__1;
+    const S T0_arm__2 = held_in ? held_in[17] : S((L_pa__2 - a_pz));
+    if (held_out) held_out[17] = T0_arm__2;
+    const S l38_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    const S T1_turn = held_in ? held_in[18] : S((S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*b_m*l38_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[18] = T1_turn;
+    // apply[1] (hinge.yaml:79)
+    const S T2_arm__0 = held_in ? held_in[19] : S((L_pb__0 - b_px));
+    if (held_out) held_out[19] = T2_arm__0;
+    const S T2_arm__1 = held_in ? held_in[20] : S((L_pb__1 - b_py));
+    if (held_out) held_out[20] = T2_arm__1;
+    const S T2_arm__2 = held_in ? held_in[21] : S((L_pb__2 - b_pz));
+    if (held_out) held_out[21] = T2_arm__2;
+    const S l40_0_0 = ((T2_arm__0*T2_arm__0) + (T2_arm__1*T2_arm__1) + (T2_arm__2*T2_arm__2));
+    const S T3_turn = held_in ? held_in[22] : S((S(1) - (S(1)/((((h*h*h*h)*l40_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))*max(S(1e-30), ((a_m*b_m*l40_0_0/(max(S(1e-30), (a_m + b_m)))) + (((S(4)*b_Ixx*b_Iyy*b_Izz) - (S(4)*b_Ixx*(b_Iyz*b_Iyz)) - (S(4)*(b_Ixy*b_Ixy)*b_Izz) + (S(8)*b_Ixy*b_Ixz*b_Iyz) - (S(4)*(b_Ixz*b_Ixz)*b_Iyy))/(max(S(1e-30), ((b_Ixx + b_Iyy + b_Izz)*(b_Ixx + b_Iyy + b_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[22] = T3_turn;
+    // apply (hinge.yaml:77), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
     const S o3 = (T2_arm__2 + (T3_turn*(L_pb__2 - T2_arm__2 - b_pz)));
     const S o4 = (T2_arm__1 + (T3_turn*(L_pb__1 - T2_arm__1 - b_py)));
     const S o5 = (T2_arm__0 + (T3_turn*(L_pb__0 - T2_arm__0 - b_px)));
-    // F_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // F_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // F_b from apply[1] (hinge.yaml:84), apply[3] (hinge.yaml:86)
+    // F_b from apply[1] (hinge.yaml:79), apply[3] (hinge.yaml:81)
     out[6] = (-L_f__0);
     out[7] = (-L_f__1);
     out[8] = (-L_f__2);
@@ -2343,7 +2327,7 @@ struct Hinge_Pair_Kernel {
 
 /// hinge (world): F for 1 body and 2 Jacobian block(s).
 /// out = [F_a (6), dF_a/ddelta_a (36), dF_a/du_a (36)]
-/// Total ops: 1257
+/// Total ops: 1201
 struct Hinge_World_Kernel {
   using Instance = Hinge_Force;
   static constexpr ForceType kType = ForceType::hinge;
@@ -2352,7 +2336,7 @@ struct Hinge_World_Kernel {
   static constexpr int kInputs = 49;
   static constexpr int kNumBlocks = 2;
   static constexpr int kOutputs = 78;
-  static constexpr int kOps = 1257;
+  static constexpr int kOps = 1201;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_du, 0, 0},
@@ -2470,7 +2454,7 @@ struct Hinge_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[46];
     [[maybe_unused]] const S g_joint_hertz = in[47];
     [[maybe_unused]] const S g_joint_damping_ratio = in[48];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:42), let a1 (hinge.yaml:52)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:42), let i1 (hinge.yaml:51)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -2597,27 +2581,19 @@ struct Hinge_World_Kernel {
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let p1 (hinge.yaml:50)
+    // let p1 (hinge.yaml:49)
     [[maybe_unused]] const S L_p1__0 = L_ua__0;
     [[maybe_unused]] const S L_p1__1 = L_ua__1;
     [[maybe_unused]] const S L_p1__2 = L_ua__2;
-    // let p2 (hinge.yaml:51)
+    // let p2 (hinge.yaml:50)
     [[maybe_unused]] const S L_p2__0 = ((L_na__1*L_ua__2) - (L_na__2*L_ua__1));
     [[maybe_unused]] const S L_p2__1 = ((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0));
     [[maybe_unused]] const S L_p2__2 = ((L_na__0*L_ua__1) - (L_na__1*L_ua__0));
-    // let a1 (hinge.yaml:52)
-    [[maybe_unused]] const S L_a1 = ((L_p1__0*((L_p1__0*a_Iw3_00) + (L_p1__1*a_Iw3_01) + (L_p1__2*a_Iw3_02))) + (L_p1__1*((L_p1__0*a_Iw3_01) + (L_p1__1*a_Iw3_11) + (L_p1__2*a_Iw3_12))) + (L_p1__2*((L_p1__0*a_Iw3_02) + (L_p1__1*a_Iw3_12) + (L_p1__2*a_Iw3_22))));
-    // let b1 (hinge.yaml:53)
-    [[maybe_unused]] const S L_b1 = S(0);
-    // let i1 (hinge.yaml:54)
-    [[maybe_unused]] const S L_i1 = select((L_b1 > S(0)), min(max(L_a1, L_b1), (S(16)*L_a1*L_b1/(max(S(1e-30), (L_a1 + L_b1))))), L_im);
-    // let a2 (hinge.yaml:55)
-    [[maybe_unused]] const S L_a2 = ((L_p2__0*((L_p2__0*a_Iw3_00) + (L_p2__1*a_Iw3_01) + (L_p2__2*a_Iw3_02))) + (L_p2__1*((L_p2__0*a_Iw3_01) + (L_p2__1*a_Iw3_11) + (L_p2__2*a_Iw3_12))) + (L_p2__2*((L_p2__0*a_Iw3_02) + (L_p2__1*a_Iw3_12) + (L_p2__2*a_Iw3_22))));
-    // let b2 (hinge.yaml:56)
-    [[maybe_unused]] const S L_b2 = S(0);
-    // let i2 (hinge.yaml:57)
-    [[maybe_unused]] const S L_i2 = select((L_b2 > S(0)), min(max(L_a2, L_b2), (S(16)*L_a2*L_b2/(max(S(1e-30), (L_a2 + L_b2))))), L_im);
-    // let mis (hinge.yaml:58)
+    // let i1 (hinge.yaml:51)
+    [[maybe_unused]] const S L_i1 = L_im;
+    // let i2 (hinge.yaml:52)
+    [[maybe_unused]] const S L_i2 = L_im;
+    // let mis (hinge.yaml:53)
     const S L_mis__0 = ((L_na__1*L_nb__2) - (L_na__2*L_nb__1));
     const S d_L_mis__0__a_dtx = ((-(L_nb__1*a_r1_1)) + (L_nb__2*d_L_na__1__a_dtx));
     const S d_L_mis__0__a_dty = (-(L_nb__1*d_L_na__2__a_dty));
@@ -2630,7 +2606,7 @@ struct Hinge_World_Kernel {
     const S d_L_mis__2__a_dtx = (-(L_nb__0*d_L_na__1__a_dtx));
     const S d_L_mis__2__a_dty = (L_nb__1*a_r1_2);
     const S d_L_mis__2__a_dtz = ((-(L_nb__0*a_r1_0)) + (L_nb__1*d_L_na__0__a_dtz));
-    // let wperp (hinge.yaml:59)
+    // let wperp (hinge.yaml:54)
     const S L_wperp__0 = ((-(L_na__0*L_rate)) + L_wrel__0);
     const S d_L_wperp__0__a_dtx = (-(L_na__0*d_L_rate__a_dtx));
     const S d_L_wperp__0__a_dty = ((-(L_na__0*d_L_rate__a_dty)) - (L_rate*a_r1_2));
@@ -2652,127 +2628,127 @@ struct Hinge_World_Kernel {
     const S d_L_wperp__2__a_wx = (-(L_na__2*d_L_rate__a_wx));
     const S d_L_wperp__2__a_wy = (-(L_na__2*d_L_rate__a_wy));
     const S d_L_wperp__2__a_wz = ((-(L_na__2*d_L_rate__a_wz)) - S(1));
-    // let align (hinge.yaml:60)
-    const S l24_0_0 = (L_omega*L_omega);
-    const S l24_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
-    const S l24_0_2 = (L_i1*L_p1__0);
-    const S l24_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
-    const S l24_0_4 = (L_i2*L_p2__0);
-    const S l24_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
-    const S l24_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
-    const S l24_0_7 = (S(2)*L_omega*L_zeta);
-    const S l24_0_8 = ((L_i1*(L_p1__0*L_p1__0)) + (L_i2*(L_p2__0*L_p2__0)));
-    const S l24_0_9 = (l24_0_0*l24_0_8);
-    const S l24_0_10 = ((L_p1__1*l24_0_2) + (L_p2__1*l24_0_4));
-    const S l24_0_11 = (l24_0_0*l24_0_10);
-    const S l24_0_12 = ((L_p1__2*l24_0_2) + (L_p2__2*l24_0_4));
-    const S l24_0_13 = (l24_0_0*l24_0_12);
-    const S l24_0_14 = (l24_0_7*l24_0_8);
-    const S l24_0_15 = (l24_0_10*l24_0_7);
-    const S l24_0_16 = (l24_0_12*l24_0_7);
-    const S l24_0_17 = (L_i1*L_p1__1);
-    const S l24_0_18 = (L_i2*L_p2__1);
-    const S l24_0_19 = ((L_i1*(L_p1__1*L_p1__1)) + (L_i2*(L_p2__1*L_p2__1)));
-    const S l24_0_20 = (l24_0_0*l24_0_19);
-    const S l24_0_21 = ((L_p1__2*l24_0_17) + (L_p2__2*l24_0_18));
-    const S l24_0_22 = (l24_0_0*l24_0_21);
-    const S l24_0_23 = (l24_0_19*l24_0_7);
-    const S l24_0_24 = (l24_0_21*l24_0_7);
-    const S l24_0_25 = (L_i1*L_p1__2);
-    const S l24_0_26 = (L_i2*L_p2__2);
-    const S l24_0_27 = ((L_i1*(L_p1__2*L_p1__2)) + (L_i2*(L_p2__2*L_p2__2)));
-    const S l24_0_28 = (l24_0_0*l24_0_27);
-    const S l24_0_29 = (l24_0_27*l24_0_7);
-    const S L_align__0 = ((-(l24_0_0*((l24_0_1*l24_0_2) + (l24_0_3*l24_0_4)))) - (l24_0_7*((l24_0_2*l24_0_5) + (l24_0_4*l24_0_6))));
-    const S d_L_align__0__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_9)) - (d_L_mis__1__a_dtx*l24_0_11) - (d_L_mis__2__a_dtx*l24_0_13) - (d_L_wperp__0__a_dtx*l24_0_14) - (d_L_wperp__1__a_dtx*l24_0_15) - (d_L_wperp__2__a_dtx*l24_0_16));
-    const S d_L_align__0__a_dty = ((-(d_L_mis__0__a_dty*l24_0_9)) - (d_L_mis__1__a_dty*l24_0_11) - (d_L_mis__2__a_dty*l24_0_13) - (d_L_wperp__0__a_dty*l24_0_14) - (d_L_wperp__1__a_dty*l24_0_15) - (d_L_wperp__2__a_dty*l24_0_16));
-    const S d_L_align__0__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_9)) - (d_L_mis__1__a_dtz*l24_0_11) - (d_L_mis__2__a_dtz*l24_0_13) - (d_L_wperp__0__a_dtz*l24_0_14) - (d_L_wperp__1__a_dtz*l24_0_15) - (d_L_wperp__2__a_dtz*l24_0_16));
-    const S d_L_align__0__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_14)) - (d_L_wperp__1__a_wx*l24_0_15) - (d_L_wperp__2__a_wx*l24_0_16));
-    const S d_L_align__0__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_14)) - (d_L_wperp__1__a_wy*l24_0_15) - (d_L_wperp__2__a_wy*l24_0_16));
-    const S d_L_align__0__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_14)) - (d_L_wperp__1__a_wz*l24_0_15) - (d_L_wperp__2__a_wz*l24_0_16));
-    const S L_align__1 = ((-(l24_0_0*((l24_0_1*l24_0_17) + (l24_0_18*l24_0_3)))) - (l24_0_7*((l24_0_17*l24_0_5) + (l24_0_18*l24_0_6))));
-    const S d_L_align__1__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_11)) - (d_L_mis__1__a_dtx*l24_0_20) - (d_L_mis__2__a_dtx*l24_0_22) - (d_L_wperp__0__a_dtx*l24_0_15) - (d_L_wperp__1__a_dtx*l24_0_23) - (d_L_wperp__2__a_dtx*l24_0_24));
-    const S d_L_align__1__a_dty = ((-(d_L_mis__0__a_dty*l24_0_11)) - (d_L_mis__1__a_dty*l24_0_20) - (d_L_mis__2__a_dty*l24_0_22) - (d_L_wperp__0__a_dty*l24_0_15) - (d_L_wperp__1__a_dty*l24_0_23) - (d_L_wperp__2__a_dty*l24_0_24));
-    const S d_L_align__1__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_11)) - (d_L_mis__1__a_dtz*l24_0_20) - (d_L_mis__2__a_dtz*l24_0_22) - (d_L_wperp__0__a_dtz*l24_0_15) - (d_L_wperp__1__a_dtz*l24_0_23) - (d_L_wperp__2__a_dtz*l24_0_24));
-    const S d_L_align__1__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_15)) - (d_L_wperp__1__a_wx*l24_0_23) - (d_L_wperp__2__a_wx*l24_0_24));
-    const S d_L_align__1__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_15)) - (d_L_wperp__1__a_wy*l24_0_23) - (d_L_wperp__2__a_wy*l24_0_24));
-    const S d_L_align__1__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_15)) - (d_L_wperp__1__a_wz*l24_0_23) - (d_L_wperp__2__a_wz*l24_0_24));
-    const S L_align__2 = ((-(l24_0_0*((l24_0_1*l24_0_25) + (l24_0_26*l24_0_3)))) - (l24_0_7*((l24_0_25*l24_0_5) + (l24_0_26*l24_0_6))));
-    const S d_L_align__2__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_13)) - (d_L_mis__1__a_dtx*l24_0_22) - (d_L_mis__2__a_dtx*l24_0_28) - (d_L_wperp__0__a_dtx*l24_0_16) - (d_L_wperp__1__a_dtx*l24_0_24) - (d_L_wperp__2__a_dtx*l24_0_29));
-    const S d_L_align__2__a_dty = ((-(d_L_mis__0__a_dty*l24_0_13)) - (d_L_mis__1__a_dty*l24_0_22) - (d_L_mis__2__a_dty*l24_0_28) - (d_L_wperp__0__a_dty*l24_0_16) - (d_L_wperp__1__a_dty*l24_0_24) - (d_L_wperp__2__a_dty*l24_0_29));
-    const S d_L_align__2__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_13)) - (d_L_mis__1__a_dtz*l24_0_22) - (d_L_mis__2__a_dtz*l24_0_28) - (d_L_wperp__0__a_dtz*l24_0_16) - (d_L_wperp__1__a_dtz*l24_0_24) - (d_L_wperp__2__a_dtz*l24_0_29));
-    const S d_L_align__2__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_16)) - (d_L_wperp__1__a_wx*l24_0_24) - (d_L_wperp__2__a_wx*l24_0_29));
-    const S d_L_align__2__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_16)) - (d_L_wperp__1__a_wy*l24_0_24) - (d_L_wperp__2__a_wy*l24_0_29));
-    const S d_L_align__2__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_16)) - (d_L_wperp__1__a_wz*l24_0_24) - (d_L_wperp__2__a_wz*l24_0_29));
-    // let ub (hinge.yaml:61)
+    // let align (hinge.yaml:55)
+    const S l20_0_0 = (L_omega*L_omega);
+    const S l20_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
+    const S l20_0_2 = (L_i1*L_p1__0);
+    const S l20_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
+    const S l20_0_4 = (L_i2*L_p2__0);
+    const S l20_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
+    const S l20_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
+    const S l20_0_7 = (S(2)*L_omega*L_zeta);
+    const S l20_0_8 = ((L_i1*(L_p1__0*L_p1__0)) + (L_i2*(L_p2__0*L_p2__0)));
+    const S l20_0_9 = (l20_0_0*l20_0_8);
+    const S l20_0_10 = ((L_p1__1*l20_0_2) + (L_p2__1*l20_0_4));
+    const S l20_0_11 = (l20_0_0*l20_0_10);
+    const S l20_0_12 = ((L_p1__2*l20_0_2) + (L_p2__2*l20_0_4));
+    const S l20_0_13 = (l20_0_0*l20_0_12);
+    const S l20_0_14 = (l20_0_7*l20_0_8);
+    const S l20_0_15 = (l20_0_10*l20_0_7);
+    const S l20_0_16 = (l20_0_12*l20_0_7);
+    const S l20_0_17 = (L_i1*L_p1__1);
+    const S l20_0_18 = (L_i2*L_p2__1);
+    const S l20_0_19 = ((L_i1*(L_p1__1*L_p1__1)) + (L_i2*(L_p2__1*L_p2__1)));
+    const S l20_0_20 = (l20_0_0*l20_0_19);
+    const S l20_0_21 = ((L_p1__2*l20_0_17) + (L_p2__2*l20_0_18));
+    const S l20_0_22 = (l20_0_0*l20_0_21);
+    const S l20_0_23 = (l20_0_19*l20_0_7);
+    const S l20_0_24 = (l20_0_21*l20_0_7);
+    const S l20_0_25 = (L_i1*L_p1__2);
+    const S l20_0_26 = (L_i2*L_p2__2);
+    const S l20_0_27 = ((L_i1*(L_p1__2*L_p1__2)) + (L_i2*(L_p2__2*L_p2__2)));
+    const S l20_0_28 = (l20_0_0*l20_0_27);
+    const S l20_0_29 = (l20_0_27*l20_0_7);
+    const S L_align__0 = ((-(l20_0_0*((l20_0_1*l20_0_2) + (l20_0_3*l20_0_4)))) - (l20_0_7*((l20_0_2*l20_0_5) + (l20_0_4*l20_0_6))));
+    const S d_L_align__0__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_9)) - (d_L_mis__1__a_dtx*l20_0_11) - (d_L_mis__2__a_dtx*l20_0_13) - (d_L_wperp__0__a_dtx*l20_0_14) - (d_L_wperp__1__a_dtx*l20_0_15) - (d_L_wperp__2__a_dtx*l20_0_16));
+    const S d_L_align__0__a_dty = ((-(d_L_mis__0__a_dty*l20_0_9)) - (d_L_mis__1__a_dty*l20_0_11) - (d_L_mis__2__a_dty*l20_0_13) - (d_L_wperp__0__a_dty*l20_0_14) - (d_L_wperp__1__a_dty*l20_0_15) - (d_L_wperp__2__a_dty*l20_0_16));
+    const S d_L_align__0__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_9)) - (d_L_mis__1__a_dtz*l20_0_11) - (d_L_mis__2__a_dtz*l20_0_13) - (d_L_wperp__0__a_dtz*l20_0_14) - (d_L_wperp__1__a_dtz*l20_0_15) - (d_L_wperp__2__a_dtz*l20_0_16));
+    const S d_L_align__0__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_14)) - (d_L_wperp__1__a_wx*l20_0_15) - (d_L_wperp__2__a_wx*l20_0_16));
+    const S d_L_align__0__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_14)) - (d_L_wperp__1__a_wy*l20_0_15) - (d_L_wperp__2__a_wy*l20_0_16));
+    const S d_L_align__0__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_14)) - (d_L_wperp__1__a_wz*l20_0_15) - (d_L_wperp__2__a_wz*l20_0_16));
+    const S L_align__1 = ((-(l20_0_0*((l20_0_1*l20_0_17) + (l20_0_18*l20_0_3)))) - (l20_0_7*((l20_0_17*l20_0_5) + (l20_0_18*l20_0_6))));
+    const S d_L_align__1__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_11)) - (d_L_mis__1__a_dtx*l20_0_20) - (d_L_mis__2__a_dtx*l20_0_22) - (d_L_wperp__0__a_dtx*l20_0_15) - (d_L_wperp__1__a_dtx*l20_0_23) - (d_L_wperp__2__a_dtx*l20_0_24));
+    const S d_L_align__1__a_dty = ((-(d_L_mis__0__a_dty*l20_0_11)) - (d_L_mis__1__a_dty*l20_0_20) - (d_L_mis__2__a_dty*l20_0_22) - (d_L_wperp__0__a_dty*l20_0_15) - (d_L_wperp__1__a_dty*l20_0_23) - (d_L_wperp__2__a_dty*l20_0_24));
+    const S d_L_align__1__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_11)) - (d_L_mis__1__a_dtz*l20_0_20) - (d_L_mis__2__a_dtz*l20_0_22) - (d_L_wperp__0__a_dtz*l20_0_15) - (d_L_wperp__1__a_dtz*l20_0_23) - (d_L_wperp__2__a_dtz*l20_0_24));
+    const S d_L_align__1__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_15)) - (d_L_wperp__1__a_wx*l20_0_23) - (d_L_wperp__2__a_wx*l20_0_24));
+    const S d_L_align__1__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_15)) - (d_L_wperp__1__a_wy*l20_0_23) - (d_L_wperp__2__a_wy*l20_0_24));
+    const S d_L_align__1__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_15)) - (d_L_wperp__1__a_wz*l20_0_23) - (d_L_wperp__2__a_wz*l20_0_24));
+    const S L_align__2 = ((-(l20_0_0*((l20_0_1*l20_0_25) + (l20_0_26*l20_0_3)))) - (l20_0_7*((l20_0_25*l20_0_5) + (l20_0_26*l20_0_6))));
+    const S d_L_align__2__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_13)) - (d_L_mis__1__a_dtx*l20_0_22) - (d_L_mis__2__a_dtx*l20_0_28) - (d_L_wperp__0__a_dtx*l20_0_16) - (d_L_wperp__1__a_dtx*l20_0_24) - (d_L_wperp__2__a_dtx*l20_0_29));
+    const S d_L_align__2__a_dty = ((-(d_L_mis__0__a_dty*l20_0_13)) - (d_L_mis__1__a_dty*l20_0_22) - (d_L_mis__2__a_dty*l20_0_28) - (d_L_wperp__0__a_dty*l20_0_16) - (d_L_wperp__1__a_dty*l20_0_24) - (d_L_wperp__2__a_dty*l20_0_29));
+    const S d_L_align__2__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_13)) - (d_L_mis__1__a_dtz*l20_0_22) - (d_L_mis__2__a_dtz*l20_0_28) - (d_L_wperp__0__a_dtz*l20_0_16) - (d_L_wperp__1__a_dtz*l20_0_24) - (d_L_wperp__2__a_dtz*l20_0_29));
+    const S d_L_align__2__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_16)) - (d_L_wperp__1__a_wx*l20_0_24) - (d_L_wperp__2__a_wx*l20_0_29));
+    const S d_L_align__2__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_16)) - (d_L_wperp__1__a_wy*l20_0_24) - (d_L_wperp__2__a_wy*l20_0_29));
+    const S d_L_align__2__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_16)) - (d_L_wperp__1__a_wz*l20_0_24) - (d_L_wperp__2__a_wz*l20_0_29));
+    // let ub (hinge.yaml:56)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let angle (hinge.yaml:62)
-    const S l26_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
-    const S l26_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
-    const S l26_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
-    const S l26_0_3 = ((L_na__0*l26_0_0) + (L_na__1*l26_0_1) + (L_na__2*l26_0_2));
-    const S l26_0_4 = ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2));
-    const S l26_0_5 = (S(1)/(((l26_0_3*l26_0_3) + (l26_0_4*l26_0_4))));
-    const S l26_0_6 = (-(l26_0_3*l26_0_5));
-    const S l26_0_7 = (l26_0_4*l26_0_5);
-    const S l26_0_8 = ((L_ub__2*l26_0_6) + (l26_0_7*((-(L_na__0*L_ub__1)) + (L_na__1*L_ub__0))));
-    const S l26_0_9 = ((L_ub__1*l26_0_6) + (l26_0_7*((L_na__0*L_ub__2) - (L_na__2*L_ub__0))));
-    const S l26_0_10 = (l26_0_2*l26_0_7);
-    const S l26_0_11 = (l26_0_1*l26_0_7);
-    const S l26_0_12 = ((L_ub__0*l26_0_6) + (l26_0_7*((-(L_na__1*L_ub__2)) + (L_na__2*L_ub__1))));
-    const S l26_0_13 = (l26_0_0*l26_0_7);
-    const S L_angle = angle_of(l26_0_3, l26_0_4);
-    const S d_L_angle__a_dtx = ((a_r1_1*l26_0_10) + (a_r2_1*l26_0_8) + (d_L_na__1__a_dtx*l26_0_11) + (d_L_ua__1__a_dtx*l26_0_9));
-    const S d_L_angle__a_dty = ((a_r1_2*l26_0_13) + (a_r2_2*l26_0_12) + (d_L_na__2__a_dty*l26_0_10) + (d_L_ua__2__a_dty*l26_0_8));
-    const S d_L_angle__a_dtz = ((a_r1_0*l26_0_11) + (a_r2_0*l26_0_9) + (d_L_na__0__a_dtz*l26_0_13) + (d_L_ua__0__a_dtz*l26_0_12));
-    // let limited (hinge.yaml:65)
+    // let angle (hinge.yaml:57)
+    const S l22_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
+    const S l22_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
+    const S l22_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
+    const S l22_0_3 = ((L_na__0*l22_0_0) + (L_na__1*l22_0_1) + (L_na__2*l22_0_2));
+    const S l22_0_4 = ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2));
+    const S l22_0_5 = (S(1)/(((l22_0_3*l22_0_3) + (l22_0_4*l22_0_4))));
+    const S l22_0_6 = (-(l22_0_3*l22_0_5));
+    const S l22_0_7 = (l22_0_4*l22_0_5);
+    const S l22_0_8 = ((L_ub__2*l22_0_6) + (l22_0_7*((-(L_na__0*L_ub__1)) + (L_na__1*L_ub__0))));
+    const S l22_0_9 = ((L_ub__1*l22_0_6) + (l22_0_7*((L_na__0*L_ub__2) - (L_na__2*L_ub__0))));
+    const S l22_0_10 = (l22_0_2*l22_0_7);
+    const S l22_0_11 = (l22_0_1*l22_0_7);
+    const S l22_0_12 = ((L_ub__0*l22_0_6) + (l22_0_7*((-(L_na__1*L_ub__2)) + (L_na__2*L_ub__1))));
+    const S l22_0_13 = (l22_0_0*l22_0_7);
+    const S L_angle = angle_of(l22_0_3, l22_0_4);
+    const S d_L_angle__a_dtx = ((a_r1_1*l22_0_10) + (a_r2_1*l22_0_8) + (d_L_na__1__a_dtx*l22_0_11) + (d_L_ua__1__a_dtx*l22_0_9));
+    const S d_L_angle__a_dty = ((a_r1_2*l22_0_13) + (a_r2_2*l22_0_12) + (d_L_na__2__a_dty*l22_0_10) + (d_L_ua__2__a_dty*l22_0_8));
+    const S d_L_angle__a_dtz = ((a_r1_0*l22_0_11) + (a_r2_0*l22_0_9) + (d_L_na__0__a_dtz*l22_0_13) + (d_L_ua__0__a_dtz*l22_0_12));
+    // let limited (hinge.yaml:60)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:66)
+    // let over_hi (hinge.yaml:61)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:67)
+    // let over_lo (hinge.yaml:62)
     const S L_over_lo = ((-L_angle) + p_lower);
     const S d_L_over_lo__a_dtx = (-d_L_angle__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_angle__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_angle__a_dtz);
-    // let stop_hi (hinge.yaml:68)
-    const S l30_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
-    const auto l30_0_1 = (l30_0_0 > S(0));
-    const auto l30_0_2 = (L_over_hi > S(0));
-    const auto l30_0_3 = ((L_over_hi + (L_rate*h)) > S(0));
-    const S l30_0_4 = select(l30_0_2, select(l30_0_1, L_kr, S(0)), select(l30_0_3, L_kr, S(0)));
-    const S l30_0_5 = select(l30_0_2, select(l30_0_1, L_cr, S(0)), select(l30_0_3, L_cr, S(0)));
-    const S L_stop_hi = select(l30_0_2, select(l30_0_1, l30_0_0, S(0)), select(l30_0_3, l30_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_angle__a_dtx*l30_0_4) + (d_L_rate__a_dtx*l30_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_angle__a_dty*l30_0_4) + (d_L_rate__a_dty*l30_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_angle__a_dtz*l30_0_4) + (d_L_rate__a_dtz*l30_0_5));
-    const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l30_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l30_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l30_0_5);
-    // let stop_lo (hinge.yaml:69)
-    const S l31_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
-    const S l31_0_1 = (-l31_0_0);
-    const auto l31_0_2 = (l31_0_0 < S(0));
-    const auto l31_0_3 = (L_over_lo > S(0));
-    const auto l31_0_4 = ((L_over_lo - (L_rate*h)) > S(0));
-    const S l31_0_5 = select(l31_0_3, select(l31_0_2, L_kr, S(0)), select(l31_0_4, L_kr, S(0)));
-    const S l31_0_6 = (-L_cr);
-    const S l31_0_7 = select(l31_0_3, select(l31_0_2, l31_0_6, S(0)), select(l31_0_4, l31_0_6, S(0)));
-    const S L_stop_lo = select(l31_0_3, select(l31_0_2, l31_0_1, S(0)), select(l31_0_4, l31_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l31_0_5) + (d_L_rate__a_dtx*l31_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l31_0_5) + (d_L_rate__a_dty*l31_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l31_0_5) + (d_L_rate__a_dtz*l31_0_7));
-    const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l31_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l31_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l31_0_7);
-    // let ia (hinge.yaml:73)
+    // let stop_hi (hinge.yaml:63)
+    const S l26_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
+    const auto l26_0_1 = (l26_0_0 > S(0));
+    const auto l26_0_2 = (L_over_hi > S(0));
+    const auto l26_0_3 = ((L_over_hi + (L_rate*h)) > S(0));
+    const S l26_0_4 = select(l26_0_2, select(l26_0_1, L_kr, S(0)), select(l26_0_3, L_kr, S(0)));
+    const S l26_0_5 = select(l26_0_2, select(l26_0_1, L_cr, S(0)), select(l26_0_3, L_cr, S(0)));
+    const S L_stop_hi = select(l26_0_2, select(l26_0_1, l26_0_0, S(0)), select(l26_0_3, l26_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_angle__a_dtx*l26_0_4) + (d_L_rate__a_dtx*l26_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_angle__a_dty*l26_0_4) + (d_L_rate__a_dty*l26_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_angle__a_dtz*l26_0_4) + (d_L_rate__a_dtz*l26_0_5));
+    const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l26_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l26_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l26_0_5);
+    // let stop_lo (hinge.yaml:64)
+    const S l27_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
+    const S l27_0_1 = (-l27_0_0);
+    const auto l27_0_2 = (l27_0_0 < S(0));
+    const auto l27_0_3 = (L_over_lo > S(0));
+    const auto l27_0_4 = ((L_over_lo - (L_rate*h)) > S(0));
+    const S l27_0_5 = select(l27_0_3, select(l27_0_2, L_kr, S(0)), select(l27_0_4, L_kr, S(0)));
+    const S l27_0_6 = (-L_cr);
+    const S l27_0_7 = select(l27_0_3, select(l27_0_2, l27_0_6, S(0)), select(l27_0_4, l27_0_6, S(0)));
+    const S L_stop_lo = select(l27_0_3, select(l27_0_2, l27_0_1, S(0)), select(l27_0_4, l27_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l27_0_5) + (d_L_rate__a_dtx*l27_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l27_0_5) + (d_L_rate__a_dty*l27_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l27_0_5) + (d_L_rate__a_dtz*l27_0_7));
+    const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l27_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l27_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l27_0_7);
+    // let ia (hinge.yaml:68)
     [[maybe_unused]] const S L_ia = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
-    // let ib (hinge.yaml:74)
+    // let ib (hinge.yaml:69)
     [[maybe_unused]] const S L_ib = S(0);
-    // let iz (hinge.yaml:75)
+    // let iz (hinge.yaml:70)
     [[maybe_unused]] const S L_iz = select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia);
-    // let err (hinge.yaml:76)
+    // let err (hinge.yaml:71)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -2780,22 +2756,22 @@ struct Hinge_World_Kernel {
     const S d_L_err__a_wx = (-d_L_rate__a_wx);
     const S d_L_err__a_wy = (-d_L_rate__a_wy);
     const S d_L_err__a_wz = (-d_L_rate__a_wz);
-    // let fast (hinge.yaml:77)
+    // let fast (hinge.yaml:72)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0));
-    // let sgn (hinge.yaml:78)
+    // let sgn (hinge.yaml:73)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (hinge.yaml:79)
-    const S l38_0_0 = (L_iz*L_omega*(S(1) - L_fast));
-    const auto l38_0_1 = (p_motor_torque > S(0));
-    const S l38_0_2 = select(l38_0_1, l38_0_0, S(0));
-    const S L_motor = select(l38_0_1, ((L_err*l38_0_0) + (L_fast*L_sgn*p_motor_torque)), S(0));
-    const S d_L_motor__a_dtx = (d_L_err__a_dtx*l38_0_2);
-    const S d_L_motor__a_dty = (d_L_err__a_dty*l38_0_2);
-    const S d_L_motor__a_dtz = (d_L_err__a_dtz*l38_0_2);
-    const S d_L_motor__a_wx = (d_L_err__a_wx*l38_0_2);
-    const S d_L_motor__a_wy = (d_L_err__a_wy*l38_0_2);
-    const S d_L_motor__a_wz = (d_L_err__a_wz*l38_0_2);
-    // let spring (hinge.yaml:80)
+    // let motor (hinge.yaml:74)
+    const S l34_0_0 = (L_iz*L_omega*(S(1) - L_fast));
+    const auto l34_0_1 = (p_motor_torque > S(0));
+    const S l34_0_2 = select(l34_0_1, l34_0_0, S(0));
+    const S L_motor = select(l34_0_1, ((L_err*l34_0_0) + (L_fast*L_sgn*p_motor_torque)), S(0));
+    const S d_L_motor__a_dtx = (d_L_err__a_dtx*l34_0_2);
+    const S d_L_motor__a_dty = (d_L_err__a_dty*l34_0_2);
+    const S d_L_motor__a_dtz = (d_L_err__a_dtz*l34_0_2);
+    const S d_L_motor__a_wx = (d_L_err__a_wx*l34_0_2);
+    const S d_L_motor__a_wy = (d_L_err__a_wy*l34_0_2);
+    const S d_L_motor__a_wz = (d_L_err__a_wz*l34_0_2);
+    // let spring (hinge.yaml:75)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
     const S d_L_spring__a_dtx = ((-(d_L_angle__a_dtx*p_spring_stiffness)) - (d_L_rate__a_dtx*p_spring_damping));
     const S d_L_spring__a_dty = ((-(d_L_angle__a_dty*p_spring_stiffness)) - (d_L_rate__a_dty*p_spring_damping));
@@ -2803,39 +2779,39 @@ struct Hinge_World_Kernel {
     const S d_L_spring__a_wx = (-(d_L_rate__a_wx*p_spring_damping));
     const S d_L_spring__a_wy = (-(d_L_rate__a_wy*p_spring_damping));
     const S d_L_spring__a_wz = (-(d_L_rate__a_wz*p_spring_damping));
-    // let tau (hinge.yaml:81)
-    const S l40_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
-    const S l40_0_1 = (L_limited*L_na__0);
-    const S l40_0_2 = (L_limited*L_na__1);
-    const S l40_0_3 = (L_limited*L_na__2);
-    const S L_tau__0 = (L_align__0 + (L_na__0*l40_0_0));
-    const S d_L_tau__0__a_dtx = ((L_na__0*d_L_motor__a_dtx) + (L_na__0*d_L_spring__a_dtx) + d_L_align__0__a_dtx - (d_L_stop_hi__a_dtx*l40_0_1) + (d_L_stop_lo__a_dtx*l40_0_1));
-    const S d_L_tau__0__a_dty = ((L_na__0*d_L_motor__a_dty) + (L_na__0*d_L_spring__a_dty) + (a_r1_2*l40_0_0) + d_L_align__0__a_dty - (d_L_stop_hi__a_dty*l40_0_1) + (d_L_stop_lo__a_dty*l40_0_1));
-    const S d_L_tau__0__a_dtz = ((L_na__0*d_L_motor__a_dtz) + (L_na__0*d_L_spring__a_dtz) + d_L_align__0__a_dtz + (d_L_na__0__a_dtz*l40_0_0) - (d_L_stop_hi__a_dtz*l40_0_1) + (d_L_stop_lo__a_dtz*l40_0_1));
-    const S d_L_tau__0__a_wx = ((L_na__0*d_L_motor__a_wx) + (L_na__0*d_L_spring__a_wx) + d_L_align__0__a_wx - (d_L_stop_hi__a_wx*l40_0_1) + (d_L_stop_lo__a_wx*l40_0_1));
-    const S d_L_tau__0__a_wy = ((L_na__0*d_L_motor__a_wy) + (L_na__0*d_L_spring__a_wy) + d_L_align__0__a_wy - (d_L_stop_hi__a_wy*l40_0_1) + (d_L_stop_lo__a_wy*l40_0_1));
-    const S d_L_tau__0__a_wz = ((L_na__0*d_L_motor__a_wz) + (L_na__0*d_L_spring__a_wz) + d_L_align__0__a_wz - (d_L_stop_hi__a_wz*l40_0_1) + (d_L_stop_lo__a_wz*l40_0_1));
-    const S L_tau__1 = (L_align__1 + (L_na__1*l40_0_0));
-    const S d_L_tau__1__a_dtx = ((L_na__1*d_L_motor__a_dtx) + (L_na__1*d_L_spring__a_dtx) + d_L_align__1__a_dtx + (d_L_na__1__a_dtx*l40_0_0) - (d_L_stop_hi__a_dtx*l40_0_2) + (d_L_stop_lo__a_dtx*l40_0_2));
-    const S d_L_tau__1__a_dty = ((L_na__1*d_L_motor__a_dty) + (L_na__1*d_L_spring__a_dty) + d_L_align__1__a_dty - (d_L_stop_hi__a_dty*l40_0_2) + (d_L_stop_lo__a_dty*l40_0_2));
-    const S d_L_tau__1__a_dtz = ((L_na__1*d_L_motor__a_dtz) + (L_na__1*d_L_spring__a_dtz) + (a_r1_0*l40_0_0) + d_L_align__1__a_dtz - (d_L_stop_hi__a_dtz*l40_0_2) + (d_L_stop_lo__a_dtz*l40_0_2));
-    const S d_L_tau__1__a_wx = ((L_na__1*d_L_motor__a_wx) + (L_na__1*d_L_spring__a_wx) + d_L_align__1__a_wx - (d_L_stop_hi__a_wx*l40_0_2) + (d_L_stop_lo__a_wx*l40_0_2));
-    const S d_L_tau__1__a_wy = ((L_na__1*d_L_motor__a_wy) + (L_na__1*d_L_spring__a_wy) + d_L_align__1__a_wy - (d_L_stop_hi__a_wy*l40_0_2) + (d_L_stop_lo__a_wy*l40_0_2));
-    const S d_L_tau__1__a_wz = ((L_na__1*d_L_motor__a_wz) + (L_na__1*d_L_spring__a_wz) + d_L_align__1__a_wz - (d_L_stop_hi__a_wz*l40_0_2) + (d_L_stop_lo__a_wz*l40_0_2));
-    const S L_tau__2 = (L_align__2 + (L_na__2*l40_0_0));
-    const S d_L_tau__2__a_dtx = ((L_na__2*d_L_motor__a_dtx) + (L_na__2*d_L_spring__a_dtx) + (a_r1_1*l40_0_0) + d_L_align__2__a_dtx - (d_L_stop_hi__a_dtx*l40_0_3) + (d_L_stop_lo__a_dtx*l40_0_3));
-    const S d_L_tau__2__a_dty = ((L_na__2*d_L_motor__a_dty) + (L_na__2*d_L_spring__a_dty) + d_L_align__2__a_dty + (d_L_na__2__a_dty*l40_0_0) - (d_L_stop_hi__a_dty*l40_0_3) + (d_L_stop_lo__a_dty*l40_0_3));
-    const S d_L_tau__2__a_dtz = ((L_na__2*d_L_motor__a_dtz) + (L_na__2*d_L_spring__a_dtz) + d_L_align__2__a_dtz - (d_L_stop_hi__a_dtz*l40_0_3) + (d_L_stop_lo__a_dtz*l40_0_3));
-    const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l40_0_3) + (d_L_stop_lo__a_wx*l40_0_3));
-    const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l40_0_3) + (d_L_stop_lo__a_wy*l40_0_3));
-    const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l40_0_3) + (d_L_stop_lo__a_wz*l40_0_3));
-    // apply[0] (hinge.yaml:83)
+    // let tau (hinge.yaml:76)
+    const S l36_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
+    const S l36_0_1 = (L_limited*L_na__0);
+    const S l36_0_2 = (L_limited*L_na__1);
+    const S l36_0_3 = (L_limited*L_na__2);
+    const S L_tau__0 = (L_align__0 + (L_na__0*l36_0_0));
+    const S d_L_tau__0__a_dtx = ((L_na__0*d_L_motor__a_dtx) + (L_na__0*d_L_spring__a_dtx) + d_L_align__0__a_dtx - (d_L_stop_hi__a_dtx*l36_0_1) + (d_L_stop_lo__a_dtx*l36_0_1));
+    const S d_L_tau__0__a_dty = ((L_na__0*d_L_motor__a_dty) + (L_na__0*d_L_spring__a_dty) + (a_r1_2*l36_0_0) + d_L_align__0__a_dty - (d_L_stop_hi__a_dty*l36_0_1) + (d_L_stop_lo__a_dty*l36_0_1));
+    const S d_L_tau__0__a_dtz = ((L_na__0*d_L_motor__a_dtz) + (L_na__0*d_L_spring__a_dtz) + d_L_align__0__a_dtz + (d_L_na__0__a_dtz*l36_0_0) - (d_L_stop_hi__a_dtz*l36_0_1) + (d_L_stop_lo__a_dtz*l36_0_1));
+    const S d_L_tau__0__a_wx = ((L_na__0*d_L_motor__a_wx) + (L_na__0*d_L_spring__a_wx) + d_L_align__0__a_wx - (d_L_stop_hi__a_wx*l36_0_1) + (d_L_stop_lo__a_wx*l36_0_1));
+    const S d_L_tau__0__a_wy = ((L_na__0*d_L_motor__a_wy) + (L_na__0*d_L_spring__a_wy) + d_L_align__0__a_wy - (d_L_stop_hi__a_wy*l36_0_1) + (d_L_stop_lo__a_wy*l36_0_1));
+    const S d_L_tau__0__a_wz = ((L_na__0*d_L_motor__a_wz) + (L_na__0*d_L_spring__a_wz) + d_L_align__0__a_wz - (d_L_stop_hi__a_wz*l36_0_1) + (d_L_stop_lo__a_wz*l36_0_1));
+    const S L_tau__1 = (L_align__1 + (L_na__1*l36_0_0));
+    const S d_L_tau__1__a_dtx = ((L_na__1*d_L_motor__a_dtx) + (L_na__1*d_L_spring__a_dtx) + d_L_align__1__a_dtx + (d_L_na__1__a_dtx*l36_0_0) - (d_L_stop_hi__a_dtx*l36_0_2) + (d_L_stop_lo__a_dtx*l36_0_2));
+    const S d_L_tau__1__a_dty = ((L_na__1*d_L_motor__a_dty) + (L_na__1*d_L_spring__a_dty) + d_L_align__1__a_dty - (d_L_stop_hi__a_dty*l36_0_2) + (d_L_stop_lo__a_dty*l36_0_2));
+    const S d_L_tau__1__a_dtz = ((L_na__1*d_L_motor__a_dtz) + (L_na__1*d_L_spring__a_dtz) + (a_r1_0*l36_0_0) + d_L_align__1__a_dtz - (d_L_stop_hi__a_dtz*l36_0_2) + (d_L_stop_lo__a_dtz*l36_0_2));
+    const S d_L_tau__1__a_wx = ((L_na__1*d_L_motor__a_wx) + (L_na__1*d_L_spring__a_wx) + d_L_align__1__a_wx - (d_L_stop_hi__a_wx*l36_0_2) + (d_L_stop_lo__a_wx*l36_0_2));
+    const S d_L_tau__1__a_wy = ((L_na__1*d_L_motor__a_wy) + (L_na__1*d_L_spring__a_wy) + d_L_align__1__a_wy - (d_L_stop_hi__a_wy*l36_0_2) + (d_L_stop_lo__a_wy*l36_0_2));
+    const S d_L_tau__1__a_wz = ((L_na__1*d_L_motor__a_wz) + (L_na__1*d_L_spring__a_wz) + d_L_align__1__a_wz - (d_L_stop_hi__a_wz*l36_0_2) + (d_L_stop_lo__a_wz*l36_0_2));
+    const S L_tau__2 = (L_align__2 + (L_na__2*l36_0_0));
+    const S d_L_tau__2__a_dtx = ((L_na__2*d_L_motor__a_dtx) + (L_na__2*d_L_spring__a_dtx) + (a_r1_1*l36_0_0) + d_L_align__2__a_dtx - (d_L_stop_hi__a_dtx*l36_0_3) + (d_L_stop_lo__a_dtx*l36_0_3));
+    const S d_L_tau__2__a_dty = ((L_na__2*d_L_motor__a_dty) + (L_na__2*d_L_spring__a_dty) + d_L_align__2__a_dty + (d_L_na__2__a_dty*l36_0_0) - (d_L_stop_hi__a_dty*l36_0_3) + (d_L_stop_lo__a_dty*l36_0_3));
+    const S d_L_tau__2__a_dtz = ((L_na__2*d_L_motor__a_dtz) + (L_na__2*d_L_spring__a_dtz) + d_L_align__2__a_dtz - (d_L_stop_hi__a_dtz*l36_0_3) + (d_L_stop_lo__a_dtz*l36_0_3));
+    const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l36_0_3) + (d_L_stop_lo__a_wx*l36_0_3));
+    const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l36_0_3) + (d_L_stop_lo__a_wy*l36_0_3));
+    const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l36_0_3) + (d_L_stop_lo__a_wz*l36_0_3));
+    // apply[0] (hinge.yaml:78)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l42_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l42_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l42_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (hinge.yaml:82), shared subexpressions
+    const S l38_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l38_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l38_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply (hinge.yaml:77), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
@@ -2847,14 +2823,14 @@ struct Hinge_World_Kernel {
     const S o8 = (T1_turn*d_L_pa__2__a_dty);
     const S o9 = (T1_turn*a_r0_2);
     const S o10 = (L_f__2*T1_turn);
-    // F_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // F_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;
     out[3] = ((-(L_f__1*o0)) + (L_f__2*o1) - L_tau__0);
     out[4] = ((L_f__0*o0) - (L_f__2*o2) - L_tau__1);
     out[5] = ((-(L_f__0*o1)) + (L_f__1*o2) - L_tau__2);
-    // dF_a/ddelta_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // dF_a/ddelta_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[6] = d_L_f__0__a_dx;
     out[7] = S(0);
     out[8] = S(0);
@@ -2891,7 +2867,7 @@ struct Hinge_World_Kernel {
     out[39] = ((a_r0_0*o10) + (d_L_f__1__a_dtz*o4) + (d_L_f__2__a_dtz*o1) - d_L_tau__0__a_dtz);
     out[40] = ((d_L_f__0__a_dtz*o0) + (d_L_f__2__a_dtz*o5) - (d_L_pa__0__a_dtz*o10) - d_L_tau__1__a_dtz);
     out[41] = ((-(L_f__0*T1_turn*a_r0_0)) + (L_f__1*T1_turn*d_L_pa__0__a_dtz) + (d_L_f__0__a_dtz*o3) + (d_L_f__1__a_dtz*o2) - d_L_tau__2__a_dtz);
-    // dF_a/du_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // dF_a/du_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[42] = d_L_f__0__a_vx;
     out[43] = S(0);
     out[44] = S(0);
@@ -2932,7 +2908,7 @@ struct Hinge_World_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1419
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1363
   static constexpr int kNumImplicitBlocks = 1;
   static constexpr int kImplicitOutputs = 42;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -2991,7 +2967,7 @@ struct Hinge_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[46];
     [[maybe_unused]] const S g_joint_hertz = in[47];
     [[maybe_unused]] const S g_joint_damping_ratio = in[48];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:42), let a1 (hinge.yaml:52)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:42), let i1 (hinge.yaml:51)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3118,27 +3094,19 @@ struct Hinge_World_Kernel {
     const S d_L_ua__1__a_dtx = (-a_r2_2);
     const S L_ua__2 = a_r2_2;
     const S d_L_ua__2__a_dty = (-a_r2_0);
-    // let p1 (hinge.yaml:50)
+    // let p1 (hinge.yaml:49)
     [[maybe_unused]] const S L_p1__0 = L_ua__0;
     [[maybe_unused]] const S L_p1__1 = L_ua__1;
     [[maybe_unused]] const S L_p1__2 = L_ua__2;
-    // let p2 (hinge.yaml:51)
+    // let p2 (hinge.yaml:50)
     [[maybe_unused]] const S L_p2__0 = ((L_na__1*L_ua__2) - (L_na__2*L_ua__1));
     [[maybe_unused]] const S L_p2__1 = ((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0));
     [[maybe_unused]] const S L_p2__2 = ((L_na__0*L_ua__1) - (L_na__1*L_ua__0));
-    // let a1 (hinge.yaml:52)
-    [[maybe_unused]] const S L_a1 = ((L_p1__0*((L_p1__0*a_Iw3_00) + (L_p1__1*a_Iw3_01) + (L_p1__2*a_Iw3_02))) + (L_p1__1*((L_p1__0*a_Iw3_01) + (L_p1__1*a_Iw3_11) + (L_p1__2*a_Iw3_12))) + (L_p1__2*((L_p1__0*a_Iw3_02) + (L_p1__1*a_Iw3_12) + (L_p1__2*a_Iw3_22))));
-    // let b1 (hinge.yaml:53)
-    [[maybe_unused]] const S L_b1 = S(0);
-    // let i1 (hinge.yaml:54)
-    [[maybe_unused]] const S L_i1 = select((L_b1 > S(0)), min(max(L_a1, L_b1), (S(16)*L_a1*L_b1/(max(S(1e-30), (L_a1 + L_b1))))), L_im);
-    // let a2 (hinge.yaml:55)
-    [[maybe_unused]] const S L_a2 = ((L_p2__0*((L_p2__0*a_Iw3_00) + (L_p2__1*a_Iw3_01) + (L_p2__2*a_Iw3_02))) + (L_p2__1*((L_p2__0*a_Iw3_01) + (L_p2__1*a_Iw3_11) + (L_p2__2*a_Iw3_12))) + (L_p2__2*((L_p2__0*a_Iw3_02) + (L_p2__1*a_Iw3_12) + (L_p2__2*a_Iw3_22))));
-    // let b2 (hinge.yaml:56)
-    [[maybe_unused]] const S L_b2 = S(0);
-    // let i2 (hinge.yaml:57)
-    [[maybe_unused]] const S L_i2 = select((L_b2 > S(0)), min(max(L_a2, L_b2), (S(16)*L_a2*L_b2/(max(S(1e-30), (L_a2 + L_b2))))), L_im);
-    // let mis (hinge.yaml:58)
+    // let i1 (hinge.yaml:51)
+    [[maybe_unused]] const S L_i1 = L_im;
+    // let i2 (hinge.yaml:52)
+    [[maybe_unused]] const S L_i2 = L_im;
+    // let mis (hinge.yaml:53)
     const S L_mis__0 = ((L_na__1*L_nb__2) - (L_na__2*L_nb__1));
     const S d_L_mis__0__a_dtx = ((-(L_nb__1*a_r1_1)) + (L_nb__2*d_L_na__1__a_dtx));
     const S d_L_mis__0__a_dty = (-(L_nb__1*d_L_na__2__a_dty));
@@ -3151,7 +3119,7 @@ struct Hinge_World_Kernel {
     const S d_L_mis__2__a_dtx = (-(L_nb__0*d_L_na__1__a_dtx));
     const S d_L_mis__2__a_dty = (L_nb__1*a_r1_2);
     const S d_L_mis__2__a_dtz = ((-(L_nb__0*a_r1_0)) + (L_nb__1*d_L_na__0__a_dtz));
-    // let wperp (hinge.yaml:59)
+    // let wperp (hinge.yaml:54)
     const S L_wperp__0 = ((-(L_na__0*L_rate)) + L_wrel__0);
     const S d_L_wperp__0__a_dtx = (-(L_na__0*d_L_rate__a_dtx));
     const S d_L_wperp__0__a_dty = ((-(L_na__0*d_L_rate__a_dty)) - (L_rate*a_r1_2));
@@ -3173,127 +3141,127 @@ struct Hinge_World_Kernel {
     const S d_L_wperp__2__a_wx = (-(L_na__2*d_L_rate__a_wx));
     const S d_L_wperp__2__a_wy = (-(L_na__2*d_L_rate__a_wy));
     const S d_L_wperp__2__a_wz = ((-(L_na__2*d_L_rate__a_wz)) - S(1));
-    // let align (hinge.yaml:60)
-    const S l24_0_0 = (L_omega*L_omega);
-    const S l24_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
-    const S l24_0_2 = (L_i1*L_p1__0);
-    const S l24_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
-    const S l24_0_4 = (L_i2*L_p2__0);
-    const S l24_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
-    const S l24_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
-    const S l24_0_7 = (S(2)*L_omega*L_zeta);
-    const S l24_0_8 = ((L_i1*(L_p1__0*L_p1__0)) + (L_i2*(L_p2__0*L_p2__0)));
-    const S l24_0_9 = (l24_0_0*l24_0_8);
-    const S l24_0_10 = ((L_p1__1*l24_0_2) + (L_p2__1*l24_0_4));
-    const S l24_0_11 = (l24_0_0*l24_0_10);
-    const S l24_0_12 = ((L_p1__2*l24_0_2) + (L_p2__2*l24_0_4));
-    const S l24_0_13 = (l24_0_0*l24_0_12);
-    const S l24_0_14 = (l24_0_7*l24_0_8);
-    const S l24_0_15 = (l24_0_10*l24_0_7);
-    const S l24_0_16 = (l24_0_12*l24_0_7);
-    const S l24_0_17 = (L_i1*L_p1__1);
-    const S l24_0_18 = (L_i2*L_p2__1);
-    const S l24_0_19 = ((L_i1*(L_p1__1*L_p1__1)) + (L_i2*(L_p2__1*L_p2__1)));
-    const S l24_0_20 = (l24_0_0*l24_0_19);
-    const S l24_0_21 = ((L_p1__2*l24_0_17) + (L_p2__2*l24_0_18));
-    const S l24_0_22 = (l24_0_0*l24_0_21);
-    const S l24_0_23 = (l24_0_19*l24_0_7);
-    const S l24_0_24 = (l24_0_21*l24_0_7);
-    const S l24_0_25 = (L_i1*L_p1__2);
-    const S l24_0_26 = (L_i2*L_p2__2);
-    const S l24_0_27 = ((L_i1*(L_p1__2*L_p1__2)) + (L_i2*(L_p2__2*L_p2__2)));
-    const S l24_0_28 = (l24_0_0*l24_0_27);
-    const S l24_0_29 = (l24_0_27*l24_0_7);
-    const S L_align__0 = ((-(l24_0_0*((l24_0_1*l24_0_2) + (l24_0_3*l24_0_4)))) - (l24_0_7*((l24_0_2*l24_0_5) + (l24_0_4*l24_0_6))));
-    const S d_L_align__0__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_9)) - (d_L_mis__1__a_dtx*l24_0_11) - (d_L_mis__2__a_dtx*l24_0_13) - (d_L_wperp__0__a_dtx*l24_0_14) - (d_L_wperp__1__a_dtx*l24_0_15) - (d_L_wperp__2__a_dtx*l24_0_16));
-    const S d_L_align__0__a_dty = ((-(d_L_mis__0__a_dty*l24_0_9)) - (d_L_mis__1__a_dty*l24_0_11) - (d_L_mis__2__a_dty*l24_0_13) - (d_L_wperp__0__a_dty*l24_0_14) - (d_L_wperp__1__a_dty*l24_0_15) - (d_L_wperp__2__a_dty*l24_0_16));
-    const S d_L_align__0__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_9)) - (d_L_mis__1__a_dtz*l24_0_11) - (d_L_mis__2__a_dtz*l24_0_13) - (d_L_wperp__0__a_dtz*l24_0_14) - (d_L_wperp__1__a_dtz*l24_0_15) - (d_L_wperp__2__a_dtz*l24_0_16));
-    const S d_L_align__0__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_14)) - (d_L_wperp__1__a_wx*l24_0_15) - (d_L_wperp__2__a_wx*l24_0_16));
-    const S d_L_align__0__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_14)) - (d_L_wperp__1__a_wy*l24_0_15) - (d_L_wperp__2__a_wy*l24_0_16));
-    const S d_L_align__0__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_14)) - (d_L_wperp__1__a_wz*l24_0_15) - (d_L_wperp__2__a_wz*l24_0_16));
-    const S L_align__1 = ((-(l24_0_0*((l24_0_1*l24_0_17) + (l24_0_18*l24_0_3)))) - (l24_0_7*((l24_0_17*l24_0_5) + (l24_0_18*l24_0_6))));
-    const S d_L_align__1__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_11)) - (d_L_mis__1__a_dtx*l24_0_20) - (d_L_mis__2__a_dtx*l24_0_22) - (d_L_wperp__0__a_dtx*l24_0_15) - (d_L_wperp__1__a_dtx*l24_0_23) - (d_L_wperp__2__a_dtx*l24_0_24));
-    const S d_L_align__1__a_dty = ((-(d_L_mis__0__a_dty*l24_0_11)) - (d_L_mis__1__a_dty*l24_0_20) - (d_L_mis__2__a_dty*l24_0_22) - (d_L_wperp__0__a_dty*l24_0_15) - (d_L_wperp__1__a_dty*l24_0_23) - (d_L_wperp__2__a_dty*l24_0_24));
-    const S d_L_align__1__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_11)) - (d_L_mis__1__a_dtz*l24_0_20) - (d_L_mis__2__a_dtz*l24_0_22) - (d_L_wperp__0__a_dtz*l24_0_15) - (d_L_wperp__1__a_dtz*l24_0_23) - (d_L_wperp__2__a_dtz*l24_0_24));
-    const S d_L_align__1__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_15)) - (d_L_wperp__1__a_wx*l24_0_23) - (d_L_wperp__2__a_wx*l24_0_24));
-    const S d_L_align__1__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_15)) - (d_L_wperp__1__a_wy*l24_0_23) - (d_L_wperp__2__a_wy*l24_0_24));
-    const S d_L_align__1__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_15)) - (d_L_wperp__1__a_wz*l24_0_23) - (d_L_wperp__2__a_wz*l24_0_24));
-    const S L_align__2 = ((-(l24_0_0*((l24_0_1*l24_0_25) + (l24_0_26*l24_0_3)))) - (l24_0_7*((l24_0_25*l24_0_5) + (l24_0_26*l24_0_6))));
-    const S d_L_align__2__a_dtx = ((-(d_L_mis__0__a_dtx*l24_0_13)) - (d_L_mis__1__a_dtx*l24_0_22) - (d_L_mis__2__a_dtx*l24_0_28) - (d_L_wperp__0__a_dtx*l24_0_16) - (d_L_wperp__1__a_dtx*l24_0_24) - (d_L_wperp__2__a_dtx*l24_0_29));
-    const S d_L_align__2__a_dty = ((-(d_L_mis__0__a_dty*l24_0_13)) - (d_L_mis__1__a_dty*l24_0_22) - (d_L_mis__2__a_dty*l24_0_28) - (d_L_wperp__0__a_dty*l24_0_16) - (d_L_wperp__1__a_dty*l24_0_24) - (d_L_wperp__2__a_dty*l24_0_29));
-    const S d_L_align__2__a_dtz = ((-(d_L_mis__0__a_dtz*l24_0_13)) - (d_L_mis__1__a_dtz*l24_0_22) - (d_L_mis__2__a_dtz*l24_0_28) - (d_L_wperp__0__a_dtz*l24_0_16) - (d_L_wperp__1__a_dtz*l24_0_24) - (d_L_wperp__2__a_dtz*l24_0_29));
-    const S d_L_align__2__a_wx = ((-(d_L_wperp__0__a_wx*l24_0_16)) - (d_L_wperp__1__a_wx*l24_0_24) - (d_L_wperp__2__a_wx*l24_0_29));
-    const S d_L_align__2__a_wy = ((-(d_L_wperp__0__a_wy*l24_0_16)) - (d_L_wperp__1__a_wy*l24_0_24) - (d_L_wperp__2__a_wy*l24_0_29));
-    const S d_L_align__2__a_wz = ((-(d_L_wperp__0__a_wz*l24_0_16)) - (d_L_wperp__1__a_wz*l24_0_24) - (d_L_wperp__2__a_wz*l24_0_29));
-    // let ub (hinge.yaml:61)
+    // let align (hinge.yaml:55)
+    const S l20_0_0 = (L_omega*L_omega);
+    const S l20_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
+    const S l20_0_2 = (L_i1*L_p1__0);
+    const S l20_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
+    const S l20_0_4 = (L_i2*L_p2__0);
+    const S l20_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
+    const S l20_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
+    const S l20_0_7 = (S(2)*L_omega*L_zeta);
+    const S l20_0_8 = ((L_i1*(L_p1__0*L_p1__0)) + (L_i2*(L_p2__0*L_p2__0)));
+    const S l20_0_9 = (l20_0_0*l20_0_8);
+    const S l20_0_10 = ((L_p1__1*l20_0_2) + (L_p2__1*l20_0_4));
+    const S l20_0_11 = (l20_0_0*l20_0_10);
+    const S l20_0_12 = ((L_p1__2*l20_0_2) + (L_p2__2*l20_0_4));
+    const S l20_0_13 = (l20_0_0*l20_0_12);
+    const S l20_0_14 = (l20_0_7*l20_0_8);
+    const S l20_0_15 = (l20_0_10*l20_0_7);
+    const S l20_0_16 = (l20_0_12*l20_0_7);
+    const S l20_0_17 = (L_i1*L_p1__1);
+    const S l20_0_18 = (L_i2*L_p2__1);
+    const S l20_0_19 = ((L_i1*(L_p1__1*L_p1__1)) + (L_i2*(L_p2__1*L_p2__1)));
+    const S l20_0_20 = (l20_0_0*l20_0_19);
+    const S l20_0_21 = ((L_p1__2*l20_0_17) + (L_p2__2*l20_0_18));
+    const S l20_0_22 = (l20_0_0*l20_0_21);
+    const S l20_0_23 = (l20_0_19*l20_0_7);
+    const S l20_0_24 = (l20_0_21*l20_0_7);
+    const S l20_0_25 = (L_i1*L_p1__2);
+    const S l20_0_26 = (L_i2*L_p2__2);
+    const S l20_0_27 = ((L_i1*(L_p1__2*L_p1__2)) + (L_i2*(L_p2__2*L_p2__2)));
+    const S l20_0_28 = (l20_0_0*l20_0_27);
+    const S l20_0_29 = (l20_0_27*l20_0_7);
+    const S L_align__0 = ((-(l20_0_0*((l20_0_1*l20_0_2) + (l20_0_3*l20_0_4)))) - (l20_0_7*((l20_0_2*l20_0_5) + (l20_0_4*l20_0_6))));
+    const S d_L_align__0__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_9)) - (d_L_mis__1__a_dtx*l20_0_11) - (d_L_mis__2__a_dtx*l20_0_13) - (d_L_wperp__0__a_dtx*l20_0_14) - (d_L_wperp__1__a_dtx*l20_0_15) - (d_L_wperp__2__a_dtx*l20_0_16));
+    const S d_L_align__0__a_dty = ((-(d_L_mis__0__a_dty*l20_0_9)) - (d_L_mis__1__a_dty*l20_0_11) - (d_L_mis__2__a_dty*l20_0_13) - (d_L_wperp__0__a_dty*l20_0_14) - (d_L_wperp__1__a_dty*l20_0_15) - (d_L_wperp__2__a_dty*l20_0_16));
+    const S d_L_align__0__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_9)) - (d_L_mis__1__a_dtz*l20_0_11) - (d_L_mis__2__a_dtz*l20_0_13) - (d_L_wperp__0__a_dtz*l20_0_14) - (d_L_wperp__1__a_dtz*l20_0_15) - (d_L_wperp__2__a_dtz*l20_0_16));
+    const S d_L_align__0__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_14)) - (d_L_wperp__1__a_wx*l20_0_15) - (d_L_wperp__2__a_wx*l20_0_16));
+    const S d_L_align__0__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_14)) - (d_L_wperp__1__a_wy*l20_0_15) - (d_L_wperp__2__a_wy*l20_0_16));
+    const S d_L_align__0__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_14)) - (d_L_wperp__1__a_wz*l20_0_15) - (d_L_wperp__2__a_wz*l20_0_16));
+    const S L_align__1 = ((-(l20_0_0*((l20_0_1*l20_0_17) + (l20_0_18*l20_0_3)))) - (l20_0_7*((l20_0_17*l20_0_5) + (l20_0_18*l20_0_6))));
+    const S d_L_align__1__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_11)) - (d_L_mis__1__a_dtx*l20_0_20) - (d_L_mis__2__a_dtx*l20_0_22) - (d_L_wperp__0__a_dtx*l20_0_15) - (d_L_wperp__1__a_dtx*l20_0_23) - (d_L_wperp__2__a_dtx*l20_0_24));
+    const S d_L_align__1__a_dty = ((-(d_L_mis__0__a_dty*l20_0_11)) - (d_L_mis__1__a_dty*l20_0_20) - (d_L_mis__2__a_dty*l20_0_22) - (d_L_wperp__0__a_dty*l20_0_15) - (d_L_wperp__1__a_dty*l20_0_23) - (d_L_wperp__2__a_dty*l20_0_24));
+    const S d_L_align__1__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_11)) - (d_L_mis__1__a_dtz*l20_0_20) - (d_L_mis__2__a_dtz*l20_0_22) - (d_L_wperp__0__a_dtz*l20_0_15) - (d_L_wperp__1__a_dtz*l20_0_23) - (d_L_wperp__2__a_dtz*l20_0_24));
+    const S d_L_align__1__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_15)) - (d_L_wperp__1__a_wx*l20_0_23) - (d_L_wperp__2__a_wx*l20_0_24));
+    const S d_L_align__1__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_15)) - (d_L_wperp__1__a_wy*l20_0_23) - (d_L_wperp__2__a_wy*l20_0_24));
+    const S d_L_align__1__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_15)) - (d_L_wperp__1__a_wz*l20_0_23) - (d_L_wperp__2__a_wz*l20_0_24));
+    const S L_align__2 = ((-(l20_0_0*((l20_0_1*l20_0_25) + (l20_0_26*l20_0_3)))) - (l20_0_7*((l20_0_25*l20_0_5) + (l20_0_26*l20_0_6))));
+    const S d_L_align__2__a_dtx = ((-(d_L_mis__0__a_dtx*l20_0_13)) - (d_L_mis__1__a_dtx*l20_0_22) - (d_L_mis__2__a_dtx*l20_0_28) - (d_L_wperp__0__a_dtx*l20_0_16) - (d_L_wperp__1__a_dtx*l20_0_24) - (d_L_wperp__2__a_dtx*l20_0_29));
+    const S d_L_align__2__a_dty = ((-(d_L_mis__0__a_dty*l20_0_13)) - (d_L_mis__1__a_dty*l20_0_22) - (d_L_mis__2__a_dty*l20_0_28) - (d_L_wperp__0__a_dty*l20_0_16) - (d_L_wperp__1__a_dty*l20_0_24) - (d_L_wperp__2__a_dty*l20_0_29));
+    const S d_L_align__2__a_dtz = ((-(d_L_mis__0__a_dtz*l20_0_13)) - (d_L_mis__1__a_dtz*l20_0_22) - (d_L_mis__2__a_dtz*l20_0_28) - (d_L_wperp__0__a_dtz*l20_0_16) - (d_L_wperp__1__a_dtz*l20_0_24) - (d_L_wperp__2__a_dtz*l20_0_29));
+    const S d_L_align__2__a_wx = ((-(d_L_wperp__0__a_wx*l20_0_16)) - (d_L_wperp__1__a_wx*l20_0_24) - (d_L_wperp__2__a_wx*l20_0_29));
+    const S d_L_align__2__a_wy = ((-(d_L_wperp__0__a_wy*l20_0_16)) - (d_L_wperp__1__a_wy*l20_0_24) - (d_L_wperp__2__a_wy*l20_0_29));
+    const S d_L_align__2__a_wz = ((-(d_L_wperp__0__a_wz*l20_0_16)) - (d_L_wperp__1__a_wz*l20_0_24) - (d_L_wperp__2__a_wz*l20_0_29));
+    // let ub (hinge.yaml:56)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let angle (hinge.yaml:62)
-    const S l26_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
-    const S l26_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
-    const S l26_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
-    const S l26_0_3 = ((L_na__0*l26_0_0) + (L_na__1*l26_0_1) + (L_na__2*l26_0_2));
-    const S l26_0_4 = ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2));
-    const S l26_0_5 = (S(1)/(((l26_0_3*l26_0_3) + (l26_0_4*l26_0_4))));
-    const S l26_0_6 = (-(l26_0_3*l26_0_5));
-    const S l26_0_7 = (l26_0_4*l26_0_5);
-    const S l26_0_8 = ((L_ub__2*l26_0_6) + (l26_0_7*((-(L_na__0*L_ub__1)) + (L_na__1*L_ub__0))));
-    const S l26_0_9 = ((L_ub__1*l26_0_6) + (l26_0_7*((L_na__0*L_ub__2) - (L_na__2*L_ub__0))));
-    const S l26_0_10 = (l26_0_2*l26_0_7);
-    const S l26_0_11 = (l26_0_1*l26_0_7);
-    const S l26_0_12 = ((L_ub__0*l26_0_6) + (l26_0_7*((-(L_na__1*L_ub__2)) + (L_na__2*L_ub__1))));
-    const S l26_0_13 = (l26_0_0*l26_0_7);
-    const S L_angle = angle_of(l26_0_3, l26_0_4);
-    const S d_L_angle__a_dtx = ((a_r1_1*l26_0_10) + (a_r2_1*l26_0_8) + (d_L_na__1__a_dtx*l26_0_11) + (d_L_ua__1__a_dtx*l26_0_9));
-    const S d_L_angle__a_dty = ((a_r1_2*l26_0_13) + (a_r2_2*l26_0_12) + (d_L_na__2__a_dty*l26_0_10) + (d_L_ua__2__a_dty*l26_0_8));
-    const S d_L_angle__a_dtz = ((a_r1_0*l26_0_11) + (a_r2_0*l26_0_9) + (d_L_na__0__a_dtz*l26_0_13) + (d_L_ua__0__a_dtz*l26_0_12));
-    // let limited (hinge.yaml:65)
+    // let angle (hinge.yaml:57)
+    const S l22_0_0 = ((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1));
+    const S l22_0_1 = ((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0));
+    const S l22_0_2 = ((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0));
+    const S l22_0_3 = ((L_na__0*l22_0_0) + (L_na__1*l22_0_1) + (L_na__2*l22_0_2));
+    const S l22_0_4 = ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2));
+    const S l22_0_5 = (S(1)/(((l22_0_3*l22_0_3) + (l22_0_4*l22_0_4))));
+    const S l22_0_6 = (-(l22_0_3*l22_0_5));
+    const S l22_0_7 = (l22_0_4*l22_0_5);
+    const S l22_0_8 = ((L_ub__2*l22_0_6) + (l22_0_7*((-(L_na__0*L_ub__1)) + (L_na__1*L_ub__0))));
+    const S l22_0_9 = ((L_ub__1*l22_0_6) + (l22_0_7*((L_na__0*L_ub__2) - (L_na__2*L_ub__0))));
+    const S l22_0_10 = (l22_0_2*l22_0_7);
+    const S l22_0_11 = (l22_0_1*l22_0_7);
+    const S l22_0_12 = ((L_ub__0*l22_0_6) + (l22_0_7*((-(L_na__1*L_ub__2)) + (L_na__2*L_ub__1))));
+    const S l22_0_13 = (l22_0_0*l22_0_7);
+    const S L_angle = angle_of(l22_0_3, l22_0_4);
+    const S d_L_angle__a_dtx = ((a_r1_1*l22_0_10) + (a_r2_1*l22_0_8) + (d_L_na__1__a_dtx*l22_0_11) + (d_L_ua__1__a_dtx*l22_0_9));
+    const S d_L_angle__a_dty = ((a_r1_2*l22_0_13) + (a_r2_2*l22_0_12) + (d_L_na__2__a_dty*l22_0_10) + (d_L_ua__2__a_dty*l22_0_8));
+    const S d_L_angle__a_dtz = ((a_r1_0*l22_0_11) + (a_r2_0*l22_0_9) + (d_L_na__0__a_dtz*l22_0_13) + (d_L_ua__0__a_dtz*l22_0_12));
+    // let limited (hinge.yaml:60)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:66)
+    // let over_hi (hinge.yaml:61)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:67)
+    // let over_lo (hinge.yaml:62)
     const S L_over_lo = ((-L_angle) + p_lower);
     const S d_L_over_lo__a_dtx = (-d_L_angle__a_dtx);
     const S d_L_over_lo__a_dty = (-d_L_angle__a_dty);
     const S d_L_over_lo__a_dtz = (-d_L_angle__a_dtz);
-    // let stop_hi (hinge.yaml:68)
-    const S l30_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
-    const auto l30_0_1 = (l30_0_0 > S(0));
-    const auto l30_0_2 = (L_over_hi > S(0));
-    const auto l30_0_3 = ((L_over_hi + (L_rate*h)) > S(0));
-    const S l30_0_4 = select(l30_0_2, select(l30_0_1, L_kr, S(0)), select(l30_0_3, L_kr, S(0)));
-    const S l30_0_5 = select(l30_0_2, select(l30_0_1, L_cr, S(0)), select(l30_0_3, L_cr, S(0)));
-    const S L_stop_hi = select(l30_0_2, select(l30_0_1, l30_0_0, S(0)), select(l30_0_3, l30_0_0, S(0)));
-    const S d_L_stop_hi__a_dtx = ((d_L_angle__a_dtx*l30_0_4) + (d_L_rate__a_dtx*l30_0_5));
-    const S d_L_stop_hi__a_dty = ((d_L_angle__a_dty*l30_0_4) + (d_L_rate__a_dty*l30_0_5));
-    const S d_L_stop_hi__a_dtz = ((d_L_angle__a_dtz*l30_0_4) + (d_L_rate__a_dtz*l30_0_5));
-    const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l30_0_5);
-    const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l30_0_5);
-    const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l30_0_5);
-    // let stop_lo (hinge.yaml:69)
-    const S l31_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
-    const S l31_0_1 = (-l31_0_0);
-    const auto l31_0_2 = (l31_0_0 < S(0));
-    const auto l31_0_3 = (L_over_lo > S(0));
-    const auto l31_0_4 = ((L_over_lo - (L_rate*h)) > S(0));
-    const S l31_0_5 = select(l31_0_3, select(l31_0_2, L_kr, S(0)), select(l31_0_4, L_kr, S(0)));
-    const S l31_0_6 = (-L_cr);
-    const S l31_0_7 = select(l31_0_3, select(l31_0_2, l31_0_6, S(0)), select(l31_0_4, l31_0_6, S(0)));
-    const S L_stop_lo = select(l31_0_3, select(l31_0_2, l31_0_1, S(0)), select(l31_0_4, l31_0_1, S(0)));
-    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l31_0_5) + (d_L_rate__a_dtx*l31_0_7));
-    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l31_0_5) + (d_L_rate__a_dty*l31_0_7));
-    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l31_0_5) + (d_L_rate__a_dtz*l31_0_7));
-    const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l31_0_7);
-    const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l31_0_7);
-    const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l31_0_7);
-    // let ia (hinge.yaml:73)
+    // let stop_hi (hinge.yaml:63)
+    const S l26_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
+    const auto l26_0_1 = (l26_0_0 > S(0));
+    const auto l26_0_2 = (L_over_hi > S(0));
+    const auto l26_0_3 = ((L_over_hi + (L_rate*h)) > S(0));
+    const S l26_0_4 = select(l26_0_2, select(l26_0_1, L_kr, S(0)), select(l26_0_3, L_kr, S(0)));
+    const S l26_0_5 = select(l26_0_2, select(l26_0_1, L_cr, S(0)), select(l26_0_3, L_cr, S(0)));
+    const S L_stop_hi = select(l26_0_2, select(l26_0_1, l26_0_0, S(0)), select(l26_0_3, l26_0_0, S(0)));
+    const S d_L_stop_hi__a_dtx = ((d_L_angle__a_dtx*l26_0_4) + (d_L_rate__a_dtx*l26_0_5));
+    const S d_L_stop_hi__a_dty = ((d_L_angle__a_dty*l26_0_4) + (d_L_rate__a_dty*l26_0_5));
+    const S d_L_stop_hi__a_dtz = ((d_L_angle__a_dtz*l26_0_4) + (d_L_rate__a_dtz*l26_0_5));
+    const S d_L_stop_hi__a_wx = (d_L_rate__a_wx*l26_0_5);
+    const S d_L_stop_hi__a_wy = (d_L_rate__a_wy*l26_0_5);
+    const S d_L_stop_hi__a_wz = (d_L_rate__a_wz*l26_0_5);
+    // let stop_lo (hinge.yaml:64)
+    const S l27_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
+    const S l27_0_1 = (-l27_0_0);
+    const auto l27_0_2 = (l27_0_0 < S(0));
+    const auto l27_0_3 = (L_over_lo > S(0));
+    const auto l27_0_4 = ((L_over_lo - (L_rate*h)) > S(0));
+    const S l27_0_5 = select(l27_0_3, select(l27_0_2, L_kr, S(0)), select(l27_0_4, L_kr, S(0)));
+    const S l27_0_6 = (-L_cr);
+    const S l27_0_7 = select(l27_0_3, select(l27_0_2, l27_0_6, S(0)), select(l27_0_4, l27_0_6, S(0)));
+    const S L_stop_lo = select(l27_0_3, select(l27_0_2, l27_0_1, S(0)), select(l27_0_4, l27_0_1, S(0)));
+    const S d_L_stop_lo__a_dtx = ((d_L_over_lo__a_dtx*l27_0_5) + (d_L_rate__a_dtx*l27_0_7));
+    const S d_L_stop_lo__a_dty = ((d_L_over_lo__a_dty*l27_0_5) + (d_L_rate__a_dty*l27_0_7));
+    const S d_L_stop_lo__a_dtz = ((d_L_over_lo__a_dtz*l27_0_5) + (d_L_rate__a_dtz*l27_0_7));
+    const S d_L_stop_lo__a_wx = (d_L_rate__a_wx*l27_0_7);
+    const S d_L_stop_lo__a_wy = (d_L_rate__a_wy*l27_0_7);
+    const S d_L_stop_lo__a_wz = (d_L_rate__a_wz*l27_0_7);
+    // let ia (hinge.yaml:68)
     [[maybe_unused]] const S L_ia = ((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22))));
-    // let ib (hinge.yaml:74)
+    // let ib (hinge.yaml:69)
     [[maybe_unused]] const S L_ib = S(0);
-    // let iz (hinge.yaml:75)
+    // let iz (hinge.yaml:70)
     [[maybe_unused]] const S L_iz = select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia);
-    // let err (hinge.yaml:76)
+    // let err (hinge.yaml:71)
     const S L_err = ((-L_rate) + p_motor_speed);
     const S d_L_err__a_dtx = (-d_L_rate__a_dtx);
     const S d_L_err__a_dty = (-d_L_rate__a_dty);
@@ -3301,22 +3269,22 @@ struct Hinge_World_Kernel {
     const S d_L_err__a_wx = (-d_L_rate__a_wx);
     const S d_L_err__a_wy = (-d_L_rate__a_wy);
     const S d_L_err__a_wz = (-d_L_rate__a_wz);
-    // let fast (hinge.yaml:77)
+    // let fast (hinge.yaml:72)
     [[maybe_unused]] const S L_fast = select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0));
-    // let sgn (hinge.yaml:78)
+    // let sgn (hinge.yaml:73)
     [[maybe_unused]] const S L_sgn = select((L_err > S(0)), S(1), S(-1));
-    // let motor (hinge.yaml:79)
-    const S l38_0_0 = (L_iz*L_omega*(S(1) - L_fast));
-    const auto l38_0_1 = (p_motor_torque > S(0));
-    const S l38_0_2 = select(l38_0_1, l38_0_0, S(0));
-    const S L_motor = select(l38_0_1, ((L_err*l38_0_0) + (L_fast*L_sgn*p_motor_torque)), S(0));
-    const S d_L_motor__a_dtx = (d_L_err__a_dtx*l38_0_2);
-    const S d_L_motor__a_dty = (d_L_err__a_dty*l38_0_2);
-    const S d_L_motor__a_dtz = (d_L_err__a_dtz*l38_0_2);
-    const S d_L_motor__a_wx = (d_L_err__a_wx*l38_0_2);
-    const S d_L_motor__a_wy = (d_L_err__a_wy*l38_0_2);
-    const S d_L_motor__a_wz = (d_L_err__a_wz*l38_0_2);
-    // let spring (hinge.yaml:80)
+    // let motor (hinge.yaml:74)
+    const S l34_0_0 = (L_iz*L_omega*(S(1) - L_fast));
+    const auto l34_0_1 = (p_motor_torque > S(0));
+    const S l34_0_2 = select(l34_0_1, l34_0_0, S(0));
+    const S L_motor = select(l34_0_1, ((L_err*l34_0_0) + (L_fast*L_sgn*p_motor_torque)), S(0));
+    const S d_L_motor__a_dtx = (d_L_err__a_dtx*l34_0_2);
+    const S d_L_motor__a_dty = (d_L_err__a_dty*l34_0_2);
+    const S d_L_motor__a_dtz = (d_L_err__a_dtz*l34_0_2);
+    const S d_L_motor__a_wx = (d_L_err__a_wx*l34_0_2);
+    const S d_L_motor__a_wy = (d_L_err__a_wy*l34_0_2);
+    const S d_L_motor__a_wz = (d_L_err__a_wz*l34_0_2);
+    // let spring (hinge.yaml:75)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
     const S d_L_spring__a_dtx = ((-(d_L_angle__a_dtx*p_spring_stiffness)) - (d_L_rate__a_dtx*p_spring_damping));
     const S d_L_spring__a_dty = ((-(d_L_angle__a_dty*p_spring_stiffness)) - (d_L_rate__a_dty*p_spring_damping));
@@ -3324,39 +3292,39 @@ struct Hinge_World_Kernel {
     const S d_L_spring__a_wx = (-(d_L_rate__a_wx*p_spring_damping));
     const S d_L_spring__a_wy = (-(d_L_rate__a_wy*p_spring_damping));
     const S d_L_spring__a_wz = (-(d_L_rate__a_wz*p_spring_damping));
-    // let tau (hinge.yaml:81)
-    const S l40_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
-    const S l40_0_1 = (L_limited*L_na__0);
-    const S l40_0_2 = (L_limited*L_na__1);
-    const S l40_0_3 = (L_limited*L_na__2);
-    const S L_tau__0 = (L_align__0 + (L_na__0*l40_0_0));
-    const S d_L_tau__0__a_dtx = ((L_na__0*d_L_motor__a_dtx) + (L_na__0*d_L_spring__a_dtx) + d_L_align__0__a_dtx - (d_L_stop_hi__a_dtx*l40_0_1) + (d_L_stop_lo__a_dtx*l40_0_1));
-    const S d_L_tau__0__a_dty = ((L_na__0*d_L_motor__a_dty) + (L_na__0*d_L_spring__a_dty) + (a_r1_2*l40_0_0) + d_L_align__0__a_dty - (d_L_stop_hi__a_dty*l40_0_1) + (d_L_stop_lo__a_dty*l40_0_1));
-    const S d_L_tau__0__a_dtz = ((L_na__0*d_L_motor__a_dtz) + (L_na__0*d_L_spring__a_dtz) + d_L_align__0__a_dtz + (d_L_na__0__a_dtz*l40_0_0) - (d_L_stop_hi__a_dtz*l40_0_1) + (d_L_stop_lo__a_dtz*l40_0_1));
-    const S d_L_tau__0__a_wx = ((L_na__0*d_L_motor__a_wx) + (L_na__0*d_L_spring__a_wx) + d_L_align__0__a_wx - (d_L_stop_hi__a_wx*l40_0_1) + (d_L_stop_lo__a_wx*l40_0_1));
-    const S d_L_tau__0__a_wy = ((L_na__0*d_L_motor__a_wy) + (L_na__0*d_L_spring__a_wy) + d_L_align__0__a_wy - (d_L_stop_hi__a_wy*l40_0_1) + (d_L_stop_lo__a_wy*l40_0_1));
-    const S d_L_tau__0__a_wz = ((L_na__0*d_L_motor__a_wz) + (L_na__0*d_L_spring__a_wz) + d_L_align__0__a_wz - (d_L_stop_hi__a_wz*l40_0_1) + (d_L_stop_lo__a_wz*l40_0_1));
-    const S L_tau__1 = (L_align__1 + (L_na__1*l40_0_0));
-    const S d_L_tau__1__a_dtx = ((L_na__1*d_L_motor__a_dtx) + (L_na__1*d_L_spring__a_dtx) + d_L_align__1__a_dtx + (d_L_na__1__a_dtx*l40_0_0) - (d_L_stop_hi__a_dtx*l40_0_2) + (d_L_stop_lo__a_dtx*l40_0_2));
-    const S d_L_tau__1__a_dty = ((L_na__1*d_L_motor__a_dty) + (L_na__1*d_L_spring__a_dty) + d_L_align__1__a_dty - (d_L_stop_hi__a_dty*l40_0_2) + (d_L_stop_lo__a_dty*l40_0_2));
-    const S d_L_tau__1__a_dtz = ((L_na__1*d_L_motor__a_dtz) + (L_na__1*d_L_spring__a_dtz) + (a_r1_0*l40_0_0) + d_L_align__1__a_dtz - (d_L_stop_hi__a_dtz*l40_0_2) + (d_L_stop_lo__a_dtz*l40_0_2));
-    const S d_L_tau__1__a_wx = ((L_na__1*d_L_motor__a_wx) + (L_na__1*d_L_spring__a_wx) + d_L_align__1__a_wx - (d_L_stop_hi__a_wx*l40_0_2) + (d_L_stop_lo__a_wx*l40_0_2));
-    const S d_L_tau__1__a_wy = ((L_na__1*d_L_motor__a_wy) + (L_na__1*d_L_spring__a_wy) + d_L_align__1__a_wy - (d_L_stop_hi__a_wy*l40_0_2) + (d_L_stop_lo__a_wy*l40_0_2));
-    const S d_L_tau__1__a_wz = ((L_na__1*d_L_motor__a_wz) + (L_na__1*d_L_spring__a_wz) + d_L_align__1__a_wz - (d_L_stop_hi__a_wz*l40_0_2) + (d_L_stop_lo__a_wz*l40_0_2));
-    const S L_tau__2 = (L_align__2 + (L_na__2*l40_0_0));
-    const S d_L_tau__2__a_dtx = ((L_na__2*d_L_motor__a_dtx) + (L_na__2*d_L_spring__a_dtx) + (a_r1_1*l40_0_0) + d_L_align__2__a_dtx - (d_L_stop_hi__a_dtx*l40_0_3) + (d_L_stop_lo__a_dtx*l40_0_3));
-    const S d_L_tau__2__a_dty = ((L_na__2*d_L_motor__a_dty) + (L_na__2*d_L_spring__a_dty) + d_L_align__2__a_dty + (d_L_na__2__a_dty*l40_0_0) - (d_L_stop_hi__a_dty*l40_0_3) + (d_L_stop_lo__a_dty*l40_0_3));
-    const S d_L_tau__2__a_dtz = ((L_na__2*d_L_motor__a_dtz) + (L_na__2*d_L_spring__a_dtz) + d_L_align__2__a_dtz - (d_L_stop_hi__a_dtz*l40_0_3) + (d_L_stop_lo__a_dtz*l40_0_3));
-    const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l40_0_3) + (d_L_stop_lo__a_wx*l40_0_3));
-    const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l40_0_3) + (d_L_stop_lo__a_wy*l40_0_3));
-    const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l40_0_3) + (d_L_stop_lo__a_wz*l40_0_3));
-    // apply[0] (hinge.yaml:83)
+    // let tau (hinge.yaml:76)
+    const S l36_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
+    const S l36_0_1 = (L_limited*L_na__0);
+    const S l36_0_2 = (L_limited*L_na__1);
+    const S l36_0_3 = (L_limited*L_na__2);
+    const S L_tau__0 = (L_align__0 + (L_na__0*l36_0_0));
+    const S d_L_tau__0__a_dtx = ((L_na__0*d_L_motor__a_dtx) + (L_na__0*d_L_spring__a_dtx) + d_L_align__0__a_dtx - (d_L_stop_hi__a_dtx*l36_0_1) + (d_L_stop_lo__a_dtx*l36_0_1));
+    const S d_L_tau__0__a_dty = ((L_na__0*d_L_motor__a_dty) + (L_na__0*d_L_spring__a_dty) + (a_r1_2*l36_0_0) + d_L_align__0__a_dty - (d_L_stop_hi__a_dty*l36_0_1) + (d_L_stop_lo__a_dty*l36_0_1));
+    const S d_L_tau__0__a_dtz = ((L_na__0*d_L_motor__a_dtz) + (L_na__0*d_L_spring__a_dtz) + d_L_align__0__a_dtz + (d_L_na__0__a_dtz*l36_0_0) - (d_L_stop_hi__a_dtz*l36_0_1) + (d_L_stop_lo__a_dtz*l36_0_1));
+    const S d_L_tau__0__a_wx = ((L_na__0*d_L_motor__a_wx) + (L_na__0*d_L_spring__a_wx) + d_L_align__0__a_wx - (d_L_stop_hi__a_wx*l36_0_1) + (d_L_stop_lo__a_wx*l36_0_1));
+    const S d_L_tau__0__a_wy = ((L_na__0*d_L_motor__a_wy) + (L_na__0*d_L_spring__a_wy) + d_L_align__0__a_wy - (d_L_stop_hi__a_wy*l36_0_1) + (d_L_stop_lo__a_wy*l36_0_1));
+    const S d_L_tau__0__a_wz = ((L_na__0*d_L_motor__a_wz) + (L_na__0*d_L_spring__a_wz) + d_L_align__0__a_wz - (d_L_stop_hi__a_wz*l36_0_1) + (d_L_stop_lo__a_wz*l36_0_1));
+    const S L_tau__1 = (L_align__1 + (L_na__1*l36_0_0));
+    const S d_L_tau__1__a_dtx = ((L_na__1*d_L_motor__a_dtx) + (L_na__1*d_L_spring__a_dtx) + d_L_align__1__a_dtx + (d_L_na__1__a_dtx*l36_0_0) - (d_L_stop_hi__a_dtx*l36_0_2) + (d_L_stop_lo__a_dtx*l36_0_2));
+    const S d_L_tau__1__a_dty = ((L_na__1*d_L_motor__a_dty) + (L_na__1*d_L_spring__a_dty) + d_L_align__1__a_dty - (d_L_stop_hi__a_dty*l36_0_2) + (d_L_stop_lo__a_dty*l36_0_2));
+    const S d_L_tau__1__a_dtz = ((L_na__1*d_L_motor__a_dtz) + (L_na__1*d_L_spring__a_dtz) + (a_r1_0*l36_0_0) + d_L_align__1__a_dtz - (d_L_stop_hi__a_dtz*l36_0_2) + (d_L_stop_lo__a_dtz*l36_0_2));
+    const S d_L_tau__1__a_wx = ((L_na__1*d_L_motor__a_wx) + (L_na__1*d_L_spring__a_wx) + d_L_align__1__a_wx - (d_L_stop_hi__a_wx*l36_0_2) + (d_L_stop_lo__a_wx*l36_0_2));
+    const S d_L_tau__1__a_wy = ((L_na__1*d_L_motor__a_wy) + (L_na__1*d_L_spring__a_wy) + d_L_align__1__a_wy - (d_L_stop_hi__a_wy*l36_0_2) + (d_L_stop_lo__a_wy*l36_0_2));
+    const S d_L_tau__1__a_wz = ((L_na__1*d_L_motor__a_wz) + (L_na__1*d_L_spring__a_wz) + d_L_align__1__a_wz - (d_L_stop_hi__a_wz*l36_0_2) + (d_L_stop_lo__a_wz*l36_0_2));
+    const S L_tau__2 = (L_align__2 + (L_na__2*l36_0_0));
+    const S d_L_tau__2__a_dtx = ((L_na__2*d_L_motor__a_dtx) + (L_na__2*d_L_spring__a_dtx) + (a_r1_1*l36_0_0) + d_L_align__2__a_dtx - (d_L_stop_hi__a_dtx*l36_0_3) + (d_L_stop_lo__a_dtx*l36_0_3));
+    const S d_L_tau__2__a_dty = ((L_na__2*d_L_motor__a_dty) + (L_na__2*d_L_spring__a_dty) + d_L_align__2__a_dty + (d_L_na__2__a_dty*l36_0_0) - (d_L_stop_hi__a_dty*l36_0_3) + (d_L_stop_lo__a_dty*l36_0_3));
+    const S d_L_tau__2__a_dtz = ((L_na__2*d_L_motor__a_dtz) + (L_na__2*d_L_spring__a_dtz) + d_L_align__2__a_dtz - (d_L_stop_hi__a_dtz*l36_0_3) + (d_L_stop_lo__a_dtz*l36_0_3));
+    const S d_L_tau__2__a_wx = ((L_na__2*d_L_motor__a_wx) + (L_na__2*d_L_spring__a_wx) + d_L_align__2__a_wx - (d_L_stop_hi__a_wx*l36_0_3) + (d_L_stop_lo__a_wx*l36_0_3));
+    const S d_L_tau__2__a_wy = ((L_na__2*d_L_motor__a_wy) + (L_na__2*d_L_spring__a_wy) + d_L_align__2__a_wy - (d_L_stop_hi__a_wy*l36_0_3) + (d_L_stop_lo__a_wy*l36_0_3));
+    const S d_L_tau__2__a_wz = ((L_na__2*d_L_motor__a_wz) + (L_na__2*d_L_spring__a_wz) + d_L_align__2__a_wz - (d_L_stop_hi__a_wz*l36_0_3) + (d_L_stop_lo__a_wz*l36_0_3));
+    // apply[0] (hinge.yaml:78)
     [[maybe_unused]] const S T0_arm__0 = (L_pa__0 - a_px);
     [[maybe_unused]] const S T0_arm__1 = (L_pa__1 - a_py);
     [[maybe_unused]] const S T0_arm__2 = (L_pa__2 - a_pz);
-    const S l42_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l42_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l42_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
-    // apply (hinge.yaml:82), shared subexpressions
+    const S l38_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    [[maybe_unused]] const S T1_turn = (S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l38_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l38_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1)))));
+    // apply (hinge.yaml:77), shared subexpressions
     const S o0 = (a_vx*d_L_f__0__a_dx*h);
     const S o1 = (a_wx*h);
     const S o2 = (a_wy*h);
@@ -3401,14 +3369,14 @@ struct Hinge_World_Kernel {
     const S o41 = (d_L_f__0__a_vx*h);
     const S o42 = (d_L_f__1__a_vy*h);
     const S o43 = (d_L_f__2__a_vz*h);
-    // g_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // g_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[0] = (L_f__0 + (d_L_f__0__a_dtx*o1) + (d_L_f__0__a_dty*o2) + (d_L_f__0__a_dtz*o3) + o0 + (o5*o9));
     out[1] = (L_f__1 + (d_L_f__1__a_dtx*o1) + (d_L_f__1__a_dty*o2) + (d_L_f__1__a_dtz*o3) + o10 + (o11*o13));
     out[2] = (L_f__2 + (d_L_f__2__a_dtx*o1) + (d_L_f__2__a_dty*o2) + (d_L_f__2__a_dtz*o3) + o14 + (o15*o16));
     out[3] = ((-(L_f__1*o18)) + (L_f__2*o17) - L_tau__0 + (o1*o22) + (o10*o19) + (o13*o25) + (o14*o17) + (o16*o26) + (o2*o23) + (o24*o3));
     out[4] = ((L_f__0*o18) - (L_f__2*o27) - L_tau__1 + (o0*o18) + (o1*o30) + (o14*o28) + (o16*o34) + (o2*o31) + (o3*o32) + (o33*o9));
     out[5] = ((-(L_f__0*o17)) + (L_f__1*o27) - L_tau__2 + (o0*o35) + (o1*o36) + (o10*o27) + (o13*o40) + (o2*o37) + (o3*o38) + (o39*o9));
-    // K_aa from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // K_aa from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[6] = (o41 + o5);
     out[7] = S(0);
     out[8] = S(0);
@@ -3448,13 +3416,13 @@ struct Hinge_World_Kernel {
   }
 
   /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
-  static constexpr int kHeld = 23;
+  static constexpr int kHeld = 19;
   /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
   /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
-  static constexpr int kJointArm[1] = { 19 };
+  static constexpr int kJointArm[1] = { 15 };
 
   /// F alone (the first 6 * kBodies outputs of eval). held_in: the lagged values to use instead
-  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 515
+  /// of computing them from `in`; held_out: where to write the ones used. Total ops: 459
   template <class S>
   static inline void eval_f([[maybe_unused]] const S* in, [[maybe_unused]] S h, S* out,
                             [[maybe_unused]] const S* held_in = nullptr, [[maybe_unused]] S* held_out = nullptr) {
@@ -3508,7 +3476,7 @@ struct Hinge_World_Kernel {
     [[maybe_unused]] const S p_damping_ratio = in[46];
     [[maybe_unused]] const S g_joint_hertz = in[47];
     [[maybe_unused]] const S g_joint_damping_ratio = in[48];
-    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:42), let a1 (hinge.yaml:52)
+    // body-frame quantities rotated to world, first used by let pa (hinge.yaml:33), let na (hinge.yaml:36), let ua (hinge.yaml:42), let i1 (hinge.yaml:51)
     const S p0_0 = (S(2)*(a_qy*a_qy));
     const S p0_1 = ((S(2)*(a_qz*a_qz)) - S(1));
     const S p0_2 = ((-p0_0) - p0_1);
@@ -3593,122 +3561,110 @@ struct Hinge_World_Kernel {
     const S L_ua__0 = a_r2_0;
     const S L_ua__1 = a_r2_1;
     const S L_ua__2 = a_r2_2;
-    // let p1 (hinge.yaml:50)
+    // let p1 (hinge.yaml:49)
     const S L_p1__0 = held_in ? held_in[2] : S(L_ua__0);
     if (held_out) held_out[2] = L_p1__0;
     const S L_p1__1 = held_in ? held_in[3] : S(L_ua__1);
     if (held_out) held_out[3] = L_p1__1;
     const S L_p1__2 = held_in ? held_in[4] : S(L_ua__2);
     if (held_out) held_out[4] = L_p1__2;
-    // let p2 (hinge.yaml:51)
+    // let p2 (hinge.yaml:50)
     const S L_p2__0 = held_in ? held_in[5] : S(((L_na__1*L_ua__2) - (L_na__2*L_ua__1)));
     if (held_out) held_out[5] = L_p2__0;
     const S L_p2__1 = held_in ? held_in[6] : S(((-(L_na__0*L_ua__2)) + (L_na__2*L_ua__0)));
     if (held_out) held_out[6] = L_p2__1;
     const S L_p2__2 = held_in ? held_in[7] : S(((L_na__0*L_ua__1) - (L_na__1*L_ua__0)));
     if (held_out) held_out[7] = L_p2__2;
-    // let a1 (hinge.yaml:52)
-    const S L_a1 = held_in ? held_in[8] : S(((L_p1__0*((L_p1__0*a_Iw3_00) + (L_p1__1*a_Iw3_01) + (L_p1__2*a_Iw3_02))) + (L_p1__1*((L_p1__0*a_Iw3_01) + (L_p1__1*a_Iw3_11) + (L_p1__2*a_Iw3_12))) + (L_p1__2*((L_p1__0*a_Iw3_02) + (L_p1__1*a_Iw3_12) + (L_p1__2*a_Iw3_22)))));
-    if (held_out) held_out[8] = L_a1;
-    // let b1 (hinge.yaml:53)
-    const S L_b1 = held_in ? held_in[9] : S(S(0));
-    if (held_out) held_out[9] = L_b1;
-    // let i1 (hinge.yaml:54)
-    const S L_i1 = held_in ? held_in[10] : S(select((L_b1 > S(0)), min(max(L_a1, L_b1), (S(16)*L_a1*L_b1/(max(S(1e-30), (L_a1 + L_b1))))), L_im));
-    if (held_out) held_out[10] = L_i1;
-    // let a2 (hinge.yaml:55)
-    const S L_a2 = held_in ? held_in[11] : S(((L_p2__0*((L_p2__0*a_Iw3_00) + (L_p2__1*a_Iw3_01) + (L_p2__2*a_Iw3_02))) + (L_p2__1*((L_p2__0*a_Iw3_01) + (L_p2__1*a_Iw3_11) + (L_p2__2*a_Iw3_12))) + (L_p2__2*((L_p2__0*a_Iw3_02) + (L_p2__1*a_Iw3_12) + (L_p2__2*a_Iw3_22)))));
-    if (held_out) held_out[11] = L_a2;
-    // let b2 (hinge.yaml:56)
-    const S L_b2 = held_in ? held_in[12] : S(S(0));
-    if (held_out) held_out[12] = L_b2;
-    // let i2 (hinge.yaml:57)
-    const S L_i2 = held_in ? held_in[13] : S(select((L_b2 > S(0)), min(max(L_a2, L_b2), (S(16)*L_a2*L_b2/(max(S(1e-30), (L_a2 + L_b2))))), L_im));
-    if (held_out) held_out[13] = L_i2;
-    // let mis (hinge.yaml:58)
+    // let i1 (hinge.yaml:51)
+    const S L_i1 = held_in ? held_in[8] : S(L_im);
+    if (held_out) held_out[8] = L_i1;
+    // let i2 (hinge.yaml:52)
+    const S L_i2 = held_in ? held_in[9] : S(L_im);
+    if (held_out) held_out[9] = L_i2;
+    // let mis (hinge.yaml:53)
     const S L_mis__0 = ((L_na__1*L_nb__2) - (L_na__2*L_nb__1));
     const S L_mis__1 = ((-(L_na__0*L_nb__2)) + (L_na__2*L_nb__0));
     const S L_mis__2 = ((L_na__0*L_nb__1) - (L_na__1*L_nb__0));
-    // let wperp (hinge.yaml:59)
+    // let wperp (hinge.yaml:54)
     const S L_wperp__0 = ((-(L_na__0*L_rate)) + L_wrel__0);
     const S L_wperp__1 = ((-(L_na__1*L_rate)) + L_wrel__1);
     const S L_wperp__2 = ((-(L_na__2*L_rate)) + L_wrel__2);
-    // let align (hinge.yaml:60)
-    const S l24_0_0 = (L_omega*L_omega);
-    const S l24_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
-    const S l24_0_2 = (L_i1*L_p1__0);
-    const S l24_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
-    const S l24_0_4 = (L_i2*L_p2__0);
-    const S l24_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
-    const S l24_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
-    const S l24_0_7 = (S(2)*L_omega*L_zeta);
-    const S l24_0_8 = (L_i1*L_p1__1);
-    const S l24_0_9 = (L_i2*L_p2__1);
-    const S l24_0_10 = (L_i1*L_p1__2);
-    const S l24_0_11 = (L_i2*L_p2__2);
-    const S L_align__0 = ((-(l24_0_0*((l24_0_1*l24_0_2) + (l24_0_3*l24_0_4)))) - (l24_0_7*((l24_0_2*l24_0_5) + (l24_0_4*l24_0_6))));
-    const S L_align__1 = ((-(l24_0_0*((l24_0_1*l24_0_8) + (l24_0_3*l24_0_9)))) - (l24_0_7*((l24_0_5*l24_0_8) + (l24_0_6*l24_0_9))));
-    const S L_align__2 = ((-(l24_0_0*((l24_0_1*l24_0_10) + (l24_0_11*l24_0_3)))) - (l24_0_7*((l24_0_10*l24_0_5) + (l24_0_11*l24_0_6))));
-    // let ub (hinge.yaml:61)
+    // let align (hinge.yaml:55)
+    const S l20_0_0 = (L_omega*L_omega);
+    const S l20_0_1 = ((L_mis__0*L_p1__0) + (L_mis__1*L_p1__1) + (L_mis__2*L_p1__2));
+    const S l20_0_2 = (L_i1*L_p1__0);
+    const S l20_0_3 = ((L_mis__0*L_p2__0) + (L_mis__1*L_p2__1) + (L_mis__2*L_p2__2));
+    const S l20_0_4 = (L_i2*L_p2__0);
+    const S l20_0_5 = ((L_p1__0*L_wperp__0) + (L_p1__1*L_wperp__1) + (L_p1__2*L_wperp__2));
+    const S l20_0_6 = ((L_p2__0*L_wperp__0) + (L_p2__1*L_wperp__1) + (L_p2__2*L_wperp__2));
+    const S l20_0_7 = (S(2)*L_omega*L_zeta);
+    const S l20_0_8 = (L_i1*L_p1__1);
+    const S l20_0_9 = (L_i2*L_p2__1);
+    const S l20_0_10 = (L_i1*L_p1__2);
+    const S l20_0_11 = (L_i2*L_p2__2);
+    const S L_align__0 = ((-(l20_0_0*((l20_0_1*l20_0_2) + (l20_0_3*l20_0_4)))) - (l20_0_7*((l20_0_2*l20_0_5) + (l20_0_4*l20_0_6))));
+    const S L_align__1 = ((-(l20_0_0*((l20_0_1*l20_0_8) + (l20_0_3*l20_0_9)))) - (l20_0_7*((l20_0_5*l20_0_8) + (l20_0_6*l20_0_9))));
+    const S L_align__2 = ((-(l20_0_0*((l20_0_1*l20_0_10) + (l20_0_11*l20_0_3)))) - (l20_0_7*((l20_0_10*l20_0_5) + (l20_0_11*l20_0_6))));
+    // let ub (hinge.yaml:56)
     const S L_ub__0 = p_ref_b__0;
     const S L_ub__1 = p_ref_b__1;
     const S L_ub__2 = p_ref_b__2;
-    // let angle (hinge.yaml:62)
+    // let angle (hinge.yaml:57)
     const S L_angle = angle_of(((L_na__0*((L_ua__1*L_ub__2) - (L_ua__2*L_ub__1))) + (L_na__1*((-(L_ua__0*L_ub__2)) + (L_ua__2*L_ub__0))) + (L_na__2*((L_ua__0*L_ub__1) - (L_ua__1*L_ub__0)))), ((L_ua__0*L_ub__0) + (L_ua__1*L_ub__1) + (L_ua__2*L_ub__2)));
-    // let limited (hinge.yaml:65)
+    // let limited (hinge.yaml:60)
     const S L_limited = select((p_lower < p_upper), S(1), S(0));
-    // let over_hi (hinge.yaml:66)
+    // let over_hi (hinge.yaml:61)
     const S L_over_hi = (L_angle - p_upper);
-    // let over_lo (hinge.yaml:67)
+    // let over_lo (hinge.yaml:62)
     const S L_over_lo = ((-L_angle) + p_lower);
-    // let stop_hi (hinge.yaml:68)
-    const S l30_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
-    const S L_stop_hi = select((L_over_hi > S(0)), select((l30_0_0 > S(0)), l30_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l30_0_0, S(0)));
-    // let stop_lo (hinge.yaml:69)
-    const S l31_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
-    const S l31_0_1 = (-l31_0_0);
-    const S L_stop_lo = select((L_over_lo > S(0)), select((l31_0_0 < S(0)), l31_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l31_0_1, S(0)));
-    // let ia (hinge.yaml:73)
-    const S L_ia = held_in ? held_in[14] : S(((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22)))));
-    if (held_out) held_out[14] = L_ia;
-    // let ib (hinge.yaml:74)
-    const S L_ib = held_in ? held_in[15] : S(S(0));
-    if (held_out) held_out[15] = L_ib;
-    // let iz (hinge.yaml:75)
-    const S L_iz = held_in ? held_in[16] : S(select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia));
-    if (held_out) held_out[16] = L_iz;
-    // let err (hinge.yaml:76)
+    // let stop_hi (hinge.yaml:63)
+    const S l26_0_0 = ((L_cr*L_rate) + (L_kr*L_over_hi));
+    const S L_stop_hi = select((L_over_hi > S(0)), select((l26_0_0 > S(0)), l26_0_0, S(0)), select(((L_over_hi + (L_rate*h)) > S(0)), l26_0_0, S(0)));
+    // let stop_lo (hinge.yaml:64)
+    const S l27_0_0 = ((L_cr*L_rate) - (L_kr*L_over_lo));
+    const S l27_0_1 = (-l27_0_0);
+    const S L_stop_lo = select((L_over_lo > S(0)), select((l27_0_0 < S(0)), l27_0_1, S(0)), select(((L_over_lo - (L_rate*h)) > S(0)), l27_0_1, S(0)));
+    // let ia (hinge.yaml:68)
+    const S L_ia = held_in ? held_in[10] : S(((L_na__0*((L_na__0*a_Iw3_00) + (L_na__1*a_Iw3_01) + (L_na__2*a_Iw3_02))) + (L_na__1*((L_na__0*a_Iw3_01) + (L_na__1*a_Iw3_11) + (L_na__2*a_Iw3_12))) + (L_na__2*((L_na__0*a_Iw3_02) + (L_na__1*a_Iw3_12) + (L_na__2*a_Iw3_22)))));
+    if (held_out) held_out[10] = L_ia;
+    // let ib (hinge.yaml:69)
+    const S L_ib = held_in ? held_in[11] : S(S(0));
+    if (held_out) held_out[11] = L_ib;
+    // let iz (hinge.yaml:70)
+    const S L_iz = held_in ? held_in[12] : S(select((L_ib > S(0)), (L_ia*L_ib/(max(S(1e-30), (L_ia + L_ib)))), L_ia));
+    if (held_out) held_out[12] = L_iz;
+    // let err (hinge.yaml:71)
     const S L_err = ((-L_rate) + p_motor_speed);
-    // let fast (hinge.yaml:77)
-    const S L_fast = held_in ? held_in[17] : S(select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0)));
-    if (held_out) held_out[17] = L_fast;
-    // let sgn (hinge.yaml:78)
-    const S L_sgn = held_in ? held_in[18] : S(select((L_err > S(0)), S(1), S(-1)));
-    if (held_out) held_out[18] = L_sgn;
-    // let motor (hinge.yaml:79)
+    // let fast (hinge.yaml:72)
+    const S L_fast = held_in ? held_in[13] : S(select(((h*p_motor_torque) < (L_iz*abs(L_err))), S(1), S(0)));
+    if (held_out) held_out[13] = L_fast;
+    // let sgn (hinge.yaml:73)
+    const S L_sgn = held_in ? held_in[14] : S(select((L_err > S(0)), S(1), S(-1)));
+    if (held_out) held_out[14] = L_sgn;
+    // let motor (hinge.yaml:74)
     const S L_motor = select((p_motor_torque > S(0)), ((L_err*L_iz*L_omega*(S(1) - L_fast)) + (L_fast*L_sgn*p_motor_torque)), S(0));
-    // let spring (hinge.yaml:80)
+    // let spring (hinge.yaml:75)
     const S L_spring = ((-(L_rate*p_spring_damping)) - (p_spring_stiffness*(L_angle - p_spring_angle)));
-    // let tau (hinge.yaml:81)
-    const S l40_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
-    const S L_tau__0 = (L_align__0 + (L_na__0*l40_0_0));
-    const S L_tau__1 = (L_align__1 + (L_na__1*l40_0_0));
-    const S L_tau__2 = (L_align__2 + (L_na__2*l40_0_0));
-    // apply[0] (hinge.yaml:83)
-    const S T0_arm__0 = held_in ? held_in[19] : S((L_pa__0 - a_px));
-    if (held_out) held_out[19] = T0_arm__0;
-    const S T0_arm__1 = held_in ? held_in[20] : S((L_pa__1 - a_py));
-    if (held_out) held_out[20] = T0_arm__1;
-    const S T0_arm__2 = held_in ? held_in[21] : S((L_pa__2 - a_pz));
-    if (held_out) held_out[21] = T0_arm__2;
-    const S l42_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
-    const S T1_turn = held_in ? held_in[22] : S((S(1) - (S(1)/((((h*h*h*h)*l42_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l42_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l42_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
-    if (held_out) held_out[22] = T1_turn;
-    // apply (hinge.yaml:82), shared subexpressions
+    // let tau (hinge.yaml:76)
+    const S l36_0_0 = ((L_limited*((-L_stop_hi) + L_stop_lo)) + L_motor + L_spring);
+    const S L_tau__0 = (L_align__0 + (L_na__0*l36_0_0));
+    const S L_tau__1 = (L_align__1 + (L_na__1*l36_0_0));
+    const S L_tau__2 = (L_align__2 + (L_na__2*l36_0_0));
+    // apply[0] (hinge.yaml:78)
+    const S T0_arm__0 = held_in ? held_in[15] : S((L_pa__0 - a_px));
+    if (held_out) held_out[15] = T0_arm__0;
+    const S T0_arm__1 = held_in ? held_in[16] : S((L_pa__1 - a_py));
+    if (held_out) held_out[16] = T0_arm__1;
+    const S T0_arm__2 = held_in ? held_in[17] : S((L_pa__2 - a_pz));
+    if (held_out) held_out[17] = T0_arm__2;
+    const S l38_0_0 = ((T0_arm__0*T0_arm__0) + (T0_arm__1*T0_arm__1) + (T0_arm__2*T0_arm__2));
+    const S T1_turn = held_in ? held_in[18] : S((S(1) - (S(1)/((((h*h*h*h)*l38_0_0*((L_f__0*L_f__0) + (L_f__1*L_f__1) + (L_f__2*L_f__2))/((max(S(1e-30), ((a_m*l38_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))*max(S(1e-30), ((a_m*l38_0_0) + (((S(4)*a_Ixx*a_Iyy*a_Izz) - (S(4)*a_Ixx*(a_Iyz*a_Iyz)) - (S(4)*(a_Ixy*a_Ixy)*a_Izz) + (S(8)*a_Ixy*a_Ixz*a_Iyz) - (S(4)*(a_Ixz*a_Ixz)*a_Iyy))/(max(S(1e-30), ((a_Ixx + a_Iyy + a_Izz)*(a_Ixx + a_Iyy + a_Izz)))))))))) + S(1))))));
+    if (held_out) held_out[18] = T1_turn;
+    // apply (hinge.yaml:77), shared subexpressions
     const S o0 = (T0_arm__2 + (T1_turn*(L_pa__2 - T0_arm__2 - a_pz)));
     const S o1 = (T0_arm__1 + (T1_turn*(L_pa__1 - T0_arm__1 - a_py)));
     const S o2 = (T0_arm__0 + (T1_turn*(L_pa__0 - T0_arm__0 - a_px)));
-    // F_a from apply[0] (hinge.yaml:83), apply[2] (hinge.yaml:85)
+    // F_a from apply[0] (hinge.yaml:78), apply[2] (hinge.yaml:80)
     out[0] = L_f__0;
     out[1] = L_f__1;
     out[2] = L_f__2;

@@ -82,9 +82,19 @@ void WorkerPool::run_task(size_t count, TaskRef task) {
 
 void WorkerPool::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {
   reports.assign(jobs.size(), spu::IslandReport{});
-  for_each(jobs.size(), [&](size_t k, int thread) {
-    const spu::IslandJob& j = jobs[k];
-    reports[k] = worker_for(thread, j).step(j.image, j.bytes, j.result, j.result_capacity);
+  // Small islands go to a worker a run at a time, which it integrates together (step_batch);
+  // a larger one alone, so the largest spread over the threads first.
+  runs_.clear();
+  for (size_t k = 0; k < jobs.size();) {
+    size_t e = k + 1;
+    if (jobs[k].bytes <= kSmallImageBytes)
+      while (e < jobs.size() && e - k < kJobsPerRun && jobs[e].bytes <= kSmallImageBytes) ++e;
+    runs_.push_back({k, e});
+    k = e;
+  }
+  for_each(runs_.size(), [&](size_t r, int thread) {
+    const size_t b = runs_[r].first, e = runs_[r].second;
+    worker_for(thread, jobs[b]).step_batch(&jobs[b], e - b, &reports[b]);
   });
 }
 

@@ -12,6 +12,7 @@
 #include <memory>
 #include <mutex>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "runtime/ppe/island_runner.h"
@@ -50,6 +51,9 @@ class WorkerPool : public IslandRunner {
   std::vector<std::unique_ptr<spu::ComputeWorker>> workers_;
   std::vector<std::unique_ptr<spu::ComputeWorker>> wide_;  // per thread, made on first use
   size_t local_store_bytes_ = 0, whole_island_bytes_ = 0;
+  // Islands of at most this many image bytes are handed out kJobsPerRun at a time.
+  static constexpr size_t kSmallImageBytes = 8 * 1024, kJobsPerRun = 32;
+  std::vector<std::pair<size_t, size_t>> runs_;  // run()'s [first, end) job ranges
   std::vector<std::thread> threads_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;

@@ -88,13 +88,17 @@ void add_column(float* target, const float* column) {
   simd::store(target, simd::add(simd::load<simd::vf8>(target), simd::load<simd::vf8>(column)));
 }
 
-// The forces and implicit blocks of a whole batch, lane by lane, through transposed tiles.
+// The forces and implicit blocks of a whole batch, through transposed tiles, each lane into
+// its own island's targets: every lane's body a, then every lane's body b, then each block.
+// A target is added to in instance order when the kernel has one body; a pair kernel's body
+// that is body b of one lane and body a of a later one receives the later lane's first, so its
+// sums depend on where the batches begin (LaneBatch starts each island's pairs at lane 0).
 template <class K>
-void scatter_batch(const ForceTargets& t, const int (*body)[2], int lanes, const float* out_soa, Mode mode) {
+void scatter_batch(const ForceTargets* const* t, const int (*body)[2], int lanes, const float* out_soa, Mode mode) {
   alignas(32) float tile[8 * kLanes];
   for (int k = 0; k < K::kBodies; ++k) {
     columns_of(out_soa, 6 * k, tile);
-    for (int l = 0; l < lanes; ++l) add_column(t.forces + kVecFloats * body[l][k], tile + 8 * l);
+    for (int l = 0; l < lanes; ++l) add_column(t[l]->forces + kVecFloats * body[l][k], tile + 8 * l);
   }
   if (mode != Mode::implicit) return;
   if constexpr (K::kNumImplicitBlocks > 0) {
@@ -102,7 +106,7 @@ void scatter_batch(const ForceTargets& t, const int (*body)[2], int lanes, const
       float* target[kLanes];
       for (int l = 0; l < lanes; ++l) {
         const int i = body[l][K::kImplicitBlocks[s].row_body], j = body[l][K::kImplicitBlocks[s].col_body];
-        target[l] = i == j ? t.diag_k + kBlockFloats * i : t.offdiag_k + kBlockFloats * t.structure->find(i, j);
+        target[l] = i == j ? t[l]->diag_k + kBlockFloats * i : t[l]->offdiag_k + kBlockFloats * t[l]->structure->find(i, j);
       }
       for (int c = 0; c < 6; ++c) {
         columns_of(out_soa, 6 * K::kBodies + 36 * s + 6 * c, tile);
@@ -117,48 +121,86 @@ constexpr int outputs_of(Mode m) {
   return m == Mode::forces ? 6 * K::kBodies : m == Mode::implicit ? K::kImplicitOutputs : K::kOutputs;
 }
 
+// Fills kernel K's SIMD lanes with instances, from one island or several, and runs a batch
+// each time the lanes are full. A lane's result goes to its own island's targets. One-body
+// kernels (world contacts, gravity) share batches across islands; a pair kernel's islands each
+// start at lane 0 (push_section), so every island's forces come out as they do alone.
 template <class K>
-void run_kernel(const IslandView& v, const ForceTargets& t, const typename K::Instance* inst, int count,
-                bool global, float* scratch) {
-  const Mode mode = mode_of(t);
-  float* in_soa = scratch;                            // kInputs x kLanes
-  float* out_soa = scratch + kLanes * K::kInputs;     // kOutputs x kLanes
-  alignas(32) Batch in[K::kInputs > 0 ? K::kInputs : 1];
-  alignas(32) Batch out[K::kOutputs];
-  for (int base = 0; base < count; base += kLanes) {
-    const int lanes = count - base < kLanes ? count - base : kLanes;
+class LaneBatch {
+ public:
+  LaneBatch(Mode mode, float h, float* scratch) : mode_(mode), h_(h), scratch_(scratch) {}
+  // inst null: a global force on body `body`
+  void push(const ForceJob& j, const typename K::Instance* inst, int body) {
+    lanes_[n_++] = {&j, inst, body};
+    if (n_ == kLanes) flush();
+  }
+  void flush() {
+    if (n_ == 0) return;
+    float* in_soa = scratch_;                         // kInputs x kLanes
+    float* out_soa = scratch_ + kLanes * K::kInputs;  // kOutputs x kLanes
+    alignas(32) Batch in[K::kInputs > 0 ? K::kInputs : 1];
+    alignas(32) Batch out[K::kOutputs];
     int bodies[kLanes][2];
+    const ForceTargets* targets[kLanes];
     for (int l = 0; l < kLanes; ++l) {
       // idle lanes repeat the last instance: always finite, results discarded
-      const int idx = base + (l < lanes ? l : lanes - 1);
-      typename K::Instance synthetic{};
-      const typename K::Instance* f = &synthetic;
-      if (global)
-        synthetic.body_a = idx;
-      else
-        f = inst + idx;
+      const Lane& lane = lanes_[l < n_ ? l : n_ - 1];
+      typename K::Instance synthetic;
+      const typename K::Instance* f = lane.inst;
+      if (!f) {
+        synthetic = typename K::Instance{};
+        synthetic.body_a = lane.body;
+        f = &synthetic;
+      }
       bodies[l][0] = f->body_a;
       if constexpr (K::kBodies == 2) bodies[l][1] = f->body_b;
       else bodies[l][1] = f->body_a;
-      K::gather(v.bodies, *f, *v.params, in_soa + l, t.ref, kLanes);
+      targets[l] = lane.job->t;
+      K::gather(lane.job->v->bodies, *f, *lane.job->v->params, in_soa + l, lane.job->t->ref, kLanes);
     }
     for (int k = 0; k < K::kInputs; ++k) in[k] = Batch::load(in_soa + k * kLanes);
-    if (mode == Mode::implicit)
-      K::template eval_implicit<Batch>(in, Batch(t.h), out);
-    else if (mode == Mode::full)
-      K::template eval<Batch>(in, Batch(t.h), out);
+    if (mode_ == Mode::implicit)
+      K::template eval_implicit<Batch>(in, Batch(h_), out);
+    else if (mode_ == Mode::full)
+      K::template eval<Batch>(in, Batch(h_), out);
     else
-      K::template eval_f<Batch>(in, Batch(t.h), out);
-    const int n_out = outputs_of<K>(mode);
+      K::template eval_f<Batch>(in, Batch(h_), out);
+    const int n_out = outputs_of<K>(mode_);
     for (int k = 0; k < n_out; ++k) out[k].store(out_soa + k * kLanes);
-    if (mode == Mode::full) {
-      for (int l = 0; l < lanes; ++l) {
-        const int b2[2] = {bodies[l][0], bodies[l][1]};
-        scatter<K>(t, b2, out_soa + l, mode);
-      }
+    if (mode_ == Mode::full) {
+      for (int l = 0; l < n_; ++l) scatter<K>(*targets[l], bodies[l], out_soa + l, mode_);
     } else {
-      scatter_batch<K>(t, bodies, lanes, out_soa, mode);
+      scatter_batch<K>(targets, bodies, n_, out_soa, mode_);
     }
+    n_ = 0;
+  }
+
+ private:
+  struct Lane {
+    const ForceJob* job;
+    const typename K::Instance* inst;
+    int body;
+  };
+  Mode mode_;
+  float h_;
+  float* scratch_;
+  Lane lanes_[kLanes];
+  int n_ = 0;
+};
+
+// Pushes island j's instances of section sec for kernel K (its variant's share of them).
+template <class K>
+void push_section(LaneBatch<K>& batch, const ForceJob& j, const Island_Section& sec) {
+  const IslandView& v = *j.v;
+  const auto* inst = v.instances<typename K::Instance>(sec);
+  const int pairs = static_cast<int>(sec.count - sec.world_count);
+  if constexpr (K::kVariant == KernelVariant::world) {
+    for (uint32_t k = 0; k < sec.world_count; ++k) batch.push(j, inst + pairs + k, 0);
+  } else if (kForceTable[sec.force_type].kind == ForceKind::global) {
+    for (int b = 0; b < v.num_bodies(); ++b) batch.push(j, nullptr, b);
+  } else {
+    if (pairs > 0) batch.flush();  // the island's pairs batched as they are alone (scatter_batch)
+    for (int k = 0; k < pairs; ++k) batch.push(j, inst + k, 0);
   }
 }
 
@@ -176,21 +218,43 @@ size_t force_scratch_bytes(uint32_t types) {
 }
 
 void evaluate_forces(const IslandView& v, const ForceTargets& t, float* scratch) {
+  const ForceJob job{&v, &t};
+  const Mode mode = mode_of(t);
   for (int s = 0; s < v.num_sections(); ++s) {
     const Island_Section& sec = v.sections[s];
     if (t.skip_types & (1u << sec.force_type)) continue;
     visit_kernels([&](auto k) {
       using K = decltype(k);
       if (static_cast<uint32_t>(K::kType) != sec.force_type) return;
-      const auto* inst = v.instances<typename K::Instance>(sec);
-      const int pairs = static_cast<int>(sec.count - sec.world_count);
-      const bool global = kForceTable[sec.force_type].kind == ForceKind::global;
-      if constexpr (K::kVariant == KernelVariant::world)
-        run_kernel<K>(v, t, inst + pairs, static_cast<int>(sec.world_count), false, scratch);
-      else if (global)
-        run_kernel<K>(v, t, nullptr, v.num_bodies(), true, scratch);
-      else
-        run_kernel<K>(v, t, inst, pairs, false, scratch);
+      LaneBatch<K> batch(mode, t.h, scratch);
+      push_section(batch, job, sec);
+      batch.flush();
+    });
+  }
+}
+
+bool sections_ascending(const IslandView& v) {
+  for (int s = 1; s < v.num_sections(); ++s)
+    if (v.sections[s].force_type <= v.sections[s - 1].force_type) return false;
+  return true;
+}
+
+void evaluate_forces_together(const ForceJob* jobs, int count, float* scratch) {
+  if (count <= 0) return;
+  const ForceTargets& t0 = *jobs[0].t;
+  const Mode mode = mode_of(t0);
+  for (uint32_t type = 0; type < static_cast<uint32_t>(kNumForceTypes); ++type) {
+    visit_kernels([&](auto k) {
+      using K = decltype(k);
+      if (static_cast<uint32_t>(K::kType) != type) return;
+      LaneBatch<K> batch(mode, t0.h, scratch);
+      for (int j = 0; j < count; ++j) {
+        if (jobs[j].t->skip_types & (1u << type)) continue;
+        const IslandView& v = *jobs[j].v;
+        for (int s = 0; s < v.num_sections(); ++s)
+          if (v.sections[s].force_type == type) push_section(batch, jobs[j], v.sections[s]);
+      }
+      batch.flush();
     });
   }
 }

@@ -78,8 +78,9 @@ void accelerations(const IslandView& v, float* f) {
   }
 }
 
-// Assembles and scales the implicit system at the bodies' current state with step tau.
-bool assemble(StepContext& c, float tau, uint32_t skip, float* p_out) {
+// The targets of the implicit system at the bodies' current state with step tau, zeroed:
+// the half of assembly before the forces are evaluated.
+ForceTargets implicit_targets(StepContext& c, float tau, uint32_t skip) {
   Workspace& ws = *c.ws;
   const IslandView& v = c.island;
   const int n = ws.n;
@@ -96,7 +97,14 @@ bool assemble(StepContext& c, float tau, uint32_t skip, float* p_out) {
   t.h = tau;
   t.skip_types = skip;
   t.ref = ws.ref;
-  evaluate_forces(v, t, ws.force_scratch);
+  return t;
+}
+
+// Assembles and scales the implicit system at the bodies' current state with step tau.
+bool assemble(StepContext& c, float tau, uint32_t skip, float* p_out) {
+  Workspace& ws = *c.ws;
+  const ForceTargets t = implicit_targets(c, tau, skip);
+  evaluate_forces(c.island, t, ws.force_scratch);
   return scale_system(ws.structure, ws.w, tau, ws.diag, ws.blocks, ws.forces, p_out);
 }
 
@@ -132,10 +140,20 @@ bool prepare(StepContext& c) {
   return build_structure(c.island, ws.structure, ws.pair_scratch, ws.pair_capacity);
 }
 
+ForceTargets implicit_step_targets(StepContext& c, float h, bool split) {
+  return implicit_targets(c, h, split ? kGyroscopicBit : 0u);
+}
+
 bool step_implicit(StepContext& c, float h, bool split) {
+  const ForceTargets t = implicit_step_targets(c, h, split);
+  evaluate_forces(c.island, t, c.ws->force_scratch);
+  return finish_implicit(c, h, split);
+}
+
+bool finish_implicit(StepContext& c, float h, bool split) {
   Workspace& ws = *c.ws;
   const IslandView& v = c.island;
-  if (!assemble(c, h, split ? kGyroscopicBit : 0u, nullptr)) return false;
+  if (!scale_system(ws.structure, ws.w, h, ws.diag, ws.blocks, ws.forces, nullptr)) return false;
   if (!run_solve(c, ws.forces, ws.x)) return false;
   // Pass 1: every body's new rotation into u0 (free now), failing before anything is written.
   for (int i = 0; i < ws.n; ++i) {

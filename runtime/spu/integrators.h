@@ -31,6 +31,12 @@ bool prepare(StepContext& c);
 /// split = true: linearly implicit Euler for every force but the gyroscopic torque, then the
 /// conserving free-rotation update; split = false: the reference design's step.
 bool step_implicit(StepContext& c, float h, bool split);
+/// step_implicit in two halves around its force evaluation, so that several islands' forces
+/// can be evaluated in one pass (evaluate_forces_together): the zeroed targets of the
+/// implicit system at the island's state, then, once they hold the forces, the scaling,
+/// solve and commit. targets + evaluate_forces + finish is step_implicit, bit for bit.
+ForceTargets implicit_step_targets(StepContext& c, float h, bool split);
+bool finish_implicit(StepContext& c, float h, bool split);
 /// ROS2 over h; *error receives the scaled local error estimate (<= 1 accepts). The state is
 /// committed only when the step succeeds and the error is acceptable.
 bool step_rosenbrock(StepContext& c, float h, float* error);

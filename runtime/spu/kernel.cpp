@@ -111,6 +111,20 @@ Unreadable read_counts(const IslandJob& job, Island_Header& h, IslandCounts& c) 
   return Unreadable::none;
 }
 
+// Whether the section table (read from main memory, as read_counts reads it) lists the force
+// types in increasing order, as IslandBuilder writes them.
+bool sections_ascending_in(const IslandJob& job, uint32_t num_bodies, uint32_t num_sections) {
+  const IslandLayout layout = island_layout(num_bodies, num_sections);
+  uint32_t last = 0;
+  for (uint32_t k = 0; k < num_sections; ++k) {
+    Island_Section s;
+    std::memcpy(&s, job.image + layout.sections + k * sizeof s, sizeof s);
+    if (k > 0 && s.force_type <= last) return false;
+    last = s.force_type;
+  }
+  return true;
+}
+
 }  // namespace
 
 size_t ComputeWorker::bytes_needed(const IslandJob& job) {
@@ -136,6 +150,7 @@ bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
     case Unreadable::bodies: write_refusal(job, r, IslandStatus::malformed, "too short for its bodies"); return false;
     case Unreadable::sections: write_refusal(job, r, IslandStatus::malformed, validate_island(job.image, job.bytes)); return false;
   }
+  p.ascending = sections_ascending_in(job, h.num_bodies, h.num_sections);
   r.footprint = footprint(c);
   if (r.footprint.total > ls_.capacity()) {
     write_refusal(job, r, IslandStatus::does_not_fit,
@@ -150,24 +165,29 @@ bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
   return true;
 }
 
-void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r) {
+bool ComputeWorker::begin(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r,
+                          Active& a) {
   const Island_Header& h = p.header;
   const std::string why = validate_island(in, job.bytes);
-  if (!why.empty()) return write_refusal(job, r, IslandStatus::malformed, why);
-  Workspace ws;
-  const size_t mark = ls_.used();
-  if (!allocate_workspace(ls_, p.counts, ws))
-    return write_refusal(job, r, IslandStatus::does_not_fit, "local store exhausted (accounting bug)");
-  StepContext c;
+  if (!why.empty()) {
+    write_refusal(job, r, IslandStatus::malformed, why);
+    return false;
+  }
+  a.mark = ls_.used();
+  if (!allocate_workspace(ls_, p.counts, a.ws)) {
+    write_refusal(job, r, IslandStatus::does_not_fit, "local store exhausted (accounting bug)");
+    return false;
+  }
+  StepContext& c = a.c;
+  c = StepContext{};
   c.island = view_island(in);
-  c.ws = &ws;
+  c.ws = &a.ws;
   c.solver = p.counts.solver;
   c.solve.rel_tol = h.tolerance;
   c.solve.abs_tol = h.tolerance * 1e-3f;
   c.solve.zero_rhs = 0.0f;
   c.error_tolerance = h.tolerance;
   const int n = static_cast<int>(h.num_bodies);
-  auto* res = reinterpret_cast<Island_Result*>(out);
   auto* steps = reinterpret_cast<Rigid_Body_Step*>(out + align16(sizeof(Island_Result)));
   for (int i = 0; i < n; ++i) {  // the start velocities, so the output can be their change
     std::memset(&steps[i], 0, sizeof steps[i]);
@@ -175,20 +195,30 @@ void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* 
     std::memcpy(steps[i].delta_angular_velocity, c.island.bodies[i].angular_velocity, 12);
   }
   if (!prepare(c)) {
-    ls_.release(mark);
-    return write_refusal(job, r, IslandStatus::malformed, "num_blocks does not match the pair forces");
+    ls_.release(a.mark);
+    write_refusal(job, r, IslandStatus::malformed, "num_blocks does not match the pair forces");
+    return false;
   }
-  bool ok;
-  if (p.counts.integrator == Integrator::rosenbrock)
-    ok = adaptive(c, h.step, h.max_halvings, r);
-  else
-    ok = substep(c, p.counts.integrator, h.step, 0, h.max_halvings, r);
+  return true;
+}
+
+bool ComputeWorker::integrate(const Plan& p, StepContext& c, IslandReport& r) {
+  const Island_Header& h = p.header;
+  if (p.counts.integrator == Integrator::rosenbrock) return adaptive(c, h.step, h.max_halvings, r);
+  return substep(c, p.counts.integrator, h.step, 0, h.max_halvings, r);
+}
+
+void ComputeWorker::finish(const IslandJob& job, const Plan& p, unsigned char* out, const StepContext& c, bool ok,
+                           IslandReport& r) {
+  const Island_Header& h = p.header;
   r.solver_iterations = static_cast<uint32_t>(c.counters.solver_iterations);
   r.solves = static_cast<uint32_t>(c.counters.solves);
   r.solver_code = static_cast<uint32_t>(c.counters.last_solver_code);
   r.rejected = static_cast<uint32_t>(c.counters.rejected);
   r.status = ok ? IslandStatus::ok : IslandStatus::failed;
-  ls_.release(mark);
+  const int n = static_cast<int>(h.num_bodies);
+  auto* res = reinterpret_cast<Island_Result*>(out);
+  auto* steps = reinterpret_cast<Rigid_Body_Step*>(out + align16(sizeof(Island_Result)));
 
   // The result: header, the reference design's Rigid_Body_Step per body, and the advanced bodies (the
   // original bodies when the step failed: nothing half-stepped leaves the kernel).
@@ -223,6 +253,14 @@ void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* 
     std::memcpy(job.result + head_bytes + steps_bytes, bodies_src, bodies_bytes);  // main to main: unchanged
 }
 
+void ComputeWorker::compute(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r) {
+  Active& a = active_[0];
+  if (!begin(job, p, in, out, r, a)) return;
+  const bool ok = integrate(p, a.c, r);
+  ls_.release(a.mark);
+  finish(job, p, out, a.c, ok, r);
+}
+
 IslandReport ComputeWorker::step(const unsigned char* image, size_t bytes, unsigned char* result, size_t result_capacity) {
   const IslandJob job{image, bytes, result, result_capacity};
   IslandReport r;
@@ -231,18 +269,119 @@ IslandReport ComputeWorker::step(const unsigned char* image, size_t bytes, unsig
 }
 
 void ComputeWorker::step_batch(const IslandJob* jobs, size_t count, IslandReport* reports) {
-  // Two input and two output slots, sized for the largest island of the batch, below the
+  // Every island is planned first; then runs of small islands that can go together are
+  // integrated in lockstep (step_together) and the others one after another, double-buffered
+  // (step_each).
+  plans_.assign(count, Plan{});
+  ok_.assign(count, 0);
+  for (size_t k = 0; k < count; ++k) {
+    reports[k] = IslandReport{};
+    ok_[k] = plan(jobs[k], plans_[k], reports[k]);
+  }
+  size_t k = 0;
+  while (k < count) {
+    size_t e = together_end(k, count, reports);
+    if (e - k >= 2) {
+      step_together(jobs, k, e, reports);
+      k = e;
+      continue;
+    }
+    e = k + 1;
+    while (e < count && together_end(e, count, reports) - e < 2) ++e;
+    step_each(jobs, k, e, reports);
+    k = e;
+  }
+}
+
+bool ComputeWorker::can_go_together(size_t k, const IslandReport* reports) const {
+  const Plan& p = plans_[k];
+  const Integrator i = p.counts.integrator;
+  return ok_[k] && p.ascending && (i == Integrator::implicit_split || i == Integrator::implicit_euler) &&
+         reports[k].footprint.total <= ls_.capacity() / 4;
+}
+
+size_t ComputeWorker::together_bytes(size_t k, const IslandReport* reports) {
+  // the island's own footprint without the double buffers, and alignment for its allocations
+  return reports[k].footprint.total - reports[k].footprint.bytes[int(Region::double_buffer)] + 16 * 32;
+}
+
+size_t ComputeWorker::together_end(size_t k, size_t count, const IslandReport* reports) const {
+  if (!can_go_together(k, reports)) return k;
+  const Plan& first = plans_[k];
+  uint32_t types = first.counts.force_types;
+  size_t bytes = together_bytes(k, reports), e = k + 1;
+  for (; e < count && e - k < kMaxTogether; ++e) {
+    const Plan& p = plans_[e];
+    if (!can_go_together(e, reports) || p.counts.integrator != first.counts.integrator || p.header.step != first.header.step)
+      break;
+    const uint32_t t = types | p.counts.force_types;
+    const size_t b = bytes + together_bytes(e, reports);
+    if (b + force_scratch_bytes(t) + 32 > ls_.capacity()) break;
+    types = t, bytes = b;
+  }
+  return e;
+}
+
+void ComputeWorker::step_together(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports) {
+  // Islands [begin_k, end_k) in the local store at once: each fetched, validated and given its
+  // workspace; their first step's forces evaluated in one pass, SIMD lanes filled across
+  // islands; then each solved and committed alone. An island whose first step fails is stepped
+  // again alone, halving as step() would: every island's result is the bytes step() gives it.
+  const size_t m = end_k - begin_k;
+  ls_.reset();
+  ls_.reset_peak();
+  uint32_t types = 0;
+  for (size_t j = 0; j < m; ++j) {
+    const size_t k = begin_k + j;
+    const RegionBytes& b = reports[k].footprint.bytes;
+    in_[j] = static_cast<unsigned char*>(ls_.allocate(b[int(Region::input)], 32, Region::input));
+    out_[j] = static_cast<unsigned char*>(ls_.allocate(b[int(Region::output)], 32, Region::output));
+    dma_.get(in_[j], jobs[k].image, jobs[k].bytes, kTagIn);
+    plans_[k].out_tag = kTagOut;
+    types |= plans_[k].counts.force_types;
+  }
+  auto* scratch = static_cast<float*>(ls_.allocate(force_scratch_bytes(types), 32, Region::scratch));
+  dma_.wait(1u << kTagIn);
+  const Integrator integ = plans_[begin_k].counts.integrator;
+  const bool split = integ == Integrator::implicit_split;
+  const float h = plans_[begin_k].header.step;
+  size_t ready = 0;
+  for (size_t j = 0; j < m; ++j) {
+    const size_t k = begin_k + j;
+    Active& a = active_[j];
+    a.ready = begin(jobs[k], plans_[k], in_[j], out_[j], reports[k], a);
+    if (!a.ready) continue;
+    targets_[ready] = implicit_step_targets(a.c, h, split);
+    force_jobs_[ready] = {&a.c.island, &targets_[ready]};
+    ++ready;
+  }
+  evaluate_forces_together(force_jobs_.data(), static_cast<int>(ready), scratch);
+  for (size_t j = 0; j < m; ++j) {
+    const size_t k = begin_k + j;
+    Active& a = active_[j];
+    if (!a.ready) continue;
+    bool ok = finish_implicit(a.c, h, split);
+    if (ok) {
+      reports[k].substeps += 1;
+    } else {  // the same first step again, then its halves, as step() takes them
+      a.c.counters = IntegrationCounters{};
+      ok = integrate(plans_[k], a.c, reports[k]);
+    }
+    finish(jobs[k], plans_[k], out_[j], a.c, ok, reports[k]);
+  }
+  dma_.wait(1u << kTagOut);
+  for (size_t j = 0; j < m; ++j) reports[begin_k + j].local_store_peak = ls_.peak();
+}
+
+void ComputeWorker::step_each(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports) {
+  // Two input and two output slots, sized for the largest island of the run, below the
   // working set: island k computes from slot k % 2 while island k + 1 is fetched into the
   // other and island k - 1's result drains from the other output slot. An island whose
   // own footprint (with double buffering, as the reference design counts it) does not fit is refused.
-  plans_.assign(count, Plan{});
-  ok_.assign(count, 0);
   std::vector<Plan>& plans = plans_;
   std::vector<char>& ok = ok_;
   size_t in_slot = 0, out_slot = 0, work = 0;
-  for (size_t k = 0; k < count; ++k) {
-    reports[k] = IslandReport{};
-    ok[k] = plan(jobs[k], plans[k], reports[k]);
+  for (size_t k = begin_k; k < end_k; ++k) {
     if (!ok[k]) continue;
     const RegionBytes& b = reports[k].footprint.bytes;
     in_slot = std::max(in_slot, b[int(Region::input)]);
@@ -253,7 +392,7 @@ void ComputeWorker::step_batch(const IslandJob* jobs, size_t count, IslandReport
   ls_.reset_peak();
   const bool overlap = 2 * (in_slot + out_slot) + work <= ls_.capacity();
   if (!overlap) {  // islands too different in size to share slots: one at a time
-    for (size_t k = 0; k < count; ++k) {
+    for (size_t k = begin_k; k < end_k; ++k) {
       if (!ok[k]) continue;
       ls_.reset();
       const RegionBytes& b = reports[k].footprint.bytes;
@@ -276,10 +415,10 @@ void ComputeWorker::step_batch(const IslandJob* jobs, size_t count, IslandReport
     out[s] = static_cast<unsigned char*>(ls_.allocate(out_slot, 32, s ? Region::double_buffer : Region::output));
   }
   auto fetch = [&](size_t k) {
-    if (k < count && ok[k]) dma_.get(in[k % 2], jobs[k].image, jobs[k].bytes, kTagIn + unsigned(k % 2));
+    if (k < end_k && ok[k]) dma_.get(in[k % 2], jobs[k].image, jobs[k].bytes, kTagIn + unsigned(k % 2));
   };
-  fetch(0);
-  for (size_t k = 0; k < count; ++k) {
+  fetch(begin_k);
+  for (size_t k = begin_k; k < end_k; ++k) {
     // island k - 1's result (its advanced bodies are put from its input slot) drains before
     // island k + 1 is fetched into that slot; then the next island loads while this one computes
     dma_.wait(1u << (kTagOut + 2 + unsigned((k + 1) % 2)));

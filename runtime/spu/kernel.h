@@ -2,11 +2,13 @@
 // Stateless: everything it needs is in the island's bytes; everything it touches is in the
 // worker's local store, filled and emptied by (emulated) DMA.
 #pragma once
+#include <array>
 #include <cstddef>
 #include <string>
 #include <vector>
 
 #include "runtime/spu/dma.h"
+#include "runtime/spu/integrators.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/local_store.h"
 #include "runtime/spu/workspace.h"
@@ -51,17 +53,40 @@ class ComputeWorker {
   static size_t bytes_needed(const IslandJob& job);
 
  private:
+  // Islands integrated together at most (step_together): their lanes fill each kernel's SIMD
+  // batches; the local store and its allocation stack bound how many fit.
+  static constexpr size_t kMaxTogether = 16;
   struct Plan {
     gen::Island_Header header{};
     IslandCounts counts;
+    bool ascending = false;  // sections in increasing force type: may be evaluated with others
     unsigned out_tag = 0;
   };
+  // One island between its fetch and its result.
+  struct Active {
+    StepContext c;
+    Workspace ws;
+    size_t mark = 0;
+    bool ready = false;
+  };
   bool plan(const IslandJob& job, Plan& p, IslandReport& r);
+  bool begin(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r, Active& a);
+  bool integrate(const Plan& p, StepContext& c, IslandReport& r);
+  void finish(const IslandJob& job, const Plan& p, unsigned char* out, const StepContext& c, bool ok, IslandReport& r);
   void compute(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r);
+  bool can_go_together(size_t k, const IslandReport* reports) const;
+  static size_t together_bytes(size_t k, const IslandReport* reports);
+  size_t together_end(size_t k, size_t count, const IslandReport* reports) const;
+  void step_together(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports);
+  void step_each(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports);
   LocalStore ls_;
   Dma dma_;
   std::vector<Plan> plans_;  // step_batch's, kept so a warm worker allocates nothing
   std::vector<char> ok_;
+  std::array<Active, kMaxTogether> active_{};
+  std::array<unsigned char*, kMaxTogether> in_{}, out_{};
+  std::array<ForceTargets, kMaxTogether> targets_{};
+  std::array<ForceJob, kMaxTogether> force_jobs_{};
 };
 
 }  // namespace cellphys::spu

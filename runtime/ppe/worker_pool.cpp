@@ -1,6 +1,7 @@
 #include "runtime/ppe/worker_pool.h"
 
 #include <algorithm>
+#include <chrono>
 
 namespace cellphys::ppe {
 
@@ -35,9 +36,33 @@ void WorkerPool::work(int index, TaskRef task, size_t count) {
   for (size_t k; (k = next_.fetch_add(1, std::memory_order_relaxed)) < count;) task.call(task.context, k, index);
 }
 
+namespace {
+
+void cpu_relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#endif
+}
+
+// Spins up to kSpinTime while `waiting` holds: a step's tasks follow one another within
+// microseconds (pack, then integrate), and waking a thread asleep on a condition variable
+// takes tens of them, as long as a small task.
+template <class Pred>
+void spin_while(Pred waiting) {
+  constexpr auto kSpinTime = std::chrono::microseconds(50);
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; waiting(); ++i) {
+    cpu_relax();
+    if (i % 64 == 63 && std::chrono::steady_clock::now() - start > kSpinTime) return;
+  }
+}
+
+}  // namespace
+
 void WorkerPool::loop(int index) {
   uint64_t seen = 0;
   for (;;) {
+    spin_while([&] { return generation_.load(std::memory_order_acquire) == seen; });
     TaskRef task;
     size_t count;
     {
@@ -73,6 +98,7 @@ void WorkerPool::run_task(size_t count, TaskRef task) {
   }
   wake_.notify_all();
   work(0, task, count);
+  spin_while([&] { return joined_.load(std::memory_order_acquire) != 0; });
   // Every item is taken; the threads that joined finish theirs (what they wrote is published
   // by the lock they leave under).
   std::unique_lock<std::mutex> lock(mutex_);

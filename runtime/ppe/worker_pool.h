@@ -60,8 +60,9 @@ class WorkerPool : public IslandRunner {
   TaskRef task_{nullptr, nullptr};  // the current for_each's, held while joined
   size_t count_ = 0;
   std::atomic<size_t> next_{0};  // the next item to take: taken without the lock
-  int joined_ = 0;                // threads working on the current task
-  uint64_t generation_ = 0;
+  // Written under the lock; read without it too while a thread spins (worker_pool.cpp).
+  std::atomic<int> joined_{0};             // threads working on the current task
+  std::atomic<uint64_t> generation_{0};
   bool stop_ = false;
 };
 

@@ -84,8 +84,21 @@ void columns_of(const float* out_soa, int first_row, float* tile) {
   simd::transpose8(rows, tile);
 }
 
-void add_column(float* target, const float* column) {
-  simd::store(target, simd::add(simd::load<simd::vf8>(target), simd::load<simd::vf8>(column)));
+// Adds lane l's column (tile + 8 l) into target(l), lane by lane in order. Consecutive lanes
+// with one target (a pair's manifold points) keep the running sum in a register and store it
+// once: the same adds in the same order, so the same bits, without each add waiting for the
+// last one's store.
+template <class Target>
+void add_columns(const float* tile, int lanes, Target target) {
+  for (int l = 0; l < lanes;) {
+    float* t = target(l);
+    simd::vf8 sum = simd::load<simd::vf8>(t);
+    do {
+      sum = simd::add(sum, simd::load<simd::vf8>(tile + 8 * l));
+      ++l;
+    } while (l < lanes && target(l) == t);
+    simd::store(t, sum);
+  }
 }
 
 // The forces and implicit blocks of a whole batch, through transposed tiles, each lane into
@@ -98,7 +111,7 @@ void scatter_batch(const ForceTargets* const* t, const int (*body)[2], int lanes
   alignas(32) float tile[8 * kLanes];
   for (int k = 0; k < K::kBodies; ++k) {
     columns_of(out_soa, 6 * k, tile);
-    for (int l = 0; l < lanes; ++l) add_column(t[l]->forces + kVecFloats * body[l][k], tile + 8 * l);
+    add_columns(tile, lanes, [&](int l) { return t[l]->forces + kVecFloats * body[l][k]; });
   }
   if (mode != Mode::implicit) return;
   if constexpr (K::kNumImplicitBlocks > 0) {
@@ -106,11 +119,15 @@ void scatter_batch(const ForceTargets* const* t, const int (*body)[2], int lanes
       float* target[kLanes];
       for (int l = 0; l < lanes; ++l) {
         const int i = body[l][K::kImplicitBlocks[s].row_body], j = body[l][K::kImplicitBlocks[s].col_body];
+        if (l > 0 && t[l] == t[l - 1] && body[l][0] == body[l - 1][0] && body[l][1] == body[l - 1][1]) {
+          target[l] = target[l - 1];  // the same pair: the same block
+          continue;
+        }
         target[l] = i == j ? t[l]->diag_k + kBlockFloats * i : t[l]->offdiag_k + kBlockFloats * t[l]->structure->find(i, j);
       }
       for (int c = 0; c < 6; ++c) {
         columns_of(out_soa, 6 * K::kBodies + 36 * s + 6 * c, tile);
-        for (int l = 0; l < lanes; ++l) add_column(target[l] + 8 * c, tile + 8 * l);
+        add_columns(tile, lanes, [&](int l) { return target[l] + 8 * c; });
       }
     }
   }

@@ -1,5 +1,7 @@
 #include "runtime/spu/force_eval.h"
 
+#include <cassert>
+#include <cstdint>
 #include <cstring>
 
 #include "cellphys/gen/block_ops.h"
@@ -13,6 +15,8 @@ namespace {
 
 constexpr int kLanes = 8;
 using Batch = simd::Batch<kLanes>;
+static_assert(sizeof(Batch) == kLanes * sizeof(float) && alignof(Batch) <= 32,
+              "a row of kLanes floats in the scratch is one Batch");
 
 struct MaxSizes {
   int inputs = 0, outputs = 0;
@@ -133,11 +137,6 @@ void scatter_batch(const ForceTargets* const* t, const int (*body)[2], int lanes
   }
 }
 
-template <class K>
-constexpr int outputs_of(Mode m) {
-  return m == Mode::forces ? 6 * K::kBodies : m == Mode::implicit ? K::kImplicitOutputs : K::kOutputs;
-}
-
 // Fills kernel K's SIMD lanes with instances, from one island or several, and runs a batch
 // each time the lanes are full. A lane's result goes to its own island's targets. One-body
 // kernels (world contacts, gravity) share batches across islands; a pair kernel's islands each
@@ -145,7 +144,9 @@ constexpr int outputs_of(Mode m) {
 template <class K>
 class LaneBatch {
  public:
-  LaneBatch(Mode mode, float h, float* scratch) : mode_(mode), h_(h), scratch_(scratch) {}
+  LaneBatch(Mode mode, float h, float* scratch) : mode_(mode), h_(h), scratch_(scratch) {
+    assert(reinterpret_cast<uintptr_t>(scratch) % 32 == 0);
+  }
   // inst null: a global force on body `body`
   void push(const ForceJob& j, const typename K::Instance* inst, int body) {
     lanes_[n_++] = {&j, inst, body};
@@ -153,19 +154,21 @@ class LaneBatch {
   }
   void flush() {
     if (n_ == 0) return;
+    // The kernel reads and writes the scratch in place: kInputs, then kOutputs, rows of kLanes
+    // floats are a Batch each (no copy in and out, and nothing zeroed per batch; every kernel
+    // entry point writes each of its outputs).
     float* in_soa = scratch_;                         // kInputs x kLanes
     float* out_soa = scratch_ + kLanes * K::kInputs;  // kOutputs x kLanes
-    alignas(32) Batch in[K::kInputs > 0 ? K::kInputs : 1];
-    alignas(32) Batch out[K::kOutputs];
+    const Batch* in = reinterpret_cast<const Batch*>(in_soa);
+    Batch* out = reinterpret_cast<Batch*>(out_soa);
     int bodies[kLanes][2];
     const ForceTargets* targets[kLanes];
+    typename K::Instance synthetic{};  // a global force's instance: only its body
     for (int l = 0; l < kLanes; ++l) {
       // idle lanes repeat the last instance: always finite, results discarded
       const Lane& lane = lanes_[l < n_ ? l : n_ - 1];
-      typename K::Instance synthetic;
       const typename K::Instance* f = lane.inst;
       if (!f) {
-        synthetic = typename K::Instance{};
         synthetic.body_a = lane.body;
         f = &synthetic;
       }
@@ -175,15 +178,12 @@ class LaneBatch {
       targets[l] = lane.job->t;
       K::gather(lane.job->v->bodies, *f, *lane.job->v->params, in_soa + l, lane.job->t->ref, kLanes);
     }
-    for (int k = 0; k < K::kInputs; ++k) in[k] = Batch::load(in_soa + k * kLanes);
     if (mode_ == Mode::implicit)
       K::template eval_implicit<Batch>(in, Batch(h_), out);
     else if (mode_ == Mode::full)
       K::template eval<Batch>(in, Batch(h_), out);
     else
       K::template eval_f<Batch>(in, Batch(h_), out);
-    const int n_out = outputs_of<K>(mode_);
-    for (int k = 0; k < n_out; ++k) out[k].store(out_soa + k * kLanes);
     if (mode_ == Mode::full) {
       for (int l = 0; l < n_; ++l) scatter<K>(*targets[l], bodies[l], out_soa + l, mode_);
     } else {

@@ -539,6 +539,22 @@ TEST(Refusal, MalformedIslandsAreRefused) {
     const Bytes img = small_island(std::numeric_limits<float>::quiet_NaN());
     expect_malformed(img, img.size(), "non-finite", "nan_velocity");
   }
+  {
+    // a non-finite parameter is named, with its instance; a world contact's body b of -1
+    // (all exponent bits set, as a NaN's) is not a parameter
+    IslandBuilder ib;
+    ib.add_body(make_box(1.0, 0.25, 0.25, 0.25));
+    for (int k = 0; k < 3; ++k) {
+      gen::Contact_Force_Fields c;
+      c.normal[2] = 1.0f, c.penetration = 0.001f, c.friction = 0.5f, c.body_a = 0, c.body_b = -1;
+      if (k == 2) c.friction = std::numeric_limits<float>::infinity();
+      gen::Contact_Force packed;
+      gen::pack(c, packed);
+      ib.add(gen::ForceType::contact, packed);
+    }
+    const Bytes img = ib.finish();
+    expect_malformed(img, img.size(), "contact instance 2: friction is not finite", "infinite_friction");
+  }
 }
 
 // ---- 13. DMA rules --------------------------------------------------------------------------------------

@@ -30,45 +30,40 @@ int32_t read_i32(const unsigned char* p) {
   return v;
 }
 
-// The 4-byte words of each force type's instance that hold its parameters, as runs of
-// consecutive words: what validation checks for finiteness, in one pass an instance.
-struct ParamWords {
-  uint32_t runs[2 * 32];  // [first, end) word pairs
-  int count = 0;
+// Per force type, a mask per 4-byte word of its instance: the exponent bits for a word that
+// holds a parameter, 0 for the rest (body indices, padding). A parameter is not finite when
+// its word & mask == mask.
+struct ParamMask {
+  std::vector<uint32_t> words;  // instance_size / 4
 };
-const ParamWords& param_words(int force_type) {
+const ParamMask& param_mask(int force_type) {
   static const auto table = [] {
-    std::array<ParamWords, kNumForceTypes> t{};
+    std::array<ParamMask, kNumForceTypes> t{};
     for (int f = 0; f < kNumForceTypes; ++f) {
-      std::vector<uint32_t> words;
+      t[f].words.assign(kForceTable[f].instance_size / 4, 0u);
       for (uint32_t p = 0; p < kForceTable[f].num_params; ++p)
-        for (uint32_t l = 0; l < kForceTable[f].params[p].lanes; ++l) words.push_back(kForceTable[f].params[p].offset / 4 + l);
-      std::sort(words.begin(), words.end());
-      words.erase(std::unique(words.begin(), words.end()), words.end());
-      for (size_t i = 0; i < words.size(); ++i) {
-        ParamWords& w = t[f];
-        if (w.count > 0 && w.runs[2 * w.count - 1] == words[i]) {
-          ++w.runs[2 * w.count - 1];
-        } else {
-          if (w.count == 32) throw std::logic_error("a force type's parameters lie in more than 32 runs");
-          w.runs[2 * w.count] = words[i], w.runs[2 * w.count + 1] = words[i] + 1, ++w.count;
-        }
-      }
+        for (uint32_t l = 0; l < kForceTable[f].params[p].lanes; ++l)
+          t[f].words[kForceTable[f].params[p].offset / 4 + l] = 0x7f800000u;
     }
     return t;
   }();
   return table[force_type];
 }
 
-// Every parameter of the instance is finite (its exponent bits not all ones).
-bool params_finite(const unsigned char* inst, const ParamWords& w) {
+// Whether every parameter of `count` consecutive instances is finite: one pass over their
+// words, which the compiler vectorises (the section's instances are 16-byte aligned words).
+bool params_finite(const unsigned char* first, uint32_t count, const ParamMask& m) {
+  const uint32_t* mask = m.words.data();
+  const size_t n = m.words.size();
   uint32_t bad = 0;
-  for (int r = 0; r < w.count; ++r)
-    for (uint32_t k = w.runs[2 * r]; k < w.runs[2 * r + 1]; ++k) {
+  for (uint32_t k = 0; k < count; ++k) {
+    const unsigned char* inst = first + size_t{k} * n * 4;
+    for (size_t w = 0; w < n; ++w) {
       uint32_t bits;
-      std::memcpy(&bits, inst + 4 * k, 4);
-      bad |= uint32_t((bits & 0x7f800000u) == 0x7f800000u);
+      std::memcpy(&bits, inst + 4 * w, 4);
+      bad |= uint32_t((bits & mask[w]) == 0x7f800000u);
     }
+  }
   return bad == 0;
 }
 
@@ -179,7 +174,7 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
     if (sec.world_count > 0 && !info.world_anchor) return std::string("section ") + std::to_string(s) + ": " + info.name + " cannot be anchored to the world";
     const size_t n = size_t{sec.count} * info.instance_size;
     if (sec.offset + n > bytes) return "section " + std::to_string(s) + ": instances run past the end";
-    const ParamWords& words = param_words(int(sec.force_type));
+    const bool finite = params_finite(image + sec.offset, sec.count, param_mask(int(sec.force_type)));
     for (uint32_t k = 0; k < sec.count; ++k) {
       const unsigned char* inst = image + sec.offset + size_t{k} * info.instance_size;
       const int32_t a = read_i32(inst + info.offset_body_a);
@@ -190,7 +185,7 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
         if (world ? b != -1 : (b < 0 || static_cast<uint32_t>(b) >= h.num_bodies || b == a))
           return std::string(info.name) + " instance " + std::to_string(k) + ": body b " + std::to_string(b) + " invalid";
       }
-      if (params_finite(inst, words)) continue;
+      if (finite) continue;
       for (uint32_t p = 0; p < info.num_params; ++p) {  // which one, for the message
         const ParamInfo& pi = info.params[p];
         float vals[3];

@@ -7,6 +7,7 @@
 #include "runtime/base/quat.h"
 #include "runtime/base/vec3.h"
 #include "runtime/ppe/body_maths.h"
+#include "runtime/ppe/worker_pool.h"
 #include "runtime/ppe/world.h"
 
 namespace cellphys::ppe {
@@ -38,8 +39,109 @@ bool asleep(const std::vector<WorldBody>& bodies, uint32_t id) {
 
 }  // namespace
 
+// Pair (a, b)'s contacts [first, end) of this step against its memory `old` (null: none):
+// each contact's effective mass, strain and mode, and the pair's memory now (`now`, its
+// `seen` left to the caller). Reads only the pair's own contacts and memory: pairs are
+// recalled on several threads.
+void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, double match,
+                 const ContactMemory::Pair* old, std::vector<WorldContact>& contacts, size_t first, size_t end,
+                 ContactMemory::Pair& now) {
+  const uint32_t a = contacts[first].a, b = contacts[first].b;
+  const Frame fa = frame_of(bodies, a), fb = frame_of(bodies, b);
+  const Mat3d Ia = rotate_sym(fa.R, bodies[a].inverse_inertia);
+  const Mat3d Ib = b == kWorldBody ? Mat3d{} : rotate_sym(fb.R, bodies[b].inverse_inertia);
+  now = ContactMemory::Pair{};
+  // where the old anchors are on a now (each is compared with every point)
+  Vec3d old_on_a[spu::kMaxManifoldPoints];
+  for (uint32_t j = 0; old && j < old->count; ++j) old_on_a[j] = fa.to_world(old->anchors[j].on_a);
+  bool used[spu::kMaxManifoldPoints] = {};
+  int matched[spu::kMaxManifoldPoints];
+  Vec3d strain[spu::kMaxManifoldPoints];
+  Vec3d total_strain{0, 0, 0};
+  double total_depth = 0, fastest = 0, k_per_mass = 0, damping_per_k = 0;
+  Vec3d drift{0, 0, 0};
+  const size_t count = std::min(end - first, size_t(spu::kMaxManifoldPoints));
+  for (size_t i = 0; i < count; ++i) {
+    WorldContact& c = contacts[first + i];
+    const Vec3d p = Vec3d::load(c.point.point), n = Vec3d::load(c.point.normal);
+    double w = inverse_mass_along(1.0 / bodies[a].mass, Ia, fa.x, p, n);
+    if (b != kWorldBody) w += inverse_mass_along(1.0 / bodies[b].mass, Ib, fb.x, p, n);
+    c.mass = float(1.0 / w);
+    // the contact's spring and damper, as the descriptor tunes them
+    const double m = std::max(c.mass, c.load), omega = 2 * kPi * s.globals.contact_hertz;
+    const double k = s.globals.contact_stiffness > 0 ? s.globals.contact_stiffness : m * omega * omega;
+    const double cd = s.globals.contact_damping > 0 ? s.globals.contact_damping : 2 * s.globals.contact_damping_ratio * m * omega;
+    k_per_mass = std::max(k_per_mass, k / m);
+    damping_per_k = std::max(damping_per_k, cd / k);
+    // The anchor this point stuck to, if it is still near it, and how far it is strained.
+    matched[i] = -1;
+    double best_d = match;
+    for (uint32_t j = 0; old && j < old->count; ++j) {
+      const double d = norm(old_on_a[j] - p);
+      if (!used[j] && d < best_d) matched[i] = int(j), best_d = d;
+    }
+    strain[i] = {0, 0, 0};
+    if (matched[i] >= 0) {
+      used[matched[i]] = true;
+      const ContactMemory::Anchor& an = old->anchors[matched[i]];
+      strain[i] = fb.to_world(an.on_b) - old_on_a[matched[i]];
+      strain[i] = strain[i] - n * dot(strain[i], n);
+    }
+    const Vec3d vrel = velocity_at(bodies, b, p) - velocity_at(bodies, a, p);
+    const double vn = dot(vrel, n);
+    const Vec3d vt = vrel - n * vn;
+    fastest = std::max(fastest, norm(vt));
+    drift = drift + vt * (1.0 / double(count));
+    // the tangential force, in units of depth: the anchor spring's and its damper's
+    total_strain = total_strain + strain[i] + vt * (cd / k);
+    // the normal force, in units of depth, as the descriptor has it: overlapping, the
+    // spring's (on at most its hold; deeper overlap is pushed out) and the damper's
+    // while it closes; at a gap, the damper toward the speed that meets the surface
+    const double pen = c.point.penetration, held = std::min(pen, double(c.hold));
+    const double normal = pen > 0 ? held - cd / k * vn : (cd / k + s.dt) * (pen / s.dt - vn);
+    total_depth += std::max(normal, 0.0);
+  }
+  // Sticking or sliding, for the pair as a whole (its points share the two bodies' motion, not
+  // their loads: a box on a slope presses its downhill edge harder). A sticking pair slides
+  // once its tangential force leaves the friction cone (its strain and slip against mu times
+  // the depth: the anchor's spring and damper against the normal ones), or once it slips
+  // faster than friction stops within a step (a kick). A sliding pair sticks again once its
+  // slip slows to what friction stops within a step (h mu k/m depth) and within half the
+  // cone (the damper brings a slip v to rest over v c/k of strain); a slip that grows, down a
+  // slope steeper than the friction angle, goes on; a slip as slow as the regularisation's (a
+  // box creeping on a slope it should hold) sticks. A sliding pair whose slip turned back since
+  // the last step sticks too: friction alone never reverses a slip, so its constant force
+  // overshot one that it stopped within the step. (Judged by the normal's effective mass, a
+  // sphere's slip, which friction turns through 2/7 of that mass, reversed every step: a
+  // ragdoll's head held against the ground by its neck rocked at 4 cm/s for ever.)
+  const double mu = contacts[first].friction, depth = total_depth / double(count);
+  const bool stoppable = fastest <= s.dt * mu * k_per_mass * depth && fastest * damping_per_k <= 0.5 * mu * depth;
+  bool sliding;
+  if (!old) sliding = !stoppable;
+  else if (old->sliding && dot(drift, Vec3d::load(old->drift)) < 0) sliding = false;
+  else if (old->sliding) sliding = !(stoppable && (fastest <= old->slip || fastest <= s.globals.slip_velocity));
+  else sliding = norm(total_strain) > mu * total_depth || !stoppable;
+  now.sliding = sliding;
+  now.slip = float(fastest);
+  put3(now.drift, drift);
+  for (size_t i = 0; i < count; ++i) {
+    WorldContact& c = contacts[first + i];
+    ContactMemory::Anchor& an = now.anchors[now.count++];
+    if (sliding || matched[i] < 0) {  // anchored afresh where it is
+      strain[i] = {0, 0, 0};
+      fa.to_local(Vec3d::load(c.point.point), an.on_a);
+      fb.to_local(Vec3d::load(c.point.point), an.on_b);
+    } else {
+      an = old->anchors[matched[i]];
+    }
+    c.sticking = sliding ? 0.0f : 1.0f;
+    if (matched[i] >= 0 && (old->held_gaps >> matched[i] & 1u)) c.fall = 0.0f;
+    put3(c.anchor, strain[i]);
+  }
+}
+
 void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, const std::vector<uint32_t>& woken,
-                     bool all, ContactMemory& memory, std::vector<WorldContact>& contacts) {
+                     bool all, WorkerPool* pool, ContactMemory& memory, std::vector<WorldContact>& contacts) {
   // The pairs this recall may forget: the last one's, and the sleepers' of bodies that woke.
   std::vector<uint64_t>& review = memory.review;
   review.clear();
@@ -53,107 +155,35 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
   memory.active.clear();
   // An anchor is the same one while this step's point is this close to where it stuck.
   const double match = std::max(2.0 * s.globals.contact_slop, 1e-3);
+  // Each pair's contacts against its memory, on the threads (the map is only read), then the
+  // memory written in pair order: the entries found first (no entry moves), then the new ones.
+  std::vector<ContactMemory::Span>& spans = memory.spans;
+  spans.clear();
   for (size_t first = 0, end; first < contacts.size(); first = end) {
-    const uint32_t a = contacts[first].a, b = contacts[first].b;
-    for (end = first; end < contacts.size() && contacts[end].a == a && contacts[end].b == b; ++end) {
+    for (end = first; end < contacts.size() && contacts[end].a == contacts[first].a && contacts[end].b == contacts[first].b; ++end) {
     }
-    const auto found = memory.pairs.find(pair_key(a, b));
-    const ContactMemory::Pair* old = found == memory.pairs.end() ? nullptr : &found->second;
-    const Frame fa = frame_of(bodies, a), fb = frame_of(bodies, b);
-    const Mat3d Ia = rotate_sym(fa.R, bodies[a].inverse_inertia);
-    const Mat3d Ib = b == kWorldBody ? Mat3d{} : rotate_sym(fb.R, bodies[b].inverse_inertia);
-    ContactMemory::Pair now;
-    // where the old anchors are on a now (each is compared with every point)
-    Vec3d old_on_a[spu::kMaxManifoldPoints];
-    for (uint32_t j = 0; old && j < old->count; ++j) old_on_a[j] = fa.to_world(old->anchors[j].on_a);
-    bool used[spu::kMaxManifoldPoints] = {};
-    int matched[spu::kMaxManifoldPoints];
-    Vec3d strain[spu::kMaxManifoldPoints];
-    Vec3d total_strain{0, 0, 0};
-    double total_depth = 0, fastest = 0, k_per_mass = 0, damping_per_k = 0;
-    Vec3d drift{0, 0, 0};
-    const size_t count = std::min(end - first, size_t(spu::kMaxManifoldPoints));
-    for (size_t i = 0; i < count; ++i) {
-      WorldContact& c = contacts[first + i];
-      const Vec3d p = Vec3d::load(c.point.point), n = Vec3d::load(c.point.normal);
-      double w = inverse_mass_along(1.0 / bodies[a].mass, Ia, fa.x, p, n);
-      if (b != kWorldBody) w += inverse_mass_along(1.0 / bodies[b].mass, Ib, fb.x, p, n);
-      c.mass = float(1.0 / w);
-      // the contact's spring and damper, as the descriptor tunes them
-      const double m = std::max(c.mass, c.load), omega = 2 * kPi * s.globals.contact_hertz;
-      const double k = s.globals.contact_stiffness > 0 ? s.globals.contact_stiffness : m * omega * omega;
-      const double cd = s.globals.contact_damping > 0 ? s.globals.contact_damping : 2 * s.globals.contact_damping_ratio * m * omega;
-      k_per_mass = std::max(k_per_mass, k / m);
-      damping_per_k = std::max(damping_per_k, cd / k);
-      // The anchor this point stuck to, if it is still near it, and how far it is strained.
-      matched[i] = -1;
-      double best_d = match;
-      for (uint32_t j = 0; old && j < old->count; ++j) {
-        const double d = norm(old_on_a[j] - p);
-        if (!used[j] && d < best_d) matched[i] = int(j), best_d = d;
-      }
-      strain[i] = {0, 0, 0};
-      if (matched[i] >= 0) {
-        used[matched[i]] = true;
-        const ContactMemory::Anchor& an = old->anchors[matched[i]];
-        strain[i] = fb.to_world(an.on_b) - old_on_a[matched[i]];
-        strain[i] = strain[i] - n * dot(strain[i], n);
-      }
-      const Vec3d vrel = velocity_at(bodies, b, p) - velocity_at(bodies, a, p);
-      const double vn = dot(vrel, n);
-      const Vec3d vt = vrel - n * vn;
-      fastest = std::max(fastest, norm(vt));
-      drift = drift + vt * (1.0 / double(count));
-      // the tangential force, in units of depth: the anchor spring's and its damper's
-      total_strain = total_strain + strain[i] + vt * (cd / k);
-      // the normal force, in units of depth, as the descriptor has it: overlapping, the
-      // spring's (on at most its hold; deeper overlap is pushed out) and the damper's
-      // while it closes; at a gap, the damper toward the speed that meets the surface
-      const double pen = c.point.penetration, held = std::min(pen, double(c.hold));
-      const double normal = pen > 0 ? held - cd / k * vn : (cd / k + s.dt) * (pen / s.dt - vn);
-      total_depth += std::max(normal, 0.0);
-    }
-    // Sticking or sliding, for the pair as a whole (its points share the two bodies' motion, not
-    // their loads: a box on a slope presses its downhill edge harder). A sticking pair slides
-    // once its tangential force leaves the friction cone (its strain and slip against mu times
-    // the depth: the anchor's spring and damper against the normal ones), or once it slips
-    // faster than friction stops within a step (a kick). A sliding pair sticks again once its
-    // slip slows to what friction stops within a step (h mu k/m depth) and within half the
-    // cone (the damper brings a slip v to rest over v c/k of strain); a slip that grows, down a
-    // slope steeper than the friction angle, goes on; a slip as slow as the regularisation's (a
-    // box creeping on a slope it should hold) sticks. A sliding pair whose slip turned back since
-    // the last step sticks too: friction alone never reverses a slip, so its constant force
-    // overshot one that it stopped within the step. (Judged by the normal's effective mass, a
-    // sphere's slip, which friction turns through 2/7 of that mass, reversed every step: a
-    // ragdoll's head held against the ground by its neck rocked at 4 cm/s for ever.)
-    const double mu = contacts[first].friction, depth = total_depth / double(count);
-    const bool stoppable = fastest <= s.dt * mu * k_per_mass * depth && fastest * damping_per_k <= 0.5 * mu * depth;
-    bool sliding;
-    if (!old) sliding = !stoppable;
-    else if (old->sliding && dot(drift, Vec3d::load(old->drift)) < 0) sliding = false;
-    else if (old->sliding) sliding = !(stoppable && (fastest <= old->slip || fastest <= s.globals.slip_velocity));
-    else sliding = norm(total_strain) > mu * total_depth || !stoppable;
-    now.sliding = sliding;
-    now.slip = float(fastest);
-    put3(now.drift, drift);
-    for (size_t i = 0; i < count; ++i) {
-      WorldContact& c = contacts[first + i];
-      ContactMemory::Anchor& an = now.anchors[now.count++];
-      if (sliding || matched[i] < 0) {  // anchored afresh where it is
-        strain[i] = {0, 0, 0};
-        fa.to_local(Vec3d::load(c.point.point), an.on_a);
-        fb.to_local(Vec3d::load(c.point.point), an.on_b);
-      } else {
-        an = old->anchors[matched[i]];
-      }
-      c.sticking = sliding ? 0.0f : 1.0f;
-      if (matched[i] >= 0 && (old->held_gaps >> matched[i] & 1u)) c.fall = 0.0f;
-      put3(c.anchor, strain[i]);
-    }
-    now.seen = memory.step + 1;
-    if (found != memory.pairs.end()) found->second = now;  // (old points into it: read through above)
-    else memory.pairs.emplace(pair_key(a, b), now);
-    memory.active.push_back(pair_key(a, b));
+    spans.push_back({first, end, memory.pairs.find(pair_key(contacts[first].a, contacts[first].b)), {}});
+  }
+  auto recall_span = [&](size_t i) {
+    ContactMemory::Span& sp = spans[i];
+    const ContactMemory::Pair* old = sp.found == memory.pairs.end() ? nullptr : &sp.found->second;
+    recall_pair(bodies, s, match, old, contacts, sp.first, sp.end, sp.now);
+    sp.now.seen = memory.step + 1;
+  };
+  constexpr size_t kPairsPerTask = 64;
+  if (pool && pool->size() > 1 && spans.size() >= 4 * kPairsPerTask) {
+    pool->for_each((spans.size() + kPairsPerTask - 1) / kPairsPerTask, [&](size_t task, int) {
+      for (size_t i = task * kPairsPerTask; i < std::min(spans.size(), (task + 1) * kPairsPerTask); ++i) recall_span(i);
+    });
+  } else {
+    for (size_t i = 0; i < spans.size(); ++i) recall_span(i);
+  }
+  for (const ContactMemory::Span& sp : spans)
+    if (sp.found != memory.pairs.end()) sp.found->second = sp.now;
+  for (const ContactMemory::Span& sp : spans) {
+    const uint64_t key = pair_key(contacts[sp.first].a, contacts[sp.first].b);
+    if (sp.found == memory.pairs.end()) memory.pairs.emplace(key, sp.now);
+    memory.active.push_back(key);
   }
   // Pairs not touching this step are forgotten, but for sleepers' (they are not collided),
   // which wait aside until a body of theirs wakes. Decided from the world alone, so a world

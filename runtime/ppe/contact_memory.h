@@ -11,6 +11,8 @@
 
 namespace cellphys::ppe {
 
+class WorkerPool;
+
 struct WorldSettings;
 
 struct ContactMemory {
@@ -38,6 +40,13 @@ struct ContactMemory {
   std::vector<uint64_t> active;
   DormantPairs dormant;
   std::vector<uint64_t> review, resting;  // buffers
+  // recall_contacts' buffer: a pair's contacts [first, end), its entry (or pairs.end()) and its memory now
+  struct Span {
+    size_t first, end;
+    std::unordered_map<uint64_t, Pair>::iterator found;
+    Pair now;
+  };
+  std::vector<Span> spans;
 };
 
 inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; }
@@ -48,8 +57,9 @@ inline uint64_t pair_key(uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | 
 /// of sleeping bodies are remembered as they were; pairs no longer touching are forgotten.
 /// `woken` (ascending): the bodies awake now that slept at the last recall, or may have;
 /// `all`: every pair may have changed (a restored world).
+/// `pool` (may be null): the threads that recall pairs at once; the result is the same without.
 void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& s, const std::vector<uint32_t>& woken,
-                     bool all, ContactMemory& memory, std::vector<WorldContact>& contacts);
+                     bool all, WorkerPool* pool, ContactMemory& memory, std::vector<WorldContact>& contacts);
 
 /// After the step: which of each pair's gaps its bodies left open, approaching slower than the
 /// gap over a step and than contact.rest_speed (or opening). Gravity is not taken to close such a gap in the next step

@@ -210,7 +210,7 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
     if (bodies[i].alive && !bodies[i].is_static && bodies[i].awake) scratch.woken.push_back(i);
   std::sort(scratch.woken.begin(), scratch.woken.end());
   scratch.woken.erase(std::unique(scratch.woken.begin(), scratch.woken.end()), scratch.woken.end());
-  recall_contacts(bodies, settings, scratch.woken, changes.all, memory, contacts);
+  recall_contacts(bodies, settings, scratch.woken, changes.all, pool, memory, contacts);
 }
 
 }  // namespace cellphys::ppe

@@ -162,10 +162,11 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
   for (size_t first = 0, end; first < contacts.size(); first = end) {
     for (end = first; end < contacts.size() && contacts[end].a == contacts[first].a && contacts[end].b == contacts[first].b; ++end) {
     }
-    spans.push_back({first, end, memory.pairs.find(pair_key(contacts[first].a, contacts[first].b)), {}});
+    spans.push_back({first, end, memory.pairs.end(), {}});
   }
   auto recall_span = [&](size_t i) {
     ContactMemory::Span& sp = spans[i];
+    sp.found = memory.pairs.find(pair_key(contacts[sp.first].a, contacts[sp.first].b));
     const ContactMemory::Pair* old = sp.found == memory.pairs.end() ? nullptr : &sp.found->second;
     recall_pair(bodies, s, match, old, contacts, sp.first, sp.end, sp.now);
     sp.now.seen = memory.step + 1;

@@ -279,7 +279,7 @@ RoomMetrics Room::metrics() const {
   m.commands_refused = refused_.load();
   m.bytes_sent = bytes_.load();
   m.frames_skipped = skipped_.load();
-  m.clients_dropped = dropped_.load();
+  m.clients_dropped = dropped_.load(std::memory_order_acquire);
   std::lock_guard<std::mutex> lock(metrics_mutex_);
   m.state = state_;
   m.error = reported_error_;

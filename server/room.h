@@ -107,7 +107,7 @@ class Room {
   void count_refused() { refused_.fetch_add(1, std::memory_order_relaxed); }
   void count_bytes(size_t n) { bytes_.fetch_add(n, std::memory_order_relaxed); }
   void count_skipped(uint32_t n) { skipped_.fetch_add(n, std::memory_order_relaxed); }
-  void count_dropped() { dropped_.fetch_add(1, std::memory_order_relaxed); }
+  void count_dropped() { dropped_.fetch_add(1, std::memory_order_release); }  // after detach(): metrics() acquires
   /// A client starts (+1) or stops (-1) wanting debug messages; frames carry one while any does.
   void count_debug(int delta) { debug_clients_.fetch_add(delta, std::memory_order_relaxed); }
 

@@ -33,6 +33,13 @@ WsSession::~WsSession() {
   room_->detach(this);
 }
 
+void WsSession::drop() {
+  // Off the room's client list before it is counted: whoever sees the count sees it gone (the
+  // session itself lives on until its pending handlers finish).
+  room_->detach(this);
+  room_->count_dropped();
+}
+
 void WsSession::run(http::request<http::string_body> request) {
   net::dispatch(ws_.get_executor(), [self = shared_from_this(), req = std::move(request)]() mutable {
     self->ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
@@ -173,7 +180,7 @@ void WsSession::on_message(std::shared_ptr<const std::vector<unsigned char>> mes
   net::post(ws_.get_executor(), [self = shared_from_this(), m = std::move(message)]() mutable {
     if (self->closed_) return;
     if (self->control_.size() >= kMaxControl) {  // answers pile up: the client is not reading
-      self->room_->count_dropped();
+      self->drop();
       self->close(websocket::close_code::policy_error);
       return;
     }
@@ -252,7 +259,7 @@ void WsSession::watch_deadline() {
     if (ec || self->closed_) return;
     const auto stuck = std::chrono::steady_clock::now() - self->write_started_;
     if (self->writing_ && std::chrono::duration<double>(stuck).count() > self->ctx_.options.client_deadline_s) {
-      self->room_->count_dropped();
+      self->drop();
       self->closed_ = true;
       beast::error_code ignored;
       beast::get_lowest_layer(self->ws_).socket().close(ignored);  // it does not read: no close handshake

@@ -47,6 +47,7 @@ class WsSession : public ClientSink, public std::enable_shared_from_this<WsSessi
   std::shared_ptr<const std::vector<unsigned char>> encode(const Frame& f);
   void watch_deadline();
   void close(boost::beast::websocket::close_code code);
+  void drop();  // a client that does not read: off the room, counted
 
   boost::beast::websocket::stream<boost::beast::tcp_stream> ws_;
   boost::beast::flat_buffer read_buffer_;

@@ -1,5 +1,6 @@
 // A fixed pool of threads, each with its own compute worker (its own local store). Jobs
-// are taken largest-first from a shared counter; each island's result goes to its own
+// are taken largest-first from a shared counter (small ones a run at a time, which the
+// worker integrates together); each island's result goes to its own
 // slot, so the outcome is the same whatever the number of workers. An island too big for
 // the local store, up to whole_island_bytes, is computed whole by the thread's wide worker,
 // whose store is grown to fit it (main memory standing in for blocks streamed through the

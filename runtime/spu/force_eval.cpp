@@ -250,12 +250,6 @@ void evaluate_forces(const IslandView& v, const ForceTargets& t, float* scratch)
   }
 }
 
-bool sections_ascending(const IslandView& v) {
-  for (int s = 1; s < v.num_sections(); ++s)
-    if (v.sections[s].force_type <= v.sections[s - 1].force_type) return false;
-  return true;
-}
-
 void evaluate_forces_together(const ForceJob* jobs, int count, float* scratch) {
   if (count <= 0) return;
   const ForceTargets& t0 = *jobs[0].t;

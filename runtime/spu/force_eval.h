@@ -51,16 +51,12 @@ struct ForceJob {
   const ForceTargets* t = nullptr;
 };
 
-/// Whether the island's sections come in increasing force type, as IslandBuilder writes them:
-/// the order evaluate_forces_together visits them in.
-bool sections_ascending(const IslandView& island);
-
-/// evaluate_forces over several islands at once, a kernel's SIMD lanes filled across islands
-/// (many small islands fill a batch together instead of one each). Every job's targets ask
-/// for the same thing at the same h; each island's sections ascend (sections_ascending). Each
-/// island's targets receive exactly what evaluate_forces gives it alone, to the bit: its
-/// bodies' contributions are added in the same order. Scratch: force_scratch_bytes of the
-/// union of the islands' force types.
+/// evaluate_forces over several islands at once, a one-body kernel's SIMD lanes filled across
+/// islands (many small islands fill a batch together instead of one each). Every job's
+/// targets ask for the same thing at the same h, and each island's sections ascend by force
+/// type, as IslandBuilder writes them. Each island's targets receive exactly what
+/// evaluate_forces gives it alone, to the bit: its bodies' contributions are added in the same
+/// order. Scratch: force_scratch_bytes of the union of the islands' force types.
 void evaluate_forces_together(const ForceJob* jobs, int count, float* scratch);
 
 }  // namespace cellphys::spu

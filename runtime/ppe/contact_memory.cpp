@@ -15,6 +15,7 @@ namespace cellphys::ppe {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr size_t kLookAhead = 16;  // a walk over pairs' memory starts this many lookups ahead
 
 void put3(float* out, const Vec3d& v) { out[0] = float(v.x), out[1] = float(v.y), out[2] = float(v.z); }
 
@@ -162,13 +163,15 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
   for (size_t first = 0, end; first < contacts.size(); first = end) {
     for (end = first; end < contacts.size() && contacts[end].a == contacts[first].a && contacts[end].b == contacts[first].b; ++end) {
     }
-    spans.push_back({first, end, memory.pairs.end(), {}});
+    spans.push_back({first, end, nullptr, {}});
+  }
+  for (size_t i = 0; i < spans.size(); ++i) {
+    if (i + kLookAhead < spans.size()) memory.pairs.prefetch(pair_key(contacts[spans[i + kLookAhead].first].a, contacts[spans[i + kLookAhead].first].b));
+    spans[i].found = memory.pairs.find(pair_key(contacts[spans[i].first].a, contacts[spans[i].first].b));
   }
   auto recall_span = [&](size_t i) {
     ContactMemory::Span& sp = spans[i];
-    sp.found = memory.pairs.find(pair_key(contacts[sp.first].a, contacts[sp.first].b));
-    const ContactMemory::Pair* old = sp.found == memory.pairs.end() ? nullptr : &sp.found->second;
-    recall_pair(bodies, s, match, old, contacts, sp.first, sp.end, sp.now);
+    recall_pair(bodies, s, match, sp.found, contacts, sp.first, sp.end, sp.now);
     sp.now.seen = memory.step + 1;
   };
   constexpr size_t kPairsPerTask = 64;
@@ -180,10 +183,10 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     for (size_t i = 0; i < spans.size(); ++i) recall_span(i);
   }
   for (const ContactMemory::Span& sp : spans)
-    if (sp.found != memory.pairs.end()) sp.found->second = sp.now;
+    if (sp.found) *sp.found = sp.now;
   for (const ContactMemory::Span& sp : spans) {
     const uint64_t key = pair_key(contacts[sp.first].a, contacts[sp.first].b);
-    if (sp.found == memory.pairs.end()) memory.pairs.emplace(key, sp.now);
+    if (!sp.found) memory.pairs.emplace(key, sp.now);
     memory.active.push_back(key);
   }
   // Pairs not touching this step are forgotten, but for sleepers' (they are not collided),
@@ -192,18 +195,22 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
   ++memory.step;
   std::vector<uint64_t>& resting = memory.resting;
   resting.clear();
-  for (uint64_t key : review) {
-    const auto it = memory.pairs.find(key);
-    if (it == memory.pairs.end() || it->second.seen == memory.step) continue;
+  for (size_t i = 0; i < review.size(); ++i) {
+    if (i + kLookAhead < review.size()) memory.pairs.prefetch(review[i + kLookAhead]);
+    const uint64_t key = review[i];
+    const ContactMemory::Pair* pair = memory.pairs.find(key);
+    if (!pair || pair->seen == memory.step) continue;
     const uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
     if (a < bodies.size() && bodies[a].alive && asleep(bodies, a) && asleep(bodies, b)) resting.push_back(key);
-    else memory.pairs.erase(it);
+    else memory.pairs.erase(key);
   }
   memory.dormant.add(resting);
 }
 
 void note_held_gaps(const std::vector<WorldBody>& bodies, const WorldSettings& s,
                     const std::vector<WorldContact>& contacts, ContactMemory& memory) {
+  std::vector<std::pair<uint64_t, uint32_t>>& pairs_held = memory.held;
+  pairs_held.clear();
   for (size_t first = 0, end; first < contacts.size(); first = end) {
     const uint32_t a = contacts[first].a, b = contacts[first].b;
     for (end = first; end < contacts.size() && contacts[end].a == a && contacts[end].b == b; ++end) {
@@ -219,19 +226,22 @@ void note_held_gaps(const std::vector<WorldBody>& bodies, const WorldSettings& s
       // faster than a resting contact settles (a body falling from afar is not held)
       if (vn > c.point.penetration / s.dt && vn > -s.globals.contact_rest_speed) held |= 1u << i;
     }
-    const auto found = memory.pairs.find(pair_key(a, b));
-    if (found != memory.pairs.end()) found->second.held_gaps = held;
+    pairs_held.emplace_back(pair_key(a, b), held);
+  }
+  for (size_t i = 0; i < pairs_held.size(); ++i) {
+    if (i + kLookAhead < pairs_held.size()) memory.pairs.prefetch(pairs_held[i + kLookAhead].first);
+    if (ContactMemory::Pair* found = memory.pairs.find(pairs_held[i].first)) found->held_gaps = pairs_held[i].second;
   }
 }
 
 void move_anchors(const std::vector<WorldBody>& bodies, ContactMemory& memory, uint32_t a, uint32_t b,
                   const float da[3], const float db[3]) {
-  const auto found = memory.pairs.find(pair_key(a, b));
-  if (found == memory.pairs.end()) return;
+  ContactMemory::Pair* found = memory.pairs.find(pair_key(a, b));
+  if (!found) return;
   const Vec3d mid = (Vec3d::load(da) + Vec3d::load(db)) * 0.5;
   const Mat3d Ra = frame_of(bodies, a).R, Rb = frame_of(bodies, b).R;
   const Vec3d on_a = mul_transpose(Ra, mid - Vec3d::load(da)), on_b = mul_transpose(Rb, mid - Vec3d::load(db));
-  ContactMemory::Pair& pair = found->second;
+  ContactMemory::Pair& pair = *found;
   for (uint32_t j = 0; j < pair.count; ++j) {
     put3(pair.anchors[j].on_a, Vec3d::load(pair.anchors[j].on_a) + on_a);
     put3(pair.anchors[j].on_b, Vec3d::load(pair.anchors[j].on_b) + on_b);
@@ -239,9 +249,7 @@ void move_anchors(const std::vector<WorldBody>& bodies, ContactMemory& memory, u
 }
 
 void forget_body(ContactMemory& memory, uint32_t id) {
-  for (auto it = memory.pairs.begin(); it != memory.pairs.end();)
-    if (uint32_t(it->first >> 32) == id || uint32_t(it->first) == id) it = memory.pairs.erase(it);
-    else ++it;
+  memory.pairs.erase_if([id](uint64_t key, const ContactMemory::Pair&) { return uint32_t(key >> 32) == id || uint32_t(key) == id; });
   std::vector<uint64_t> gone;  // (the active list's keys of it are found missing by the next recall)
   memory.dormant.take({id}, gone);
 }

@@ -2,11 +2,12 @@
 // where they stuck (docs/contacts.md).
 #pragma once
 #include <cstdint>
-#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
 #include "runtime/ppe/dormant_pairs.h"
+#include "runtime/ppe/pair_table.h"
 #include "runtime/spu/shape.h"
 
 namespace cellphys::ppe {
@@ -33,17 +34,18 @@ struct ContactMemory {
     uint32_t held_gaps = 0;
     Anchor anchors[spu::kMaxManifoldPoints];
   };
-  std::unordered_map<uint64_t, Pair> pairs;  // by pair_key(a, b)
+  PairTable<Pair> pairs;  // by pair_key(a, b)
   uint64_t step = 0;                          // recalls so far
   // Which pairs a recall may forget: those it found (`active`), and those of bodies that woke,
   // taken back from `dormant`, where the pairs of two sleeping (or static) bodies wait.
   std::vector<uint64_t> active;
   DormantPairs dormant;
   std::vector<uint64_t> review, resting;  // buffers
-  // recall_contacts' buffer: a pair's contacts [first, end), its entry (or pairs.end()) and its memory now
+  std::vector<std::pair<uint64_t, uint32_t>> held;  // note_held_gaps' buffer: a pair's key and held gaps
+  // recall_contacts' buffer: a pair's contacts [first, end), its entry (or null) and its memory now
   struct Span {
     size_t first, end;
-    std::unordered_map<uint64_t, Pair>::iterator found;
+    Pair* found;
     Pair now;
   };
   std::vector<Span> spans;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "cellphys/gen/force_table.h"
+#include "runtime/base/radix_sort.h"
 #include "runtime/base/vec3.h"
 #include "runtime/ppe/contact_loads.h"
 #include "runtime/ppe/world.h"
@@ -195,7 +196,7 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
     StageTimer t(st.times.mid_ms);
     box_pairs(changes, scratch);
     plane_pairs(bodies, shapes, settings, changes, scratch);
-    std::sort(scratch.pairs.begin(), scratch.pairs.end());
+    radix_sort_pairs(scratch.pairs, scratch.sorting);
     drop_joined_pairs(forces, scratch);
     st.mid_phase_pairs = static_cast<uint32_t>(scratch.pairs.size());
   }

@@ -54,7 +54,7 @@ struct CollideScratch {
   std::vector<uint32_t> planes;  // ascending
   std::vector<uint32_t> woken;   // this step: the changed bodies awake now, ascending
   std::vector<PairManifold> manifolds;  // per pair, when the narrow phase runs on several threads
-  std::vector<std::pair<uint32_t, uint32_t>> pairs;
+  std::vector<std::pair<uint32_t, uint32_t>> pairs, sorting;  // the boxes that overlap; the sort's buffer
   std::vector<uint64_t> joined;  // body pairs a joint joins (low id << 32 | high id), sorted
   std::vector<TouchedPair> touched;                   // the pairs with contacts, for the events
   std::vector<std::pair<uint32_t, uint32_t>> sensed;  // (sensor, visitor) overlapping

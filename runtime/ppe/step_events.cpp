@@ -160,11 +160,16 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDict
   }
   std::vector<uint64_t>& found = memory.found;
   found.clear();
+  // The pairs come in pair order, so their keys mostly ascend: the memory is walked along with
+  // them (searched again only where a key goes back), not searched for each.
+  const std::vector<uint64_t>& touching = memory.touching;
+  auto at = touching.begin();
   for (const TouchedPair& t : touched) {
     const uint64_t k = key_of(std::min(t.a, t.b), std::max(t.a, t.b));
     found.push_back(k);
-    if (!std::binary_search(memory.touching.begin(), memory.touching.end(), k))
-      out.candidates.push_back(candidate(bodies, s, contacts, t));
+    if (at != touching.begin() && *(at - 1) >= k) at = std::lower_bound(touching.begin(), touching.end(), k);
+    while (at != touching.end() && *at < k) ++at;
+    if (at == touching.end() || *at != k) out.candidates.push_back(candidate(bodies, s, contacts, t));
   }
   std::sort(found.begin(), found.end());
   std::vector<uint64_t>& resting = memory.resting_now;

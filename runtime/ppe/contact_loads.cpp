@@ -102,15 +102,18 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   for (const auto& j : joints)
     if (carries(j)) ++below[j.first];
   // Top to bottom: a body's weight, with what rests on it, splits over its supports.
-  // (std::sort with the index as the tie-break: the order of a stable sort, with no buffer)
+  // (std::sort with the index as the tie-break: the order of a stable sort, with no buffer;
+  // each body's height found once, not at each comparison: a third of the sort's time)
+  std::vector<std::pair<double, uint32_t>>& ranked = sc.ranked;
+  ranked.clear();
+  for (uint32_t i : sc.involved)
+    if (support[i] > 0 || below[i] > 0) ranked.emplace_back(height(i), i);
+  std::sort(ranked.begin(), ranked.end(), [](const std::pair<double, uint32_t>& x, const std::pair<double, uint32_t>& y) {
+    return x.first != y.first ? x.first > y.first : x.second < y.second;
+  });
   std::vector<uint32_t>& order = sc.order;
   order.clear();
-  for (uint32_t i : sc.involved)
-    if (support[i] > 0 || below[i] > 0) order.push_back(i);
-  std::sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
-    const double hx = height(x), hy = height(y);
-    return hx != hy ? hx > hy : x < y;
-  });
+  for (const auto& r : ranked) order.push_back(r.second);
   std::vector<double>& weight = sc.weight;
   // The contacts grouped by the body they hold up, in contact order within a body (a counting
   // sort): by_upper[first_of[i] .. first_of[i] + count[i]) hold body i up.

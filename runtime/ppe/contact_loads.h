@@ -27,6 +27,7 @@ struct LoadScratch {
   std::vector<uint8_t> held;          // per body: jointed to what cannot move
   std::vector<uint32_t> below;        // per body: the joints it hands its weight down
   std::vector<uint32_t> order;        // bodies that pass weight on, top to bottom
+  std::vector<std::pair<double, uint32_t>> ranked;  // the same with their heights, to sort
   std::vector<double> weight;         // per body: mass pressing on its supports (kg)
   std::vector<size_t> by_upper;       // contacts by the body they hold up
   std::vector<size_t> first_of;       // per body: its first entry in by_upper

@@ -151,7 +151,8 @@ bool ComputeWorker::plan(const IslandJob& job, Plan& p, IslandReport& r) {
     case Unreadable::sections: write_refusal(job, r, IslandStatus::malformed, validate_island(job.image, job.bytes)); return false;
   }
   p.ascending = sections_ascending_in(job, h.num_bodies, h.num_sections);
-  r.footprint = footprint(c);
+  p.footprint = footprint(c);
+  r.footprint = p.footprint;
   if (r.footprint.total > ls_.capacity()) {
     write_refusal(job, r, IslandStatus::does_not_fit,
                   "island needs " + std::to_string(r.footprint.total) + " bytes of local store, capacity " +
@@ -174,7 +175,7 @@ bool ComputeWorker::begin(const IslandJob& job, const Plan& p, unsigned char* in
     return false;
   }
   a.mark = ls_.used();
-  if (!allocate_workspace(ls_, p.counts, a.ws)) {
+  if (!allocate_workspace(ls_, p.counts, p.footprint, a.ws)) {
     write_refusal(job, r, IslandStatus::does_not_fit, "local store exhausted (accounting bug)");
     return false;
   }

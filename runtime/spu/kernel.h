@@ -59,6 +59,7 @@ class ComputeWorker {
   struct Plan {
     gen::Island_Header header{};
     IslandCounts counts;
+    Footprint footprint;  // computed once: the fit check, the report and the workspace use it
     bool ascending = false;  // sections in increasing force type: may be evaluated with others
     unsigned out_tag = 0;
   };

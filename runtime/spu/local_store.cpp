@@ -28,16 +28,6 @@ LocalStore::LocalStore(size_t capacity) : capacity_(capacity) {
   base_ = storage_.get() + ((kAlign - addr % kAlign) % kAlign);
 }
 
-void* LocalStore::allocate(size_t bytes, size_t align, Region region) {
-  const size_t start = (used_ + align - 1) / align * align;
-  if (start + bytes > capacity_ || depth_ == kMaxAllocations) return nullptr;
-  stack_[depth_++] = {used_, region};
-  region_bytes_[static_cast<int>(region)] += start + bytes - used_;
-  used_ = start + bytes;
-  if (used_ > peak_) peak_ = used_;
-  return base_ + start;
-}
-
 void LocalStore::release(size_t mark) {
   while (depth_ > 0 && stack_[depth_ - 1].start >= mark) {
     const Allocation& a = stack_[--depth_];

@@ -3,6 +3,7 @@
 // Everything the integration kernel touches lives here; the kernel allocates nothing else.
 #pragma once
 #include <array>
+#include <cassert>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -36,9 +37,20 @@ class LocalStore {
   LocalStore& operator=(const LocalStore&) = delete;
 
   size_t capacity() const { return capacity_; }
-  /// Bump allocation; nullptr when it does not fit (the caller checked the footprint first,
-  /// so this is a bug guard, never the way an oversized island is found).
-  void* allocate(size_t bytes, size_t align, Region region);
+  /// Bump allocation aligned to `align`, a power of two; nullptr when it does not fit (the
+  /// caller checked the footprint first, so this is a bug guard, never the way an oversized
+  /// island is found). Inline, with a mask for the alignment: a one-body island makes a few
+  /// dozen of these, and the two divisions of a general alignment were 2.6% of a sparse step.
+  void* allocate(size_t bytes, size_t align, Region region) {
+    assert(align != 0 && (align & (align - 1)) == 0);
+    const size_t start = (used_ + align - 1) & ~(align - 1);
+    if (start + bytes > capacity_ || depth_ == kMaxAllocations) return nullptr;
+    stack_[depth_++] = {used_, region};
+    region_bytes_[static_cast<int>(region)] += start + bytes - used_;
+    used_ = start + bytes;
+    if (used_ > peak_) peak_ = used_;
+    return base_ + start;
+  }
   template <class T>
   T* allocate_array(size_t count, Region region, size_t align = alignof(T)) {
     return static_cast<T*>(allocate(count * sizeof(T), align < 32 ? 32 : align, region));

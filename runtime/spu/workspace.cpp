@@ -79,6 +79,10 @@ Footprint footprint(const IslandCounts& c) {
 }
 
 bool allocate_workspace(LocalStore& ls, const IslandCounts& c, Workspace& ws) {
+  return allocate_workspace(ls, c, footprint(c), ws);
+}
+
+bool allocate_workspace(LocalStore& ls, const IslandCounts& c, const Footprint& f, Workspace& ws) {
   const int n = static_cast<int>(c.num_bodies);
   ws = Workspace{};
   ws.n = n;
@@ -100,7 +104,6 @@ bool allocate_workspace(LocalStore& ls, const IslandCounts& c, Workspace& ws) {
     ws.blocks = ls.allocate_array<float>(std::max<size_t>(size_t{c.num_blocks} * kBlockFloats, 8), Region::blocks);
     if (v.p) ws.p = ls.allocate_array<float>(size_t(n) * v.p, Region::blocks);
   }
-  const Footprint f = footprint(c);
   auto* scratch = static_cast<unsigned char*>(ls.allocate(f.bytes[int(Region::scratch)], kAlign, Region::scratch));
   if (!scratch || !ws.w || !ws.forces) return false;
   if (implicit(c.integrator)) {

@@ -54,5 +54,7 @@ struct Workspace {
 
 /// Allocates the workspace in `ls` (its footprint was checked first).
 bool allocate_workspace(LocalStore& ls, const IslandCounts& c, Workspace& ws);
+/// The same with footprint(c) given.
+bool allocate_workspace(LocalStore& ls, const IslandCounts& c, const Footprint& f, Workspace& ws);
 
 }  // namespace cellphys::spu

@@ -1,5 +1,6 @@
-// radix_sort_pairs against std::sort: the same order for pairs of every id width, with
-// repeats, already sorted and reversed input, and the short inputs it sorts by insertion.
+// radix_sort_pairs and radix_sort_keys against std::sort: the same order for values of every
+// width, with repeats, already sorted and reversed input, and the short inputs they sort by
+// insertion.
 #include "runtime/base/radix_sort.h"
 
 #include <gtest/gtest.h>
@@ -28,6 +29,26 @@ TEST(RadixSortPairs, OrdersAsStdSortDoes) {
         Pairs got = pairs;
         radix_sort_pairs(got, buffer);
         ASSERT_EQ(got, expect) << bits << " bits, " << n << " pairs, variant " << variant;
+      }
+    }
+}
+
+TEST(RadixSortKeys, OrdersAsStdSortDoes) {
+  std::mt19937_64 rng(5);
+  std::vector<uint64_t> buffer;
+  for (uint32_t bits : {1u, 7u, 11u, 22u, 33u, 45u, 63u, 64u})
+    for (size_t n : {size_t(0), size_t(1), size_t(63), size_t(64), size_t(1000), size_t(30000)}) {
+      const uint64_t mask = bits == 64 ? ~uint64_t{0} : (uint64_t{1} << bits) - 1;
+      std::vector<uint64_t> keys(n);
+      for (auto& k : keys) k = rng() & mask;
+      for (int variant = 0; variant < 3; ++variant) {
+        std::vector<uint64_t> expect = keys;
+        std::sort(expect.begin(), expect.end());
+        if (variant == 1) keys = expect;
+        if (variant == 2) std::reverse(keys.begin(), keys.end());
+        std::vector<uint64_t> got = keys;
+        radix_sort_keys(got, buffer);
+        ASSERT_EQ(got, expect) << bits << " bits, " << n << " keys, variant " << variant;
       }
     }
 }

@@ -1,7 +1,7 @@
-// Sorting pairs of 32-bit ids by (first, second) in linear time: a least-significant-digit radix
-// sort over only the bits the ids use. It puts the pairs in the order std::sort does (equal
-// pairs are equal values), in a few passes over them: std::sort of the broad phase's
-// 28,000 pairs in no particular order took 46 ns a pair.
+// Sorting in linear time: a least-significant-digit radix sort over only the bits the keys
+// use, in a few passes over them. Keys are distinct values, so the order is the one std::sort
+// gives: std::sort of the broad phase's 28,000 pairs in no particular order took 46 ns a pair,
+// and of a step's 900 islands by size, with the size looked up at each comparison, 35 us.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -10,41 +10,66 @@
 
 namespace cellphys {
 
-/// Sorts `pairs` ascending by (first, second); `buffer` is scratch (resized as needed).
-inline void radix_sort_pairs(std::vector<std::pair<uint32_t, uint32_t>>& pairs,
-                             std::vector<std::pair<uint32_t, uint32_t>>& buffer) {
-  const size_t n = pairs.size();
-  if (n < 64) {  // too few to repay the counting
-    for (size_t i = 1; i < n; ++i)
-      for (size_t j = i; j > 0 && pairs[j] < pairs[j - 1]; --j) std::swap(pairs[j], pairs[j - 1]);
-    return;
-  }
-  uint32_t any_first = 0, any_second = 0;
-  for (const auto& p : pairs) any_first |= p.first, any_second |= p.second;
-  int bits_second = 0, bits_first = 0;
-  while (bits_second < 32 && (any_second >> bits_second) != 0) ++bits_second;
-  while (bits_first < 32 && (any_first >> bits_first) != 0) ++bits_first;
-  // The key: first above second, in as few bits as they need.
-  auto key = [&](const std::pair<uint32_t, uint32_t>& p) { return uint64_t(p.first) << bits_second | p.second; };
-  const int total = bits_first + bits_second;
+namespace radix_detail {
+
+// Sorts `values` ascending by key(value), of `bits` significant bits, through `buffer`.
+template <class T, class Key>
+void sort_by_key(std::vector<T>& values, std::vector<T>& buffer, int bits, Key key) {
   constexpr int kDigit = 11;
   constexpr size_t kBuckets = size_t(1) << kDigit;
-  buffer.resize(n);
-  std::vector<std::pair<uint32_t, uint32_t>>* from = &pairs;
-  std::vector<std::pair<uint32_t, uint32_t>>* to = &buffer;
+  buffer.resize(values.size());
+  std::vector<T>* from = &values;
+  std::vector<T>* to = &buffer;
   uint32_t count[kBuckets];
-  for (int shift = 0; shift < total; shift += kDigit) {
+  for (int shift = 0; shift < bits; shift += kDigit) {
     for (size_t b = 0; b < kBuckets; ++b) count[b] = 0;
-    for (const auto& p : *from) ++count[(key(p) >> shift) & (kBuckets - 1)];
+    for (const T& v : *from) ++count[(key(v) >> shift) & (kBuckets - 1)];
     uint32_t sum = 0;
     for (size_t b = 0; b < kBuckets; ++b) {
       const uint32_t c = count[b];
       count[b] = sum, sum += c;
     }
-    for (const auto& p : *from) (*to)[count[(key(p) >> shift) & (kBuckets - 1)]++] = p;
+    for (const T& v : *from) (*to)[count[(key(v) >> shift) & (kBuckets - 1)]++] = v;
     std::swap(from, to);
   }
-  if (from != &pairs) pairs.swap(buffer);
+  if (from != &values) values.swap(buffer);
+}
+
+inline int bits_used(uint64_t any) {
+  int bits = 0;
+  while (bits < 64 && (any >> bits) != 0) ++bits;
+  return bits;
+}
+
+// Below this many values the counting does not repay itself.
+constexpr size_t kFewValues = 64;
+
+template <class T>
+void insertion_sort(std::vector<T>& v) {
+  for (size_t i = 1; i < v.size(); ++i)
+    for (size_t j = i; j > 0 && v[j] < v[j - 1]; --j) std::swap(v[j], v[j - 1]);
+}
+
+}  // namespace radix_detail
+
+/// Sorts `pairs` ascending by (first, second); `buffer` is scratch (resized as needed).
+inline void radix_sort_pairs(std::vector<std::pair<uint32_t, uint32_t>>& pairs,
+                             std::vector<std::pair<uint32_t, uint32_t>>& buffer) {
+  if (pairs.size() < radix_detail::kFewValues) return radix_detail::insertion_sort(pairs);
+  uint32_t any_first = 0, any_second = 0;
+  for (const auto& p : pairs) any_first |= p.first, any_second |= p.second;
+  const int bits_second = radix_detail::bits_used(any_second), bits_first = radix_detail::bits_used(any_first);
+  // The key: first above second, in as few bits as they need.
+  radix_detail::sort_by_key(pairs, buffer, bits_first + bits_second,
+                            [&](const std::pair<uint32_t, uint32_t>& p) { return uint64_t(p.first) << bits_second | p.second; });
+}
+
+/// Sorts 64-bit `keys` ascending; `buffer` is scratch (resized as needed).
+inline void radix_sort_keys(std::vector<uint64_t>& keys, std::vector<uint64_t>& buffer) {
+  if (keys.size() < radix_detail::kFewValues) return radix_detail::insertion_sort(keys);
+  uint64_t any = 0;
+  for (uint64_t k : keys) any |= k;
+  radix_detail::sort_by_key(keys, buffer, radix_detail::bits_used(any), [](uint64_t k) { return k; });
 }
 
 }  // namespace cellphys

@@ -37,6 +37,7 @@ struct IntegrateScratch {
   std::vector<const IslandContent*> todo;  // this wave's parts
   std::vector<PackedIsland> packed;  // the first `used` are this wave's
   std::vector<size_t> island_of_packed, order;
+  std::vector<uint64_t> order_keys, sort_buffer;  // for `order`: (size rank, index) keys
   std::vector<spu::IslandJob> jobs;
   std::vector<spu::IslandReport> reports;
   std::vector<WorldBody> start;           // the start state, when an island is split

@@ -3,6 +3,7 @@
 // preset) as well as in the ordinary passes (label "threads").
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -109,6 +110,37 @@ TEST(Threads, WorkerPoolGivesOneWorkersResultsWaveAfterWave) {
       ASSERT_EQ(reports[k].status, expected_reports[k].status) << "wave " << wave << ", island " << k;
       ASSERT_EQ(got[k], expected[k]) << "wave " << wave << ", island " << k;
     }
+  }
+}
+
+// for_ranges gives every item to exactly one range, whatever the grain, with the threads held
+// spinning (nested holds too) and after the holds end and they sleep again.
+TEST(Threads, PoolRangesCoverEveryItemOnceHeldOrNot) {
+  cellphys::ppe::WorkerPool pool(3, 64 * 1024);
+  auto check = [&](size_t count, size_t grain) {
+    std::vector<int> seen(count, 0);
+    std::vector<int> threads(count, -1);
+    pool.for_ranges(count, grain, [&](size_t begin, size_t end, int thread) {
+      ASSERT_LT(begin, end);
+      ASSERT_LE(end, count);
+      ASSERT_LE(end - begin, grain ? grain : 1);
+      for (size_t i = begin; i < end; ++i) ++seen[i], threads[i] = thread;
+    });
+    for (size_t i = 0; i < count; ++i) {
+      ASSERT_EQ(seen[i], 1) << "item " << i << " of " << count << ", grain " << grain;
+      ASSERT_GE(threads[i], 0);
+      ASSERT_LT(threads[i], pool.size());
+    }
+  };
+  for (int round = 0; round < 3; ++round) {
+    {
+      cellphys::ppe::WorkerPool::Hold hold(pool);
+      cellphys::ppe::WorkerPool::Hold again(pool);
+      for (size_t count : {0, 1, 7, 64, 1000})
+        for (size_t grain : {0, 1, 3, 32, 5000}) check(count, grain);
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(200));  // past the spin: asleep
+    check(999, 16);
   }
 }
 

@@ -44,16 +44,16 @@ void cpu_relax() {
 #endif
 }
 
-// Spins up to kSpinTime while `waiting` holds: a step's tasks follow one another within
-// microseconds (pack, then integrate), and waking a thread asleep on a condition variable
-// takes tens of them, as long as a small task.
-template <class Pred>
-void spin_while(Pred waiting) {
+// Spins while `waiting` holds, for up to kSpinTime unless `held` holds too: a step's tasks
+// follow one another within microseconds (pack, then integrate), and waking a thread asleep
+// on a condition variable takes tens of them, as long as a small task.
+template <class Pred, class Held>
+void spin_while(Pred waiting, Held held) {
   constexpr auto kSpinTime = std::chrono::microseconds(50);
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; waiting(); ++i) {
     cpu_relax();
-    if (i % 64 == 63 && std::chrono::steady_clock::now() - start > kSpinTime) return;
+    if (i % 64 == 63 && !held() && std::chrono::steady_clock::now() - start > kSpinTime) return;
   }
 }
 
@@ -62,7 +62,8 @@ void spin_while(Pred waiting) {
 void WorkerPool::loop(int index) {
   uint64_t seen = 0;
   for (;;) {
-    spin_while([&] { return generation_.load(std::memory_order_acquire) == seen; });
+    spin_while([&] { return generation_.load(std::memory_order_acquire) == seen; },
+               [&] { return held_.load(std::memory_order_relaxed) > 0; });
     TaskRef task;
     size_t count;
     {
@@ -83,6 +84,19 @@ void WorkerPool::loop(int index) {
   }
 }
 
+WorkerPool::Hold::Hold(WorkerPool& pool) : pool_(pool) {
+  if (pool_.threads_.empty() || pool_.held_.fetch_add(1, std::memory_order_relaxed) > 0) return;
+  {  // wakes the sleeping threads with no task: they find none and spin for the next
+    std::lock_guard<std::mutex> lock(pool_.mutex_);
+    ++pool_.generation_;
+  }
+  pool_.wake_.notify_all();
+}
+
+WorkerPool::Hold::~Hold() {
+  if (!pool_.threads_.empty()) pool_.held_.fetch_sub(1, std::memory_order_relaxed);
+}
+
 void WorkerPool::run_task(size_t count, TaskRef task) {
   if (count == 0) return;
   if (threads_.empty() || count == 1) {
@@ -98,7 +112,7 @@ void WorkerPool::run_task(size_t count, TaskRef task) {
   }
   wake_.notify_all();
   work(0, task, count);
-  spin_while([&] { return joined_.load(std::memory_order_acquire) != 0; });
+  spin_while([&] { return joined_.load(std::memory_order_acquire) != 0; }, [] { return false; });
   // Every item is taken; the threads that joined finish theirs (what they wrote is published
   // by the lock they leave under).
   std::unique_lock<std::mutex> lock(mutex_);

@@ -194,6 +194,7 @@ const StepStats& World::step() {
   Impl& w = *impl_;
   StepStats st;
   st.step = stats_.step + 1;
+  WorkerPool::Hold hold(w.workers(settings_));  // its threads ready for each stage's tasks
   {
     StageTimer total(st.times.total_ms);
     // The bodies that changed set since the last step; those stage 2 wakes join after it.

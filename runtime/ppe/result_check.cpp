@@ -23,7 +23,7 @@ bool sound_result(const PackedIsland& p, const spu::IslandReport& r) {
   if (h.total_bytes != spu::result_bytes(n) || p.result.size() != h.total_bytes) return false;
   const size_t head = spu::align16(sizeof(Island_Result)), steps = size_t{n} * sizeof(Rigid_Body_Step);
   const unsigned char* base = p.result.data();
-  return spu::checksum(base + head + steps, size_t{n} * sizeof(Rigid_Body), spu::checksum(base + head, steps)) == h.checksum;
+  return spu::image_checksum(base + head + steps, size_t{n} * sizeof(Rigid_Body), spu::image_checksum(base + head, steps)) == h.checksum;
 }
 
 }  // namespace cellphys::ppe

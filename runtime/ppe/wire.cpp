@@ -185,7 +185,7 @@ std::string next_job(const unsigned char* msg, size_t n, size_t& offset, JobReco
   const size_t inst = prefix + body_bytes;
   std::memcpy(image.data() + inst, p, r.image_bytes - inst);
   // the rebuilt bodies differ from the packer's in fields no kernel reads (damping): re-seal
-  ih.checksum = spu::checksum(image.data() + sizeof ih, image.size() - sizeof ih);
+  ih.checksum = spu::image_checksum(image.data() + sizeof ih, image.size() - sizeof ih);
   std::memcpy(image.data(), &ih, sizeof ih);
   return "";
 }
@@ -300,7 +300,7 @@ std::string decode_result(const ResultRecord& h, const unsigned char* msg_bodies
     std::memcpy(out_bodies + i * sizeof b, &b, sizeof b);
   }
   const size_t steps_bytes = size_t{nb} * sizeof(Rigid_Body_Step);
-  r.checksum = spu::checksum(out_bodies, size_t{nb} * sizeof(Rigid_Body), spu::checksum(steps, steps_bytes));
+  r.checksum = spu::image_checksum(out_bodies, size_t{nb} * sizeof(Rigid_Body), spu::image_checksum(steps, steps_bytes));
   std::memset(result, 0, head);
   std::memcpy(result, &r, sizeof r);
   return "";

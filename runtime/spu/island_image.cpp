@@ -1,5 +1,9 @@
 #include "runtime/spu/island_image.h"
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -116,6 +120,75 @@ uint32_t checksum(const unsigned char* p, size_t n, uint32_t seed) {
   return static_cast<uint32_t>(x);
 }
 
+namespace {
+
+constexpr uint64_t kImagePrime = 0x100000001B3ull;
+constexpr int kImageLanes = 16;
+
+uint64_t image_lane_start(int k, uint32_t seed) { return (0xCBF29CE484222325ull + 0x9E3779B97F4A7C15ull * uint64_t(k)) ^ seed; }
+
+uint32_t image_fold(uint64_t x) {
+  x ^= x >> 29;
+  x *= 0xBF58476D1CE4E5B9ull;
+  x ^= x >> 32;
+  return static_cast<uint32_t>(x);
+}
+
+}  // namespace
+
+// The definition (the portable path computes it as written): lane k takes the words k, k + 16,
+// ... of the bytes, the last partial word zero-padded; the lanes are multiplied by 3, 5, 7, ...
+// and xored onto n times a constant, so the length counts.
+uint32_t image_checksum(const unsigned char* p, size_t n, uint32_t seed) {
+#if defined(__AVX512F__) && defined(__AVX512DQ__) && !defined(CELLPHYS_SIMD_SCALAR)
+  // The lanes stay in two registers: the tail written to them one word at a time through
+  // memory, then read back whole, stalled each call on the store forwarding.
+  alignas(64) uint64_t start[kImageLanes];
+  for (int k = 0; k < kImageLanes; ++k) start[k] = image_lane_start(k, seed);
+  __m512i h0 = _mm512_load_si512(start), h1 = _mm512_load_si512(start + 8);
+  const __m512i prime = _mm512_set1_epi64(static_cast<long long>(kImagePrime));
+  size_t i = 0;
+  for (; i + 8 * kImageLanes <= n; i += 8 * kImageLanes) {
+    h0 = _mm512_mullo_epi64(_mm512_xor_si512(h0, _mm512_loadu_si512(p + i)), prime);
+    h1 = _mm512_mullo_epi64(_mm512_xor_si512(h1, _mm512_loadu_si512(p + i + 64)), prime);
+  }
+  if (i < n) {  // fewer than 128 bytes: whole words by masked loads, the partial one set alone
+    const size_t r = n - i, whole = r / 8;
+    const unsigned words = static_cast<unsigned>((r + 7) / 8);
+    const __mmask16 full = static_cast<__mmask16>((1u << whole) - 1);
+    __m512i w0 = _mm512_maskz_loadu_epi64(static_cast<__mmask8>(full), p + i);
+    __m512i w1 = _mm512_maskz_loadu_epi64(static_cast<__mmask8>(full >> 8), p + i + 64);
+    if (r % 8) {
+      uint64_t last = 0;
+      std::memcpy(&last, p + i + whole * 8, r % 8);
+      const __m512i v = _mm512_set1_epi64(static_cast<long long>(last));
+      if (whole < 8) w0 = _mm512_mask_mov_epi64(w0, static_cast<__mmask8>(1u << whole), v);
+      else w1 = _mm512_mask_mov_epi64(w1, static_cast<__mmask8>(1u << (whole - 8)), v);
+    }
+    const __mmask16 used = static_cast<__mmask16>((1u << words) - 1);
+    h0 = _mm512_mask_mov_epi64(h0, static_cast<__mmask8>(used), _mm512_mullo_epi64(_mm512_xor_si512(h0, w0), prime));
+    h1 = _mm512_mask_mov_epi64(h1, static_cast<__mmask8>(used >> 8), _mm512_mullo_epi64(_mm512_xor_si512(h1, w1), prime));
+  }
+  const __m512i odd0 = _mm512_set_epi64(17, 15, 13, 11, 9, 7, 5, 3), odd1 = _mm512_set_epi64(33, 31, 29, 27, 25, 23, 21, 19);
+  const __m512i m = _mm512_xor_si512(_mm512_mullo_epi64(h0, odd0), _mm512_mullo_epi64(h1, odd1));
+  const __m256i q = _mm256_xor_si256(_mm512_castsi512_si256(m), _mm512_extracti64x4_epi64(m, 1));
+  const __m128i d = _mm_xor_si128(_mm256_castsi256_si128(q), _mm256_extracti128_si256(q, 1));
+  const uint64_t lanes = static_cast<uint64_t>(_mm_cvtsi128_si64(d)) ^ static_cast<uint64_t>(_mm_extract_epi64(d, 1));
+  return image_fold((uint64_t(n) * 0x9E3779B97F4A7C15ull) ^ lanes);
+#else
+  uint64_t h[kImageLanes];
+  for (int k = 0; k < kImageLanes; ++k) h[k] = image_lane_start(k, seed);
+  for (size_t i = 0, k = 0; i < n; i += 8, k = (k + 1) % kImageLanes) {
+    uint64_t w = 0;
+    std::memcpy(&w, p + i, std::min<size_t>(8, n - i));
+    h[k] = (h[k] ^ w) * kImagePrime;
+  }
+  uint64_t x = uint64_t(n) * 0x9E3779B97F4A7C15ull;
+  for (int k = 0; k < kImageLanes; ++k) x ^= h[k] * (2 * uint64_t(k) + 3);
+  return image_fold(x);
+#endif
+}
+
 IslandLayout island_layout(uint32_t num_bodies, uint32_t num_sections) {
   IslandLayout l;
   l.sections = align16(sizeof(Island_Header));
@@ -158,7 +231,7 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
   if (h.max_halvings > kMaxHalvings) return "max_halvings over " + std::to_string(kMaxHalvings);
   const IslandLayout l = island_layout(h.num_bodies, h.num_sections);
   if (l.instances > bytes) return "too short for its bodies";
-  if (checksum(image + sizeof(Island_Header), bytes - sizeof(Island_Header)) != h.checksum) return "checksum mismatch";
+  if (image_checksum(image + sizeof(Island_Header), bytes - sizeof(Island_Header)) != h.checksum) return "checksum mismatch";
   IslandView v = view_island(const_cast<unsigned char*>(image));
   size_t expect = l.instances;
   bool seen[kNumForceTypes] = {};
@@ -303,7 +376,7 @@ void IslandBuilder::finish(std::vector<unsigned char>& img) const {
   std::memcpy(img.data(), &h, sizeof h);
   IslandView v = view_island(img.data());
   v.header->num_blocks = count_offdiagonal_blocks(v, keys_);
-  v.header->checksum = checksum(img.data() + sizeof(Island_Header), total - sizeof(Island_Header));
+  v.header->checksum = image_checksum(img.data() + sizeof(Island_Header), total - sizeof(Island_Header));
 }
 
 }  // namespace cellphys::spu

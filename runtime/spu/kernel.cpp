@@ -245,7 +245,7 @@ void ComputeWorker::finish(const IslandJob& job, const Plan& p, unsigned char* o
   res->solver_code = r.solver_code;
   res->local_store_bytes = static_cast<uint32_t>(r.footprint.total);
   res->total_bytes = static_cast<uint32_t>(result_bytes(h.num_bodies));
-  res->checksum = checksum(bodies_src, bodies_bytes, checksum(reinterpret_cast<unsigned char*>(steps), steps_bytes));
+  res->checksum = image_checksum(bodies_src, bodies_bytes, image_checksum(reinterpret_cast<unsigned char*>(steps), steps_bytes));
   const size_t head_bytes = align16(sizeof(Island_Result));
   dma_.put(job.result, out, head_bytes + steps_bytes, p.out_tag);
   if (ok)

@@ -34,6 +34,7 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
     sc.support.resize(n, 0.0);
     sc.held.resize(n, 0);
     sc.below.resize(n, 0);
+    sc.linked.resize(n, 0);
     sc.weight.resize(n, 0.0);
     sc.first_of.resize(n, 0);
     sc.count.resize(n, 0);
@@ -60,6 +61,8 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
     // gravity presses b into a when n points up from a (along < 0): b rests on a
     const uint32_t top = along < 0 ? c.b : c.a;
     if (top == kWorldBody || bodies[top].is_static) continue;
+    const uint32_t low = top == c.a ? c.b : c.a;
+    if (low != kWorldBody && !bodies[low].is_static) sc.linked[top] = 1, sc.linked[low] = 1;
     upper[i] = top;
     share[i] = std::fabs(along);
     support[top] += share[i];
@@ -100,19 +103,24 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
   };
   std::vector<uint32_t>& below = sc.below;
   for (const auto& j : joints)
-    if (carries(j)) ++below[j.first];
-  // Top to bottom: a body's weight, with what rests on it, splits over its supports.
+    if (carries(j)) ++below[j.first], sc.linked[j.second] = 1;
+  // Top to bottom: a body's weight, with what rests on it, splits over its supports. A body
+  // resting on static ground alone, with nothing dynamic on it, carries its own weight only:
+  // it goes first, in any order, unsorted (most bodies of a scattered world).
   // (std::sort with the index as the tie-break: the order of a stable sort, with no buffer;
   // each body's height found once, not at each comparison: a third of the sort's time)
+  std::vector<uint32_t>& order = sc.order;
   std::vector<std::pair<double, uint32_t>>& ranked = sc.ranked;
+  order.clear();
   ranked.clear();
   for (uint32_t i : sc.involved)
-    if (support[i] > 0 || below[i] > 0) ranked.emplace_back(height(i), i);
+    if (support[i] > 0 || below[i] > 0) {
+      if (below[i] == 0 && !sc.linked[i]) order.push_back(i);
+      else ranked.emplace_back(height(i), i);
+    }
   std::sort(ranked.begin(), ranked.end(), [](const std::pair<double, uint32_t>& x, const std::pair<double, uint32_t>& y) {
     return x.first != y.first ? x.first > y.first : x.second < y.second;
   });
-  std::vector<uint32_t>& order = sc.order;
-  order.clear();
   for (const auto& r : ranked) order.push_back(r.second);
   std::vector<double>& weight = sc.weight;
   // The contacts grouped by the body they hold up, in contact order within a body (a counting
@@ -146,7 +154,8 @@ void carry_loads(const std::vector<WorldBody>& bodies, const std::vector<WorldFo
       if (below != kWorldBody && !bodies[below].is_static) weight[below] += carried;
     }
   }
-  for (uint32_t b : sc.involved) sc.named[b] = 0, support[b] = 0, held[b] = 0, sc.below[b] = 0, weight[b] = 0, count[b] = 0;
+  for (uint32_t b : sc.involved)
+    sc.named[b] = 0, support[b] = 0, held[b] = 0, sc.below[b] = 0, sc.linked[b] = 0, weight[b] = 0, count[b] = 0;
 }
 
 float gravity_fall(const float n[3], bool against_static, const WorldSettings& s) {

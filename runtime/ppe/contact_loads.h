@@ -26,7 +26,8 @@ struct LoadScratch {
   std::vector<std::pair<uint32_t, uint32_t>> joints;  // (upper, lower), both dynamic
   std::vector<uint8_t> held;          // per body: jointed to what cannot move
   std::vector<uint32_t> below;        // per body: the joints it hands its weight down
-  std::vector<uint32_t> order;        // bodies that pass weight on, top to bottom
+  std::vector<uint8_t> linked;        // per body: a dynamic body rests on it, or it on one
+  std::vector<uint32_t> order;        // bodies that pass weight on: those alone, then top to bottom
   std::vector<std::pair<double, uint32_t>> ranked;  // the same with their heights, to sort
   std::vector<double> weight;         // per body: mass pressing on its supports (kg)
   std::vector<size_t> by_upper;       // contacts by the body they hold up

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <thread>
 
 namespace cellphys::ppe {
 
@@ -46,14 +47,17 @@ void cpu_relax() {
 
 // Spins while `waiting` holds, for up to kSpinTime unless `held` holds too: a step's tasks
 // follow one another within microseconds (pack, then integrate), and waking a thread asleep
-// on a condition variable takes tens of them, as long as a small task.
+// on a condition variable takes tens of them, as long as a small task. Held past kSpinTime,
+// it yields now and then, so other rooms' threads on the same cores still get them.
 template <class Pred, class Held>
 void spin_while(Pred waiting, Held held) {
   constexpr auto kSpinTime = std::chrono::microseconds(50);
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; waiting(); ++i) {
     cpu_relax();
-    if (i % 64 == 63 && !held() && std::chrono::steady_clock::now() - start > kSpinTime) return;
+    if (i % 64 != 63 || std::chrono::steady_clock::now() - start <= kSpinTime) continue;
+    if (!held()) return;
+    std::this_thread::yield();
   }
 }
 

@@ -101,8 +101,21 @@ const char* status_name(IslandStatus s) {
   return "?";
 }
 
+namespace {
+
+constexpr uint64_t kPrime = 0x100000001B3ull;  // FNV's 64-bit prime, both checksums' multiplier
+
+// The 64-bit sum folded to 32 bits, mixed so every input bit reaches the low half.
+uint32_t fold_to_32(uint64_t x) {
+  x ^= x >> 29;
+  x *= 0xBF58476D1CE4E5B9ull;
+  x ^= x >> 32;
+  return static_cast<uint32_t>(x);
+}
+
+}  // namespace
+
 uint32_t checksum(const unsigned char* p, size_t n, uint32_t seed) {
-  constexpr uint64_t kPrime = 0x100000001B3ull;
   uint64_t h[4] = {0xCBF29CE484222325ull ^ seed, 0x84222325CBF29CE4ull ^ seed, 0x9E3779B97F4A7C15ull ^ seed,
                    0xC2B2AE3D27D4EB4Full ^ seed};
   size_t i = 0;
@@ -113,26 +126,14 @@ uint32_t checksum(const unsigned char* p, size_t n, uint32_t seed) {
       h[k] = (h[k] ^ w) * kPrime;
     }
   for (; i < n; ++i) h[0] = (h[0] ^ p[i]) * kPrime;
-  uint64_t x = h[0] ^ (h[1] * 3) ^ (h[2] * 5) ^ (h[3] * 7);
-  x ^= x >> 29;
-  x *= 0xBF58476D1CE4E5B9ull;
-  x ^= x >> 32;
-  return static_cast<uint32_t>(x);
+  return fold_to_32(h[0] ^ (h[1] * 3) ^ (h[2] * 5) ^ (h[3] * 7));
 }
 
 namespace {
 
-constexpr uint64_t kImagePrime = 0x100000001B3ull;
 constexpr int kImageLanes = 16;
 
 uint64_t image_lane_start(int k, uint32_t seed) { return (0xCBF29CE484222325ull + 0x9E3779B97F4A7C15ull * uint64_t(k)) ^ seed; }
-
-uint32_t image_fold(uint64_t x) {
-  x ^= x >> 29;
-  x *= 0xBF58476D1CE4E5B9ull;
-  x ^= x >> 32;
-  return static_cast<uint32_t>(x);
-}
 
 }  // namespace
 
@@ -141,12 +142,12 @@ uint32_t image_fold(uint64_t x) {
 // and xored onto n times a constant, so the length counts.
 uint32_t image_checksum(const unsigned char* p, size_t n, uint32_t seed) {
 #if defined(__AVX512F__) && defined(__AVX512DQ__) && !defined(CELLPHYS_SIMD_SCALAR)
-  // The lanes stay in two registers: the tail written to them one word at a time through
-  // memory, then read back whole, stalled each call on the store forwarding.
+  // The lanes stay in two registers, the tail too (a loop that wrote the tail's lanes to memory
+  // a word at a time and read them back whole stalled on the store forwarding every call).
   alignas(64) uint64_t start[kImageLanes];
   for (int k = 0; k < kImageLanes; ++k) start[k] = image_lane_start(k, seed);
   __m512i h0 = _mm512_load_si512(start), h1 = _mm512_load_si512(start + 8);
-  const __m512i prime = _mm512_set1_epi64(static_cast<long long>(kImagePrime));
+  const __m512i prime = _mm512_set1_epi64(static_cast<long long>(kPrime));
   size_t i = 0;
   for (; i + 8 * kImageLanes <= n; i += 8 * kImageLanes) {
     h0 = _mm512_mullo_epi64(_mm512_xor_si512(h0, _mm512_loadu_si512(p + i)), prime);
@@ -174,18 +175,18 @@ uint32_t image_checksum(const unsigned char* p, size_t n, uint32_t seed) {
   const __m256i q = _mm256_xor_si256(_mm512_castsi512_si256(m), _mm512_extracti64x4_epi64(m, 1));
   const __m128i d = _mm_xor_si128(_mm256_castsi256_si128(q), _mm256_extracti128_si256(q, 1));
   const uint64_t lanes = static_cast<uint64_t>(_mm_cvtsi128_si64(d)) ^ static_cast<uint64_t>(_mm_extract_epi64(d, 1));
-  return image_fold((uint64_t(n) * 0x9E3779B97F4A7C15ull) ^ lanes);
+  return fold_to_32((uint64_t(n) * 0x9E3779B97F4A7C15ull) ^ lanes);
 #else
   uint64_t h[kImageLanes];
   for (int k = 0; k < kImageLanes; ++k) h[k] = image_lane_start(k, seed);
   for (size_t i = 0, k = 0; i < n; i += 8, k = (k + 1) % kImageLanes) {
     uint64_t w = 0;
     std::memcpy(&w, p + i, std::min<size_t>(8, n - i));
-    h[k] = (h[k] ^ w) * kImagePrime;
+    h[k] = (h[k] ^ w) * kPrime;
   }
   uint64_t x = uint64_t(n) * 0x9E3779B97F4A7C15ull;
   for (int k = 0; k < kImageLanes; ++k) x ^= h[k] * (2 * uint64_t(k) + 3);
-  return image_fold(x);
+  return fold_to_32(x);
 #endif
 }
 

@@ -30,6 +30,96 @@ void add_report(const spu::IslandReport& r, StepStats& st) {
   st.local_store_peak_bytes = std::max(st.local_store_peak_bytes, r.footprint.total);
 }
 
+// Parts of at most this many bodies, contacts and forces go to a thread a run at a time.
+constexpr size_t kSmallPart = 32, kPartsPerRun = 32;
+
+size_t part_size(const IslandContent& part) { return part.bodies.size() + part.contacts.size() + part.forces.size(); }
+
+// The job order: largest first, so the long islands start early on the workers, then in part
+// order. Keys of (largest - size, index), all distinct.
+template <class Size>
+void largest_first(size_t used, Size size_of, IntegrateScratch& sc) {
+  size_t largest = 0;
+  for (size_t i = 0; i < used; ++i) largest = std::max(largest, size_of(i));
+  sc.order_keys.resize(used);
+  for (size_t i = 0; i < used; ++i) sc.order_keys[i] = uint64_t(largest - size_of(i)) << 32 | i;
+  radix_sort_keys(sc.order_keys, sc.sort_buffer);
+  sc.order.resize(used);
+  for (size_t j = 0; j < used; ++j) sc.order[j] = size_t(sc.order_keys[j] & 0xffffffffu);
+}
+
+void pack_one(const PackContext& pc, const IslandContent& part, PackScratch& scratch, PackedIsland& p) {
+  pack_island(pc, part, scratch, p);
+  p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
+}
+
+spu::IslandJob job_of(PackedIsland& p) { return {p.image.data(), p.image.size(), p.result.data(), p.result.size()}; }
+
+// The wave on another runner (compute nodes): every part packed (on the world's threads when
+// it has them: each image depends on its part alone), then all run at once.
+void pack_and_run(const PackContext& pc, IslandRunner& runner, WorkerPool* threads, IntegrateScratch& sc, StepStats& st) {
+  const size_t used = sc.todo.size();
+  {
+    StageTimer t(st.times.pack_ms);
+    if (threads && threads->size() > 1 && used > 1) {
+      sc.thread_pack.resize(size_t(threads->size()));
+      // A few dozen ranges: small islands pack in a few hundred nanoseconds each.
+      const size_t grain = std::clamp<size_t>(used / (8 * size_t(threads->size())), 1, 32);
+      threads->for_ranges(used, grain, [&](size_t begin, size_t end, int thread) {
+        for (size_t i = begin; i < end; ++i) pack_one(pc, *sc.todo[i], sc.thread_pack[size_t(thread)], sc.packed[i]);
+      });
+    } else {
+      for (size_t i = 0; i < used; ++i) pack_one(pc, *sc.todo[i], sc.pack, sc.packed[i]);
+    }
+    largest_first(used, [&](size_t i) { return sc.packed[i].image.size(); }, sc);
+    for (size_t k : sc.order) sc.jobs.push_back(job_of(sc.packed[k]));
+  }
+  StageTimer t(st.times.integrate_ms);
+  runner.run(sc.jobs, sc.reports);
+  add_transport(runner.last_transport(), st);
+}
+
+// The wave on the world's own threads: a thread packs, steps and unpacks each run of parts it
+// takes, so their images, results and bodies stay in its core's cache (on 2 workers the
+// 1,000-body world steps 7% faster than packed on one core and stepped on the other). A result
+// is unpacked there only when sound; the rest are left to the checks after.
+void pack_run_unpack(const PackContext& pc, WorkerPool& pool, std::vector<WorldBody>& bodies, IntegrateScratch& sc,
+                     StepStats& st) {
+  const size_t used = sc.todo.size();
+  {
+    StageTimer t(st.times.pack_ms);
+    largest_first(used, [&](size_t i) { return part_size(*sc.todo[i]); }, sc);
+    sc.runs.clear();
+    for (size_t k = 0; k < used;) {
+      size_t e = k + 1;
+      if (part_size(*sc.todo[sc.order[k]]) <= kSmallPart)
+        while (e < used && e - k < kPartsPerRun && part_size(*sc.todo[sc.order[e]]) <= kSmallPart) ++e;
+      sc.runs.push_back({k, e});
+      k = e;
+    }
+    sc.thread_pack.resize(size_t(pool.size()));
+    sc.jobs.resize(used);
+    sc.reports.resize(used);
+    sc.unpacked.assign(used, 0);
+  }
+  StageTimer t(st.times.integrate_ms);
+  pool.for_each(sc.runs.size(), [&](size_t r, int thread) {
+    const size_t b = sc.runs[r].first, e = sc.runs[r].second;
+    for (size_t j = b; j < e; ++j) {
+      PackedIsland& p = sc.packed[sc.order[j]];
+      pack_one(pc, *sc.todo[sc.order[j]], sc.thread_pack[size_t(thread)], p);
+      sc.jobs[j] = job_of(p);
+    }
+    pool.step_on(thread, &sc.jobs[b], e - b, &sc.reports[b]);
+    for (size_t j = b; j < e; ++j) {
+      PackedIsland& p = sc.packed[sc.order[j]];
+      if (sc.reports[j].status != spu::IslandStatus::ok || !sound_result(p, sc.reports[j])) continue;
+      unpack_island(p, bodies);
+      sc.unpacked[j] = 1;
+    }
+  });
+}
+
 // One wave: part `wave` of every island (of the split ones only, after the first sweep).
 // A failed part of a split island marks the island in part_failed (counted once, after the
 // last sweep); a failed whole island is counted and marked in failed now and keeps its state.
@@ -38,11 +128,11 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
               IntegrateScratch& sc, std::vector<uint8_t>& failed, StepStats& st) {
   std::vector<PackedIsland>& packed = sc.packed;
   std::vector<size_t>& island_of_packed = sc.island_of_packed;
-  std::vector<size_t>& order = sc.order;  // largest first: the long islands start early on the workers
-  std::vector<spu::IslandJob>& jobs = sc.jobs;
-  size_t used = 0;
+  const std::vector<size_t>& order = sc.order;  // job j is packed[order[j]]
+  std::vector<spu::IslandReport>& reports = sc.reports;
   island_of_packed.clear();
-  jobs.clear();
+  sc.jobs.clear();
+  sc.unpacked.clear();
   {
     StageTimer t(st.times.pack_ms);
     sc.todo.clear();
@@ -51,51 +141,21 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
         sc.todo.push_back(&d.parts[k][wave]);
         island_of_packed.push_back(k);
       }
-    used = sc.todo.size();
-    while (packed.size() < used) packed.emplace_back();
-    // Each image depends on its part alone: packed on the threads, the same bytes.
-    auto pack_one = [&](size_t i, PackScratch& scratch) {
-      PackedIsland& p = packed[i];
-      pack_island(pc, *sc.todo[i], scratch, p);
-      p.result.assign(spu::result_bytes(static_cast<uint32_t>(p.bodies.size())), 0);
-    };
-    WorkerPool* threads = compute.threads;
-    if (threads && threads->size() > 1 && used > 1) {
-      sc.thread_pack.resize(size_t(threads->size()));
-      // A few dozen ranges: small islands pack in a few hundred nanoseconds each.
-      const size_t grain = std::clamp<size_t>(used / (8 * size_t(threads->size())), 1, 32);
-      threads->for_ranges(used, grain, [&](size_t begin, size_t end, int thread) {
-        for (size_t i = begin; i < end; ++i) pack_one(i, sc.thread_pack[size_t(thread)]);
-      });
-    } else {
-      for (size_t i = 0; i < used; ++i) pack_one(i, sc.pack);
-    }
-    // Largest image first, then in part order: keys of (largest - size, index), all distinct.
-    size_t largest = 0;
-    for (size_t i = 0; i < used; ++i) largest = std::max(largest, packed[i].image.size());
-    sc.order_keys.resize(used);
-    for (size_t i = 0; i < used; ++i) sc.order_keys[i] = uint64_t(largest - packed[i].image.size()) << 32 | i;
-    radix_sort_keys(sc.order_keys, sc.sort_buffer);
-    order.resize(used);
-    for (size_t j = 0; j < used; ++j) order[j] = size_t(sc.order_keys[j] & 0xffffffffu);
-    for (size_t k : order) {
-      PackedIsland& p = packed[k];
-      jobs.push_back({p.image.data(), p.image.size(), p.result.data(), p.result.size()});
-      count_wire_tables(p, shapes, st);
-    }
+    while (packed.size() < sc.todo.size()) packed.emplace_back();
   }
-  std::vector<spu::IslandReport>& reports = sc.reports;
+  IslandRunner& runner = compute.runner();
+  runner.set_local_store(pc.settings.local_store_bytes);
+  if (compute.threads && &runner == static_cast<IslandRunner*>(compute.threads))
+    pack_run_unpack(pc, *compute.threads, bodies, sc, st);
+  else
+    pack_and_run(pc, runner, compute.threads, sc, st);
   {
     StageTimer t(st.times.integrate_ms);
-    IslandRunner& runner = compute.runner();
-    runner.set_local_store(pc.settings.local_store_bytes);
-    runner.run(jobs, reports);
-    add_transport(runner.last_transport(), st);
-    // Every result is checked before anything is unpacked; an unsound one (damaged on the
-    // way, or refused by a node that was sent a sound image) is computed again here.
+    // Every result is checked before it is unpacked; an unsound one (damaged on the way, or
+    // refused by a node that was sent a sound image) is computed again here.
     for (size_t j = 0; j < order.size(); ++j) {
       PackedIsland& p = packed[order[j]];
-      if (sound_result(p, reports[j])) continue;
+      if ((j < sc.unpacked.size() && sc.unpacked[j]) || sound_result(p, reports[j])) continue;
       reports[j] = compute.local().step(p.image.data(), p.image.size(), p.result.data(), p.result.size());
       ++st.recomputed_islands;
     }
@@ -103,6 +163,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   StageTimer t(st.times.unpack_ms);
   for (size_t j = 0; j < order.size(); ++j) {
     const spu::IslandReport& r = reports[j];
+    count_wire_tables(packed[order[j]], shapes, st);
     add_report(r, st);
     if (r.status != spu::IslandStatus::ok) {
       const size_t k = island_of_packed[order[j]];
@@ -110,7 +171,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
       else ++st.failed_islands, failed[k] = 1;
       continue;
     }
-    unpack_island(packed[order[j]], bodies);
+    if (j >= sc.unpacked.size() || !sc.unpacked[j]) unpack_island(packed[order[j]], bodies);
   }
 }
 

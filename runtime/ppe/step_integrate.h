@@ -1,6 +1,7 @@
 // Stage 6 of the step: every island integrated on the compute kernels. Per wave: pack the
 // islands' parts into images, run them on the island runner, check every result (an unsound
-// one is computed again here), unpack. Wave k holds part k of every island, so the parts of a
+// one is computed again here), unpack; on the world's own threads, each thread packs, steps and
+// unpacks the parts it takes, in its own core's cache. Wave k holds part k of every island, so the parts of a
 // split island run in order, each from the start state against ghosts at the latest
 // velocities of the others: one block Gauss-Seidel sweep. Split islands sweep again until no
 // velocity changes by more than the decoupling tolerance. Step-size halving happens inside
@@ -8,6 +9,7 @@
 // moving, it failed again from the same state every step) and is counted.
 #pragma once
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include "runtime/ppe/body_records.h"
@@ -38,8 +40,10 @@ struct IntegrateScratch {
   std::vector<PackedIsland> packed;  // the first `used` are this wave's
   std::vector<size_t> island_of_packed, order;
   std::vector<uint64_t> order_keys, sort_buffer;  // for `order`: (size rank, index) keys
-  std::vector<spu::IslandJob> jobs;
+  std::vector<spu::IslandJob> jobs;       // job j is packed[order[j]]
   std::vector<spu::IslandReport> reports;
+  std::vector<std::pair<size_t, size_t>> runs;  // on the world's threads: [first, end) jobs a thread takes
+  std::vector<uint8_t> unpacked;           // per job: unpacked where it was stepped
   std::vector<WorldBody> start;           // the start state, when an island is split
   std::vector<float> before, after;       // split islands' velocities around a sweep
   std::vector<uint8_t> part_failed;

@@ -13,7 +13,9 @@ struct StageTimes {
   double push_ms = 0;                              // 3. push deep overlap out
   double islands_ms = 0;                           // 4. build islands
   double decouple_ms = 0;                          // 5. decouple
-  double pack_ms = 0, integrate_ms = 0, unpack_ms = 0;  // 6. integrate islands (run and check: integrate_ms)
+  // 6. integrate islands: pack, run and check (integrate_ms), unpack. On the world's own threads a
+  // thread packs, steps and unpacks the islands it takes: all of it is integrate_ms then.
+  double pack_ms = 0, integrate_ms = 0, unpack_ms = 0;
   double sleep_ms = 0;                             // 7. put quiet islands to sleep
   double events_ms = 0;                            // 8. contact and sensor events
   double total_ms = 0;

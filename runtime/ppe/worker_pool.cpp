@@ -138,8 +138,18 @@ void WorkerPool::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::I
   }
   for_each(runs_.size(), [&](size_t r, int thread) {
     const size_t b = runs_[r].first, e = runs_[r].second;
-    worker_for(thread, jobs[b]).step_batch(&jobs[b], e - b, &reports[b]);
+    step_on(thread, &jobs[b], e - b, &reports[b]);
   });
+}
+
+void WorkerPool::step_on(int thread, const spu::IslandJob* jobs, size_t count, spu::IslandReport* reports) {
+  for (size_t k = 0; k < count;) {
+    size_t e = k + 1;
+    if (jobs[k].bytes <= kSmallImageBytes)
+      while (e < count && jobs[e].bytes <= kSmallImageBytes) ++e;
+    worker_for(thread, jobs[k]).step_batch(jobs + k, e - k, reports + k);
+    k = e;
+  }
 }
 
 }  // namespace cellphys::ppe

@@ -46,6 +46,10 @@ class WorkerPool : public IslandRunner {
       task(begin, begin + grain < count ? begin + grain : count, thread);
     });
   }
+  /// Steps jobs[0, count) on the kernel of `thread` (called from a task of this pool, on that
+  /// thread): runs of small images integrated together, a larger one alone on a kernel with the
+  /// store it needs. What run() does with each share it hands out.
+  void step_on(int thread, const spu::IslandJob* jobs, size_t count, spu::IslandReport* reports);
   const char* name() const override { return "threads"; }
   size_t whole_island_bytes() const override { return whole_island_bytes_; }
 

@@ -10,6 +10,13 @@
 
 namespace cellphys {
 
+/// How many low bits the keys OR-ed together into `any` use: the width of a radix sort's key.
+inline int bits_used(uint64_t any) {
+  int bits = 0;
+  while (bits < 64 && (any >> bits) != 0) ++bits;
+  return bits;
+}
+
 namespace radix_detail {
 
 // Sorts `values` ascending by key(value), of `bits` significant bits, through `buffer`.
@@ -35,12 +42,6 @@ void sort_by_key(std::vector<T>& values, std::vector<T>& buffer, int bits, Key k
   if (from != &values) values.swap(buffer);
 }
 
-inline int bits_used(uint64_t any) {
-  int bits = 0;
-  while (bits < 64 && (any >> bits) != 0) ++bits;
-  return bits;
-}
-
 // Below this many values the counting does not repay itself.
 constexpr size_t kFewValues = 64;
 
@@ -58,7 +59,7 @@ inline void radix_sort_pairs(std::vector<std::pair<uint32_t, uint32_t>>& pairs,
   if (pairs.size() < radix_detail::kFewValues) return radix_detail::insertion_sort(pairs);
   uint32_t any_first = 0, any_second = 0;
   for (const auto& p : pairs) any_first |= p.first, any_second |= p.second;
-  const int bits_second = radix_detail::bits_used(any_second), bits_first = radix_detail::bits_used(any_first);
+  const int bits_second = bits_used(any_second), bits_first = bits_used(any_first);
   // The key: first above second, in as few bits as they need.
   radix_detail::sort_by_key(pairs, buffer, bits_first + bits_second,
                             [&](const std::pair<uint32_t, uint32_t>& p) { return uint64_t(p.first) << bits_second | p.second; });
@@ -69,7 +70,7 @@ inline void radix_sort_keys(std::vector<uint64_t>& keys, std::vector<uint64_t>& 
   if (keys.size() < radix_detail::kFewValues) return radix_detail::insertion_sort(keys);
   uint64_t any = 0;
   for (uint64_t k : keys) any |= k;
-  radix_detail::sort_by_key(keys, buffer, radix_detail::bits_used(any), [](uint64_t k) { return k; });
+  radix_detail::sort_by_key(keys, buffer, bits_used(any), [](uint64_t k) { return k; });
 }
 
 }  // namespace cellphys

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "runtime/base/radix_sort.h"
 #include "runtime/ppe/world.h"
 #include "runtime/spu/workspace.h"
 
@@ -62,6 +63,45 @@ void set_bodies(const ForceInfo& info, std::vector<unsigned char>& inst, int32_t
 }
 
 }  // namespace
+
+// The step's contacts come mostly in pair order already (the 5,050-box pyramid's 59,800 in two
+// sorted runs), so a sorted list is left as it is and two runs are merged; otherwise a radix sort
+// of (a, b, index) keys when they fit 64 bits (std::sort took 3% of the pyramid's step), else
+// std::sort.
+void sort_contacts_by_pair(const std::vector<WorldContact>& contacts, std::vector<uint32_t>& cs, PackScratch& scratch) {
+  const auto before = [&](uint32_t x, uint32_t y) {
+    const WorldContact &a = contacts[x], &b = contacts[y];
+    return a.a != b.a ? a.a < b.a : a.b != b.b ? a.b < b.b : x < y;
+  };
+  size_t second_run = 0, descents = 0;
+  for (size_t k = 1; k < cs.size() && descents < 2; ++k)
+    if (before(cs[k], cs[k - 1])) ++descents, second_run = k;
+  if (descents == 0) return;
+  if (descents == 1) {
+    std::vector<uint32_t>& merged = scratch.merged;
+    merged.resize(cs.size());
+    std::merge(cs.begin(), cs.begin() + ptrdiff_t(second_run), cs.begin() + ptrdiff_t(second_run), cs.end(), merged.begin(),
+               before);
+    cs.swap(merged);
+    return;
+  }
+  uint32_t any_a = 0, any_b = 0, any_c = 0;
+  for (uint32_t c : cs) any_a |= contacts[c].a, any_b |= contacts[c].b, any_c |= c;
+  const int bits_b = bits_used(any_b), bits_c = bits_used(any_c);
+  if (bits_used(any_a) + bits_b + bits_c > 64) {
+    std::sort(cs.begin(), cs.end(), before);  // a total order: std::sort allocates nothing
+    return;
+  }
+  std::vector<uint64_t>& keys = scratch.keys;
+  keys.resize(cs.size());
+  for (size_t k = 0; k < cs.size(); ++k) {
+    const WorldContact& w = contacts[cs[k]];
+    keys[k] = (uint64_t(w.a) << bits_b | w.b) << bits_c | cs[k];
+  }
+  radix_sort_keys(keys, scratch.key_buffer);
+  const uint64_t index = (uint64_t{1} << bits_c) - 1;  // bits_c <= 32
+  for (size_t k = 0; k < cs.size(); ++k) cs[k] = uint32_t(keys[k] & index);
+}
 
 void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& scratch, PackedIsland& p) {
   const WorldSettings& s = pc.settings;
@@ -140,10 +180,7 @@ void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& s
   // contacts grouped by body pair, in a fixed order
   std::vector<uint32_t>& cs = scratch.contacts;
   cs.assign(isl.contacts.begin(), isl.contacts.end());
-  std::sort(cs.begin(), cs.end(), [&](uint32_t x, uint32_t y) {  // a total order: std::sort allocates nothing
-    const WorldContact &a = pc.contacts[x], &b = pc.contacts[y];
-    return a.a != b.a ? a.a < b.a : a.b != b.b ? a.b < b.b : x < y;
-  });
+  sort_contacts_by_pair(pc.contacts, cs, scratch);
   for (uint32_t c : cs) {
     const WorldContact& wc = pc.contacts[c];
     ib.add(ForceType::contact, contact_instance(wc, local_of(local, wc.a), local_of(local, wc.b)));

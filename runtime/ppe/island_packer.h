@@ -38,9 +38,15 @@ struct PackedIsland {
 struct PackScratch {
   spu::IslandBuilder builder;
   std::vector<uint32_t> ghosts, jointed, contacts;
+  std::vector<uint32_t> merged;            // the contacts' sort
+  std::vector<uint64_t> keys, key_buffer;
   std::vector<unsigned char> instance;
   std::vector<int32_t> local;  // per world body: its index in the island being packed; -2 outside it
 };
+
+/// Orders `cs`, indices into `contacts`, by (body a, body b, index): each pair's contacts
+/// together, in the fixed order the image lists them.
+void sort_contacts_by_pair(const std::vector<WorldContact>& contacts, std::vector<uint32_t>& cs, PackScratch& scratch);
 
 /// Packs one island or part from the start-of-step state (pc.start) into `out` (replaced; its
 /// storage is reused); ghosts (kinematic: no force moves them) take their latest velocity from

@@ -57,7 +57,8 @@ spu::IslandJob job_of(PackedIsland& p) { return {p.image.data(), p.image.size(),
 
 // The wave on another runner (compute nodes): every part packed (on the world's threads when
 // it has them: each image depends on its part alone), then all run at once.
-void pack_and_run(const PackContext& pc, IslandRunner& runner, WorkerPool* threads, IntegrateScratch& sc, StepStats& st) {
+void pack_and_run(const PackContext& pc, const ShapeDictionary& shapes, IslandRunner& runner, WorkerPool* threads,
+                  IntegrateScratch& sc, StepStats& st) {
   const size_t used = sc.todo.size();
   {
     StageTimer t(st.times.pack_ms);
@@ -72,7 +73,10 @@ void pack_and_run(const PackContext& pc, IslandRunner& runner, WorkerPool* threa
       for (size_t i = 0; i < used; ++i) pack_one(pc, *sc.todo[i], sc.pack, sc.packed[i]);
     }
     largest_first(used, [&](size_t i) { return sc.packed[i].image.size(); }, sc);
-    for (size_t k : sc.order) sc.jobs.push_back(job_of(sc.packed[k]));
+    for (size_t k : sc.order) {
+      sc.jobs.push_back(job_of(sc.packed[k]));
+      count_wire_tables(sc.packed[k], shapes, st);
+    }
   }
   StageTimer t(st.times.integrate_ms);
   runner.run(sc.jobs, sc.reports);
@@ -83,8 +87,8 @@ void pack_and_run(const PackContext& pc, IslandRunner& runner, WorkerPool* threa
 // takes, so their images, results and bodies stay in its core's cache (on 2 workers the
 // 1,000-body world steps 7% faster than packed on one core and stepped on the other). A result
 // is unpacked there only when sound; the rest are left to the checks after.
-void pack_run_unpack(const PackContext& pc, WorkerPool& pool, std::vector<WorldBody>& bodies, IntegrateScratch& sc,
-                     StepStats& st) {
+void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, WorkerPool& pool, std::vector<WorldBody>& bodies,
+                     IntegrateScratch& sc, StepStats& st) {
   const size_t used = sc.todo.size();
   {
     StageTimer t(st.times.pack_ms);
@@ -101,6 +105,7 @@ void pack_run_unpack(const PackContext& pc, WorkerPool& pool, std::vector<WorldB
     sc.jobs.resize(used);
     sc.reports.resize(used);
     sc.unpacked.assign(used, 0);
+    sc.thread_stats.assign(size_t(pool.size()), StepStats{});
   }
   StageTimer t(st.times.integrate_ms);
   pool.for_each(sc.runs.size(), [&](size_t r, int thread) {
@@ -109,6 +114,7 @@ void pack_run_unpack(const PackContext& pc, WorkerPool& pool, std::vector<WorldB
       PackedIsland& p = sc.packed[sc.order[j]];
       pack_one(pc, *sc.todo[sc.order[j]], sc.thread_pack[size_t(thread)], p);
       sc.jobs[j] = job_of(p);
+      count_wire_tables(p, shapes, sc.thread_stats[size_t(thread)]);
     }
     pool.step_on(thread, &sc.jobs[b], e - b, &sc.reports[b]);
     for (size_t j = b; j < e; ++j) {
@@ -118,6 +124,7 @@ void pack_run_unpack(const PackContext& pc, WorkerPool& pool, std::vector<WorldB
       sc.unpacked[j] = 1;
     }
   });
+  for (const StepStats& part : sc.thread_stats) add_wire_tables(part, st);
 }
 
 // One wave: part `wave` of every island (of the split ones only, after the first sweep).
@@ -146,9 +153,9 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   IslandRunner& runner = compute.runner();
   runner.set_local_store(pc.settings.local_store_bytes);
   if (compute.threads && &runner == static_cast<IslandRunner*>(compute.threads))
-    pack_run_unpack(pc, *compute.threads, bodies, sc, st);
+    pack_run_unpack(pc, shapes, *compute.threads, bodies, sc, st);
   else
-    pack_and_run(pc, runner, compute.threads, sc, st);
+    pack_and_run(pc, shapes, runner, compute.threads, sc, st);
   {
     StageTimer t(st.times.integrate_ms);
     // Every result is checked before it is unpacked; an unsound one (damaged on the way, or
@@ -163,7 +170,6 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   StageTimer t(st.times.unpack_ms);
   for (size_t j = 0; j < order.size(); ++j) {
     const spu::IslandReport& r = reports[j];
-    count_wire_tables(packed[order[j]], shapes, st);
     add_report(r, st);
     if (r.status != spu::IslandStatus::ok) {
       const size_t k = island_of_packed[order[j]];

@@ -44,6 +44,7 @@ struct IntegrateScratch {
   std::vector<spu::IslandReport> reports;
   std::vector<std::pair<size_t, size_t>> runs;  // on the world's threads: [first, end) jobs a thread takes
   std::vector<uint8_t> unpacked;           // per job: unpacked where it was stepped
+  std::vector<StepStats> thread_stats;     // per thread: the wire tables of the islands it packed
   std::vector<WorldBody> start;           // the start state, when an island is split
   std::vector<float> before, after;       // split islands' velocities around a sweep
   std::vector<uint8_t> part_failed;

@@ -21,4 +21,14 @@ void count_wire_tables(const PackedIsland& p, const ShapeDictionary& shapes, Ste
   st.result_bytes += p.result.size();
 }
 
+void add_wire_tables(const StepStats& part, StepStats& st) {
+  st.island_bodies += part.island_bodies;
+  st.island_bytes_shared += part.island_bytes_shared;
+  st.wire_table_to_nodes += part.wire_table_to_nodes;
+  st.wire_table_to_nodes_compressed += part.wire_table_to_nodes_compressed;
+  st.wire_table_from_nodes += part.wire_table_from_nodes;
+  st.image_bytes += part.image_bytes;
+  st.result_bytes += part.result_bytes;
+}
+
 }  // namespace cellphys::ppe

@@ -12,4 +12,7 @@ namespace cellphys::ppe {
 /// go out in both forms.
 void count_wire_tables(const PackedIsland& p, const ShapeDictionary& shapes, StepStats& st);
 
+/// Adds the wire-table figures counted into `part` (a thread's share) to `st`.
+void add_wire_tables(const StepStats& part, StepStats& st);
+
 }  // namespace cellphys::ppe

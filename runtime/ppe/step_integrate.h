@@ -1,8 +1,8 @@
 // Stage 6 of the step: every island integrated on the compute kernels. Per wave: pack the
 // islands' parts into images, run them on the island runner, check every result (an unsound
-// one is computed again here), unpack; on the world's own threads, each thread packs, steps and
-// unpacks the parts it takes, in its own core's cache. Wave k holds part k of every island, so the parts of a
-// split island run in order, each from the start state against ghosts at the latest
+// one is computed again here), unpack; on the world's own threads each thread packs, steps and
+// unpacks the parts it takes, in its own core's cache. Wave k holds part k of every island, so
+// the parts of a split island run in order, each from the start state against ghosts at the latest
 // velocities of the others: one block Gauss-Seidel sweep. Split islands sweep again until no
 // velocity changes by more than the decoupling tolerance. Step-size halving happens inside
 // the kernel; an island whose step still fails keeps its start pose, is stopped (given back

@@ -104,7 +104,6 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
     sc.thread_pack.resize(size_t(pool.size()));
     sc.jobs.resize(used);
     sc.reports.resize(used);
-    sc.unpacked.assign(used, 0);
     sc.thread_stats.assign(size_t(pool.size()), StepStats{});
   }
   StageTimer t(st.times.integrate_ms);
@@ -139,7 +138,6 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   std::vector<spu::IslandReport>& reports = sc.reports;
   island_of_packed.clear();
   sc.jobs.clear();
-  sc.unpacked.clear();
   {
     StageTimer t(st.times.pack_ms);
     sc.todo.clear();
@@ -149,6 +147,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
         island_of_packed.push_back(k);
       }
     while (packed.size() < sc.todo.size()) packed.emplace_back();
+    sc.unpacked.assign(sc.todo.size(), 0);
   }
   IslandRunner& runner = compute.runner();
   runner.set_local_store(pc.settings.local_store_bytes);
@@ -162,7 +161,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
     // refused by a node that was sent a sound image) is computed again here.
     for (size_t j = 0; j < order.size(); ++j) {
       PackedIsland& p = packed[order[j]];
-      if ((j < sc.unpacked.size() && sc.unpacked[j]) || sound_result(p, reports[j])) continue;
+      if (sc.unpacked[j] || sound_result(p, reports[j])) continue;
       reports[j] = compute.local().step(p.image.data(), p.image.size(), p.result.data(), p.result.size());
       ++st.recomputed_islands;
     }
@@ -177,7 +176,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
       else ++st.failed_islands, failed[k] = 1;
       continue;
     }
-    if (j >= sc.unpacked.size() || !sc.unpacked[j]) unpack_island(packed[order[j]], bodies);
+    if (!sc.unpacked[j]) unpack_island(packed[order[j]], bodies);
   }
 }
 

@@ -865,6 +865,57 @@ TEST(Determinism, EachIslandOfABatchGetsItsOwnAdvancedBodies) {
   }
 }
 
+TEST(Trusted, AnUnsealedImageSteppedWhereItWasPackedGivesTheSealedBytesButTheChecksums) {
+  // A world's own threads step the images they pack unsealed (IslandJob::trusted): only the
+  // checksums may differ from the sealed image's bytes and results, both 0.
+  IslandBuilder ib;
+  cellphys::testing::build_reference_island(ib);
+  const Bytes sealed = ib.finish();
+  Bytes unsealed;
+  ib.finish(unsealed, /*seal=*/false);
+  Bytes zeroed = sealed;
+  std::memset(zeroed.data() + offsetof(gen::Island_Header, checksum), 0, sizeof(uint32_t));
+  EXPECT_EQ(unsealed, zeroed);
+  EXPECT_NE(reinterpret_cast<const gen::Island_Header*>(sealed.data())->checksum, 0u);
+  EXPECT_EQ(spu::validate_island(unsealed.data(), unsealed.size(), /*sealed=*/false), "");
+  EXPECT_EQ(spu::validate_island(unsealed.data(), unsealed.size()), "checksum mismatch");
+  // an unsealed image that is not marked trusted is refused as any damaged one
+  Bytes open_pair = small_island();
+  std::memset(open_pair.data() + offsetof(gen::Island_Header, checksum), 0, sizeof(uint32_t));
+  expect_malformed(open_pair, open_pair.size(), "checksum", "unsealed_untrusted");
+
+  std::mt19937 rng(31);
+  std::vector<Bytes> images;
+  for (int k = 0; k < 24; ++k) {
+    const Integrator integ = k % 2 ? Integrator::implicit_split : Integrator::implicit_euler;
+    images.push_back(k % 8 == 3 ? spring_line(rng, 4 + k % 5) : k % 8 == 5 ? small_island(0.1f * float(k)) : box_on_ground(rng, integ));
+  }
+  images.push_back(reference_image());
+  images.push_back(reference_image(Integrator::rk4));
+  std::vector<Bytes> results;
+  std::vector<IslandReport> reports;
+  ComputeWorker sealed_worker, trusted_worker;
+  step_all(sealed_worker, images, results, reports);
+  std::vector<Bytes> open = images, open_results(images.size());
+  std::vector<spu::IslandJob> jobs(images.size());
+  for (size_t k = 0; k < images.size(); ++k) {
+    std::memset(open[k].data() + offsetof(gen::Island_Header, checksum), 0, sizeof(uint32_t));
+    open_results[k].assign(results[k].size(), 0xEE);
+    jobs[k] = {open[k].data(), open[k].size(), open_results[k].data(), open_results[k].size(), /*trusted=*/true};
+  }
+  std::vector<IslandReport> open_reports(images.size());
+  trusted_worker.step_batch(jobs.data(), jobs.size(), open_reports.data());
+  for (size_t k = 0; k < images.size(); ++k) {
+    ASSERT_EQ(reports[k].status, IslandStatus::ok) << "island " << k;
+    EXPECT_EQ(open_reports[k].status, IslandStatus::ok) << "island " << k;
+    EXPECT_EQ(open_reports[k].solver_iterations, reports[k].solver_iterations) << "island " << k;
+    EXPECT_EQ(result_header(open_results[k]).checksum, 0u) << "island " << k;
+    Bytes expect = results[k];
+    std::memset(expect.data() + offsetof(gen::Island_Result, checksum), 0, sizeof(uint32_t));
+    EXPECT_EQ(open_results[k], expect) << "island " << k;
+  }
+}
+
 // image_checksum as documented, written out byte by byte: the machine's path (AVX-512 lanes in
 // registers, masked loads for the tail) gives its values for every length around the block
 // size and every seed tried, so images checked on one path are checked alike on another.

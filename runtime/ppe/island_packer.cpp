@@ -103,7 +103,7 @@ void sort_contacts_by_pair(const std::vector<WorldContact>& contacts, std::vecto
   for (size_t k = 0; k < cs.size(); ++k) cs[k] = uint32_t(keys[k] & index);
 }
 
-void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& scratch, PackedIsland& p) {
+void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& scratch, PackedIsland& p, bool seal) {
   const WorldSettings& s = pc.settings;
   spu::IslandBuilder& ib = scratch.builder;
   ib.reset();
@@ -194,7 +194,8 @@ void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& s
     ib.add_force(f.type, inst.data(), inst.size());
   }
   for (uint32_t id : p.bodies) local[id] = kOutside;
-  ib.finish(p.image);
+  ib.finish(p.image, seal);
+  p.sealed = seal;
 }
 
 void unpack_island(const PackedIsland& p, std::vector<WorldBody>& bodies) {

@@ -31,6 +31,7 @@ struct PackedIsland {
   std::vector<uint8_t> ghost;    // per local index: a kinematic copy of a body of another part
   std::vector<unsigned char> image;
   std::vector<unsigned char> result;
+  bool sealed = true;  // image and result checksummed; false: stepped at once on the packing thread
 };
 
 /// What packing reuses from one island to the next. The world keeps one, so a warm step packs
@@ -51,7 +52,8 @@ void sort_contacts_by_pair(const std::vector<WorldContact>& contacts, std::vecto
 /// Packs one island or part from the start-of-step state (pc.start) into `out` (replaced; its
 /// storage is reused); ghosts (kinematic: no force moves them) take their latest velocity from
 /// pc.bodies.
-void pack_island(const PackContext& pc, const IslandContent& part, PackScratch& scratch, PackedIsland& out);
+void pack_island(const PackContext& pc, const IslandContent& part, PackScratch& scratch, PackedIsland& out,
+                 bool seal = true);
 
 /// Copies a successful result's advanced bodies back into the world.
 void unpack_island(const PackedIsland& p, std::vector<WorldBody>& bodies);

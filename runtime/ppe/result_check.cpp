@@ -22,6 +22,7 @@ bool sound_result(const PackedIsland& p, const spu::IslandReport& r) {
   }
   if (h.total_bytes != spu::result_bytes(n) || p.result.size() != h.total_bytes) return false;
   const size_t head = spu::align16(sizeof(Island_Result)), steps = size_t{n} * sizeof(Rigid_Body_Step);
+  if (!p.sealed) return true;  // stepped on this thread from its own packing: nothing to check
   const unsigned char* base = p.result.data();
   return spu::image_checksum(base + head + steps, size_t{n} * sizeof(Rigid_Body), spu::image_checksum(base + head, steps)) == h.checksum;
 }

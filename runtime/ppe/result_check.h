@@ -7,7 +7,7 @@
 namespace cellphys::ppe {
 
 /// A result is sound when its header belongs to the island and its bytes match their
-/// checksum. A kernel refuses a sound image only when it does not fit (the same anywhere), so
+/// checksum (a sealed island's: an unsealed one was stepped where it was packed). A kernel refuses a sound image only when it does not fit (the same anywhere), so
 /// a "malformed" refusal means the image was damaged on its way.
 bool sound_result(const PackedIsland& p, const spu::IslandReport& r);
 

@@ -215,7 +215,7 @@ IslandView view_island(unsigned char* image) {
   return v;
 }
 
-std::string validate_island(const unsigned char* image, size_t bytes) {
+std::string validate_island(const unsigned char* image, size_t bytes, bool sealed) {
   if (bytes < sizeof(Island_Header)) return "shorter than an island header";
   if (reinterpret_cast<uintptr_t>(image) % 16 != 0) return "image is not 16-byte aligned";
   Island_Header h;
@@ -232,7 +232,8 @@ std::string validate_island(const unsigned char* image, size_t bytes) {
   if (h.max_halvings > kMaxHalvings) return "max_halvings over " + std::to_string(kMaxHalvings);
   const IslandLayout l = island_layout(h.num_bodies, h.num_sections);
   if (l.instances > bytes) return "too short for its bodies";
-  if (image_checksum(image + sizeof(Island_Header), bytes - sizeof(Island_Header)) != h.checksum) return "checksum mismatch";
+  if (sealed && image_checksum(image + sizeof(Island_Header), bytes - sizeof(Island_Header)) != h.checksum)
+    return "checksum mismatch";
   IslandView v = view_island(const_cast<unsigned char*>(image));
   size_t expect = l.instances;
   bool seen[kNumForceTypes] = {};
@@ -348,7 +349,7 @@ std::vector<unsigned char> IslandBuilder::finish() const {
   return img;
 }
 
-void IslandBuilder::finish(std::vector<unsigned char>& img) const {
+void IslandBuilder::finish(std::vector<unsigned char>& img, bool seal) const {
   uint32_t num_sections = 0;
   for (const Bucket& b : buckets_) num_sections += b.present();
   const IslandLayout l = island_layout(static_cast<uint32_t>(bodies_.size()), num_sections);
@@ -377,7 +378,7 @@ void IslandBuilder::finish(std::vector<unsigned char>& img) const {
   std::memcpy(img.data(), &h, sizeof h);
   IslandView v = view_island(img.data());
   v.header->num_blocks = count_offdiagonal_blocks(v, keys_);
-  v.header->checksum = image_checksum(img.data() + sizeof(Island_Header), total - sizeof(Island_Header));
+  v.header->checksum = seal ? image_checksum(img.data() + sizeof(Island_Header), total - sizeof(Island_Header)) : 0u;
 }
 
 }  // namespace cellphys::spu

@@ -84,9 +84,10 @@ struct IslandView {
 };
 
 /// Checks an image (magic, version, sizes, offsets, force types, body indices, finite
-/// numbers, checksum). Returns "" when it is well-formed, else the reason. The header's
-/// num_blocks is verified when the kernel builds the block structure.
-std::string validate_island(const unsigned char* image, size_t bytes);
+/// numbers, and its checksum unless `sealed` is false). Returns "" when it is well-formed,
+/// else the reason. The header's num_blocks is verified when the kernel builds the block
+/// structure.
+std::string validate_island(const unsigned char* image, size_t bytes, bool sealed = true);
 IslandView view_island(unsigned char* image);
 
 /// Builds an image from bodies and force instances (the control side's packer uses it too).
@@ -110,10 +111,11 @@ class IslandBuilder {
   void add(gen::ForceType type, const Instance& f) {
     add_force(type, &f, sizeof f);
   }
-  /// The finished image: 16-byte aligned storage, checksum set.
+  /// The finished image: 16-byte aligned storage, checksum set (`seal`); unsealed (checksum
+  /// 0) only for an image this process steps itself at once (IslandJob::trusted).
   std::vector<unsigned char> finish() const;
   /// The same into `img` (replaced; its storage is reused).
-  void finish(std::vector<unsigned char>& img) const;
+  void finish(std::vector<unsigned char>& img, bool seal = true) const;
   /// Empty again, with the defaults of a new builder; keeps its storage, so a builder reused
   /// for island after island allocates nothing once warm.
   void reset();

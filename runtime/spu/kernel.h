@@ -35,6 +35,11 @@ struct IslandJob {
   size_t bytes = 0;
   unsigned char* result = nullptr;
   size_t result_capacity = 0;
+  /// An image this process packed (unsealed: IslandBuilder::finish(img, false)) for this
+  /// worker to step now, which nothing else reads: its checksum is not checked, nor its
+  /// contents beyond the header and section table (debug builds check them all), and its result
+  /// carries no checksum. An image from anywhere else, a wire or a file, is never trusted.
+  bool trusted = false;
 };
 
 class ComputeWorker {
@@ -42,6 +47,7 @@ class ComputeWorker {
   explicit ComputeWorker(size_t local_store_bytes = LocalStore::kDefaultCapacity);
   /// Steps one island. A failed or refused island's result carries its bodies unchanged.
   IslandReport step(const unsigned char* image, size_t bytes, unsigned char* result, size_t result_capacity);
+  IslandReport step(const IslandJob& job);
   /// Steps islands in order, double-buffered: the next island is fetched while one computes.
   /// Results are identical to stepping each alone.
   void step_batch(const IslandJob* jobs, size_t count, IslandReport* reports);

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "runtime/base/merge_tail.h"
+
 namespace cellphys::ppe {
 
 void AwakeBodies::update(const std::vector<WorldBody>& bodies, const std::vector<uint32_t>& changed, bool all) {
@@ -36,19 +38,20 @@ void AwakeBodies::update(const std::vector<WorldBody>& bodies, const std::vector
   std::sort(added_.begin(), added_.end());
   const size_t old = ids_.size();
   ids_.insert(ids_.end(), added_.begin(), added_.end());
-  std::inplace_merge(ids_.begin(), ids_.begin() + old, ids_.end());
+  merge_tail(ids_, old, merged_);
 }
 
 bool AwakeBodies::agrees_with(const std::vector<WorldBody>& bodies) const {
-  std::vector<uint32_t> ids;
+  // checked every step of a debug build, without allocating (a warm step allocates nothing)
   uint32_t live = 0, statics = 0;
+  size_t next = 0;
   for (uint32_t i = 0; i < bodies.size(); ++i) {
     const Kind k = kind_of(bodies[i]);
     live += k != dead;
     statics += k == fixed;
-    if (k == awake) ids.push_back(i);
+    if (k == awake && (next == ids_.size() || ids_[next++] != i)) return false;
   }
-  return ids == ids_ && live == live_ && statics == statics_;
+  return next == ids_.size() && live == live_ && statics == statics_;
 }
 
 }  // namespace cellphys::ppe

@@ -24,7 +24,7 @@ class AwakeBodies {
  private:
   enum Kind : uint8_t { dead = 0, fixed = 1, asleep = 2, awake = 3 };
   static Kind kind_of(const WorldBody& b) { return !b.alive ? dead : b.is_static ? fixed : b.awake ? awake : asleep; }
-  std::vector<uint32_t> ids_, added_;
+  std::vector<uint32_t> ids_, added_, merged_;
   std::vector<uint8_t> kind_;  // per body slot: what the list counts it as
   uint32_t live_ = 0, statics_ = 0;
 };

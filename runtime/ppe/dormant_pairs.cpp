@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "runtime/base/merge_tail.h"
+
 namespace cellphys::ppe {
 
 namespace {
@@ -17,10 +19,10 @@ void remove_sorted(std::vector<uint64_t>& keys, const std::vector<uint64_t>& gon
   keys.resize(out);
 }
 
-void merge_in(std::vector<uint64_t>& keys, const std::vector<uint64_t>& more) {
+void merge_in(std::vector<uint64_t>& keys, const std::vector<uint64_t>& more, std::vector<uint64_t>& buffer) {
   const size_t old = keys.size();
   keys.insert(keys.end(), more.begin(), more.end());
-  std::inplace_merge(keys.begin(), keys.begin() + old, keys.end());
+  merge_tail(keys, old, buffer);
 }
 
 }  // namespace
@@ -28,11 +30,11 @@ void merge_in(std::vector<uint64_t>& keys, const std::vector<uint64_t>& more) {
 void DormantPairs::add(std::vector<uint64_t>& keys) {
   if (keys.empty()) return;
   std::sort(keys.begin(), keys.end());
-  merge_in(by_first_, keys);
+  merge_in(by_first_, keys, merged_);
   swapped_.clear();
   for (uint64_t k : keys) swapped_.push_back(swap_halves(k));
   std::sort(swapped_.begin(), swapped_.end());
-  merge_in(by_second_, swapped_);
+  merge_in(by_second_, swapped_, merged_);
 }
 
 void DormantPairs::take(const std::vector<uint32_t>& woken, std::vector<uint64_t>& out) {

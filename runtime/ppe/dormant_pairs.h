@@ -20,7 +20,7 @@ class DormantPairs {
  private:
   std::vector<uint64_t> by_first_;   // ascending
   std::vector<uint64_t> by_second_;  // the keys with their halves swapped, ascending
-  std::vector<uint64_t> taken_, swapped_;
+  std::vector<uint64_t> taken_, swapped_, merged_;
 };
 
 inline uint64_t swap_halves(uint64_t k) { return k << 32 | k >> 32; }

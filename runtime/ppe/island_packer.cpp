@@ -103,6 +103,20 @@ void sort_contacts_by_pair(const std::vector<WorldContact>& contacts, std::vecto
   for (size_t k = 0; k < cs.size(); ++k) cs[k] = uint32_t(keys[k] & index);
 }
 
+void match_capacities(std::vector<PackScratch>& scratches) {
+  for (PackScratch& s : scratches)
+    for (const PackScratch& o : scratches) {
+      if (&s == &o) continue;
+      s.builder.reserve_like(o.builder);
+      for (auto m : {&PackScratch::ghosts, &PackScratch::jointed, &PackScratch::contacts, &PackScratch::merged})
+        (s.*m).reserve((o.*m).capacity());
+      s.keys.reserve(o.keys.capacity());
+      s.key_buffer.reserve(o.key_buffer.capacity());
+      s.instance.reserve(o.instance.capacity());
+      if (s.local.size() < o.local.size()) s.local.resize(o.local.size(), kOutside);
+    }
+}
+
 void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& scratch, PackedIsland& p, bool seal) {
   const WorldSettings& s = pc.settings;
   spu::IslandBuilder& ib = scratch.builder;

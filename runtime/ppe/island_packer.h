@@ -52,6 +52,11 @@ void sort_contacts_by_pair(const std::vector<WorldContact>& contacts, std::vecto
 /// Packs one island or part from the start-of-step state (pc.start) into `out` (replaced; its
 /// storage is reused); ghosts (kinematic: no force moves them) take their latest velocity from
 /// pc.bodies.
+/// Every scratch grown to the largest of them: after a step has packed each island on some
+/// thread, any thread packs any of them without allocating (which thread takes which island
+/// varies from step to step).
+void match_capacities(std::vector<PackScratch>& scratches);
+
 void pack_island(const PackContext& pc, const IslandContent& part, PackScratch& scratch, PackedIsland& out,
                  bool seal = true);
 

@@ -1,6 +1,8 @@
 #include "runtime/ppe/step_decouple.h"
 
 #include <algorithm>
+#include <cassert>
+#include <cstring>
 
 #include "cellphys/gen/force_table.h"
 #include "runtime/ppe/world.h"
@@ -54,62 +56,97 @@ bool fits(const PackContext& pc, const IslandContent& isl, size_t fit, PackScrat
   return spu::footprint(spu::counts_of(v)).total <= fit;
 }
 
-// `too_big`: the caller found it does not fit already.
-void split(const PackContext& pc, IslandContent isl, std::vector<IslandContent>& out, uint32_t& cut,
-           PackScratch& scratch, PackedIsland& probe, bool too_big = false) {
-  if (!too_big && fits(pc, isl, pc.settings.local_store_bytes, scratch, probe)) {
-    out.push_back(std::move(isl));
-    return;
-  }
-  // Cut across the longest extent at the median body: a plane cuts few couplings.
-  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
-  for (uint32_t id : isl.bodies)
-    for (int k = 0; k < 3; ++k) {
-      const float x = pc.bodies[id].state.position[k];
-      lo[k] = std::min(lo[k], x), hi[k] = std::max(hi[k], x);
-    }
-  int axis = 0;
-  for (int k = 1; k < 3; ++k)
-    if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
-  std::vector<uint32_t> order = isl.bodies;
-  std::stable_sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) {
-    return pc.bodies[x].state.position[axis] < pc.bodies[y].state.position[axis];
-  });
-  IslandContent half[2];
-  half[0].bodies.assign(order.begin(), order.begin() + order.size() / 2);
-  half[1].bodies.assign(order.begin() + order.size() / 2, order.end());
-  for (IslandContent& h : half) std::sort(h.bodies.begin(), h.bodies.end());
-  // -1: not a body of this island (the world, or a ghost from an earlier cut)
-  auto side = [&](uint32_t id) {
-    if (std::binary_search(half[0].bodies.begin(), half[0].bodies.end(), id)) return 0;
-    return std::binary_search(half[1].bodies.begin(), half[1].bodies.end(), id) ? 1 : -1;
-  };
-  // a coupling whose bodies land on both sides goes into both: each holds the other as a ghost
-  auto place = [&](uint32_t a, uint32_t b, auto member, uint32_t item) {
-    const int sa = side(a), sb = side(b);
-    if (sa >= 0) (half[sa].*member).push_back(item);
-    if (sb >= 0 && sb != sa) (half[sb].*member).push_back(item);
-    if (sa >= 0 && sb >= 0 && sa != sb) ++cut;
-  };
-  for (uint32_t c : isl.contacts) place(pc.contacts[c].a, pc.contacts[c].b, &IslandContent::contacts, c);
-  for (uint32_t f : isl.forces) place(pc.forces[f].a, pc.forces[f].b, &IslandContent::forces, f);
-  split(pc, std::move(half[0]), out, cut, scratch, probe);
-  split(pc, std::move(half[1]), out, cut, scratch, probe);
+// A float's order as an unsigned integer's (zeros as one: `<` holds them equal).
+uint32_t ordered(float x) {
+  if (x == 0.0f) x = 0.0f;
+  uint32_t u;
+  std::memcpy(&u, &x, sizeof u);
+  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
+
+// `from` copied into `to`, whose storage is kept from earlier steps.
+void copy_content(const IslandContent& from, IslandContent& to) {
+  to.bodies.assign(from.bodies.begin(), from.bodies.end());
+  to.contacts.assign(from.contacts.begin(), from.contacts.end());
+  to.forces.assign(from.forces.begin(), from.forces.end());
+}
+
+struct Cutting {
+  const PackContext& pc;
+  PackScratch& scratch;
+  PackedIsland& probe;
+  CutScratch& cuts;
+  std::vector<IslandContent>& out;
+  size_t used = 0;
+  uint32_t& cut;
+
+  // `isl` into parts that fit the local store, appended to `out`: whole when it fits, else cut
+  // in two (the halves kept at `depth` of cuts.halves) and each half so. `too_big`: the caller
+  // found it does not fit already.
+  void split(const IslandContent& isl, size_t depth, bool too_big = false) {
+    if (!too_big && fits(pc, isl, pc.settings.local_store_bytes, scratch, probe)) {
+      if (used == out.size()) out.emplace_back();
+      copy_content(isl, out[used++]);
+      return;
+    }
+    // Cut across the longest extent at the median body: a plane cuts few couplings.
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    for (uint32_t id : isl.bodies)
+      for (int k = 0; k < 3; ++k) {
+        const float x = pc.bodies[id].state.position[k];
+        lo[k] = std::min(lo[k], x), hi[k] = std::max(hi[k], x);
+      }
+    int axis = 0;
+    for (int k = 1; k < 3; ++k)
+      if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
+    // the bodies along the axis, equal positions in island order (a stable sort without the
+    // heap buffer std::stable_sort takes): (position, place) keys
+    std::vector<uint64_t>& keys = cuts.keys;
+    keys.resize(isl.bodies.size());
+    for (size_t i = 0; i < isl.bodies.size(); ++i)
+      keys[i] = uint64_t(ordered(pc.bodies[isl.bodies[i]].state.position[axis])) << 32 | i;
+    std::sort(keys.begin(), keys.end());
+    assert(2 * depth + 1 < cuts.halves.size());
+    IslandContent* half = &cuts.halves[2 * depth];
+    const size_t middle = keys.size() / 2;
+    for (int h = 0; h < 2; ++h) {
+      half[h].bodies.clear(), half[h].contacts.clear(), half[h].forces.clear();
+      for (size_t i = h ? middle : 0; i < (h ? keys.size() : middle); ++i) half[h].bodies.push_back(isl.bodies[keys[i] & 0xffffffffu]);
+      std::sort(half[h].bodies.begin(), half[h].bodies.end());
+    }
+    // -1: not a body of this island (the world, or a ghost from an earlier cut)
+    auto side = [&](uint32_t id) {
+      if (std::binary_search(half[0].bodies.begin(), half[0].bodies.end(), id)) return 0;
+      return std::binary_search(half[1].bodies.begin(), half[1].bodies.end(), id) ? 1 : -1;
+    };
+    // a coupling whose bodies land on both sides goes into both: each holds the other as a ghost
+    auto place = [&](uint32_t a, uint32_t b, auto member, uint32_t item) {
+      const int sa = side(a), sb = side(b);
+      if (sa >= 0) (half[sa].*member).push_back(item);
+      if (sb >= 0 && sb != sa) (half[sb].*member).push_back(item);
+      if (sa >= 0 && sb >= 0 && sa != sb) ++cut;
+    };
+    for (uint32_t c : isl.contacts) place(pc.contacts[c].a, pc.contacts[c].b, &IslandContent::contacts, c);
+    for (uint32_t f : isl.forces) place(pc.forces[f].a, pc.forces[f].b, &IslandContent::forces, f);
+    split(half[0], depth + 1);
+    split(half[1], depth + 1);
+  }
+};
 
 }  // namespace
 
 void decouple(const PackContext& pc, const IslandContent& island, size_t fit, uint32_t& cut_couplings,
-              PackScratch& scratch, PackedIsland& probe, std::vector<IslandContent>& parts) {
-  if (fits(pc, island, fit, scratch, probe)) {  // the island whole, copied into storage kept from earlier steps
+              PackScratch& scratch, PackedIsland& probe, CutScratch& cuts, std::vector<IslandContent>& parts) {
+  if (fits(pc, island, fit, scratch, probe)) {  // the island whole
     parts.resize(1);
-    parts[0].bodies.assign(island.bodies.begin(), island.bodies.end());
-    parts[0].contacts.assign(island.contacts.begin(), island.contacts.end());
-    parts[0].forces.assign(island.forces.begin(), island.forces.end());
+    copy_content(island, parts[0]);
     return;
   }
-  parts.clear();
-  split(pc, island, parts, cut_couplings, scratch, probe, /*too_big=*/true);
+  // Each cut halves the bodies: a world's 2^32 ids are cut at most 32 deep.
+  if (cuts.halves.size() < 2 * CutScratch::kMaxDepth) cuts.halves.resize(2 * CutScratch::kMaxDepth);
+  Cutting c{pc, scratch, probe, cuts, parts, 0, cut_couplings};
+  c.split(island, 0, /*too_big=*/true);
+  parts.resize(c.used);
 }
 
 void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, size_t whole_bytes,
@@ -119,7 +156,7 @@ void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& i
   d.waves = 0;
   d.parts.resize(islands.size());
   for (size_t k = 0; k < islands.size(); ++k) {
-    decouple(pc, islands[k], fit, st.cut_couplings, scratch, d.probe, d.parts[k]);  // a copy: the sleep stage needs the island whole
+    decouple(pc, islands[k], fit, st.cut_couplings, scratch, d.probe, d.cuts, d.parts[k]);  // a copy: the sleep stage needs the island whole
     if (d.parts[k].size() > 1) ++st.decoupled_islands;
     d.waves = std::max(d.waves, d.parts[k].size());
   }

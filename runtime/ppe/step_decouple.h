@@ -13,6 +13,14 @@
 
 namespace cellphys::ppe {
 
+/// What cutting islands reuses from step to step, so a warm step cuts without allocating: the
+/// two halves of a cut at each depth, and the bodies' order along a cut.
+struct CutScratch {
+  static constexpr size_t kMaxDepth = 64;
+  std::vector<IslandContent> halves;  // 2 per depth
+  std::vector<uint64_t> keys;         // (position along the cut, place in the island)
+};
+
 /// The parts of an island that each fit the local store (just the island when it fits), in
 /// the order they are integrated; counts the couplings cut. Integrating the parts in order,
 /// each holding the bodies across its cuts as kinematic ghosts at their latest velocities, is
@@ -22,13 +30,14 @@ namespace cellphys::ppe {
 /// runner computes big islands whole); a part always fits the local store.
 /// `scratch` and `probe` are the fit test's packing.
 void decouple(const PackContext& pc, const IslandContent& island, size_t fit, uint32_t& cut_couplings,
-              PackScratch& scratch, PackedIsland& probe, std::vector<IslandContent>& parts);
+              PackScratch& scratch, PackedIsland& probe, CutScratch& cuts, std::vector<IslandContent>& parts);
 
 struct DecoupledIslands {
   std::vector<std::vector<IslandContent>> parts;  // per island: its parts in integration order
   size_t waves = 0;                               // the most parts of any island
   bool split() const { return waves > 1; }
   PackedIsland probe;                             // the fit test's packing, reused
+  CutScratch cuts;                                // the cuts', reused
 };
 
 /// The parts of every island into `d` (replaced; its storage is reused); counts decoupled

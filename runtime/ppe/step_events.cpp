@@ -4,6 +4,7 @@
 #include <cmath>
 #include <tuple>
 
+#include "runtime/base/merge_tail.h"
 #include "runtime/base/quat.h"
 #include "runtime/ppe/body_maths.h"
 #include "runtime/ppe/contact_loads.h"
@@ -123,11 +124,11 @@ void keep_or_end(const std::vector<uint64_t>& found, std::vector<uint64_t>& memo
   memory.resize(out);
 }
 
-void merge_in(std::vector<uint64_t>& keys, std::vector<uint64_t>& more) {
+void merge_in(std::vector<uint64_t>& keys, std::vector<uint64_t>& more, std::vector<uint64_t>& buffer) {
   std::sort(more.begin(), more.end());
   const size_t old = keys.size();
   keys.insert(keys.end(), more.begin(), more.end());
-  std::inplace_merge(keys.begin(), keys.begin() + old, keys.end());
+  merge_tail(keys, old, buffer);
 }
 
 bool by_pair(const ContactEvent& x, const ContactEvent& y) {
@@ -136,17 +137,17 @@ bool by_pair(const ContactEvent& x, const ContactEvent& y) {
 
 }  // namespace
 
-PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
-                           const std::vector<uint32_t>& woken, bool all,
-                           const std::vector<float>& reach, const std::vector<WorldContact>& contacts,
-                           const std::vector<TouchedPair>& touched,
-                           const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
-                           std::vector<SensorEvent>& sensor_events) {
-  PendingEvents out;
-  out.events = std::move(memory.removed_touches);
-  memory.removed_touches.clear();
-  sensor_events = std::move(memory.removed_overlaps);
-  memory.removed_overlaps.clear();
+void begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                  const std::vector<uint32_t>& woken, bool all, const std::vector<float>& reach,
+                  const std::vector<WorldContact>& contacts, const std::vector<TouchedPair>& touched,
+                  const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
+                  std::vector<SensorEvent>& sensor_events, PendingEvents& out) {
+  // the ends of removed bodies' touches first; buffers swapped, not moved, so each keeps one
+  out.events.clear();
+  out.events.swap(memory.removed_touches);
+  out.candidates.clear();
+  sensor_events.clear();
+  sensor_events.swap(memory.removed_overlaps);
 
   // Touches: what touched and still collides, what sleeps as it was (set aside until a body of
   // it wakes); what collides anew may begin. One pass over the memory against this step's
@@ -156,7 +157,7 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDict
     back.clear();
     if (all) back = memory.resting.keys(), memory.resting.clear();
     else memory.resting.take(woken, back);
-    merge_in(memory.touching, back);
+    merge_in(memory.touching, back, memory.found);  // (found is filled after)
   }
   std::vector<uint64_t>& found = memory.found;
   found.clear();
@@ -196,16 +197,16 @@ PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDict
       memory.sensing.push_back(k);
       sensor_events.push_back({SensorEvent::Kind::begin, high(k), low(k)});
     }
-  std::inplace_merge(memory.sensing.begin(), memory.sensing.begin() + kept_overlaps, memory.sensing.end());
+  merge_tail(memory.sensing, kept_overlaps, memory.back);
   std::sort(sensor_events.begin(), sensor_events.end(), [](const SensorEvent& x, const SensorEvent& y) {
     return std::make_tuple(x.sensor, x.visitor, x.kind) < std::make_tuple(y.sensor, y.visitor, y.kind);
   });
-  return out;
 }
 
 void finish_events(const std::vector<WorldBody>& bodies, PendingEvents& pending,
                    EventMemory& memory, std::vector<ContactEvent>& events) {
-  events = std::move(pending.events);
+  events.clear();
+  events.swap(pending.events);
   const size_t kept = memory.touching.size();
   for (PendingEvents::Candidate& c : pending.candidates) {
     if (!c.acts) continue;
@@ -220,7 +221,7 @@ void finish_events(const std::vector<WorldBody>& bodies, PendingEvents& pending,
     memory.touching.push_back(key_of(e.a, e.b));
   }
   std::sort(memory.touching.begin() + kept, memory.touching.end());
-  std::inplace_merge(memory.touching.begin(), memory.touching.begin() + kept, memory.touching.end());
+  merge_tail(memory.touching, kept, memory.found);  // (the begin stage's buffers are free by now)
   std::sort(events.begin(), events.end(), by_pair);
 }
 

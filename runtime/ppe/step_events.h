@@ -49,13 +49,13 @@ struct PendingEvents {
 /// bodies sleep or are static, or while it still closes: within twice the margin collision used
 /// (`reach`: each body's in the step), a point of it closing, as a fast body braked short of what
 /// it falls on is. `woken` (ascending): the bodies awake now that may have slept at the last
-/// step; `all`: any may have (a restored world).
-PendingEvents begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
-                           const std::vector<uint32_t>& woken, bool all,
-                           const std::vector<float>& reach, const std::vector<WorldContact>& contacts,
-                           const std::vector<TouchedPair>& touched,
-                           const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
-                           std::vector<SensorEvent>& sensor_events);
+/// step; `all`: any may have (a restored world). Into `out` and `sensor_events` (replaced; their
+/// storage, and the memory's, is kept: a warm step allocates nothing).
+void begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                  const std::vector<uint32_t>& woken, bool all, const std::vector<float>& reach,
+                  const std::vector<WorldContact>& contacts, const std::vector<TouchedPair>& touched,
+                  const std::vector<std::pair<uint32_t, uint32_t>>& sensed, EventMemory& memory,
+                  std::vector<SensorEvent>& sensor_events, PendingEvents& out);
 
 /// The candidates whose contact acts in the step (the descriptor's: a point that overlaps or
 /// closes within the step, gravity's fall counted) begin touching, with their impulse from the

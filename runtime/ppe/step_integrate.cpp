@@ -69,6 +69,7 @@ void pack_and_run(const PackContext& pc, const ShapeDictionary& shapes, IslandRu
       threads->for_ranges(used, grain, [&](size_t begin, size_t end, int thread) {
         for (size_t i = begin; i < end; ++i) pack_one(pc, *sc.todo[i], sc.thread_pack[size_t(thread)], sc.packed[i]);
       });
+      match_capacities(sc.thread_pack);
     } else {
       for (size_t i = 0; i < used; ++i) pack_one(pc, *sc.todo[i], sc.pack, sc.packed[i]);
     }
@@ -127,6 +128,7 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
     }
   });
   for (const StepStats& part : sc.thread_stats) add_wire_tables(part, st);
+  match_capacities(sc.thread_pack);
 }
 
 // One wave: part `wave` of every island (of the split ones only, after the first sweep).

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstdint>
 
 #include "cellphys/gen/force_table.h"
 #include "runtime/base/vec3.h"
@@ -53,7 +54,8 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
 
   // Each body's joint partners; one jointed to what cannot move is pinned.
   p.link_first.assign(n + 1, 0);
-  std::vector<uint8_t> pinned(n, 0);
+  std::vector<uint8_t>& pinned = p.pinned;
+  pinned.assign(n, 0);
   auto joint = [&](const WorldForce& f) { return f.alive && gen::kForceTable[static_cast<int>(f.type)].joint; };
   for (const WorldForce& f : forces) {
     if (!joint(f)) continue;
@@ -89,7 +91,8 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
   // The piles that hold a deep contact: their bodies, then their levels counted from what
   // cannot move (breadth first, so each contact and body is visited a bounded number of times).
   p.level.assign(n, kFree);
-  std::vector<uint8_t> seen(n, 0);
+  std::vector<uint8_t>& seen = p.seen;
+  seen.assign(n, 0);
   p.members.clear();
   for (const WorldContact& c : contacts) {
     if (c.point.penetration <= c.hold || joined(c)) continue;
@@ -133,9 +136,15 @@ void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& fo
       const WorldContact& c = contacts[k];
       if (b == c.a || !movable(c.a)) p.order.push_back(k);  // once per contact
     }
-  std::stable_sort(p.order.begin(), p.order.end(), [&](uint32_t x, uint32_t y) {
-    return std::min(level(contacts[x].a), level(contacts[x].b)) < std::min(level(contacts[y].a), level(contacts[y].b));
-  });
+  // a stable sort by level, as (level, place) keys: std::stable_sort takes a buffer from the heap
+  p.keys.resize(p.order.size());
+  for (size_t i = 0; i < p.order.size(); ++i) {
+    const int64_t lowest = std::min(level(contacts[p.order[i]].a), level(contacts[p.order[i]].b));
+    p.keys[i] = uint64_t(lowest - int64_t(INT32_MIN)) << 32 | i;
+  }
+  std::sort(p.keys.begin(), p.keys.end());
+  p.queue.assign(p.order.begin(), p.order.end());
+  for (size_t i = 0; i < p.order.size(); ++i) p.order[i] = p.queue[p.keys[i] & 0xffffffffu];
 
   // Each contact asks to separate by its excess over its hold, at most the step's budget; a
   // shallower one only that it gets no deeper than its hold.

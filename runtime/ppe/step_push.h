@@ -28,6 +28,8 @@ struct PushScratch {
   std::vector<double> moved;              // per joined group (at its lowest id): its displacement (xyz)
   std::vector<double> group_mass;         // per joined group (at its lowest id): its bodies' mass
   std::vector<float> target;              // per contact of `order`: the separation it asks for
+  std::vector<uint8_t> pinned, seen;     // per body: jointed to what cannot move; in a pile found
+  std::vector<uint64_t> keys;            // the contacts' order: (level, place)
 };
 
 /// Stage 3: each contact deeper than the hold depth asks to separate by its excess, at most

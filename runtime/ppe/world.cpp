@@ -207,11 +207,11 @@ const StepStats& World::step() {
     const BodyChanges changes{w.awake.ids(), w.step_changed, all};
     collide(w.bodies, w.forces, shapes_, settings_, changes, &w.workers(settings_), w.collide, w.contact_memory,  // 1
             w.contacts, st);
-    PendingEvents events;  // 8, begun: what a touch's begin measures before the step moves anything
+    PendingEvents& events = w.pending_events;  // 8, begun: what a touch's begin measures before the step moves anything
     {
       StageTimer t(st.times.events_ms);
-      events = begin_events(w.bodies, shapes_, settings_, w.collide.woken, all, w.collide.reach, w.contacts, w.collide.touched,
-                            w.collide.sensed, w.event_memory, w.sensor_events);
+      begin_events(w.bodies, shapes_, settings_, w.collide.woken, all, w.collide.reach, w.contacts, w.collide.touched,
+                   w.collide.sensed, w.event_memory, w.sensor_events, events);
     }
     wake_touched_groups(w.bodies, w.forces, w.contacts, w.sleeping, st);                 // 2
     w.awake.update(w.bodies, w.sleeping.changed, false);
@@ -242,7 +242,7 @@ const StepStats& World::step() {
       for (uint32_t id : islands[i].bodies) w.island_of[id] = static_cast<uint32_t>(i);
       w.island_decoupled[i] = i < parts.parts.size() && parts.parts[i].size() > 1;
     }
-    w.cut = cut_couplings_of(parts, w.contacts, w.forces);
+    cut_couplings_of(parts, w.contacts, w.forces, w.cut_ids, w.cut);
   }
   ++w.revision;
   stats_ = st;

@@ -3,7 +3,6 @@
 // feeds the step.
 #include <algorithm>
 #include <cmath>
-#include <map>
 
 #include "runtime/ppe/world_impl.h"
 
@@ -93,28 +92,29 @@ bool World::island_decoupled(uint32_t island) const {
 
 const std::vector<CutCoupling>& World::cut_couplings() const { return impl_->cut; }
 
-std::vector<CutCoupling> cut_couplings_of(const DecoupledIslands& d, const std::vector<WorldContact>& contacts,
-                                          const std::vector<WorldForce>& forces) {
-  std::vector<CutCoupling> out;
+void cut_couplings_of(const DecoupledIslands& d, const std::vector<WorldContact>& contacts,
+                      const std::vector<WorldForce>& forces, std::vector<uint32_t>& ids, std::vector<CutCoupling>& out) {
+  out.clear();
+  // A cut coupling goes into the part on each side of the cut, an uncut one into one part: the
+  // ids that repeat among an island's parts, sorted.
+  auto repeated = [&](const std::vector<IslandContent>& parts, std::vector<uint32_t> IslandContent::*member, auto emit) {
+    ids.clear();
+    for (const IslandContent& p : parts) ids.insert(ids.end(), (p.*member).begin(), (p.*member).end());
+    std::sort(ids.begin(), ids.end());
+    for (size_t k = 0; k + 1 < ids.size(); ++k)
+      if (ids[k] == ids[k + 1] && (k == 0 || ids[k - 1] != ids[k])) emit(ids[k]);
+  };
   for (size_t i = 0; i < d.parts.size(); ++i) {
     if (d.parts[i].size() < 2) continue;
-    // A cut coupling goes into the part on each side of the cut; an uncut one into one part.
-    std::map<uint32_t, int> contact_parts, force_parts;
-    for (const IslandContent& p : d.parts[i]) {
-      for (uint32_t c : p.contacts) ++contact_parts[c];
-      for (uint32_t f : p.forces) ++force_parts[f];
-    }
     const auto island = static_cast<uint32_t>(i);
-    for (const auto& [c, n] : contact_parts)
-      if (n > 1) {
-        CutCoupling cut{contacts[c].a, contacts[c].b, kNoForce, {}, island};
-        std::copy(contacts[c].point.point, contacts[c].point.point + 3, cut.point);
-        out.push_back(cut);
-      }
-    for (const auto& [f, n] : force_parts)
-      if (n > 1) out.push_back(CutCoupling{forces[f].a, forces[f].b, f, {}, island});
+    repeated(d.parts[i], &IslandContent::contacts, [&](uint32_t c) {
+      CutCoupling cut{contacts[c].a, contacts[c].b, kNoForce, {}, island};
+      std::copy(contacts[c].point.point, contacts[c].point.point + 3, cut.point);
+      out.push_back(cut);
+    });
+    repeated(d.parts[i], &IslandContent::forces,
+             [&](uint32_t f) { out.push_back(CutCoupling{forces[f].a, forces[f].b, f, {}, island}); });
   }
-  return out;
 }
 
 }  // namespace cellphys::ppe

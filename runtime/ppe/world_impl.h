@@ -22,10 +22,11 @@ namespace cellphys::ppe {
 
 inline std::string body_name(BodyId id) { return "body " + std::to_string(id); }
 
-/// The couplings the decoupling stage cut: those in more than one part of an island
-/// (runtime/ppe/world_debug.cpp; for display).
-std::vector<CutCoupling> cut_couplings_of(const DecoupledIslands& d, const std::vector<WorldContact>& contacts,
-                                          const std::vector<WorldForce>& forces);
+/// The couplings the decoupling stage cut, into `out` (replaced): those in more than one part of
+/// an island, by island, contacts then forces, each by id (runtime/ppe/world_debug.cpp; for
+/// display). `ids` is scratch: a warm step allocates nothing.
+void cut_couplings_of(const DecoupledIslands& d, const std::vector<WorldContact>& contacts,
+                      const std::vector<WorldForce>& forces, std::vector<uint32_t>& ids, std::vector<CutCoupling>& out);
 
 struct World::Impl {
   std::vector<WorldBody> bodies;
@@ -50,7 +51,9 @@ struct World::Impl {
   std::vector<uint32_t> island_of;      // per body slot: its island in the last step (for display only)
   std::vector<uint8_t> island_decoupled;  // per island of the last step: cut in parts
   std::vector<CutCoupling> cut;           // the last step's cut couplings (for display only)
+  std::vector<uint32_t> cut_ids;          // their finding's scratch
   EventMemory event_memory;               // touching pairs and sensor overlaps, kept between steps
+  PendingEvents pending_events;           // a step's begun touches (its storage kept)
   std::vector<ContactEvent> contact_events;  // the last step's
   std::vector<SensorEvent> sensor_events;    // the last step's
   uint64_t revision = 0;                  // counts changes to the bodies' set or poses

@@ -343,6 +343,15 @@ void IslandBuilder::add_force(ForceType type, const void* instance, size_t insta
   (world ? b.world_count : b.pair_count) += 1;
 }
 
+void IslandBuilder::reserve_like(const IslandBuilder& other) {
+  bodies_.reserve(other.bodies_.capacity());
+  keys_.reserve(other.keys_.capacity());
+  for (size_t t = 0; t < buckets_.size() && t < other.buckets_.size(); ++t) {
+    buckets_[t].pair.reserve(other.buckets_[t].pair.capacity());
+    buckets_[t].world.reserve(other.buckets_[t].world.capacity());
+  }
+}
+
 std::vector<unsigned char> IslandBuilder::finish() const {
   std::vector<unsigned char> img;
   finish(img);

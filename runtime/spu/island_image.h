@@ -119,6 +119,9 @@ class IslandBuilder {
   /// Empty again, with the defaults of a new builder; keeps its storage, so a builder reused
   /// for island after island allocates nothing once warm.
   void reset();
+  /// Storage at least as large as `other`'s, so this builder packs what that one has packed
+  /// without allocating.
+  void reserve_like(const IslandBuilder& other);
 
  private:
   gen::Island_Header header_{};

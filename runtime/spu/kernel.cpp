@@ -58,7 +58,12 @@ bool adaptive(StepContext& c, float H, uint32_t max_halvings, IslandReport& r) {
 
 }  // namespace
 
-ComputeWorker::ComputeWorker(size_t local_store_bytes) : ls_(local_store_bytes), dma_(ls_) {}
+ComputeWorker::ComputeWorker(size_t local_store_bytes) : ls_(local_store_bytes), dma_(ls_) {
+  // a batch of this many islands plans without allocating from the first: a world's threads
+  // take runs of up to 32, so which thread gets the longest run does not decide who allocates
+  plans_.reserve(kBatchReserve);
+  ok_.reserve(kBatchReserve);
+}
 
 namespace {
 

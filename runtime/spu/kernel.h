@@ -62,6 +62,7 @@ class ComputeWorker {
   // Islands integrated together at most (step_together): their lanes fill each kernel's SIMD
   // batches; the local store and its allocation stack bound how many fit.
   static constexpr size_t kMaxTogether = 16;
+  static constexpr size_t kBatchReserve = 32;
   struct Plan {
     gen::Island_Header header{};
     IslandCounts counts;

@@ -12,41 +12,21 @@
 // The awake cases restore the same state before every step (outside the timing), so every
 // iteration times the same step; the 10 s case keeps stepping its mostly sleeping world.
 // allocs_per_step counts the heap allocations made inside world.step() (this binary replaces
-// operator new to count them): what a warm step still allocates.
+// operator new to count them, testing/count_allocations.h), after three untimed steps from the
+// restored state: what a warm step allocates (nothing; tests/test_warm_steps.cpp asserts it).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
-#include <new>
 #include <string>
 #include <vector>
 
 #include "runtime/ppe/world.h"
+#include "testing/count_allocations.h"
 #include "testing/scenes.h"
-
-namespace {
-std::atomic<uint64_t> g_allocations{0};
-}  // namespace
-
-void* operator new(size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new(size_t n, std::align_val_t a) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  const size_t al = static_cast<size_t>(a);
-  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, size_t, std::align_val_t) noexcept { std::free(p); }
 
 namespace {
 
@@ -78,9 +58,9 @@ struct Sums {
   size_t store = 0;
   // One step of w: its statistics and the heap allocations made inside it.
   void step(World& w) {
-    const uint64_t before = g_allocations.load(std::memory_order_relaxed);
+    const uint64_t before = allocation_count();
     add(w.step());
-    allocations += double(g_allocations.load(std::memory_order_relaxed) - before);
+    allocations += double(allocation_count() - before);
   }
   void add(const StepStats& s) {
     for (const StageTimeField& f : kStageTimeFields) stages.*f.ms += s.times.*f.ms;
@@ -107,9 +87,19 @@ struct Sums {
   }
 };
 
+// Steps from `snap` a few times, untimed: the buffers a step needs grow in its first steps, so
+// the timed ones (and their allocs_per_step) are a warm world's.
+void warm_from(World& w, const Snapshot& snap) {
+  for (int i = 0; i < 3; ++i) {
+    snap.restore(w);
+    w.step();
+  }
+}
+
 // Times world.step() with the world restored to `snap` before each step.
 void time_restored_steps(benchmark::State& state, World& w, const Snapshot& snap) {
   Sums sums;
+  warm_from(w, snap);
   for (auto _ : state) {
     state.PauseTiming();
     snap.restore(w);
@@ -236,6 +226,7 @@ void BM_IslandSize(benchmark::State& state) {
   for (int i = 0; i < 30; ++i) w.step();
   Snapshot snap;
   snap.take(w, bodies);
+  warm_from(w, snap);
   Sums sums;
   double wall = 0;
   for (auto _ : state) {

@@ -21,4 +21,12 @@ void merge_tail(std::vector<T>& v, size_t old, std::vector<T>& buffer) {
   v.swap(buffer);
 }
 
+/// The sorted `more` merged into the sorted `v`, through `buffer` as merge_tail.
+template <class T>
+void merge_sorted_into(std::vector<T>& v, const std::vector<T>& more, std::vector<T>& buffer) {
+  const size_t old = v.size();
+  v.insert(v.end(), more.begin(), more.end());
+  merge_tail(v, old, buffer);
+}
+
 }  // namespace cellphys

@@ -19,22 +19,16 @@ void remove_sorted(std::vector<uint64_t>& keys, const std::vector<uint64_t>& gon
   keys.resize(out);
 }
 
-void merge_in(std::vector<uint64_t>& keys, const std::vector<uint64_t>& more, std::vector<uint64_t>& buffer) {
-  const size_t old = keys.size();
-  keys.insert(keys.end(), more.begin(), more.end());
-  merge_tail(keys, old, buffer);
-}
-
 }  // namespace
 
 void DormantPairs::add(std::vector<uint64_t>& keys) {
   if (keys.empty()) return;
   std::sort(keys.begin(), keys.end());
-  merge_in(by_first_, keys, merged_);
+  merge_sorted_into(by_first_, keys, merged_);
   swapped_.clear();
   for (uint64_t k : keys) swapped_.push_back(swap_halves(k));
   std::sort(swapped_.begin(), swapped_.end());
-  merge_in(by_second_, swapped_, merged_);
+  merge_sorted_into(by_second_, swapped_, merged_);
 }
 
 void DormantPairs::take(const std::vector<uint32_t>& woken, std::vector<uint64_t>& out) {

@@ -124,13 +124,6 @@ void keep_or_end(const std::vector<uint64_t>& found, std::vector<uint64_t>& memo
   memory.resize(out);
 }
 
-void merge_in(std::vector<uint64_t>& keys, std::vector<uint64_t>& more, std::vector<uint64_t>& buffer) {
-  std::sort(more.begin(), more.end());
-  const size_t old = keys.size();
-  keys.insert(keys.end(), more.begin(), more.end());
-  merge_tail(keys, old, buffer);
-}
-
 bool by_pair(const ContactEvent& x, const ContactEvent& y) {
   return std::make_tuple(x.a, x.b, x.kind) < std::make_tuple(y.a, y.b, y.kind);
 }
@@ -157,7 +150,8 @@ void begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& s
     back.clear();
     if (all) back = memory.resting.keys(), memory.resting.clear();
     else memory.resting.take(woken, back);
-    merge_in(memory.touching, back, memory.found);  // (found is filled after)
+    std::sort(back.begin(), back.end());
+    merge_sorted_into(memory.touching, back, memory.found);  // (found is filled after)
   }
   std::vector<uint64_t>& found = memory.found;
   found.clear();

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "runtime/ppe/box_tree.h"
+#include "runtime/ppe/broad_phase.h"
 #include "runtime/ppe/dormant_pairs.h"
 #include "runtime/ppe/world.h"
 #include "testing/scenes.h"
@@ -76,6 +77,52 @@ TEST(BoxTree, BoxesThatOnlyTouchMeet) {
   EXPECT_EQ(found, 1);
   tree.overlap(Aabb{{1.0001f, 0, 0}, {2, 1, 1}}, [&](uint32_t) { ++found; });
   EXPECT_EQ(found, 1);
+}
+
+// The sweep tests its candidates a block at a time: it must find what brute force finds,
+// whatever the count (blocks ending anywhere), the spread (bands of hundreds of candidates,
+// as in a pile), boxes that only touch, and with boxes that are not awake among them; and it
+// must keep finding them as the boxes move on and the order is mended from the last step's.
+TEST(SweepAndPrune, FindsWhatBruteForceFindsInDenseAndSparseBandsAsBoxesMove) {
+  std::mt19937 rng(11);
+  for (int count : {0, 1, 2, 15, 16, 17, 33, 300, 1200}) {
+    for (float world : {2.0f, 40.0f}) {
+      std::vector<Aabb> boxes;
+      std::vector<ppe::BoxKind> kind;
+      std::vector<uint32_t> ids;
+      for (int i = 0; i < count; ++i) {
+        boxes.push_back(random_box(rng, world, 3.0f));
+        kind.push_back(rng() % 7 == 0 ? ppe::BoxKind::asleep : ppe::BoxKind::awake);
+        ids.push_back(uint32_t(i));
+      }
+      if (count >= 2) {  // two boxes that only touch, along every axis
+        boxes[1] = boxes[0];
+        boxes[1].min[count % 3] = boxes[0].max[count % 3];
+        boxes[1].max[count % 3] = boxes[0].max[count % 3] + 1.0f;
+        kind[0] = kind[1] = ppe::BoxKind::awake;
+      }
+      ppe::SweepAndPrune sap;
+      for (int step = 0; step < 3; ++step) {
+        std::vector<std::pair<uint32_t, uint32_t>> found, expected;
+        sap.find_pairs(boxes, kind, ids, found);
+        for (int i = 0; i < count; ++i)
+          for (int j = i + 1; j < count; ++j)
+            if (kind[i] == ppe::BoxKind::awake && kind[j] == ppe::BoxKind::awake && ppe::boxes_meet(boxes[i], boxes[j]))
+              expected.emplace_back(i, j);
+        std::sort(found.begin(), found.end());
+        ASSERT_EQ(found, expected) << count << " boxes in " << world << " m, step " << step;
+        if (count >= 2 && step == 0) {
+          EXPECT_TRUE(std::binary_search(found.begin(), found.end(), std::make_pair(0u, 1u)));
+        }
+        std::normal_distribution<float> move(0.0f, 0.2f * world);  // far enough to reorder
+        for (Aabb& b : boxes)
+          for (int k = 0; k < 3; ++k) {
+            const float d = move(rng);
+            b.min[k] += d, b.max[k] += d;
+          }
+      }
+    }
+  }
 }
 
 TEST(DormantPairs, AWokenBodyTakesBackEveryPairOfItsOnceAndNoOther) {

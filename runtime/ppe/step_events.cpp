@@ -166,7 +166,8 @@ void begin_events(const std::vector<WorldBody>& bodies, const ShapeDictionary& s
     while (at != touching.end() && *at < k) ++at;
     if (at == touching.end() || *at != k) out.candidates.push_back(candidate(bodies, s, contacts, t));
   }
-  std::sort(found.begin(), found.end());
+  // in pair order the keys ascend, so mostly there is nothing to sort
+  if (!std::is_sorted(found.begin(), found.end())) std::sort(found.begin(), found.end());
   std::vector<uint64_t>& resting = memory.resting_now;
   resting.clear();
   const auto aside = [&](uint64_t k) { return kept(bodies, k) && (resting.push_back(k), true); };

@@ -292,9 +292,12 @@ uint32_t count_offdiagonal_blocks(const IslandView& v, std::vector<uint64_t>& ke
   keys.clear();
   for_each_pair_instance(v, [&](int32_t a, int32_t b) {
     const uint32_t lo = static_cast<uint32_t>(std::min(a, b)), hi = static_cast<uint32_t>(std::max(a, b));
-    keys.push_back((uint64_t{lo} << 32) | hi);
+    const uint64_t key = (uint64_t{lo} << 32) | hi;
+    if (keys.empty() || keys.back() != key) keys.push_back(key);  // a pair's points come together
   });
-  std::sort(keys.begin(), keys.end());
+  // a pile's 60,000 contact points sorted one by one were 1.3% of its step; its pairs, packed
+  // in pair order, are mostly in order already
+  if (!std::is_sorted(keys.begin(), keys.end())) std::sort(keys.begin(), keys.end());
   return 2u * static_cast<uint32_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
 }
 

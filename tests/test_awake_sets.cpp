@@ -95,7 +95,7 @@ TEST(SweepAndPrune, FindsWhatBruteForceFindsInDenseAndSparseBandsAsBoxesMove) {
         kind.push_back(rng() % 7 == 0 ? ppe::BoxKind::asleep : ppe::BoxKind::awake);
         ids.push_back(uint32_t(i));
       }
-      if (count >= 2) {  // two boxes that only touch, along every axis
+      if (count >= 2) {  // two boxes that only touch (along x, y or z by the count)
         boxes[1] = boxes[0];
         boxes[1].min[count % 3] = boxes[0].max[count % 3];
         boxes[1].max[count % 3] = boxes[0].max[count % 3] + 1.0f;

@@ -3,7 +3,9 @@
 
 #include <Eigen/Dense>
 #include <limits>
+#include <cstring>
 #include <random>
+#include <vector>
 
 #include "cellphys/gen/block_ops.h"
 
@@ -149,6 +151,44 @@ TEST_F(BlockOps, JacobiInverseAgreesWithEigenOnDiagonalBlocksOfA) {
     const double eps = std::numeric_limits<float>::epsilon();
     EXPECT_LT(ours, 10.0 * kappa * eps) << "t=" << t << " kappa=" << kappa;
     expect_padding_zero(inv);
+  }
+}
+
+TEST_F(BlockOps, JacobiInverseEightAtOnceGivesEachBlockItsOwnBitsAndLeavesRefusedOnesAlone) {
+  // Lanes in place (Ainv[l] == A[l]) and into other blocks; among them a singular block, one
+  // with a NaN, one with an infinite entry, one whose determinant overflows and, last, idle
+  // lanes repeating a block.
+  for (int t = 0; t < 40; ++t) {
+    const int lanes = 1 + t % 8;
+    std::vector<Block> in(8), out(8, Block{}), alone(8, Block{});
+    std::vector<bool> expected(8);
+    for (int l = 0; l < 8; ++l) {
+      const Mat6 K = random_mat();
+      Mat6 A = Mat6::Identity() + std::pow(10.0f, float((t + l) % 5)) * (K * K.transpose()) + 0.1f * random_mat();
+      if ((t + l) % 7 == 3) A.topLeftCorner<3, 3>().setZero();
+      if ((t + l) % 11 == 5) A(4, 4) = std::numeric_limits<float>::quiet_NaN();
+      if ((t + l) % 13 == 6) A(1, 2) = std::numeric_limits<float>::infinity();
+      if ((t + l) % 17 == 8)  // its rotational 3x3 determinant overflows to +inf, not NaN
+        A.bottomRightCorner<3, 3>() += 1e13f * Eigen::Matrix3f::Identity();
+      in[l] = to_block(A);
+      expected[l] = block_jacobi_inverse(in[l].m, alone[l].m);
+    }
+    const bool in_place = t % 2 == 0;
+    std::vector<Block> before = in;
+    const float* a[8];
+    float* o[8];
+    for (int l = 0; l < 8; ++l) {
+      const int k = std::min(l, lanes - 1);
+      a[l] = in[k].m;
+      o[l] = in_place ? in[k].m : out[k].m;
+    }
+    const unsigned done = block_jacobi_inverse8(a, o);
+    for (int l = 0; l < lanes; ++l) {
+      ASSERT_EQ(bool(done >> l & 1u), bool(expected[l])) << "t=" << t << " lane " << l;
+      const Block& got = in_place ? in[l] : out[l];
+      const Block& want = expected[l] ? alone[l] : (in_place ? before[l] : Block{});
+      EXPECT_EQ(0, std::memcmp(got.m, want.m, sizeof got.m)) << "t=" << t << " lane " << l;
+    }
   }
 }
 

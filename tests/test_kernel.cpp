@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "cellphys/gen/block_ops.h"
+#include "runtime/spu/assembly.h"
 #include "runtime/spu/dma.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/kernel.h"
@@ -990,6 +992,46 @@ TEST(Result, HeaderStepsAndChecksumDescribeTheAdvancedBodies) {
                                  std::hypot(out.orientation[2], out.orientation[3]));
     EXPECT_NEAR(qn, 1.0, 1e-6);
   }
+}
+
+// The diagonal blocks' inverses eight to a lane group: every block inverted in place, one the
+// straight-line inverse refuses (its translational 3x3 is zero, the block is not singular)
+// by pivoting in its group, and a singular block refused.
+TEST(DiagonalInverses, EveryBlockInvertedInPlaceAndASingularOneRefused) {
+  using gen::kBlockFloats;
+  using gen::padded;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-0.2f, 0.2f);
+  constexpr int kCount = 11;  // a full group and three lanes of the next
+  struct alignas(32) Block {  // blocks are 32-byte aligned, as in the local store
+    float m[kBlockFloats];
+  };
+  std::vector<Block> blocks(kCount, Block{}), original;
+  for (int b = 0; b < kCount; ++b)
+    for (int c = 0; c < 6; ++c)
+      for (int r = 0; r < 6; ++r) {
+        float v = (r == c ? 1.0f : 0.0f) + u(rng);
+        if (b == 9) v = (r == (c + 3) % 6) ? (r < 3 ? 1.0f : 2.0f) : 0.0f;  // [[0 I] [2I 0]]: no 3x3 pivot
+        blocks[size_t(b)].m[8 * c + padded(r)] = v;
+      }
+  original = blocks;
+  std::vector<float*> ptrs;
+  for (Block& b : blocks) ptrs.push_back(b.m);
+  ASSERT_TRUE(spu::invert_blocks(ptrs.data(), kCount));
+  for (int b = 0; b < kCount; ++b) {
+    const float* A = original[size_t(b)].m;
+    const float* X = blocks[size_t(b)].m;
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j) {
+        double s = 0;
+        for (int k = 0; k < 6; ++k) s += double(A[8 * k + padded(i)]) * X[8 * j + padded(k)];
+        EXPECT_NEAR(s, i == j ? 1.0 : 0.0, 1e-5) << "block " << b << " (" << i << ", " << j << ")";
+      }
+  }
+  Block singular{};
+  singular.m[0] = 1.0f;  // rank one
+  float* one[1] = {singular.m};
+  EXPECT_FALSE(spu::invert_blocks(one, 1));
 }
 
 }  // namespace

@@ -79,7 +79,7 @@ def render(structs_dir, force_dirs, src_root):
                          setting=g.setting) for g in globals_]
     A, stages, inv, dets = block_ops.jacobi_inverse_stages()
     inv_code, inv_ops = statements.stages(stages, "j")
-    inv_out = [statements.Statement("output", "", f"Ainv[{8 * c + block_ops.padded_row(r)}]",
+    inv_out = [statements.Statement("output", "", f"o[{8 * c + block_ops.padded_row(r)}]",
                                     cxx_printer.cxx(inv[r, c])) for c in range(6) for r in range(6)]
 
     env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(src_root / "templates")),

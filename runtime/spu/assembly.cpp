@@ -110,17 +110,61 @@ bool build_structure(const IslandView& v, BlockStructure& s, int32_t* pairs, int
   return out == static_cast<int>(v.header->num_blocks);
 }
 
-bool scale_system(const BlockStructure& s, const W_Element* w, float h, float* diag_k, float* offdiag_k, float* rhs,
-                  float* p_out) {
-  alignas(32) float A[kBlockFloats], Dinv[kBlockFloats], W[kBlockFloats], P[kBlockFloats], T[kBlockFloats];
-  alignas(32) float g[kVecFloats];
-  for (int i = 0; i < s.n; ++i) {
-    const float* K = diag_k + kBlockFloats * i;
+void form_diagonal(int n, const W_Element* w, float* diag_k) {
+  alignas(32) float T[kBlockFloats], A[kBlockFloats];
+  for (int i = 0; i < n; ++i) {
+    float* K = diag_k + kBlockFloats * i;
     // A_ii = I - W_i K_ii
     w_mul_block(w[i].inverse_mass, w[i].inverse_inertia_world, K, T);
     block_identity(A);
     block_axpy(-1.0f, T, A);
-    if (!block_jacobi_inverse(A, Dinv) && !pivoting_inverse(A, Dinv)) return false;
+    std::memcpy(K, A, sizeof A);
+  }
+}
+
+void BlockInverter::add(float* block, bool* failed) {
+  blocks_[n_] = block;
+  failed_[n_] = failed;
+  if (++n_ == 8) flush();
+}
+
+void BlockInverter::flush() {
+  // the idle lanes of a last, partial group repeat its last block
+  if (n_ == 0) return;
+  float* group[8];
+  for (int l = 0; l < 8; ++l) group[l] = blocks_[std::min(l, n_ - 1)];
+  const unsigned done = block_jacobi_inverse8(group, group);
+  for (int l = 0; l < n_; ++l)
+    if (!(done >> l & 1u) && !pivoting_inverse(group[l], group[l])) *failed_[l] = true;
+  n_ = 0;
+}
+
+bool invert_blocks(float* const* blocks, int count) {
+  bool failed = false;
+  BlockInverter inv;
+  for (int k = 0; k < count; ++k) inv.add(blocks[k], &failed);
+  inv.flush();
+  return !failed;
+}
+
+bool scale_system(const BlockStructure& s, const W_Element* w, float h, float* diag_k, float* offdiag_k, float* rhs,
+                  float* p_out) {
+  form_diagonal(s.n, w, diag_k);
+  bool failed = false;
+  BlockInverter inv;
+  for (int i = 0; i < s.n; ++i) inv.add(diag_k + kBlockFloats * i, &failed);
+  inv.flush();
+  if (failed) return false;
+  scale_inverted(s, w, h, diag_k, offdiag_k, rhs, p_out);
+  return true;
+}
+
+void scale_inverted(const BlockStructure& s, const W_Element* w, float h, const float* dinv, float* offdiag_k,
+                    float* rhs, float* p_out) {
+  alignas(32) float W[kBlockFloats], P[kBlockFloats], T[kBlockFloats];
+  alignas(32) float g[kVecFloats];
+  for (int i = 0; i < s.n; ++i) {
+    const float* Dinv = dinv + kBlockFloats * i;
     // P_i = D_i^-1 W_i; row i of the scaled matrix: Â_ij = -P_i K_ij, b̂_i = h P_i g_i
     block_from_w(w[i].inverse_mass, w[i].inverse_inertia_world, W);
     block_mul_block(Dinv, W, P);
@@ -136,7 +180,6 @@ bool scale_system(const BlockStructure& s, const W_Element* w, float h, float* d
     for (int r = 0; r < kVecFloats; ++r) b[r] *= h;
     if (p_out) std::memcpy(p_out + kBlockFloats * i, P, sizeof P);
   }
-  return true;
 }
 
 void scale_rhs(int n, const float* p, const float* g, float* out) {

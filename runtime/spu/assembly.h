@@ -24,6 +24,30 @@ int count_pair_instances(const IslandView& v);
 bool scale_system(const BlockStructure& s, const gen::W_Element* w, float h, float* diag_k, float* offdiag_k,
                   float* rhs, float* p_out);
 
+/// The split scale_system makes, for callers that invert several islands' diagonal blocks in
+/// one pass: diag_k's blocks become A_ii = I - W_i K_ii in place (n of them) ...
+void form_diagonal(int n, const gen::W_Element* w, float* diag_k);
+
+/// ... each block becomes its inverse in place, eight at a time in SIMD lanes (blocks of any
+/// islands: each gets the bits it would alone), a block the straight-line inverse refuses by
+/// pivoting, and *failed is set for one that cannot be inverted ...
+class BlockInverter {
+ public:
+  void add(float* block, bool* failed);
+  void flush();  // the last, partial group
+
+ private:
+  float* blocks_[8] = {};
+  bool* failed_[8] = {};
+  int n_ = 0;
+};
+/// (all of `blocks`: false if one cannot be inverted) ...
+bool invert_blocks(float* const* blocks, int count);
+
+/// ... and the rows are scaled by them: what scale_system does after its inverses.
+void scale_inverted(const BlockStructure& s, const gen::W_Element* w, float h, const float* dinv, float* offdiag_k,
+                    float* rhs, float* p_out);
+
 /// b̂_i = P_i g_i for a later right-hand side in force units (Rosenbrock's second stage).
 void scale_rhs(int n, const float* p, const float* g, float* out);
 

@@ -150,10 +150,13 @@ bool step_implicit(StepContext& c, float h, bool split) {
   return finish_implicit(c, h, split);
 }
 
-bool finish_implicit(StepContext& c, float h, bool split) {
+namespace {
+
+// The solve for the step's velocity change and the commit of the new state (failing before
+// anything is written).
+bool solve_and_commit(StepContext& c, float h, bool split) {
   Workspace& ws = *c.ws;
   const IslandView& v = c.island;
-  if (!scale_system(ws.structure, ws.w, h, ws.diag, ws.blocks, ws.forces, nullptr)) return false;
   if (!run_solve(c, ws.forces, ws.x)) return false;
   // Pass 1: every body's new rotation into u0 (free now), failing before anything is written.
   for (int i = 0; i < ws.n; ++i) {
@@ -191,6 +194,27 @@ bool finish_implicit(StepContext& c, float h, bool split) {
   }
   return true;
 }
+
+}  // namespace
+
+bool finish_implicit(StepContext& c, float h, bool split) {
+  Workspace& ws = *c.ws;
+  if (!scale_system(ws.structure, ws.w, h, ws.diag, ws.blocks, ws.forces, nullptr)) return false;
+  return solve_and_commit(c, h, split);
+}
+
+void add_implicit_diagonal(StepContext& c, BlockInverter& inverter, bool* failed) {
+  Workspace& ws = *c.ws;
+  form_diagonal(ws.n, ws.w, ws.diag);
+  for (int i = 0; i < ws.n; ++i) inverter.add(ws.diag + kBlockFloats * i, failed);
+}
+
+bool finish_implicit_inverted(StepContext& c, float h, bool split) {
+  Workspace& ws = *c.ws;
+  scale_inverted(ws.structure, ws.w, h, ws.diag, ws.blocks, ws.forces, nullptr);
+  return solve_and_commit(c, h, split);
+}
+
 
 bool step_explicit(StepContext& c, float h, bool symplectic) {
   Workspace& ws = *c.ws;

@@ -2,6 +2,7 @@
 // succeeds and commits the new state into the island's bodies, or fails and leaves them
 // as they were; the kernel then halves the step.
 #pragma once
+#include "runtime/spu/assembly.h"
 #include "runtime/spu/krylov.h"
 #include "runtime/spu/workspace.h"
 
@@ -37,6 +38,11 @@ bool step_implicit(StepContext& c, float h, bool split);
 /// solve and commit. targets + evaluate_forces + finish is step_implicit, bit for bit.
 ForceTargets implicit_step_targets(StepContext& c, float h, bool split);
 bool finish_implicit(StepContext& c, float h, bool split);
+/// finish_implicit in two parts again, so that several islands' diagonal blocks are inverted
+/// in one pass of SIMD lane groups: the island's blocks given to the inverter (*failed set if
+/// one cannot be inverted), then, once it has flushed, the rest. Bit for bit finish_implicit.
+void add_implicit_diagonal(StepContext& c, BlockInverter& inverter, bool* failed);
+bool finish_implicit_inverted(StepContext& c, float h, bool split);
 /// ROS2 over h; *error receives the scaled local error estimate (<= 1 accepts). The state is
 /// committed only when the step succeeds and the error is acceptable.
 bool step_rosenbrock(StepContext& c, float h, float* error);

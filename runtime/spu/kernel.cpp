@@ -344,7 +344,7 @@ size_t ComputeWorker::together_end(size_t k, size_t count, const IslandReport* r
 void ComputeWorker::step_together(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports) {
   // Islands [begin_k, end_k) in the local store at once: each fetched, validated and given its
   // workspace; their first step's forces evaluated in one pass, SIMD lanes filled across
-  // islands; then each solved and committed alone. An island whose first step fails is stepped
+  // islands, and their diagonal blocks inverted likewise; then each solved and committed alone. An island whose first step fails is stepped
   // again alone, halving as step() would: every island's result is the bytes step() gives it.
   const size_t m = end_k - begin_k;
   ls_.reset();
@@ -375,11 +375,19 @@ void ComputeWorker::step_together(const IslandJob* jobs, size_t begin_k, size_t 
     ++ready;
   }
   evaluate_forces_together(force_jobs_.data(), static_cast<int>(ready), scratch);
+  // every island's diagonal blocks inverted in one pass, eight to a group of SIMD lanes
+  BlockInverter inverter;
+  for (size_t j = 0; j < m; ++j) {
+    Active& a = active_[j];
+    a.singular = false;
+    if (a.ready) add_implicit_diagonal(a.c, inverter, &a.singular);
+  }
+  inverter.flush();
   for (size_t j = 0; j < m; ++j) {
     const size_t k = begin_k + j;
     Active& a = active_[j];
     if (!a.ready) continue;
-    bool ok = finish_implicit(a.c, h, split);
+    bool ok = !a.singular && finish_implicit_inverted(a.c, h, split);
     if (ok) {
       reports[k].substeps += 1;
     } else {  // the same first step again, then its halves, as step() takes them

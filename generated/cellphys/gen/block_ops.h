@@ -5,6 +5,8 @@
 // Padding rows are kept zero by every operation.
 #pragma once
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 #include "runtime/base/simd.h"
 
@@ -260,48 +262,48 @@ inline void block_mul_block(const float* __restrict A, const float* __restrict B
   }
 }
 
-/// Ainv = A^-1 for a diagonal block (block-Jacobi preconditioner), by the Schur complement
-/// of the translational 3x3. Returns false when a 3x3 determinant is zero or not finite;
-/// the caller then uses a pivoting inverse. Total ops: 242
-inline bool block_jacobi_inverse(const float* __restrict A, float* __restrict Ainv) {
-  using S = float;
-  using namespace cellphys::simd;
-  const S a00 = A[0];
-  const S a10 = A[1];
-  const S a20 = A[2];
-  const S a30 = A[4];
-  const S a40 = A[5];
-  const S a50 = A[6];
-  const S a01 = A[8];
-  const S a11 = A[9];
-  const S a21 = A[10];
-  const S a31 = A[12];
-  const S a41 = A[13];
-  const S a51 = A[14];
-  const S a02 = A[16];
-  const S a12 = A[17];
-  const S a22 = A[18];
-  const S a32 = A[20];
-  const S a42 = A[21];
-  const S a52 = A[22];
-  const S a03 = A[24];
-  const S a13 = A[25];
-  const S a23 = A[26];
-  const S a33 = A[28];
-  const S a43 = A[29];
-  const S a53 = A[30];
-  const S a04 = A[32];
-  const S a14 = A[33];
-  const S a24 = A[34];
-  const S a34 = A[36];
-  const S a44 = A[37];
-  const S a54 = A[38];
-  const S a05 = A[40];
-  const S a15 = A[41];
-  const S a25 = A[42];
-  const S a35 = A[44];
-  const S a45 = A[45];
-  const S a55 = A[46];
+/// The inverse of a diagonal block by the Schur complement of its translational 3x3, for
+/// S = float or simd::Batch<8> (one block per lane): the same operations in the same order for
+/// both, so a lane's inverse has the bits of the block's alone. a and o are padded blocks
+/// (element (r, c) at 8c + padded(r)); o's padding is left as it is. Total ops: 242
+template <class S>
+inline void jacobi_inverse_of(const S* __restrict a, S* __restrict o, S& det_translation, S& det_schur) {
+  const S a00 = a[0];
+  const S a10 = a[1];
+  const S a20 = a[2];
+  const S a30 = a[4];
+  const S a40 = a[5];
+  const S a50 = a[6];
+  const S a01 = a[8];
+  const S a11 = a[9];
+  const S a21 = a[10];
+  const S a31 = a[12];
+  const S a41 = a[13];
+  const S a51 = a[14];
+  const S a02 = a[16];
+  const S a12 = a[17];
+  const S a22 = a[18];
+  const S a32 = a[20];
+  const S a42 = a[21];
+  const S a52 = a[22];
+  const S a03 = a[24];
+  const S a13 = a[25];
+  const S a23 = a[26];
+  const S a33 = a[28];
+  const S a43 = a[29];
+  const S a53 = a[30];
+  const S a04 = a[32];
+  const S a14 = a[33];
+  const S a24 = a[34];
+  const S a34 = a[36];
+  const S a44 = a[37];
+  const S a54 = a[38];
+  const S a05 = a[40];
+  const S a15 = a[41];
+  const S a25 = a[42];
+  const S a35 = a[44];
+  const S a45 = a[45];
+  const S a55 = a[46];
   const S j0_0 = (a11*a22);
   const S j0_1 = (a01*a12);
   const S j0_2 = (a12*a21);
@@ -361,46 +363,88 @@ inline bool block_jacobi_inverse(const float* __restrict A, float* __restrict Ai
   const S u_20 = ((a03*pi_20) + (a13*pi_21) + (a23*pi_22));
   const S u_21 = ((a04*pi_20) + (a14*pi_21) + (a24*pi_22));
   const S u_22 = ((a05*pi_20) + (a15*pi_21) + (a25*pi_22));
-  if (!(std::isfinite(pi_det) && std::isfinite(si_det) && pi_det != S(0) && si_det != S(0)))
-    return false;
-  block_zero(Ainv);
-  Ainv[0] = (pi_00 + (t_00*((si_00*u_00) + (si_10*u_01) + (si_20*u_02))) + (t_10*((si_01*u_00) + (si_11*u_01) + (si_21*u_02))) + (t_20*((si_02*u_00) + (si_12*u_01) + (si_22*u_02))));
-  Ainv[1] = (pi_10 + (t_00*((si_00*u_10) + (si_10*u_11) + (si_20*u_12))) + (t_10*((si_01*u_10) + (si_11*u_11) + (si_21*u_12))) + (t_20*((si_02*u_10) + (si_12*u_11) + (si_22*u_12))));
-  Ainv[2] = (pi_20 + (t_00*((si_00*u_20) + (si_10*u_21) + (si_20*u_22))) + (t_10*((si_01*u_20) + (si_11*u_21) + (si_21*u_22))) + (t_20*((si_02*u_20) + (si_12*u_21) + (si_22*u_22))));
-  Ainv[4] = ((-(si_00*t_00)) - (si_01*t_10) - (si_02*t_20));
-  Ainv[5] = ((-(si_10*t_00)) - (si_11*t_10) - (si_12*t_20));
-  Ainv[6] = ((-(si_20*t_00)) - (si_21*t_10) - (si_22*t_20));
-  Ainv[8] = (pi_01 + (t_01*((si_00*u_00) + (si_10*u_01) + (si_20*u_02))) + (t_11*((si_01*u_00) + (si_11*u_01) + (si_21*u_02))) + (t_21*((si_02*u_00) + (si_12*u_01) + (si_22*u_02))));
-  Ainv[9] = (pi_11 + (t_01*((si_00*u_10) + (si_10*u_11) + (si_20*u_12))) + (t_11*((si_01*u_10) + (si_11*u_11) + (si_21*u_12))) + (t_21*((si_02*u_10) + (si_12*u_11) + (si_22*u_12))));
-  Ainv[10] = (pi_21 + (t_01*((si_00*u_20) + (si_10*u_21) + (si_20*u_22))) + (t_11*((si_01*u_20) + (si_11*u_21) + (si_21*u_22))) + (t_21*((si_02*u_20) + (si_12*u_21) + (si_22*u_22))));
-  Ainv[12] = ((-(si_00*t_01)) - (si_01*t_11) - (si_02*t_21));
-  Ainv[13] = ((-(si_10*t_01)) - (si_11*t_11) - (si_12*t_21));
-  Ainv[14] = ((-(si_20*t_01)) - (si_21*t_11) - (si_22*t_21));
-  Ainv[16] = (pi_02 + (t_02*((si_00*u_00) + (si_10*u_01) + (si_20*u_02))) + (t_12*((si_01*u_00) + (si_11*u_01) + (si_21*u_02))) + (t_22*((si_02*u_00) + (si_12*u_01) + (si_22*u_02))));
-  Ainv[17] = (pi_12 + (t_02*((si_00*u_10) + (si_10*u_11) + (si_20*u_12))) + (t_12*((si_01*u_10) + (si_11*u_11) + (si_21*u_12))) + (t_22*((si_02*u_10) + (si_12*u_11) + (si_22*u_12))));
-  Ainv[18] = (pi_22 + (t_02*((si_00*u_20) + (si_10*u_21) + (si_20*u_22))) + (t_12*((si_01*u_20) + (si_11*u_21) + (si_21*u_22))) + (t_22*((si_02*u_20) + (si_12*u_21) + (si_22*u_22))));
-  Ainv[20] = ((-(si_00*t_02)) - (si_01*t_12) - (si_02*t_22));
-  Ainv[21] = ((-(si_10*t_02)) - (si_11*t_12) - (si_12*t_22));
-  Ainv[22] = ((-(si_20*t_02)) - (si_21*t_12) - (si_22*t_22));
-  Ainv[24] = ((-(si_00*u_00)) - (si_10*u_01) - (si_20*u_02));
-  Ainv[25] = ((-(si_00*u_10)) - (si_10*u_11) - (si_20*u_12));
-  Ainv[26] = ((-(si_00*u_20)) - (si_10*u_21) - (si_20*u_22));
-  Ainv[28] = si_00;
-  Ainv[29] = si_10;
-  Ainv[30] = si_20;
-  Ainv[32] = ((-(si_01*u_00)) - (si_11*u_01) - (si_21*u_02));
-  Ainv[33] = ((-(si_01*u_10)) - (si_11*u_11) - (si_21*u_12));
-  Ainv[34] = ((-(si_01*u_20)) - (si_11*u_21) - (si_21*u_22));
-  Ainv[36] = si_01;
-  Ainv[37] = si_11;
-  Ainv[38] = si_21;
-  Ainv[40] = ((-(si_02*u_00)) - (si_12*u_01) - (si_22*u_02));
-  Ainv[41] = ((-(si_02*u_10)) - (si_12*u_11) - (si_22*u_12));
-  Ainv[42] = ((-(si_02*u_20)) - (si_12*u_21) - (si_22*u_22));
-  Ainv[44] = si_02;
-  Ainv[45] = si_12;
-  Ainv[46] = si_22;
+  det_translation = pi_det;
+  det_schur = si_det;
+  o[0] = (pi_00 + (t_00*((si_00*u_00) + (si_10*u_01) + (si_20*u_02))) + (t_10*((si_01*u_00) + (si_11*u_01) + (si_21*u_02))) + (t_20*((si_02*u_00) + (si_12*u_01) + (si_22*u_02))));
+  o[1] = (pi_10 + (t_00*((si_00*u_10) + (si_10*u_11) + (si_20*u_12))) + (t_10*((si_01*u_10) + (si_11*u_11) + (si_21*u_12))) + (t_20*((si_02*u_10) + (si_12*u_11) + (si_22*u_12))));
+  o[2] = (pi_20 + (t_00*((si_00*u_20) + (si_10*u_21) + (si_20*u_22))) + (t_10*((si_01*u_20) + (si_11*u_21) + (si_21*u_22))) + (t_20*((si_02*u_20) + (si_12*u_21) + (si_22*u_22))));
+  o[4] = ((-(si_00*t_00)) - (si_01*t_10) - (si_02*t_20));
+  o[5] = ((-(si_10*t_00)) - (si_11*t_10) - (si_12*t_20));
+  o[6] = ((-(si_20*t_00)) - (si_21*t_10) - (si_22*t_20));
+  o[8] = (pi_01 + (t_01*((si_00*u_00) + (si_10*u_01) + (si_20*u_02))) + (t_11*((si_01*u_00) + (si_11*u_01) + (si_21*u_02))) + (t_21*((si_02*u_00) + (si_12*u_01) + (si_22*u_02))));
+  o[9] = (pi_11 + (t_01*((si_00*u_10) + (si_10*u_11) + (si_20*u_12))) + (t_11*((si_01*u_10) + (si_11*u_11) + (si_21*u_12))) + (t_21*((si_02*u_10) + (si_12*u_11) + (si_22*u_12))));
+  o[10] = (pi_21 + (t_01*((si_00*u_20) + (si_10*u_21) + (si_20*u_22))) + (t_11*((si_01*u_20) + (si_11*u_21) + (si_21*u_22))) + (t_21*((si_02*u_20) + (si_12*u_21) + (si_22*u_22))));
+  o[12] = ((-(si_00*t_01)) - (si_01*t_11) - (si_02*t_21));
+  o[13] = ((-(si_10*t_01)) - (si_11*t_11) - (si_12*t_21));
+  o[14] = ((-(si_20*t_01)) - (si_21*t_11) - (si_22*t_21));
+  o[16] = (pi_02 + (t_02*((si_00*u_00) + (si_10*u_01) + (si_20*u_02))) + (t_12*((si_01*u_00) + (si_11*u_01) + (si_21*u_02))) + (t_22*((si_02*u_00) + (si_12*u_01) + (si_22*u_02))));
+  o[17] = (pi_12 + (t_02*((si_00*u_10) + (si_10*u_11) + (si_20*u_12))) + (t_12*((si_01*u_10) + (si_11*u_11) + (si_21*u_12))) + (t_22*((si_02*u_10) + (si_12*u_11) + (si_22*u_12))));
+  o[18] = (pi_22 + (t_02*((si_00*u_20) + (si_10*u_21) + (si_20*u_22))) + (t_12*((si_01*u_20) + (si_11*u_21) + (si_21*u_22))) + (t_22*((si_02*u_20) + (si_12*u_21) + (si_22*u_22))));
+  o[20] = ((-(si_00*t_02)) - (si_01*t_12) - (si_02*t_22));
+  o[21] = ((-(si_10*t_02)) - (si_11*t_12) - (si_12*t_22));
+  o[22] = ((-(si_20*t_02)) - (si_21*t_12) - (si_22*t_22));
+  o[24] = ((-(si_00*u_00)) - (si_10*u_01) - (si_20*u_02));
+  o[25] = ((-(si_00*u_10)) - (si_10*u_11) - (si_20*u_12));
+  o[26] = ((-(si_00*u_20)) - (si_10*u_21) - (si_20*u_22));
+  o[28] = si_00;
+  o[29] = si_10;
+  o[30] = si_20;
+  o[32] = ((-(si_01*u_00)) - (si_11*u_01) - (si_21*u_02));
+  o[33] = ((-(si_01*u_10)) - (si_11*u_11) - (si_21*u_12));
+  o[34] = ((-(si_01*u_20)) - (si_11*u_21) - (si_21*u_22));
+  o[36] = si_01;
+  o[37] = si_11;
+  o[38] = si_21;
+  o[40] = ((-(si_02*u_00)) - (si_12*u_01) - (si_22*u_02));
+  o[41] = ((-(si_02*u_10)) - (si_12*u_11) - (si_22*u_12));
+  o[42] = ((-(si_02*u_20)) - (si_12*u_21) - (si_22*u_22));
+  o[44] = si_02;
+  o[45] = si_12;
+  o[46] = si_22;
+}
+
+/// Ainv = A^-1 for a diagonal block (block-Jacobi preconditioner). Returns false, writing
+/// nothing, when a 3x3 determinant is zero or not finite; the caller then uses a pivoting inverse.
+inline bool block_jacobi_inverse(const float* __restrict A, float* __restrict Ainv) {
+  alignas(32) float o[kBlockFloats] = {};
+  float d0, d1;
+  jacobi_inverse_of(A, o, d0, d1);
+  if (!(std::isfinite(d0) && std::isfinite(d1) && d0 != 0.0f && d1 != 0.0f)) return false;
+  std::memcpy(Ainv, o, sizeof o);
   return true;
+}
+
+/// block_jacobi_inverse of eight blocks at once, one per SIMD lane, each to the bits the
+/// one-block call gives it. Lane l reads A[l] and, when its 3x3 determinants are finite and
+/// non-zero, writes Ainv[l] (which may be A[l]); its bit in the result says so. A lane not
+/// written keeps its A for the caller's pivoting inverse. Pointers may repeat (idle lanes).
+inline unsigned block_jacobi_inverse8(const float* const A[8], float* const Ainv[8]) {
+  using S = cellphys::simd::Batch<8>;
+  using namespace cellphys::simd;
+  // the lanes' columns c transposed: element (r, c) of every lane in one Batch
+  alignas(32) float tile[64];
+  S a[kBlockFloats], o[kBlockFloats];  // o's padding rows stay zero
+  for (int c = 0; c < 6; ++c) {
+    const float* rows[8];
+    for (int l = 0; l < 8; ++l) rows[l] = A[l] + 8 * c;
+    transpose8(rows, tile);
+    for (int p = 0; p < 8; ++p) a[8 * c + p] = S::load(tile + 8 * p);
+  }
+  S d0, d1;
+  jacobi_inverse_of(a, o, d0, d1);
+  // std::isfinite(d) && d != 0, lane by lane: |d| < inf and |d| > 0 (both false for NaN)
+  const S inf(std::numeric_limits<float>::infinity());
+  const Mask<8> ok = (abs(d0) < inf) & (abs(d0) > S(0)) & (abs(d1) < inf) & (abs(d1) > S(0));
+  unsigned written = 0;
+  for (int l = 0; l < 8; ++l) written |= unsigned(ok[l]) << l;
+  for (int c = 0; c < 6; ++c) {
+    const float* rows[8];
+    for (int p = 0; p < 8; ++p) rows[p] = reinterpret_cast<const float*>(&o[8 * c + p]);
+    transpose8(rows, tile);  // lane l's column c at tile + 8 l
+    for (int l = 0; l < 8; ++l)
+      if (written >> l & 1u) std::memcpy(Ainv[l] + 8 * c, tile + 8 * l, 8 * sizeof(float));
+  }
+  return written;
 }
 
 }  // namespace cellphys::gen

@@ -168,8 +168,9 @@ bool solve_and_commit(StepContext& c, float h, bool split) {
     Vec3d w1;
     if (split && !(b.flags & kBodyTurnsByKick)) {
       // the kick changes angular momentum; the drift conserves it exactly
-      const Vec3d L = mul(rotate_sym(quat_to_matrix(q0), b.inertia_body), w_kick);
-      if (!free_rotation(q0, L, b.inertia_body, b.inverse_inertia_body, h, &q1, &w1)) return false;
+      const Mat3d R0 = quat_to_matrix(q0);
+      const Vec3d L = mul(rotate_sym(R0, b.inertia_body), w_kick);
+      if (!free_rotation(q0, R0, L, b.inverse_inertia_body, h, &q1, &w1)) return false;
     } else {
       w1 = w_kick;
       q1 = advance_orientation(q0, w1, h);

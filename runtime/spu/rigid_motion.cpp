@@ -34,11 +34,9 @@ Quatd advance_orientation(const Quatd& q, const Vec3d& w, double h) {
   return quat_normalized(quat_mul(quat_exp(w * h), q));
 }
 
-bool free_rotation(const Quatd& q0, const Vec3d& L, const float* inertia_body, const float* inverse_inertia_body,
-                   double h, Quatd* q1, Vec3d* omega1) {
-  const Mat3d R0 = quat_to_matrix(q0);
+bool free_rotation(const Quatd& q0, const Mat3d& R0, const Vec3d& L, const float* inverse_inertia_body, double h,
+                   Quatd* q1, Vec3d* omega1) {
   const Mat3d Iinv = symmetric<double>(inverse_inertia_body);
-  (void)inertia_body;
   const Vec3d Lb = mul_transpose(R0, L);  // body-frame momentum
   // Fixed point on the midpoint body rate: w = I^-1 (Lb + Lb') / 2 with Lb' = cay(-h w) Lb.
   Vec3d w = mul(Iinv, Lb), Lb1 = Lb;

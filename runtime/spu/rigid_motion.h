@@ -22,7 +22,8 @@ Quatd advance_orientation(const Quatd& q, const Vec3d& w, double h);
 /// rotation. |L| and the kinetic energy are conserved to the fixed-point tolerance, and the
 /// world momentum L is unchanged. Returns false if the fixed point does not converge
 /// (the caller halves the step).
-bool free_rotation(const Quatd& q0, const Vec3d& L, const float* inertia_body, const float* inverse_inertia_body,
-                   double h, Quatd* q1, Vec3d* omega1);
+/// R0 is quat_to_matrix(q0), which the caller has already made.
+bool free_rotation(const Quatd& q0, const Mat3d& R0, const Vec3d& L, const float* inverse_inertia_body, double h,
+                   Quatd* q1, Vec3d* omega1);
 
 }  // namespace cellphys::spu

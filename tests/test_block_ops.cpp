@@ -2,8 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
-#include <limits>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <vector>
 

@@ -152,8 +152,7 @@ bool step_implicit(StepContext& c, float h, bool split) {
 
 namespace {
 
-// The solve for the step's velocity change and the commit of the new state (failing before
-// anything is written).
+// The solve for the step's velocity change, then the new state committed (or nothing written).
 bool solve_and_commit(StepContext& c, float h, bool split) {
   Workspace& ws = *c.ws;
   const IslandView& v = c.island;
@@ -215,7 +214,6 @@ bool finish_implicit_inverted(StepContext& c, float h, bool split) {
   scale_inverted(ws.structure, ws.w, h, ws.diag, ws.blocks, ws.forces, nullptr);
   return solve_and_commit(c, h, split);
 }
-
 
 bool step_explicit(StepContext& c, float h, bool symplectic) {
   Workspace& ws = *c.ws;

@@ -344,8 +344,9 @@ size_t ComputeWorker::together_end(size_t k, size_t count, const IslandReport* r
 void ComputeWorker::step_together(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports) {
   // Islands [begin_k, end_k) in the local store at once: each fetched, validated and given its
   // workspace; their first step's forces evaluated in one pass, SIMD lanes filled across
-  // islands, and their diagonal blocks inverted likewise; then each solved and committed alone. An island whose first step fails is stepped
-  // again alone, halving as step() would: every island's result is the bytes step() gives it.
+  // islands, and their diagonal blocks inverted likewise; then each solved and committed
+  // alone. An island whose first step fails is stepped again alone, halving as step() would:
+  // every island's result is the bytes step() gives it.
   const size_t m = end_k - begin_k;
   ls_.reset();
   ls_.reset_peak();

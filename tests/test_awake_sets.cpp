@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -122,6 +123,32 @@ TEST(SweepAndPrune, FindsWhatBruteForceFindsInDenseAndSparseBandsAsBoxesMove) {
           }
       }
     }
+  }
+}
+
+// A box that reaches to +inf (a body flung to infinity, as a damaged snapshot can hold) is in
+// every later box's band: the sweep stops at the last box, not in the padding after it.
+TEST(SweepAndPrune, ABoxReachingInfinityMeetsTheBoxesAfterItAndNothingPastTheLast) {
+  std::mt19937 rng(5);
+  const float inf = std::numeric_limits<float>::infinity();
+  for (int count : {1, 2, 5, 16, 17, 40}) {
+    std::vector<Aabb> boxes;
+    std::vector<ppe::BoxKind> kind(size_t(count), ppe::BoxKind::awake);
+    std::vector<uint32_t> ids;
+    for (int i = 0; i < count; ++i) {
+      boxes.push_back(random_box(rng, 4.0f, 1.0f));
+      if (i % 3 == 0)
+        for (int k = 0; k < 3; ++k) boxes.back().max[k] = inf;
+      ids.push_back(uint32_t(i));
+    }
+    ppe::SweepAndPrune sap;
+    std::vector<std::pair<uint32_t, uint32_t>> found, expected;
+    sap.find_pairs(boxes, kind, ids, found);
+    for (int i = 0; i < count; ++i)
+      for (int j = i + 1; j < count; ++j)
+        if (ppe::boxes_meet(boxes[i], boxes[j])) expected.emplace_back(i, j);
+    std::sort(found.begin(), found.end());
+    EXPECT_EQ(found, expected) << count << " boxes";
   }
 }
 

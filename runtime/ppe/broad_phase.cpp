@@ -123,9 +123,14 @@ void SweepAndPrune::find_pairs(const std::vector<Aabb>& boxes, const std::vector
   }
   for (size_t i = 0; i < n; ++i) {
     const SweptBox A = swept_.box(i);
-    for (size_t j = i + 1;; j += SweptBoxes::kBlock) {
+    for (size_t j = i + 1; j < n; j += SweptBoxes::kBlock) {
       uint32_t in_band = 0;
       uint32_t hits = swept_.hits(j, A, &in_band);
+      if (n - j < SweptBoxes::kBlock) {  // the last block: its padding is past every finite band,
+        const uint32_t boxes_left = (1u << (n - j)) - 1;  // not past a box reaching to +inf
+        hits &= boxes_left;
+        in_band &= boxes_left;
+      }
       for (; hits; hits &= hits - 1) {
         const uint32_t a = order_[i], b = order_[j + uint32_t(__builtin_ctz(hits))];
         pairs.emplace_back(std::min(a, b), std::max(a, b));

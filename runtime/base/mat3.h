@@ -33,10 +33,9 @@ Mat3<T> symmetric(const S* s) {
   return {{{T(s[0]), T(s[3]), T(s[4])}, {T(s[3]), T(s[1]), T(s[5])}, {T(s[4]), T(s[5]), T(s[2])}}};
 }
 
-/// R S R^T for a symmetric S given as xx yy zz xy xz yz.
-template <class T, class S>
-Mat3<T> rotate_sym(const Mat3<T>& R, const S* s6) {
-  const Mat3<T> S3 = symmetric<T>(s6);
+/// R S R^T for a symmetric S.
+template <class T>
+Mat3<T> rotate_sym_matrix(const Mat3<T>& R, const Mat3<T>& S3) {
   Mat3<T> RS{}, out{};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
@@ -45,6 +44,12 @@ Mat3<T> rotate_sym(const Mat3<T>& R, const S* s6) {
     for (int j = 0; j < 3; ++j)
       for (int k = 0; k < 3; ++k) out.m[i][j] += RS.m[i][k] * R.m[j][k];
   return out;
+}
+
+/// R S R^T for a symmetric S given as xx yy zz xy xz yz.
+template <class T, class S>
+Mat3<T> rotate_sym(const Mat3<T>& R, const S* s6) {
+  return rotate_sym_matrix(R, symmetric<T>(s6));
 }
 
 }  // namespace cellphys

@@ -31,7 +31,8 @@ Quat<T> quat_mul(const Quat<T>& a, const Quat<T>& b) {
 
 template <class T>
 T norm(const Quat<T>& q) {
-  return std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  using std::sqrt;  // and a lane type's own (double_lanes.h)
+  return sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
 }
 
 template <class T>

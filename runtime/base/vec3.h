@@ -65,7 +65,8 @@ T squared_norm(const Vec3<T>& a) {
 }
 template <class T>
 T norm(const Vec3<T>& a) {
-  return std::sqrt(dot(a, a));
+  using std::sqrt;  // and a lane type's own (double_lanes.h)
+  return sqrt(dot(a, a));
 }
 
 /// Componentwise std::min and std::max (a box's corners).

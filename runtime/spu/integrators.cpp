@@ -150,39 +150,55 @@ bool step_implicit(StepContext& c, float h, bool split) {
   return finish_implicit(c, h, split);
 }
 
-namespace {
-
-// The solve for the step's velocity change, then the new state committed (or nothing written).
-bool solve_and_commit(StepContext& c, float h, bool split) {
-  Workspace& ws = *c.ws;
-  const IslandView& v = c.island;
-  if (!run_solve(c, ws.forces, ws.x)) return false;
-  // Pass 1: every body's new rotation into u0 (free now), failing before anything is written.
-  for (int i = 0; i < ws.n; ++i) {
-    const Rigid_Body& b = v.bodies[i];
-    const float* du = ws.x + kVecFloats * i;
-    const Quatd q0 = orientation(b);
-    const Vec3d w_kick = Vec3d::load(b.angular_velocity) + ang(du);
-    Quatd q1;
-    Vec3d w1;
-    if (split && !(b.flags & kBodyTurnsByKick)) {
-      // the kick changes angular momentum; the drift conserves it exactly
-      const Mat3d R0 = quat_to_matrix(q0);
-      const Vec3d L = mul(rotate_sym(R0, b.inertia_body), w_kick);
-      if (!free_rotation(q0, R0, L, b.inverse_inertia_body, h, &q1, &w1)) return false;
-    } else {
-      w1 = w_kick;
-      q1 = advance_orientation(q0, w1, h);
-    }
-    if (h * (norm(w1) - norm(Vec3d::load(b.angular_velocity))) > kMaxAddedTurn) return false;
-    float* tmp = ws.u0 + kVecFloats * i;
-    tmp[0] = float(q1.w), tmp[1] = float(q1.x), tmp[2] = float(q1.y), tmp[3] = float(q1.z);
-    tmp[4] = float(w1.x), tmp[5] = float(w1.y), tmp[6] = float(w1.z), tmp[7] = 0.0f;
-    if (!finite8(tmp)) return false;
+void KickRotations::add(StepContext& c, int i, float h, bool split, bool* failed) {
+  const Rigid_Body& b = c.island.bodies[i];
+  const Vec3d w_kick = Vec3d::load(b.angular_velocity) + ang(c.ws->x + kVecFloats * i);
+  // the kick changes angular momentum; the drift conserves it exactly
+  if (split && !(b.flags & kBodyTurnsByKick)) {
+    if (n_ > 0 && h != h_) flush();
+    h_ = h;
+    items_[n_] = {&c, i, failed};
+    bodies_[n_] = &b;
+    w_kick_[n_] = w_kick;
+    if (++n_ == kLanes) flush();
+    return;
   }
-  // Pass 2: commit.
+  put(c, i, h, advance_orientation(orientation(b), w_kick, h), w_kick, failed);
+}
+
+void KickRotations::flush() {
+  if (n_ == 0) return;
+  Quatd q1[kLanes];
+  Vec3d w1[kLanes];
+  bool ok[kLanes];
+  kicked_free_rotations(bodies_, w_kick_, n_, h_, q1, w1, ok);
+  for (int l = 0; l < n_; ++l) {
+    if (ok[l]) put(*items_[l].c, items_[l].body, h_, q1[l], w1[l], items_[l].failed);
+    else *items_[l].failed = true;
+  }
+  n_ = 0;
+}
+
+void KickRotations::put(StepContext& c, int i, float h, const Quatd& q1, const Vec3d& w1, bool* failed) {
+  const Rigid_Body& b = c.island.bodies[i];
+  if (h * (norm(w1) - norm(Vec3d::load(b.angular_velocity))) > kMaxAddedTurn) {
+    *failed = true;
+    return;
+  }
+  float* tmp = c.ws->u0 + kVecFloats * i;
+  tmp[0] = float(q1.w), tmp[1] = float(q1.x), tmp[2] = float(q1.y), tmp[3] = float(q1.z);
+  tmp[4] = float(w1.x), tmp[5] = float(w1.y), tmp[6] = float(w1.z), tmp[7] = 0.0f;
+  if (!finite8(tmp)) *failed = true;
+}
+
+void add_kick_rotations(StepContext& c, KickRotations& rotations, float h, bool split, bool* failed) {
+  for (int i = 0; i < c.ws->n; ++i) rotations.add(c, i, h, split, failed);
+}
+
+void commit_step(StepContext& c, float h) {
+  Workspace& ws = *c.ws;
   for (int i = 0; i < ws.n; ++i) {
-    Rigid_Body& b = v.bodies[i];
+    Rigid_Body& b = c.island.bodies[i];
     const float* du = ws.x + kVecFloats * i;
     const float* tmp = ws.u0 + kVecFloats * i;
     for (int k = 0; k < 3; ++k) {
@@ -192,6 +208,20 @@ bool solve_and_commit(StepContext& c, float h, bool split) {
     }
     std::memcpy(b.orientation, tmp, 16);
   }
+}
+
+namespace {
+
+// The solve for the step's velocity change, then the new state committed (or nothing written):
+// every body's new rotation into u0 (free now), failing before anything is written, then the commit.
+bool solve_and_commit(StepContext& c, float h, bool split) {
+  if (!run_solve(c, c.ws->forces, c.ws->x)) return false;
+  KickRotations rotations;
+  bool failed = false;
+  add_kick_rotations(c, rotations, h, split, &failed);
+  rotations.flush();
+  if (failed) return false;
+  commit_step(c, h);
   return true;
 }
 
@@ -209,10 +239,10 @@ void add_implicit_diagonal(StepContext& c, BlockInverter& inverter, bool* failed
   for (int i = 0; i < ws.n; ++i) inverter.add(ws.diag + kBlockFloats * i, failed);
 }
 
-bool finish_implicit_inverted(StepContext& c, float h, bool split) {
+bool solve_inverted(StepContext& c, float h) {
   Workspace& ws = *c.ws;
   scale_inverted(ws.structure, ws.w, h, ws.diag, ws.blocks, ws.forces, nullptr);
-  return solve_and_commit(c, h, split);
+  return run_solve(c, ws.forces, ws.x);
 }
 
 bool step_explicit(StepContext& c, float h, bool symplectic) {

@@ -2,6 +2,7 @@
 // succeeds and commits the new state into the island's bodies, or fails and leaves them
 // as they were; the kernel then halves the step.
 #pragma once
+#include "runtime/base/quat.h"
 #include "runtime/spu/assembly.h"
 #include "runtime/spu/krylov.h"
 #include "runtime/spu/workspace.h"
@@ -38,11 +39,41 @@ bool step_implicit(StepContext& c, float h, bool split);
 /// solve and commit. targets + evaluate_forces + finish is step_implicit, bit for bit.
 ForceTargets implicit_step_targets(StepContext& c, float h, bool split);
 bool finish_implicit(StepContext& c, float h, bool split);
-/// finish_implicit in two parts again, so that several islands' diagonal blocks are inverted
-/// in one pass of SIMD lane groups: the island's blocks given to the inverter (*failed set if
-/// one cannot be inverted), then, once it has flushed, the rest. Bit for bit finish_implicit.
+
+/// The commit's first half for bodies of one island or several: each body's new orientation
+/// and angular velocity from the solve's velocity change (into the workspace's u0), the free
+/// rotations eight at a time in SIMD lanes (kicked_free_rotations). *failed is set for a
+/// body whose rotation does not converge, turns too far or is not finite; nothing is written
+/// to the bodies.
+class KickRotations {
+ public:
+  void add(StepContext& c, int body, float h, bool split, bool* failed);
+  void flush();  // the last, partial group
+
+ private:
+  static constexpr int kLanes = 8;
+  struct Item {
+    StepContext* c;
+    int body;
+    bool* failed;
+  };
+  static void put(StepContext& c, int body, float h, const Quatd& q1, const Vec3d& w1, bool* failed);
+  Item items_[kLanes] = {};
+  const gen::Rigid_Body* bodies_[kLanes] = {};
+  Vec3d w_kick_[kLanes] = {};
+  float h_ = 0.0f;
+  int n_ = 0;
+};
+
+/// finish_implicit in parts, so that several islands' diagonal blocks are inverted, and their
+/// bodies' rotations committed, in shared SIMD lane groups: the island's blocks given to the
+/// inverter (*failed set if one cannot be inverted); once it has flushed, the scaling and the
+/// solve (false: the solve failed); the island's bodies given to the rotations; once they
+/// have flushed and none failed, the commit. Bit for bit finish_implicit.
 void add_implicit_diagonal(StepContext& c, BlockInverter& inverter, bool* failed);
-bool finish_implicit_inverted(StepContext& c, float h, bool split);
+bool solve_inverted(StepContext& c, float h);
+void add_kick_rotations(StepContext& c, KickRotations& rotations, float h, bool split, bool* failed);
+void commit_step(StepContext& c, float h);
 /// ROS2 over h; *error receives the scaled local error estimate (<= 1 accepts). The state is
 /// committed only when the step succeeds and the error is acceptable.
 bool step_rosenbrock(StepContext& c, float h, float* error);

@@ -344,9 +344,10 @@ size_t ComputeWorker::together_end(size_t k, size_t count, const IslandReport* r
 void ComputeWorker::step_together(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports) {
   // Islands [begin_k, end_k) in the local store at once: each fetched, validated and given its
   // workspace; their first step's forces evaluated in one pass, SIMD lanes filled across
-  // islands, and their diagonal blocks inverted likewise; then each solved and committed
-  // alone. An island whose first step fails is stepped again alone, halving as step() would:
-  // every island's result is the bytes step() gives it.
+  // islands, and their diagonal blocks inverted likewise; each solved alone; their bodies'
+  // rotations in shared lanes again; then each committed. An island whose first step fails is
+  // stepped again alone, halving as step() would: every island's result is the bytes step()
+  // gives it.
   const size_t m = end_k - begin_k;
   ls_.reset();
   ls_.reset_peak();
@@ -384,12 +385,22 @@ void ComputeWorker::step_together(const IslandJob* jobs, size_t begin_k, size_t 
     if (a.ready) add_implicit_diagonal(a.c, inverter, &a.singular);
   }
   inverter.flush();
+  // every island solved, then all their bodies' rotations in one pass, eight to a group of SIMD lanes
+  KickRotations rotations;
+  for (size_t j = 0; j < m; ++j) {
+    Active& a = active_[j];
+    if (!a.ready) continue;
+    a.failed = a.singular || !solve_inverted(a.c, h);
+    if (!a.failed) add_kick_rotations(a.c, rotations, h, split, &a.failed);
+  }
+  rotations.flush();
   for (size_t j = 0; j < m; ++j) {
     const size_t k = begin_k + j;
     Active& a = active_[j];
     if (!a.ready) continue;
-    bool ok = !a.singular && finish_implicit_inverted(a.c, h, split);
+    bool ok = !a.failed;
     if (ok) {
+      commit_step(a.c, h);
       reports[k].substeps += 1;
     } else {  // the same first step again, then its halves, as step() takes them
       a.c.counters = IntegrationCounters{};

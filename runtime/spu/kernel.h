@@ -77,6 +77,7 @@ class ComputeWorker {
     size_t mark = 0;
     bool ready = false;
     bool singular = false;  // a diagonal block of its first step could not be inverted
+    bool failed = false;    // its first step failed (singular, solve or rotation): stepped again alone
   };
   bool plan(const IslandJob& job, Plan& p, IslandReport& r);
   bool begin(const IslandJob& job, const Plan& p, unsigned char* in, unsigned char* out, IslandReport& r, Active& a);

@@ -26,4 +26,11 @@ Quatd advance_orientation(const Quatd& q, const Vec3d& w, double h);
 bool free_rotation(const Quatd& q0, const Mat3d& R0, const Vec3d& L, const float* inverse_inertia_body, double h,
                    Quatd* q1, Vec3d* omega1);
 
+/// The free rotation of up to eight bodies (count, 1 to 8) at once, each in a SIMD lane, after
+/// a kick took its angular velocity to w_kick[k]: from orientation q0 and momentum
+/// L = I(q0) w_kick, as the default integrator commits a step. ok[k] false where
+/// free_rotation would return false; otherwise q1[k] and omega1[k] have its bits.
+void kicked_free_rotations(const gen::Rigid_Body* const* bodies, const Vec3d* w_kick, int count, double h, Quatd* q1,
+                           Vec3d* omega1, bool* ok);
+
 }  // namespace cellphys::spu

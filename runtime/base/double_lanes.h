@@ -54,7 +54,6 @@ struct LaneMask {
   DoubleLanes::RawMask m;
   bool operator[](int k) const { return m[k] != 0; }
   friend LaneMask operator|(LaneMask a, LaneMask b) { return {a.m | b.m}; }
-  friend LaneMask operator!(LaneMask a) { return {~a.m}; }
 };
 inline LaneMask operator<=(DoubleLanes a, DoubleLanes b) { return {a.v <= b.v}; }
 inline LaneMask lanes_where(const bool (&b)[DoubleLanes::kLanes]) {

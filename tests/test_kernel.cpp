@@ -793,12 +793,26 @@ Bytes spring_line(std::mt19937& rng, int n) {
   return ib.finish();
 }
 
+// A brick spun so fast (hundreds of rad/s) that its free rotation's fixed point does not
+// converge at the full step: the island's first step fails in the commit's rotation, with its
+// lanes shared with other islands' bodies, and is halved.
+Bytes spinning_brick(std::mt19937& rng) {
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  IslandBuilder ib;
+  Rigid_Body_Fields b = make_box(1.0 + 4.0 * U(rng), 0.4, 0.1, 0.2);
+  for (int k = 0; k < 3; ++k) b.angular_velocity[k] = float(300 * (2 * U(rng) - 1));
+  ib.add_body(b);
+  ib.add_global(gen::ForceType::gravity);
+  return ib.finish();
+}
+
 TEST(Determinism, SmallIslandsSteppedTogetherGiveTheBytesEachGetsAlone) {
   // step_batch integrates runs of small implicit islands together, their one-body kernels'
   // SIMD lanes filled across islands (kernel.h): every island's result must be the bytes it
   // gets alone. Boxes on the ground, two-box contact islands, spring islands and lines of 2-14 bodies,
-  // chains whose first step fails and halves, on both implicit integrators, with a malformed
-  // island and a Runge-Kutta one breaking the runs.
+  // chains whose first step fails in the solve and halves, bricks whose first step fails in the
+  // rotation and halves, on both implicit integrators, with a malformed island and a
+  // Runge-Kutta one breaking the runs.
   std::mt19937 rng(23);
   std::vector<Bytes> images;
   for (int k = 0; k < 60; ++k) {
@@ -808,6 +822,7 @@ TEST(Determinism, SmallIslandsSteppedTogetherGiveTheBytesEachGetsAlone) {
       case 4: images.push_back(spring_line(rng, 3 + k % 9)); break;
       case 1: images.push_back(small_island(float(k) * 0.1f)); break;
       case 2: images.push_back(k % 12 == 2 ? stiff_chain(2, 1e-12f, 0, 2) : box_on_ground(rng, integ)); break;
+      case 3: images.push_back(k % 12 == 3 && integ == Integrator::implicit_split ? spinning_brick(rng) : box_on_ground(rng, integ)); break;
       default: images.push_back(box_on_ground(rng, integ)); break;
     }
   }
@@ -819,7 +834,7 @@ TEST(Determinism, SmallIslandsSteppedTogetherGiveTheBytesEachGetsAlone) {
   std::vector<IslandReport> reports;
   ComputeWorker w;
   step_all(w, images, results, reports);
-  size_t halved = 0, together = 0;
+  size_t halved = 0, together = 0, spun_halved = 0;
   for (size_t k = 0; k < images.size(); ++k) {
     const Stepped alone = step_image(images[k], spu::LocalStore::kDefaultCapacity, 0xEE);
     EXPECT_EQ(reports[k].status, alone.report.status) << "island " << k;
@@ -829,10 +844,13 @@ TEST(Determinism, SmallIslandsSteppedTogetherGiveTheBytesEachGetsAlone) {
     EXPECT_EQ(reports[k].substeps, alone.report.substeps) << "island " << k;
     EXPECT_EQ(results[k], alone.result) << "island " << k << " (" << spu::status_name(alone.report.status) << ")";
     halved += alone.report.halvings > 0;
+    spun_halved += alone.report.halvings > 0 && bodies_of(images[k]) == 1 && alone.report.solves > 1 &&
+                   reports[k].local_store_peak > alone.report.local_store_peak;
     // held in the store with others: more than its own double-buffered footprint was in use
     together += reports[k].local_store_peak > alone.report.local_store_peak;
   }
   EXPECT_GE(halved, 3u) << "the chains' first steps must fail for the retry to be tested";
+  EXPECT_GE(spun_halved, 2u) << "the spinning bricks' first steps must fail in shared lanes";
   EXPECT_GE(together, 40u) << "most islands should have been integrated together";
   EXPECT_EQ(w.dma().pending(), 0);
 }

@@ -61,29 +61,64 @@ struct Turn {
   Vec3d w1;
 };
 
+// The one-body free rotation as the integrator committed it before the lanes, kept here word for
+// word as the reference the lanes must reproduce bit for bit.
+bool reference_free_rotation(const Quatd& q0, const Mat3d& R0, const Vec3d& L, const float* inverse_inertia_body,
+                             double h, Quatd* q1, Vec3d* omega1) {
+  const Mat3d Iinv = symmetric<double>(inverse_inertia_body);
+  const Vec3d Lb = mul_transpose(R0, L);
+  Vec3d w = mul(Iinv, Lb), Lb1 = Lb;
+  const float* s = inverse_inertia_body;
+  bool converged = s[0] == s[1] && s[1] == s[2] && s[3] == 0.0f && s[4] == 0.0f && s[5] == 0.0f;
+  const double scale = norm(Lb) + 1e-300;
+  for (int it = 0; it < 60 && !converged; ++it) {
+    const Vec3d a = w * (-0.5 * h);
+    const Vec3d next = mul(quat_to_matrix(quat_normalized(Quatd{1.0, a.x, a.y, a.z})), Lb);
+    const double d = norm(next - Lb1);
+    Lb1 = next;
+    w = mul(Iinv, (Lb + Lb1) * 0.5);
+    converged = d <= 1e-12 * scale;
+  }
+  if (!converged) return false;
+  const Vec3d a = w * (0.5 * h);
+  *q1 = quat_normalized(quat_mul(q0, quat_normalized(Quatd{1.0, a.x, a.y, a.z})));
+  const Vec3d wb = mul(Iinv, Lb1);
+  *omega1 = mul(quat_to_matrix(*q1), wb);
+  return std::isfinite(omega1->x) && std::isfinite(omega1->y) && std::isfinite(omega1->z);
+}
+
 // What the integrator did for one body before the lanes: the same calls, one body.
 Turn alone(const Rigid_Body& b, const Vec3d& w_kick, double h) {
   const Quatd q0 = spu::orientation(b);
   const Mat3d R0 = quat_to_matrix(q0);
   const Vec3d L = mul(rotate_sym(R0, b.inertia_body), w_kick);
   Turn t{};
-  t.ok = spu::free_rotation(q0, R0, L, b.inverse_inertia_body, h, &t.q1, &t.w1);
+  t.ok = reference_free_rotation(q0, R0, L, b.inverse_inertia_body, h, &t.q1, &t.w1);
+  Turn now{};  // and the one-body entry point the integrator keeps
+  now.ok = spu::free_rotation(q0, R0, L, b.inverse_inertia_body, h, &now.q1, &now.w1);
+  EXPECT_EQ(now.ok, t.ok);
+  if (now.ok && t.ok) {
+    const double a[7] = {now.q1.w, now.q1.x, now.q1.y, now.q1.z, now.w1.x, now.w1.y, now.w1.z};
+    const double b7[7] = {t.q1.w, t.q1.x, t.q1.y, t.q1.z, t.w1.x, t.w1.y, t.w1.z};
+    for (int k = 0; k < 7; ++k) EXPECT_EQ(bits(a[k]), bits(b7[k]));
+  }
   return t;
 }
 
 TEST(FreeRotation, EightInLanesGiveEachBodyItsOwnBitsWhateverItsNeighbours) {
   std::mt19937 rng(7);
   const double h = 1.0 / 60.0;
-  int compared = 0, failed = 0, iterating = 0, isotropic = 0;
+  int compared = 0, failed_finite = 0, failed_nan = 0, iterating = 0, isotropic = 0;
   for (int group = 0; group < 120; ++group) {
     const int count = 1 + group % 8;
     std::vector<Rigid_Body> bodies(count);
     std::vector<Vec3d> kick(count);
     std::vector<const Rigid_Body*> ptr(count);
     for (int l = 0; l < count; ++l) {
-      // mostly slow and fast bodies; every seventh group holds one that cannot converge
-      const int speed = (group % 7 == 0 && l == count - 1) ? 2 : int(rng() % 2);
-      bodies[l] = random_body(rng, 4 * speed + int(rng() % 4));
+      // mostly slow and fast bodies; every seventh group ends with a brick, rod or plate spun
+      // too fast for the fixed point to converge
+      const bool too_fast = group % 7 == 0 && l == count - 1;
+      bodies[l] = too_fast ? random_body(rng, 8 + 1 + int(rng() % 3)) : random_body(rng, 4 * int(rng() % 2) + int(rng() % 4));
       if (group % 11 == 3 && l == 0) bodies[l].angular_velocity[1] = std::numeric_limits<float>::quiet_NaN();
       kick[l] = Vec3d::load(bodies[l].angular_velocity) + Vec3d{0.01 * l, -0.02, 0.03};
       ptr[l] = &bodies[l];
@@ -97,7 +132,7 @@ TEST(FreeRotation, EightInLanesGiveEachBodyItsOwnBitsWhateverItsNeighbours) {
       ASSERT_EQ(ok[l], t.ok) << "group " << group << " lane " << l;
       ++compared;
       if (!t.ok) {
-        ++failed;
+        ++(std::isfinite(kick[l].y) ? failed_finite : failed_nan);
         continue;
       }
       const float* s = bodies[l].inverse_inertia_body;
@@ -112,7 +147,8 @@ TEST(FreeRotation, EightInLanesGiveEachBodyItsOwnBitsWhateverItsNeighbours) {
   EXPECT_EQ(compared, 120 / 8 * 36);
   EXPECT_GT(isotropic, 50);
   EXPECT_GT(iterating, 200);
-  EXPECT_GT(failed, 10);
+  EXPECT_GE(failed_finite, 120 / 7);
+  EXPECT_GE(failed_nan, 120 / 11);
 }
 
 TEST(FreeRotation, EachStepKeepsTheWorldMomentumAndTheEnergyOfTumblingBricks) {

@@ -2,7 +2,7 @@
 // mat3.h: Vec3<DoubleLanes> is eight 3-vectors, one a lane. Each operation is the IEEE one of
 // every lane (+ - * / and sqrt round once, nothing is contracted: the build uses
 // -ffp-contract=off), so a lane's result has the bits the same expression gives in double.
-// Compiled to one AVX-512 register, two AVX2 ones, or SSE2 pairs on the portable path.
+// Compiled to one AVX-512 register, two AVX2 ones, or four SSE2 ones on the portable path.
 #pragma once
 #include <cmath>
 #include <cstdint>

@@ -1,5 +1,6 @@
 #include "runtime/spu/rigid_motion.h"
 
+#include <cassert>
 #include <cmath>
 
 #include "runtime/base/double_lanes.h"
@@ -92,6 +93,8 @@ bool free_rotation(const Quatd& q0, const Mat3d& R0, const Vec3d& L, const float
 void kicked_free_rotations(const gen::Rigid_Body* const* bodies, const Vec3d* w_kick, int count, double h, Quatd* q1,
                            Vec3d* omega1, bool* ok) {
   using T = DoubleLanes;
+  assert(count >= 1 && count <= T::kLanes);
+  if (count < 1) return;
   Quat<T> q0;
   Vec3<T> wk;
   Mat3<T> inertia, Iinv;
@@ -112,7 +115,7 @@ void kicked_free_rotations(const gen::Rigid_Body* const* bodies, const Vec3d* w_
   Quat<T> q;
   Vec3<T> w;
   const LaneMask converged = free_rotation_of(q0, R0, L, Iinv, lanes_where(iso), h, &q, &w);
-  for (int l = 0; l < count; ++l) {
+  for (int l = 0; l < count && l < T::kLanes; ++l) {
     q1[l] = {q.w[l], q.x[l], q.y[l], q.z[l]};
     omega1[l] = {w.x[l], w.y[l], w.z[l]};
     ok[l] = converged[l] && finite(omega1[l]);

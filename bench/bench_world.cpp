@@ -54,7 +54,7 @@ struct Snapshot {
 
 struct Sums {
   StageTimes stages;  // summed over the steps
-  double contacts = 0, islands = 0, active = 0, iterations = 0, decoupled = 0, failed = 0, allocations = 0;
+  double contacts = 0, islands = 0, active = 0, iterations = 0, decoupled = 0, failed = 0, shared = 0, allocations = 0;
   size_t store = 0;
   // One step of w: its statistics and the heap allocations made inside it.
   void step(World& w) {
@@ -65,7 +65,7 @@ struct Sums {
   void add(const StepStats& s) {
     for (const StageTimeField& f : kStageTimeFields) stages.*f.ms += s.times.*f.ms;
     contacts += s.contacts, islands += s.islands, active += s.active_bodies, iterations += s.solver_iterations;
-    decoupled += s.decoupled_islands, failed += s.failed_islands;
+    decoupled += s.decoupled_islands, failed += s.failed_islands, shared += s.shared_islands;
     store = std::max(store, s.local_store_peak_bytes);
   }
   void report(benchmark::State& state) const {
@@ -82,6 +82,7 @@ struct Sums {
     state.counters["solver_its"] = Counter(iterations, avg);
     state.counters["decoupled"] = Counter(decoupled, avg);
     state.counters["failed"] = Counter(failed, avg);
+    state.counters["shared"] = Counter(shared, avg);  // one-body islands stepped several to an image
     state.counters["store_peak_B"] = Counter(double(store));
     state.counters["allocs_per_step"] = Counter(allocations, avg);
   }

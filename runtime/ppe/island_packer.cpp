@@ -212,6 +212,23 @@ void pack_island(const PackContext& pc, const IslandContent& isl, PackScratch& s
   p.sealed = seal;
 }
 
+spu::IslandCounts counts_at_least(const WorldSettings& s, size_t bodies, size_t contacts, size_t force_bytes,
+                                  size_t couplings) {
+  size_t instances = contacts * kForceTable[static_cast<int>(ForceType::contact)].instance_size + force_bytes;
+  instances += bodies * (kForceTable[static_cast<int>(ForceType::damping)].instance_size +
+                         kForceTable[static_cast<int>(ForceType::gyroscopic)].instance_size);
+  instances += size_t{kNumForceTypes} * 16;
+  spu::IslandCounts c;
+  c.num_bodies = static_cast<uint32_t>(bodies);
+  c.num_blocks = static_cast<uint32_t>(2 * couplings);
+  c.pair_instances = static_cast<uint32_t>(couplings);
+  c.image_bytes = static_cast<uint32_t>(spu::island_layout(c.num_bodies, kNumForceTypes).instances + instances);
+  c.integrator = s.integrator;
+  c.solver = s.solver;
+  c.force_types = ~0u;
+  return c;
+}
+
 void unpack_island(const PackedIsland& p, std::vector<WorldBody>& bodies) {
   const size_t n = p.bodies.size();
   const unsigned char* src = p.result.data() + p.result.size() - n * sizeof(Rigid_Body);

@@ -7,6 +7,7 @@
 
 #include "runtime/ppe/body_records.h"
 #include "runtime/spu/island_image.h"
+#include "runtime/spu/workspace.h"
 
 namespace cellphys::ppe {
 
@@ -59,6 +60,15 @@ void match_capacities(std::vector<PackScratch>& scratches);
 
 void pack_island(const PackContext& pc, const IslandContent& part, PackScratch& scratch, PackedIsland& out,
                  bool seal = true);
+
+/// Counts at least those of the image of an island of `bodies` bodies (ghosts included),
+/// `contacts` contacts, other forces of `force_bytes` instance bytes and `couplings` of its
+/// bodies to each other (contacts or forces; each two off-diagonal blocks): every body given a
+/// damping and a gyroscopic instance, every section its alignment, every scratch the largest
+/// kernel's. The footprint grows with each count, so a content under the bound needs no
+/// packing to know it fits.
+spu::IslandCounts counts_at_least(const WorldSettings& s, size_t bodies, size_t contacts, size_t force_bytes,
+                                  size_t couplings);
 
 /// Copies a successful result's advanced bodies back into the world.
 void unpack_island(const PackedIsland& p, std::vector<WorldBody>& bodies);

@@ -25,28 +25,16 @@ bool surely_fits(const PackContext& pc, const IslandContent& isl, size_t fit, bo
     return id == kWorldBody || std::binary_search(isl.bodies.begin(), isl.bodies.end(), id);
   };
   const size_t couplings = isl.contacts.size() + isl.forces.size();
-  size_t ghosts = exact ? 0 : 2 * couplings;
-  size_t instances = isl.contacts.size() * gen::kForceTable[static_cast<int>(gen::ForceType::contact)].instance_size;
+  size_t ghosts = exact ? 0 : 2 * couplings, force_bytes = 0;
   for (uint32_t c : isl.contacts)
     if (exact) ghosts += !inside(pc.contacts[c].a) + !inside(pc.contacts[c].b);
   for (uint32_t f : isl.forces) {
     if (exact) ghosts += !inside(pc.forces[f].a) + !inside(pc.forces[f].b);
-    instances += pc.forces[f].instance.size();
+    force_bytes += pc.forces[f].instance.size();
   }
   const size_t n = isl.bodies.size() + ghosts;
   if (n > (1u << 20)) return false;
-  instances += n * (gen::kForceTable[static_cast<int>(gen::ForceType::damping)].instance_size +
-                    gen::kForceTable[static_cast<int>(gen::ForceType::gyroscopic)].instance_size);
-  instances += size_t{gen::kNumForceTypes} * 16;
-  spu::IslandCounts c;
-  c.num_bodies = static_cast<uint32_t>(n);
-  c.num_blocks = static_cast<uint32_t>(2 * couplings);
-  c.pair_instances = static_cast<uint32_t>(couplings);
-  c.image_bytes = static_cast<uint32_t>(spu::island_layout(c.num_bodies, gen::kNumForceTypes).instances + instances);
-  c.integrator = pc.settings.integrator;
-  c.solver = pc.settings.solver;
-  c.force_types = ~0u;
-  return spu::footprint(c).total <= fit;
+  return spu::footprint(counts_at_least(pc.settings, n, isl.contacts.size(), force_bytes, couplings)).total <= fit;
 }
 
 bool fits(const PackContext& pc, const IslandContent& isl, size_t fit, PackScratch& scratch, PackedIsland& probe) {

@@ -84,13 +84,93 @@ void pack_and_run(const PackContext& pc, const ShapeDictionary& shapes, IslandRu
   add_transport(runner.last_transport(), st);
 }
 
+// A part that is one body touching only the world (static geometry, forces anchored to the
+// world). Up to kLoneShare of them share one image, as long as it surely fits a quarter of the
+// local store (so that such images are still stepped several together): the kernel solves a
+// system with no off-diagonal block a body at a time, so each body gets the bits it gets packed
+// alone, and the image's fixed costs (header, workspace, solve set-up, fetch and result) are
+// paid once. Only for the implicit Euler steps: an adaptive step's error estimate, and so its
+// step sizes, would be the whole image's. (World1000's first step: ~950 us on one worker with
+// an image per part, ~650 us shared.)
+constexpr size_t kLoneShare = 32;
+
+bool lone(const PackContext& pc, const IslandContent& part) {
+  if (part.bodies.size() != 1) return false;
+  const uint32_t id = part.bodies[0];
+  const auto only = [id](uint32_t a, uint32_t b) { return (a == id || a == kWorldBody) && (b == id || b == kWorldBody); };
+  for (uint32_t c : part.contacts)
+    if (!only(pc.contacts[c].a, pc.contacts[c].b)) return false;
+  for (uint32_t f : part.forces)
+    if (!only(pc.forces[f].a, pc.forces[f].b)) return false;
+  return true;
+}
+
+bool shares_images(const WorldSettings& s) {
+  return s.integrator == spu::Integrator::implicit_split || s.integrator == spu::Integrator::implicit_euler;
+}
+
+// Jobs [b, e) of a thread's run as the images it steps: runs of lone parts merged into one
+// image each (packed into the first part's slot), every other part alone.
+void pack_shares(const PackContext& pc, const PackContext& shared_pc, const ShapeDictionary& shapes, IntegrateScratch& sc,
+                 size_t b, size_t e, PackScratch& pack, ThreadShares& t, StepStats& st) {
+  t.groups.clear();
+  t.jobs.clear();
+  const bool share = shares_images(pc.settings);
+  const size_t fit = pc.settings.local_store_bytes / 4;
+  for (size_t j = b; j < e;) {
+    size_t g = j + 1;
+    const IslandContent& first = *sc.todo[sc.order[j]];
+    if (share && lone(pc, first)) {
+      size_t contacts = first.contacts.size(), force_bytes = 0;
+      const auto add_forces = [&](const IslandContent& c) {
+        for (uint32_t f : c.forces) force_bytes += pc.forces[f].instance.size();
+      };
+      add_forces(first);
+      for (; g < e && g - j < kLoneShare; ++g) {
+        const IslandContent& next = *sc.todo[sc.order[g]];
+        if (!lone(pc, next)) break;
+        const size_t before = force_bytes;
+        add_forces(next);
+        const spu::IslandCounts c = counts_at_least(pc.settings, g - j + 1, contacts + next.contacts.size(), force_bytes, 0);
+        if (spu::footprint(c).total > fit) {
+          force_bytes = before;
+          break;
+        }
+        contacts += next.contacts.size();
+      }
+    }
+    const IslandContent* part = &first;
+    const PackContext* with = &pc;
+    if (g - j > 1) {
+      t.merged.bodies.clear(), t.merged.contacts.clear(), t.merged.forces.clear();
+      for (size_t m = j; m < g; ++m) {
+        const IslandContent& c = *sc.todo[sc.order[m]];
+        t.merged.bodies.push_back(c.bodies[0]);
+        t.merged.contacts.insert(t.merged.contacts.end(), c.contacts.begin(), c.contacts.end());
+        t.merged.forces.insert(t.merged.forces.end(), c.forces.begin(), c.forces.end());
+      }
+      std::sort(t.merged.bodies.begin(), t.merged.bodies.end());
+      part = &t.merged;
+      with = &shared_pc;
+    }
+    PackedIsland& p = sc.packed[sc.order[j]];
+    pack_one(*with, *part, pack, p, /*seal=*/false);
+    t.groups.push_back({j, g});
+    t.jobs.push_back(job_of(p));
+    count_wire_tables(p, shapes, st);
+    j = g;
+  }
+  t.reports.resize(t.jobs.size());
+}
+
 // The wave on the world's own threads: a thread packs, steps and unpacks each run of parts it
 // takes, so their images, results and bodies stay in its core's cache (on 2 workers the
 // 1,000-body world steps 7% faster than packed on one core and stepped on the other). Their
 // images are unsealed (IslandJob::trusted): no bytes leave the process, so the three checksums
 // of each (packed, stepped, checked) and the kernel's full validation bought nothing (4% of
 // a step of one-body islands). A result is unpacked there only when sound; the rest are left
-// to the checks after.
+// to the checks after. A shared image that fails (a body of it halved, say) is stepped again
+// a part at a time, so each part's result is what it gets alone.
 void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, WorkerPool& pool, std::vector<WorldBody>& bodies,
                      IntegrateScratch& sc, StepStats& st) {
   const size_t used = sc.todo.size();
@@ -106,29 +186,63 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
       k = e;
     }
     sc.thread_pack.resize(size_t(pool.size()));
+    sc.threads.resize(size_t(pool.size()));
+    for (ThreadShares& ts : sc.threads) ts.reserve(kPartsPerRun);
     sc.jobs.resize(used);
     sc.reports.resize(used);
     sc.thread_stats.assign(size_t(pool.size()), StepStats{});
   }
+  // A shared image is never halved: a step that fails fails the image, whose parts are then
+  // stepped alone, each halving as it would.
+  WorldSettings once = pc.settings;
+  once.max_halvings = 0;
+  const PackContext shared_pc{pc.bodies, pc.forces, pc.contacts, once, pc.start};
   StageTimer t(st.times.integrate_ms);
   pool.for_each(sc.runs.size(), [&](size_t r, int thread) {
-    const size_t b = sc.runs[r].first, e = sc.runs[r].second;
-    for (size_t j = b; j < e; ++j) {
+    ThreadShares& ts = sc.threads[size_t(thread)];
+    PackScratch& pack = sc.thread_pack[size_t(thread)];
+    StepStats& tst = sc.thread_stats[size_t(thread)];
+    pack_shares(pc, shared_pc, shapes, sc, sc.runs[r].first, sc.runs[r].second, pack, ts, tst);
+    pool.step_on(thread, ts.jobs.data(), ts.jobs.size(), ts.reports.data());
+    for (size_t i = 0; i < ts.groups.size(); ++i) {
+      const size_t j = ts.groups[i].first, g = ts.groups[i].second;
       PackedIsland& p = sc.packed[sc.order[j]];
-      pack_one(pc, *sc.todo[sc.order[j]], sc.thread_pack[size_t(thread)], p, /*seal=*/false);
-      sc.jobs[j] = job_of(p);
-      count_wire_tables(p, shapes, sc.thread_stats[size_t(thread)]);
-    }
-    pool.step_on(thread, &sc.jobs[b], e - b, &sc.reports[b]);
-    for (size_t j = b; j < e; ++j) {
-      PackedIsland& p = sc.packed[sc.order[j]];
-      if (sc.reports[j].status != spu::IslandStatus::ok || !sound_result(p, sc.reports[j])) continue;
-      unpack_island(p, bodies);
-      sc.unpacked[j] = 1;
+      const spu::IslandReport& rep = ts.reports[i];
+      const bool sound = rep.status == spu::IslandStatus::ok && rep.halvings == 0 && sound_result(p, rep);
+      if (g - j == 1) {
+        sc.jobs[j] = ts.jobs[i];
+        sc.reports[j] = rep;
+        if (sound) unpack_island(p, bodies), sc.unpacked[j] = 1;
+        continue;
+      }
+      if (sound) {
+        // the shared image's work counted once, on its first part; each part took its substeps
+        unpack_island(p, bodies);
+        tst.shared_islands += uint32_t(g - j);
+        for (size_t m = j; m < g; ++m) {
+          sc.reports[m] = m == j ? rep : spu::IslandReport{};
+          sc.reports[m].substeps = rep.substeps;
+          sc.unpacked[m] = 1;
+        }
+        continue;
+      }
+      for (size_t m = j; m < g; ++m) {
+        PackedIsland& q = sc.packed[sc.order[m]];
+        pack_one(pc, *sc.todo[sc.order[m]], pack, q, /*seal=*/false);
+        sc.jobs[m] = job_of(q);
+        pool.step_on(thread, &sc.jobs[m], 1, &sc.reports[m]);
+        if (sc.reports[m].status == spu::IslandStatus::ok && sound_result(q, sc.reports[m]))
+          unpack_island(q, bodies), sc.unpacked[m] = 1;
+      }
     }
   });
-  for (const StepStats& part : sc.thread_stats) add_wire_tables(part, st);
+  for (const StepStats& part : sc.thread_stats) {
+    add_wire_tables(part, st);
+    st.shared_islands += part.shared_islands;
+  }
   match_capacities(sc.thread_pack);
+  for (ThreadShares& ts : sc.threads)
+    for (const ThreadShares& o : sc.threads) ts.reserve_like(o);
 }
 
 // One wave: part `wave` of every island (of the split ones only, after the first sweep).

@@ -33,6 +33,22 @@ struct IslandCompute {
 
 /// What the stage reuses from step to step (the world keeps one): a warm step packs and runs
 /// its islands without allocating.
+/// What a thread of the world's pool keeps while it packs and steps a run of parts: the images
+/// it steps (lone parts merged, runtime/ppe/step_integrate.cpp) and the parts each holds.
+struct ThreadShares {
+  IslandContent merged;
+  std::vector<std::pair<size_t, size_t>> groups;  // per image: the run's jobs [first, end) it holds
+  std::vector<spu::IslandJob> jobs;
+  std::vector<spu::IslandReport> reports;
+  void reserve(size_t images) {
+    merged.bodies.reserve(images), groups.reserve(images), jobs.reserve(images), reports.reserve(images);
+  }
+  // as large as another thread's: which thread takes which run varies from step to step
+  void reserve_like(const ThreadShares& o) {
+    merged.contacts.reserve(o.merged.contacts.capacity()), merged.forces.reserve(o.merged.forces.capacity());
+  }
+};
+
 struct IntegrateScratch {
   PackScratch pack;
   std::vector<PackScratch> thread_pack;    // one a thread, when the threads pack
@@ -44,6 +60,7 @@ struct IntegrateScratch {
   std::vector<spu::IslandReport> reports;
   std::vector<std::pair<size_t, size_t>> runs;  // on the world's threads: [first, end) jobs a thread takes
   std::vector<uint8_t> unpacked;           // per job: unpacked where it was stepped
+  std::vector<ThreadShares> threads;       // per thread, on the world's own threads
   std::vector<StepStats> thread_stats;     // per thread: the wire tables of the islands it packed
   std::vector<WorldBody> start;           // the start state, when an island is split
   std::vector<float> before, after;       // split islands' velocities around a sweep

@@ -60,6 +60,9 @@ struct StepStats {
   uint32_t decouple_sweeps = 0;  // block Gauss-Seidel sweeps over the parts of split islands
   float decouple_change = 0;     // largest velocity change (m/s) in the last sweep
   uint32_t solver_iterations = 0, solves = 0, step_halvings = 0, failed_islands = 0, substeps = 0;
+  // One-body islands touching only the world that were stepped several to an image (on the
+  // world's own threads: runtime/ppe/step_integrate.cpp).
+  uint32_t shared_islands = 0;
   uint32_t woken = 0, fell_asleep = 0;
   uint32_t pushed_bodies = 0;  // moved out of deep overlap by the push stage
   uint32_t projected_joints = 0;  // joints moved back within joint.projection after the solve (first pass)

@@ -1,5 +1,6 @@
 #include "runtime/spu/integrators.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -108,11 +109,39 @@ bool assemble(StepContext& c, float tau, uint32_t skip, float* p_out) {
   return scale_system(ws.structure, ws.w, tau, ws.diag, ws.blocks, ws.forces, p_out);
 }
 
+// A system with no off-diagonal block (bodies that touch only the world, however many share
+// the image) is solved a body at a time, each as the one-body system it is: a body's bits are
+// then the ones it gets packed alone, whatever else shares its image (one solve of the whole
+// would converge on the norms of all of them together).
+SolveResult solve_each_body(StepContext& c, const BlockRowMatrix& A, const float* rhs, float* x) {
+  SolveResult r;
+  for (int i = 0; i < A.n; ++i) {
+    BlockRowMatrix one = A;
+    one.n = 1;
+    one.row_start = A.row_start + i;
+    const SolveResult ri = solve(c.solver, one, rhs + kVecFloats * i, x + kVecFloats * i, c.ws->solver_work, c.solve);
+    r.iterations += ri.iterations;
+    c.counters.solves += 1;
+    r.residual = std::max(r.residual, ri.residual);
+    if (ri.code != kConverged) {
+      r.code = ri.code;
+      break;
+    }
+  }
+  return r;
+}
+
 bool run_solve(StepContext& c, const float* rhs, float* x) {
   zero_floats(x, size_t(c.ws->n) * kVecFloats);
-  const SolveResult r = solve(c.solver, matrix_of(c.ws->structure, c.ws->blocks), rhs, x, c.ws->solver_work, c.solve);
+  const BlockRowMatrix A = matrix_of(c.ws->structure, c.ws->blocks);
+  SolveResult r;
+  if (A.n > 1 && A.row_start[A.n] == 0) {
+    r = solve_each_body(c, A, rhs, x);
+  } else {
+    r = solve(c.solver, A, rhs, x, c.ws->solver_work, c.solve);
+    c.counters.solves += 1;
+  }
   c.counters.solver_iterations += r.iterations;
-  c.counters.solves += 1;
   if (r.code != kConverged) {
     c.counters.last_solver_code = r.code;
     return false;

@@ -121,22 +121,17 @@ void pack_shares(const PackContext& pc, const PackContext& shared_pc, const Shap
     size_t g = j + 1;
     const IslandContent& first = *sc.todo[sc.order[j]];
     if (share && lone(pc, first)) {
-      size_t contacts = first.contacts.size(), force_bytes = 0;
-      const auto add_forces = [&](const IslandContent& c) {
-        for (uint32_t f : c.forces) force_bytes += pc.forces[f].instance.size();
-      };
-      add_forces(first);
-      for (; g < e && g - j < kLoneShare; ++g) {
-        const IslandContent& next = *sc.todo[sc.order[g]];
-        if (!lone(pc, next)) break;
-        const size_t before = force_bytes;
-        add_forces(next);
-        const spu::IslandCounts c = counts_at_least(pc.settings, g - j + 1, contacts + next.contacts.size(), force_bytes, 0);
-        if (spu::footprint(c).total > fit) {
-          force_bytes = before;
-          break;
+      while (g < e && g - j < kLoneShare && lone(pc, *sc.todo[sc.order[g]])) ++g;
+      // the bound checked once for the whole run of lone parts, halved while it does not fit
+      while (g - j > 1) {
+        size_t contacts = 0, force_bytes = 0;
+        for (size_t m = j; m < g; ++m) {
+          const IslandContent& c = *sc.todo[sc.order[m]];
+          contacts += c.contacts.size();
+          for (uint32_t f : c.forces) force_bytes += pc.forces[f].instance.size();
         }
-        contacts += next.contacts.size();
+        if (spu::footprint(counts_at_least(pc.settings, g - j, contacts, force_bytes, 0)).total <= fit) break;
+        g = j + (g - j) / 2;
       }
     }
     const IslandContent* part = &first;

@@ -115,6 +115,7 @@ void pack_shares(const PackContext& pc, const PackContext& shared_pc, const Shap
                  size_t b, size_t e, PackScratch& pack, ThreadShares& t, StepStats& st) {
   t.groups.clear();
   t.jobs.clear();
+  size_t shared = 0;
   const bool share = shares_images(pc.settings);
   const size_t fit = pc.settings.local_store_bytes / 4;
   for (size_t j = b; j < e;) {
@@ -136,7 +137,10 @@ void pack_shares(const PackContext& pc, const PackContext& shared_pc, const Shap
     }
     const IslandContent* part = &first;
     const PackContext* with = &pc;
+    PackedIsland* p = &sc.packed[sc.order[j]];
     if (g - j > 1) {
+      if (shared == t.images.size()) t.images.emplace_back();
+      p = &t.images[shared++];
       t.merged.bodies.clear(), t.merged.contacts.clear(), t.merged.forces.clear();
       for (size_t m = j; m < g; ++m) {
         const IslandContent& c = *sc.todo[sc.order[m]];
@@ -148,14 +152,34 @@ void pack_shares(const PackContext& pc, const PackContext& shared_pc, const Shap
       part = &t.merged;
       with = &shared_pc;
     }
-    PackedIsland& p = sc.packed[sc.order[j]];
-    pack_one(*with, *part, pack, p, /*seal=*/false);
-    t.groups.push_back({j, g});
-    t.jobs.push_back(job_of(p));
-    count_wire_tables(p, shapes, st);
+    pack_one(*with, *part, pack, *p, /*seal=*/false);
+    t.groups.push_back({j, g, g - j > 1 ? shared - 1 : 0});
+    t.jobs.push_back(job_of(*p));
+    count_wire_tables(*p, shapes, st);
     j = g;
   }
   t.reports.resize(t.jobs.size());
+}
+
+// Every thread's merge lists and shared images as large as the largest any thread has used:
+// which thread takes which run varies from step to step, and a warm step allocates nothing.
+void match_shared_capacities(std::vector<ThreadShares>& threads) {
+  size_t contacts = 0, forces = 0, images = 0, image = 0, result = 0, bodies = 0;
+  for (const ThreadShares& t : threads) {
+    contacts = std::max(contacts, t.merged.contacts.capacity());
+    forces = std::max(forces, t.merged.forces.capacity());
+    images = std::max(images, t.images.size());
+    for (const PackedIsland& p : t.images) {
+      image = std::max(image, p.image.capacity());
+      result = std::max(result, p.result.capacity());
+      bodies = std::max(bodies, p.bodies.capacity());
+    }
+  }
+  for (ThreadShares& t : threads) {
+    t.merged.contacts.reserve(contacts), t.merged.forces.reserve(forces);
+    t.images.resize(images);
+    for (PackedIsland& p : t.images) p.image.reserve(image), p.result.reserve(result), p.bodies.reserve(bodies), p.ghost.reserve(bodies);
+  }
 }
 
 // The wave on the world's own threads: a thread packs, steps and unpacks each run of parts it
@@ -200,8 +224,8 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
     pack_shares(pc, shared_pc, shapes, sc, sc.runs[r].first, sc.runs[r].second, pack, ts, tst);
     pool.step_on(thread, ts.jobs.data(), ts.jobs.size(), ts.reports.data());
     for (size_t i = 0; i < ts.groups.size(); ++i) {
-      const size_t j = ts.groups[i].first, g = ts.groups[i].second;
-      PackedIsland& p = sc.packed[sc.order[j]];
+      const size_t j = ts.groups[i].first, g = ts.groups[i].end;
+      PackedIsland& p = g - j > 1 ? ts.images[ts.groups[i].shared] : sc.packed[sc.order[j]];
       const spu::IslandReport& rep = ts.reports[i];
       const bool sound = rep.status == spu::IslandStatus::ok && rep.halvings == 0 && sound_result(p, rep);
       if (g - j == 1) {
@@ -236,8 +260,7 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
     st.shared_islands += part.shared_islands;
   }
   match_capacities(sc.thread_pack);
-  for (ThreadShares& ts : sc.threads)
-    for (const ThreadShares& o : sc.threads) ts.reserve_like(o);
+  match_shared_capacities(sc.threads);
 }
 
 // One wave: part `wave` of every island (of the split ones only, after the first sweep).

@@ -36,17 +36,21 @@ struct IslandCompute {
 /// What a thread of the world's pool keeps while it packs and steps a run of parts: the images
 /// it steps (lone parts merged, runtime/ppe/step_integrate.cpp) and the parts each holds.
 struct ThreadShares {
+  struct Group {
+    size_t first, end;  // the run's jobs [first, end) the image holds
+    size_t shared;      // its index in `images` when it holds several; else its own part's slot
+  };
   IslandContent merged;
-  std::vector<std::pair<size_t, size_t>> groups;  // per image: the run's jobs [first, end) it holds
+  // The shared images, reused by any run this thread takes: the parts a run merges change from
+  // step to step as contacts come and go, so a part's own slot would be regrown each step.
+  std::vector<PackedIsland> images;
+  std::vector<Group> groups;
   std::vector<spu::IslandJob> jobs;
   std::vector<spu::IslandReport> reports;
   void reserve(size_t images) {
     merged.bodies.reserve(images), groups.reserve(images), jobs.reserve(images), reports.reserve(images);
   }
-  // as large as another thread's: which thread takes which run varies from step to step
-  void reserve_like(const ThreadShares& o) {
-    merged.contacts.reserve(o.merged.contacts.capacity()), merged.forces.reserve(o.merged.forces.capacity());
-  }
+
 };
 
 struct IntegrateScratch {

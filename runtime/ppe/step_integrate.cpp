@@ -90,8 +90,8 @@ void pack_and_run(const PackContext& pc, const ShapeDictionary& shapes, IslandRu
 // system with no off-diagonal block a body at a time, so each body gets the bits it gets packed
 // alone, and the image's fixed costs (header, workspace, solve set-up, fetch and result) are
 // paid once. Only for the implicit Euler steps: an adaptive step's error estimate, and so its
-// step sizes, would be the whole image's. (World1000's first step: ~950 us on one worker with
-// an image per part, ~650 us shared.)
+// step sizes, would be the whole image's. (World1000's first step on one worker: 986 us with
+// an image per part, 760 us shared; docs/bench.md, "Per-island cost".)
 constexpr size_t kLoneShare = 32;
 
 bool lone(const PackContext& pc, const IslandContent& part) {
@@ -110,7 +110,7 @@ bool shares_images(const WorldSettings& s) {
 }
 
 // Jobs [b, e) of a thread's run as the images it steps: runs of lone parts merged into one
-// image each (packed into the first part's slot), every other part alone.
+// image each (one of the thread's shared images), every other part alone in its own slot.
 void pack_shares(const PackContext& pc, const PackContext& shared_pc, const ShapeDictionary& shapes, IntegrateScratch& sc,
                  size_t b, size_t e, PackScratch& pack, ThreadShares& t, StepStats& st) {
   t.groups.clear();

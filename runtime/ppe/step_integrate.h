@@ -31,14 +31,12 @@ struct IslandCompute {
   WorkerPool* threads = nullptr;  // the world's threads, which pack the islands (null: packed here)
 };
 
-/// What the stage reuses from step to step (the world keeps one): a warm step packs and runs
-/// its islands without allocating.
 /// What a thread of the world's pool keeps while it packs and steps a run of parts: the images
 /// it steps (lone parts merged, runtime/ppe/step_integrate.cpp) and the parts each holds.
 struct ThreadShares {
   struct Group {
     size_t first, end;  // the run's jobs [first, end) the image holds
-    size_t shared;      // its index in `images` when it holds several; else its own part's slot
+    size_t shared;      // its index in `images` when it holds several (one part: its own slot)
   };
   IslandContent merged;
   // The shared images, reused by any run this thread takes: the parts a run merges change from
@@ -50,9 +48,10 @@ struct ThreadShares {
   void reserve(size_t images) {
     merged.bodies.reserve(images), groups.reserve(images), jobs.reserve(images), reports.reserve(images);
   }
-
 };
 
+/// What the stage reuses from step to step (the world keeps one): a warm step packs and runs
+/// its islands without allocating.
 struct IntegrateScratch {
   PackScratch pack;
   std::vector<PackScratch> thread_pack;    // one a thread, when the threads pack

@@ -4,7 +4,6 @@
 #include <cassert>
 #include <cstring>
 
-#include "cellphys/gen/force_table.h"
 #include "runtime/ppe/world.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/workspace.h"

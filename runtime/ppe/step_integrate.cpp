@@ -223,18 +223,20 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
     StepStats& tst = sc.thread_stats[size_t(thread)];
     pack_shares(pc, shared_pc, shapes, sc, sc.runs[r].first, sc.runs[r].second, pack, ts, tst);
     pool.step_on(thread, ts.jobs.data(), ts.jobs.size(), ts.reports.data());
+    const auto sound = [](const PackedIsland& p, const spu::IslandReport& r) {
+      return r.status == spu::IslandStatus::ok && sound_result(p, r);
+    };
     for (size_t i = 0; i < ts.groups.size(); ++i) {
       const size_t j = ts.groups[i].first, g = ts.groups[i].end;
       PackedIsland& p = g - j > 1 ? ts.images[ts.groups[i].shared] : sc.packed[sc.order[j]];
       const spu::IslandReport& rep = ts.reports[i];
-      const bool sound = rep.status == spu::IslandStatus::ok && rep.halvings == 0 && sound_result(p, rep);
       if (g - j == 1) {
         sc.jobs[j] = ts.jobs[i];
         sc.reports[j] = rep;
-        if (sound) unpack_island(p, bodies), sc.unpacked[j] = 1;
+        if (sound(p, rep)) unpack_island(p, bodies), sc.unpacked[j] = 1;
         continue;
       }
-      if (sound) {
+      if (sound(p, rep)) {
         // the shared image's work counted once, on its first part; each part took its substeps
         unpack_island(p, bodies);
         tst.shared_islands += uint32_t(g - j);
@@ -250,8 +252,7 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
         pack_one(pc, *sc.todo[sc.order[m]], pack, q, /*seal=*/false);
         sc.jobs[m] = job_of(q);
         pool.step_on(thread, &sc.jobs[m], 1, &sc.reports[m]);
-        if (sc.reports[m].status == spu::IslandStatus::ok && sound_result(q, sc.reports[m]))
-          unpack_island(q, bodies), sc.unpacked[m] = 1;
+        if (sound(q, sc.reports[m])) unpack_island(q, bodies), sc.unpacked[m] = 1;
       }
     }
   });

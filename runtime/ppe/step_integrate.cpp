@@ -36,16 +36,19 @@ constexpr size_t kSmallPart = 32, kPartsPerRun = 32;
 size_t part_size(const IslandContent& part) { return part.bodies.size() + part.contacts.size() + part.forces.size(); }
 
 // The job order: largest first, so the long islands start early on the workers, then in part
-// order. Keys of (largest - size, index), all distinct.
+// order. Keys of (largest - size, index), all distinct, in as few bits as they need (the sort's
+// passes follow them).
 template <class Size>
 void largest_first(size_t used, Size size_of, IntegrateScratch& sc) {
   size_t largest = 0;
   for (size_t i = 0; i < used; ++i) largest = std::max(largest, size_of(i));
+  const int index_bits = bits_used(used);
   sc.order_keys.resize(used);
-  for (size_t i = 0; i < used; ++i) sc.order_keys[i] = uint64_t(largest - size_of(i)) << 32 | i;
+  for (size_t i = 0; i < used; ++i) sc.order_keys[i] = uint64_t(largest - size_of(i)) << index_bits | i;
   radix_sort_keys(sc.order_keys, sc.sort_buffer);
   sc.order.resize(used);
-  for (size_t j = 0; j < used; ++j) sc.order[j] = size_t(sc.order_keys[j] & 0xffffffffu);
+  const uint64_t index = (uint64_t{1} << index_bits) - 1;
+  for (size_t j = 0; j < used; ++j) sc.order[j] = size_t(sc.order_keys[j] & index);
 }
 
 void pack_one(const PackContext& pc, const IslandContent& part, PackScratch& scratch, PackedIsland& p, bool seal = true) {

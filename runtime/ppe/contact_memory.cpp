@@ -62,11 +62,13 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
   double total_depth = 0, fastest = 0, k_per_mass = 0, damping_per_k = 0;
   Vec3d drift{0, 0, 0};
   const size_t count = std::min(end - first, size_t(spu::kMaxManifoldPoints));
+  // once a pair: the compiler cannot, since the contacts written below might be the bodies
+  const double inverse_ma = 1.0 / bodies[a].mass, inverse_mb = b == kWorldBody ? 0.0 : 1.0 / bodies[b].mass;
   for (size_t i = 0; i < count; ++i) {
     WorldContact& c = contacts[first + i];
     const Vec3d p = Vec3d::load(c.point.point), n = Vec3d::load(c.point.normal);
-    double w = inverse_mass_along(1.0 / bodies[a].mass, Ia, fa.x, p, n);
-    if (b != kWorldBody) w += inverse_mass_along(1.0 / bodies[b].mass, Ib, fb.x, p, n);
+    double w = inverse_mass_along(inverse_ma, Ia, fa.x, p, n);
+    if (b != kWorldBody) w += inverse_mass_along(inverse_mb, Ib, fb.x, p, n);
     c.mass = float(1.0 / w);
     // the contact's spring and damper, as the descriptor tunes them
     const double m = std::max(c.mass, c.load), omega = 2 * kPi * s.globals.contact_hertz;
@@ -77,9 +79,14 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
     // The anchor this point stuck to, if it is still near it, and how far it is strained.
     matched[i] = -1;
     double best_d = match;
+    // Squared distances beyond this are surely no nearer than best_d: 1e-12 is thousands of
+    // rounding errors, so the square root (correctly rounded) is taken only where it decides.
+    double beyond = best_d * best_d * (1 + 1e-12);
     for (uint32_t j = 0; old && j < old->count; ++j) {
-      const double d = norm(old_on_a[j] - p);
-      if (!used[j] && d < best_d) matched[i] = int(j), best_d = d;
+      const double d2 = squared_norm(old_on_a[j] - p);
+      if (used[j] || !(d2 <= beyond)) continue;
+      const double d = std::sqrt(d2);
+      if (d < best_d) matched[i] = int(j), best_d = d, beyond = best_d * best_d * (1 + 1e-12);
     }
     strain[i] = {0, 0, 0};
     if (matched[i] >= 0) {

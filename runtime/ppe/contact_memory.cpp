@@ -59,7 +59,7 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
   int matched[spu::kMaxManifoldPoints];
   Vec3d strain[spu::kMaxManifoldPoints];
   Vec3d total_strain{0, 0, 0};
-  double total_depth = 0, fastest = 0, k_per_mass = 0, damping_per_k = 0;
+  double total_depth = 0, fastest_squared = 0, k_per_mass = 0, damping_per_k = 0;
   Vec3d drift{0, 0, 0};
   const size_t count = std::min(end - first, size_t(spu::kMaxManifoldPoints));
   // once a pair: the compiler cannot, since the contacts written below might be the bodies
@@ -105,7 +105,7 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
     const Vec3d vrel = velocity_at(bodies, b, p) - velocity_at(bodies, a, p);
     const double vn = dot(vrel, n);
     const Vec3d vt = vrel - n * vn;
-    fastest = std::max(fastest, norm(vt));
+    fastest_squared = std::max(fastest_squared, squared_norm(vt));
     drift = drift + vt * (1.0 / double(count));
     // the tangential force, in units of depth: the anchor spring's and its damper's
     total_strain = total_strain + strain[i] + vt * cd_per_k;
@@ -129,6 +129,9 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
   // overshot one that it stopped within the step. (Judged by the normal's effective mass, a
   // sphere's slip, which friction turns through 2/7 of that mass, reversed every step: a
   // ragdoll's head held against the ground by its neck rocked at 4 cm/s for ever.)
+  // the fastest slip: one square root, of the largest square (a correctly rounded root keeps
+  // the order, so this is the largest root, bit for bit)
+  const double fastest = std::sqrt(fastest_squared);
   const double mu = contacts[first].friction, depth = total_depth / double(count);
   const bool stoppable = fastest <= s.dt * mu * k_per_mass * depth && fastest * damping_per_k <= 0.5 * mu * depth;
   bool sliding;

@@ -116,6 +116,9 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
     const double normal = pen > 0 ? held - cd_per_k * vn : (cd_per_k + s.dt) * (pen / s.dt - vn);
     total_depth += std::max(normal, 0.0);
   }
+  // the fastest slip: one square root, of the largest square (a correctly rounded root keeps
+  // the order, so this is the largest root, bit for bit)
+  const double fastest = std::sqrt(fastest_squared);
   // Sticking or sliding, for the pair as a whole (its points share the two bodies' motion, not
   // their loads: a box on a slope presses its downhill edge harder). A sticking pair slides
   // once its tangential force leaves the friction cone (its strain and slip against mu times
@@ -129,9 +132,6 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
   // overshot one that it stopped within the step. (Judged by the normal's effective mass, a
   // sphere's slip, which friction turns through 2/7 of that mass, reversed every step: a
   // ragdoll's head held against the ground by its neck rocked at 4 cm/s for ever.)
-  // the fastest slip: one square root, of the largest square (a correctly rounded root keeps
-  // the order, so this is the largest root, bit for bit)
-  const double fastest = std::sqrt(fastest_squared);
   const double mu = contacts[first].friction, depth = total_depth / double(count);
   const bool stoppable = fastest <= s.dt * mu * k_per_mass * depth && fastest * damping_per_k <= 0.5 * mu * depth;
   bool sliding;

@@ -77,11 +77,15 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
     if (b != kWorldBody) w += inverse_mass_along(inverse_mb, Ib, fb.x, p, n);
     c.mass = float(1.0 / w);
     // the contact's spring and damper, as the descriptor tunes them
-    const double m = std::max(c.mass, c.load);
-    const double k = tuned_k ? stiffness : m * omega * omega;
-    const double cd = tuned_c ? damping : 2 * ratio * m * omega;
-    k_per_mass = std::max(k_per_mass, tuned_k ? k / m : k_per_mass_of_hertz);
-    const double cd_per_k = tuned_k || tuned_c ? cd / k : damping_per_k_of_ratio;
+    double k_per_m = k_per_mass_of_hertz, cd_per_k = damping_per_k_of_ratio;
+    if (tuned_k || tuned_c) {
+      const double m = std::max(c.mass, c.load);
+      const double k = tuned_k ? stiffness : m * omega * omega;
+      const double cd = tuned_c ? damping : 2 * ratio * m * omega;
+      if (tuned_k) k_per_m = k / m;
+      cd_per_k = cd / k;
+    }
+    k_per_mass = std::max(k_per_mass, k_per_m);
     damping_per_k = std::max(damping_per_k, cd_per_k);
     // The anchor this point stuck to, if it is still near it, and how far it is strained.
     matched[i] = -1;

@@ -2,7 +2,11 @@
 // whole and by phase, and this core's FMA peak for the efficiency ratio.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cstring>
+#include <random>
+#include <thread>
 #include <vector>
 
 #include "runtime/base/simd.h"
@@ -167,5 +171,59 @@ void BM_PeakFma(benchmark::State& state) {
   state.SetLabel(cellphys::simd::kPathName);
 }
 BENCHMARK(BM_PeakFma);
+
+// What a cache line last written by another thread costs to read, against one this thread
+// wrote (arg 1 and 0): a random walk over 1,024 lines (64 KiB), each read waiting on the last.
+// The stages of a step hand bodies and contacts from thread to thread; where this is many times
+// the local figure, spreading a small world's step over two workers costs more than it gains
+// (docs/bench.md, "Worker scaling").
+void BM_LineFromOtherThread(benchmark::State& state) {
+  struct alignas(64) Line {
+    Line* next;
+    long payload[7];
+  };
+  constexpr size_t kLines = 1024;
+  std::vector<Line> lines(kLines);
+  std::vector<size_t> order(kLines);
+  for (size_t i = 0; i < kLines; ++i) order[i] = i;
+  std::shuffle(order.begin(), order.end(), std::mt19937(1));
+  for (size_t i = 0; i < kLines; ++i) lines[order[i]].next = &lines[order[(i + 1) % kLines]];
+  const bool other = state.range(0) != 0;
+  std::atomic<int> turn{0};  // 1: the writer's turn, 2: the reader's; -1: stop
+  auto write_all = [&] {
+    for (Line& l : lines) ++l.payload[0];
+  };
+  std::thread writer([&] {
+    for (;;) {
+      int t;
+      while ((t = turn.load(std::memory_order_acquire)) == 0 || t == 2) {
+      }
+      if (t < 0) return;
+      write_all();
+      turn.store(2, std::memory_order_release);
+    }
+  });
+  for (auto _ : state) {
+    state.PauseTiming();
+    if (other) {
+      turn.store(1, std::memory_order_release);
+      while (turn.load(std::memory_order_acquire) != 2) {
+      }
+      turn.store(0, std::memory_order_relaxed);
+    } else {
+      write_all();
+    }
+    state.ResumeTiming();
+    const Line* p = &lines[order[0]];
+    for (size_t i = 0; i < kLines; ++i) p = p->next;
+    benchmark::DoNotOptimize(p);
+  }
+  turn.store(-1, std::memory_order_release);
+  writer.join();
+  state.counters["ns_per_line"] =
+      benchmark::Counter(double(kLines) * double(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.SetLabel(other ? "written by another thread" : "written by this thread");
+}
+BENCHMARK(BM_LineFromOtherThread)->ArgName("other")->Arg(0)->Arg(1)->UseRealTime();
 
 }  // namespace

@@ -10,7 +10,6 @@
 #include <cstring>
 #include <limits>
 #include <random>
-#include <vector>
 
 namespace cellphys::ppe {
 namespace {

@@ -8,8 +8,7 @@ namespace cellphys::ppe {
 
 namespace outward_detail {
 // The float next to f, below (step -1) or above (+1): std::nextafter's result for any f that
-// is not NaN, by the bits, without its library call (six a body's box each step, the largest
-// part of the box's cost).
+// is not NaN, by the bits, without its library call (one a bound: six a body's box each step).
 inline float next_float(float f, int step) {
   uint32_t u;
   std::memcpy(&u, &f, sizeof u);

@@ -7,6 +7,7 @@
 //  - the sparse 1,000-body world at its start (all awake) and after 10 s (most asleep).
 //  - per-island cost by island size: N separate stacks of k boxes (k = 1, 2, 4, 8, 16, 65;
 //    about 1,040 boxes in all), after 0.5 s, all awake; ns_per_island and ns_per_body;
+//  - a step's fixed cost: one box at rest on the ground, awake;
 //  - a step of the 100,000-body sparse world with every body asleep (built and settled once
 //    per process, untimed, on the first run of BM_Sleeping100k).
 // The awake cases restore the same state before every step (outside the timing), so every
@@ -197,6 +198,24 @@ BENCHMARK(BM_Sparse1000Step)
     ->Args({10, 2})
     ->Unit(benchmark::kMicrosecond);
 
+// Sleeping off, on `workers` threads: every body stays awake.
+WorldSettings awake_settings(int workers) {
+  WorldSettings s;
+  s.sleeping = false;
+  s.workers = workers;
+  return s;
+}
+
+// A ground plane in w, and a 1 kg cube of half-extent h to place on it.
+ppe::BodyDesc cube_on_ground(World& w, float h) {
+  ground_plane(w);
+  const float half[3] = {h, h, h};
+  ppe::BodyDesc d;
+  d.shape = w.shapes().add_box(half);
+  d.mass = 1.0f;
+  return d;
+}
+
 // Per-island cost by island size. arg 0: boxes per stack k; arg 1: workers. N = 1040 / k
 // separate stacks of k 1 kg boxes (0.25 m half-extent, one dictionary box, each resting exactly
 // on the one below) on a 2 m grid on the ground: N islands of k bodies, about 1,040 bodies in
@@ -205,15 +224,9 @@ BENCHMARK(BM_Sparse1000Step)
 void BM_IslandSize(benchmark::State& state) {
   const int k = int(state.range(0));
   const int n = std::max(1, 1040 / k);
-  WorldSettings s;
-  s.sleeping = false;
-  s.workers = int(state.range(1));
-  World w(s);
-  ground_plane(w);
-  const float h = 0.25f, half[3] = {h, h, h};
-  ppe::BodyDesc d;
-  d.shape = w.shapes().add_box(half);
-  d.mass = 1.0f;
+  World w(awake_settings(int(state.range(1))));
+  const float h = 0.25f;
+  ppe::BodyDesc d = cube_on_ground(w, h);
   const int side = int(std::ceil(std::sqrt(double(n))));
   std::vector<BodyId> bodies;
   for (int i = 0; i < n; ++i) {
@@ -257,6 +270,23 @@ BENCHMARK(BM_IslandSize)
     ->Args({1, 2})
     ->Args({65, 2})
     ->Unit(benchmark::kMicrosecond);
+
+// A step's fixed cost: one box resting on the ground, sleeping off, stepped on and on (at rest it
+// does the same work every step; a restore before each, as above, would cost more than the step).
+// A game server stepping many small rooms pays this for each room every tick.
+void BM_OneBodyStep(benchmark::State& state) {
+  World w(awake_settings(1));
+  const float h = 0.25f;
+  ppe::BodyDesc d = cube_on_ground(w, h);
+  d.state.position[2] = h;
+  const BodyId box = w.add_body(d);
+  for (int i = 0; i < 60; ++i) w.step();
+  Sums sums;
+  for (auto _ : state) sums.step(w);
+  sums.report(state);
+  state.counters["max_speed"] = max_speed(w, {box});
+}
+BENCHMARK(BM_OneBodyStep)->Unit(benchmark::kMicrosecond);
 
 // The 100,000-body sparse world (sparse_world(w, 100000, 1000, 1): world1000's mix at the same
 // density) stepped until every body sleeps (at most 60 simulated seconds), once per process

@@ -194,18 +194,18 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
              const WorldSettings& settings, const BodyChanges& changes, WorkerPool* pool, CollideScratch& scratch,
              ContactMemory& memory, std::vector<WorldContact>& contacts, StepStats& st) {
   {
-    StageTimer t(st.times.broad_ms);
+    StageTimer t(st, &StageTimes::broad_ms);
     broad_phase(bodies, shapes, settings, changes, scratch, st);
   }
   {
-    StageTimer t(st.times.mid_ms);
+    StageTimer t(st, &StageTimes::mid_ms);
     box_pairs(changes, scratch);
     plane_pairs(bodies, shapes, settings, changes, scratch);
     radix_sort_pairs(scratch.pairs, scratch.sorting);
     drop_joined_pairs(forces, scratch);
     st.mid_phase_pairs = static_cast<uint32_t>(scratch.pairs.size());
   }
-  StageTimer t(st.times.narrow_ms);
+  StageTimer t(st, &StageTimes::narrow_ms);
   narrow_phase(bodies, shapes, settings, pool, scratch, contacts, st);
   scratch.groups.build(bodies, forces);
   set_contact_hold_and_fall(settings, scratch.groups, contacts);

@@ -138,7 +138,7 @@ void decouple(const PackContext& pc, const IslandContent& island, size_t fit, ui
 
 void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, size_t whole_bytes,
                       StepStats& st, PackScratch& scratch, DecoupledIslands& d) {
-  StageTimer t(st.times.decouple_ms);
+  StageTimer t(st, &StageTimes::decouple_ms);
   const size_t fit = std::max(pc.settings.local_store_bytes, std::min(whole_bytes, pc.settings.whole_island_bytes));
   d.waves = 0;
   d.parts.resize(islands.size());

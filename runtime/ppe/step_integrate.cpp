@@ -64,7 +64,7 @@ void pack_and_run(const PackContext& pc, const ShapeDictionary& shapes, IslandRu
                   IntegrateScratch& sc, StepStats& st) {
   const size_t used = sc.todo.size();
   {
-    StageTimer t(st.times.pack_ms);
+    StageTimer t(st, &StageTimes::pack_ms);
     if (threads && threads->size() > 1 && used > 1) {
       sc.thread_pack.resize(size_t(threads->size()));
       // A few dozen ranges: small islands pack in a few hundred nanoseconds each.
@@ -82,7 +82,7 @@ void pack_and_run(const PackContext& pc, const ShapeDictionary& shapes, IslandRu
       count_wire_tables(sc.packed[k], shapes, st);
     }
   }
-  StageTimer t(st.times.integrate_ms);
+  StageTimer t(st, &StageTimes::integrate_ms);
   runner.run(sc.jobs, sc.reports);
   add_transport(runner.last_transport(), st);
 }
@@ -197,7 +197,7 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
                      IntegrateScratch& sc, StepStats& st) {
   const size_t used = sc.todo.size();
   {
-    StageTimer t(st.times.pack_ms);
+    StageTimer t(st, &StageTimes::pack_ms);
     largest_first(used, [&](size_t i) { return part_size(*sc.todo[i]); }, sc);
     sc.runs.clear();
     for (size_t k = 0; k < used;) {
@@ -219,7 +219,7 @@ void pack_run_unpack(const PackContext& pc, const ShapeDictionary& shapes, Worke
   WorldSettings once = pc.settings;
   once.max_halvings = 0;
   const PackContext shared_pc{pc.bodies, pc.forces, pc.contacts, once, pc.start};
-  StageTimer t(st.times.integrate_ms);
+  StageTimer t(st, &StageTimes::integrate_ms);
   pool.for_each(sc.runs.size(), [&](size_t r, int thread) {
     ThreadShares& ts = sc.threads[size_t(thread)];
     PackScratch& pack = sc.thread_pack[size_t(thread)];
@@ -280,7 +280,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   island_of_packed.clear();
   sc.jobs.clear();
   {
-    StageTimer t(st.times.pack_ms);
+    StageTimer t(st, &StageTimes::pack_ms);
     sc.todo.clear();
     for (size_t k = 0; k < d.parts.size(); ++k)
       if (wave < d.parts[k].size() && (!split_only || d.parts[k].size() > 1)) {
@@ -297,7 +297,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   else
     pack_and_run(pc, shapes, runner, compute.threads, sc, st);
   {
-    StageTimer t(st.times.integrate_ms);
+    StageTimer t(st, &StageTimes::integrate_ms);
     // Every result is checked before it is unpacked; an unsound one (damaged on the way, or
     // refused by a node that was sent a sound image) is computed again here.
     for (size_t j = 0; j < order.size(); ++j) {
@@ -307,7 +307,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
       ++st.recomputed_islands;
     }
   }
-  StageTimer t(st.times.unpack_ms);
+  StageTimer t(st, &StageTimes::unpack_ms);
   for (size_t j = 0; j < order.size(); ++j) {
     const spu::IslandReport& r = reports[j];
     add_report(r, st);
@@ -345,7 +345,7 @@ void integrate_islands(const WorldSettings& s, const ShapeDictionary& shapes, co
   // Every sweep packs from the start state; it is kept apart only when an island is split.
   std::vector<WorldBody>& start = sc.start;
   if (d.split()) {
-    StageTimer t(st.times.pack_ms);
+    StageTimer t(st, &StageTimes::pack_ms);
     start = bodies;
   }
   const PackContext pc{bodies, forces, contacts, s, d.split() ? start : bodies};

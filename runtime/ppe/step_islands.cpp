@@ -29,7 +29,7 @@ struct UnionFind {
 void build_islands(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
                    const std::vector<WorldContact>& contacts, const AwakeBodies& awake, IslandScratch& scratch,
                    StepStats& st, std::vector<IslandContent>& islands) {
-  StageTimer t(st.times.islands_ms);
+  StageTimer t(st, &StageTimes::islands_ms);
   const uint32_t n = static_cast<uint32_t>(bodies.size());
   scratch.parent.resize(n);
   scratch.island_of.resize(n);

@@ -26,7 +26,7 @@ constexpr double kUpCosine = 0.5;
 
 void push_out_overlaps(const WorldSettings& s, const std::vector<WorldForce>& forces, std::vector<WorldBody>& bodies,
                        std::vector<WorldContact>& contacts, ContactMemory& memory, PushScratch& p, StepStats& st) {
-  StageTimer timer(st.times.push_ms);
+  StageTimer timer(st, &StageTimes::push_ms);
   const double budget = double(s.globals.contact_push_speed) * s.dt;
   if (budget <= 0) return;
   if (std::none_of(contacts.begin(), contacts.end(), [&](const WorldContact& c) { return c.point.penetration > c.hold; }))

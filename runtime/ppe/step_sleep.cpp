@@ -29,7 +29,7 @@ void wake_body(std::vector<WorldBody>& bodies, SleepingGroups& sleeping, uint32_
 
 void wake_touched_groups(std::vector<WorldBody>& bodies, const std::vector<WorldForce>& forces,
                          std::vector<WorldContact>& contacts, SleepingGroups& sleeping, StepStats& st) {
-  StageTimer t(st.times.wake_ms);
+  StageTimer t(st, &StageTimes::wake_ms);
   for (bool changed = true; changed;) {
     changed = false;
     auto touch = [&](uint32_t x, uint32_t y) {
@@ -56,7 +56,7 @@ void sleep_quiet_islands(const WorldSettings& s, const std::vector<IslandContent
                          const std::vector<uint8_t>& failed,
                          const std::vector<WorldContact>& contacts, std::vector<WorldBody>& bodies,
                          SleepingGroups& sleeping, StepStats& st) {
-  StageTimer t(st.times.sleep_ms);
+  StageTimer t(st, &StageTimes::sleep_ms);
   if (!s.sleeping) return;
   const float lin2 = s.sleep_linear * s.sleep_linear, ang2 = s.sleep_angular * s.sleep_angular;
   for (size_t k = 0; k < islands.size(); ++k) {

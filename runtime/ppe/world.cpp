@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <chrono>
 
 #include "runtime/ppe/body_maths.h"
 #include "runtime/ppe/settings.h"
@@ -195,8 +196,9 @@ const StepStats& World::step() {
   StepStats st;
   st.step = stats_.step + 1;
   WorkerPool::Hold hold(w.workers(settings_));  // its threads ready for each stage's tasks
+  st.stage_end = std::chrono::steady_clock::now();  // the first stage starts here
   {
-    StageTimer total(st.times.total_ms);
+    StageTimer total(st, &StageTimes::total_ms);
     // The bodies that changed set since the last step; those stage 2 wakes join after it.
     const bool all = w.sleeping.all_changed;
     w.awake.update(w.bodies, w.sleeping.changed, all);
@@ -209,7 +211,7 @@ const StepStats& World::step() {
             w.contacts, st);
     PendingEvents& events = w.pending_events;  // 8, begun: what a touch's begin measures before the step moves anything
     {
-      StageTimer t(st.times.events_ms);
+      StageTimer t(st, &StageTimes::events_ms);
       begin_events(w.bodies, shapes_, settings_, w.collide.woken, all, w.collide.reach, w.contacts, w.collide.touched,
                    w.collide.sensed, w.event_memory, w.sensor_events, events);
     }
@@ -225,14 +227,14 @@ const StepStats& World::step() {
     integrate_islands(settings_, shapes_, islands, parts, w.forces, w.contacts, w.bodies,  // 6
                       w.compute(settings_), w.integrate, w.failed, st);
     {
-      StageTimer t(st.times.integrate_ms);  // the end of integration: joints opened too far
+      StageTimer t(st, &StageTimes::integrate_ms);  // the end of integration: joints opened too far
       project_joints(settings_, w.forces, w.bodies, st);
       note_held_gaps(w.bodies, settings_, w.contacts, w.contact_memory);
     }
     const std::vector<uint8_t>& failed = w.failed;
     sleep_quiet_islands(settings_, islands, failed, w.contacts, w.bodies, w.sleeping, st);  // 7
     {
-      StageTimer t(st.times.events_ms);  // 8, finished: the begin touches' impulses
+      StageTimer t(st, &StageTimes::events_ms);  // 8, finished: the begin touches' impulses
       finish_events(w.bodies, events, w.event_memory, w.contact_events);
     }
     // Which island each body was in, for last_island (display only).

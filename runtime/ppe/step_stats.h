@@ -72,7 +72,8 @@ struct StepStats {
   uint64_t wire_table_from_nodes = 0;  // 13 floats per body
   uint64_t image_bytes = 0, result_bytes = 0;  // packed images and kernel results, as in memory
   StageTimes times;
-  // Where the last stage timed in this step ended (unset outside a step): the next starts there.
+  // Where the last stage timed in this step ended (World::step sets it at its start; unset, a
+  // stage times from its own start): the next stage starts there.
   std::chrono::steady_clock::time_point stage_end{};
 };
 

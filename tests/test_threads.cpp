@@ -3,6 +3,7 @@
 // preset) as well as in the ordinary passes (label "threads").
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <memory>
@@ -142,6 +143,36 @@ TEST(Threads, PoolRangesCoverEveryItemOnceHeldOrNot) {
     std::this_thread::sleep_for(std::chrono::microseconds(200));  // past the spin: asleep
     check(999, 16);
   }
+}
+
+// Held without threads (a step too small for them), every item runs on the calling thread;
+// once that hold ends, the threads take items again, the enclosing hold's mode restored.
+TEST(Threads, PoolHeldWithoutThreadsRunsOnTheCaller) {
+  cellphys::ppe::WorkerPool pool(3, 64 * 1024);
+  cellphys::ppe::WorkerPool::Hold held(pool);
+  {
+    cellphys::ppe::WorkerPool::Hold alone(pool, /*threads=*/false);
+    std::vector<int> threads(200, -1);
+    pool.for_each(threads.size(), [&](size_t k, int thread) {  // items long enough to share
+      threads[k] = thread;
+      const auto start = std::chrono::steady_clock::now();
+      while (std::chrono::steady_clock::now() - start < std::chrono::microseconds(20)) {
+      }
+    });
+    for (size_t k = 0; k < threads.size(); ++k) ASSERT_EQ(threads[k], 0) << "item " << k;
+  }
+  // Each item waits (up to 10 s) for an item to run on another thread: only a pool that
+  // shares its items again gets through without the wait.
+  std::atomic<int> others{0};
+  std::atomic<bool> timed_out{false};
+  pool.for_each(64, [&](size_t, int thread) {
+    if (thread != 0) ++others;
+    const auto start = std::chrono::steady_clock::now();
+    while (others.load() == 0 && !timed_out.load())
+      if (std::chrono::steady_clock::now() - start > std::chrono::seconds(10)) timed_out = true;
+  });
+  EXPECT_FALSE(timed_out.load());
+  EXPECT_GT(others.load(), 0);
 }
 
 // A world's pool follows its settings: grown, shrunk and back between steps, the world steps on

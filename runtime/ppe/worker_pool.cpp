@@ -88,7 +88,11 @@ void WorkerPool::loop(int index) {
   }
 }
 
-WorkerPool::Hold::Hold(WorkerPool& pool) : pool_(pool) {
+WorkerPool::Hold::Hold(WorkerPool& pool, bool threads) : pool_(pool), threads_(threads), was_alone_(pool.alone_) {
+  if (!threads_) {
+    pool_.alone_ = true;
+    return;
+  }
   if (pool_.threads_.empty() || pool_.held_.fetch_add(1, std::memory_order_relaxed) > 0) return;
   {  // wakes the sleeping threads with no task: they find none and spin for the next
     std::lock_guard<std::mutex> lock(pool_.mutex_);
@@ -98,12 +102,15 @@ WorkerPool::Hold::Hold(WorkerPool& pool) : pool_(pool) {
 }
 
 WorkerPool::Hold::~Hold() {
-  if (!pool_.threads_.empty()) pool_.held_.fetch_sub(1, std::memory_order_relaxed);
+  if (!threads_)
+    pool_.alone_ = was_alone_;
+  else if (!pool_.threads_.empty())
+    pool_.held_.fetch_sub(1, std::memory_order_relaxed);
 }
 
 void WorkerPool::run_task(size_t count, TaskRef task) {
   if (count == 0) return;
-  if (threads_.empty() || count == 1) {
+  if (threads_.empty() || count == 1 || alone_) {
     for (size_t k = 0; k < count; ++k) task.call(task.context, k, 0);
     return;
   }

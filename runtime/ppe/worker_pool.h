@@ -57,15 +57,19 @@ class WorkerPool : public IslandRunner {
   /// hands out tasks between serial stages a hundred microseconds long, and a thread woken
   /// from its condition variable joined its task tens of microseconds late (on 2 workers the
   /// narrow phase of the 1,000-body world took longer than on 1). A step holds its pool.
+  /// Held with `threads` false, the pool runs every task on the calling thread and leaves its
+  /// threads asleep: for a step too small to pay for handing its bodies between cores, or one
+  /// with no awake body (waking the threads for it doubled its cost on 2 workers).
   class Hold {
    public:
-    explicit Hold(WorkerPool& pool);
+    explicit Hold(WorkerPool& pool, bool threads = true);
     ~Hold();
     Hold(const Hold&) = delete;
     Hold& operator=(const Hold&) = delete;
 
    private:
     WorkerPool& pool_;
+    bool threads_, was_alone_;
   };
 
  private:
@@ -96,6 +100,7 @@ class WorkerPool : public IslandRunner {
   std::atomic<uint64_t> generation_{0};
   std::atomic<int> held_{0};  // live Holds
   bool stop_ = false;
+  bool alone_ = false;  // set by a Hold without threads; read only by the thread that holds
 };
 
 }  // namespace cellphys::ppe

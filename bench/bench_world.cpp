@@ -216,6 +216,24 @@ ppe::BodyDesc cube_on_ground(World& w, float h) {
   return d;
 }
 
+// World1000's kind of sparse world at its density with fewer bodies: a small room. Sleeping
+// off, it steps 1 s (its bodies land), then every timed step steps on from the last: whether
+// a second worker pays for so few bodies on this machine. args: bodies, workers
+void BM_SparseWorldStep(benchmark::State& state) {
+  const int n = int(state.range(0));
+  World w(awake_settings(int(state.range(1))));
+  sparse_world(w, n, 100.0f * std::sqrt(float(n) / 1000.0f), 1);
+  for (int i = 0; i < 60; ++i) w.step();
+  Sums sums;
+  for (auto _ : state) sums.step(w);
+  sums.report(state);
+  state.SetLabel("after 1 s, awake (sleeping off), stepping on");
+}
+BENCHMARK(BM_SparseWorldStep)
+    ->ArgNames({"bodies", "workers"})
+    ->ArgsProduct({{100, 300}, {1, 2}})
+    ->Unit(benchmark::kMicrosecond);
+
 // Per-island cost by island size. arg 0: boxes per stack k; arg 1: workers. N = 1040 / k
 // separate stacks of k 1 kg boxes (0.25 m half-extent, one dictionary box, each resting exactly
 // on the one below) on a 2 m grid on the ground: N islands of k bodies, about 1,040 bodies in

@@ -145,7 +145,7 @@ TEST(Threads, PoolRangesCoverEveryItemOnceHeldOrNot) {
   }
 }
 
-// Held without threads (a step too small for them), every item runs on the calling thread;
+// Held without threads (a step with no awake body), every item runs on the calling thread;
 // once that hold ends, the threads take items again, the enclosing hold's mode restored.
 TEST(Threads, PoolHeldWithoutThreadsRunsOnTheCaller) {
   cellphys::ppe::WorkerPool pool(3, 64 * 1024);

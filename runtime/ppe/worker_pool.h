@@ -58,8 +58,8 @@ class WorkerPool : public IslandRunner {
   /// from its condition variable joined its task tens of microseconds late (on 2 workers the
   /// narrow phase of the 1,000-body world took longer than on 1). A step holds its pool.
   /// Held with `threads` false, the pool runs every task on the calling thread and leaves its
-  /// threads asleep: for a step too small to pay for handing its bodies between cores, or one
-  /// with no awake body (waking the threads for it doubled its cost on 2 workers).
+  /// threads asleep: for a step with no awake body (waking the threads for it doubled its cost
+  /// on 2 workers).
   class Hold {
    public:
     explicit Hold(WorkerPool& pool, bool threads = true);

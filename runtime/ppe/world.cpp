@@ -23,12 +23,6 @@ using namespace cellphys::gen;
 
 namespace {
 
-// The fewest bodies that may be awake for a step to use a second worker: below it, two
-// threads took longer than one on this project's sparse worlds (100 bodies 89 → 119 µs a
-// step on 2 workers, level at 200, 10% faster at 300; docs/bench.md, "Worker scaling"),
-// the time going on the bodies' state read by the other core.
-constexpr size_t kThreadsFromAwakeBodies = 128;
-
 // A checked state into a body: the orientation normalised (with a warning when it was not
 // unit); a static body keeps zero velocities.
 void take_state(const BodyState& s, const std::string& who, std::vector<std::string>& warnings, WorldBody& b) {
@@ -201,11 +195,13 @@ const StepStats& World::step() {
   Impl& w = *impl_;
   StepStats st;
   st.step = stats_.step + 1;
-  // Its threads ready for each stage's tasks, if the bodies that may be awake (those that were,
-  // and those that changed set since) are enough to pay for them; a step with fewer runs on
-  // this thread alone, as on one worker (its result is the same either way).
-  const size_t may_be_awake = w.sleeping.all_changed ? w.bodies.size() : w.awake.ids().size() + w.sleeping.changed.size();
-  WorkerPool::Hold hold(w.workers(settings_), may_be_awake >= kThreadsFromAwakeBodies);
+  // Its threads ready for each stage's tasks, unless no body may be awake (none was, and none
+  // changed set since): such a step hands out no work, and waking the threads for it doubled
+  // its cost on 2 workers. (A threshold of awake bodies below which a step would run alone was
+  // measured and not kept: at 100 bodies two threads were 1.3x faster in one sitting of this
+  // machine and 15% slower in another; docs/bench.md, "Worker scaling".)
+  const bool may_work = w.sleeping.all_changed || !w.awake.ids().empty() || !w.sleeping.changed.empty();
+  WorkerPool::Hold hold(w.workers(settings_), may_work);
   st.stage_end = std::chrono::steady_clock::now();  // the first stage starts here
   {
     StageTimer total(st, &StageTimes::total_ms);

@@ -100,7 +100,7 @@ class WorkerPool : public IslandRunner {
   std::atomic<uint64_t> generation_{0};
   std::atomic<int> held_{0};  // live Holds
   bool stop_ = false;
-  bool alone_ = false;  // set by a Hold without threads; read only by the thread that holds
+  bool alone_ = false;  // set by a Hold without threads; read only by run_task's calling thread
 };
 
 }  // namespace cellphys::ppe

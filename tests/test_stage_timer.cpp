@@ -7,7 +7,6 @@
 
 #include <chrono>
 
-
 namespace cellphys::ppe {
 namespace {
 

@@ -58,6 +58,10 @@ std::vector<Scene> scenes() {
   return {
       {"sparse_300", [](World& w) { return sparse_world(w, 300, 55.0f, 3); }},
       {"pile_65", [](World& w) { return pile_in_bin(w, 65, 0.25f, 1); }},
+      {"block_64", [](World& w) {
+         ground_plane(w);
+         return spawned_block(w, 4, 0.95f);
+       }},
       {"stack_12", [](World& w) {
          ground_plane(w);
          return stack(w, 12, 0.25f);
@@ -100,8 +104,9 @@ TEST(WarmStep, AllocatesNothingOnTwoWorkers) {
 }
 
 TEST(WarmStep, AllocatesNothingWhenIslandsAreDecoupled) {
-  // a local store of 24 KiB cuts the pile and the stack into parts every step (and still holds
-  // each part: at 16 KiB a box of the pile with its neighbours as ghosts does not fit)
+  // a local store of 24 KiB cuts the block and the stack into parts every step (and still holds
+  // each part: at 16 KiB a box of the pile with its neighbours as ghosts does not fit); the
+  // pile's columns of boxes land apart, each an island that fits whole
   WorldSettings s;
   s.sleeping = false;
   s.local_store_bytes = 24 * 1024;

@@ -10,7 +10,7 @@ namespace cellphys::gen {
 
 /// contact (pair): F for 2 bodies and 8 Jacobian block(s).
 /// out = [F_a (6), F_b (6), dF_a/ddelta_a (36), dF_a/ddelta_b (36), dF_a/du_a (36), dF_a/du_b (36), dF_b/ddelta_a (36), dF_b/ddelta_b (36), dF_b/du_a (36), dF_b/du_b (36)]
-/// Total ops: 2177
+/// Total ops: 2030
 struct Contact_Pair_Kernel {
   using Instance = Contact_Force;
   static constexpr ForceType kType = ForceType::contact;
@@ -19,7 +19,7 @@ struct Contact_Pair_Kernel {
   static constexpr int kInputs = 62;
   static constexpr int kNumBlocks = 8;
   static constexpr int kOutputs = 300;
-  static constexpr int kOps = 2177;
+  static constexpr int kOps = 2030;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_ddelta, 0, 1},
@@ -563,228 +563,188 @@ struct Contact_Pair_Kernel {
     const S d_L_fmax__b_wx = (d_L_fn__b_wx*l18_0_1);
     const S d_L_fmax__b_wy = (d_L_fn__b_wy*l18_0_1);
     const S d_L_fmax__b_wz = (d_L_fn__b_wz*l18_0_1);
-    // let slip (contact.yaml:85)
+    // let slip (contact.yaml:90)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:86)
+    // let dir (contact.yaml:91)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
-    // let fast (contact.yaml:87)
-    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:88)
-    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
-    const S l22_0_2 = (L_dir__0*L_dir__1);
-    const S l22_0_3 = (L_dir__0*L_dir__2);
-    const S l22_0_4 = (S(1) - (L_dir__1*L_dir__1));
-    const S l22_0_5 = (L_dir__1*L_dir__2);
-    const S l22_0_6 = (S(1) - (L_dir__2*L_dir__2));
-    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
-    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l22_0_1) - (d_L_vt__1__a_vx*l22_0_2) - (d_L_vt__2__a_vx*l22_0_3));
-    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l22_0_1) - (d_L_vt__1__a_vy*l22_0_2) - (d_L_vt__2__a_vy*l22_0_3));
-    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l22_0_1) - (d_L_vt__1__a_vz*l22_0_2) - (d_L_vt__2__a_vz*l22_0_3));
-    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l22_0_1) - (d_L_vt__1__a_wx*l22_0_2) - (d_L_vt__2__a_wx*l22_0_3));
-    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l22_0_1) - (d_L_vt__1__a_wy*l22_0_2) - (d_L_vt__2__a_wy*l22_0_3));
-    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l22_0_1) - (d_L_vt__1__a_wz*l22_0_2) - (d_L_vt__2__a_wz*l22_0_3));
-    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l22_0_1) - (d_L_vt__1__b_vx*l22_0_2) - (d_L_vt__2__b_vx*l22_0_3));
-    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l22_0_1) - (d_L_vt__1__b_vy*l22_0_2) - (d_L_vt__2__b_vy*l22_0_3));
-    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l22_0_1) - (d_L_vt__1__b_vz*l22_0_2) - (d_L_vt__2__b_vz*l22_0_3));
-    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l22_0_1) - (d_L_vt__1__b_wx*l22_0_2) - (d_L_vt__2__b_wx*l22_0_3));
-    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l22_0_1) - (d_L_vt__1__b_wy*l22_0_2) - (d_L_vt__2__b_wy*l22_0_3));
-    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l22_0_1) - (d_L_vt__1__b_wz*l22_0_2) - (d_L_vt__2__b_wz*l22_0_3));
-    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
-    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l22_0_2)) + (d_L_vt__1__a_vx*l22_0_4) - (d_L_vt__2__a_vx*l22_0_5));
-    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l22_0_2)) + (d_L_vt__1__a_vy*l22_0_4) - (d_L_vt__2__a_vy*l22_0_5));
-    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l22_0_2)) + (d_L_vt__1__a_vz*l22_0_4) - (d_L_vt__2__a_vz*l22_0_5));
-    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l22_0_2)) + (d_L_vt__1__a_wx*l22_0_4) - (d_L_vt__2__a_wx*l22_0_5));
-    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l22_0_2)) + (d_L_vt__1__a_wy*l22_0_4) - (d_L_vt__2__a_wy*l22_0_5));
-    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l22_0_2)) + (d_L_vt__1__a_wz*l22_0_4) - (d_L_vt__2__a_wz*l22_0_5));
-    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l22_0_2)) + (d_L_vt__1__b_vx*l22_0_4) - (d_L_vt__2__b_vx*l22_0_5));
-    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l22_0_2)) + (d_L_vt__1__b_vy*l22_0_4) - (d_L_vt__2__b_vy*l22_0_5));
-    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l22_0_2)) + (d_L_vt__1__b_vz*l22_0_4) - (d_L_vt__2__b_vz*l22_0_5));
-    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l22_0_2)) + (d_L_vt__1__b_wx*l22_0_4) - (d_L_vt__2__b_wx*l22_0_5));
-    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l22_0_2)) + (d_L_vt__1__b_wy*l22_0_4) - (d_L_vt__2__b_wy*l22_0_5));
-    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l22_0_2)) + (d_L_vt__1__b_wz*l22_0_4) - (d_L_vt__2__b_wz*l22_0_5));
-    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
-    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l22_0_3)) - (d_L_vt__1__a_vx*l22_0_5) + (d_L_vt__2__a_vx*l22_0_6));
-    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l22_0_3)) - (d_L_vt__1__a_vy*l22_0_5) + (d_L_vt__2__a_vy*l22_0_6));
-    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l22_0_3)) - (d_L_vt__1__a_vz*l22_0_5) + (d_L_vt__2__a_vz*l22_0_6));
-    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
-    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
-    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
-    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l22_0_3)) - (d_L_vt__1__b_vx*l22_0_5) + (d_L_vt__2__b_vx*l22_0_6));
-    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l22_0_3)) - (d_L_vt__1__b_vy*l22_0_5) + (d_L_vt__2__b_vy*l22_0_6));
-    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l22_0_3)) - (d_L_vt__1__b_vz*l22_0_5) + (d_L_vt__2__b_vz*l22_0_6));
-    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l22_0_3)) - (d_L_vt__1__b_wx*l22_0_5) + (d_L_vt__2__b_wx*l22_0_6));
-    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l22_0_3)) - (d_L_vt__1__b_wy*l22_0_5) + (d_L_vt__2__b_wy*l22_0_6));
-    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l22_0_3)) - (d_L_vt__1__b_wz*l22_0_5) + (d_L_vt__2__b_wz*l22_0_6));
-    // let sliding (contact.yaml:89)
-    const S l23_0_0 = (S(1)/(L_slip));
-    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
-    const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
-    const S l23_0_3 = (-l23_0_2);
-    const S l23_0_4 = (L_fast*L_fmax*l23_0_0);
-    const S l23_0_5 = (L_fmax*l23_0_1);
-    const S l23_0_6 = ((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1));
-    const S l23_0_7 = (-l23_0_6);
-    const S l23_0_8 = ((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1));
-    const S l23_0_9 = (-l23_0_8);
-    const S L_sliding__0 = (-(L_fmax*l23_0_2));
-    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l23_0_3);
-    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l23_0_3);
-    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l23_0_3);
-    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l23_0_3);
-    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l23_0_3);
-    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l23_0_3);
-    const S d_L_sliding__0__b_dx = (d_L_fmax__b_dx*l23_0_3);
-    const S d_L_sliding__0__b_dy = (d_L_fmax__b_dy*l23_0_3);
-    const S d_L_sliding__0__b_dz = (d_L_fmax__b_dz*l23_0_3);
-    const S d_L_sliding__0__b_dtx = (d_L_fmax__b_dtx*l23_0_3);
-    const S d_L_sliding__0__b_dty = (d_L_fmax__b_dty*l23_0_3);
-    const S d_L_sliding__0__b_dtz = (d_L_fmax__b_dtz*l23_0_3);
-    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_3) - (d_L_vt__0__a_vx*l23_0_5));
-    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_3) - (d_L_vt__0__a_vy*l23_0_5));
-    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_3) - (d_L_vt__0__a_vz*l23_0_5));
-    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_3) - (d_L_vt__0__a_wx*l23_0_5));
-    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_3) - (d_L_vt__0__a_wy*l23_0_5));
-    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_3) - (d_L_vt__0__a_wz*l23_0_5));
-    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_3) - (d_L_vt__0__b_vx*l23_0_5));
-    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_3) - (d_L_vt__0__b_vy*l23_0_5));
-    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_3) - (d_L_vt__0__b_vz*l23_0_5));
-    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_3) - (d_L_vt__0__b_wx*l23_0_5));
-    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_3) - (d_L_vt__0__b_wy*l23_0_5));
-    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_3) - (d_L_vt__0__b_wz*l23_0_5));
-    const S L_sliding__1 = (-(L_fmax*l23_0_6));
-    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l23_0_7);
-    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l23_0_7);
-    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l23_0_7);
-    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l23_0_7);
-    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l23_0_7);
-    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l23_0_7);
-    const S d_L_sliding__1__b_dx = (d_L_fmax__b_dx*l23_0_7);
-    const S d_L_sliding__1__b_dy = (d_L_fmax__b_dy*l23_0_7);
-    const S d_L_sliding__1__b_dz = (d_L_fmax__b_dz*l23_0_7);
-    const S d_L_sliding__1__b_dtx = (d_L_fmax__b_dtx*l23_0_7);
-    const S d_L_sliding__1__b_dty = (d_L_fmax__b_dty*l23_0_7);
-    const S d_L_sliding__1__b_dtz = (d_L_fmax__b_dtz*l23_0_7);
-    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_7) - (d_L_vt__1__a_vx*l23_0_5));
-    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_7) - (d_L_vt__1__a_vy*l23_0_5));
-    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_7) - (d_L_vt__1__a_vz*l23_0_5));
-    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_7) - (d_L_vt__1__a_wx*l23_0_5));
-    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_7) - (d_L_vt__1__a_wy*l23_0_5));
-    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_7) - (d_L_vt__1__a_wz*l23_0_5));
-    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_7) - (d_L_vt__1__b_vx*l23_0_5));
-    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_7) - (d_L_vt__1__b_vy*l23_0_5));
-    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_7) - (d_L_vt__1__b_vz*l23_0_5));
-    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_7) - (d_L_vt__1__b_wx*l23_0_5));
-    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_7) - (d_L_vt__1__b_wy*l23_0_5));
-    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_7) - (d_L_vt__1__b_wz*l23_0_5));
-    const S L_sliding__2 = (-(L_fmax*l23_0_8));
-    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l23_0_9);
-    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l23_0_9);
-    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l23_0_9);
-    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l23_0_9);
-    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l23_0_9);
-    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l23_0_9);
-    const S d_L_sliding__2__b_dx = (d_L_fmax__b_dx*l23_0_9);
-    const S d_L_sliding__2__b_dy = (d_L_fmax__b_dy*l23_0_9);
-    const S d_L_sliding__2__b_dz = (d_L_fmax__b_dz*l23_0_9);
-    const S d_L_sliding__2__b_dtx = (d_L_fmax__b_dtx*l23_0_9);
-    const S d_L_sliding__2__b_dty = (d_L_fmax__b_dty*l23_0_9);
-    const S d_L_sliding__2__b_dtz = (d_L_fmax__b_dtz*l23_0_9);
-    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_9) - (d_L_vt__2__a_vx*l23_0_5));
-    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_9) - (d_L_vt__2__a_vy*l23_0_5));
-    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_9) - (d_L_vt__2__a_vz*l23_0_5));
-    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
-    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
-    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
-    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_9) - (d_L_vt__2__b_vx*l23_0_5));
-    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_9) - (d_L_vt__2__b_vy*l23_0_5));
-    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_9) - (d_L_vt__2__b_vz*l23_0_5));
-    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_9) - (d_L_vt__2__b_wx*l23_0_5));
-    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_9) - (d_L_vt__2__b_wy*l23_0_5));
-    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_9) - (d_L_vt__2__b_wz*l23_0_5));
-    // let holds (contact.yaml:92)
+    // let fslide (contact.yaml:92)
+    [[maybe_unused]] const S L_fslide = L_fmax;
+    // let fast (contact.yaml:93)
+    const S L_fast = select(((L_fslide*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:94)
+    const S l23_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l23_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l23_0_2 = (L_dir__0*L_dir__1);
+    const S l23_0_3 = (L_dir__0*L_dir__2);
+    const S l23_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l23_0_5 = (L_dir__1*L_dir__2);
+    const S l23_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l23_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l23_0_1) - (d_L_vt__1__a_vx*l23_0_2) - (d_L_vt__2__a_vx*l23_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l23_0_1) - (d_L_vt__1__a_vy*l23_0_2) - (d_L_vt__2__a_vy*l23_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l23_0_1) - (d_L_vt__1__a_vz*l23_0_2) - (d_L_vt__2__a_vz*l23_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l23_0_1) - (d_L_vt__1__a_wx*l23_0_2) - (d_L_vt__2__a_wx*l23_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l23_0_1) - (d_L_vt__1__a_wy*l23_0_2) - (d_L_vt__2__a_wy*l23_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l23_0_1) - (d_L_vt__1__a_wz*l23_0_2) - (d_L_vt__2__a_wz*l23_0_3));
+    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l23_0_1) - (d_L_vt__1__b_vx*l23_0_2) - (d_L_vt__2__b_vx*l23_0_3));
+    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l23_0_1) - (d_L_vt__1__b_vy*l23_0_2) - (d_L_vt__2__b_vy*l23_0_3));
+    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l23_0_1) - (d_L_vt__1__b_vz*l23_0_2) - (d_L_vt__2__b_vz*l23_0_3));
+    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l23_0_1) - (d_L_vt__1__b_wx*l23_0_2) - (d_L_vt__2__b_wx*l23_0_3));
+    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l23_0_1) - (d_L_vt__1__b_wy*l23_0_2) - (d_L_vt__2__b_wy*l23_0_3));
+    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l23_0_1) - (d_L_vt__1__b_wz*l23_0_2) - (d_L_vt__2__b_wz*l23_0_3));
+    const S L_across__1 = ((-(L_dir__1*l23_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l23_0_2)) + (d_L_vt__1__a_vx*l23_0_4) - (d_L_vt__2__a_vx*l23_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l23_0_2)) + (d_L_vt__1__a_vy*l23_0_4) - (d_L_vt__2__a_vy*l23_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l23_0_2)) + (d_L_vt__1__a_vz*l23_0_4) - (d_L_vt__2__a_vz*l23_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l23_0_2)) + (d_L_vt__1__a_wx*l23_0_4) - (d_L_vt__2__a_wx*l23_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l23_0_2)) + (d_L_vt__1__a_wy*l23_0_4) - (d_L_vt__2__a_wy*l23_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l23_0_2)) + (d_L_vt__1__a_wz*l23_0_4) - (d_L_vt__2__a_wz*l23_0_5));
+    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l23_0_2)) + (d_L_vt__1__b_vx*l23_0_4) - (d_L_vt__2__b_vx*l23_0_5));
+    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l23_0_2)) + (d_L_vt__1__b_vy*l23_0_4) - (d_L_vt__2__b_vy*l23_0_5));
+    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l23_0_2)) + (d_L_vt__1__b_vz*l23_0_4) - (d_L_vt__2__b_vz*l23_0_5));
+    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l23_0_2)) + (d_L_vt__1__b_wx*l23_0_4) - (d_L_vt__2__b_wx*l23_0_5));
+    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l23_0_2)) + (d_L_vt__1__b_wy*l23_0_4) - (d_L_vt__2__b_wy*l23_0_5));
+    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l23_0_2)) + (d_L_vt__1__b_wz*l23_0_4) - (d_L_vt__2__b_wz*l23_0_5));
+    const S L_across__2 = ((-(L_dir__2*l23_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l23_0_3)) - (d_L_vt__1__a_vx*l23_0_5) + (d_L_vt__2__a_vx*l23_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l23_0_3)) - (d_L_vt__1__a_vy*l23_0_5) + (d_L_vt__2__a_vy*l23_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l23_0_3)) - (d_L_vt__1__a_vz*l23_0_5) + (d_L_vt__2__a_vz*l23_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l23_0_3)) - (d_L_vt__1__a_wx*l23_0_5) + (d_L_vt__2__a_wx*l23_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l23_0_3)) - (d_L_vt__1__a_wy*l23_0_5) + (d_L_vt__2__a_wy*l23_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l23_0_3)) - (d_L_vt__1__a_wz*l23_0_5) + (d_L_vt__2__a_wz*l23_0_6));
+    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l23_0_3)) - (d_L_vt__1__b_vx*l23_0_5) + (d_L_vt__2__b_vx*l23_0_6));
+    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l23_0_3)) - (d_L_vt__1__b_vy*l23_0_5) + (d_L_vt__2__b_vy*l23_0_6));
+    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l23_0_3)) - (d_L_vt__1__b_vz*l23_0_5) + (d_L_vt__2__b_vz*l23_0_6));
+    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l23_0_3)) - (d_L_vt__1__b_wx*l23_0_5) + (d_L_vt__2__b_wx*l23_0_6));
+    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l23_0_3)) - (d_L_vt__1__b_wy*l23_0_5) + (d_L_vt__2__b_wy*l23_0_6));
+    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l23_0_3)) - (d_L_vt__1__b_wz*l23_0_5) + (d_L_vt__2__b_wz*l23_0_6));
+    // let sliding (contact.yaml:95)
+    const S l24_0_0 = (S(1)/(L_slip));
+    const S l24_0_1 = (l24_0_0*(S(1) - L_fast));
+    const S l24_0_2 = (L_fast*L_fslide*l24_0_0);
+    const S l24_0_3 = (L_fslide*l24_0_1);
+    const S L_sliding__0 = (-(L_fslide*((L_fast*((L_across__0*l24_0_0) + L_dir__0)) + (L_vt__0*l24_0_1))));
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l24_0_2)) - (d_L_vt__0__a_vx*l24_0_3));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l24_0_2)) - (d_L_vt__0__a_vy*l24_0_3));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l24_0_2)) - (d_L_vt__0__a_vz*l24_0_3));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l24_0_2)) - (d_L_vt__0__a_wx*l24_0_3));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l24_0_2)) - (d_L_vt__0__a_wy*l24_0_3));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l24_0_2)) - (d_L_vt__0__a_wz*l24_0_3));
+    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l24_0_2)) - (d_L_vt__0__b_vx*l24_0_3));
+    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l24_0_2)) - (d_L_vt__0__b_vy*l24_0_3));
+    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l24_0_2)) - (d_L_vt__0__b_vz*l24_0_3));
+    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l24_0_2)) - (d_L_vt__0__b_wx*l24_0_3));
+    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l24_0_2)) - (d_L_vt__0__b_wy*l24_0_3));
+    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l24_0_2)) - (d_L_vt__0__b_wz*l24_0_3));
+    const S L_sliding__1 = (-(L_fslide*((L_fast*((L_across__1*l24_0_0) + L_dir__1)) + (L_vt__1*l24_0_1))));
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l24_0_2)) - (d_L_vt__1__a_vx*l24_0_3));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l24_0_2)) - (d_L_vt__1__a_vy*l24_0_3));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l24_0_2)) - (d_L_vt__1__a_vz*l24_0_3));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l24_0_2)) - (d_L_vt__1__a_wx*l24_0_3));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l24_0_2)) - (d_L_vt__1__a_wy*l24_0_3));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l24_0_2)) - (d_L_vt__1__a_wz*l24_0_3));
+    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l24_0_2)) - (d_L_vt__1__b_vx*l24_0_3));
+    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l24_0_2)) - (d_L_vt__1__b_vy*l24_0_3));
+    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l24_0_2)) - (d_L_vt__1__b_vz*l24_0_3));
+    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l24_0_2)) - (d_L_vt__1__b_wx*l24_0_3));
+    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l24_0_2)) - (d_L_vt__1__b_wy*l24_0_3));
+    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l24_0_2)) - (d_L_vt__1__b_wz*l24_0_3));
+    const S L_sliding__2 = (-(L_fslide*((L_fast*((L_across__2*l24_0_0) + L_dir__2)) + (L_vt__2*l24_0_1))));
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l24_0_2)) - (d_L_vt__2__a_vx*l24_0_3));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l24_0_2)) - (d_L_vt__2__a_vy*l24_0_3));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l24_0_2)) - (d_L_vt__2__a_vz*l24_0_3));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l24_0_2)) - (d_L_vt__2__a_wx*l24_0_3));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l24_0_2)) - (d_L_vt__2__a_wy*l24_0_3));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l24_0_2)) - (d_L_vt__2__a_wz*l24_0_3));
+    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l24_0_2)) - (d_L_vt__2__b_vx*l24_0_3));
+    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l24_0_2)) - (d_L_vt__2__b_vy*l24_0_3));
+    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l24_0_2)) - (d_L_vt__2__b_vz*l24_0_3));
+    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l24_0_2)) - (d_L_vt__2__b_wx*l24_0_3));
+    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l24_0_2)) - (d_L_vt__2__b_wy*l24_0_3));
+    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l24_0_2)) - (d_L_vt__2__b_wz*l24_0_3));
+    // let holds (contact.yaml:98)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:93)
-    const S l25_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l25_0_0));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l25_0_0));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l25_0_0));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l25_0_0));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l25_0_0));
-    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) + (d_L_sliding__0__b_dx*l25_0_0));
-    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) + (d_L_sliding__0__b_dy*l25_0_0));
-    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) + (d_L_sliding__0__b_dz*l25_0_0));
-    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) + (d_L_sliding__0__b_dtx*l25_0_0));
-    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) + (d_L_sliding__0__b_dty*l25_0_0));
-    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) + (d_L_sliding__0__b_dtz*l25_0_0));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l25_0_0));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l25_0_0));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l25_0_0));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l25_0_0));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l25_0_0));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l25_0_0));
-    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l25_0_0));
-    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l25_0_0));
-    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l25_0_0));
-    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l25_0_0));
-    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l25_0_0));
-    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l25_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l25_0_0));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l25_0_0));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l25_0_0));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l25_0_0));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l25_0_0));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l25_0_0));
-    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) + (d_L_sliding__1__b_dx*l25_0_0));
-    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) + (d_L_sliding__1__b_dy*l25_0_0));
-    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) + (d_L_sliding__1__b_dz*l25_0_0));
-    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) + (d_L_sliding__1__b_dtx*l25_0_0));
-    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) + (d_L_sliding__1__b_dty*l25_0_0));
-    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) + (d_L_sliding__1__b_dtz*l25_0_0));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l25_0_0));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l25_0_0));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l25_0_0));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l25_0_0));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l25_0_0));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l25_0_0));
-    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l25_0_0));
-    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l25_0_0));
-    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l25_0_0));
-    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l25_0_0));
-    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l25_0_0));
-    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l25_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l25_0_0));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l25_0_0));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l25_0_0));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l25_0_0));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l25_0_0));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l25_0_0));
-    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) + (d_L_sliding__2__b_dx*l25_0_0));
-    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) + (d_L_sliding__2__b_dy*l25_0_0));
-    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) + (d_L_sliding__2__b_dz*l25_0_0));
-    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) + (d_L_sliding__2__b_dtx*l25_0_0));
-    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) + (d_L_sliding__2__b_dty*l25_0_0));
-    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) + (d_L_sliding__2__b_dtz*l25_0_0));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l25_0_0));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l25_0_0));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l25_0_0));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
-    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l25_0_0));
-    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l25_0_0));
-    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l25_0_0));
-    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l25_0_0));
-    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l25_0_0));
-    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l25_0_0));
-    // let f (contact.yaml:94)
+    // let ft (contact.yaml:99)
+    const S l26_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l26_0_0));
+    const S d_L_ft__0__a_dx = (L_holds*d_L_fs__0__a_dx);
+    const S d_L_ft__0__a_dy = (L_holds*d_L_fs__0__a_dy);
+    const S d_L_ft__0__a_dz = (L_holds*d_L_fs__0__a_dz);
+    const S d_L_ft__0__a_dtx = (L_holds*d_L_fs__0__a_dtx);
+    const S d_L_ft__0__a_dty = (L_holds*d_L_fs__0__a_dty);
+    const S d_L_ft__0__a_dtz = (L_holds*d_L_fs__0__a_dtz);
+    const S d_L_ft__0__b_dx = (L_holds*d_L_fs__0__b_dx);
+    const S d_L_ft__0__b_dy = (L_holds*d_L_fs__0__b_dy);
+    const S d_L_ft__0__b_dz = (L_holds*d_L_fs__0__b_dz);
+    const S d_L_ft__0__b_dtx = (L_holds*d_L_fs__0__b_dtx);
+    const S d_L_ft__0__b_dty = (L_holds*d_L_fs__0__b_dty);
+    const S d_L_ft__0__b_dtz = (L_holds*d_L_fs__0__b_dtz);
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l26_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l26_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l26_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l26_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l26_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l26_0_0));
+    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l26_0_0));
+    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l26_0_0));
+    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l26_0_0));
+    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l26_0_0));
+    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l26_0_0));
+    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l26_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l26_0_0));
+    const S d_L_ft__1__a_dx = (L_holds*d_L_fs__1__a_dx);
+    const S d_L_ft__1__a_dy = (L_holds*d_L_fs__1__a_dy);
+    const S d_L_ft__1__a_dz = (L_holds*d_L_fs__1__a_dz);
+    const S d_L_ft__1__a_dtx = (L_holds*d_L_fs__1__a_dtx);
+    const S d_L_ft__1__a_dty = (L_holds*d_L_fs__1__a_dty);
+    const S d_L_ft__1__a_dtz = (L_holds*d_L_fs__1__a_dtz);
+    const S d_L_ft__1__b_dx = (L_holds*d_L_fs__1__b_dx);
+    const S d_L_ft__1__b_dy = (L_holds*d_L_fs__1__b_dy);
+    const S d_L_ft__1__b_dz = (L_holds*d_L_fs__1__b_dz);
+    const S d_L_ft__1__b_dtx = (L_holds*d_L_fs__1__b_dtx);
+    const S d_L_ft__1__b_dty = (L_holds*d_L_fs__1__b_dty);
+    const S d_L_ft__1__b_dtz = (L_holds*d_L_fs__1__b_dtz);
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l26_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l26_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l26_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l26_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l26_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l26_0_0));
+    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l26_0_0));
+    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l26_0_0));
+    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l26_0_0));
+    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l26_0_0));
+    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l26_0_0));
+    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l26_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l26_0_0));
+    const S d_L_ft__2__a_dx = (L_holds*d_L_fs__2__a_dx);
+    const S d_L_ft__2__a_dy = (L_holds*d_L_fs__2__a_dy);
+    const S d_L_ft__2__a_dz = (L_holds*d_L_fs__2__a_dz);
+    const S d_L_ft__2__a_dtx = (L_holds*d_L_fs__2__a_dtx);
+    const S d_L_ft__2__a_dty = (L_holds*d_L_fs__2__a_dty);
+    const S d_L_ft__2__a_dtz = (L_holds*d_L_fs__2__a_dtz);
+    const S d_L_ft__2__b_dx = (L_holds*d_L_fs__2__b_dx);
+    const S d_L_ft__2__b_dy = (L_holds*d_L_fs__2__b_dy);
+    const S d_L_ft__2__b_dz = (L_holds*d_L_fs__2__b_dz);
+    const S d_L_ft__2__b_dtx = (L_holds*d_L_fs__2__b_dtx);
+    const S d_L_ft__2__b_dty = (L_holds*d_L_fs__2__b_dty);
+    const S d_L_ft__2__b_dtz = (L_holds*d_L_fs__2__b_dtz);
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l26_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l26_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l26_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l26_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l26_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l26_0_0));
+    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l26_0_0));
+    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l26_0_0));
+    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l26_0_0));
+    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l26_0_0));
+    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l26_0_0));
+    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l26_0_0));
+    // let f (contact.yaml:100)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -860,21 +820,21 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // F_a from apply[0] (contact.yaml:96)
+    // F_a from apply[0] (contact.yaml:102)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:97)
+    // F_b from apply[1] (contact.yaml:103)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:96)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:102)
     out[12] = (-d_L_f__0__a_dx);
     out[13] = (-d_L_f__1__a_dx);
     out[14] = (-d_L_f__2__a_dx);
@@ -911,7 +871,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[46] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[47] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/ddelta_b from apply[0] (contact.yaml:96)
+    // dF_a/ddelta_b from apply[0] (contact.yaml:102)
     out[48] = (-d_L_f__0__b_dx);
     out[49] = (-d_L_f__1__b_dx);
     out[50] = (-d_L_f__2__b_dx);
@@ -948,7 +908,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((-(L_ra__1*d_L_f__2__b_dtz)) + (L_ra__2*d_L_f__1__b_dtz));
     out[82] = ((L_ra__0*d_L_f__2__b_dtz) - (L_ra__2*d_L_f__0__b_dtz));
     out[83] = ((-(L_ra__0*d_L_f__1__b_dtz)) + (L_ra__1*d_L_f__0__b_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:96)
+    // dF_a/du_a from apply[0] (contact.yaml:102)
     out[84] = (-d_L_f__0__a_vx);
     out[85] = (-d_L_f__1__a_vx);
     out[86] = (-d_L_f__2__a_vx);
@@ -985,7 +945,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz));
     out[118] = ((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz));
     out[119] = ((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz));
-    // dF_a/du_b from apply[0] (contact.yaml:96)
+    // dF_a/du_b from apply[0] (contact.yaml:102)
     out[120] = (-d_L_f__0__b_vx);
     out[121] = (-d_L_f__1__b_vx);
     out[122] = (-d_L_f__2__b_vx);
@@ -1022,7 +982,7 @@ struct Contact_Pair_Kernel {
     out[153] = ((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz));
     out[154] = ((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz));
     out[155] = ((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz));
-    // dF_b/ddelta_a from apply[1] (contact.yaml:97)
+    // dF_b/ddelta_a from apply[1] (contact.yaml:103)
     out[156] = d_L_f__0__a_dx;
     out[157] = d_L_f__1__a_dx;
     out[158] = d_L_f__2__a_dx;
@@ -1059,7 +1019,7 @@ struct Contact_Pair_Kernel {
     out[189] = ((L_rb__1*d_L_f__2__a_dtz) - (L_rb__2*d_L_f__1__a_dtz));
     out[190] = ((-(L_rb__0*d_L_f__2__a_dtz)) + (L_rb__2*d_L_f__0__a_dtz));
     out[191] = ((L_rb__0*d_L_f__1__a_dtz) - (L_rb__1*d_L_f__0__a_dtz));
-    // dF_b/ddelta_b from apply[1] (contact.yaml:97)
+    // dF_b/ddelta_b from apply[1] (contact.yaml:103)
     out[192] = d_L_f__0__b_dx;
     out[193] = d_L_f__1__b_dx;
     out[194] = d_L_f__2__b_dx;
@@ -1096,7 +1056,7 @@ struct Contact_Pair_Kernel {
     out[225] = ((L_rb__1*d_L_f__2__b_dtz) - (L_rb__2*d_L_f__1__b_dtz));
     out[226] = ((-(L_rb__0*d_L_f__2__b_dtz)) + (L_rb__2*d_L_f__0__b_dtz));
     out[227] = ((L_rb__0*d_L_f__1__b_dtz) - (L_rb__1*d_L_f__0__b_dtz));
-    // dF_b/du_a from apply[1] (contact.yaml:97)
+    // dF_b/du_a from apply[1] (contact.yaml:103)
     out[228] = d_L_f__0__a_vx;
     out[229] = d_L_f__1__a_vx;
     out[230] = d_L_f__2__a_vx;
@@ -1133,7 +1093,7 @@ struct Contact_Pair_Kernel {
     out[261] = ((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz));
     out[262] = ((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz));
     out[263] = ((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz));
-    // dF_b/du_b from apply[1] (contact.yaml:97)
+    // dF_b/du_b from apply[1] (contact.yaml:103)
     out[264] = d_L_f__0__b_vx;
     out[265] = d_L_f__1__b_vx;
     out[266] = d_L_f__2__b_vx;
@@ -1174,7 +1134,7 @@ struct Contact_Pair_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2694
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 2547
   static constexpr int kNumImplicitBlocks = 4;
   static constexpr int kImplicitOutputs = 156;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -1642,228 +1602,188 @@ struct Contact_Pair_Kernel {
     const S d_L_fmax__b_wx = (d_L_fn__b_wx*l18_0_1);
     const S d_L_fmax__b_wy = (d_L_fn__b_wy*l18_0_1);
     const S d_L_fmax__b_wz = (d_L_fn__b_wz*l18_0_1);
-    // let slip (contact.yaml:85)
+    // let slip (contact.yaml:90)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:86)
+    // let dir (contact.yaml:91)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
-    // let fast (contact.yaml:87)
-    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:88)
-    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
-    const S l22_0_2 = (L_dir__0*L_dir__1);
-    const S l22_0_3 = (L_dir__0*L_dir__2);
-    const S l22_0_4 = (S(1) - (L_dir__1*L_dir__1));
-    const S l22_0_5 = (L_dir__1*L_dir__2);
-    const S l22_0_6 = (S(1) - (L_dir__2*L_dir__2));
-    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
-    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l22_0_1) - (d_L_vt__1__a_vx*l22_0_2) - (d_L_vt__2__a_vx*l22_0_3));
-    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l22_0_1) - (d_L_vt__1__a_vy*l22_0_2) - (d_L_vt__2__a_vy*l22_0_3));
-    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l22_0_1) - (d_L_vt__1__a_vz*l22_0_2) - (d_L_vt__2__a_vz*l22_0_3));
-    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l22_0_1) - (d_L_vt__1__a_wx*l22_0_2) - (d_L_vt__2__a_wx*l22_0_3));
-    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l22_0_1) - (d_L_vt__1__a_wy*l22_0_2) - (d_L_vt__2__a_wy*l22_0_3));
-    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l22_0_1) - (d_L_vt__1__a_wz*l22_0_2) - (d_L_vt__2__a_wz*l22_0_3));
-    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l22_0_1) - (d_L_vt__1__b_vx*l22_0_2) - (d_L_vt__2__b_vx*l22_0_3));
-    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l22_0_1) - (d_L_vt__1__b_vy*l22_0_2) - (d_L_vt__2__b_vy*l22_0_3));
-    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l22_0_1) - (d_L_vt__1__b_vz*l22_0_2) - (d_L_vt__2__b_vz*l22_0_3));
-    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l22_0_1) - (d_L_vt__1__b_wx*l22_0_2) - (d_L_vt__2__b_wx*l22_0_3));
-    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l22_0_1) - (d_L_vt__1__b_wy*l22_0_2) - (d_L_vt__2__b_wy*l22_0_3));
-    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l22_0_1) - (d_L_vt__1__b_wz*l22_0_2) - (d_L_vt__2__b_wz*l22_0_3));
-    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
-    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l22_0_2)) + (d_L_vt__1__a_vx*l22_0_4) - (d_L_vt__2__a_vx*l22_0_5));
-    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l22_0_2)) + (d_L_vt__1__a_vy*l22_0_4) - (d_L_vt__2__a_vy*l22_0_5));
-    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l22_0_2)) + (d_L_vt__1__a_vz*l22_0_4) - (d_L_vt__2__a_vz*l22_0_5));
-    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l22_0_2)) + (d_L_vt__1__a_wx*l22_0_4) - (d_L_vt__2__a_wx*l22_0_5));
-    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l22_0_2)) + (d_L_vt__1__a_wy*l22_0_4) - (d_L_vt__2__a_wy*l22_0_5));
-    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l22_0_2)) + (d_L_vt__1__a_wz*l22_0_4) - (d_L_vt__2__a_wz*l22_0_5));
-    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l22_0_2)) + (d_L_vt__1__b_vx*l22_0_4) - (d_L_vt__2__b_vx*l22_0_5));
-    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l22_0_2)) + (d_L_vt__1__b_vy*l22_0_4) - (d_L_vt__2__b_vy*l22_0_5));
-    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l22_0_2)) + (d_L_vt__1__b_vz*l22_0_4) - (d_L_vt__2__b_vz*l22_0_5));
-    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l22_0_2)) + (d_L_vt__1__b_wx*l22_0_4) - (d_L_vt__2__b_wx*l22_0_5));
-    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l22_0_2)) + (d_L_vt__1__b_wy*l22_0_4) - (d_L_vt__2__b_wy*l22_0_5));
-    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l22_0_2)) + (d_L_vt__1__b_wz*l22_0_4) - (d_L_vt__2__b_wz*l22_0_5));
-    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
-    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l22_0_3)) - (d_L_vt__1__a_vx*l22_0_5) + (d_L_vt__2__a_vx*l22_0_6));
-    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l22_0_3)) - (d_L_vt__1__a_vy*l22_0_5) + (d_L_vt__2__a_vy*l22_0_6));
-    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l22_0_3)) - (d_L_vt__1__a_vz*l22_0_5) + (d_L_vt__2__a_vz*l22_0_6));
-    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
-    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
-    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
-    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l22_0_3)) - (d_L_vt__1__b_vx*l22_0_5) + (d_L_vt__2__b_vx*l22_0_6));
-    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l22_0_3)) - (d_L_vt__1__b_vy*l22_0_5) + (d_L_vt__2__b_vy*l22_0_6));
-    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l22_0_3)) - (d_L_vt__1__b_vz*l22_0_5) + (d_L_vt__2__b_vz*l22_0_6));
-    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l22_0_3)) - (d_L_vt__1__b_wx*l22_0_5) + (d_L_vt__2__b_wx*l22_0_6));
-    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l22_0_3)) - (d_L_vt__1__b_wy*l22_0_5) + (d_L_vt__2__b_wy*l22_0_6));
-    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l22_0_3)) - (d_L_vt__1__b_wz*l22_0_5) + (d_L_vt__2__b_wz*l22_0_6));
-    // let sliding (contact.yaml:89)
-    const S l23_0_0 = (S(1)/(L_slip));
-    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
-    const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
-    const S l23_0_3 = (-l23_0_2);
-    const S l23_0_4 = (L_fast*L_fmax*l23_0_0);
-    const S l23_0_5 = (L_fmax*l23_0_1);
-    const S l23_0_6 = ((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1));
-    const S l23_0_7 = (-l23_0_6);
-    const S l23_0_8 = ((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1));
-    const S l23_0_9 = (-l23_0_8);
-    const S L_sliding__0 = (-(L_fmax*l23_0_2));
-    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l23_0_3);
-    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l23_0_3);
-    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l23_0_3);
-    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l23_0_3);
-    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l23_0_3);
-    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l23_0_3);
-    const S d_L_sliding__0__b_dx = (d_L_fmax__b_dx*l23_0_3);
-    const S d_L_sliding__0__b_dy = (d_L_fmax__b_dy*l23_0_3);
-    const S d_L_sliding__0__b_dz = (d_L_fmax__b_dz*l23_0_3);
-    const S d_L_sliding__0__b_dtx = (d_L_fmax__b_dtx*l23_0_3);
-    const S d_L_sliding__0__b_dty = (d_L_fmax__b_dty*l23_0_3);
-    const S d_L_sliding__0__b_dtz = (d_L_fmax__b_dtz*l23_0_3);
-    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_3) - (d_L_vt__0__a_vx*l23_0_5));
-    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_3) - (d_L_vt__0__a_vy*l23_0_5));
-    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_3) - (d_L_vt__0__a_vz*l23_0_5));
-    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_3) - (d_L_vt__0__a_wx*l23_0_5));
-    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_3) - (d_L_vt__0__a_wy*l23_0_5));
-    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_3) - (d_L_vt__0__a_wz*l23_0_5));
-    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_3) - (d_L_vt__0__b_vx*l23_0_5));
-    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_3) - (d_L_vt__0__b_vy*l23_0_5));
-    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_3) - (d_L_vt__0__b_vz*l23_0_5));
-    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_3) - (d_L_vt__0__b_wx*l23_0_5));
-    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_3) - (d_L_vt__0__b_wy*l23_0_5));
-    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_3) - (d_L_vt__0__b_wz*l23_0_5));
-    const S L_sliding__1 = (-(L_fmax*l23_0_6));
-    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l23_0_7);
-    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l23_0_7);
-    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l23_0_7);
-    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l23_0_7);
-    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l23_0_7);
-    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l23_0_7);
-    const S d_L_sliding__1__b_dx = (d_L_fmax__b_dx*l23_0_7);
-    const S d_L_sliding__1__b_dy = (d_L_fmax__b_dy*l23_0_7);
-    const S d_L_sliding__1__b_dz = (d_L_fmax__b_dz*l23_0_7);
-    const S d_L_sliding__1__b_dtx = (d_L_fmax__b_dtx*l23_0_7);
-    const S d_L_sliding__1__b_dty = (d_L_fmax__b_dty*l23_0_7);
-    const S d_L_sliding__1__b_dtz = (d_L_fmax__b_dtz*l23_0_7);
-    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_7) - (d_L_vt__1__a_vx*l23_0_5));
-    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_7) - (d_L_vt__1__a_vy*l23_0_5));
-    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_7) - (d_L_vt__1__a_vz*l23_0_5));
-    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_7) - (d_L_vt__1__a_wx*l23_0_5));
-    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_7) - (d_L_vt__1__a_wy*l23_0_5));
-    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_7) - (d_L_vt__1__a_wz*l23_0_5));
-    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_7) - (d_L_vt__1__b_vx*l23_0_5));
-    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_7) - (d_L_vt__1__b_vy*l23_0_5));
-    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_7) - (d_L_vt__1__b_vz*l23_0_5));
-    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_7) - (d_L_vt__1__b_wx*l23_0_5));
-    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_7) - (d_L_vt__1__b_wy*l23_0_5));
-    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_7) - (d_L_vt__1__b_wz*l23_0_5));
-    const S L_sliding__2 = (-(L_fmax*l23_0_8));
-    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l23_0_9);
-    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l23_0_9);
-    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l23_0_9);
-    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l23_0_9);
-    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l23_0_9);
-    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l23_0_9);
-    const S d_L_sliding__2__b_dx = (d_L_fmax__b_dx*l23_0_9);
-    const S d_L_sliding__2__b_dy = (d_L_fmax__b_dy*l23_0_9);
-    const S d_L_sliding__2__b_dz = (d_L_fmax__b_dz*l23_0_9);
-    const S d_L_sliding__2__b_dtx = (d_L_fmax__b_dtx*l23_0_9);
-    const S d_L_sliding__2__b_dty = (d_L_fmax__b_dty*l23_0_9);
-    const S d_L_sliding__2__b_dtz = (d_L_fmax__b_dtz*l23_0_9);
-    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_9) - (d_L_vt__2__a_vx*l23_0_5));
-    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_9) - (d_L_vt__2__a_vy*l23_0_5));
-    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_9) - (d_L_vt__2__a_vz*l23_0_5));
-    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
-    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
-    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
-    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l23_0_4)) + (d_L_fmax__b_vx*l23_0_9) - (d_L_vt__2__b_vx*l23_0_5));
-    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l23_0_4)) + (d_L_fmax__b_vy*l23_0_9) - (d_L_vt__2__b_vy*l23_0_5));
-    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l23_0_4)) + (d_L_fmax__b_vz*l23_0_9) - (d_L_vt__2__b_vz*l23_0_5));
-    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l23_0_4)) + (d_L_fmax__b_wx*l23_0_9) - (d_L_vt__2__b_wx*l23_0_5));
-    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l23_0_4)) + (d_L_fmax__b_wy*l23_0_9) - (d_L_vt__2__b_wy*l23_0_5));
-    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l23_0_4)) + (d_L_fmax__b_wz*l23_0_9) - (d_L_vt__2__b_wz*l23_0_5));
-    // let holds (contact.yaml:92)
+    // let fslide (contact.yaml:92)
+    [[maybe_unused]] const S L_fslide = L_fmax;
+    // let fast (contact.yaml:93)
+    const S L_fast = select(((L_fslide*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:94)
+    const S l23_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l23_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l23_0_2 = (L_dir__0*L_dir__1);
+    const S l23_0_3 = (L_dir__0*L_dir__2);
+    const S l23_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l23_0_5 = (L_dir__1*L_dir__2);
+    const S l23_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l23_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l23_0_1) - (d_L_vt__1__a_vx*l23_0_2) - (d_L_vt__2__a_vx*l23_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l23_0_1) - (d_L_vt__1__a_vy*l23_0_2) - (d_L_vt__2__a_vy*l23_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l23_0_1) - (d_L_vt__1__a_vz*l23_0_2) - (d_L_vt__2__a_vz*l23_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l23_0_1) - (d_L_vt__1__a_wx*l23_0_2) - (d_L_vt__2__a_wx*l23_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l23_0_1) - (d_L_vt__1__a_wy*l23_0_2) - (d_L_vt__2__a_wy*l23_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l23_0_1) - (d_L_vt__1__a_wz*l23_0_2) - (d_L_vt__2__a_wz*l23_0_3));
+    const S d_L_across__0__b_vx = ((d_L_vt__0__b_vx*l23_0_1) - (d_L_vt__1__b_vx*l23_0_2) - (d_L_vt__2__b_vx*l23_0_3));
+    const S d_L_across__0__b_vy = ((d_L_vt__0__b_vy*l23_0_1) - (d_L_vt__1__b_vy*l23_0_2) - (d_L_vt__2__b_vy*l23_0_3));
+    const S d_L_across__0__b_vz = ((d_L_vt__0__b_vz*l23_0_1) - (d_L_vt__1__b_vz*l23_0_2) - (d_L_vt__2__b_vz*l23_0_3));
+    const S d_L_across__0__b_wx = ((d_L_vt__0__b_wx*l23_0_1) - (d_L_vt__1__b_wx*l23_0_2) - (d_L_vt__2__b_wx*l23_0_3));
+    const S d_L_across__0__b_wy = ((d_L_vt__0__b_wy*l23_0_1) - (d_L_vt__1__b_wy*l23_0_2) - (d_L_vt__2__b_wy*l23_0_3));
+    const S d_L_across__0__b_wz = ((d_L_vt__0__b_wz*l23_0_1) - (d_L_vt__1__b_wz*l23_0_2) - (d_L_vt__2__b_wz*l23_0_3));
+    const S L_across__1 = ((-(L_dir__1*l23_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l23_0_2)) + (d_L_vt__1__a_vx*l23_0_4) - (d_L_vt__2__a_vx*l23_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l23_0_2)) + (d_L_vt__1__a_vy*l23_0_4) - (d_L_vt__2__a_vy*l23_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l23_0_2)) + (d_L_vt__1__a_vz*l23_0_4) - (d_L_vt__2__a_vz*l23_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l23_0_2)) + (d_L_vt__1__a_wx*l23_0_4) - (d_L_vt__2__a_wx*l23_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l23_0_2)) + (d_L_vt__1__a_wy*l23_0_4) - (d_L_vt__2__a_wy*l23_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l23_0_2)) + (d_L_vt__1__a_wz*l23_0_4) - (d_L_vt__2__a_wz*l23_0_5));
+    const S d_L_across__1__b_vx = ((-(d_L_vt__0__b_vx*l23_0_2)) + (d_L_vt__1__b_vx*l23_0_4) - (d_L_vt__2__b_vx*l23_0_5));
+    const S d_L_across__1__b_vy = ((-(d_L_vt__0__b_vy*l23_0_2)) + (d_L_vt__1__b_vy*l23_0_4) - (d_L_vt__2__b_vy*l23_0_5));
+    const S d_L_across__1__b_vz = ((-(d_L_vt__0__b_vz*l23_0_2)) + (d_L_vt__1__b_vz*l23_0_4) - (d_L_vt__2__b_vz*l23_0_5));
+    const S d_L_across__1__b_wx = ((-(d_L_vt__0__b_wx*l23_0_2)) + (d_L_vt__1__b_wx*l23_0_4) - (d_L_vt__2__b_wx*l23_0_5));
+    const S d_L_across__1__b_wy = ((-(d_L_vt__0__b_wy*l23_0_2)) + (d_L_vt__1__b_wy*l23_0_4) - (d_L_vt__2__b_wy*l23_0_5));
+    const S d_L_across__1__b_wz = ((-(d_L_vt__0__b_wz*l23_0_2)) + (d_L_vt__1__b_wz*l23_0_4) - (d_L_vt__2__b_wz*l23_0_5));
+    const S L_across__2 = ((-(L_dir__2*l23_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l23_0_3)) - (d_L_vt__1__a_vx*l23_0_5) + (d_L_vt__2__a_vx*l23_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l23_0_3)) - (d_L_vt__1__a_vy*l23_0_5) + (d_L_vt__2__a_vy*l23_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l23_0_3)) - (d_L_vt__1__a_vz*l23_0_5) + (d_L_vt__2__a_vz*l23_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l23_0_3)) - (d_L_vt__1__a_wx*l23_0_5) + (d_L_vt__2__a_wx*l23_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l23_0_3)) - (d_L_vt__1__a_wy*l23_0_5) + (d_L_vt__2__a_wy*l23_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l23_0_3)) - (d_L_vt__1__a_wz*l23_0_5) + (d_L_vt__2__a_wz*l23_0_6));
+    const S d_L_across__2__b_vx = ((-(d_L_vt__0__b_vx*l23_0_3)) - (d_L_vt__1__b_vx*l23_0_5) + (d_L_vt__2__b_vx*l23_0_6));
+    const S d_L_across__2__b_vy = ((-(d_L_vt__0__b_vy*l23_0_3)) - (d_L_vt__1__b_vy*l23_0_5) + (d_L_vt__2__b_vy*l23_0_6));
+    const S d_L_across__2__b_vz = ((-(d_L_vt__0__b_vz*l23_0_3)) - (d_L_vt__1__b_vz*l23_0_5) + (d_L_vt__2__b_vz*l23_0_6));
+    const S d_L_across__2__b_wx = ((-(d_L_vt__0__b_wx*l23_0_3)) - (d_L_vt__1__b_wx*l23_0_5) + (d_L_vt__2__b_wx*l23_0_6));
+    const S d_L_across__2__b_wy = ((-(d_L_vt__0__b_wy*l23_0_3)) - (d_L_vt__1__b_wy*l23_0_5) + (d_L_vt__2__b_wy*l23_0_6));
+    const S d_L_across__2__b_wz = ((-(d_L_vt__0__b_wz*l23_0_3)) - (d_L_vt__1__b_wz*l23_0_5) + (d_L_vt__2__b_wz*l23_0_6));
+    // let sliding (contact.yaml:95)
+    const S l24_0_0 = (S(1)/(L_slip));
+    const S l24_0_1 = (l24_0_0*(S(1) - L_fast));
+    const S l24_0_2 = (L_fast*L_fslide*l24_0_0);
+    const S l24_0_3 = (L_fslide*l24_0_1);
+    const S L_sliding__0 = (-(L_fslide*((L_fast*((L_across__0*l24_0_0) + L_dir__0)) + (L_vt__0*l24_0_1))));
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l24_0_2)) - (d_L_vt__0__a_vx*l24_0_3));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l24_0_2)) - (d_L_vt__0__a_vy*l24_0_3));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l24_0_2)) - (d_L_vt__0__a_vz*l24_0_3));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l24_0_2)) - (d_L_vt__0__a_wx*l24_0_3));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l24_0_2)) - (d_L_vt__0__a_wy*l24_0_3));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l24_0_2)) - (d_L_vt__0__a_wz*l24_0_3));
+    const S d_L_sliding__0__b_vx = ((-(d_L_across__0__b_vx*l24_0_2)) - (d_L_vt__0__b_vx*l24_0_3));
+    const S d_L_sliding__0__b_vy = ((-(d_L_across__0__b_vy*l24_0_2)) - (d_L_vt__0__b_vy*l24_0_3));
+    const S d_L_sliding__0__b_vz = ((-(d_L_across__0__b_vz*l24_0_2)) - (d_L_vt__0__b_vz*l24_0_3));
+    const S d_L_sliding__0__b_wx = ((-(d_L_across__0__b_wx*l24_0_2)) - (d_L_vt__0__b_wx*l24_0_3));
+    const S d_L_sliding__0__b_wy = ((-(d_L_across__0__b_wy*l24_0_2)) - (d_L_vt__0__b_wy*l24_0_3));
+    const S d_L_sliding__0__b_wz = ((-(d_L_across__0__b_wz*l24_0_2)) - (d_L_vt__0__b_wz*l24_0_3));
+    const S L_sliding__1 = (-(L_fslide*((L_fast*((L_across__1*l24_0_0) + L_dir__1)) + (L_vt__1*l24_0_1))));
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l24_0_2)) - (d_L_vt__1__a_vx*l24_0_3));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l24_0_2)) - (d_L_vt__1__a_vy*l24_0_3));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l24_0_2)) - (d_L_vt__1__a_vz*l24_0_3));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l24_0_2)) - (d_L_vt__1__a_wx*l24_0_3));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l24_0_2)) - (d_L_vt__1__a_wy*l24_0_3));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l24_0_2)) - (d_L_vt__1__a_wz*l24_0_3));
+    const S d_L_sliding__1__b_vx = ((-(d_L_across__1__b_vx*l24_0_2)) - (d_L_vt__1__b_vx*l24_0_3));
+    const S d_L_sliding__1__b_vy = ((-(d_L_across__1__b_vy*l24_0_2)) - (d_L_vt__1__b_vy*l24_0_3));
+    const S d_L_sliding__1__b_vz = ((-(d_L_across__1__b_vz*l24_0_2)) - (d_L_vt__1__b_vz*l24_0_3));
+    const S d_L_sliding__1__b_wx = ((-(d_L_across__1__b_wx*l24_0_2)) - (d_L_vt__1__b_wx*l24_0_3));
+    const S d_L_sliding__1__b_wy = ((-(d_L_across__1__b_wy*l24_0_2)) - (d_L_vt__1__b_wy*l24_0_3));
+    const S d_L_sliding__1__b_wz = ((-(d_L_across__1__b_wz*l24_0_2)) - (d_L_vt__1__b_wz*l24_0_3));
+    const S L_sliding__2 = (-(L_fslide*((L_fast*((L_across__2*l24_0_0) + L_dir__2)) + (L_vt__2*l24_0_1))));
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l24_0_2)) - (d_L_vt__2__a_vx*l24_0_3));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l24_0_2)) - (d_L_vt__2__a_vy*l24_0_3));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l24_0_2)) - (d_L_vt__2__a_vz*l24_0_3));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l24_0_2)) - (d_L_vt__2__a_wx*l24_0_3));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l24_0_2)) - (d_L_vt__2__a_wy*l24_0_3));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l24_0_2)) - (d_L_vt__2__a_wz*l24_0_3));
+    const S d_L_sliding__2__b_vx = ((-(d_L_across__2__b_vx*l24_0_2)) - (d_L_vt__2__b_vx*l24_0_3));
+    const S d_L_sliding__2__b_vy = ((-(d_L_across__2__b_vy*l24_0_2)) - (d_L_vt__2__b_vy*l24_0_3));
+    const S d_L_sliding__2__b_vz = ((-(d_L_across__2__b_vz*l24_0_2)) - (d_L_vt__2__b_vz*l24_0_3));
+    const S d_L_sliding__2__b_wx = ((-(d_L_across__2__b_wx*l24_0_2)) - (d_L_vt__2__b_wx*l24_0_3));
+    const S d_L_sliding__2__b_wy = ((-(d_L_across__2__b_wy*l24_0_2)) - (d_L_vt__2__b_wy*l24_0_3));
+    const S d_L_sliding__2__b_wz = ((-(d_L_across__2__b_wz*l24_0_2)) - (d_L_vt__2__b_wz*l24_0_3));
+    // let holds (contact.yaml:98)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:93)
-    const S l25_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l25_0_0));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l25_0_0));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l25_0_0));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l25_0_0));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l25_0_0));
-    const S d_L_ft__0__b_dx = ((L_holds*d_L_fs__0__b_dx) + (d_L_sliding__0__b_dx*l25_0_0));
-    const S d_L_ft__0__b_dy = ((L_holds*d_L_fs__0__b_dy) + (d_L_sliding__0__b_dy*l25_0_0));
-    const S d_L_ft__0__b_dz = ((L_holds*d_L_fs__0__b_dz) + (d_L_sliding__0__b_dz*l25_0_0));
-    const S d_L_ft__0__b_dtx = ((L_holds*d_L_fs__0__b_dtx) + (d_L_sliding__0__b_dtx*l25_0_0));
-    const S d_L_ft__0__b_dty = ((L_holds*d_L_fs__0__b_dty) + (d_L_sliding__0__b_dty*l25_0_0));
-    const S d_L_ft__0__b_dtz = ((L_holds*d_L_fs__0__b_dtz) + (d_L_sliding__0__b_dtz*l25_0_0));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l25_0_0));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l25_0_0));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l25_0_0));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l25_0_0));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l25_0_0));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l25_0_0));
-    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l25_0_0));
-    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l25_0_0));
-    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l25_0_0));
-    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l25_0_0));
-    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l25_0_0));
-    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l25_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l25_0_0));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l25_0_0));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l25_0_0));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l25_0_0));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l25_0_0));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l25_0_0));
-    const S d_L_ft__1__b_dx = ((L_holds*d_L_fs__1__b_dx) + (d_L_sliding__1__b_dx*l25_0_0));
-    const S d_L_ft__1__b_dy = ((L_holds*d_L_fs__1__b_dy) + (d_L_sliding__1__b_dy*l25_0_0));
-    const S d_L_ft__1__b_dz = ((L_holds*d_L_fs__1__b_dz) + (d_L_sliding__1__b_dz*l25_0_0));
-    const S d_L_ft__1__b_dtx = ((L_holds*d_L_fs__1__b_dtx) + (d_L_sliding__1__b_dtx*l25_0_0));
-    const S d_L_ft__1__b_dty = ((L_holds*d_L_fs__1__b_dty) + (d_L_sliding__1__b_dty*l25_0_0));
-    const S d_L_ft__1__b_dtz = ((L_holds*d_L_fs__1__b_dtz) + (d_L_sliding__1__b_dtz*l25_0_0));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l25_0_0));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l25_0_0));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l25_0_0));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l25_0_0));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l25_0_0));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l25_0_0));
-    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l25_0_0));
-    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l25_0_0));
-    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l25_0_0));
-    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l25_0_0));
-    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l25_0_0));
-    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l25_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l25_0_0));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l25_0_0));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l25_0_0));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l25_0_0));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l25_0_0));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l25_0_0));
-    const S d_L_ft__2__b_dx = ((L_holds*d_L_fs__2__b_dx) + (d_L_sliding__2__b_dx*l25_0_0));
-    const S d_L_ft__2__b_dy = ((L_holds*d_L_fs__2__b_dy) + (d_L_sliding__2__b_dy*l25_0_0));
-    const S d_L_ft__2__b_dz = ((L_holds*d_L_fs__2__b_dz) + (d_L_sliding__2__b_dz*l25_0_0));
-    const S d_L_ft__2__b_dtx = ((L_holds*d_L_fs__2__b_dtx) + (d_L_sliding__2__b_dtx*l25_0_0));
-    const S d_L_ft__2__b_dty = ((L_holds*d_L_fs__2__b_dty) + (d_L_sliding__2__b_dty*l25_0_0));
-    const S d_L_ft__2__b_dtz = ((L_holds*d_L_fs__2__b_dtz) + (d_L_sliding__2__b_dtz*l25_0_0));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l25_0_0));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l25_0_0));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l25_0_0));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
-    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l25_0_0));
-    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l25_0_0));
-    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l25_0_0));
-    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l25_0_0));
-    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l25_0_0));
-    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l25_0_0));
-    // let f (contact.yaml:94)
+    // let ft (contact.yaml:99)
+    const S l26_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l26_0_0));
+    const S d_L_ft__0__a_dx = (L_holds*d_L_fs__0__a_dx);
+    const S d_L_ft__0__a_dy = (L_holds*d_L_fs__0__a_dy);
+    const S d_L_ft__0__a_dz = (L_holds*d_L_fs__0__a_dz);
+    const S d_L_ft__0__a_dtx = (L_holds*d_L_fs__0__a_dtx);
+    const S d_L_ft__0__a_dty = (L_holds*d_L_fs__0__a_dty);
+    const S d_L_ft__0__a_dtz = (L_holds*d_L_fs__0__a_dtz);
+    const S d_L_ft__0__b_dx = (L_holds*d_L_fs__0__b_dx);
+    const S d_L_ft__0__b_dy = (L_holds*d_L_fs__0__b_dy);
+    const S d_L_ft__0__b_dz = (L_holds*d_L_fs__0__b_dz);
+    const S d_L_ft__0__b_dtx = (L_holds*d_L_fs__0__b_dtx);
+    const S d_L_ft__0__b_dty = (L_holds*d_L_fs__0__b_dty);
+    const S d_L_ft__0__b_dtz = (L_holds*d_L_fs__0__b_dtz);
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l26_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l26_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l26_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l26_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l26_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l26_0_0));
+    const S d_L_ft__0__b_vx = ((L_holds*d_L_fs__0__b_vx) + (d_L_sliding__0__b_vx*l26_0_0));
+    const S d_L_ft__0__b_vy = ((L_holds*d_L_fs__0__b_vy) + (d_L_sliding__0__b_vy*l26_0_0));
+    const S d_L_ft__0__b_vz = ((L_holds*d_L_fs__0__b_vz) + (d_L_sliding__0__b_vz*l26_0_0));
+    const S d_L_ft__0__b_wx = ((L_holds*d_L_fs__0__b_wx) + (d_L_sliding__0__b_wx*l26_0_0));
+    const S d_L_ft__0__b_wy = ((L_holds*d_L_fs__0__b_wy) + (d_L_sliding__0__b_wy*l26_0_0));
+    const S d_L_ft__0__b_wz = ((L_holds*d_L_fs__0__b_wz) + (d_L_sliding__0__b_wz*l26_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l26_0_0));
+    const S d_L_ft__1__a_dx = (L_holds*d_L_fs__1__a_dx);
+    const S d_L_ft__1__a_dy = (L_holds*d_L_fs__1__a_dy);
+    const S d_L_ft__1__a_dz = (L_holds*d_L_fs__1__a_dz);
+    const S d_L_ft__1__a_dtx = (L_holds*d_L_fs__1__a_dtx);
+    const S d_L_ft__1__a_dty = (L_holds*d_L_fs__1__a_dty);
+    const S d_L_ft__1__a_dtz = (L_holds*d_L_fs__1__a_dtz);
+    const S d_L_ft__1__b_dx = (L_holds*d_L_fs__1__b_dx);
+    const S d_L_ft__1__b_dy = (L_holds*d_L_fs__1__b_dy);
+    const S d_L_ft__1__b_dz = (L_holds*d_L_fs__1__b_dz);
+    const S d_L_ft__1__b_dtx = (L_holds*d_L_fs__1__b_dtx);
+    const S d_L_ft__1__b_dty = (L_holds*d_L_fs__1__b_dty);
+    const S d_L_ft__1__b_dtz = (L_holds*d_L_fs__1__b_dtz);
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l26_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l26_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l26_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l26_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l26_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l26_0_0));
+    const S d_L_ft__1__b_vx = ((L_holds*d_L_fs__1__b_vx) + (d_L_sliding__1__b_vx*l26_0_0));
+    const S d_L_ft__1__b_vy = ((L_holds*d_L_fs__1__b_vy) + (d_L_sliding__1__b_vy*l26_0_0));
+    const S d_L_ft__1__b_vz = ((L_holds*d_L_fs__1__b_vz) + (d_L_sliding__1__b_vz*l26_0_0));
+    const S d_L_ft__1__b_wx = ((L_holds*d_L_fs__1__b_wx) + (d_L_sliding__1__b_wx*l26_0_0));
+    const S d_L_ft__1__b_wy = ((L_holds*d_L_fs__1__b_wy) + (d_L_sliding__1__b_wy*l26_0_0));
+    const S d_L_ft__1__b_wz = ((L_holds*d_L_fs__1__b_wz) + (d_L_sliding__1__b_wz*l26_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l26_0_0));
+    const S d_L_ft__2__a_dx = (L_holds*d_L_fs__2__a_dx);
+    const S d_L_ft__2__a_dy = (L_holds*d_L_fs__2__a_dy);
+    const S d_L_ft__2__a_dz = (L_holds*d_L_fs__2__a_dz);
+    const S d_L_ft__2__a_dtx = (L_holds*d_L_fs__2__a_dtx);
+    const S d_L_ft__2__a_dty = (L_holds*d_L_fs__2__a_dty);
+    const S d_L_ft__2__a_dtz = (L_holds*d_L_fs__2__a_dtz);
+    const S d_L_ft__2__b_dx = (L_holds*d_L_fs__2__b_dx);
+    const S d_L_ft__2__b_dy = (L_holds*d_L_fs__2__b_dy);
+    const S d_L_ft__2__b_dz = (L_holds*d_L_fs__2__b_dz);
+    const S d_L_ft__2__b_dtx = (L_holds*d_L_fs__2__b_dtx);
+    const S d_L_ft__2__b_dty = (L_holds*d_L_fs__2__b_dty);
+    const S d_L_ft__2__b_dtz = (L_holds*d_L_fs__2__b_dtz);
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l26_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l26_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l26_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l26_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l26_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l26_0_0));
+    const S d_L_ft__2__b_vx = ((L_holds*d_L_fs__2__b_vx) + (d_L_sliding__2__b_vx*l26_0_0));
+    const S d_L_ft__2__b_vy = ((L_holds*d_L_fs__2__b_vy) + (d_L_sliding__2__b_vy*l26_0_0));
+    const S d_L_ft__2__b_vz = ((L_holds*d_L_fs__2__b_vz) + (d_L_sliding__2__b_vz*l26_0_0));
+    const S d_L_ft__2__b_wx = ((L_holds*d_L_fs__2__b_wx) + (d_L_sliding__2__b_wx*l26_0_0));
+    const S d_L_ft__2__b_wy = ((L_holds*d_L_fs__2__b_wy) + (d_L_sliding__2__b_wy*l26_0_0));
+    const S d_L_ft__2__b_wz = ((L_holds*d_L_fs__2__b_wz) + (d_L_sliding__2__b_wz*l26_0_0));
+    // let f (contact.yaml:100)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -1939,7 +1859,7 @@ struct Contact_Pair_Kernel {
     const S d_L_f__2__b_wx = ((d_L_fn__b_wx*p_normal__2) + d_L_ft__2__b_wx);
     const S d_L_f__2__b_wy = ((d_L_fn__b_wy*p_normal__2) + d_L_ft__2__b_wy);
     const S d_L_f__2__b_wz = ((d_L_fn__b_wz*p_normal__2) + d_L_ft__2__b_wz);
-    // apply (contact.yaml:95), shared subexpressions
+    // apply (contact.yaml:101), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -2064,21 +1984,21 @@ struct Contact_Pair_Kernel {
     const S o121 = ((d_L_f__0__b_dtz*o87) + (d_L_f__0__b_wz*h));
     const S o122 = ((d_L_f__1__b_dtz*o87) + (d_L_f__1__b_wz*h));
     const S o123 = ((d_L_f__2__b_dtz*o87) + (d_L_f__2__b_wz*h));
-    // g_a from apply[0] (contact.yaml:96)
+    // g_a from apply[0] (contact.yaml:102)
     out[0] = (-o12);
     out[1] = (-o13);
     out[2] = (-o14);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o15) + (o1*o16) + (o10*o25) + (o11*o26) + (o17*o2) + (o18*o3) + (o19*o4) + (o20*o5) + (o21*o6) + (o22*o7) + (o23*o8) + (o24*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o27) + (o1*o28) + (o10*o37) + (o11*o38) + (o2*o29) + (o3*o30) + (o31*o4) + (o32*o5) + (o33*o6) + (o34*o7) + (o35*o8) + (o36*o9));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o39) + (o1*o40) + (o10*o49) + (o11*o50) + (o2*o41) + (o3*o42) + (o4*o43) + (o44*o5) + (o45*o6) + (o46*o7) + (o47*o8) + (o48*o9));
-    // g_b from apply[1] (contact.yaml:97)
+    // g_b from apply[1] (contact.yaml:103)
     out[6] = o12;
     out[7] = o13;
     out[8] = o14;
     out[9] = ((-(L_f__1*L_rb__2)) + (L_f__2*L_rb__1) + (o0*o51) + (o1*o52) + (o10*o61) + (o11*o62) + (o2*o53) + (o3*o54) + (o4*o55) + (o5*o56) + (o57*o6) + (o58*o7) + (o59*o8) + (o60*o9));
     out[10] = ((L_f__0*L_rb__2) - (L_f__2*L_rb__0) + (o0*o63) + (o1*o64) + (o10*o73) + (o11*o74) + (o2*o65) + (o3*o66) + (o4*o67) + (o5*o68) + (o6*o69) + (o7*o70) + (o71*o8) + (o72*o9));
     out[11] = ((-(L_f__0*L_rb__1)) + (L_f__1*L_rb__0) + (o0*o75) + (o1*o76) + (o10*o85) + (o11*o86) + (o2*o77) + (o3*o78) + (o4*o79) + (o5*o80) + (o6*o81) + (o7*o82) + (o8*o83) + (o84*o9));
-    // K_aa from apply[0] (contact.yaml:96)
+    // K_aa from apply[0] (contact.yaml:102)
     out[12] = (-o88);
     out[13] = (-o89);
     out[14] = (-o90);
@@ -2115,7 +2035,7 @@ struct Contact_Pair_Kernel {
     out[45] = ((h*((-(L_ra__1*d_L_f__2__a_wz)) + (L_ra__2*d_L_f__1__a_wz))) + (o20*o87));
     out[46] = ((h*((L_ra__0*d_L_f__2__a_wz) - (L_ra__2*d_L_f__0__a_wz))) + (o32*o87));
     out[47] = ((h*((-(L_ra__0*d_L_f__1__a_wz)) + (L_ra__1*d_L_f__0__a_wz))) + (o44*o87));
-    // K_ab from apply[0] (contact.yaml:96)
+    // K_ab from apply[0] (contact.yaml:102)
     out[48] = (-o106);
     out[49] = (-o107);
     out[50] = (-o108);
@@ -2152,7 +2072,7 @@ struct Contact_Pair_Kernel {
     out[81] = ((h*((-(L_ra__1*d_L_f__2__b_wz)) + (L_ra__2*d_L_f__1__b_wz))) + (o26*o87));
     out[82] = ((h*((L_ra__0*d_L_f__2__b_wz) - (L_ra__2*d_L_f__0__b_wz))) + (o38*o87));
     out[83] = ((h*((-(L_ra__0*d_L_f__1__b_wz)) + (L_ra__1*d_L_f__0__b_wz))) + (o50*o87));
-    // K_ba from apply[1] (contact.yaml:97)
+    // K_ba from apply[1] (contact.yaml:103)
     out[84] = o88;
     out[85] = o89;
     out[86] = o90;
@@ -2189,7 +2109,7 @@ struct Contact_Pair_Kernel {
     out[117] = ((h*((L_rb__1*d_L_f__2__a_wz) - (L_rb__2*d_L_f__1__a_wz))) + (o56*o87));
     out[118] = ((h*((-(L_rb__0*d_L_f__2__a_wz)) + (L_rb__2*d_L_f__0__a_wz))) + (o68*o87));
     out[119] = ((h*((L_rb__0*d_L_f__1__a_wz) - (L_rb__1*d_L_f__0__a_wz))) + (o80*o87));
-    // K_bb from apply[1] (contact.yaml:97)
+    // K_bb from apply[1] (contact.yaml:103)
     out[120] = o106;
     out[121] = o107;
     out[122] = o108;
@@ -2229,7 +2149,7 @@ struct Contact_Pair_Kernel {
   }
 
   /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
-  static constexpr int kHeld = 10;
+  static constexpr int kHeld = 11;
   /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
   /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
   static constexpr int kJointArm[2] = { -1, -1 };
@@ -2415,10 +2335,10 @@ struct Contact_Pair_Kernel {
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
     // let fmax (contact.yaml:79)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:85)
+    // let slip (contact.yaml:90)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let dir (contact.yaml:86)
+    // let dir (contact.yaml:91)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l20_0_0));
     if (held_out) held_out[7] = L_dir__0;
@@ -2426,38 +2346,41 @@ struct Contact_Pair_Kernel {
     if (held_out) held_out[8] = L_dir__1;
     const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l20_0_0));
     if (held_out) held_out[9] = L_dir__2;
-    // let fast (contact.yaml:87)
-    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:88)
-    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
-    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
-    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
-    // let sliding (contact.yaml:89)
-    const S l23_0_0 = (S(1)/(L_slip));
-    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
-    const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1))));
-    const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1))));
-    const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1))));
-    // let holds (contact.yaml:92)
+    // let fslide (contact.yaml:92)
+    const S L_fslide = held_in ? held_in[10] : S(L_fmax);
+    if (held_out) held_out[10] = L_fslide;
+    // let fast (contact.yaml:93)
+    const S L_fast = select(((L_fslide*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:94)
+    const S l23_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S L_across__0 = ((-(L_dir__0*l23_0_0)) + L_vt__0);
+    const S L_across__1 = ((-(L_dir__1*l23_0_0)) + L_vt__1);
+    const S L_across__2 = ((-(L_dir__2*l23_0_0)) + L_vt__2);
+    // let sliding (contact.yaml:95)
+    const S l24_0_0 = (S(1)/(L_slip));
+    const S l24_0_1 = (l24_0_0*(S(1) - L_fast));
+    const S L_sliding__0 = (-(L_fslide*((L_fast*((L_across__0*l24_0_0) + L_dir__0)) + (L_vt__0*l24_0_1))));
+    const S L_sliding__1 = (-(L_fslide*((L_fast*((L_across__1*l24_0_0) + L_dir__1)) + (L_vt__1*l24_0_1))));
+    const S L_sliding__2 = (-(L_fslide*((L_fast*((L_across__2*l24_0_0) + L_dir__2)) + (L_vt__2*l24_0_1))));
+    // let holds (contact.yaml:98)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:93)
-    const S l25_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
-    // let f (contact.yaml:94)
+    // let ft (contact.yaml:99)
+    const S l26_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l26_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l26_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l26_0_0));
+    // let f (contact.yaml:100)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:96)
+    // F_a from apply[0] (contact.yaml:102)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // F_b from apply[1] (contact.yaml:97)
+    // F_b from apply[1] (contact.yaml:103)
     out[6] = L_f__0;
     out[7] = L_f__1;
     out[8] = L_f__2;
@@ -2469,7 +2392,7 @@ struct Contact_Pair_Kernel {
 
 /// contact (world): F for 1 body and 2 Jacobian block(s).
 /// out = [F_a (6), dF_a/ddelta_a (36), dF_a/du_a (36)]
-/// Total ops: 1077
+/// Total ops: 1002
 struct Contact_World_Kernel {
   using Instance = Contact_Force;
   static constexpr ForceType kType = ForceType::contact;
@@ -2478,7 +2401,7 @@ struct Contact_World_Kernel {
   static constexpr int kInputs = 42;
   static constexpr int kNumBlocks = 2;
   static constexpr int kOutputs = 78;
-  static constexpr int kOps = 1077;
+  static constexpr int kOps = 1002;
   static constexpr BlockSlot kBlocks[kNumBlocks] = {
       {BlockKind::dF_ddelta, 0, 0},
       {BlockKind::dF_du, 0, 0},
@@ -2809,138 +2732,116 @@ struct Contact_World_Kernel {
     const S d_L_fmax__a_wx = (d_L_fn__a_wx*l18_0_1);
     const S d_L_fmax__a_wy = (d_L_fn__a_wy*l18_0_1);
     const S d_L_fmax__a_wz = (d_L_fn__a_wz*l18_0_1);
-    // let slip (contact.yaml:85)
+    // let slip (contact.yaml:90)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:86)
+    // let dir (contact.yaml:91)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
-    // let fast (contact.yaml:87)
-    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:88)
-    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
-    const S l22_0_2 = (L_dir__0*L_dir__1);
-    const S l22_0_3 = (L_dir__0*L_dir__2);
-    const S l22_0_4 = (S(1) - (L_dir__1*L_dir__1));
-    const S l22_0_5 = (L_dir__1*L_dir__2);
-    const S l22_0_6 = (S(1) - (L_dir__2*L_dir__2));
-    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
-    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l22_0_1) - (d_L_vt__1__a_vx*l22_0_2) - (d_L_vt__2__a_vx*l22_0_3));
-    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l22_0_1) - (d_L_vt__1__a_vy*l22_0_2) - (d_L_vt__2__a_vy*l22_0_3));
-    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l22_0_1) - (d_L_vt__1__a_vz*l22_0_2) - (d_L_vt__2__a_vz*l22_0_3));
-    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l22_0_1) - (d_L_vt__1__a_wx*l22_0_2) - (d_L_vt__2__a_wx*l22_0_3));
-    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l22_0_1) - (d_L_vt__1__a_wy*l22_0_2) - (d_L_vt__2__a_wy*l22_0_3));
-    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l22_0_1) - (d_L_vt__1__a_wz*l22_0_2) - (d_L_vt__2__a_wz*l22_0_3));
-    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
-    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l22_0_2)) + (d_L_vt__1__a_vx*l22_0_4) - (d_L_vt__2__a_vx*l22_0_5));
-    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l22_0_2)) + (d_L_vt__1__a_vy*l22_0_4) - (d_L_vt__2__a_vy*l22_0_5));
-    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l22_0_2)) + (d_L_vt__1__a_vz*l22_0_4) - (d_L_vt__2__a_vz*l22_0_5));
-    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l22_0_2)) + (d_L_vt__1__a_wx*l22_0_4) - (d_L_vt__2__a_wx*l22_0_5));
-    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l22_0_2)) + (d_L_vt__1__a_wy*l22_0_4) - (d_L_vt__2__a_wy*l22_0_5));
-    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l22_0_2)) + (d_L_vt__1__a_wz*l22_0_4) - (d_L_vt__2__a_wz*l22_0_5));
-    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
-    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l22_0_3)) - (d_L_vt__1__a_vx*l22_0_5) + (d_L_vt__2__a_vx*l22_0_6));
-    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l22_0_3)) - (d_L_vt__1__a_vy*l22_0_5) + (d_L_vt__2__a_vy*l22_0_6));
-    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l22_0_3)) - (d_L_vt__1__a_vz*l22_0_5) + (d_L_vt__2__a_vz*l22_0_6));
-    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
-    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
-    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
-    // let sliding (contact.yaml:89)
-    const S l23_0_0 = (S(1)/(L_slip));
-    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
-    const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
-    const S l23_0_3 = (-l23_0_2);
-    const S l23_0_4 = (L_fast*L_fmax*l23_0_0);
-    const S l23_0_5 = (L_fmax*l23_0_1);
-    const S l23_0_6 = ((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1));
-    const S l23_0_7 = (-l23_0_6);
-    const S l23_0_8 = ((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1));
-    const S l23_0_9 = (-l23_0_8);
-    const S L_sliding__0 = (-(L_fmax*l23_0_2));
-    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l23_0_3);
-    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l23_0_3);
-    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l23_0_3);
-    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l23_0_3);
-    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l23_0_3);
-    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l23_0_3);
-    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_3) - (d_L_vt__0__a_vx*l23_0_5));
-    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_3) - (d_L_vt__0__a_vy*l23_0_5));
-    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_3) - (d_L_vt__0__a_vz*l23_0_5));
-    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_3) - (d_L_vt__0__a_wx*l23_0_5));
-    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_3) - (d_L_vt__0__a_wy*l23_0_5));
-    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_3) - (d_L_vt__0__a_wz*l23_0_5));
-    const S L_sliding__1 = (-(L_fmax*l23_0_6));
-    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l23_0_7);
-    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l23_0_7);
-    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l23_0_7);
-    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l23_0_7);
-    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l23_0_7);
-    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l23_0_7);
-    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_7) - (d_L_vt__1__a_vx*l23_0_5));
-    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_7) - (d_L_vt__1__a_vy*l23_0_5));
-    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_7) - (d_L_vt__1__a_vz*l23_0_5));
-    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_7) - (d_L_vt__1__a_wx*l23_0_5));
-    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_7) - (d_L_vt__1__a_wy*l23_0_5));
-    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_7) - (d_L_vt__1__a_wz*l23_0_5));
-    const S L_sliding__2 = (-(L_fmax*l23_0_8));
-    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l23_0_9);
-    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l23_0_9);
-    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l23_0_9);
-    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l23_0_9);
-    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l23_0_9);
-    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l23_0_9);
-    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_9) - (d_L_vt__2__a_vx*l23_0_5));
-    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_9) - (d_L_vt__2__a_vy*l23_0_5));
-    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_9) - (d_L_vt__2__a_vz*l23_0_5));
-    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
-    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
-    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
-    // let holds (contact.yaml:92)
+    // let fslide (contact.yaml:92)
+    [[maybe_unused]] const S L_fslide = L_fmax;
+    // let fast (contact.yaml:93)
+    const S L_fast = select(((L_fslide*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:94)
+    const S l23_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l23_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l23_0_2 = (L_dir__0*L_dir__1);
+    const S l23_0_3 = (L_dir__0*L_dir__2);
+    const S l23_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l23_0_5 = (L_dir__1*L_dir__2);
+    const S l23_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l23_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l23_0_1) - (d_L_vt__1__a_vx*l23_0_2) - (d_L_vt__2__a_vx*l23_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l23_0_1) - (d_L_vt__1__a_vy*l23_0_2) - (d_L_vt__2__a_vy*l23_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l23_0_1) - (d_L_vt__1__a_vz*l23_0_2) - (d_L_vt__2__a_vz*l23_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l23_0_1) - (d_L_vt__1__a_wx*l23_0_2) - (d_L_vt__2__a_wx*l23_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l23_0_1) - (d_L_vt__1__a_wy*l23_0_2) - (d_L_vt__2__a_wy*l23_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l23_0_1) - (d_L_vt__1__a_wz*l23_0_2) - (d_L_vt__2__a_wz*l23_0_3));
+    const S L_across__1 = ((-(L_dir__1*l23_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l23_0_2)) + (d_L_vt__1__a_vx*l23_0_4) - (d_L_vt__2__a_vx*l23_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l23_0_2)) + (d_L_vt__1__a_vy*l23_0_4) - (d_L_vt__2__a_vy*l23_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l23_0_2)) + (d_L_vt__1__a_vz*l23_0_4) - (d_L_vt__2__a_vz*l23_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l23_0_2)) + (d_L_vt__1__a_wx*l23_0_4) - (d_L_vt__2__a_wx*l23_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l23_0_2)) + (d_L_vt__1__a_wy*l23_0_4) - (d_L_vt__2__a_wy*l23_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l23_0_2)) + (d_L_vt__1__a_wz*l23_0_4) - (d_L_vt__2__a_wz*l23_0_5));
+    const S L_across__2 = ((-(L_dir__2*l23_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l23_0_3)) - (d_L_vt__1__a_vx*l23_0_5) + (d_L_vt__2__a_vx*l23_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l23_0_3)) - (d_L_vt__1__a_vy*l23_0_5) + (d_L_vt__2__a_vy*l23_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l23_0_3)) - (d_L_vt__1__a_vz*l23_0_5) + (d_L_vt__2__a_vz*l23_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l23_0_3)) - (d_L_vt__1__a_wx*l23_0_5) + (d_L_vt__2__a_wx*l23_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l23_0_3)) - (d_L_vt__1__a_wy*l23_0_5) + (d_L_vt__2__a_wy*l23_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l23_0_3)) - (d_L_vt__1__a_wz*l23_0_5) + (d_L_vt__2__a_wz*l23_0_6));
+    // let sliding (contact.yaml:95)
+    const S l24_0_0 = (S(1)/(L_slip));
+    const S l24_0_1 = (l24_0_0*(S(1) - L_fast));
+    const S l24_0_2 = (L_fast*L_fslide*l24_0_0);
+    const S l24_0_3 = (L_fslide*l24_0_1);
+    const S L_sliding__0 = (-(L_fslide*((L_fast*((L_across__0*l24_0_0) + L_dir__0)) + (L_vt__0*l24_0_1))));
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l24_0_2)) - (d_L_vt__0__a_vx*l24_0_3));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l24_0_2)) - (d_L_vt__0__a_vy*l24_0_3));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l24_0_2)) - (d_L_vt__0__a_vz*l24_0_3));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l24_0_2)) - (d_L_vt__0__a_wx*l24_0_3));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l24_0_2)) - (d_L_vt__0__a_wy*l24_0_3));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l24_0_2)) - (d_L_vt__0__a_wz*l24_0_3));
+    const S L_sliding__1 = (-(L_fslide*((L_fast*((L_across__1*l24_0_0) + L_dir__1)) + (L_vt__1*l24_0_1))));
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l24_0_2)) - (d_L_vt__1__a_vx*l24_0_3));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l24_0_2)) - (d_L_vt__1__a_vy*l24_0_3));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l24_0_2)) - (d_L_vt__1__a_vz*l24_0_3));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l24_0_2)) - (d_L_vt__1__a_wx*l24_0_3));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l24_0_2)) - (d_L_vt__1__a_wy*l24_0_3));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l24_0_2)) - (d_L_vt__1__a_wz*l24_0_3));
+    const S L_sliding__2 = (-(L_fslide*((L_fast*((L_across__2*l24_0_0) + L_dir__2)) + (L_vt__2*l24_0_1))));
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l24_0_2)) - (d_L_vt__2__a_vx*l24_0_3));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l24_0_2)) - (d_L_vt__2__a_vy*l24_0_3));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l24_0_2)) - (d_L_vt__2__a_vz*l24_0_3));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l24_0_2)) - (d_L_vt__2__a_wx*l24_0_3));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l24_0_2)) - (d_L_vt__2__a_wy*l24_0_3));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l24_0_2)) - (d_L_vt__2__a_wz*l24_0_3));
+    // let holds (contact.yaml:98)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:93)
-    const S l25_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l25_0_0));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l25_0_0));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l25_0_0));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l25_0_0));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l25_0_0));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l25_0_0));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l25_0_0));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l25_0_0));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l25_0_0));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l25_0_0));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l25_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l25_0_0));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l25_0_0));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l25_0_0));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l25_0_0));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l25_0_0));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l25_0_0));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l25_0_0));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l25_0_0));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l25_0_0));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l25_0_0));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l25_0_0));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l25_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l25_0_0));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l25_0_0));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l25_0_0));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l25_0_0));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l25_0_0));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l25_0_0));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l25_0_0));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l25_0_0));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l25_0_0));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
-    // let f (contact.yaml:94)
+    // let ft (contact.yaml:99)
+    const S l26_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l26_0_0));
+    const S d_L_ft__0__a_dx = (L_holds*d_L_fs__0__a_dx);
+    const S d_L_ft__0__a_dy = (L_holds*d_L_fs__0__a_dy);
+    const S d_L_ft__0__a_dz = (L_holds*d_L_fs__0__a_dz);
+    const S d_L_ft__0__a_dtx = (L_holds*d_L_fs__0__a_dtx);
+    const S d_L_ft__0__a_dty = (L_holds*d_L_fs__0__a_dty);
+    const S d_L_ft__0__a_dtz = (L_holds*d_L_fs__0__a_dtz);
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l26_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l26_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l26_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l26_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l26_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l26_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l26_0_0));
+    const S d_L_ft__1__a_dx = (L_holds*d_L_fs__1__a_dx);
+    const S d_L_ft__1__a_dy = (L_holds*d_L_fs__1__a_dy);
+    const S d_L_ft__1__a_dz = (L_holds*d_L_fs__1__a_dz);
+    const S d_L_ft__1__a_dtx = (L_holds*d_L_fs__1__a_dtx);
+    const S d_L_ft__1__a_dty = (L_holds*d_L_fs__1__a_dty);
+    const S d_L_ft__1__a_dtz = (L_holds*d_L_fs__1__a_dtz);
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l26_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l26_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l26_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l26_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l26_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l26_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l26_0_0));
+    const S d_L_ft__2__a_dx = (L_holds*d_L_fs__2__a_dx);
+    const S d_L_ft__2__a_dy = (L_holds*d_L_fs__2__a_dy);
+    const S d_L_ft__2__a_dz = (L_holds*d_L_fs__2__a_dz);
+    const S d_L_ft__2__a_dtx = (L_holds*d_L_fs__2__a_dtx);
+    const S d_L_ft__2__a_dty = (L_holds*d_L_fs__2__a_dty);
+    const S d_L_ft__2__a_dtz = (L_holds*d_L_fs__2__a_dtz);
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l26_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l26_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l26_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l26_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l26_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l26_0_0));
+    // let f (contact.yaml:100)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -2980,14 +2881,14 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // F_a from apply[0] (contact.yaml:96)
+    // F_a from apply[0] (contact.yaml:102)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0));
-    // dF_a/ddelta_a from apply[0] (contact.yaml:96)
+    // dF_a/ddelta_a from apply[0] (contact.yaml:102)
     out[6] = (-d_L_f__0__a_dx);
     out[7] = (-d_L_f__1__a_dx);
     out[8] = (-d_L_f__2__a_dx);
@@ -3024,7 +2925,7 @@ struct Contact_World_Kernel {
     out[39] = ((-(L_ra__1*d_L_f__2__a_dtz)) + (L_ra__2*d_L_f__1__a_dtz));
     out[40] = ((L_ra__0*d_L_f__2__a_dtz) - (L_ra__2*d_L_f__0__a_dtz));
     out[41] = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
-    // dF_a/du_a from apply[0] (contact.yaml:96)
+    // dF_a/du_a from apply[0] (contact.yaml:102)
     out[42] = (-d_L_f__0__a_vx);
     out[43] = (-d_L_f__1__a_vx);
     out[44] = (-d_L_f__2__a_vx);
@@ -3065,7 +2966,7 @@ struct Contact_World_Kernel {
 
   /// The implicit step's form: out = [g per body (6 each), K blocks (36 each, column-major)] with
   /// g_i = F_i + h sum_j dF_i/ddelta_j u_j and K_ij = h dF_i/du_j + h^2 dF_i/ddelta_j,
-  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1246
+  /// for the (row, col) body pairs of kImplicitBlocks. Total ops: 1171
   static constexpr int kNumImplicitBlocks = 1;
   static constexpr int kImplicitOutputs = 42;
   static constexpr BlockSlot kImplicitBlocks[kNumImplicitBlocks] = {
@@ -3344,138 +3245,116 @@ struct Contact_World_Kernel {
     const S d_L_fmax__a_wx = (d_L_fn__a_wx*l18_0_1);
     const S d_L_fmax__a_wy = (d_L_fn__a_wy*l18_0_1);
     const S d_L_fmax__a_wz = (d_L_fn__a_wz*l18_0_1);
-    // let slip (contact.yaml:85)
+    // let slip (contact.yaml:90)
     [[maybe_unused]] const S L_slip = sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity)));
-    // let dir (contact.yaml:86)
+    // let dir (contact.yaml:91)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     [[maybe_unused]] const S L_dir__0 = (L_vt__0*l20_0_0);
     [[maybe_unused]] const S L_dir__1 = (L_vt__1*l20_0_0);
     [[maybe_unused]] const S L_dir__2 = (L_vt__2*l20_0_0);
-    // let fast (contact.yaml:87)
-    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:88)
-    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S l22_0_1 = (S(1) - (L_dir__0*L_dir__0));
-    const S l22_0_2 = (L_dir__0*L_dir__1);
-    const S l22_0_3 = (L_dir__0*L_dir__2);
-    const S l22_0_4 = (S(1) - (L_dir__1*L_dir__1));
-    const S l22_0_5 = (L_dir__1*L_dir__2);
-    const S l22_0_6 = (S(1) - (L_dir__2*L_dir__2));
-    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
-    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l22_0_1) - (d_L_vt__1__a_vx*l22_0_2) - (d_L_vt__2__a_vx*l22_0_3));
-    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l22_0_1) - (d_L_vt__1__a_vy*l22_0_2) - (d_L_vt__2__a_vy*l22_0_3));
-    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l22_0_1) - (d_L_vt__1__a_vz*l22_0_2) - (d_L_vt__2__a_vz*l22_0_3));
-    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l22_0_1) - (d_L_vt__1__a_wx*l22_0_2) - (d_L_vt__2__a_wx*l22_0_3));
-    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l22_0_1) - (d_L_vt__1__a_wy*l22_0_2) - (d_L_vt__2__a_wy*l22_0_3));
-    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l22_0_1) - (d_L_vt__1__a_wz*l22_0_2) - (d_L_vt__2__a_wz*l22_0_3));
-    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
-    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l22_0_2)) + (d_L_vt__1__a_vx*l22_0_4) - (d_L_vt__2__a_vx*l22_0_5));
-    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l22_0_2)) + (d_L_vt__1__a_vy*l22_0_4) - (d_L_vt__2__a_vy*l22_0_5));
-    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l22_0_2)) + (d_L_vt__1__a_vz*l22_0_4) - (d_L_vt__2__a_vz*l22_0_5));
-    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l22_0_2)) + (d_L_vt__1__a_wx*l22_0_4) - (d_L_vt__2__a_wx*l22_0_5));
-    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l22_0_2)) + (d_L_vt__1__a_wy*l22_0_4) - (d_L_vt__2__a_wy*l22_0_5));
-    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l22_0_2)) + (d_L_vt__1__a_wz*l22_0_4) - (d_L_vt__2__a_wz*l22_0_5));
-    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
-    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l22_0_3)) - (d_L_vt__1__a_vx*l22_0_5) + (d_L_vt__2__a_vx*l22_0_6));
-    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l22_0_3)) - (d_L_vt__1__a_vy*l22_0_5) + (d_L_vt__2__a_vy*l22_0_6));
-    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l22_0_3)) - (d_L_vt__1__a_vz*l22_0_5) + (d_L_vt__2__a_vz*l22_0_6));
-    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l22_0_3)) - (d_L_vt__1__a_wx*l22_0_5) + (d_L_vt__2__a_wx*l22_0_6));
-    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l22_0_3)) - (d_L_vt__1__a_wy*l22_0_5) + (d_L_vt__2__a_wy*l22_0_6));
-    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l22_0_3)) - (d_L_vt__1__a_wz*l22_0_5) + (d_L_vt__2__a_wz*l22_0_6));
-    // let sliding (contact.yaml:89)
-    const S l23_0_0 = (S(1)/(L_slip));
-    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
-    const S l23_0_2 = ((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1));
-    const S l23_0_3 = (-l23_0_2);
-    const S l23_0_4 = (L_fast*L_fmax*l23_0_0);
-    const S l23_0_5 = (L_fmax*l23_0_1);
-    const S l23_0_6 = ((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1));
-    const S l23_0_7 = (-l23_0_6);
-    const S l23_0_8 = ((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1));
-    const S l23_0_9 = (-l23_0_8);
-    const S L_sliding__0 = (-(L_fmax*l23_0_2));
-    const S d_L_sliding__0__a_dx = (d_L_fmax__a_dx*l23_0_3);
-    const S d_L_sliding__0__a_dy = (d_L_fmax__a_dy*l23_0_3);
-    const S d_L_sliding__0__a_dz = (d_L_fmax__a_dz*l23_0_3);
-    const S d_L_sliding__0__a_dtx = (d_L_fmax__a_dtx*l23_0_3);
-    const S d_L_sliding__0__a_dty = (d_L_fmax__a_dty*l23_0_3);
-    const S d_L_sliding__0__a_dtz = (d_L_fmax__a_dtz*l23_0_3);
-    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_3) - (d_L_vt__0__a_vx*l23_0_5));
-    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_3) - (d_L_vt__0__a_vy*l23_0_5));
-    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_3) - (d_L_vt__0__a_vz*l23_0_5));
-    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_3) - (d_L_vt__0__a_wx*l23_0_5));
-    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_3) - (d_L_vt__0__a_wy*l23_0_5));
-    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_3) - (d_L_vt__0__a_wz*l23_0_5));
-    const S L_sliding__1 = (-(L_fmax*l23_0_6));
-    const S d_L_sliding__1__a_dx = (d_L_fmax__a_dx*l23_0_7);
-    const S d_L_sliding__1__a_dy = (d_L_fmax__a_dy*l23_0_7);
-    const S d_L_sliding__1__a_dz = (d_L_fmax__a_dz*l23_0_7);
-    const S d_L_sliding__1__a_dtx = (d_L_fmax__a_dtx*l23_0_7);
-    const S d_L_sliding__1__a_dty = (d_L_fmax__a_dty*l23_0_7);
-    const S d_L_sliding__1__a_dtz = (d_L_fmax__a_dtz*l23_0_7);
-    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_7) - (d_L_vt__1__a_vx*l23_0_5));
-    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_7) - (d_L_vt__1__a_vy*l23_0_5));
-    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_7) - (d_L_vt__1__a_vz*l23_0_5));
-    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_7) - (d_L_vt__1__a_wx*l23_0_5));
-    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_7) - (d_L_vt__1__a_wy*l23_0_5));
-    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_7) - (d_L_vt__1__a_wz*l23_0_5));
-    const S L_sliding__2 = (-(L_fmax*l23_0_8));
-    const S d_L_sliding__2__a_dx = (d_L_fmax__a_dx*l23_0_9);
-    const S d_L_sliding__2__a_dy = (d_L_fmax__a_dy*l23_0_9);
-    const S d_L_sliding__2__a_dz = (d_L_fmax__a_dz*l23_0_9);
-    const S d_L_sliding__2__a_dtx = (d_L_fmax__a_dtx*l23_0_9);
-    const S d_L_sliding__2__a_dty = (d_L_fmax__a_dty*l23_0_9);
-    const S d_L_sliding__2__a_dtz = (d_L_fmax__a_dtz*l23_0_9);
-    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l23_0_4)) + (d_L_fmax__a_vx*l23_0_9) - (d_L_vt__2__a_vx*l23_0_5));
-    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l23_0_4)) + (d_L_fmax__a_vy*l23_0_9) - (d_L_vt__2__a_vy*l23_0_5));
-    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l23_0_4)) + (d_L_fmax__a_vz*l23_0_9) - (d_L_vt__2__a_vz*l23_0_5));
-    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l23_0_4)) + (d_L_fmax__a_wx*l23_0_9) - (d_L_vt__2__a_wx*l23_0_5));
-    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l23_0_4)) + (d_L_fmax__a_wy*l23_0_9) - (d_L_vt__2__a_wy*l23_0_5));
-    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l23_0_4)) + (d_L_fmax__a_wz*l23_0_9) - (d_L_vt__2__a_wz*l23_0_5));
-    // let holds (contact.yaml:92)
+    // let fslide (contact.yaml:92)
+    [[maybe_unused]] const S L_fslide = L_fmax;
+    // let fast (contact.yaml:93)
+    const S L_fast = select(((L_fslide*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:94)
+    const S l23_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S l23_0_1 = (S(1) - (L_dir__0*L_dir__0));
+    const S l23_0_2 = (L_dir__0*L_dir__1);
+    const S l23_0_3 = (L_dir__0*L_dir__2);
+    const S l23_0_4 = (S(1) - (L_dir__1*L_dir__1));
+    const S l23_0_5 = (L_dir__1*L_dir__2);
+    const S l23_0_6 = (S(1) - (L_dir__2*L_dir__2));
+    const S L_across__0 = ((-(L_dir__0*l23_0_0)) + L_vt__0);
+    const S d_L_across__0__a_vx = ((d_L_vt__0__a_vx*l23_0_1) - (d_L_vt__1__a_vx*l23_0_2) - (d_L_vt__2__a_vx*l23_0_3));
+    const S d_L_across__0__a_vy = ((d_L_vt__0__a_vy*l23_0_1) - (d_L_vt__1__a_vy*l23_0_2) - (d_L_vt__2__a_vy*l23_0_3));
+    const S d_L_across__0__a_vz = ((d_L_vt__0__a_vz*l23_0_1) - (d_L_vt__1__a_vz*l23_0_2) - (d_L_vt__2__a_vz*l23_0_3));
+    const S d_L_across__0__a_wx = ((d_L_vt__0__a_wx*l23_0_1) - (d_L_vt__1__a_wx*l23_0_2) - (d_L_vt__2__a_wx*l23_0_3));
+    const S d_L_across__0__a_wy = ((d_L_vt__0__a_wy*l23_0_1) - (d_L_vt__1__a_wy*l23_0_2) - (d_L_vt__2__a_wy*l23_0_3));
+    const S d_L_across__0__a_wz = ((d_L_vt__0__a_wz*l23_0_1) - (d_L_vt__1__a_wz*l23_0_2) - (d_L_vt__2__a_wz*l23_0_3));
+    const S L_across__1 = ((-(L_dir__1*l23_0_0)) + L_vt__1);
+    const S d_L_across__1__a_vx = ((-(d_L_vt__0__a_vx*l23_0_2)) + (d_L_vt__1__a_vx*l23_0_4) - (d_L_vt__2__a_vx*l23_0_5));
+    const S d_L_across__1__a_vy = ((-(d_L_vt__0__a_vy*l23_0_2)) + (d_L_vt__1__a_vy*l23_0_4) - (d_L_vt__2__a_vy*l23_0_5));
+    const S d_L_across__1__a_vz = ((-(d_L_vt__0__a_vz*l23_0_2)) + (d_L_vt__1__a_vz*l23_0_4) - (d_L_vt__2__a_vz*l23_0_5));
+    const S d_L_across__1__a_wx = ((-(d_L_vt__0__a_wx*l23_0_2)) + (d_L_vt__1__a_wx*l23_0_4) - (d_L_vt__2__a_wx*l23_0_5));
+    const S d_L_across__1__a_wy = ((-(d_L_vt__0__a_wy*l23_0_2)) + (d_L_vt__1__a_wy*l23_0_4) - (d_L_vt__2__a_wy*l23_0_5));
+    const S d_L_across__1__a_wz = ((-(d_L_vt__0__a_wz*l23_0_2)) + (d_L_vt__1__a_wz*l23_0_4) - (d_L_vt__2__a_wz*l23_0_5));
+    const S L_across__2 = ((-(L_dir__2*l23_0_0)) + L_vt__2);
+    const S d_L_across__2__a_vx = ((-(d_L_vt__0__a_vx*l23_0_3)) - (d_L_vt__1__a_vx*l23_0_5) + (d_L_vt__2__a_vx*l23_0_6));
+    const S d_L_across__2__a_vy = ((-(d_L_vt__0__a_vy*l23_0_3)) - (d_L_vt__1__a_vy*l23_0_5) + (d_L_vt__2__a_vy*l23_0_6));
+    const S d_L_across__2__a_vz = ((-(d_L_vt__0__a_vz*l23_0_3)) - (d_L_vt__1__a_vz*l23_0_5) + (d_L_vt__2__a_vz*l23_0_6));
+    const S d_L_across__2__a_wx = ((-(d_L_vt__0__a_wx*l23_0_3)) - (d_L_vt__1__a_wx*l23_0_5) + (d_L_vt__2__a_wx*l23_0_6));
+    const S d_L_across__2__a_wy = ((-(d_L_vt__0__a_wy*l23_0_3)) - (d_L_vt__1__a_wy*l23_0_5) + (d_L_vt__2__a_wy*l23_0_6));
+    const S d_L_across__2__a_wz = ((-(d_L_vt__0__a_wz*l23_0_3)) - (d_L_vt__1__a_wz*l23_0_5) + (d_L_vt__2__a_wz*l23_0_6));
+    // let sliding (contact.yaml:95)
+    const S l24_0_0 = (S(1)/(L_slip));
+    const S l24_0_1 = (l24_0_0*(S(1) - L_fast));
+    const S l24_0_2 = (L_fast*L_fslide*l24_0_0);
+    const S l24_0_3 = (L_fslide*l24_0_1);
+    const S L_sliding__0 = (-(L_fslide*((L_fast*((L_across__0*l24_0_0) + L_dir__0)) + (L_vt__0*l24_0_1))));
+    const S d_L_sliding__0__a_vx = ((-(d_L_across__0__a_vx*l24_0_2)) - (d_L_vt__0__a_vx*l24_0_3));
+    const S d_L_sliding__0__a_vy = ((-(d_L_across__0__a_vy*l24_0_2)) - (d_L_vt__0__a_vy*l24_0_3));
+    const S d_L_sliding__0__a_vz = ((-(d_L_across__0__a_vz*l24_0_2)) - (d_L_vt__0__a_vz*l24_0_3));
+    const S d_L_sliding__0__a_wx = ((-(d_L_across__0__a_wx*l24_0_2)) - (d_L_vt__0__a_wx*l24_0_3));
+    const S d_L_sliding__0__a_wy = ((-(d_L_across__0__a_wy*l24_0_2)) - (d_L_vt__0__a_wy*l24_0_3));
+    const S d_L_sliding__0__a_wz = ((-(d_L_across__0__a_wz*l24_0_2)) - (d_L_vt__0__a_wz*l24_0_3));
+    const S L_sliding__1 = (-(L_fslide*((L_fast*((L_across__1*l24_0_0) + L_dir__1)) + (L_vt__1*l24_0_1))));
+    const S d_L_sliding__1__a_vx = ((-(d_L_across__1__a_vx*l24_0_2)) - (d_L_vt__1__a_vx*l24_0_3));
+    const S d_L_sliding__1__a_vy = ((-(d_L_across__1__a_vy*l24_0_2)) - (d_L_vt__1__a_vy*l24_0_3));
+    const S d_L_sliding__1__a_vz = ((-(d_L_across__1__a_vz*l24_0_2)) - (d_L_vt__1__a_vz*l24_0_3));
+    const S d_L_sliding__1__a_wx = ((-(d_L_across__1__a_wx*l24_0_2)) - (d_L_vt__1__a_wx*l24_0_3));
+    const S d_L_sliding__1__a_wy = ((-(d_L_across__1__a_wy*l24_0_2)) - (d_L_vt__1__a_wy*l24_0_3));
+    const S d_L_sliding__1__a_wz = ((-(d_L_across__1__a_wz*l24_0_2)) - (d_L_vt__1__a_wz*l24_0_3));
+    const S L_sliding__2 = (-(L_fslide*((L_fast*((L_across__2*l24_0_0) + L_dir__2)) + (L_vt__2*l24_0_1))));
+    const S d_L_sliding__2__a_vx = ((-(d_L_across__2__a_vx*l24_0_2)) - (d_L_vt__2__a_vx*l24_0_3));
+    const S d_L_sliding__2__a_vy = ((-(d_L_across__2__a_vy*l24_0_2)) - (d_L_vt__2__a_vy*l24_0_3));
+    const S d_L_sliding__2__a_vz = ((-(d_L_across__2__a_vz*l24_0_2)) - (d_L_vt__2__a_vz*l24_0_3));
+    const S d_L_sliding__2__a_wx = ((-(d_L_across__2__a_wx*l24_0_2)) - (d_L_vt__2__a_wx*l24_0_3));
+    const S d_L_sliding__2__a_wy = ((-(d_L_across__2__a_wy*l24_0_2)) - (d_L_vt__2__a_wy*l24_0_3));
+    const S d_L_sliding__2__a_wz = ((-(d_L_across__2__a_wz*l24_0_2)) - (d_L_vt__2__a_wz*l24_0_3));
+    // let holds (contact.yaml:98)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:93)
-    const S l25_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
-    const S d_L_ft__0__a_dx = ((L_holds*d_L_fs__0__a_dx) + (d_L_sliding__0__a_dx*l25_0_0));
-    const S d_L_ft__0__a_dy = ((L_holds*d_L_fs__0__a_dy) + (d_L_sliding__0__a_dy*l25_0_0));
-    const S d_L_ft__0__a_dz = ((L_holds*d_L_fs__0__a_dz) + (d_L_sliding__0__a_dz*l25_0_0));
-    const S d_L_ft__0__a_dtx = ((L_holds*d_L_fs__0__a_dtx) + (d_L_sliding__0__a_dtx*l25_0_0));
-    const S d_L_ft__0__a_dty = ((L_holds*d_L_fs__0__a_dty) + (d_L_sliding__0__a_dty*l25_0_0));
-    const S d_L_ft__0__a_dtz = ((L_holds*d_L_fs__0__a_dtz) + (d_L_sliding__0__a_dtz*l25_0_0));
-    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l25_0_0));
-    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l25_0_0));
-    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l25_0_0));
-    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l25_0_0));
-    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l25_0_0));
-    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l25_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
-    const S d_L_ft__1__a_dx = ((L_holds*d_L_fs__1__a_dx) + (d_L_sliding__1__a_dx*l25_0_0));
-    const S d_L_ft__1__a_dy = ((L_holds*d_L_fs__1__a_dy) + (d_L_sliding__1__a_dy*l25_0_0));
-    const S d_L_ft__1__a_dz = ((L_holds*d_L_fs__1__a_dz) + (d_L_sliding__1__a_dz*l25_0_0));
-    const S d_L_ft__1__a_dtx = ((L_holds*d_L_fs__1__a_dtx) + (d_L_sliding__1__a_dtx*l25_0_0));
-    const S d_L_ft__1__a_dty = ((L_holds*d_L_fs__1__a_dty) + (d_L_sliding__1__a_dty*l25_0_0));
-    const S d_L_ft__1__a_dtz = ((L_holds*d_L_fs__1__a_dtz) + (d_L_sliding__1__a_dtz*l25_0_0));
-    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l25_0_0));
-    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l25_0_0));
-    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l25_0_0));
-    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l25_0_0));
-    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l25_0_0));
-    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l25_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
-    const S d_L_ft__2__a_dx = ((L_holds*d_L_fs__2__a_dx) + (d_L_sliding__2__a_dx*l25_0_0));
-    const S d_L_ft__2__a_dy = ((L_holds*d_L_fs__2__a_dy) + (d_L_sliding__2__a_dy*l25_0_0));
-    const S d_L_ft__2__a_dz = ((L_holds*d_L_fs__2__a_dz) + (d_L_sliding__2__a_dz*l25_0_0));
-    const S d_L_ft__2__a_dtx = ((L_holds*d_L_fs__2__a_dtx) + (d_L_sliding__2__a_dtx*l25_0_0));
-    const S d_L_ft__2__a_dty = ((L_holds*d_L_fs__2__a_dty) + (d_L_sliding__2__a_dty*l25_0_0));
-    const S d_L_ft__2__a_dtz = ((L_holds*d_L_fs__2__a_dtz) + (d_L_sliding__2__a_dtz*l25_0_0));
-    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l25_0_0));
-    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l25_0_0));
-    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l25_0_0));
-    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l25_0_0));
-    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l25_0_0));
-    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l25_0_0));
-    // let f (contact.yaml:94)
+    // let ft (contact.yaml:99)
+    const S l26_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l26_0_0));
+    const S d_L_ft__0__a_dx = (L_holds*d_L_fs__0__a_dx);
+    const S d_L_ft__0__a_dy = (L_holds*d_L_fs__0__a_dy);
+    const S d_L_ft__0__a_dz = (L_holds*d_L_fs__0__a_dz);
+    const S d_L_ft__0__a_dtx = (L_holds*d_L_fs__0__a_dtx);
+    const S d_L_ft__0__a_dty = (L_holds*d_L_fs__0__a_dty);
+    const S d_L_ft__0__a_dtz = (L_holds*d_L_fs__0__a_dtz);
+    const S d_L_ft__0__a_vx = ((L_holds*d_L_fs__0__a_vx) + (d_L_sliding__0__a_vx*l26_0_0));
+    const S d_L_ft__0__a_vy = ((L_holds*d_L_fs__0__a_vy) + (d_L_sliding__0__a_vy*l26_0_0));
+    const S d_L_ft__0__a_vz = ((L_holds*d_L_fs__0__a_vz) + (d_L_sliding__0__a_vz*l26_0_0));
+    const S d_L_ft__0__a_wx = ((L_holds*d_L_fs__0__a_wx) + (d_L_sliding__0__a_wx*l26_0_0));
+    const S d_L_ft__0__a_wy = ((L_holds*d_L_fs__0__a_wy) + (d_L_sliding__0__a_wy*l26_0_0));
+    const S d_L_ft__0__a_wz = ((L_holds*d_L_fs__0__a_wz) + (d_L_sliding__0__a_wz*l26_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l26_0_0));
+    const S d_L_ft__1__a_dx = (L_holds*d_L_fs__1__a_dx);
+    const S d_L_ft__1__a_dy = (L_holds*d_L_fs__1__a_dy);
+    const S d_L_ft__1__a_dz = (L_holds*d_L_fs__1__a_dz);
+    const S d_L_ft__1__a_dtx = (L_holds*d_L_fs__1__a_dtx);
+    const S d_L_ft__1__a_dty = (L_holds*d_L_fs__1__a_dty);
+    const S d_L_ft__1__a_dtz = (L_holds*d_L_fs__1__a_dtz);
+    const S d_L_ft__1__a_vx = ((L_holds*d_L_fs__1__a_vx) + (d_L_sliding__1__a_vx*l26_0_0));
+    const S d_L_ft__1__a_vy = ((L_holds*d_L_fs__1__a_vy) + (d_L_sliding__1__a_vy*l26_0_0));
+    const S d_L_ft__1__a_vz = ((L_holds*d_L_fs__1__a_vz) + (d_L_sliding__1__a_vz*l26_0_0));
+    const S d_L_ft__1__a_wx = ((L_holds*d_L_fs__1__a_wx) + (d_L_sliding__1__a_wx*l26_0_0));
+    const S d_L_ft__1__a_wy = ((L_holds*d_L_fs__1__a_wy) + (d_L_sliding__1__a_wy*l26_0_0));
+    const S d_L_ft__1__a_wz = ((L_holds*d_L_fs__1__a_wz) + (d_L_sliding__1__a_wz*l26_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l26_0_0));
+    const S d_L_ft__2__a_dx = (L_holds*d_L_fs__2__a_dx);
+    const S d_L_ft__2__a_dy = (L_holds*d_L_fs__2__a_dy);
+    const S d_L_ft__2__a_dz = (L_holds*d_L_fs__2__a_dz);
+    const S d_L_ft__2__a_dtx = (L_holds*d_L_fs__2__a_dtx);
+    const S d_L_ft__2__a_dty = (L_holds*d_L_fs__2__a_dty);
+    const S d_L_ft__2__a_dtz = (L_holds*d_L_fs__2__a_dtz);
+    const S d_L_ft__2__a_vx = ((L_holds*d_L_fs__2__a_vx) + (d_L_sliding__2__a_vx*l26_0_0));
+    const S d_L_ft__2__a_vy = ((L_holds*d_L_fs__2__a_vy) + (d_L_sliding__2__a_vy*l26_0_0));
+    const S d_L_ft__2__a_vz = ((L_holds*d_L_fs__2__a_vz) + (d_L_sliding__2__a_vz*l26_0_0));
+    const S d_L_ft__2__a_wx = ((L_holds*d_L_fs__2__a_wx) + (d_L_sliding__2__a_wx*l26_0_0));
+    const S d_L_ft__2__a_wy = ((L_holds*d_L_fs__2__a_wy) + (d_L_sliding__2__a_wy*l26_0_0));
+    const S d_L_ft__2__a_wz = ((L_holds*d_L_fs__2__a_wz) + (d_L_sliding__2__a_wz*l26_0_0));
+    // let f (contact.yaml:100)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S d_L_f__0__a_dx = ((d_L_fn__a_dx*p_normal__0) + d_L_ft__0__a_dx);
     const S d_L_f__0__a_dy = ((d_L_fn__a_dy*p_normal__0) + d_L_ft__0__a_dy);
@@ -3515,7 +3394,7 @@ struct Contact_World_Kernel {
     const S d_L_f__2__a_wx = ((d_L_fn__a_wx*p_normal__2) + d_L_ft__2__a_wx);
     const S d_L_f__2__a_wy = ((d_L_fn__a_wy*p_normal__2) + d_L_ft__2__a_wy);
     const S d_L_f__2__a_wz = ((d_L_fn__a_wz*p_normal__2) + d_L_ft__2__a_wz);
-    // apply (contact.yaml:95), shared subexpressions
+    // apply (contact.yaml:101), shared subexpressions
     const S o0 = (a_vx*h);
     const S o1 = (a_vy*h);
     const S o2 = (a_vz*h);
@@ -3541,14 +3420,14 @@ struct Contact_World_Kernel {
     const S o22 = ((-(L_ra__0*d_L_f__1__a_dty)) + (L_ra__1*d_L_f__0__a_dty));
     const S o23 = ((-(L_ra__0*d_L_f__1__a_dtz)) + (L_ra__1*d_L_f__0__a_dtz));
     const S o24 = (h*h);
-    // g_a from apply[0] (contact.yaml:96)
+    // g_a from apply[0] (contact.yaml:102)
     out[0] = ((-L_f__0) - (d_L_f__0__a_dtx*o3) - (d_L_f__0__a_dty*o4) - (d_L_f__0__a_dtz*o5) - (d_L_f__0__a_dx*o0) - (d_L_f__0__a_dy*o1) - (d_L_f__0__a_dz*o2));
     out[1] = ((-L_f__1) - (d_L_f__1__a_dtx*o3) - (d_L_f__1__a_dty*o4) - (d_L_f__1__a_dtz*o5) - (d_L_f__1__a_dx*o0) - (d_L_f__1__a_dy*o1) - (d_L_f__1__a_dz*o2));
     out[2] = ((-L_f__2) - (d_L_f__2__a_dtx*o3) - (d_L_f__2__a_dty*o4) - (d_L_f__2__a_dtz*o5) - (d_L_f__2__a_dx*o0) - (d_L_f__2__a_dy*o1) - (d_L_f__2__a_dz*o2));
     out[3] = ((L_f__1*L_ra__2) - (L_f__2*L_ra__1) + (o0*o6) + (o1*o7) + (o10*o4) + (o11*o5) + (o2*o8) + (o3*o9));
     out[4] = ((-(L_f__0*L_ra__2)) + (L_f__2*L_ra__0) + (o0*o12) + (o1*o13) + (o14*o2) + (o15*o3) + (o16*o4) + (o17*o5));
     out[5] = ((L_f__0*L_ra__1) - (L_f__1*L_ra__0) + (o0*o18) + (o1*o19) + (o2*o20) + (o21*o3) + (o22*o4) + (o23*o5));
-    // K_aa from apply[0] (contact.yaml:96)
+    // K_aa from apply[0] (contact.yaml:102)
     out[6] = ((-(d_L_f__0__a_dx*o24)) - (d_L_f__0__a_vx*h));
     out[7] = ((-(d_L_f__1__a_dx*o24)) - (d_L_f__1__a_vx*h));
     out[8] = ((-(d_L_f__2__a_dx*o24)) - (d_L_f__2__a_vx*h));
@@ -3588,7 +3467,7 @@ struct Contact_World_Kernel {
   }
 
   /// Values the linearisation holds through the step: the lagged() lets and the joint arms.
-  static constexpr int kHeld = 10;
+  static constexpr int kHeld = 11;
   /// Per body, the held slot of the arm (3 lanes) and turn share (the next slot) of the one joint
   /// point (force_at_joint) on it, whose arc eval_implicit's g follows; -1 for none.
   static constexpr int kJointArm[1] = { -1 };
@@ -3726,10 +3605,10 @@ struct Contact_World_Kernel {
     const S L_fs__2 = ((-(L_c*L_vt__2)) - (L_k*L_strain__2));
     // let fmax (contact.yaml:79)
     const S L_fmax = (p_friction*select((L_fn > S(0)), L_fn, S(0)));
-    // let slip (contact.yaml:85)
+    // let slip (contact.yaml:90)
     const S L_slip = held_in ? held_in[6] : S(sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     if (held_out) held_out[6] = L_slip;
-    // let dir (contact.yaml:86)
+    // let dir (contact.yaml:91)
     const S l20_0_0 = (S(1)/sqrt(((L_vt__0*L_vt__0) + (L_vt__1*L_vt__1) + (L_vt__2*L_vt__2) + (g_slip_velocity*g_slip_velocity))));
     const S L_dir__0 = held_in ? held_in[7] : S((L_vt__0*l20_0_0));
     if (held_out) held_out[7] = L_dir__0;
@@ -3737,31 +3616,34 @@ struct Contact_World_Kernel {
     if (held_out) held_out[8] = L_dir__1;
     const S L_dir__2 = held_in ? held_in[9] : S((L_vt__2*l20_0_0));
     if (held_out) held_out[9] = L_dir__2;
-    // let fast (contact.yaml:87)
-    const S L_fast = select(((L_fmax*h) < (L_slip*p_mass)), S(1), S(0));
-    // let across (contact.yaml:88)
-    const S l22_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
-    const S L_across__0 = ((-(L_dir__0*l22_0_0)) + L_vt__0);
-    const S L_across__1 = ((-(L_dir__1*l22_0_0)) + L_vt__1);
-    const S L_across__2 = ((-(L_dir__2*l22_0_0)) + L_vt__2);
-    // let sliding (contact.yaml:89)
-    const S l23_0_0 = (S(1)/(L_slip));
-    const S l23_0_1 = (l23_0_0*(S(1) - L_fast));
-    const S L_sliding__0 = (-(L_fmax*((L_fast*((L_across__0*l23_0_0) + L_dir__0)) + (L_vt__0*l23_0_1))));
-    const S L_sliding__1 = (-(L_fmax*((L_fast*((L_across__1*l23_0_0) + L_dir__1)) + (L_vt__1*l23_0_1))));
-    const S L_sliding__2 = (-(L_fmax*((L_fast*((L_across__2*l23_0_0) + L_dir__2)) + (L_vt__2*l23_0_1))));
-    // let holds (contact.yaml:92)
+    // let fslide (contact.yaml:92)
+    const S L_fslide = held_in ? held_in[10] : S(L_fmax);
+    if (held_out) held_out[10] = L_fslide;
+    // let fast (contact.yaml:93)
+    const S L_fast = select(((L_fslide*h) < (L_slip*p_mass)), S(1), S(0));
+    // let across (contact.yaml:94)
+    const S l23_0_0 = ((L_dir__0*L_vt__0) + (L_dir__1*L_vt__1) + (L_dir__2*L_vt__2));
+    const S L_across__0 = ((-(L_dir__0*l23_0_0)) + L_vt__0);
+    const S L_across__1 = ((-(L_dir__1*l23_0_0)) + L_vt__1);
+    const S L_across__2 = ((-(L_dir__2*l23_0_0)) + L_vt__2);
+    // let sliding (contact.yaml:95)
+    const S l24_0_0 = (S(1)/(L_slip));
+    const S l24_0_1 = (l24_0_0*(S(1) - L_fast));
+    const S L_sliding__0 = (-(L_fslide*((L_fast*((L_across__0*l24_0_0) + L_dir__0)) + (L_vt__0*l24_0_1))));
+    const S L_sliding__1 = (-(L_fslide*((L_fast*((L_across__1*l24_0_0) + L_dir__1)) + (L_vt__1*l24_0_1))));
+    const S L_sliding__2 = (-(L_fslide*((L_fast*((L_across__2*l24_0_0) + L_dir__2)) + (L_vt__2*l24_0_1))));
+    // let holds (contact.yaml:98)
     const S L_holds = select((L_fmax > S(0)), p_sticking, S(0));
-    // let ft (contact.yaml:93)
-    const S l25_0_0 = (S(1) - L_holds);
-    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l25_0_0));
-    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l25_0_0));
-    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l25_0_0));
-    // let f (contact.yaml:94)
+    // let ft (contact.yaml:99)
+    const S l26_0_0 = (S(1) - L_holds);
+    const S L_ft__0 = ((L_fs__0*L_holds) + (L_sliding__0*l26_0_0));
+    const S L_ft__1 = ((L_fs__1*L_holds) + (L_sliding__1*l26_0_0));
+    const S L_ft__2 = ((L_fs__2*L_holds) + (L_sliding__2*l26_0_0));
+    // let f (contact.yaml:100)
     const S L_f__0 = ((L_fn*p_normal__0) + L_ft__0);
     const S L_f__1 = ((L_fn*p_normal__1) + L_ft__1);
     const S L_f__2 = ((L_fn*p_normal__2) + L_ft__2);
-    // F_a from apply[0] (contact.yaml:96)
+    // F_a from apply[0] (contact.yaml:102)
     out[0] = (-L_f__0);
     out[1] = (-L_f__1);
     out[2] = (-L_f__2);

@@ -10,7 +10,8 @@ world1000 is a sparse world of 1,000 bodies in the manner of sparse_world(w, 100
 (its hulls are point-symmetric clouds, so their centre of mass is their origin and the file
 needs no hull arithmetic). The small scenes are written out by hand below. The benchmark
 worlds (BENCH_SCENES: Box3D's large pyramid and many pyramids, a 100,000-body sparse world to
-measure asleep) are too big to keep in the tree; scripts/bench writes them to build/bench-scenes.
+measure asleep, a bin of 400 balls) are written to build/bench-scenes (--bench; scripts/bench
+does it): the large ones are too big to keep in the tree.
 """
 import argparse
 import json
@@ -606,7 +607,37 @@ def sleep100k(n=100000):
     return scene
 
 
+def ball_bin(n=400, half=3.0, seed=7):
+    """n balls of mixed sizes (radius 0.12..0.4 m) and densities (200..2000 kg/m^3: up to 370
+    to 1 in mass) dropped in layers into a bin 6 m square: one connected pile of loaded,
+    rolling and sliding contacts once they land."""
+    r = Rng(seed)
+    shapes = [GROUND, {"name": "ball", "type": "sphere", "radius": 1},
+              {"name": "wall_x", "type": "box", "half_extents": vec([half + 0.5, 0.25, 2.0])},
+              {"name": "wall_y", "type": "box", "half_extents": vec([0.25, half, 2.0])}]
+    bodies = [ground_body()]
+    for s in (-1, 1):
+        bodies.append({"id": "wall_x%+d" % s, "shape": "wall_x", "static": True, "position": vec([0, s * (half + 0.25), 2.0])})
+        bodies.append({"id": "wall_y%+d" % s, "shape": "wall_y", "static": True, "position": vec([s * (half + 0.25), 0, 2.0])})
+    m = int(2 * half / 0.9)
+    for i in range(n):
+        lay, col = i // (m * m), i % (m * m)
+        x = -half + 0.45 + (col % m) * 0.9 + r.uniform(-0.05, 0.05)
+        y = -half + 0.45 + (col // m) * 0.9 + r.uniform(-0.05, 0.05)
+        bodies.append({"id": "ball%03d" % i, "shape": "ball", "scale": num(r.uniform(0.12, 0.4)),
+                       "density": num(r.uniform(200, 2000)), "position": vec([x, y, 0.5 + lay * 0.9]),
+                       "friction": 0.5})
+    return {
+        "description": "%d balls of mixed sizes (radius 0.12..0.4 m) and densities (200..2000 kg/m^3) dropped in "
+                       "layers into a %g m square bin: a connected pile of loaded, rolling and sliding contacts." % (n, 2 * half),
+        "settings": {"dt": num(1 / 60), "integrator": "implicit_split", "solver": "cgs"},
+        "shapes": shapes,
+        "bodies": bodies,
+    }
+
+
 BENCH_SCENES = {
+    "ball_bin": ball_bin,
     "large_pyramid": large_pyramid,
     "many_pyramids": many_pyramids,
     "sleep100k": sleep100k,

@@ -104,9 +104,8 @@ TEST(WarmStep, AllocatesNothingOnTwoWorkers) {
 }
 
 TEST(WarmStep, AllocatesNothingWhenIslandsAreDecoupled) {
-  // a local store of 24 KiB cuts the block and the stack into parts every step (and still holds
-  // each part: at 16 KiB a box of the pile with its neighbours as ghosts does not fit); the
-  // pile's columns of boxes land apart, each an island that fits whole
+  // a local store of 24 KiB cuts the block and the stack into parts every step and still holds
+  // each part; the pile's columns of boxes land apart, each an island that fits whole
   WorldSettings s;
   s.sleeping = false;
   s.local_store_bytes = 24 * 1024;

@@ -34,6 +34,36 @@ Frame frame_of(const std::vector<WorldBody>& bodies, uint32_t id) {
   return f;
 }
 
+// What recall_pair needs of a body, computed once for every pair of it that one thread recalls
+// near the others: its frame, its inverse inertia in the world frame and its inverse mass. A body
+// is in several pairs (a box in a pile in four to six), which the recall meets close together
+// (the pairs come ordered by their first body). The same operations as computed a pair at a
+// time, so the same bits.
+struct BodyView {
+  Frame frame;
+  Mat3d inverse_inertia;
+  double inverse_mass;
+};
+class BodyViews {
+ public:
+  BodyViews() { std::fill(std::begin(ids_), std::end(ids_), kWorldBody); }
+  const BodyView& of(const std::vector<WorldBody>& bodies, uint32_t id) {
+    const size_t slot = id % kSlots;
+    BodyView& v = views_[slot];
+    if (ids_[slot] == id) return v;
+    ids_[slot] = id;
+    v.frame = frame_of(bodies, id);
+    v.inverse_inertia = rotate_sym(v.frame.R, bodies[id].inverse_inertia);
+    v.inverse_mass = 1.0 / bodies[id].mass;
+    return v;
+  }
+
+ private:
+  static constexpr size_t kSlots = 128;  // direct-mapped by id: a row of a pile's pairs and the next
+  uint32_t ids_[kSlots];
+  BodyView views_[kSlots];
+};
+
 bool asleep(const std::vector<WorldBody>& bodies, uint32_t id) {
   return id == kWorldBody || !bodies[id].alive || !bodies[id].awake || bodies[id].is_static;
 }
@@ -44,13 +74,15 @@ bool asleep(const std::vector<WorldBody>& bodies, uint32_t id) {
 // each contact's effective mass, strain and mode, and the pair's memory now (`now`, its
 // `seen` left to the caller). Reads only the pair's own contacts and memory: pairs are
 // recalled on several threads.
-void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, double match,
+void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, double match, BodyViews& views,
                  const ContactMemory::Pair* old, std::vector<WorldContact>& contacts, size_t first, size_t end,
                  ContactMemory::Pair& now) {
   const uint32_t a = contacts[first].a, b = contacts[first].b;
-  const Frame fa = frame_of(bodies, a), fb = frame_of(bodies, b);
-  const Mat3d Ia = rotate_sym(fa.R, bodies[a].inverse_inertia);
-  const Mat3d Ib = b == kWorldBody ? Mat3d{} : rotate_sym(fb.R, bodies[b].inverse_inertia);
+  static const BodyView kWorld{Frame{}, Mat3d{}, 0.0};
+  const BodyView& va = views.of(bodies, a);
+  const BodyView& vb = b == kWorldBody ? kWorld : views.of(bodies, b);
+  const Frame &fa = va.frame, &fb = vb.frame;
+  const Mat3d &Ia = va.inverse_inertia, &Ib = vb.inverse_inertia;
   now = ContactMemory::Pair{};
   // where the old anchors are on a now (each is compared with every point)
   Vec3d old_on_a[spu::kMaxManifoldPoints];
@@ -62,8 +94,7 @@ void recall_pair(const std::vector<WorldBody>& bodies, const WorldSettings& s, d
   double total_depth = 0, fastest_squared = 0, k_per_mass = 0, damping_per_k = 0;
   Vec3d drift{0, 0, 0};
   const size_t count = std::min(end - first, size_t(spu::kMaxManifoldPoints));
-  // once a pair: the compiler cannot, since the contacts written below might be the bodies
-  const double inverse_ma = 1.0 / bodies[a].mass, inverse_mb = b == kWorldBody ? 0.0 : 1.0 / bodies[b].mass;
+  const double inverse_ma = va.inverse_mass, inverse_mb = vb.inverse_mass;
   // Tuned by frequency and damping ratio (the default), a contact's k/m and c/k do not depend
   // on its mass: two divisions a point fewer on the way to the pair's decision.
   const double omega = 2 * kPi * s.globals.contact_hertz, ratio = s.globals.contact_damping_ratio;
@@ -190,18 +221,20 @@ void recall_contacts(const std::vector<WorldBody>& bodies, const WorldSettings& 
     if (i + kLookAhead < spans.size()) memory.pairs.prefetch(pair_key(contacts[spans[i + kLookAhead].first].a, contacts[spans[i + kLookAhead].first].b));
     spans[i].found = memory.pairs.find(pair_key(contacts[spans[i].first].a, contacts[spans[i].first].b));
   }
-  auto recall_span = [&](size_t i) {
+  auto recall_span = [&](size_t i, BodyViews& views) {
     ContactMemory::Span& sp = spans[i];
-    recall_pair(bodies, s, match, sp.found, contacts, sp.first, sp.end, sp.now);
+    recall_pair(bodies, s, match, views, sp.found, contacts, sp.first, sp.end, sp.now);
     sp.now.seen = memory.step + 1;
   };
   constexpr size_t kPairsPerTask = 64;
   if (pool && pool->size() > 1 && spans.size() >= 4 * kPairsPerTask) {
     pool->for_each((spans.size() + kPairsPerTask - 1) / kPairsPerTask, [&](size_t task, int) {
-      for (size_t i = task * kPairsPerTask; i < std::min(spans.size(), (task + 1) * kPairsPerTask); ++i) recall_span(i);
+      BodyViews views;
+      for (size_t i = task * kPairsPerTask; i < std::min(spans.size(), (task + 1) * kPairsPerTask); ++i) recall_span(i, views);
     });
   } else {
-    for (size_t i = 0; i < spans.size(); ++i) recall_span(i);
+    BodyViews views;
+    for (size_t i = 0; i < spans.size(); ++i) recall_span(i, views);
   }
   for (const ContactMemory::Span& sp : spans)
     if (sp.found) *sp.found = sp.now;

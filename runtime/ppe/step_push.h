@@ -29,7 +29,9 @@ struct PushScratch {
   std::vector<double> group_mass;         // per joined group (at its lowest id): its bodies' mass
   std::vector<float> target;              // per contact of `order`: the separation it asks for
   std::vector<uint8_t> pinned, seen;     // per body: jointed to what cannot move; in a pile found
-  std::vector<uint64_t> keys;            // the contacts' order: (level, place)
+  std::vector<size_t> bucket_start;      // the contacts' order: where each level begins
+  std::vector<uint32_t> place;           // per contact: its place in that order
+  std::vector<uint8_t> due;              // per place: to be visited in the sweep
 };
 
 /// Stage 3: each contact deeper than the hold depth asks to separate by its excess, at most

@@ -9,7 +9,8 @@
 //    about 1,040 boxes in all), after 0.5 s, all awake; ns_per_island and ns_per_body;
 //  - a step's fixed cost: one box at rest on the ground, awake;
 //  - a step of the 100,000-body sparse world with every body asleep (built and settled once
-//    per process, untimed, on the first run of BM_Sleeping100k).
+//    per process, untimed, on the first run of BM_Sleeping100k), and the step that takes in
+//    three boxes spawned into each other there.
 // The awake cases restore the same state before every step (outside the timing), so every
 // iteration times the same step; the 10 s case keeps stepping its mostly sleeping world.
 // allocs_per_step counts the heap allocations made inside world.step() (this binary replaces
@@ -346,5 +347,39 @@ void BM_Sleeping100k(benchmark::State& state) {
   state.SetLabel("settled until every body sleeps, then stepped");
 }
 BENCHMARK(BM_Sleeping100k)->Unit(benchmark::kMicrosecond);
+
+// A spawn into that world of sleepers: three 0.5 m boxes put into each other on open ground
+// (untimed), the step that takes them in (collided, pushed apart, stepped), then removed again
+// (untimed). A server spawning into a big world pays this: it should follow the three bodies.
+void BM_SpawnIntoSleepers(benchmark::State& state) {
+  SleepingWorld& sw = sleeping_world();
+  World& w = *sw.world;
+  const float h = 0.25f, half[3] = {h, h, h};
+  static const uint32_t shape = w.shapes().add_box(half);
+  const float at[3][3] = {{600.0f, 600.0f, h}, {600.0f + 1.6f * h, 600.0f, h}, {600.0f + 0.8f * h, 600.0f, 2.6f * h}};
+  Sums sums;
+  std::vector<BodyId> spawned;
+  for (auto _ : state) {
+    state.PauseTiming();
+    spawned.clear();
+    for (const auto& x : at) {
+      ppe::BodyDesc d;
+      d.shape = shape;
+      d.mass = 1.0f;
+      std::copy(x, x + 3, d.state.position);
+      spawned.push_back(w.add_body(d));
+    }
+    state.ResumeTiming();
+    sums.step(w);
+    state.PauseTiming();
+    for (BodyId id : spawned) w.remove_body(id);
+    state.ResumeTiming();
+  }
+  sums.report(state);
+  state.counters["bodies"] = double(sw.bodies.size() + spawned.size());
+  state.counters["asleep"] = count_asleep(w, sw.bodies);
+  state.SetLabel("three boxes spawned into each other, among 100,000 sleepers");
+}
+BENCHMARK(BM_SpawnIntoSleepers)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

@@ -20,15 +20,18 @@ struct ContactMemory;
 
 /// Reusable buffers of the push stage.
 struct PushScratch {
-  std::vector<uint32_t> first, adjacent;  // per body: its contacts (CSR)
-  std::vector<uint32_t> link_first, linked;  // per body: the bodies joints join it to (CSR)
-  std::vector<uint32_t> group;            // per body: the lowest id of the bodies joints join it to
-  std::vector<int32_t> level;             // per body: contacts away from what cannot move
-  std::vector<uint32_t> queue, members, order;
-  std::vector<double> moved;              // per joined group (at its lowest id): its displacement (xyz)
-  std::vector<double> group_mass;         // per joined group (at its lowest id): its bodies' mass
+  std::vector<uint32_t> slot;             // per body of the world: its number below, or none
+  std::vector<uint32_t> ids;              // per number: the body (the movable ones contacts and joints name)
+  // per number:
+  std::vector<uint32_t> first, adjacent;  // its contacts (CSR)
+  std::vector<uint32_t> link_first, linked;  // the numbers joints join it to (CSR)
+  std::vector<uint32_t> group;            // the number of the lowest body joints join it to
+  std::vector<int32_t> level;             // contacts away from what cannot move
+  std::vector<double> moved;              // at a group's number: its displacement (xyz)
+  std::vector<double> group_mass;         // at a group's number: its bodies' mass
+  std::vector<uint8_t> pinned, seen;     // jointed to what cannot move; in a pile found
+  std::vector<uint32_t> roots, queue, members, order;
   std::vector<float> target;              // per contact of `order`: the separation it asks for
-  std::vector<uint8_t> pinned, seen;     // per body: jointed to what cannot move; in a pile found
   std::vector<size_t> bucket_start;      // the contacts' order: where each level begins
   std::vector<uint32_t> place;           // per contact: its place in that order
   std::vector<uint8_t> due;              // per place: to be visited in the sweep

@@ -424,9 +424,20 @@ TEST(World, IslandsOfKnownScenes) {
     World w;
     ground_plane(w);
     const float h[3] = {0.25f, 0.25f, 0.25f}, a[3] = {0, 0, 0.25f}, b[3] = {2, 0, 0.25f};
-    add_box(w, h, 1.0f, a);
-    add_box(w, h, 1.0f, b);
+    const BodyId x = add_box(w, h, 1.0f, a), y = add_box(w, h, 1.0f, b);
     EXPECT_EQ(w.step().islands, 2u) << "a static ground does not join islands";
+    // last_island names each body's island in the step; a body added since has none yet
+    EXPECT_LT(w.last_island(x), 2u);
+    EXPECT_LT(w.last_island(y), 2u);
+    EXPECT_NE(w.last_island(x), w.last_island(y));
+    const float c[3] = {4, 0, 0.25f};
+    const BodyId z = add_box(w, h, 1.0f, c);
+    EXPECT_EQ(w.last_island(z), ppe::kNoIsland);
+    w.remove_body(x);
+    EXPECT_EQ(w.step().islands, 2u);
+    EXPECT_THROW(w.last_island(x), WorldError) << "a removed body";
+    EXPECT_LT(w.last_island(z), 2u);
+    EXPECT_NE(w.last_island(y), w.last_island(z));
   }
   {  // two boxes in the air joined by a point_to_point: one island; without it, two
     for (bool joined : {true, false}) {

@@ -243,11 +243,14 @@ const StepStats& World::step() {
       StageTimer t(st, &StageTimes::events_ms);  // 8, finished: the begin touches' impulses
       finish_events(w.bodies, events, w.event_memory, w.contact_events);
     }
-    // Which island each body was in, for last_island (display only).
-    w.island_of.assign(w.bodies.size(), kNoIsland);
+    // Which island each body was in, for last_island (display only): the last step's entries
+    // cleared, not every body's (a step costs what is awake).
+    for (uint32_t id : w.island_listed) w.island_of[id] = kNoIsland;
+    w.island_listed.clear();
+    w.island_of.resize(w.bodies.size(), kNoIsland);
     w.island_decoupled.assign(islands.size(), 0);
     for (size_t i = 0; i < islands.size(); ++i) {
-      for (uint32_t id : islands[i].bodies) w.island_of[id] = static_cast<uint32_t>(i);
+      for (uint32_t id : islands[i].bodies) w.island_of[id] = static_cast<uint32_t>(i), w.island_listed.push_back(id);
       w.island_decoupled[i] = i < parts.parts.size() && parts.parts[i].size() > 1;
     }
     cut_couplings_of(parts, w.contacts, w.forces, w.cut_ids, w.cut);

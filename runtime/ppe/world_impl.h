@@ -49,6 +49,7 @@ struct World::Impl {
   IntegrateScratch integrate;           // packing and running islands: buffers
   std::vector<uint8_t> failed;          // per island: its step failed
   std::vector<uint32_t> island_of;      // per body slot: its island in the last step (for display only)
+  std::vector<uint32_t> island_listed;  // the bodies island_of gives an island
   std::vector<uint8_t> island_decoupled;  // per island of the last step: cut in parts
   std::vector<CutCoupling> cut;           // the last step's cut couplings (for display only)
   std::vector<uint32_t> cut_ids;          // their finding's scratch

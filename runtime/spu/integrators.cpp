@@ -133,7 +133,8 @@ SolveResult solve_each_body(StepContext& c, const BlockRowMatrix& A, const float
 
 bool run_solve(StepContext& c, const float* rhs, float* x) {
   zero_floats(x, size_t(c.ws->n) * kVecFloats);
-  const BlockRowMatrix A = matrix_of(c.ws->structure, c.ws->blocks);
+  BlockRowMatrix A = matrix_of(c.ws->structure, c.ws->blocks);
+  A.split = c.ws->split;
   SolveResult r;
   if (A.n > 1 && A.row_start[A.n] == 0) {
     r = solve_each_body(c, A, rhs, x);

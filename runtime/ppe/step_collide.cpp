@@ -59,10 +59,38 @@ void refile(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes,
   c.leaf[i] = c.still.insert(i, c.boxes[i]);
 }
 
+// Awake bodies a task of the broad phase makes boxes for at a time, and the fewest worth the threads.
+constexpr size_t kBoxesPerTask = 256, kParallelBoxes = 1024;
+
+// The awake bodies' boxes made afresh, each in its own slot: on the threads when there are many.
+// Returns how many fell outside the region.
+size_t make_awake_boxes(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
+                        const std::vector<uint32_t>& awake, WorkerPool* pool, CollideScratch& c) {
+  auto make = [&](size_t begin, size_t end) {
+    size_t outside = 0;
+    for (size_t k = begin; k < end; ++k) {
+      const uint32_t i = awake[k];
+      const bool in = grown_box(bodies[i], shapes, s, c.boxes[i], c.reach[i]);
+      c.kinds[i] = in ? BoxKind::awake : BoxKind::none;
+      outside += !in;
+    }
+    return outside;
+  };
+  const size_t n = awake.size();
+  if (!pool || pool->size() < 2 || n < kParallelBoxes) return make(0, n);
+  c.outside_of_task.assign((n + kBoxesPerTask - 1) / kBoxesPerTask, 0);
+  pool->for_ranges(n, kBoxesPerTask, [&](size_t begin, size_t end, int) {
+    c.outside_of_task[begin / kBoxesPerTask] = make(begin, end);
+  });
+  size_t outside = 0;
+  for (size_t o : c.outside_of_task) outside += o;
+  return outside;
+}
+
 // The boxes: the still ones kept, those of bodies that changed filed again, the awake ones
 // made afresh (grown by their reach), each culled against the region.
 void broad_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes, const WorldSettings& s,
-                 const BodyChanges& changes, CollideScratch& c, StepStats& st) {
+                 const BodyChanges& changes, WorkerPool* pool, CollideScratch& c, StepStats& st) {
   const uint32_t n = static_cast<uint32_t>(bodies.size());
   if (changes.all) {
     c.still.clear();
@@ -84,15 +112,9 @@ void broad_phase(const std::vector<WorldBody>& bodies, const ShapeDictionary& sh
   }
   st.outside_region += c.still_outside;
   st.broad_phase_boxes += c.still.size();
-  for (uint32_t i : changes.awake) {
-    if (grown_box(bodies[i], shapes, s, c.boxes[i], c.reach[i])) {
-      c.kinds[i] = BoxKind::awake;
-      ++st.broad_phase_boxes;
-    } else {
-      c.kinds[i] = BoxKind::none;
-      ++st.outside_region;
-    }
-  }
+  const size_t outside = make_awake_boxes(bodies, shapes, s, changes.awake, pool, c);
+  st.outside_region += static_cast<uint32_t>(outside);
+  st.broad_phase_boxes += static_cast<uint32_t>(changes.awake.size() - outside);
 }
 
 // Every awake body's box against the others' (the sweep) and against the still ones (the tree).
@@ -195,7 +217,7 @@ void collide(const std::vector<WorldBody>& bodies, const std::vector<WorldForce>
              ContactMemory& memory, std::vector<WorldContact>& contacts, StepStats& st) {
   {
     StageTimer t(st, &StageTimes::broad_ms);
-    broad_phase(bodies, shapes, settings, changes, scratch, st);
+    broad_phase(bodies, shapes, settings, changes, pool, scratch, st);
   }
   {
     StageTimer t(st, &StageTimes::mid_ms);

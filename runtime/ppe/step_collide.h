@@ -51,6 +51,7 @@ struct CollideScratch {
   std::vector<Aabb> boxes;
   std::vector<float> reach;  // per body: distance it may close within the step (m)
   std::vector<BoxKind> kinds;
+  std::vector<size_t> outside_of_task;  // awake boxes outside the region, per task of the threads
   std::vector<uint32_t> planes;  // ascending
   std::vector<uint32_t> woken;   // this step: the changed bodies awake now, ascending
   std::vector<PairManifold> manifolds;  // per pair, when the narrow phase runs on several threads

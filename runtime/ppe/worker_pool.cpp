@@ -28,11 +28,13 @@ spu::ComputeWorker& WorkerPool::worker_for(int index, const spu::IslandJob& job)
   const size_t need = local_store_bytes_ < whole_island_bytes_ ? spu::ComputeWorker::bytes_needed(job) : 0;
   if (need <= local_store_bytes_ || need > whole_island_bytes_) return *workers_[index];
   std::unique_ptr<spu::ComputeWorker>& wide = wide_[index];
-  if (!wide || wide->local_store().capacity() < need) {  // a quarter more: an island that grows a little fits still
+  if (!wide || wide->local_store().capacity() < need)  // a quarter more: an island that grows a little fits still
     wide = std::make_unique<spu::ComputeWorker>(std::min(need + need / 4, whole_island_bytes_));
-    wide->set_row_splitter(&desk_);  // only big islands have rows worth sharing
-  }
   return *wide;
+}
+
+void WorkerPool::work(int index, TaskRef task, size_t count) {
+  for (size_t k; (k = next_.fetch_add(1, std::memory_order_relaxed)) < count;) task.call(task.context, k, index);
 }
 
 namespace {
@@ -42,64 +44,6 @@ void cpu_relax() {
   __builtin_ia32_pause();
 #endif
 }
-
-}  // namespace
-
-void WorkerPool::work(int index, TaskRef task, size_t count) {
-  for (size_t k; (k = next_.fetch_add(1, std::memory_order_relaxed)) < count;) {
-    task.call(task.context, k, index);
-    finished_.fetch_add(1, std::memory_order_release);
-  }
-  // Every item is taken: until the last is done, help whoever is still at one with its rows,
-  // while a step holds the threads (they would spin for its next task anyway; yielding now and
-  // then, so other rooms' threads on the same cores still get them).
-  for (int idle = 0; finished_.load(std::memory_order_acquire) < count && held_.load(std::memory_order_relaxed) > 0;) {
-    if (desk_.help()) {
-      idle = 0;
-      continue;
-    }
-    cpu_relax();
-    if (++idle % 64 == 0) std::this_thread::yield();
-  }
-}
-
-int WorkerPool::Desk::serve() {
-  int taken = 0;
-  for (int p; (p = next_.fetch_add(1, std::memory_order_relaxed)) < parts_; ++taken) {
-    fn_(context_, p);
-    done_.fetch_add(1, std::memory_order_release);
-  }
-  return taken;
-}
-
-bool WorkerPool::Desk::help() {
-  if (!open_.load(std::memory_order_relaxed)) return false;
-  // Counted in before looking again: the asker closes, then waits for the count to drop, so
-  // a helper that finds the desk open reads the request it was opened with.
-  visitors_.fetch_add(1, std::memory_order_seq_cst);
-  const bool open = open_.load(std::memory_order_seq_cst);
-  if (open) helped_.fetch_add(uint64_t(serve()), std::memory_order_relaxed);
-  visitors_.fetch_sub(1, std::memory_order_release);
-  return open;
-}
-
-void WorkerPool::Desk::run(int parts, void (*fn)(void*, int), void* context) {
-  if (pool_.threads_.empty() || busy_.exchange(true, std::memory_order_acquire)) {
-    for (int p = 0; p < parts; ++p) fn(context, p);
-    return;
-  }
-  parts_ = parts, fn_ = fn, context_ = context;
-  next_.store(0, std::memory_order_relaxed);
-  done_.store(0, std::memory_order_relaxed);
-  open_.store(true, std::memory_order_seq_cst);
-  serve();
-  while (done_.load(std::memory_order_acquire) < parts) cpu_relax();
-  open_.store(false, std::memory_order_seq_cst);
-  while (visitors_.load(std::memory_order_seq_cst) != 0) cpu_relax();
-  busy_.store(false, std::memory_order_release);
-}
-
-namespace {
 
 // Spins while `waiting` holds, for up to kSpinTime unless `held` holds too: a step's tasks
 // follow one another within microseconds (pack, then integrate), and waking a thread asleep
@@ -166,9 +110,7 @@ WorkerPool::Hold::~Hold() {
 
 void WorkerPool::run_task(size_t count, TaskRef task) {
   if (count == 0) return;
-  // A single item runs here alone unless the threads are held (spinning, a microsecond away):
-  // then they join to help with its rows (the one big island of a pyramid).
-  if (threads_.empty() || alone_ || (count == 1 && held_.load(std::memory_order_relaxed) == 0)) {
+  if (threads_.empty() || count == 1 || alone_) {
     for (size_t k = 0; k < count; ++k) task.call(task.context, k, 0);
     return;
   }
@@ -177,7 +119,6 @@ void WorkerPool::run_task(size_t count, TaskRef task) {
     task_ = task;
     count_ = count;
     next_.store(0, std::memory_order_relaxed);
-    finished_.store(0, std::memory_order_relaxed);
     ++generation_;
   }
   wake_.notify_all();

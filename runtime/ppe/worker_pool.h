@@ -4,14 +4,11 @@
 // slot, so the outcome is the same whatever the number of workers. An island too big for
 // the local store, up to whole_island_bytes, is computed whole by the thread's wide worker,
 // whose store is grown to fit it (main memory standing in for blocks streamed through the
-// store): the same kernel, so the same result as a store that big. A thread that has taken
-// every item of a task and waits for the others helps them with their islands' rows (the
-// desk, spu::RowSplitter): a lone big island is not left to one thread.
+// store): the same kernel, so the same result as a store that big.
 #pragma once
 #include <atomic>
 #include <condition_variable>
 #include <cstddef>
-#include <cstdint>
 #include <type_traits>
 #include <memory>
 #include <mutex>
@@ -54,8 +51,6 @@ class WorkerPool : public IslandRunner {
   /// store it needs. What run() does with each share it hands out.
   void step_on(int thread, const spu::IslandJob* jobs, size_t count, spu::IslandReport* reports);
   const char* name() const override { return "threads"; }
-  /// Parts of islands' rows that a thread other than the island's own computed, so far.
-  uint64_t rows_shared() const { return desk_.helped(); }
   size_t whole_island_bytes() const override { return whole_island_bytes_; }
 
   /// While a Hold lives the threads wait for the next task spinning instead of asleep: a step
@@ -83,26 +78,6 @@ class WorkerPool : public IslandRunner {
     void* context;
     void (*call)(void*, size_t, int);
   };
-  // A kernel's request for help with the rows of one operation, served by the threads that
-  // wait for a task's other items to finish. One request is open at a time; a second asker
-  // does its rows alone. The asker takes parts too, so a request needs no helper to finish.
-  class Desk : public spu::RowSplitter {
-   public:
-    explicit Desk(const WorkerPool& pool) : pool_(pool) {}
-    void run(int parts, void (*fn)(void*, int), void* context) override;
-    bool help();  // serves the open request, if any; false if there was none
-    uint64_t helped() const { return helped_.load(std::memory_order_relaxed); }
-
-   private:
-    int serve();  // parts taken
-    const WorkerPool& pool_;
-    std::atomic<bool> busy_{false}, open_{false};
-    std::atomic<int> visitors_{0}, next_{0}, done_{0};
-    std::atomic<uint64_t> helped_{0};
-    int parts_ = 0;  // written by the asker before it opens, read by helpers after
-    void (*fn_)(void*, int) = nullptr;
-    void* context_ = nullptr;
-  };
   void run_task(size_t count, TaskRef task);
   void loop(int index);
   // Takes items of the current task until none is left.
@@ -120,8 +95,6 @@ class WorkerPool : public IslandRunner {
   TaskRef task_{nullptr, nullptr};  // the current for_each's, held while joined
   size_t count_ = 0;
   std::atomic<size_t> next_{0};  // the next item to take: taken without the lock
-  std::atomic<size_t> finished_{0};  // items of the current task done
-  Desk desk_{*this};
   // Written under the lock; read without it too while a thread spins (worker_pool.cpp).
   std::atomic<int> joined_{0};             // threads working on the current task
   std::atomic<uint64_t> generation_{0};

@@ -14,18 +14,17 @@ using simd::vf8;
 static_assert(kBlockFloats == gen::kBlockFloats && kVecFloats == gen::kVecFloats,
               "block_sparse.h and the generated block ops must agree on the layout");
 
-namespace {
-
 // The reference design's mul(): one pass over block rows, each row's sum started from the diagonal term
 // and accumulated over the row's blocks in storage order, so the result depends on the data
 // and the storage order only. The row sum lives in a local and A's fields in locals: the
 // SIMD stores may alias anything, and would otherwise force reloads after every block.
-void spmv_rows(const BlockRowMatrix& A, const float* x, float* y, int first, int end) {
+void spmv(const BlockRowMatrix& A, const float* x, float* y) {
+  const int n = A.n;
   const int32_t* const row_start = A.row_start;
   const int32_t* const col = A.col;
   const float* const blocks = A.blocks;
   const float* const diag = A.unit_diagonal ? nullptr : A.diag;
-  for (int i = first; i < end; ++i) {
+  for (int i = 0; i < n; ++i) {
     const float* xi = x + kVecFloats * i;
     alignas(32) float sum[kVecFloats];
     if (diag)
@@ -36,26 +35,6 @@ void spmv_rows(const BlockRowMatrix& A, const float* x, float* y, int first, int
       gen::block_mul_add(blocks + kBlockFloats * k, x + kVecFloats * col[k], sum);
     store(y + kVecFloats * i, load<vf8>(sum));
   }
-}
-
-}  // namespace
-
-// Rows are independent: split into fixed parts of rows, any thread may take any part.
-void spmv(const BlockRowMatrix& A, const float* x, float* y) {
-  if (!A.split || A.n < kSplitRows) {
-    spmv_rows(A, x, y, 0, A.n);
-    return;
-  }
-  struct Job {
-    const BlockRowMatrix* A;
-    const float* x;
-    float* y;
-  } job{&A, x, y};
-  A.split->run((A.n + kSplitPartRows - 1) / kSplitPartRows, [](void* c, int part) {
-    const Job& j = *static_cast<const Job*>(c);
-    const int first = part * kSplitPartRows;
-    spmv_rows(*j.A, j.x, j.y, first, first + kSplitPartRows < j.A->n ? first + kSplitPartRows : j.A->n);
-  }, &job);
 }
 
 // One vf8 of partial sums carried across bodies in order, then hsum's fixed lane order:

@@ -10,8 +10,6 @@
 #pragma once
 #include <cstdint>
 
-#include "runtime/spu/row_split.h"
-
 namespace cellphys::spu {
 
 inline constexpr int kBlockFloats = 48;  // 8 x 6
@@ -26,14 +24,10 @@ struct BlockRowMatrix {
   // holds n diagonal blocks (used by tests and by the unscaled reference path).
   bool unit_diagonal = true;
   const float* diag = nullptr;
-  // Set: spmv shares the rows of a large matrix out through it (the same bits as without).
-  RowSplitter* split = nullptr;
 };
 
 /// y = A x. x and y hold n * kVecFloats floats, 32-byte aligned, and must not alias.
 void spmv(const BlockRowMatrix& A, const float* x, float* y);
-/// Rows a part of a split spmv takes, and the fewest rows worth splitting.
-inline constexpr int kSplitPartRows = 128, kSplitRows = 4 * kSplitPartRows;
 
 // Vector operations on padded block vectors (n * kVecFloats floats, padding lanes zero).
 // Reductions use a fixed order, so one build gives the same bits every run.

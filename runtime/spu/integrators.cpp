@@ -133,8 +133,7 @@ SolveResult solve_each_body(StepContext& c, const BlockRowMatrix& A, const float
 
 bool run_solve(StepContext& c, const float* rhs, float* x) {
   zero_floats(x, size_t(c.ws->n) * kVecFloats);
-  BlockRowMatrix A = matrix_of(c.ws->structure, c.ws->blocks);
-  A.split = c.ws->split;
+  const BlockRowMatrix A = matrix_of(c.ws->structure, c.ws->blocks);
   SolveResult r;
   if (A.n > 1 && A.row_start[A.n] == 0) {
     r = solve_each_body(c, A, rhs, x);

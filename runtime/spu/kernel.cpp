@@ -192,7 +192,6 @@ bool ComputeWorker::begin(const IslandJob& job, const Plan& p, unsigned char* in
     write_refusal(job, r, IslandStatus::does_not_fit, "local store exhausted (accounting bug)");
     return false;
   }
-  a.ws.split = split_;
   StepContext& c = a.c;
   c = StepContext{};
   c.island = view_island(in);

@@ -11,7 +11,6 @@
 #include "runtime/spu/integrators.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/local_store.h"
-#include "runtime/spu/row_split.h"
 #include "runtime/spu/workspace.h"
 
 namespace cellphys::spu {
@@ -58,9 +57,6 @@ class ComputeWorker {
   /// header and section table as step() reads them; 0 for an image step() would refuse as
   /// malformed.
   static size_t bytes_needed(const IslandJob& job);
-  /// Lends the worker threads for the rows of the islands it steps (null: none). The results
-  /// are the same bits either way.
-  void set_row_splitter(RowSplitter* split) { split_ = split; }
 
  private:
   // Islands integrated together at most (step_together): their lanes fill each kernel's SIMD
@@ -95,7 +91,6 @@ class ComputeWorker {
   void step_each(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports);
   LocalStore ls_;
   Dma dma_;
-  RowSplitter* split_ = nullptr;
   std::vector<Plan> plans_;  // step_batch's, kept so a warm worker allocates nothing
   std::vector<char> ok_;
   std::array<Active, kMaxTogether> active_{};

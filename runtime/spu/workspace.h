@@ -50,7 +50,6 @@ struct Workspace {
   float* solver_work = nullptr;    // phase-shared scratch (solve)
   int32_t* pair_scratch = nullptr; // phase-shared scratch (structure build)
   int pair_capacity = 0;
-  RowSplitter* split = nullptr;    // the worker's, if its driver lends it threads (row_split.h)
 };
 
 /// Allocates the workspace in `ls` (its footprint was checked first).

@@ -16,6 +16,7 @@
 #include "runtime/ppe/world.h"
 #include "runtime/scene/scene.h"
 #include "runtime/spu/kernel.h"
+#include "testing/scenes.h"
 
 namespace {
 
@@ -173,6 +174,49 @@ TEST(Threads, PoolHeldWithoutThreadsRunsOnTheCaller) {
   });
   EXPECT_FALSE(timed_out.load());
   EXPECT_GT(others.load(), 0);
+}
+
+// A runner that keeps the first wave's images whole (an island over the local store is sent
+// as it is, not decoupled) and computes each on a worker with the store it needs.
+class CaptureWhole : public Capture {
+ public:
+  size_t whole_island_bytes() const override { return cellphys::spu::LocalStore::kMaxCapacity; }
+};
+
+// One island of 595 boxes (a one-layer pyramid, 34 at its base), too big for the local store:
+// run by a held pool of three on a thread's wide worker, wave after wave, it comes back byte
+// for byte as one worker with the store it needs computes it alone.
+TEST(Threads, ABigIslandOnAPoolGivesOneWorkersBytes) {
+  World w;
+  cellphys::testing::ground_plane(w);
+  const float half[3] = {0.5f, 0.5f, 0.5f};
+  for (int row = 0, base = 34; row < base; ++row)
+    for (int k = 0; k < base - row; ++k) {
+      const float pos[3] = {float(k) + 0.5f * float(row) - 0.5f * float(base), 0.0f, 0.5f + float(row)};
+      cellphys::testing::add_box(w, half, 1.0f, pos);
+    }
+  auto capture = std::make_shared<CaptureWhole>();
+  w.set_runner(capture);
+  w.step();
+  ASSERT_EQ(capture->images.size(), 1u);
+  const std::vector<unsigned char>& image = capture->images[0];
+  ASSERT_EQ(bodies_of(image), 595u);
+  const size_t ls = w.settings().local_store_bytes;
+  std::vector<unsigned char> expected(cellphys::spu::result_bytes(bodies_of(image)));
+  const cellphys::spu::IslandJob job{image.data(), image.size(), expected.data(), expected.size()};
+  const size_t need = cellphys::spu::ComputeWorker::bytes_needed(job);
+  ASSERT_GT(need, ls) << "the island fits the local store: no wide worker";
+  cellphys::spu::ComputeWorker alone(need);
+  ASSERT_EQ(alone.step(job).status, cellphys::spu::IslandStatus::ok);
+  cellphys::ppe::WorkerPool pool(3, ls, cellphys::spu::LocalStore::kMaxCapacity);
+  cellphys::ppe::WorkerPool::Hold held(pool);
+  for (int wave = 0; wave < 3; ++wave) {
+    std::vector<unsigned char> got(expected.size());
+    std::vector<cellphys::spu::IslandReport> reports;
+    pool.run({{image.data(), image.size(), got.data(), got.size()}}, reports);
+    ASSERT_EQ(reports.at(0).status, cellphys::spu::IslandStatus::ok) << "wave " << wave;
+    ASSERT_EQ(got, expected) << "wave " << wave;
+  }
 }
 
 // A world's pool follows its settings: grown, shrunk and back between steps, the world steps on

@@ -60,7 +60,7 @@ void refile(const std::vector<WorldBody>& bodies, const ShapeDictionary& shapes,
 }
 
 // Awake bodies a task of the broad phase makes boxes for at a time, and the fewest worth the threads.
-constexpr size_t kBoxesPerTask = 256, kParallelBoxes = 1024;
+constexpr size_t kBoxesPerTask = 256, kParallelBoxes = 512;
 
 // The awake bodies' boxes made afresh, each in its own slot: on the threads when there are many.
 // Returns how many fell outside the region.

@@ -75,15 +75,19 @@ struct Drop {
 // over a limit, the fastest part and the deepest overlap of two parts of one ragdoll at its end
 // (a forearm sunk in its own chest), the failed islands summed.
 struct Outcome {
-  double gap = 0, past = 0, max_speed_end = 0, self_overlap_end = 0;
+  double gap = 0, past = 0, max_speed_end = 0, self_overlap_end = 0, seconds = 0;
   uint32_t failed = 0;
 };
-Outcome run(ppe::World& w, const std::vector<Ragdoll>& dolls, double seconds) {
+// seconds of steps, or fewer if until_asleep and every body has gone to sleep (o.seconds: how many)
+Outcome run(ppe::World& w, const std::vector<Ragdoll>& dolls, double seconds, bool until_asleep = false) {
   Outcome o;
   for (int i = 0; i < int(seconds * kHz); ++i) {
-    o.failed += w.step().failed_islands;
+    const ppe::StepStats st = w.step();
+    o.failed += st.failed_islands;
+    o.seconds = double(i + 1) / kHz;
     for (const Ragdoll& r : dolls)
       for (const RagdollJoint& j : r.joints) o.gap = std::max(o.gap, pose_of(w, r, j).gap);
+    if (until_asleep && st.active_bodies == 0) break;
   }
   for (const Ragdoll& r : dolls) {
     for (const RagdollJoint& j : r.joints) o.past = std::max(o.past, pose_of(w, r, j).past);
@@ -134,7 +138,11 @@ TEST(Ragdoll, FallsAndEndsInAPoseItsJointsAllow) {
 }
 
 // Four adults of different sizes dropped onto each other: no island fails, each joint ends
-// within its bounds, and the pile comes to rest with no ragdoll's limb sunk in itself.
+// within its bounds, and the pile comes to rest (every body asleep) with no ragdoll's limb sunk
+// in itself. How long it takes is chaotic: over 120 starts a fraction of a millimetre apart, the
+// median pile slept at 5-5.5 s, one in ten was still sliding at 8 s (a limb slipping off the
+// pile) and the last slept at 17.5-20 s, before and after the contact kernel's arithmetic was
+// reordered; so each start is run until it sleeps, for at most 30 s, and its time recorded.
 TEST(Ragdoll, PileEndsWithItsJointsInTheirLimits) {
   for (const float nudge : {0.0f, 0.00043f}) {
     SCOPED_TRACE("nudged " + std::to_string(nudge));
@@ -148,12 +156,13 @@ TEST(Ragdoll, PileEndsWithItsJointsInTheirLimits) {
       const float pelvis[3] = {0.1f * float(i % 2) + nudge, 0.05f * float(i), 0.3f + 0.45f * float(i)};
       dolls.push_back(cellphys::testing::add_ragdoll(w, 1.6f + 0.1f * float(i), 55.0f + 10.0f * float(i), pelvis, turn));
     }
-    const Outcome o = run(w, dolls, 8.0);
+    const Outcome o = run(w, dolls, 30.0, /*until_asleep=*/true);
     const std::string tag = nudge > 0 ? "ragdoll_pile_nudged_" : "ragdoll_pile_";
     record(tag + "joint_gap_m", o.gap);
     record(tag + "past_limits_deg", o.past * 180 / kPi);
-    record(tag + "max_speed_at_8s", o.max_speed_end);
-    record(tag + "self_overlap_at_8s_m", o.self_overlap_end);
+    record(tag + "asleep_after_s", o.seconds);
+    record(tag + "max_speed_at_end", o.max_speed_end);
+    record(tag + "self_overlap_at_end_m", o.self_overlap_end);
     EXPECT_EQ(o.failed, 0u);
     EXPECT_LT(o.gap, 0.01);  // no joint stretched over 1 cm at any step, in the pile either
     EXPECT_LT(o.past, 3 * kPi / 180);

@@ -302,24 +302,46 @@ def _build_kernel(force, variant, d, lines, path):
         lets.append((list(zip(syms, exprs)), True, origin))
 
     zero = {s: 0 for b in bodies for s in b.delta}
-    wrt = [("dd", k, z) for k, b in enumerate(bodies) for z in b.delta] + \
-          [("du", k, z) for k, b in enumerate(bodies) for z in b.u]
+    wrt = [z for b in bodies for z in b.delta] + [z for b in bodies for z in b.u]
+    cut = _cut(lets, wrt)
     let_syms = set()
     deriv = {}  # (let symbol, z) -> symbol of its total derivative at delta = 0
+    behind = set()  # the lets that reach the state only through the cut (_cut)
     stages = []
+
+    def emit(stage, sym, z, dz):
+        dz = dz.xreplace(zero)
+        if dz.is_Number or dz.is_Symbol:  # trivial: substitute, emit nothing
+            if dz != 0:
+                deriv[(sym, z)] = dz
+        else:
+            deriv[(sym, z)] = sp.Symbol(f"d_{sym.name}__{z.name}", real=True)
+            stage.append((deriv[(sym, z)], dz))
+
     for group, held, origin in lets:
         stage = []
+        syms = [sym for sym, _ in group]
+        past = cut is not None and not held and not any(e.free_symbols & set(wrt) for _, e in group) and \
+            any(e.free_symbols & (behind | set(cut)) for _, e in group)
         for sym, expr in group:
             stage.append((sym, expr.xreplace(zero)))
-            for _, _, z in ([] if held else wrt):
-                dz = _total_derivative(expr, z, let_syms, deriv).xreplace(zero)
-                if dz.is_Number or dz.is_Symbol:  # trivial: substitute, emit nothing
-                    if dz != 0:
-                        deriv[(sym, z)] = dz
-                else:
-                    deriv[(sym, z)] = sp.Symbol(f"d_{sym.name}__{z.name}", real=True)
-                    stage.append((deriv[(sym, z)], dz))
-        let_syms.update(sym for sym, _ in group)
+            if held:
+                continue
+            if not past:
+                for z in wrt:
+                    emit(stage, sym, z, _total_derivative(expr, z, let_syms, deriv))
+                continue
+            # behind the cut: its derivatives by the cut's entries, and by the state only
+            # where the forces read it, as the cut's chain rule
+            for c in cut:
+                emit(stage, sym, c, _total_derivative(expr, c, behind, deriv))
+            if any(sym in e.free_symbols for e in _entries(F)):
+                for z in wrt:
+                    emit(stage, sym, z, sum((deriv[(sym, c)] * deriv[(c, z)] for c in cut
+                                             if (sym, c) in deriv and (c, z) in deriv), sp.Integer(0)))
+        if past:
+            behind.update(syms)
+        let_syms.update(syms)
         stages.append(Stage(origin, held, stage))
     kernel = Kernel(force, variant, len(bodies), [], [], pre=ctx.pre,
                     apply_origin=_origin(path, lines, "apply", "apply"), applies=applies)
@@ -351,6 +373,8 @@ def _build_kernel(force, variant, d, lines, path):
     if any(blk.kind == "dd" for blk in kernel.blocks):
         used |= {s for b in bodies for s in b.u}
     kernel.implicit = _implicit_form(kernel, bodies, ctx)
+    if cut is not None:
+        kernel.implicit["through_lets"] = _implicit_through_lets(kernel, bodies, ctx, F, deriv, let_syms, zero)
     for k, b in enumerate(bodies):
         arms = ctx.arms.get(b.tag, [])
         if len(arms) == 1:
@@ -431,6 +455,80 @@ def _implicit_form(kernel, bodies, ctx):
             pairs.append((i, j))
             K += [Kij[r, c] for c in range(6) for r in range(6)]
     return {"outputs": g + K, "pairs": pairs}
+
+
+def _implicit_through_lets(kernel, bodies, ctx, F, deriv, let_syms, zero):
+    """The implicit form again, its products taken on the lets the forces read rather than on
+    the forces' 6-vectors: a contact's force f acts on a as -f and on b as f at lever arms the
+    step holds, so h df/du + h^2 df/ddelta is formed once per body and column (3 entries) and
+    each 6x6 block is its sign and lever arm's cross product of it. Likewise g's dF/ddelta
+    (u h + arc) as df/ddelta (u h + arc) once. The same outputs in the same order as
+    _implicit_form; the kernel emits whichever costs fewer operations."""
+    reads = set().union(*[e.free_symbols for e in _entries(F)]) & let_syms
+    lets, comb, drift = [], {}, {}
+    read = sorted((s for s in reads if any(k[0] == s for k in deriv)), key=lambda s: s.name)
+
+    def named(name, expr):
+        if expr.is_Number or expr.is_Symbol:
+            return expr
+        sym = sp.Symbol(name, real=True)
+        lets.append((sym, expr))
+        return sym
+
+    steps = []
+    for j, bj in enumerate(bodies):
+        arc = _arc(bj, ctx)
+        steps.append([H * u + (arc[c] if arc is not None and c < 3 else 0) for c, u in enumerate(bj.u)])
+    for s in read:
+        drift[s] = named(f"kg_{s.name}", sum((deriv.get((s, z), 0) * steps[j][c] for j, bj in enumerate(bodies)
+                                              for c, z in enumerate(bj.delta)), sp.Integer(0)))
+        for j, bj in enumerate(bodies):
+            for c in range(6):
+                comb[(s, j, c)] = named(f"kk_{s.name}__{'ab'[j]}{c}",
+                                        H * deriv.get((s, bj.u[c]), 0) + H * H * deriv.get((s, bj.delta[c]), 0))
+    g = []
+    for i in range(len(bodies)):
+        for r in range(6):
+            e = F[i][r]
+            gi = e + sum((sp.diff(e, z) * steps[j][c] for j, bj in enumerate(bodies) for c, z in enumerate(bj.delta)),
+                         sp.Integer(0)) + sum((sp.diff(e, s) * drift[s] for s in read), sp.Integer(0))
+            g.append(gi.xreplace(zero))
+    K = []
+    for i, j in kernel.implicit["pairs"]:
+        bj = bodies[j]
+        for c in range(6):
+            for r in range(6):
+                e = F[i][r]
+                k = H * sp.diff(e, bj.u[c]) + H * H * sp.diff(e, bj.delta[c]) + \
+                    sum((sp.diff(e, s) * comb[(s, j, c)] for s in read), sp.Integer(0))
+                K.append(k.xreplace(zero))
+    return {"lets": lets, "outputs": g + K}
+
+
+def _entries(F):
+    """Every body's force and torque entries, in one list."""
+    return [e for Fk in F for e in Fk]
+
+
+def _cut(lets, wrt):
+    """The entries of the lets that read the state directly, when the rest of the force reaches
+    the state only through them and they are fewer than the state's variables; else None.
+    Behind such a cut (a contact's relative displacement and velocity: 6 entries, where a pair
+    has 24 variables) each later let is differentiated by the cut's entries alone, and the
+    forces' lets are brought back to the state by the chain rule once."""
+    zs = set(wrt)
+    cut, behind = [], set()
+    for group, held, _ in lets:
+        if held:
+            continue
+        reads = set().union(*[e.free_symbols for _, e in group])
+        if reads & zs:
+            if reads & behind:  # a let reading the state beside a later one: no single cut
+                return None
+            cut += [sym for sym, _ in group]
+        elif reads & (behind | set(cut)):
+            behind.update(sym for sym, _ in group)
+    return cut if behind and len(cut) < len(wrt) else None
 
 
 def _total_derivative(expr, z, let_syms, deriv):

@@ -91,6 +91,13 @@ def _view(k):
     outs, out_ops = st.outputs(k.forces + blocks, "out", _eval_groups(k), shared)
     f_outs, f_out_ops = st.outputs(k.forces, "out", _eval_groups(k)[:k.num_bodies], shared)
     i_outs, i_out_ops = st.outputs(k.implicit["outputs"], "out", _implicit_groups(k), shared)
+    # the implicit form's products taken on the lets the forces read, where that costs less
+    through = k.implicit.get("through_lets")
+    if through:
+        t_lets, t_ops = st.stage(through["lets"], "t0_", f"{k.apply_origin}, the implicit form's products on its lets")
+        t_outs, t_out_ops = st.outputs(through["outputs"], "out", _implicit_groups(k), shared)
+        if t_ops + t_out_ops < i_out_ops:
+            i_outs, i_out_ops = t_lets + t_outs, t_ops + t_out_ops
     return dict(
         name=k.cxx_name, variant=k.variant, num_bodies=k.num_bodies, num_inputs=len(k.inputs), gather=_gather(k),
         blocks=[dict(kind=b.kind, row=b.row_body, col=b.col_body) for b in k.blocks],

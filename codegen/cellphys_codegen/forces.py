@@ -303,10 +303,11 @@ def _build_kernel(force, variant, d, lines, path):
 
     zero = {s: 0 for b in bodies for s in b.delta}
     wrt = [z for b in bodies for z in b.delta] + [z for b in bodies for z in b.u]
-    cut = _cut(lets, wrt)
+    # the lets that read the state (the cut) and those that reach it only through them (behind)
+    cut, behind = _cut(lets, wrt) or (None, set())
+    forces_read = set().union(*[e.free_symbols for e in _entries(F)])
     let_syms = set()
     deriv = {}  # (let symbol, z) -> symbol of its total derivative at delta = 0
-    behind = set()  # the lets that reach the state only through the cut (_cut)
     stages = []
 
     def emit(stage, sym, z, dz):
@@ -321,13 +322,11 @@ def _build_kernel(force, variant, d, lines, path):
     for group, held, origin in lets:
         stage = []
         syms = [sym for sym, _ in group]
-        past = cut is not None and not held and not any(e.free_symbols & set(wrt) for _, e in group) and \
-            any(e.free_symbols & (behind | set(cut)) for _, e in group)
         for sym, expr in group:
             stage.append((sym, expr.xreplace(zero)))
             if held:
                 continue
-            if not past:
+            if sym not in behind:
                 for z in wrt:
                     emit(stage, sym, z, _total_derivative(expr, z, let_syms, deriv))
                 continue
@@ -335,12 +334,10 @@ def _build_kernel(force, variant, d, lines, path):
             # where the forces read it, as the cut's chain rule
             for c in cut:
                 emit(stage, sym, c, _total_derivative(expr, c, behind, deriv))
-            if any(sym in e.free_symbols for e in _entries(F)):
+            if sym in forces_read:
                 for z in wrt:
                     emit(stage, sym, z, sum((deriv[(sym, c)] * deriv[(c, z)] for c in cut
                                              if (sym, c) in deriv and (c, z) in deriv), sp.Integer(0)))
-        if past:
-            behind.update(syms)
         let_syms.update(syms)
         stages.append(Stage(origin, held, stage))
     kernel = Kernel(force, variant, len(bodies), [], [], pre=ctx.pre,
@@ -374,7 +371,8 @@ def _build_kernel(force, variant, d, lines, path):
         used |= {s for b in bodies for s in b.u}
     kernel.implicit = _implicit_form(kernel, bodies, ctx)
     if cut is not None:
-        kernel.implicit["through_lets"] = _implicit_through_lets(kernel, bodies, ctx, F, deriv, let_syms, zero)
+        kernel.implicit["through_lets"] = _implicit_through_lets(kernel, bodies, ctx, F, forces_read & let_syms,
+                                                                 deriv, zero)
     for k, b in enumerate(bodies):
         arms = ctx.arms.get(b.tag, [])
         if len(arms) == 1:
@@ -457,14 +455,13 @@ def _implicit_form(kernel, bodies, ctx):
     return {"outputs": g + K, "pairs": pairs}
 
 
-def _implicit_through_lets(kernel, bodies, ctx, F, deriv, let_syms, zero):
+def _implicit_through_lets(kernel, bodies, ctx, F, reads, deriv, zero):
     """The implicit form again, its products taken on the lets the forces read rather than on
     the forces' 6-vectors: a contact's force f acts on a as -f and on b as f at lever arms the
     step holds, so h df/du + h^2 df/ddelta is formed once per body and column (3 entries) and
     each 6x6 block is its sign and lever arm's cross product of it. Likewise g's dF/ddelta
     (u h + arc) as df/ddelta (u h + arc) once. The same outputs in the same order as
-    _implicit_form; the kernel emits whichever costs fewer operations."""
-    reads = set().union(*[e.free_symbols for e in _entries(F)]) & let_syms
+    _implicit_form; the kernel emits whichever costs fewer operations. reads: the lets F reads."""
     lets, comb, drift = [], {}, {}
     read = sorted((s for s in reads if any(k[0] == s for k in deriv)), key=lambda s: s.name)
 
@@ -511,8 +508,9 @@ def _entries(F):
 
 
 def _cut(lets, wrt):
-    """The entries of the lets that read the state directly, when the rest of the force reaches
-    the state only through them and they are fewer than the state's variables; else None.
+    """(cut, behind): the entries of the lets that read the state directly, when the rest of the
+    force reaches the state only through them and they are fewer than the state's variables, and
+    the symbols of the lets that reach it only through them; else None.
     Behind such a cut (a contact's relative displacement and velocity: 6 entries, where a pair
     has 24 variables) each later let is differentiated by the cut's entries alone, and the
     forces' lets are brought back to the state by the chain rule once."""
@@ -528,7 +526,7 @@ def _cut(lets, wrt):
             cut += [sym for sym, _ in group]
         elif reads & (behind | set(cut)):
             behind.update(sym for sym, _ in group)
-    return cut if behind and len(cut) < len(wrt) else None
+    return (cut, behind) if behind and len(cut) < len(wrt) else None
 
 
 def _total_derivative(expr, z, let_syms, deriv):

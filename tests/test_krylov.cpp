@@ -534,6 +534,40 @@ TEST(Krylov, StartingAtTheSolutionNeedsNoIterations) {
   }
 }
 
+// Bodies that touch only the world: the scaled system is I (unit diagonal, no other block)
+// and CGS takes its exact first iteration without the products. Against the same system with
+// its identity diagonal stored, which runs the general iteration: the same bits in x, the same
+// code, iterations and residual, from x = 0 and from a start elsewhere, for right-hand sides
+// from below zero_rhs through below abs_tol to large ones.
+TEST(Krylov, CgsOnTheIdentityGivesTheGeneralIterationsBits) {
+  std::mt19937 rng(53);
+  for (int n : {1, 3, 32}) {
+    const System unit = make_system(n, {});
+    const System stored = make_system(n, {}, std::vector<Mat6>(size_t(n), Mat6::Identity()));
+    ASSERT_TRUE(unit.view().unit_diagonal);
+    ASSERT_FALSE(stored.view().unit_diagonal);
+    for (double scale : {0.5e-4, 5e-4, 1.0, 1e3, 1e30}) {
+      for (bool from_zero : {true, false}) {
+        VectorXd b = random_vector(rng, 6 * n);
+        b *= scale / b.norm();
+        const BVec start = from_zero ? BVec(n) : to_bvec(random_vector(rng, 6 * n));
+        BVec x_unit = start, x_stored = start;
+        const SolveResult ru = run(Solver::cgs, unit, b, x_unit, {});
+        const SolveResult rs = run(Solver::cgs, stored, b, x_stored, {});
+        const std::string at = "n=" + std::to_string(n) + " |b|=" + std::to_string(scale) + (from_zero ? " x0=0" : " x0 random");
+        EXPECT_EQ(ru.code, rs.code) << at;
+        EXPECT_EQ(ru.iterations, rs.iterations) << at;
+        EXPECT_EQ(0, std::memcmp(&ru.residual, &rs.residual, sizeof(float))) << at;  // NaN too, when |b| overflows
+        EXPECT_EQ(0, std::memcmp(F(x_unit), F(x_stored), sizeof(Vec8) * size_t(n))) << at;
+        if (scale == 1.0 && from_zero) {
+          EXPECT_EQ(ru.iterations, 1) << at;
+          EXPECT_EQ(0, std::memcmp(F(x_unit), F(to_bvec(b)), sizeof(Vec8) * size_t(n))) << at;  // x = b
+        }
+      }
+    }
+  }
+}
+
 // A = I + N, N nilpotent (body 0 x-row -> body 1 x-row -> body 0 y-row), b = e_1: the first
 // iteration of either method is exact arithmetic and leaves r orthogonal to r_tilde = e_1,
 // so rho = 0 in the second pass although A is non-singular.

@@ -122,30 +122,29 @@ struct Cutting {
 
 }  // namespace
 
-void decouple(const PackContext& pc, const IslandContent& island, size_t fit, uint32_t& cut_couplings,
-              PackScratch& scratch, PackedIsland& probe, CutScratch& cuts, std::vector<IslandContent>& parts) {
-  if (fits(pc, island, fit, scratch, probe)) {  // the island whole
-    parts.resize(1);
-    copy_content(island, parts[0]);
-    return;
-  }
+size_t decouple(const PackContext& pc, const IslandContent& island, size_t fit, uint32_t& cut_couplings,
+                PackScratch& scratch, PackedIsland& probe, CutScratch& cuts, std::vector<IslandContent>& parts) {
+  if (fits(pc, island, fit, scratch, probe)) return 0;  // the island whole
   // Each cut halves the bodies: a world's 2^32 ids are cut at most 32 deep.
   if (cuts.halves.size() < 2 * CutScratch::kMaxDepth) cuts.halves.resize(2 * CutScratch::kMaxDepth);
   Cutting c{pc, scratch, probe, cuts, parts, 0, cut_couplings};
   c.split(island, 0, /*too_big=*/true);
   parts.resize(c.used);
+  return c.used;
 }
 
 void decouple_islands(const PackContext& pc, const std::vector<IslandContent>& islands, size_t whole_bytes,
                       StepStats& st, PackScratch& scratch, DecoupledIslands& d) {
   StageTimer t(st, &StageTimes::decouple_ms);
   const size_t fit = std::max(pc.settings.local_store_bytes, std::min(whole_bytes, pc.settings.whole_island_bytes));
+  d.islands = &islands;
   d.waves = 0;
   d.parts.resize(islands.size());
+  d.used.resize(islands.size());
   for (size_t k = 0; k < islands.size(); ++k) {
-    decouple(pc, islands[k], fit, st.cut_couplings, scratch, d.probe, d.cuts, d.parts[k]);  // a copy: the sleep stage needs the island whole
-    if (d.parts[k].size() > 1) ++st.decoupled_islands;
-    d.waves = std::max(d.waves, d.parts[k].size());
+    d.used[k] = decouple(pc, islands[k], fit, st.cut_couplings, scratch, d.probe, d.cuts, d.parts[k]);
+    if (d.is_split(k)) ++st.decoupled_islands;
+    d.waves = std::max(d.waves, d.count(k));
   }
 }
 

@@ -21,23 +21,31 @@ struct CutScratch {
   std::vector<uint64_t> keys;         // (position along the cut, place in the island)
 };
 
-/// The parts of an island that each fit the local store (just the island when it fits), in
-/// the order they are integrated; counts the couplings cut. Integrating the parts in order,
-/// each holding the bodies across its cuts as kinematic ghosts at their latest velocities, is
-/// one block Gauss-Seidel sweep on the island's linear system; sweeps repeat until the
-/// velocities settle (integrate_islands), so the parts converge on the whole island's step.
-/// An island fits when its footprint is at most `fit` bytes (the local store, or more when the
-/// runner computes big islands whole); a part always fits the local store.
+/// The parts of an island that each fit the local store, in the order they are integrated, into
+/// `parts` (its storage reused); counts the couplings cut. Returns how many, or 0 when the island
+/// fits whole: it is then integrated as it is, and `parts` is left as it was. Integrating the
+/// parts in order, each holding the bodies across its cuts as kinematic ghosts at their latest
+/// velocities, is one block Gauss-Seidel sweep on the island's linear system; sweeps repeat
+/// until the velocities settle (integrate_islands), so the parts converge on the whole island's
+/// step. An island fits when its footprint is at most `fit` bytes (the local store, or more
+/// when the runner computes big islands whole); a part always fits the local store.
 /// `scratch` and `probe` are the fit test's packing.
-void decouple(const PackContext& pc, const IslandContent& island, size_t fit, uint32_t& cut_couplings,
-              PackScratch& scratch, PackedIsland& probe, CutScratch& cuts, std::vector<IslandContent>& parts);
+size_t decouple(const PackContext& pc, const IslandContent& island, size_t fit, uint32_t& cut_couplings,
+                PackScratch& scratch, PackedIsland& probe, CutScratch& cuts, std::vector<IslandContent>& parts);
 
+/// Every island's parts. An island that fits whole is not copied into parts (a copy of every
+/// island's lists was most of the stage in a world of small islands): part(k, 0) is the island.
 struct DecoupledIslands {
-  std::vector<std::vector<IslandContent>> parts;  // per island: its parts in integration order
-  size_t waves = 0;                               // the most parts of any island
+  const std::vector<IslandContent>* islands = nullptr;  // the islands decoupled (they outlive the step)
+  std::vector<std::vector<IslandContent>> parts;        // per split island: its parts in integration order
+  std::vector<size_t> used;                             // per island: its parts, 0 when whole
+  size_t waves = 0;                                     // the most parts of any island
   bool split() const { return waves > 1; }
-  PackedIsland probe;                             // the fit test's packing, reused
-  CutScratch cuts;                                // the cuts', reused
+  size_t count(size_t k) const { return used[k] ? used[k] : 1; }
+  bool is_split(size_t k) const { return used[k] > 1; }
+  const IslandContent& part(size_t k, size_t wave) const { return used[k] ? parts[k][wave] : (*islands)[k]; }
+  PackedIsland probe;                                   // the fit test's packing, reused
+  CutScratch cuts;                                      // the cuts', reused
 };
 
 /// The parts of every island into `d` (replaced; its storage is reused); counts decoupled

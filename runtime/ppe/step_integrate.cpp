@@ -282,9 +282,9 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
   {
     StageTimer t(st, &StageTimes::pack_ms);
     sc.todo.clear();
-    for (size_t k = 0; k < d.parts.size(); ++k)
-      if (wave < d.parts[k].size() && (!split_only || d.parts[k].size() > 1)) {
-        sc.todo.push_back(&d.parts[k][wave]);
+    for (size_t k = 0; k < d.used.size(); ++k)
+      if (wave < d.count(k) && (!split_only || d.is_split(k))) {
+        sc.todo.push_back(&d.part(k, wave));
         island_of_packed.push_back(k);
       }
     while (packed.size() < sc.todo.size()) packed.emplace_back();
@@ -313,7 +313,7 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
     add_report(r, st);
     if (r.status != spu::IslandStatus::ok) {
       const size_t k = island_of_packed[order[j]];
-      if (d.parts[k].size() > 1) sc.part_failed[k] = 1;
+      if (d.is_split(k)) sc.part_failed[k] = 1;
       else ++st.failed_islands, failed[k] = 1;
       continue;
     }
@@ -325,8 +325,8 @@ void run_wave(const PackContext& pc, const ShapeDictionary& shapes, const Decoup
 void split_velocities(const std::vector<IslandContent>& islands, const DecoupledIslands& d,
                       const std::vector<WorldBody>& bodies, std::vector<float>& v) {
   v.clear();
-  for (size_t k = 0; k < d.parts.size(); ++k)
-    if (d.parts[k].size() > 1)
+  for (size_t k = 0; k < d.used.size(); ++k)
+    if (d.is_split(k))
       for (uint32_t i : islands[k].bodies) v.insert(v.end(), bodies[i].state.velocity, bodies[i].state.velocity + 3);
 }
 

@@ -251,7 +251,7 @@ const StepStats& World::step() {
     w.island_decoupled.assign(islands.size(), 0);
     for (size_t i = 0; i < islands.size(); ++i) {
       for (uint32_t id : islands[i].bodies) w.island_of[id] = static_cast<uint32_t>(i), w.island_listed.push_back(id);
-      w.island_decoupled[i] = i < parts.parts.size() && parts.parts[i].size() > 1;
+      w.island_decoupled[i] = i < parts.used.size() && parts.is_split(i);
     }
     cut_couplings_of(parts, w.contacts, w.forces, w.cut_ids, w.cut);
   }

@@ -104,8 +104,8 @@ void cut_couplings_of(const DecoupledIslands& d, const std::vector<WorldContact>
     for (size_t k = 0; k + 1 < ids.size(); ++k)
       if (ids[k] == ids[k + 1] && (k == 0 || ids[k - 1] != ids[k])) emit(ids[k]);
   };
-  for (size_t i = 0; i < d.parts.size(); ++i) {
-    if (d.parts[i].size() < 2) continue;
+  for (size_t i = 0; i < d.used.size(); ++i) {
+    if (!d.is_split(i)) continue;
     const auto island = static_cast<uint32_t>(i);
     repeated(d.parts[i], &IslandContent::contacts, [&](uint32_t c) {
       CutCoupling cut{contacts[c].a, contacts[c].b, kNoForce, {}, island};

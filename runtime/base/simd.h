@@ -153,6 +153,11 @@ inline vf8 sub(vf8 a, vf8 b) { return {_mm256_sub_ps(a.v, b.v)}; }
 inline vf8 mul(vf8 a, vf8 b) { return {_mm256_mul_ps(a.v, b.v)}; }
 inline vf8 madd(vf8 a, vf8 b, vf8 c) { return {detail::fmadd(a.v, b.v, c.v)}; }
 inline vf8 nmsub(vf8 a, vf8 b, vf8 c) { return {detail::fnmadd(a.v, b.v, c.v)}; }
+// (a0, ..., a7) built in registers: eight floats stored and loaded back as one vector wait
+// for their stores to drain (a failed store-to-load forward, each time).
+inline vf8 vf8_of(float a0, float a1, float a2, float a3, float a4, float a5, float a6, float a7) {
+  return {_mm256_setr_ps(a0, a1, a2, a3, a4, a5, a6, a7)};
+}
 
 template <int i0, int i1, int i2, int i3>
 inline vf4 shuffle(vf4 a) {
@@ -231,6 +236,9 @@ template <> inline vf8 loadu<vf8>(const float* p) { return load<vf8>(p); }
 CELLPHYS_SIMD_SCALAR_VEC_OPS(vf4, 4)
 CELLPHYS_SIMD_SCALAR_VEC_OPS(vf8, 8)
 #undef CELLPHYS_SIMD_SCALAR_VEC_OPS
+inline vf8 vf8_of(float a0, float a1, float a2, float a3, float a4, float a5, float a6, float a7) {
+  return {{a0, a1, a2, a3, a4, a5, a6, a7}};
+}
 
 template <int i0, int i1, int i2, int i3>
 inline vf4 shuffle(vf4 a) {

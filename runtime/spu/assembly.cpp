@@ -111,15 +111,8 @@ bool build_structure(const IslandView& v, BlockStructure& s, int32_t* pairs, int
 }
 
 void form_diagonal(int n, const W_Element* w, float* diag_k) {
-  alignas(32) float T[kBlockFloats], A[kBlockFloats];
-  for (int i = 0; i < n; ++i) {
-    float* K = diag_k + kBlockFloats * i;
-    // A_ii = I - W_i K_ii
-    w_mul_block(w[i].inverse_mass, w[i].inverse_inertia_world, K, T);
-    block_identity(A);
-    block_axpy(-1.0f, T, A);
-    std::memcpy(K, A, sizeof A);
-  }
+  // A_ii = I - W_i K_ii, in place
+  for (int i = 0; i < n; ++i) identity_minus_w_mul(w[i].inverse_mass, w[i].inverse_inertia_world, diag_k + kBlockFloats * i);
 }
 
 void BlockInverter::add(float* block, bool* failed) {

@@ -33,14 +33,15 @@ struct DoubleLanes {
   friend DoubleLanes operator-(DoubleLanes a) { return DoubleLanes(-a.v); }
   DoubleLanes& operator+=(DoubleLanes b) { return v += b.v, *this; }
   friend DoubleLanes sqrt(DoubleLanes a) {
-#if defined(__AVX__)  // two 4-wide roots
-    double d[kLanes];
-    std::memcpy(d, &a.v, sizeof d);
-    _mm256_storeu_pd(d, _mm256_sqrt_pd(_mm256_loadu_pd(d)));
-    _mm256_storeu_pd(d + 4, _mm256_sqrt_pd(_mm256_loadu_pd(d + 4)));
-    DoubleLanes r;
-    std::memcpy(&r.v, d, sizeof d);
-    return r;
+    // In registers: halves stored apart and read back as one vector waited for the stores to
+    // drain (a failed store-to-load forward, the most of the batched rotation kick's time).
+#if defined(__AVX512F__)  // one 8-wide root
+    return DoubleLanes(Raw(_mm512_sqrt_pd(__m512d(a.v))));
+#elif defined(__AVX__)  // two 4-wide roots
+    using Half = double __attribute__((vector_size(4 * sizeof(double))));
+    const Half lo = __builtin_shufflevector(a.v, a.v, 0, 1, 2, 3), hi = __builtin_shufflevector(a.v, a.v, 4, 5, 6, 7);
+    const Half rl = Half(_mm256_sqrt_pd(__m256d(lo))), rh = Half(_mm256_sqrt_pd(__m256d(hi)));
+    return DoubleLanes(Raw(__builtin_shufflevector(rl, rh, 0, 1, 2, 3, 4, 5, 6, 7)));
 #else
     DoubleLanes r;
     for (int k = 0; k < kLanes; ++k) r.v[k] = std::sqrt(a.v[k]);

@@ -109,11 +109,28 @@ void BM_Phase_Assembly(benchmark::State& state) {
     std::memcpy(p.ws.blocks, blocks.data(), blocks.size() * 4);
     std::memcpy(p.ws.forces, f.data(), f.size() * 4);
     state.ResumeTiming();
-    for (int i = 0; i < p.ws.n; ++i) compute_w(p.c.island.bodies[i], p.ws.w[i]);
+    compute_ws(p.c.island.bodies, p.ws.n, p.ws.w);
     scale_system(p.ws.structure, p.ws.w, 1.0f / 60, p.ws.diag, p.ws.blocks, p.ws.forces, nullptr);
   }
 }
 BENCHMARK(BM_Phase_Assembly)->Unit(benchmark::kMicrosecond);
+
+// The world inverse inertia of the island's bodies: a body at a time (compute_w), or eight
+// in SIMD lanes (compute_ws, what a step does), to the same bits.
+void BM_WorldInertia(benchmark::State& state) {
+  Phases p;
+  const bool lanes = state.range(0) != 0;
+  for (auto _ : state) {
+    if (lanes) {
+      compute_ws(p.c.island.bodies, p.ws.n, p.ws.w);
+    } else {
+      for (int i = 0; i < p.ws.n; ++i) compute_w(p.c.island.bodies[i], p.ws.w[i]);
+    }
+    benchmark::DoNotOptimize(p.ws.w);
+  }
+  state.counters["bodies"] = p.ws.n;
+}
+BENCHMARK(BM_WorldInertia)->ArgName("lanes")->Arg(0)->Arg(1);
 
 void BM_Phase_Solve(benchmark::State& state) {
   Phases p;

@@ -105,6 +105,30 @@ Turn alone(const Rigid_Body& b, const Vec3d& w_kick, double h) {
   return t;
 }
 
+TEST(WorldInertia, BodiesInLanesGetTheBitsEachGetsAlone) {
+  std::mt19937 rng(11);
+  for (int n : {1, 3, 8, 9, 17, 32}) {
+    std::vector<Rigid_Body> bodies;
+    for (int i = 0; i < n; ++i) {
+      Rigid_Body b = random_body(rng, int(rng() % 4));
+      b.inverse_mass = 0.1f + float(rng() % 100);
+      if (i % 5 == 4) b.inverse_inertia_body[0] = 0.0f, b.inverse_mass = 0.0f;  // pinned axes give zeros
+      bodies.push_back(b);
+    }
+    // both filled with the same junk first: every field must be written, to the same bits
+    std::vector<gen::W_Element> lanes(static_cast<size_t>(n) + 1), alone(static_cast<size_t>(n));
+    std::memset(static_cast<void*>(lanes.data()), 0x5a, lanes.size() * sizeof lanes[0]);
+    std::memset(static_cast<void*>(alone.data()), 0x5a, alone.size() * sizeof alone[0]);
+    spu::compute_ws(bodies.data(), n, lanes.data());
+    for (int i = 0; i < n; ++i) {
+      spu::compute_w(bodies[size_t(i)], alone[size_t(i)]);
+      EXPECT_EQ(std::memcmp(&lanes[size_t(i)], &alone[size_t(i)], sizeof alone[0]), 0) << "n " << n << ", body " << i;
+    }
+    const unsigned char* past = reinterpret_cast<const unsigned char*>(&lanes[size_t(n)]);
+    EXPECT_TRUE(std::all_of(past, past + sizeof lanes[0], [](unsigned char c) { return c == 0x5a; })) << "wrote past body " << n - 1;
+  }
+}
+
 TEST(FreeRotation, EightInLanesGiveEachBodyItsOwnBitsWhateverItsNeighbours) {
   std::mt19937 rng(7);
   const double h = 1.0 / 60.0;

@@ -85,7 +85,7 @@ ForceTargets implicit_targets(StepContext& c, float tau, uint32_t skip) {
   Workspace& ws = *c.ws;
   const IslandView& v = c.island;
   const int n = ws.n;
-  for (int i = 0; i < n; ++i) compute_w(v.bodies[i], ws.w[i]);
+  compute_ws(v.bodies, n, ws.w);
   velocities(v, ws.u0);
   zero_floats(ws.forces, size_t(n) * kVecFloats);
   zero_floats(ws.diag, size_t(n) * kBlockFloats);

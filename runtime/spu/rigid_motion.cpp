@@ -1,7 +1,9 @@
 #include "runtime/spu/rigid_motion.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstring>
 
 #include "runtime/base/double_lanes.h"
 
@@ -31,6 +33,34 @@ void compute_w(const gen::Rigid_Body& b, gen::W_Element& w) {
     w.inverse_inertia_world[4 * r + 3] = 0.0f;
   }
   w.inverse_mass = b.inverse_mass;
+}
+
+void compute_ws(const gen::Rigid_Body* bodies, int n, gen::W_Element* w) {
+  constexpr int kLanes = DoubleLanes::kLanes;
+  for (int first = 0; first < n; first += kLanes) {
+    const int lanes = std::min(kLanes, n - first);
+    // the lanes' inputs transposed in plain arrays, then each loaded whole (a lane set at a
+    // time, each vector waited for its own stores eight times)
+    alignas(64) double in[10][kLanes];  // w x y z, then xx yy zz xy xz yz
+    for (int l = 0; l < kLanes; ++l) {  // idle lanes repeat the last body
+      const gen::Rigid_Body& b = bodies[first + std::min(l, lanes - 1)];
+      for (int k = 0; k < 4; ++k) in[k][l] = double(b.orientation[k]);
+      for (int k = 0; k < 6; ++k) in[4 + k][l] = double(b.inverse_inertia_body[k]);
+    }
+    DoubleLanes v[10];
+    for (int k = 0; k < 10; ++k) std::memcpy(&v[k].v, in[k], sizeof in[k]);
+    const Quat<DoubleLanes> q{v[0], v[1], v[2], v[3]};
+    const Mat3<DoubleLanes> S = symmetric<DoubleLanes>(v + 4);
+    const Mat3<DoubleLanes> Iinv = rotate_sym_matrix(quat_to_matrix(q), S);
+    for (int l = 0; l < lanes; ++l) {
+      gen::W_Element& wl = w[first + l];
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) wl.inverse_inertia_world[4 * r + c] = static_cast<float>(Iinv.m[r][c][l]);
+        wl.inverse_inertia_world[4 * r + 3] = 0.0f;
+      }
+      wl.inverse_mass = bodies[first + l].inverse_mass;
+    }
+  }
 }
 
 Quatd advance_orientation(const Quatd& q, const Vec3d& w, double h) {

@@ -793,6 +793,32 @@ Bytes spring_line(std::mt19937& rng, int n) {
   return ib.finish();
 }
 
+// A hub box with 2-6 spokes, the springs pointing in and out by turns: the hub is body a of
+// some and body b of others, so its sum of three or more terms depends on whether a batch
+// splits the island's springs (force_eval.cpp, push_section). Few springs: islands of this
+// kind share batches.
+Bytes spring_star(std::mt19937& rng) {
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  const int spokes = 2 + int(rng() % 5);
+  IslandBuilder ib;
+  for (int i = 0; i <= spokes; ++i) {
+    Rigid_Body_Fields b = make_box(0.5 + 4.5 * U(rng), 0.1, 0.1, 0.1);
+    const double angle = 6.283185307179586 * i / spokes;
+    if (i > 0) b.position[0] = float(0.3 * std::cos(angle)), b.position[1] = float(0.3 * std::sin(angle));
+    b.position[2] = float(0.05 * U(rng));
+    for (int k = 0; k < 3; ++k) b.velocity[k] = float(2 * U(rng) - 1);
+    ib.add_body(b);
+  }
+  for (int i = 1; i <= spokes; ++i) {
+    gen::Spring_Force f{};
+    f.stiffness = float(100 + 900 * U(rng)), f.damping = float(5 * U(rng)), f.rest_length = 0.25f;
+    f.body_a = i % 2 ? 0 : i, f.body_b = i % 2 ? i : 0;
+    ib.add(gen::ForceType::spring, f);
+  }
+  ib.add_global(gen::ForceType::gravity);
+  return ib.finish();
+}
+
 // A brick spun so fast (hundreds of rad/s) that its free rotation's fixed point does not
 // converge at the full step: the island's first step fails in the commit's rotation, with its
 // lanes shared with other islands' bodies, and is halved.
@@ -811,8 +837,9 @@ TEST(Determinism, SmallIslandsSteppedTogetherGiveTheBytesEachGetsAlone) {
   // SIMD lanes filled across islands (kernel.h): every island's result must be the bytes it
   // gets alone. Boxes on the ground, two-box contact islands, spring islands and lines of 2-14 bodies,
   // chains whose first step fails in the solve and halves, bricks whose first step fails in the
-  // rotation and halves, on both implicit integrators, with a malformed island and a
-  // Runge-Kutta one breaking the runs.
+  // rotation and halves, spring stars whose hubs' sums depend on how batches split their
+  // springs, on both implicit integrators, with a malformed island and a Runge-Kutta one
+  // breaking the runs.
   std::mt19937 rng(23);
   std::vector<Bytes> images;
   for (int k = 0; k < 60; ++k) {
@@ -823,9 +850,11 @@ TEST(Determinism, SmallIslandsSteppedTogetherGiveTheBytesEachGetsAlone) {
       case 1: images.push_back(small_island(float(k) * 0.1f)); break;
       case 2: images.push_back(k % 12 == 2 ? stiff_chain(2, 1e-12f, 0, 2) : box_on_ground(rng, integ)); break;
       case 3: images.push_back(k % 12 == 3 && integ == Integrator::implicit_split ? spinning_brick(rng) : box_on_ground(rng, integ)); break;
-      default: images.push_back(box_on_ground(rng, integ)); break;
+      default: images.push_back(k % 12 == 5 ? spring_star(rng) : box_on_ground(rng, integ)); break;
     }
   }
+  // runs of stars: each shares a batch with the last when its springs fit the lanes left
+  for (int k = 0; k < 12; ++k) images.insert(images.begin() + 45, spring_star(rng));
   Bytes bad = small_island();
   bad[offsetof(gen::Island_Header, checksum)] ^= 0x01;
   images.insert(images.begin() + 17, bad);

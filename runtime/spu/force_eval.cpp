@@ -109,7 +109,7 @@ void add_columns(const float* tile, int lanes, Target target) {
 // its own island's targets: every lane's body a, then every lane's body b, then each block.
 // A target is added to in instance order when the kernel has one body; a pair kernel's body
 // that is body b of one lane and body a of a later one receives the later lane's first, so its
-// sums depend on where the batches begin (LaneBatch starts each island's pairs at lane 0).
+// sums depend on where the batches split an island's pairs (push_section splits them as alone).
 template <class K>
 void scatter_batch(const ForceTargets* const* t, const int (*body)[2], int lanes, const float* out_soa, Mode mode) {
   alignas(32) float tile[8 * kLanes];
@@ -139,8 +139,9 @@ void scatter_batch(const ForceTargets* const* t, const int (*body)[2], int lanes
 
 // Fills kernel K's SIMD lanes with instances, from one island or several, and runs a batch
 // each time the lanes are full. A lane's result goes to its own island's targets. One-body
-// kernels (world contacts, gravity) share batches across islands; a pair kernel's islands each
-// start at lane 0 (push_section), so every island's forces come out as they do alone.
+// kernels (world contacts, gravity) share batches across islands; a pair kernel's island
+// shares one only when its pairs all fit the lanes left, and starts at lane 0 otherwise
+// (push_section), so every island's forces come out as they do alone.
 template <class K>
 class LaneBatch {
  public:
@@ -152,6 +153,7 @@ class LaneBatch {
     lanes_[n_++] = {&j, inst, body};
     if (n_ == kLanes) flush();
   }
+  int free_lanes() const { return kLanes - n_; }
   void flush() {
     if (n_ == 0) return;
     // The kernel reads and writes the scratch in place: kInputs, then kOutputs, rows of kLanes
@@ -216,7 +218,11 @@ void push_section(LaneBatch<K>& batch, const ForceJob& j, const Island_Section& 
   } else if (kForceTable[sec.force_type].kind == ForceKind::global) {
     for (int b = 0; b < v.num_bodies(); ++b) batch.push(j, nullptr, b);
   } else {
-    if (pairs > 0) batch.flush();  // the island's pairs batched as they are alone (scatter_batch)
+    // The island's pairs batched as they are alone (scatter_batch): from lane 0 of a batch,
+    // or after other islands' pairs when all of its own fit the lanes left. Its targets then
+    // receive the same adds in the same order (the other lanes add to other islands' only),
+    // and two-box islands share one batch instead of leaving half of each idle.
+    if (pairs > batch.free_lanes()) batch.flush();
     for (int k = 0; k < pairs; ++k) batch.push(j, inst + k, 0);
   }
 }

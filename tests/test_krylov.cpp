@@ -546,15 +546,24 @@ TEST(Krylov, CgsOnTheIdentityGivesTheGeneralIterationsBits) {
     const System stored = make_system(n, {}, std::vector<Mat6>(size_t(n), Mat6::Identity()));
     ASSERT_TRUE(unit.view().unit_diagonal);
     ASSERT_FALSE(stored.view().unit_diagonal);
-    for (double scale : {0.5e-4, 5e-4, 1.0, 1e3, 1e30}) {
-      for (bool from_zero : {true, false}) {
+    // |b| below zero_rhs, below abs_tol, 1, 1e3, overflowing; and at 1 with signed zeros, a NaN
+    // and an infinity among its entries. From x = +0 (the closed form), -0 and a random start.
+    for (double scale : {0.5e-4, 5e-4, 1.0, 1e3, 1e30, -1.0, -2.0, -3.0}) {
+      for (int from : {0, 1, 2}) {
+        const bool from_zero = from == 0;
         VectorXd b = random_vector(rng, 6 * n);
-        b *= scale / b.norm();
-        const BVec start = from_zero ? BVec(n) : to_bvec(random_vector(rng, 6 * n));
+        b *= std::fabs(scale) / b.norm();
+        if (scale < 0) b(1) = 0.0, b(6 * n - 1) = -0.0;
+        if (scale == -2.0) b(2) = std::numeric_limits<double>::quiet_NaN();
+        if (scale == -3.0) b(0) = -std::numeric_limits<double>::infinity();
+        BVec start = from == 2 ? to_bvec(random_vector(rng, 6 * n)) : BVec(n);
+        if (from == 1)
+          for (Vec8& v : start) std::fill(std::begin(v.v), std::end(v.v), -0.0f);
         BVec x_unit = start, x_stored = start;
         const SolveResult ru = run(Solver::cgs, unit, b, x_unit, {});
         const SolveResult rs = run(Solver::cgs, stored, b, x_stored, {});
-        const std::string at = "n=" + std::to_string(n) + " |b|=" + std::to_string(scale) + (from_zero ? " x0=0" : " x0 random");
+        const std::string at = "n=" + std::to_string(n) + " |b|=" + std::to_string(scale) +
+                               (from == 0 ? " x0=0" : from == 1 ? " x0=-0" : " x0 random");
         EXPECT_EQ(ru.code, rs.code) << at;
         EXPECT_EQ(ru.iterations, rs.iterations) << at;
         EXPECT_EQ(0, std::memcmp(&ru.residual, &rs.residual, sizeof(float))) << at;  // NaN too, when |b| overflows

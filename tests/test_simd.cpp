@@ -392,4 +392,8 @@ TEST(Transpose, EightByEightMovesRowsToColumns) {
   cellphys::simd::transpose8(rows, out);
   for (int r = 0; r < 8; ++r)
     for (int c = 0; c < 8; ++c) EXPECT_EQ(out[8 * c + r], m[7 - r][c]) << r << "," << c;
+  cellphys::simd::vf8 columns[8];  // the same into registers
+  cellphys::simd::transpose8(rows, columns);
+  for (int r = 0; r < 8; ++r)
+    for (int c = 0; c < 8; ++c) EXPECT_EQ(cellphys::simd::extract(columns[c], r), m[7 - r][c]) << r << "," << c;
 }

@@ -191,9 +191,10 @@ inline float hsum(vf8 a) {
   return _mm_cvtss_f32(_mm_add_ss(t, _mm_shuffle_ps(t, t, _MM_SHUFFLE(1, 1, 1, 1))));
 }
 
-// 8x8 transpose: out[8c + r] = rows[r][c]. Moves a structure-of-arrays batch (one row per
-// quantity, one lane per force) into one 8-float column per force. Pure data movement.
-inline void transpose8(const float* const rows[8], float* out) {
+// 8x8 transpose: out[c] lane r = rows[r][c], in registers. Moves a structure-of-arrays batch
+// (one row per quantity, one lane per force) into one 8-float column per force. Pure data
+// movement.
+inline void transpose8(const float* const rows[8], vf8 out[8]) {
   __m256 r[8], t[8];
   for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(rows[i]);
   for (int i = 0; i < 8; i += 2) {
@@ -207,9 +208,15 @@ inline void transpose8(const float* const rows[8], float* out) {
     r[i + 3] = _mm256_shuffle_ps(t[i + 1], t[i + 3], _MM_SHUFFLE(3, 2, 3, 2));
   }
   for (int i = 0; i < 4; ++i) {
-    _mm256_storeu_ps(out + 8 * i, _mm256_permute2f128_ps(r[i], r[i + 4], 0x20));
-    _mm256_storeu_ps(out + 8 * (i + 4), _mm256_permute2f128_ps(r[i], r[i + 4], 0x31));
+    out[i].v = _mm256_permute2f128_ps(r[i], r[i + 4], 0x20);
+    out[i + 4].v = _mm256_permute2f128_ps(r[i], r[i + 4], 0x31);
   }
+}
+// The same into memory: out[8c + r] = rows[r][c].
+inline void transpose8(const float* const rows[8], float* out) {
+  vf8 columns[8];
+  transpose8(rows, columns);
+  for (int c = 0; c < 8; ++c) _mm256_storeu_ps(out + 8 * c, columns[c].v);
 }
 #else   // scalar path
 template <> inline vf4 splats<vf4>(float x) { return {{x, x, x, x}}; }
@@ -259,6 +266,10 @@ inline vf4 cross3(vf4 a, vf4 b) {
 inline float hsum(vf8 a) {
   const float* l = a.v;
   return ((l[0] + l[4]) + (l[2] + l[6])) + ((l[1] + l[5]) + (l[3] + l[7]));
+}
+inline void transpose8(const float* const rows[8], vf8 out[8]) {
+  for (int r = 0; r < 8; ++r)
+    for (int c = 0; c < 8; ++c) out[c].v[r] = rows[r][c];
 }
 inline void transpose8(const float* const rows[8], float* out) {
   for (int r = 0; r < 8; ++r)

@@ -79,30 +79,31 @@ void scatter(const ForceTargets& t, const int (&body)[2], const float* out, Mode
 }
 
 // A batch's 6 consecutive output rows (a 6-vector, or one column of a 6x6 block) as one
-// padded 8-float column per lane (x y z 0 x y z 0): one transpose instead of strided loads.
-void columns_of(const float* out_soa, int first_row, float* tile) {
+// padded 8-float column per lane (x y z 0 x y z 0), added into target(l) lane by lane in
+// order: one transpose, in registers, instead of strided loads. Consecutive lanes with one
+// target (a pair's manifold points) keep the running sum in a register and store it once: the
+// same adds in the same order, so the same bits, without each add waiting for the last one's
+// store.
+template <class Target>
+void add_rows(const float* out_soa, int first_row, int lanes, Target target) {
   alignas(32) static const float zero[kLanes] = {};
   const float* rows[8];
   for (int p = 0; p < 8; ++p)
     rows[p] = (p == 3 || p == 7) ? zero : out_soa + (first_row + (p < 3 ? p : p - 1)) * kLanes;
-  simd::transpose8(rows, tile);
-}
-
-// Adds lane l's column (tile + 8 l) into target(l), lane by lane in order. Consecutive lanes
-// with one target (a pair's manifold points) keep the running sum in a register and store it
-// once: the same adds in the same order, so the same bits, without each add waiting for the
-// last one's store.
-template <class Target>
-void add_columns(const float* tile, int lanes, Target target) {
-  for (int l = 0; l < lanes;) {
-    float* t = target(l);
-    simd::vf8 sum = simd::load<simd::vf8>(t);
-    do {
-      sum = simd::add(sum, simd::load<simd::vf8>(tile + 8 * l));
-      ++l;
-    } while (l < lanes && target(l) == t);
-    simd::store(t, sum);
+  simd::vf8 column[8];
+  simd::transpose8(rows, column);
+  float* t = nullptr;
+  simd::vf8 sum;
+  for (int l = 0; l < kLanes && l < lanes; ++l) {
+    float* const tl = target(l);
+    if (tl != t) {
+      if (t) simd::store(t, sum);
+      t = tl;
+      sum = simd::load<simd::vf8>(t);
+    }
+    sum = simd::add(sum, column[l]);
   }
+  if (t) simd::store(t, sum);
 }
 
 // The forces and implicit blocks of a whole batch, through transposed tiles, each lane into
@@ -112,11 +113,8 @@ void add_columns(const float* tile, int lanes, Target target) {
 // sums depend on where the batches split an island's pairs (push_section splits them as alone).
 template <class K>
 void scatter_batch(const ForceTargets* const* t, const int (*body)[2], int lanes, const float* out_soa, Mode mode) {
-  alignas(32) float tile[8 * kLanes];
-  for (int k = 0; k < K::kBodies; ++k) {
-    columns_of(out_soa, 6 * k, tile);
-    add_columns(tile, lanes, [&](int l) { return t[l]->forces + kVecFloats * body[l][k]; });
-  }
+  for (int k = 0; k < K::kBodies; ++k)
+    add_rows(out_soa, 6 * k, lanes, [&](int l) { return t[l]->forces + kVecFloats * body[l][k]; });
   if (mode != Mode::implicit) return;
   if constexpr (K::kNumImplicitBlocks > 0) {
     for (int s = 0; s < K::kNumImplicitBlocks; ++s) {
@@ -129,10 +127,8 @@ void scatter_batch(const ForceTargets* const* t, const int (*body)[2], int lanes
         }
         target[l] = i == j ? t[l]->diag_k + kBlockFloats * i : t[l]->offdiag_k + kBlockFloats * t[l]->structure->find(i, j);
       }
-      for (int c = 0; c < 6; ++c) {
-        columns_of(out_soa, 6 * K::kBodies + 36 * s + 6 * c, tile);
-        add_columns(tile, lanes, [&](int l) { return target[l] + 8 * c; });
-      }
+      for (int c = 0; c < 6; ++c)
+        add_rows(out_soa, 6 * K::kBodies + 36 * s + 6 * c, lanes, [&](int l) { return target[l] + 8 * c; });
     }
   }
 }

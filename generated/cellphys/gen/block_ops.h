@@ -145,61 +145,70 @@ inline void block_from_w(float w_lin, const float* __restrict w_rot, float* __re
   W[46] = w_rot[10];
 }
 
-/// C = W B for W = diag(m^-1 I3, I_world^-1): one multiply and three madds per column.
-inline void w_mul_block(float w_lin, const float* __restrict w_rot, const float* __restrict B, float* __restrict C) {
+/// K = I - W K in place, for W = diag(m^-1 I3, I_world^-1): an implicit system's diagonal
+/// block from its force derivatives, a column at a time (column c of W K reads column c of K
+/// alone). One multiply and three madds per column, then the identity's column less it; W's
+/// columns built in registers (vf8_of), and each column stored once, where it is read next.
+inline void identity_minus_w_mul(float w_lin, const float* __restrict w_rot, float* __restrict K) {
   using namespace cellphys::simd;
-  alignas(32) const float d[8] = {w_lin, w_lin, w_lin, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-  alignas(32) const float r0[8] = {0.0f, 0.0f, 0.0f, 0.0f, w_rot[0], w_rot[4], w_rot[8], 0.0f};
-  alignas(32) const float r1[8] = {0.0f, 0.0f, 0.0f, 0.0f, w_rot[1], w_rot[5], w_rot[9], 0.0f};
-  alignas(32) const float r2[8] = {0.0f, 0.0f, 0.0f, 0.0f, w_rot[2], w_rot[6], w_rot[10], 0.0f};
-  const vf8 vd = load<vf8>(d), v0 = load<vf8>(r0), v1 = load<vf8>(r1), v2 = load<vf8>(r2);
+  const vf8 vd = vf8_of(w_lin, w_lin, w_lin, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f);
+  const vf8 v0 = vf8_of(0.0f, 0.0f, 0.0f, 0.0f, w_rot[0], w_rot[4], w_rot[8], 0.0f);
+  const vf8 v1 = vf8_of(0.0f, 0.0f, 0.0f, 0.0f, w_rot[1], w_rot[5], w_rot[9], 0.0f);
+  const vf8 v2 = vf8_of(0.0f, 0.0f, 0.0f, 0.0f, w_rot[2], w_rot[6], w_rot[10], 0.0f);
+  const vf8 minus_one = splats<vf8>(-1.0f);
   {
-    const vf8 b = load<vf8>(B + 0);
+    const vf8 b = load<vf8>(K + 0);
     vf8 acc = mul(vd, b);
-    acc = madd(v0, splats<vf8>(B[4]), acc);
-    acc = madd(v1, splats<vf8>(B[5]), acc);
-    acc = madd(v2, splats<vf8>(B[6]), acc);
-    store(C + 0, acc);
+    acc = madd(v0, splats<vf8>(K[4]), acc);
+    acc = madd(v1, splats<vf8>(K[5]), acc);
+    acc = madd(v2, splats<vf8>(K[6]), acc);
+    const vf8 e = vf8_of(1.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f);
+    store(K + 0, madd(minus_one, acc, e));
   }
   {
-    const vf8 b = load<vf8>(B + 8);
+    const vf8 b = load<vf8>(K + 8);
     vf8 acc = mul(vd, b);
-    acc = madd(v0, splats<vf8>(B[12]), acc);
-    acc = madd(v1, splats<vf8>(B[13]), acc);
-    acc = madd(v2, splats<vf8>(B[14]), acc);
-    store(C + 8, acc);
+    acc = madd(v0, splats<vf8>(K[12]), acc);
+    acc = madd(v1, splats<vf8>(K[13]), acc);
+    acc = madd(v2, splats<vf8>(K[14]), acc);
+    const vf8 e = vf8_of(0.0f, 1.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f);
+    store(K + 8, madd(minus_one, acc, e));
   }
   {
-    const vf8 b = load<vf8>(B + 16);
+    const vf8 b = load<vf8>(K + 16);
     vf8 acc = mul(vd, b);
-    acc = madd(v0, splats<vf8>(B[20]), acc);
-    acc = madd(v1, splats<vf8>(B[21]), acc);
-    acc = madd(v2, splats<vf8>(B[22]), acc);
-    store(C + 16, acc);
+    acc = madd(v0, splats<vf8>(K[20]), acc);
+    acc = madd(v1, splats<vf8>(K[21]), acc);
+    acc = madd(v2, splats<vf8>(K[22]), acc);
+    const vf8 e = vf8_of(0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f);
+    store(K + 16, madd(minus_one, acc, e));
   }
   {
-    const vf8 b = load<vf8>(B + 24);
+    const vf8 b = load<vf8>(K + 24);
     vf8 acc = mul(vd, b);
-    acc = madd(v0, splats<vf8>(B[28]), acc);
-    acc = madd(v1, splats<vf8>(B[29]), acc);
-    acc = madd(v2, splats<vf8>(B[30]), acc);
-    store(C + 24, acc);
+    acc = madd(v0, splats<vf8>(K[28]), acc);
+    acc = madd(v1, splats<vf8>(K[29]), acc);
+    acc = madd(v2, splats<vf8>(K[30]), acc);
+    const vf8 e = vf8_of(0.0f, 0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 0.0f);
+    store(K + 24, madd(minus_one, acc, e));
   }
   {
-    const vf8 b = load<vf8>(B + 32);
+    const vf8 b = load<vf8>(K + 32);
     vf8 acc = mul(vd, b);
-    acc = madd(v0, splats<vf8>(B[36]), acc);
-    acc = madd(v1, splats<vf8>(B[37]), acc);
-    acc = madd(v2, splats<vf8>(B[38]), acc);
-    store(C + 32, acc);
+    acc = madd(v0, splats<vf8>(K[36]), acc);
+    acc = madd(v1, splats<vf8>(K[37]), acc);
+    acc = madd(v2, splats<vf8>(K[38]), acc);
+    const vf8 e = vf8_of(0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f);
+    store(K + 32, madd(minus_one, acc, e));
   }
   {
-    const vf8 b = load<vf8>(B + 40);
+    const vf8 b = load<vf8>(K + 40);
     vf8 acc = mul(vd, b);
-    acc = madd(v0, splats<vf8>(B[44]), acc);
-    acc = madd(v1, splats<vf8>(B[45]), acc);
-    acc = madd(v2, splats<vf8>(B[46]), acc);
-    store(C + 40, acc);
+    acc = madd(v0, splats<vf8>(K[44]), acc);
+    acc = madd(v1, splats<vf8>(K[45]), acc);
+    acc = madd(v2, splats<vf8>(K[46]), acc);
+    const vf8 e = vf8_of(0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 1.0f, 0.0f);
+    store(K + 40, madd(minus_one, acc, e));
   }
 }
 

@@ -66,17 +66,6 @@ inline void block_zero(float* B) {
   store(B + 40, splats<vf8>(0.0f));
 }
 
-/// B = I
-inline void block_identity(float* B) {
-  block_zero(B);
-  B[0] = 1.0f;
-  B[9] = 1.0f;
-  B[18] = 1.0f;
-  B[28] = 1.0f;
-  B[37] = 1.0f;
-  B[46] = 1.0f;
-}
-
 /// B += s K, K a dense 6x6 column-major block (a force kernel's output)
 inline void block_add_dense(float s, const float* __restrict K, float* __restrict B) {
   B[0] += s * K[0];

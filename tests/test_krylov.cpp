@@ -295,6 +295,54 @@ TEST(BlockSparse, SpmvWithOnlyTheUnitDiagonalCopiesExactly) {
   EXPECT_EQ(0, std::memcmp(F(x), F(y), sizeof(Vec8) * 3));
 }
 
+// Runs a loop's ranges last first, each recorded: a stand-in for threads that take them in
+// any order.
+struct BackwardSharer : RowSharer {
+  size_t shares = 0;
+  std::vector<std::pair<size_t, size_t>> ranges;
+  void share(size_t count, size_t grain, RangeFn fn, void* context) override {
+    ++shares;
+    const size_t n = (count + grain - 1) / grain;
+    for (size_t r = n; r-- > 0;) {
+      ranges.push_back({r * grain, std::min(count, (r + 1) * grain)});
+      fn(context, ranges.back().first, ranges.back().second);
+    }
+  }
+};
+
+// A big system's product with its rows shared out (in any order) is the unshared product's
+// bits; a small one's is not shared at all. Rows of zero and of many blocks, signed zeros.
+TEST(BlockSparse, SpmvSharedInAnyOrderGivesTheSameBits) {
+  std::mt19937 rng(19);
+  int shared_systems = 0;
+  for (int n : {40, 700, 1500}) {
+    std::vector<Entry> off;
+    std::uniform_int_distribution<int> body(0, n - 1), count(0, 11);
+    for (int i = 0; i < n; ++i)
+      for (int c = i % 7 == 3 ? 0 : count(rng); c > 0; --c) {
+        const int j = body(rng);
+        if (j != i) off.push_back({i, j, random_block(rng, 1.0)});
+      }
+    System s = make_system(n, off);
+    BVec x = to_bvec(random_vector(rng, 6 * n)), alone(n), shared(n, Vec8{});
+    x[1].v[2] = -0.0f, x[n - 1].v[0] = 0.0f;
+    spmv(s.view(), F(x), F(alone));
+    BackwardSharer sharer;
+    spmv(s.view(), F(x), F(shared), &sharer);
+    const bool big = static_cast<int>(off.size()) >= kShareBlocks;
+    EXPECT_EQ(sharer.shares, big ? 1u : 0u) << "n=" << n << ", " << off.size() << " blocks";
+    shared_systems += big;
+    if (big) {  // the ranges cover every row once
+      std::vector<int> seen(n, 0);
+      for (auto [b, e] : sharer.ranges)
+        for (size_t i = b; i < e; ++i) ++seen[i];
+      EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), n);
+    }
+    EXPECT_EQ(0, std::memcmp(F(alone), F(shared), sizeof(Vec8) * n)) << "n=" << n;
+  }
+  EXPECT_GE(shared_systems, 1) << "no system was big enough to share";
+}
+
 TEST(BlockSparse, VectorOpsMatchDoubleReference) {
   std::mt19937 rng(11);
   const int n = 37;

@@ -3,10 +3,12 @@
 // preset) as well as in the ordinary passes (label "threads").
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -146,6 +148,61 @@ TEST(Threads, PoolRangesCoverEveryItemOnceHeldOrNot) {
   }
 }
 
+// A kernel's shared loop (share(), what a big island's products use): held, a waiting thread
+// takes ranges of it while the caller runs the rest; every item runs once, held or not, with
+// one thread or several, and each range is the grain or the tail.
+TEST(Threads, PoolSharesAKernelsLoopWithAWaitingThread) {
+  struct Loop {
+    std::vector<std::atomic<int>> seen;
+    std::mutex m;
+    std::vector<std::thread::id> threads;
+    size_t grain;
+    explicit Loop(size_t count, size_t g) : seen(count), grain(g) {}
+    size_t distinct() {
+      std::lock_guard<std::mutex> lock(m);
+      return threads.size();
+    }
+  };
+  auto run = [](cellphys::ppe::WorkerPool& pool, size_t count, size_t grain, bool wait_for_help) {
+    Loop loop(count, grain);
+    struct Context {
+      Loop* loop;
+      bool wait;
+    } context{&loop, wait_for_help};
+    pool.share(count, grain, [](void* c, size_t begin, size_t end) {
+      Context& ctx = *static_cast<Context*>(c);
+      Loop& l = *ctx.loop;
+      EXPECT_LT(begin, end);
+      EXPECT_TRUE(end - begin == l.grain || end == l.seen.size()) << begin << ".." << end;
+      {
+        std::lock_guard<std::mutex> lock(l.m);
+        if (std::find(l.threads.begin(), l.threads.end(), std::this_thread::get_id()) == l.threads.end())
+          l.threads.push_back(std::this_thread::get_id());
+      }
+      for (size_t i = begin; i < end; ++i) l.seen[i].fetch_add(1);
+      // The first range waits (up to 20 s, for a loaded machine) until a second thread has run
+      // one: whoever took it, the other is still there to take the rest.
+      if (ctx.wait && begin == 0)
+        for (auto t0 = std::chrono::steady_clock::now();
+             l.distinct() < 2 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(20);)
+          std::this_thread::yield();
+    }, &context);
+    for (size_t i = 0; i < count; ++i) EXPECT_EQ(loop.seen[i].load(), 1) << "item " << i << " of " << count;
+    return loop.distinct();
+  };
+  cellphys::ppe::WorkerPool pool(2, 64 * 1024), one(1, 64 * 1024);
+  {
+    cellphys::ppe::WorkerPool::Hold hold(pool);
+    EXPECT_EQ(run(pool, 1000, 10, true), 2u) << "the waiting thread took no range";
+    for (size_t count : {0, 1, 5, 999}) run(pool, count, 7, false);
+    cellphys::ppe::WorkerPool::Hold alone(pool, false);
+    EXPECT_EQ(run(pool, 500, 10, false), 1u) << "held without threads, the caller runs it all";
+  }
+  std::this_thread::sleep_for(std::chrono::microseconds(200));  // past the spin: asleep
+  run(pool, 999, 16, false);
+  EXPECT_EQ(run(one, 300, 10, false), 1u);
+}
+
 // Held without threads (a step with no awake body), every item runs on the calling thread;
 // once that hold ends, the threads take items again, the enclosing hold's mode restored.
 TEST(Threads, PoolHeldWithoutThreadsRunsOnTheCaller) {
@@ -183,14 +240,24 @@ class CaptureWhole : public Capture {
   size_t whole_island_bytes() const override { return cellphys::spu::LocalStore::kMaxCapacity; }
 };
 
-// One island of 595 boxes (a one-layer pyramid, 34 at its base), too big for the local store:
-// run by a held pool of three on a thread's wide worker, wave after wave, it comes back byte
-// for byte as one worker with the store it needs computes it alone.
+// Runs a kernel's shared loop last range first, on the calling thread, counting the loops.
+struct BackwardSharer : cellphys::spu::RowSharer {
+  size_t shares = 0;
+  void share(size_t count, size_t grain, RangeFn fn, void* context) override {
+    ++shares;
+    for (size_t r = (count + grain - 1) / grain; r-- > 0;) fn(context, r * grain, std::min(count, (r + 1) * grain));
+  }
+};
+
+// One island of 820 boxes (a one-layer pyramid, 40 at its base), too big for the local store
+// and with enough blocks that its products are shared out: run by a held pool of three on a
+// thread's wide worker, wave after wave, and by a worker whose sharer runs the ranges
+// backwards, it comes back byte for byte as one worker with the store it needs computes it alone.
 TEST(Threads, ABigIslandOnAPoolGivesOneWorkersBytes) {
   World w;
   cellphys::testing::ground_plane(w);
   const float half[3] = {0.5f, 0.5f, 0.5f};
-  for (int row = 0, base = 34; row < base; ++row)
+  for (int row = 0, base = 40; row < base; ++row)
     for (int k = 0; k < base - row; ++k) {
       const float pos[3] = {float(k) + 0.5f * float(row) - 0.5f * float(base), 0.0f, 0.5f + float(row)};
       cellphys::testing::add_box(w, half, 1.0f, pos);
@@ -200,7 +267,7 @@ TEST(Threads, ABigIslandOnAPoolGivesOneWorkersBytes) {
   w.step();
   ASSERT_EQ(capture->images.size(), 1u);
   const std::vector<unsigned char>& image = capture->images[0];
-  ASSERT_EQ(bodies_of(image), 595u);
+  ASSERT_EQ(bodies_of(image), 820u);
   const size_t ls = w.settings().local_store_bytes;
   std::vector<unsigned char> expected(cellphys::spu::result_bytes(bodies_of(image)));
   const cellphys::spu::IslandJob job{image.data(), image.size(), expected.data(), expected.size()};
@@ -208,6 +275,16 @@ TEST(Threads, ABigIslandOnAPoolGivesOneWorkersBytes) {
   ASSERT_GT(need, ls) << "the island fits the local store: no wide worker";
   cellphys::spu::ComputeWorker alone(need);
   ASSERT_EQ(alone.step(job).status, cellphys::spu::IslandStatus::ok);
+  {
+    BackwardSharer backward;
+    cellphys::spu::ComputeWorker shared(need);
+    shared.set_row_sharer(&backward);
+    std::vector<unsigned char> got(expected.size());
+    ASSERT_EQ(shared.step({image.data(), image.size(), got.data(), got.size()}).status,
+              cellphys::spu::IslandStatus::ok);
+    EXPECT_GT(backward.shares, 0u) << "the island's products were not shared";
+    EXPECT_EQ(got, expected) << "rows taken backwards";
+  }
   cellphys::ppe::WorkerPool pool(3, ls, cellphys::spu::LocalStore::kMaxCapacity);
   cellphys::ppe::WorkerPool::Hold held(pool);
   for (int wave = 0; wave < 3; ++wave) {

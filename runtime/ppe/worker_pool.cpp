@@ -10,6 +10,8 @@ WorkerPool::WorkerPool(int workers, size_t local_store_bytes, size_t whole_islan
     : local_store_bytes_(local_store_bytes), whole_island_bytes_(whole_island_bytes) {
   if (workers < 1) workers = 1;
   for (int i = 0; i < workers; ++i) workers_.push_back(std::make_unique<spu::ComputeWorker>(local_store_bytes));
+  if (workers > 1)
+    for (auto& w : workers_) w->set_row_sharer(this);
   wide_.resize(workers);
   // worker 0 is the calling thread; the others wait for work
   for (int i = 1; i < workers; ++i) threads_.emplace_back([this, i] { loop(i); });
@@ -28,8 +30,11 @@ spu::ComputeWorker& WorkerPool::worker_for(int index, const spu::IslandJob& job)
   const size_t need = local_store_bytes_ < whole_island_bytes_ ? spu::ComputeWorker::bytes_needed(job) : 0;
   if (need <= local_store_bytes_ || need > whole_island_bytes_) return *workers_[index];
   std::unique_ptr<spu::ComputeWorker>& wide = wide_[index];
-  if (!wide || wide->local_store().capacity() < need)  // a quarter more: an island that grows a little fits still
+  if (!wide || wide->local_store().capacity() < need) {
+    // a quarter more: an island that grows a little fits still
     wide = std::make_unique<spu::ComputeWorker>(std::min(need + need / 4, whole_island_bytes_));
+    if (!threads_.empty()) wide->set_row_sharer(this);
+  }
   return *wide;
 }
 
@@ -66,7 +71,10 @@ void spin_while(Pred waiting, Held held) {
 void WorkerPool::loop(int index) {
   uint64_t seen = 0;
   for (;;) {
-    spin_while([&] { return generation_.load(std::memory_order_acquire) == seen; },
+    spin_while([&] {
+                 help();
+                 return generation_.load(std::memory_order_acquire) == seen;
+               },
                [&] { return held_.load(std::memory_order_relaxed) > 0; });
     TaskRef task;
     size_t count;
@@ -123,12 +131,43 @@ void WorkerPool::run_task(size_t count, TaskRef task) {
   }
   wake_.notify_all();
   work(0, task, count);
-  spin_while([&] { return joined_.load(std::memory_order_acquire) != 0; }, [] { return false; });
+  // While held, spins (helping) until the threads are done: one may be solving a big island
+  // whose products it shares.
+  spin_while([&] {
+               help();
+               return joined_.load(std::memory_order_acquire) != 0;
+             },
+             [&] { return held_.load(std::memory_order_relaxed) > 0; });
   // Every item is taken; the threads that joined finish theirs (what they wrote is published
   // by the lock they leave under).
   std::unique_lock<std::mutex> lock(mutex_);
   done_.wait(lock, [&] { return joined_ == 0; });
   task_ = {nullptr, nullptr};
+}
+
+void WorkerPool::share(size_t count, size_t grain, RangeFn fn, void* context) {
+  grain = grain ? grain : 1;
+  Offer offer;
+  offer.fn = fn, offer.context = context, offer.count = count, offer.grain = grain;
+  offer.ranges = (count + grain - 1) / grain;
+  Offer* none = nullptr;
+  const bool offered = !alone_ && offer.ranges > 1 && offer_.compare_exchange_strong(none, &offer);
+  for (size_t r; (r = offer.next.fetch_add(1, std::memory_order_relaxed)) < offer.ranges;)
+    fn(context, r * grain, std::min(count, (r + 1) * grain));
+  if (!offered) return;
+  // Withdrawn, then wait for the threads that may have found it: a helper counts itself
+  // before it looks (help()), so either it sees the offer gone or this sees it counted.
+  offer_.store(nullptr);
+  while (helping_.load() != 0) cpu_relax();
+}
+
+void WorkerPool::help() {
+  if (!offer_.load(std::memory_order_relaxed)) return;
+  helping_.fetch_add(1);
+  if (Offer* o = offer_.load())
+    for (size_t r; (r = o->next.fetch_add(1, std::memory_order_relaxed)) < o->ranges;)
+      o->fn(o->context, r * o->grain, std::min(o->count, (r + 1) * o->grain));
+  helping_.fetch_sub(1);
 }
 
 void WorkerPool::run(const std::vector<spu::IslandJob>& jobs, std::vector<spu::IslandReport>& reports) {

@@ -4,7 +4,9 @@
 // slot, so the outcome is the same whatever the number of workers. An island too big for
 // the local store, up to whole_island_bytes, is computed whole by the thread's wide worker,
 // whose store is grown to fit it (main memory standing in for blocks streamed through the
-// store): the same kernel, so the same result as a store that big.
+// store): the same kernel, so the same result as a store that big. A thread with nothing left
+// to take helps with the rows of a big island's products (spu::RowSharer), which another
+// thread's kernel shares out while it solves.
 #pragma once
 #include <atomic>
 #include <condition_variable>
@@ -18,10 +20,11 @@
 
 #include "runtime/ppe/island_runner.h"
 #include "runtime/spu/kernel.h"
+#include "runtime/spu/row_sharing.h"
 
 namespace cellphys::ppe {
 
-class WorkerPool : public IslandRunner {
+class WorkerPool : public IslandRunner, public spu::RowSharer {
  public:
   WorkerPool(int workers, size_t local_store_bytes, size_t whole_island_bytes = 0);
   ~WorkerPool() override;
@@ -51,6 +54,9 @@ class WorkerPool : public IslandRunner {
   /// store it needs. What run() does with each share it hands out.
   void step_on(int thread, const spu::IslandJob* jobs, size_t count, spu::IslandReport* reports);
   const char* name() const override { return "threads"; }
+  /// spu::RowSharer: a kernel's ranges, offered to the pool's threads that are waiting for
+  /// work (while a Hold lives they spin and take them within a microsecond; asleep, they do not).
+  void share(size_t count, size_t grain, RangeFn fn, void* context) override;
   size_t whole_island_bytes() const override { return whole_island_bytes_; }
 
   /// While a Hold lives the threads wait for the next task spinning instead of asleep: a step
@@ -79,6 +85,8 @@ class WorkerPool : public IslandRunner {
     void (*call)(void*, size_t, int);
   };
   void run_task(size_t count, TaskRef task);
+  // Takes ranges of the offered loop, if there is one, until none is left.
+  void help();
   void loop(int index);
   // Takes items of the current task until none is left.
   void work(int index, TaskRef task, size_t count);
@@ -99,8 +107,21 @@ class WorkerPool : public IslandRunner {
   std::atomic<int> joined_{0};             // threads working on the current task
   std::atomic<uint64_t> generation_{0};
   std::atomic<int> held_{0};  // live Holds
+  // The loop a kernel offers (share()): one at a time; a second kernel wanting to share
+  // while one is offered runs its ranges alone. `helping` counts the threads that may be
+  // inside it, so its owner returns only when they are out.
+  struct Offer {
+    RangeFn fn;
+    void* context;
+    size_t count, grain, ranges;
+    std::atomic<size_t> next{0};
+  };
+  std::atomic<Offer*> offer_{nullptr};
+  std::atomic<int> helping_{0};
   bool stop_ = false;
-  bool alone_ = false;  // set by a Hold without threads; read only by run_task's calling thread
+  // Set by a Hold without threads, between tasks; read by run_task's calling thread and by
+  // share() (on the caller's thread while it is set, as no task runs elsewhere then).
+  bool alone_ = false;
 };
 
 }  // namespace cellphys::ppe

@@ -10,6 +10,8 @@
 #pragma once
 #include <cstdint>
 
+#include "runtime/spu/row_sharing.h"
+
 namespace cellphys::spu {
 
 inline constexpr int kBlockFloats = 48;  // 8 x 6
@@ -27,7 +29,10 @@ struct BlockRowMatrix {
 };
 
 /// y = A x. x and y hold n * kVecFloats floats, 32-byte aligned, and must not alias.
-void spmv(const BlockRowMatrix& A, const float* x, float* y);
+/// With a sharer, a matrix of kShareBlocks blocks or more has its rows shared out (each row
+/// is computed as alone: the same bits).
+void spmv(const BlockRowMatrix& A, const float* x, float* y, RowSharer* sharer = nullptr);
+inline constexpr int kShareBlocks = 4096;
 
 // Vector operations on padded block vectors (n * kVecFloats floats, padding lanes zero).
 // Reductions use a fixed order, so one build gives the same bits every run.

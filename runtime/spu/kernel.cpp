@@ -200,6 +200,7 @@ bool ComputeWorker::begin(const IslandJob& job, const Plan& p, unsigned char* in
   c.solve.rel_tol = h.tolerance;
   c.solve.abs_tol = h.tolerance * 1e-3f;
   c.solve.zero_rhs = 0.0f;
+  c.solve.sharer = sharer_;
   c.error_tolerance = h.tolerance;
   const int n = static_cast<int>(h.num_bodies);
   auto* steps = reinterpret_cast<Rigid_Body_Step*>(out + align16(sizeof(Island_Result)));

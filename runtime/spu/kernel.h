@@ -11,6 +11,7 @@
 #include "runtime/spu/integrators.h"
 #include "runtime/spu/island_image.h"
 #include "runtime/spu/local_store.h"
+#include "runtime/spu/row_sharing.h"
 #include "runtime/spu/workspace.h"
 
 namespace cellphys::spu {
@@ -57,6 +58,9 @@ class ComputeWorker {
   /// header and section table as step() reads them; 0 for an image step() would refuse as
   /// malformed.
   static size_t bytes_needed(const IslandJob& job);
+  /// Threads that may take rows of a big island's products while this worker solves it
+  /// (row_sharing.h); null (the default): the worker runs them all. Results are the same.
+  void set_row_sharer(RowSharer* sharer) { sharer_ = sharer; }
 
  private:
   // Islands integrated together at most (step_together): their lanes fill each kernel's SIMD
@@ -91,6 +95,7 @@ class ComputeWorker {
   void step_each(const IslandJob* jobs, size_t begin_k, size_t end_k, IslandReport* reports);
   LocalStore ls_;
   Dma dma_;
+  RowSharer* sharer_ = nullptr;
   std::vector<Plan> plans_;  // step_batch's, kept so a warm worker allocates nothing
   std::vector<char> ok_;
   std::array<Active, kMaxTogether> active_{};

@@ -70,8 +70,8 @@ bool all_positive_zero(int count, const float* a) {
 }
 
 // r = b - A x, with tmp as scratch.
-void residual(const BlockRowMatrix& A, const float* b, const float* x, float* r, float* tmp) {
-  spmv(A, x, tmp);
+void residual(const BlockRowMatrix& A, const float* b, const float* x, float* r, float* tmp, RowSharer* sharer) {
+  spmv(A, x, tmp, sharer);
   add_scaled(A.n, r, b, -1.0f, tmp);
 }
 
@@ -123,7 +123,7 @@ SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, 
     return res;
   }
 
-  residual(A, b, x, r, q_hat);
+  residual(A, b, x, r, q_hat, s.sharer);
   copy(n, r, r_tilde);
 
   float rho_1 = 0.0f, rho_2 = 0.0f;
@@ -147,7 +147,7 @@ SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, 
     // Preconditioner: block-Jacobi was applied once at assembly (block_sparse.h), so the
     // reference design's precond.solve is the identity here: p_hat = p.
     const float* p_hat = p;
-    spmv(A, p_hat, v_hat);
+    spmv(A, p_hat, v_hat, s.sharer);
     const float den = dot(n, r_tilde, v_hat);
     if (den == 0.0f) { res.code = kDenominatorZero; return res; }
     const float alpha = rho_1 / den;
@@ -156,7 +156,7 @@ SolveResult cgs(const BlockRowMatrix& A, const float* b, float* x, float* work, 
     axpy(n, 1.0f, q, u);                 // u = u + q
     const float* u_hat = u;              // identity preconditioner, as p_hat
     axpy(n, alpha, u_hat, x);
-    spmv(A, u_hat, q_hat);
+    spmv(A, u_hat, q_hat, s.sharer);
     axpy(n, -alpha, q_hat, r);
 
     rho_2 = rho_1;
@@ -181,7 +181,7 @@ SolveResult bicgstab(const BlockRowMatrix& A, const float* b, float* x, float* w
   if (norm_b <= s.zero_rhs) return res;  // same early out as the reference design's CGS
   const int max_iters = iteration_limit(A, s);
 
-  residual(A, b, x, r, v);
+  residual(A, b, x, r, v, s.sharer);
   copy(n, r, r_tilde);
 
   float rho_prev = 1.0f, alpha = 1.0f, omega = 1.0f;
@@ -204,7 +204,7 @@ SolveResult bicgstab(const BlockRowMatrix& A, const float* b, float* x, float* w
     }
 
     // Identity preconditioner (block-Jacobi applied at assembly): p_hat = p, s_hat = s.
-    spmv(A, p, v);
+    spmv(A, p, v, s.sharer);
     const float den = dot(n, r_tilde, v);
     if (den == 0.0f) { res.code = kDenominatorZero; return res; }
     alpha = rho / den;
@@ -218,7 +218,7 @@ SolveResult bicgstab(const BlockRowMatrix& A, const float* b, float* x, float* w
       return res;
     }
 
-    spmv(A, sv, t);
+    spmv(A, sv, t, s.sharer);
     const float tt = dot(n, t, t);
     if (tt == 0.0f) { res.code = kDenominatorZero; return res; }
     omega = dot(n, t, sv) / tt;

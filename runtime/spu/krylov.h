@@ -37,6 +37,9 @@ struct SolveSettings {
   // small but real right-hand side (a spring near its crossing, a Rosenbrock substep)
   // must still be solved.
   float zero_rhs = 1e-4f;
+  // Who may take rows of a big system's products (spmv): how the work is run, not what it
+  // computes; the result is the same bits with or without.
+  RowSharer* sharer = nullptr;
 };
 
 struct SolveResult {

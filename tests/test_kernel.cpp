@@ -18,6 +18,7 @@
 #include "runtime/spu/kernel.h"
 #include "runtime/spu/local_store.h"
 #include "testing/reference_island.h"
+#include "tests/support/backward_sharer.h"
 #include "tests/support/island_sim.h"
 #include "tests/support/record.h"
 
@@ -1079,6 +1080,87 @@ TEST(DiagonalInverses, EveryBlockInvertedInPlaceAndASingularOneRefused) {
   singular.m[0] = 1.0f;  // rank one
   float* one[1] = {singular.m};
   EXPECT_FALSE(spu::invert_blocks(one, 1));
+}
+
+// The scaling of a big system with its rows shared out (ranges taken backwards) gives the
+// unshared pass's bits in every block, right-hand side and kept P; with a singular diagonal
+// block both refuse it. A small system is not shared.
+TEST(ScaledSystem, SharedRowsGiveTheUnsharedBitsAndRefusal) {
+  using gen::kBlockFloats;
+  using gen::kVecFloats;
+  using gen::padded;
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(-0.1f, 0.1f), mass(0.5f, 2.0f);
+  struct alignas(32) Block {
+    float m[kBlockFloats];
+  };
+  struct alignas(32) Vec8 {
+    float v[kVecFloats];
+  };
+  struct System {
+    spu::BlockStructure s;
+    std::vector<int32_t> row_start, col;
+    std::vector<gen::W_Element> w;
+    std::vector<Block> diag, off, p;
+    std::vector<Vec8> rhs;
+  };
+  auto make = [&](int n, int per_row) {
+    System y;
+    y.row_start.push_back(0);
+    for (int i = 0; i < n; ++i) {
+      for (int k = 1; k <= per_row; ++k) y.col.push_back((i + 7 * k) % n);
+      y.row_start.push_back(static_cast<int32_t>(y.col.size()));
+    }
+    y.s.n = n, y.s.nnz = static_cast<int>(y.col.size());
+    y.s.row_start = y.row_start.data(), y.s.col = y.col.data();
+    y.w.assign(size_t(n), gen::W_Element{});
+    y.diag.assign(size_t(n), Block{}), y.p.assign(size_t(n), Block{}), y.off.assign(y.col.size(), Block{});
+    y.rhs.assign(size_t(n), Vec8{});
+    for (int i = 0; i < n; ++i) {
+      y.w[size_t(i)].inverse_mass = mass(rng);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) y.w[size_t(i)].inverse_inertia_world[3 * r + c] = r == c ? mass(rng) : 0.0f;
+      for (int r = 0; r < 6; ++r) y.rhs[size_t(i)].v[padded(r)] = u(rng);
+    }
+    for (auto* blocks : {&y.diag, &y.off})
+      for (Block& b : *blocks)
+        for (int c = 0; c < 6; ++c)
+          for (int r = 0; r < 6; ++r) b.m[8 * c + padded(r)] = u(rng);
+    return y;
+  };
+  auto scale = [](System& y, spu::RowSharer* sharer) {
+    return spu::scale_system(y.s, y.w.data(), 1.0f / 60, y.diag[0].m, y.off[0].m, y.rhs[0].v, y.p[0].m, sharer);
+  };
+  auto same = [](const auto& a, const auto& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof a[0]) == 0;
+  };
+  for (int n : {40, 1100}) {
+    const System start = make(n, 4);
+    System alone = start, shared = start;
+    alone.s.row_start = alone.row_start.data(), alone.s.col = alone.col.data();
+    shared.s.row_start = shared.row_start.data(), shared.s.col = shared.col.data();
+    test_support::BackwardSharer sharer;
+    ASSERT_TRUE(scale(alone, nullptr));
+    ASSERT_TRUE(scale(shared, &sharer));
+    EXPECT_EQ(sharer.shares, start.s.nnz >= spu::kShareBlocks ? 2u : 0u) << n << " rows";
+    EXPECT_TRUE(same(alone.diag, shared.diag)) << n << " rows: inverses";
+    EXPECT_TRUE(same(alone.off, shared.off)) << n << " rows: blocks";
+    EXPECT_TRUE(same(alone.rhs, shared.rhs)) << n << " rows: right-hand side";
+    EXPECT_TRUE(same(alone.p, shared.p)) << n << " rows: P";
+    // W = I and K_ii = I: A_ii = I - W K_ii = 0
+    System bad = start;
+    bad.s.row_start = bad.row_start.data(), bad.s.col = bad.col.data();
+    const int k = n - 3;
+    bad.w[size_t(k)] = gen::W_Element{};
+    bad.w[size_t(k)].inverse_mass = 1.0f;
+    for (int r = 0; r < 3; ++r) bad.w[size_t(k)].inverse_inertia_world[4 * r] = 1.0f;
+    bad.diag[size_t(k)] = Block{};
+    for (int r = 0; r < 6; ++r) bad.diag[size_t(k)].m[8 * r + padded(r)] = 1.0f;
+    System bad_shared = bad;
+    bad_shared.s.row_start = bad_shared.row_start.data(), bad_shared.s.col = bad_shared.col.data();
+    EXPECT_FALSE(scale(bad, nullptr)) << n << " rows";
+    EXPECT_FALSE(scale(bad_shared, &sharer)) << n << " rows, shared";
+  }
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include "cellphys/gen/block_ops.h"
 #include "runtime/spu/block_sparse.h"
 #include "runtime/spu/krylov.h"
+#include "tests/support/backward_sharer.h"
 
 using namespace cellphys::spu;
 using cellphys::gen::padded;
@@ -295,21 +296,6 @@ TEST(BlockSparse, SpmvWithOnlyTheUnitDiagonalCopiesExactly) {
   EXPECT_EQ(0, std::memcmp(F(x), F(y), sizeof(Vec8) * 3));
 }
 
-// Runs a loop's ranges last first, each recorded: a stand-in for threads that take them in
-// any order.
-struct BackwardSharer : RowSharer {
-  size_t shares = 0;
-  std::vector<std::pair<size_t, size_t>> ranges;
-  void share(size_t count, size_t grain, RangeFn fn, void* context) override {
-    ++shares;
-    const size_t n = (count + grain - 1) / grain;
-    for (size_t r = n; r-- > 0;) {
-      ranges.push_back({r * grain, std::min(count, (r + 1) * grain)});
-      fn(context, ranges.back().first, ranges.back().second);
-    }
-  }
-};
-
 // A big system's product with its rows shared out (in any order) is the unshared product's
 // bits; a small one's is not shared at all. Rows of zero and of many blocks, signed zeros.
 TEST(BlockSparse, SpmvSharedInAnyOrderGivesTheSameBits) {
@@ -327,7 +313,7 @@ TEST(BlockSparse, SpmvSharedInAnyOrderGivesTheSameBits) {
     BVec x = to_bvec(random_vector(rng, 6 * n)), alone(n), shared(n, Vec8{});
     x[1].v[2] = -0.0f, x[n - 1].v[0] = 0.0f;
     spmv(s.view(), F(x), F(alone));
-    BackwardSharer sharer;
+    cellphys::test_support::BackwardSharer sharer;
     spmv(s.view(), F(x), F(shared), &sharer);
     const bool big = static_cast<int>(off.size()) >= kShareBlocks;
     EXPECT_EQ(sharer.shares, big ? 1u : 0u) << "n=" << n << ", " << off.size() << " blocks";

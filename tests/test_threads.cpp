@@ -19,6 +19,7 @@
 #include "runtime/scene/scene.h"
 #include "runtime/spu/kernel.h"
 #include "testing/scenes.h"
+#include "tests/support/backward_sharer.h"
 
 namespace {
 
@@ -240,15 +241,6 @@ class CaptureWhole : public Capture {
   size_t whole_island_bytes() const override { return cellphys::spu::LocalStore::kMaxCapacity; }
 };
 
-// Runs a kernel's shared loop last range first, on the calling thread, counting the loops.
-struct BackwardSharer : cellphys::spu::RowSharer {
-  size_t shares = 0;
-  void share(size_t count, size_t grain, RangeFn fn, void* context) override {
-    ++shares;
-    for (size_t r = (count + grain - 1) / grain; r-- > 0;) fn(context, r * grain, std::min(count, (r + 1) * grain));
-  }
-};
-
 // One island of 820 boxes (a one-layer pyramid, 40 at its base), too big for the local store
 // and with enough blocks that its products are shared out: run by a held pool of three on a
 // thread's wide worker, wave after wave, and by a worker whose sharer runs the ranges
@@ -276,7 +268,7 @@ TEST(Threads, ABigIslandOnAPoolGivesOneWorkersBytes) {
   cellphys::spu::ComputeWorker alone(need);
   ASSERT_EQ(alone.step(job).status, cellphys::spu::IslandStatus::ok);
   {
-    BackwardSharer backward;
+    cellphys::test_support::BackwardSharer backward;
     cellphys::spu::ComputeWorker shared(need);
     shared.set_row_sharer(&backward);
     std::vector<unsigned char> got(expected.size());

@@ -1,6 +1,7 @@
 #include "runtime/spu/assembly.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 
@@ -140,23 +141,14 @@ bool invert_blocks(float* const* blocks, int count) {
   return !failed;
 }
 
-bool scale_system(const BlockStructure& s, const W_Element* w, float h, float* diag_k, float* offdiag_k, float* rhs,
-                  float* p_out) {
-  form_diagonal(s.n, w, diag_k);
-  bool failed = false;
-  BlockInverter inv;
-  for (int i = 0; i < s.n; ++i) inv.add(diag_k + kBlockFloats * i, &failed);
-  inv.flush();
-  if (failed) return false;
-  scale_inverted(s, w, h, diag_k, offdiag_k, rhs, p_out);
-  return true;
-}
+namespace {
 
-void scale_inverted(const BlockStructure& s, const W_Element* w, float h, const float* dinv, float* offdiag_k,
-                    float* rhs, float* p_out) {
+// Rows [begin, end) of scale_inverted.
+void scale_rows(const BlockStructure& s, const W_Element* w, float h, const float* dinv, float* offdiag_k, float* rhs,
+                float* p_out, int begin, int end) {
   alignas(32) float W[kBlockFloats], P[kBlockFloats], T[kBlockFloats];
   alignas(32) float g[kVecFloats];
-  for (int i = 0; i < s.n; ++i) {
+  for (int i = begin; i < end; ++i) {
     const float* Dinv = dinv + kBlockFloats * i;
     // P_i = D_i^-1 W_i; row i of the scaled matrix: Â_ij = -P_i K_ij, b̂_i = h P_i g_i
     block_from_w(w[i].inverse_mass, w[i].inverse_inertia_world, W);
@@ -173,6 +165,61 @@ void scale_inverted(const BlockStructure& s, const W_Element* w, float h, const 
     for (int r = 0; r < kVecFloats; ++r) b[r] *= h;
     if (p_out) std::memcpy(p_out + kBlockFloats * i, P, sizeof P);
   }
+}
+
+// Diagonal blocks [begin, end) formed and inverted; false if one cannot be. `begin` a multiple
+// of 8 keeps the inverter's lane groups those of the whole pass (each lane's bits are its
+// own block's in any case).
+bool invert_diagonal(const W_Element* w, float* diag_k, int begin, int end) {
+  form_diagonal(end - begin, w + begin, diag_k + kBlockFloats * begin);
+  bool failed = false;
+  BlockInverter inv;
+  for (int i = begin; i < end; ++i) inv.add(diag_k + kBlockFloats * i, &failed);
+  inv.flush();
+  return !failed;
+}
+
+struct ScaleRange {
+  const BlockStructure* s;
+  const W_Element* w;
+  float h;
+  float *diag_k, *offdiag_k, *rhs, *p_out;
+  std::atomic<bool> failed{false};
+};
+
+// Rows a shared range takes: a multiple of the inverter's 8 lanes.
+constexpr size_t kScaleRows = 128;
+static_assert(kScaleRows % 8 == 0, "shared ranges start on the inverter's lane groups");
+
+}  // namespace
+
+bool scale_system(const BlockStructure& s, const W_Element* w, float h, float* diag_k, float* offdiag_k, float* rhs,
+                  float* p_out, RowSharer* sharer) {
+  if (!sharer || s.nnz < kShareBlocks) {
+    if (!invert_diagonal(w, diag_k, 0, s.n)) return false;
+    scale_rows(s, w, h, diag_k, offdiag_k, rhs, p_out, 0, s.n);
+    return true;
+  }
+  // Every inverse before any row is scaled: a failed one leaves the blocks as the unshared
+  // pass leaves them.
+  ScaleRange r;
+  r.s = &s, r.w = w, r.h = h, r.diag_k = diag_k, r.offdiag_k = offdiag_k, r.rhs = rhs, r.p_out = p_out;
+  sharer->share(static_cast<size_t>(s.n), kScaleRows, [](void* c, size_t begin, size_t end) {
+    ScaleRange& q = *static_cast<ScaleRange*>(c);
+    if (!invert_diagonal(q.w, q.diag_k, static_cast<int>(begin), static_cast<int>(end)))
+      q.failed.store(true, std::memory_order_relaxed);
+  }, &r);
+  if (r.failed.load(std::memory_order_relaxed)) return false;
+  sharer->share(static_cast<size_t>(s.n), kScaleRows, [](void* c, size_t begin, size_t end) {
+    const ScaleRange& q = *static_cast<const ScaleRange*>(c);
+    scale_rows(*q.s, q.w, q.h, q.diag_k, q.offdiag_k, q.rhs, q.p_out, static_cast<int>(begin), static_cast<int>(end));
+  }, &r);
+  return true;
+}
+
+void scale_inverted(const BlockStructure& s, const W_Element* w, float h, const float* dinv, float* offdiag_k,
+                    float* rhs, float* p_out) {
+  scale_rows(s, w, h, dinv, offdiag_k, rhs, p_out, 0, s.n);
 }
 
 void scale_rhs(int n, const float* p, const float* g, float* out) {

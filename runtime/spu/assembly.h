@@ -21,8 +21,10 @@ int count_pair_instances(const IslandView& v);
 /// In place: diag_k (n blocks, destroyed), offdiag_k (K_ij -> Â_ij), rhs (g -> b̂).
 /// If p_out is given, P_i = D_i^-1 W_i is kept (n blocks) for scaling later right-hand sides.
 /// Returns false if a diagonal block cannot be inverted.
+/// With a sharer, a system of kShareBlocks blocks or more has its rows shared out (each row
+/// gets the bits it gets alone).
 bool scale_system(const BlockStructure& s, const gen::W_Element* w, float h, float* diag_k, float* offdiag_k,
-                  float* rhs, float* p_out);
+                  float* rhs, float* p_out, RowSharer* sharer = nullptr);
 
 /// The split scale_system makes, for callers that invert several islands' diagonal blocks in
 /// one pass: diag_k's blocks become A_ii = I - W_i K_ii in place (n of them) ...

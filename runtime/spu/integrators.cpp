@@ -258,7 +258,7 @@ bool solve_and_commit(StepContext& c, float h, bool split) {
 
 bool finish_implicit(StepContext& c, float h, bool split) {
   Workspace& ws = *c.ws;
-  if (!scale_system(ws.structure, ws.w, h, ws.diag, ws.blocks, ws.forces, nullptr)) return false;
+  if (!scale_system(ws.structure, ws.w, h, ws.diag, ws.blocks, ws.forces, nullptr, c.solve.sharer)) return false;
   return solve_and_commit(c, h, split);
 }
 
